@@ -1,0 +1,121 @@
+//! `ifd compare A B`.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use ifd_image::metrics::{self, Comparison, Metrics};
+use serde_json::json;
+
+use crate::input::InputOptions;
+
+/// Compare two images of the same size and channel count.
+///
+/// PSNR and SSIM are defined exactly as scikit-image's
+/// `peak_signal_noise_ratio` and `structural_similarity(gaussian_weights=True,
+/// sigma=1.5, use_sample_covariance=False)`.
+#[derive(Debug, Args)]
+pub struct Compare {
+    /// The reference image.
+    a: PathBuf,
+    /// The image to compare with it.
+    b: PathBuf,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// The data range R of PSNR and SSIM. Default: 1 when every value of both
+    /// images lies in [0, 1] (all 8/16-bit files), else max - min of A.
+    #[arg(long, value_name = "R")]
+    data_range: Option<f64>,
+    /// Ignore N pixels at every side of both images.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    crop_border: usize,
+    #[command(flatten)]
+    input: InputOptions,
+}
+
+impl Compare {
+    /// Runs the command.
+    pub fn run(self) -> Result<()> {
+        let a = self.input.read(&self.a)?.image;
+        let b = self.input.read(&self.b)?.image;
+        if !a.same_shape(&b) {
+            bail!(
+                "{} is {}x{} with {} channels but {} is {}x{} with {} channels",
+                self.a.display(),
+                a.width(),
+                a.height(),
+                a.channels(),
+                self.b.display(),
+                b.width(),
+                b.height(),
+                b.channels()
+            );
+        }
+        let a = metrics::crop_border(&a, self.crop_border)?;
+        let b = metrics::crop_border(&b, self.crop_border)?;
+        let range = match self.data_range {
+            Some(r) => r,
+            None => {
+                let in_unit = |d: &[f32]| d.iter().all(|v| (0.0..=1.0).contains(v));
+                if in_unit(a.data()) && in_unit(b.data()) {
+                    1.0
+                } else {
+                    let (lo, hi) = a
+                        .data()
+                        .iter()
+                        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+                            (lo.min(v), hi.max(v))
+                        });
+                    f64::from(hi - lo)
+                }
+            }
+        };
+        let cmp = metrics::compare(&a, &b, range).context("comparing images")?;
+        if self.json {
+            println!("{}", serde_json::to_string_pretty(&to_json(&cmp))?);
+        } else {
+            print_table(&cmp);
+        }
+        Ok(())
+    }
+}
+
+fn metrics_json(m: &Metrics) -> serde_json::Value {
+    // JSON has no infinity: identical images report psnr = null and identical = true.
+    json!({
+        "psnr": if m.psnr.is_finite() { json!(m.psnr) } else { json!(null) },
+        "ssim": m.ssim,
+        "max_abs": m.max_abs,
+        "mean_abs": m.mean_abs,
+        "mse": m.mse,
+        "identical": m.mse == 0.0,
+    })
+}
+
+fn to_json(c: &Comparison) -> serde_json::Value {
+    let mut v = metrics_json(&c.overall);
+    v["data_range"] = json!(c.data_range);
+    v["channels"] = json!(c.channels.iter().map(metrics_json).collect::<Vec<_>>());
+    v
+}
+
+fn print_table(c: &Comparison) {
+    println!("data range {}", c.data_range);
+    println!(
+        "{:<9} {:>10} {:>9} {:>12} {:>12}",
+        "channel", "PSNR [dB]", "SSIM", "max |a-b|", "mean |a-b|"
+    );
+    let row = |name: &str, m: &Metrics| {
+        println!(
+            "{name:<9} {:>10.4} {:>9.6} {:>12.6e} {:>12.6e}",
+            m.psnr, m.ssim, m.max_abs, m.mean_abs
+        );
+    };
+    if c.channels.len() > 1 {
+        for (i, m) in c.channels.iter().enumerate() {
+            row(&i.to_string(), m);
+        }
+    }
+    row("overall", &c.overall);
+}

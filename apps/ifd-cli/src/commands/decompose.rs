@@ -1,0 +1,156 @@
+//! `ifd decompose SPEC|FILE`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use ifd_planar::{DecomposeOptions, Decomposition, Kernel, KernelSpec, decompose};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+
+use crate::input::{InputOptions, write_output};
+
+/// Decompose a 2D filter into a sparse sum of displaced isotropic Gaussians.
+///
+/// The filter is a built-in spec (sampled on a (2R+1)^2 grid, R = ceil(4 x the
+/// largest sigma) unless `r=` is given) or a kernel file (.npy, .png, .exr;
+/// odd sizes, centre at the middle):
+///
+///   gauss:sx=24,sy=3,theta=30       anisotropic Gaussian (sigmas in px, sum 1)
+///   dgauss:order=xx|xy|yy,sigma=4   second derivative of a Gaussian
+///   log:sigma=4                     Laplacian of Gaussian
+///   gabor:sigma=8,freq=0.1,theta=0  Gabor (frequency in cycles/px)
+///   box:w=31,h=5,theta=20           rotated box (sum 1)
+///   disk:r=12                       disk (sum 1)
+///   line:len=41,width=1,theta=30    motion blur (sum 1)
+///
+/// Angles are degrees, counter-clockwise on screen.
+#[derive(Debug, Args)]
+#[command(verbatim_doc_comment)]
+pub struct Decompose {
+    /// A filter spec such as `gauss:sx=24,sy=3,theta=30`, or a kernel file.
+    filter: String,
+    /// Where to write the decomposition (JSON, versioned).
+    #[arg(short, long, value_name = "FILE")]
+    output: PathBuf,
+    /// Number of bandwidth levels b (default: chosen from the kernel).
+    #[arg(long, value_name = "B")]
+    levels: Option<usize>,
+    /// Most terms allowed.
+    #[arg(long, value_name = "S")]
+    max_terms: Option<usize>,
+    /// Target relative L2 error of the fit.
+    #[arg(long, value_name = "E", default_value_t = 0.01)]
+    tol: f64,
+    /// Regularisation weight relative to ||A^T k||_inf, in (0, 1) (default: chosen from --tol).
+    #[arg(long, value_name = "A")]
+    alpha: Option<f64>,
+    /// Also write a plot: kernel, reconstruction, error, log-histogram of weights per level.
+    #[arg(long, value_name = "PNG")]
+    plot: Option<PathBuf>,
+    /// Print the report as one JSON object.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    input: InputOptions,
+}
+
+/// Loads a kernel from a spec string or a file.
+pub fn load_kernel(filter: &str, input: &InputOptions) -> Result<(Kernel, Option<String>)> {
+    let path = Path::new(filter);
+    if path.exists() {
+        let img = input.read(path)?.image;
+        let k = Kernel::from_image(&img).with_context(|| format!("kernel file {filter}"))?;
+        return Ok((k, None));
+    }
+    if !filter.contains(':') && path.extension().is_some() {
+        bail!("{filter}: no such file");
+    }
+    let spec: KernelSpec = filter
+        .parse()
+        .with_context(|| format!("filter spec {filter:?}"))?;
+    let k = spec
+        .to_kernel()
+        .with_context(|| format!("filter spec {filter:?}"))?;
+    Ok((k, Some(spec.to_string())))
+}
+
+impl Decompose {
+    /// Runs the command.
+    pub fn run(self) -> Result<()> {
+        let (kernel, spec) = load_kernel(&self.filter, &self.input)?;
+        let mut opts = DecomposeOptions {
+            alpha: self.alpha,
+            max_terms: self.max_terms,
+            tol: self.tol,
+            ..DecomposeOptions::default()
+        };
+        if let Some(b) = self.levels {
+            opts.dictionary.levels = Some(b);
+        }
+        let bar = ProgressBar::new_spinner();
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} fitting {msg} [{elapsed}]")
+                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        );
+        let mut decomposition = decompose(&kernel, &opts, |iter, objective, nnz| {
+            if iter % 10 == 0 {
+                bar.set_message(format!(
+                    "iteration {iter}, objective {objective:.3e}, {nnz} non-zero"
+                ));
+                bar.tick();
+            }
+        })
+        .context("decomposition failed")?;
+        bar.finish_and_clear();
+        decomposition.spec = spec;
+        decomposition
+            .save(&self.output)
+            .with_context(|| format!("writing {}", self.output.display()))?;
+        if let Some(plot) = &self.plot {
+            let _ = (plot, write_output);
+            bail!("--plot is not available yet");
+        }
+        report(&decomposition, self.json)
+    }
+}
+
+fn report(d: &Decomposition, as_json: bool) -> Result<()> {
+    let Some(r) = &d.report else {
+        bail!("the fit produced no report");
+    };
+    if as_json {
+        let v = json!({
+            "terms": r.terms,
+            "rel_l2_error": r.rel_l2_error,
+            "max_error": r.max_error,
+            "dc_error": r.dc_error,
+            "iterations": r.iterations,
+            "seconds": r.seconds,
+            "dictionary_atoms": r.dictionary_atoms,
+            "kernel_size": d.kernel_size,
+            "spec": d.spec,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        if let Some((w, h)) = d.kernel_size {
+            println!(
+                "kernel        {w}x{h}{}",
+                d.spec
+                    .as_ref()
+                    .map(|s| format!(" ({s})"))
+                    .unwrap_or_default()
+            );
+        }
+        println!(
+            "terms         {} (of {} atoms)",
+            r.terms, r.dictionary_atoms
+        );
+        println!("rel. L2 error {:.3}%", 100.0 * r.rel_l2_error);
+        println!("max error     {:.3}% of max |k|", 100.0 * r.max_error);
+        println!("DC error      {:.3e}", r.dc_error);
+        println!("iterations    {}", r.iterations);
+        println!("time          {:.2} s", r.seconds);
+    }
+    Ok(())
+}

@@ -1,0 +1,69 @@
+//! Options shared by every command that reads images.
+
+use std::path::Path;
+
+use anyhow::Result;
+use clap::Args;
+use ifd_image::{LoadedImage, MemoryBudget, NonFinitePolicy, ReadOptions};
+
+/// How input images are read.
+#[derive(Debug, Args, Clone)]
+pub struct InputOptions {
+    /// Decode 8/16-bit inputs from sRGB to linear light (default: values map linearly to [0, 1]).
+    #[arg(long)]
+    pub srgb: bool,
+    /// Replace NaN/Inf input values by this value (and report how many) instead of refusing the file.
+    #[arg(long, value_name = "VALUE")]
+    pub replace_nonfinite: Option<f32>,
+    /// Memory budget for one image, in MiB (default: 75% of physical memory).
+    #[arg(long, value_name = "MIB")]
+    pub memory_budget: Option<u64>,
+}
+
+impl InputOptions {
+    fn read_options(&self) -> ReadOptions {
+        ReadOptions {
+            srgb_decode: self.srgb,
+            non_finite: self
+                .replace_nonfinite
+                .map_or(NonFinitePolicy::Error, NonFinitePolicy::Replace),
+            budget: self
+                .memory_budget
+                .map_or_else(MemoryBudget::default_for_machine, |m| {
+                    MemoryBudget::bytes(m.saturating_mul(1 << 20))
+                }),
+        }
+    }
+
+    /// Reads an image, reporting replaced non-finite values on stderr.
+    pub fn read(&self, path: &Path) -> Result<LoadedImage> {
+        // The error already names the file.
+        let loaded = ifd_image::read_image(path, &self.read_options())?;
+        if loaded.replaced_non_finite > 0 {
+            eprintln!(
+                "note: {}: replaced {} non-finite values",
+                path.display(),
+                loaded.replaced_non_finite
+            );
+        }
+        Ok(loaded)
+    }
+}
+
+/// Writes an image atomically, reporting clipped samples on stderr.
+pub fn write_output(
+    path: &Path,
+    image: &ifd_image::Image,
+    opts: &ifd_image::WriteOptions,
+) -> Result<()> {
+    let report = ifd_image::write_image(path, image, opts)?;
+    if report.clipped > 0 {
+        eprintln!(
+            "note: {}: clipped {} of {} values to [0, 1]",
+            path.display(),
+            report.clipped,
+            report.samples
+        );
+    }
+    Ok(())
+}

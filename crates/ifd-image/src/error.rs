@@ -1,0 +1,106 @@
+//! Errors of image I/O and metrics.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong reading, writing or comparing images.
+///
+/// Every variant's message names the file (where there is one) and the problem.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    /// The file does not exist.
+    #[error("{}: no such file", path.display())]
+    NotFound {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The extension names no format ifd reads or writes.
+    #[error("{}: unsupported file extension {ext:?} (supported: png, jpg/jpeg, tif/tiff, exr, hdr, npy)", path.display())]
+    UnsupportedExtension {
+        /// The file.
+        path: PathBuf,
+        /// The extension found (empty when none).
+        ext: String,
+    },
+    /// The file could not be decoded: truncated, corrupt, or a variant of the
+    /// format that is not supported.
+    #[error("{}: cannot decode {format} file: {reason}", path.display())]
+    Decode {
+        /// The file.
+        path: PathBuf,
+        /// The format the extension announced.
+        format: &'static str,
+        /// What the decoder said.
+        reason: String,
+    },
+    /// The file could not be encoded or written.
+    #[error("{}: cannot write: {reason}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// An I/O error other than a missing file.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// A zero-sized image.
+    #[error("image is empty ({width}x{height} with {channels} channels)")]
+    Empty {
+        /// Width.
+        width: usize,
+        /// Height.
+        height: usize,
+        /// Channels.
+        channels: usize,
+    },
+    /// An image whose samples would need more memory than the budget.
+    #[error("image would need {} of memory, more than the budget of {}", fmt_bytes(*needed_bytes), fmt_bytes(*budget_bytes))]
+    TooLarge {
+        /// Bytes the samples would need.
+        needed_bytes: u64,
+        /// The budget.
+        budget_bytes: u64,
+    },
+    /// NaN or infinite samples where finite ones are required.
+    #[error("{}: {count} non-finite (NaN or infinite) values, first at x={x}, y={y}, channel {channel}; pass --replace-nonfinite to replace them", path.display())]
+    NonFinite {
+        /// The file.
+        path: PathBuf,
+        /// How many samples are non-finite.
+        count: usize,
+        /// Column of the first.
+        x: usize,
+        /// Row of the first.
+        y: usize,
+        /// Channel of the first.
+        channel: usize,
+    },
+    /// Mismatched shapes or lengths.
+    #[error("{0}")]
+    Shape(String),
+    /// A parameter outside its valid range.
+    #[error("{0}")]
+    InvalidParameter(String),
+}
+
+/// Formats a byte count with a binary unit (`1.5 GiB`).
+#[must_use]
+pub fn fmt_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut v = bytes as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < UNITS.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{v:.1} {}", UNITS[u])
+    }
+}

@@ -1,0 +1,212 @@
+//! The [`Image`] buffer: interleaved `f32` samples, row-major, `height x width x channels`.
+
+use crate::ImageError;
+
+/// An image of `f32` samples stored interleaved and row-major (`H x W x C`, the
+/// layout of NumPy's `HxWxC` arrays and of OpenCV's `Mat`).
+///
+/// Axes: `x` is the column (to the right), `y` is the row (down); row 0 is the
+/// top of the image. Values are linear: 8/16-bit files map to `[0, 1]` without
+/// any gamma change unless sRGB decoding was asked for when reading.
+///
+/// ```
+/// use ifd_image::Image;
+/// let mut img = Image::new(4, 3, 1)?;
+/// img.set(2, 1, 0, 0.5);
+/// assert_eq!(img.get(2, 1, 0), 0.5);
+/// assert_eq!((img.width(), img.height(), img.channels()), (4, 3, 1));
+/// # Ok::<(), ifd_image::ImageError>(())
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    width: usize,
+    height: usize,
+    channels: usize,
+    data: Vec<f32>,
+}
+
+impl Image {
+    /// A zero-filled image.
+    ///
+    /// # Errors
+    /// [`ImageError::Empty`] when a dimension is zero, [`ImageError::TooLarge`]
+    /// when the sample count overflows `usize`.
+    pub fn new(width: usize, height: usize, channels: usize) -> Result<Self, ImageError> {
+        let n = checked_len(width, height, channels)?;
+        Ok(Self {
+            width,
+            height,
+            channels,
+            data: vec![0.0; n],
+        })
+    }
+
+    /// Wraps interleaved samples (`H x W x C`, row-major).
+    ///
+    /// # Errors
+    /// [`ImageError::Empty`] for a zero dimension, [`ImageError::Shape`] when
+    /// `data.len() != width * height * channels`.
+    pub fn from_vec(
+        width: usize,
+        height: usize,
+        channels: usize,
+        data: Vec<f32>,
+    ) -> Result<Self, ImageError> {
+        let n = checked_len(width, height, channels)?;
+        if data.len() != n {
+            return Err(ImageError::Shape(format!(
+                "{} samples given for a {width}x{height}x{channels} image ({n} expected)",
+                data.len()
+            )));
+        }
+        Ok(Self {
+            width,
+            height,
+            channels,
+            data,
+        })
+    }
+
+    /// Builds an image from one plane per channel (each `width * height`, row-major).
+    ///
+    /// # Errors
+    /// [`ImageError::Empty`] for no planes or a zero dimension,
+    /// [`ImageError::Shape`] when a plane has the wrong length.
+    pub fn from_planes(
+        width: usize,
+        height: usize,
+        planes: &[Vec<f32>],
+    ) -> Result<Self, ImageError> {
+        let channels = planes.len();
+        let n = checked_len(width, height, channels)?;
+        let mut data = vec![0.0; n];
+        for (c, plane) in planes.iter().enumerate() {
+            if plane.len() != width * height {
+                return Err(ImageError::Shape(format!(
+                    "plane {c} has {} samples, expected {width}x{height} = {}",
+                    plane.len(),
+                    width * height
+                )));
+            }
+            for (i, &v) in plane.iter().enumerate() {
+                data[i * channels + c] = v;
+            }
+        }
+        Ok(Self {
+            width,
+            height,
+            channels,
+            data,
+        })
+    }
+
+    /// Width in pixels (number of columns).
+    #[must_use]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels (number of rows).
+    #[must_use]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Number of channels (1 gray, 2 gray+alpha, 3 RGB, 4 RGBA, or any count from `.npy`).
+    #[must_use]
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// Number of pixels, `width * height`.
+    #[must_use]
+    pub fn pixel_count(&self) -> usize {
+        self.width * self.height
+    }
+
+    /// The interleaved samples.
+    #[must_use]
+    pub fn data(&self) -> &[f32] {
+        &self.data
+    }
+
+    /// The interleaved samples, mutable.
+    pub fn data_mut(&mut self) -> &mut [f32] {
+        &mut self.data
+    }
+
+    /// Consumes the image and returns its samples.
+    #[must_use]
+    pub fn into_vec(self) -> Vec<f32> {
+        self.data
+    }
+
+    /// Sample at column `x`, row `y`, channel `c`.
+    ///
+    /// # Panics
+    /// When the position is outside the image.
+    #[must_use]
+    pub fn get(&self, x: usize, y: usize, c: usize) -> f32 {
+        assert!(x < self.width && y < self.height && c < self.channels);
+        self.data[(y * self.width + x) * self.channels + c]
+    }
+
+    /// Sets the sample at column `x`, row `y`, channel `c`.
+    ///
+    /// # Panics
+    /// When the position is outside the image.
+    pub fn set(&mut self, x: usize, y: usize, c: usize, v: f32) {
+        assert!(x < self.width && y < self.height && c < self.channels);
+        self.data[(y * self.width + x) * self.channels + c] = v;
+    }
+
+    /// Copies channel `c` out as a row-major plane of `width * height` samples.
+    ///
+    /// # Panics
+    /// When `c >= channels`.
+    #[must_use]
+    pub fn plane(&self, c: usize) -> Vec<f32> {
+        assert!(c < self.channels, "channel {c} of {}", self.channels);
+        self.data
+            .iter()
+            .skip(c)
+            .step_by(self.channels)
+            .copied()
+            .collect()
+    }
+
+    /// All channels as planes.
+    #[must_use]
+    pub fn planes(&self) -> Vec<Vec<f32>> {
+        (0..self.channels).map(|c| self.plane(c)).collect()
+    }
+
+    /// Whether two images have the same width, height and channel count.
+    #[must_use]
+    pub fn same_shape(&self, other: &Self) -> bool {
+        self.width == other.width && self.height == other.height && self.channels == other.channels
+    }
+
+    /// Counts the NaN and infinite samples.
+    #[must_use]
+    pub fn count_non_finite(&self) -> usize {
+        self.data.iter().filter(|v| !v.is_finite()).count()
+    }
+}
+
+fn checked_len(width: usize, height: usize, channels: usize) -> Result<usize, ImageError> {
+    if width == 0 || height == 0 || channels == 0 {
+        return Err(ImageError::Empty {
+            width,
+            height,
+            channels,
+        });
+    }
+    width
+        .checked_mul(height)
+        .and_then(|n| n.checked_mul(channels))
+        .ok_or(ImageError::TooLarge {
+            needed_bytes: u64::MAX,
+            budget_bytes: 0,
+        })
+}

@@ -1,0 +1,680 @@
+//! Reading and writing image files: PNG, JPEG, TIFF (8 and 16 bit), OpenEXR
+//! (all compressions the `exr` crate decodes, DWAB included), Radiance `.hdr`
+//! and NumPy `.npy`.
+//!
+//! The format is chosen by the file extension. Integer samples map to `[0, 1]`
+//! (`v / 255`, `v / 65535`) with no gamma change unless
+//! [`ReadOptions::srgb_decode`] is set. Writes are atomic: the encoded file is
+//! written to a temporary file in the destination folder and renamed over the
+//! destination only once complete, so a failed run never leaves a half-written
+//! output.
+
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use image::{DynamicImage, ImageDecoder, ImageFormat, ImageReader};
+
+use crate::budget::MemoryBudget;
+use crate::{Image, ImageError, npy};
+
+/// The file formats ifd reads and writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileFormat {
+    /// Portable Network Graphics, 8 or 16 bit.
+    Png,
+    /// JPEG, 8 bit.
+    Jpeg,
+    /// TIFF, 8 or 16 bit.
+    Tiff,
+    /// OpenEXR, 32-bit float.
+    Exr,
+    /// Radiance RGBE.
+    Hdr,
+    /// NumPy array, float32 or float64, `HxW` or `HxWxC`.
+    Npy,
+}
+
+impl FileFormat {
+    /// The format named by a path's extension.
+    ///
+    /// # Errors
+    /// [`ImageError::UnsupportedExtension`] for any other extension.
+    pub fn from_path(path: &Path) -> Result<Self, ImageError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .unwrap_or_default();
+        Ok(match ext.as_str() {
+            "png" => Self::Png,
+            "jpg" | "jpeg" => Self::Jpeg,
+            "tif" | "tiff" => Self::Tiff,
+            "exr" => Self::Exr,
+            "hdr" => Self::Hdr,
+            "npy" => Self::Npy,
+            _ => {
+                return Err(ImageError::UnsupportedExtension {
+                    path: path.to_path_buf(),
+                    ext,
+                });
+            }
+        })
+    }
+
+    /// A short name for messages.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Png => "PNG",
+            Self::Jpeg => "JPEG",
+            Self::Tiff => "TIFF",
+            Self::Exr => "OpenEXR",
+            Self::Hdr => "Radiance HDR",
+            Self::Npy => "NumPy",
+        }
+    }
+
+    fn image_format(self) -> Option<ImageFormat> {
+        match self {
+            Self::Png => Some(ImageFormat::Png),
+            Self::Jpeg => Some(ImageFormat::Jpeg),
+            Self::Tiff => Some(ImageFormat::Tiff),
+            Self::Exr => Some(ImageFormat::OpenExr),
+            Self::Hdr => Some(ImageFormat::Hdr),
+            Self::Npy => None,
+        }
+    }
+}
+
+/// What to do with NaN and infinite samples found when reading.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum NonFinitePolicy {
+    /// Refuse the file with [`ImageError::NonFinite`] (the default).
+    #[default]
+    Error,
+    /// Replace each non-finite sample by this value and count them.
+    Replace(f32),
+}
+
+/// Options for [`read_image`].
+#[derive(Clone, Copy, Debug)]
+pub struct ReadOptions {
+    /// Decode 8/16-bit sRGB-encoded values to linear light (the sRGB transfer
+    /// function). Off by default: values map linearly to `[0, 1]`.
+    pub srgb_decode: bool,
+    /// NaN/Inf handling.
+    pub non_finite: NonFinitePolicy,
+    /// Largest amount of memory an image may need.
+    pub budget: MemoryBudget,
+}
+
+impl Default for ReadOptions {
+    fn default() -> Self {
+        Self {
+            srgb_decode: false,
+            non_finite: NonFinitePolicy::Error,
+            budget: MemoryBudget::default_for_machine(),
+        }
+    }
+}
+
+/// An image read from a file, with what is known about its source.
+#[derive(Clone, Debug)]
+pub struct LoadedImage {
+    /// The samples.
+    pub image: Image,
+    /// The file's format.
+    pub format: FileFormat,
+    /// Bits per sample of the file when it stored integers (8 or 16), `None`
+    /// for floating-point files.
+    pub integer_bits: Option<u8>,
+    /// How many non-finite samples were replaced ([`NonFinitePolicy::Replace`]).
+    pub replaced_non_finite: usize,
+}
+
+/// Reads an image file with default options.
+///
+/// ```
+/// let img = ifd_image::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/camera.png"))?;
+/// assert_eq!((img.width(), img.height(), img.channels()), (512, 512, 1));
+/// # Ok::<(), ifd_image::ImageError>(())
+/// ```
+///
+/// # Errors
+/// See [`read_image`].
+pub fn read(path: impl AsRef<Path>) -> Result<Image, ImageError> {
+    Ok(read_image(path.as_ref(), &ReadOptions::default())?.image)
+}
+
+/// Reads an image file.
+///
+/// # Errors
+/// A missing file, an unsupported extension, a truncated or corrupt file, a
+/// zero-sized image, dimensions beyond the memory budget, and (with
+/// [`NonFinitePolicy::Error`]) NaN or infinite samples each give their own
+/// [`ImageError`] naming the file.
+pub fn read_image(path: &Path, opts: &ReadOptions) -> Result<LoadedImage, ImageError> {
+    let format = FileFormat::from_path(path)?;
+    let file = open(path)?;
+    let (mut image, integer_bits) = match format.image_format() {
+        None => (npy::read_npy(path, file, opts.budget)?, None),
+        Some(fmt) => decode_with_image_crate(path, file, fmt, format, opts)?,
+    };
+    let replaced_non_finite = handle_non_finite(path, &mut image, opts.non_finite)?;
+    Ok(LoadedImage {
+        image,
+        format,
+        integer_bits,
+        replaced_non_finite,
+    })
+}
+
+fn open(path: &Path) -> Result<File, ImageError> {
+    File::open(path).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::NotFound {
+            ImageError::NotFound {
+                path: path.to_path_buf(),
+            }
+        } else {
+            ImageError::Io {
+                path: path.to_path_buf(),
+                source: e,
+            }
+        }
+    })
+}
+
+fn decode_with_image_crate(
+    path: &Path,
+    file: File,
+    fmt: ImageFormat,
+    format: FileFormat,
+    opts: &ReadOptions,
+) -> Result<(Image, Option<u8>), ImageError> {
+    let decode_err = |e: image::ImageError| ImageError::Decode {
+        path: path.to_path_buf(),
+        format: format.name(),
+        reason: e.to_string(),
+    };
+    let mut reader = ImageReader::with_format(BufReader::new(file), fmt);
+    // Our own budget check below replaces the crate's fixed default limits.
+    reader.no_limits();
+    let decoder = reader.into_decoder().map_err(decode_err)?;
+    let (w, h) = decoder.dimensions();
+    let color = decoder.color_type();
+    let channels = usize::from(color.channel_count());
+    if w == 0 || h == 0 {
+        return Err(ImageError::Empty {
+            width: w as usize,
+            height: h as usize,
+            channels,
+        });
+    }
+    // The decoder's own buffer plus our f32 copy.
+    let samples = u64::from(w) * u64::from(h) * channels as u64;
+    let per_sample = u64::from(color.bytes_per_pixel()) / channels as u64 + 4;
+    opts.budget.check(samples.saturating_mul(per_sample))?;
+    let dynimg = DynamicImage::from_decoder(decoder).map_err(decode_err)?;
+    let (w, h) = (w as usize, h as usize);
+    let srgb = opts.srgb_decode;
+    let map8 = |v: u8| {
+        let x = f32::from(v) / 255.0;
+        if srgb { srgb_to_linear(x) } else { x }
+    };
+    let map16 = |v: u16| {
+        let x = f32::from(v) / 65535.0;
+        if srgb { srgb_to_linear(x) } else { x }
+    };
+    let (data, channels, bits): (Vec<f32>, usize, Option<u8>) = match dynimg {
+        DynamicImage::ImageLuma8(b) => (b.into_raw().into_iter().map(map8).collect(), 1, Some(8)),
+        DynamicImage::ImageLumaA8(b) => (b.into_raw().into_iter().map(map8).collect(), 2, Some(8)),
+        DynamicImage::ImageRgb8(b) => (b.into_raw().into_iter().map(map8).collect(), 3, Some(8)),
+        DynamicImage::ImageRgba8(b) => (b.into_raw().into_iter().map(map8).collect(), 4, Some(8)),
+        DynamicImage::ImageLuma16(b) => {
+            (b.into_raw().into_iter().map(map16).collect(), 1, Some(16))
+        }
+        DynamicImage::ImageLumaA16(b) => {
+            (b.into_raw().into_iter().map(map16).collect(), 2, Some(16))
+        }
+        DynamicImage::ImageRgb16(b) => (b.into_raw().into_iter().map(map16).collect(), 3, Some(16)),
+        DynamicImage::ImageRgba16(b) => {
+            (b.into_raw().into_iter().map(map16).collect(), 4, Some(16))
+        }
+        DynamicImage::ImageRgb32F(b) => (b.into_raw(), 3, None),
+        DynamicImage::ImageRgba32F(b) => (b.into_raw(), 4, None),
+        other => (other.to_rgba32f().into_raw(), 4, None),
+    };
+    Ok((Image::from_vec(w, h, channels, data)?, bits))
+}
+
+fn handle_non_finite(
+    path: &Path,
+    image: &mut Image,
+    policy: NonFinitePolicy,
+) -> Result<usize, ImageError> {
+    let count = image.count_non_finite();
+    if count == 0 {
+        return Ok(0);
+    }
+    match policy {
+        NonFinitePolicy::Error => {
+            let first = image
+                .data()
+                .iter()
+                .position(|v| !v.is_finite())
+                .unwrap_or(0);
+            let c = image.channels();
+            let w = image.width();
+            Err(ImageError::NonFinite {
+                path: path.to_path_buf(),
+                count,
+                x: (first / c) % w,
+                y: first / c / w,
+                channel: first % c,
+            })
+        }
+        NonFinitePolicy::Replace(value) => {
+            for v in image.data_mut() {
+                if !v.is_finite() {
+                    *v = value;
+                }
+            }
+            Ok(count)
+        }
+    }
+}
+
+/// The sRGB electro-optical transfer function: encoded `[0, 1]` to linear.
+#[must_use]
+pub fn srgb_to_linear(v: f32) -> f32 {
+    if v <= 0.040_45 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The inverse of [`srgb_to_linear`].
+#[must_use]
+pub fn linear_to_srgb(v: f32) -> f32 {
+    if v <= 0.003_130_8 {
+        v * 12.92
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Sample depth for integer formats.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BitDepth {
+    /// 8 bits per sample (the default for PNG, TIFF; the only one for JPEG).
+    #[default]
+    Eight,
+    /// 16 bits per sample (PNG, TIFF).
+    Sixteen,
+}
+
+/// Options for [`write_image`].
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WriteOptions {
+    /// Sample depth for PNG and TIFF.
+    pub bit_depth: BitDepth,
+    /// Encode linear values with the sRGB transfer function before quantising.
+    pub srgb_encode: bool,
+    /// JPEG quality, 1-100 (default 95).
+    pub jpeg_quality: Option<u8>,
+}
+
+/// What [`write_image`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WriteReport {
+    /// Samples outside `[0, 1]` that an integer format clamped.
+    pub clipped: usize,
+    /// Total samples written.
+    pub samples: usize,
+}
+
+/// Writes an image with default options (8-bit for integer formats).
+///
+/// # Errors
+/// See [`write_image`].
+pub fn write(path: impl AsRef<Path>, image: &Image) -> Result<WriteReport, ImageError> {
+    write_image(path.as_ref(), image, &WriteOptions::default())
+}
+
+/// Writes an image, atomically (temporary file in the same folder, then rename).
+///
+/// Integer formats clamp to `[0, 1]`, round, and report how many samples were
+/// clipped. Channel counts: 1 (gray), 2 (gray + alpha), 3 (RGB) or 4 (RGBA) for
+/// PNG/TIFF; 1 or 3 for JPEG; 1, 3 or 4 for EXR (gray is written as RGB); 1 or
+/// 3 for HDR (gray as RGB); any count for NPY.
+///
+/// # Errors
+/// Unsupported extension or channel count, non-finite samples for an integer
+/// or RGBE format, negative values for HDR, and any I/O or encoder failure.
+pub fn write_image(
+    path: &Path,
+    image: &Image,
+    opts: &WriteOptions,
+) -> Result<WriteReport, ImageError> {
+    let format = FileFormat::from_path(path)?;
+    let c = image.channels();
+    let bad_channels = || ImageError::Write {
+        path: path.to_path_buf(),
+        reason: format!(
+            "{} cannot store {c} channels (write .npy for arbitrary channel counts)",
+            format.name()
+        ),
+    };
+    let samples = image.data().len();
+    let mut clipped = 0;
+    let payload: Payload = match format {
+        FileFormat::Npy => Payload::Npy,
+        FileFormat::Exr | FileFormat::Hdr => {
+            if format == FileFormat::Hdr {
+                check_finite(path, image, format)?;
+                if image.data().iter().any(|&v| v < 0.0) {
+                    return Err(ImageError::Write {
+                        path: path.to_path_buf(),
+                        reason: "Radiance HDR cannot store negative values (write .exr or .npy)"
+                            .into(),
+                    });
+                }
+            }
+            let w = image.width() as u32;
+            let h = image.height() as u32;
+            let dyn_img = match (c, format) {
+                (1 | 3, _) => {
+                    let rgb: Vec<f32> = if c == 1 {
+                        image.data().iter().flat_map(|&v| [v, v, v]).collect()
+                    } else {
+                        image.data().to_vec()
+                    };
+                    image::Rgb32FImage::from_raw(w, h, rgb).map(DynamicImage::ImageRgb32F)
+                }
+                (4, FileFormat::Exr) => image::Rgba32FImage::from_raw(w, h, image.data().to_vec())
+                    .map(DynamicImage::ImageRgba32F),
+                _ => return Err(bad_channels()),
+            };
+            Payload::Image(dyn_img.ok_or_else(bad_channels)?)
+        }
+        FileFormat::Png | FileFormat::Tiff | FileFormat::Jpeg => {
+            check_finite(path, image, format)?;
+            if format == FileFormat::Jpeg && !(c == 1 || c == 3) {
+                return Err(bad_channels());
+            }
+            if c > 4 {
+                return Err(bad_channels());
+            }
+            let sixteen = opts.bit_depth == BitDepth::Sixteen && format != FileFormat::Jpeg;
+            let scale = if sixteen { 65535.0 } else { 255.0 };
+            let quantised: Vec<u16> = image
+                .data()
+                .iter()
+                .map(|&v| {
+                    if !(0.0..=1.0).contains(&v) {
+                        clipped += 1;
+                    }
+                    let v = v.clamp(0.0, 1.0);
+                    let v = if opts.srgb_encode {
+                        linear_to_srgb(v)
+                    } else {
+                        v
+                    };
+                    (v * scale).round() as u16
+                })
+                .collect();
+            Payload::Image(
+                to_dynamic(image.width(), image.height(), c, sixteen, quantised)
+                    .ok_or_else(bad_channels)?,
+            )
+        }
+    };
+    atomic_write(path, |file| match &payload {
+        Payload::Npy => npy::write_npy(file, image),
+        Payload::Image(img) => {
+            if format == FileFormat::Jpeg {
+                let q = opts.jpeg_quality.unwrap_or(95).clamp(1, 100);
+                let enc = image::codecs::jpeg::JpegEncoder::new_with_quality(file, q);
+                img.write_with_encoder(enc).map_err(|e| e.to_string())
+            } else {
+                let fmt = format.image_format().ok_or("no encoder")?;
+                img.write_to(file, fmt).map_err(|e| e.to_string())
+            }
+        }
+    })?;
+    Ok(WriteReport { clipped, samples })
+}
+
+enum Payload {
+    Npy,
+    Image(DynamicImage),
+}
+
+fn to_dynamic(w: usize, h: usize, c: usize, sixteen: bool, q: Vec<u16>) -> Option<DynamicImage> {
+    let (w, h) = (w as u32, h as u32);
+    if sixteen {
+        match c {
+            1 => image::ImageBuffer::from_raw(w, h, q).map(DynamicImage::ImageLuma16),
+            2 => image::ImageBuffer::from_raw(w, h, q).map(DynamicImage::ImageLumaA16),
+            3 => image::ImageBuffer::from_raw(w, h, q).map(DynamicImage::ImageRgb16),
+            4 => image::ImageBuffer::from_raw(w, h, q).map(DynamicImage::ImageRgba16),
+            _ => None,
+        }
+    } else {
+        let q: Vec<u8> = q.into_iter().map(|v| v as u8).collect();
+        match c {
+            1 => image::ImageBuffer::from_raw(w, h, q).map(DynamicImage::ImageLuma8),
+            2 => image::ImageBuffer::from_raw(w, h, q).map(DynamicImage::ImageLumaA8),
+            3 => image::ImageBuffer::from_raw(w, h, q).map(DynamicImage::ImageRgb8),
+            4 => image::ImageBuffer::from_raw(w, h, q).map(DynamicImage::ImageRgba8),
+            _ => None,
+        }
+    }
+}
+
+fn check_finite(path: &Path, image: &Image, format: FileFormat) -> Result<(), ImageError> {
+    let n = image.count_non_finite();
+    if n > 0 {
+        return Err(ImageError::Write {
+            path: path.to_path_buf(),
+            reason: format!(
+                "{n} non-finite (NaN or infinite) values cannot be stored in {}",
+                format.name()
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Writes a file atomically: `fill` writes into a temporary file in the
+/// destination's folder, which is flushed, synced and renamed over `path`.
+/// On any failure the temporary file is removed and `path` is untouched.
+///
+/// # Errors
+/// [`ImageError::Write`] naming `path` and the reason.
+pub fn atomic_write<F>(path: &Path, fill: F) -> Result<(), ImageError>
+where
+    F: FnOnce(&mut BufWriter<&File>) -> Result<(), String>,
+{
+    let werr = |reason: String| ImageError::Write {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(werr(format!("folder {} does not exist", dir.display())));
+    }
+    let tmp = tempfile::Builder::new()
+        .prefix(".ifd-tmp-")
+        .tempfile_in(&dir)
+        .map_err(|e| {
+            werr(format!(
+                "cannot create a temporary file in {}: {e}",
+                dir.display()
+            ))
+        })?;
+    {
+        let mut w = BufWriter::new(tmp.as_file());
+        fill(&mut w).map_err(werr)?;
+        w.flush().map_err(|e| werr(e.to_string()))?;
+    }
+    tmp.as_file().sync_all().map_err(|e| werr(e.to_string()))?;
+    tmp.persist(path).map_err(|e| werr(e.error.to_string()))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp(w: usize, h: usize, c: usize) -> Image {
+        let data = (0..w * h * c)
+            .map(|i| (i as f32 / (w * h * c - 1) as f32))
+            .collect();
+        Image::from_vec(w, h, c, data).unwrap()
+    }
+
+    #[test]
+    fn round_trips_every_format() {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, c, tol) in [
+            ("a.png", 1, 0.5 / 255.0),
+            ("a.png", 3, 0.5 / 255.0),
+            ("a.png", 4, 0.5 / 255.0),
+            ("a.tiff", 3, 0.5 / 255.0),
+            ("a.exr", 3, 0.0),
+            ("a.exr", 4, 0.0),
+            ("a.npy", 5, 0.0),
+            ("a.hdr", 3, 1.0 / 64.0),
+            ("a.jpg", 3, 0.1),
+        ] {
+            let img = ramp(17, 9, c);
+            let p = dir.path().join(name);
+            write(&p, &img).unwrap();
+            let back = read(&p).unwrap();
+            assert_eq!(
+                (back.width(), back.height(), back.channels()),
+                (17, 9, c),
+                "{name}"
+            );
+            let err = img
+                .data()
+                .iter()
+                .zip(back.data())
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f32, f32::max);
+            assert!(err <= tol + 1e-6, "{name} c={c}: max error {err}");
+        }
+    }
+
+    #[test]
+    fn sixteen_bit_keeps_precision() {
+        let dir = tempfile::tempdir().unwrap();
+        let img = ramp(300, 2, 1);
+        for name in ["a.png", "a.tif"] {
+            let p = dir.path().join(name);
+            let opts = WriteOptions {
+                bit_depth: BitDepth::Sixteen,
+                ..WriteOptions::default()
+            };
+            write_image(&p, &img, &opts).unwrap();
+            let loaded = read_image(&p, &ReadOptions::default()).unwrap();
+            assert_eq!(loaded.integer_bits, Some(16));
+            let err = img
+                .data()
+                .iter()
+                .zip(loaded.image.data())
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f32, f32::max);
+            assert!(err <= 0.51 / 65535.0, "{name}: {err}");
+        }
+    }
+
+    #[test]
+    fn clipping_is_counted() {
+        let dir = tempfile::tempdir().unwrap();
+        let img = Image::from_vec(2, 2, 1, vec![-0.5, 0.2, 1.5, 1.0]).unwrap();
+        let r = write(dir.path().join("c.png"), &img).unwrap();
+        assert_eq!(r.clipped, 2);
+        assert_eq!(r.samples, 4);
+    }
+
+    #[test]
+    fn srgb_round_trip() {
+        for i in 0..=100 {
+            let v = i as f32 / 100.0;
+            assert!((linear_to_srgb(srgb_to_linear(v)) - v).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn failed_write_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let img = Image::from_vec(1, 1, 1, vec![f32::NAN]).unwrap();
+        let p = dir.path().join("n.png");
+        let e = write(&p, &img).unwrap_err().to_string();
+        assert!(e.contains("non-finite"), "{e}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        // A failure inside the encoder callback also leaves no file behind.
+        let e = atomic_write(&p, |_| Err("boom".into())).unwrap_err();
+        assert!(e.to_string().contains("boom"));
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn bad_inputs_are_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("missing.png");
+        assert!(matches!(read(&missing), Err(ImageError::NotFound { .. })));
+        let odd = dir.path().join("a.bmpx");
+        std::fs::write(&odd, b"x").unwrap();
+        let e = read(&odd).unwrap_err().to_string();
+        assert!(e.contains("unsupported file extension"), "{e}");
+        let trunc = dir.path().join("t.png");
+        let good = dir.path().join("g.png");
+        write(&good, &ramp(64, 64, 3)).unwrap();
+        let bytes = std::fs::read(&good).unwrap();
+        std::fs::write(&trunc, &bytes[..bytes.len() / 2]).unwrap();
+        let e = read(&trunc).unwrap_err().to_string();
+        assert!(e.contains("cannot decode PNG"), "{e}");
+        let garbage = dir.path().join("g.exr");
+        std::fs::write(&garbage, b"not an exr at all").unwrap();
+        let e = read(&garbage).unwrap_err().to_string();
+        assert!(e.contains("cannot decode OpenEXR"), "{e}");
+    }
+
+    #[test]
+    fn budget_refuses_large_images() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("big.png");
+        write(&p, &ramp(100, 100, 3)).unwrap();
+        let opts = ReadOptions {
+            budget: MemoryBudget::bytes(1000),
+            ..ReadOptions::default()
+        };
+        let e = read_image(&p, &opts).unwrap_err().to_string();
+        assert!(e.contains("would need 146.5 KiB"), "{e}");
+    }
+
+    #[test]
+    fn non_finite_policy() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("n.npy");
+        let img = Image::from_vec(3, 1, 1, vec![1.0, f32::NAN, f32::INFINITY]).unwrap();
+        write(&p, &img).unwrap();
+        let e = read(&p).unwrap_err().to_string();
+        assert!(e.contains("2 non-finite") && e.contains("x=1, y=0"), "{e}");
+        let opts = ReadOptions {
+            non_finite: NonFinitePolicy::Replace(0.0),
+            ..ReadOptions::default()
+        };
+        let l = read_image(&p, &opts).unwrap();
+        assert_eq!(l.replaced_non_finite, 2);
+        assert_eq!(l.image.data(), &[1.0, 0.0, 0.0]);
+    }
+}

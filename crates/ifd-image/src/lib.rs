@@ -1,0 +1,31 @@
+//! f32 image buffers, file I/O and image-quality metrics for ifd.
+//!
+//! - [`Image`]: interleaved `f32` samples, `H x W x C`, `x` = column, `y` = row.
+//! - [`read_image`] / [`write_image`]: PNG, JPEG, TIFF (8/16 bit), OpenEXR
+//!   (DWAB included), Radiance HDR and NumPy `.npy`, chosen by extension;
+//!   atomic writes; clear errors naming the file.
+//! - [`metrics`]: PSNR and SSIM defined exactly as scikit-image defines them.
+//!
+//! ```
+//! use ifd_image::{read, metrics};
+//! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/camera.png");
+//! let a = read(path)?;
+//! let m = metrics::compare(&a, &a, 1.0)?;
+//! assert_eq!(m.overall.max_abs, 0.0);
+//! # Ok::<(), ifd_image::ImageError>(())
+//! ```
+
+mod budget;
+mod error;
+mod image;
+mod io;
+pub mod metrics;
+mod npy;
+
+pub use crate::budget::{MemoryBudget, physical_memory};
+pub use crate::error::{ImageError, fmt_bytes};
+pub use crate::image::Image;
+pub use crate::io::{
+    BitDepth, FileFormat, LoadedImage, NonFinitePolicy, ReadOptions, WriteOptions, WriteReport,
+    atomic_write, linear_to_srgb, read, read_image, srgb_to_linear, write, write_image,
+};

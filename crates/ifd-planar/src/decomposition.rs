@@ -1,0 +1,383 @@
+//! The result of decomposing a filter: a list of weighted, displaced isotropic
+//! Gaussians (Eq. 2 of the IFD paper), and its file format.
+//!
+//! # File format
+//! JSON, versioned and self-describing:
+//!
+//! ```json
+//! {
+//!   "format": "ifd-decomposition",
+//!   "version": 1,
+//!   "kernel": { "width": 193, "height": 193, "spec": "gauss:sx=24,sy=3,theta=30" },
+//!   "dictionary": { "levels": 6, "ratio": 0.5, "sigmas_per_octave": 4, "oversampling": 1, "half_width": 96.0 },
+//!   "report": { "terms": 180, "rel_l2_error": 0.0098, "max_error": 0.01, "dc_error": 1e-4,
+//!               "iterations": 400, "seconds": 1.2, "dictionary_atoms": 20000, "tau": 1e-5 },
+//!   "terms": [ { "weight": 0.01, "x": -3.0, "y": 6.0, "sigma": 1.5 } ]
+//! }
+//! ```
+//!
+//! `kernel`, `dictionary`, `report` and `kernel.spec` may be `null` (a
+//! hand-made decomposition); `format`, `version` and `terms` are required.
+//! [`Decomposition::load`] rejects anything else with a [`DecompositionFileError`].
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::dictionary::DictionaryParams;
+use crate::fit::FitReport;
+
+/// The `format` field of decomposition files.
+pub const FORMAT: &str = "ifd-decomposition";
+/// The file format version written and read.
+pub const VERSION: u64 = 1;
+
+/// One displaced isotropic Gaussian of a decomposition: `weight * g_sigma(d - (x, y))`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Term {
+    /// The weight `lambda_l^m`.
+    pub weight: f64,
+    /// Displacement of the atom's centre from the kernel centre along `x`
+    /// (column, right), in pixels.
+    pub x: f64,
+    /// Displacement of the atom's centre from the kernel centre along `y`
+    /// (row, down), in pixels.
+    pub y: f64,
+    /// Standard deviation, in pixels, of the normalised Gaussian
+    /// `g_sigma(d) = exp(-|d|^2 / (2 sigma^2)) / (2 pi sigma^2)`.
+    pub sigma: f64,
+}
+
+/// A filter decomposed into displaced isotropic Gaussians.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Decomposition {
+    /// The non-zero terms.
+    pub terms: Vec<Term>,
+    /// Size `(width, height)` of the kernel that was fitted, if known.
+    pub kernel_size: Option<(usize, usize)>,
+    /// The spec string of the kernel that was fitted, if any.
+    pub spec: Option<String>,
+    /// The dictionary the terms were chosen from, if known.
+    pub dictionary: Option<DictionaryParams>,
+    /// What the fit achieved, if known.
+    pub report: Option<FitReport>,
+}
+
+/// Everything that can be wrong reading or writing a decomposition file.
+#[derive(Debug, thiserror::Error)]
+pub enum DecompositionFileError {
+    /// The file could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// Not JSON, truncated JSON, or a missing/mistyped field (serde's message
+    /// names the field and the line).
+    #[error("{}: not a valid decomposition file: {reason}", path.display())]
+    Json {
+        /// The file (empty when parsing a string).
+        path: PathBuf,
+        /// What the parser said.
+        reason: String,
+    },
+    /// The `format` field is missing or not `"ifd-decomposition"`.
+    #[error("{}: not an ifd decomposition file (format {found:?}, expected \"{FORMAT}\")", path.display())]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// The format found.
+        found: Option<String>,
+    },
+    /// A `version` this build does not read.
+    #[error("{}: decomposition file version {found:?} is not supported (this build reads version {VERSION})", path.display())]
+    Version {
+        /// The file.
+        path: PathBuf,
+        /// The version found.
+        found: Option<String>,
+    },
+    /// A field has an invalid value.
+    #[error("{}: invalid {field}: {reason}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// The field, e.g. `terms[3].sigma`.
+        field: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct KernelInfo {
+    width: usize,
+    height: usize,
+    spec: Option<String>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct FileRepr {
+    format: String,
+    version: u64,
+    kernel: Option<KernelInfo>,
+    dictionary: Option<DictionaryParams>,
+    report: Option<FitReport>,
+    terms: Vec<Term>,
+}
+
+impl Decomposition {
+    /// A decomposition made of the given terms (no fit metadata).
+    #[must_use]
+    pub fn from_terms(terms: Vec<Term>) -> Self {
+        Self {
+            terms,
+            kernel_size: None,
+            spec: None,
+            dictionary: None,
+            report: None,
+        }
+    }
+
+    /// The file contents (pretty JSON).
+    ///
+    /// ```
+    /// use ifd_planar::{Decomposition, Term};
+    /// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 0.0, y: 2.0, sigma: 1.5 }]);
+    /// let back = Decomposition::from_json_str(&d.to_json_string())?;
+    /// assert_eq!(back, d);
+    /// assert!(Decomposition::from_json_str("{\"format\": \"ifd-decomposition\", \"version\": 2}").is_err());
+    /// # Ok::<(), ifd_planar::decomposition::DecompositionFileError>(())
+    /// ```
+    #[must_use]
+    pub fn to_json_string(&self) -> String {
+        let repr = FileRepr {
+            format: FORMAT.to_string(),
+            version: VERSION,
+            kernel: self.kernel_size.map(|(width, height)| KernelInfo {
+                width,
+                height,
+                spec: self.spec.clone(),
+            }),
+            dictionary: self.dictionary.clone(),
+            report: self.report.clone(),
+            terms: self.terms.clone(),
+        };
+        serde_json::to_string_pretty(&repr).expect("a decomposition always serialises to JSON")
+    }
+
+    /// Parses file contents and validates them.
+    ///
+    /// # Errors
+    /// See [`DecompositionFileError`].
+    pub fn from_json_str(text: &str) -> Result<Self, DecompositionFileError> {
+        Self::parse(text, Path::new(""))
+    }
+
+    fn parse(text: &str, path: &Path) -> Result<Self, DecompositionFileError> {
+        let json_err = |e: serde_json::Error| DecompositionFileError::Json {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        };
+        let value: serde_json::Value = serde_json::from_str(text).map_err(json_err)?;
+        let format = value.get("format").map(|f| match f.as_str() {
+            Some(s) => s.to_string(),
+            None => f.to_string(),
+        });
+        if format.as_deref() != Some(FORMAT) {
+            return Err(DecompositionFileError::Format {
+                path: path.to_path_buf(),
+                found: format,
+            });
+        }
+        let version = value.get("version");
+        if version.and_then(serde_json::Value::as_u64) != Some(VERSION) {
+            return Err(DecompositionFileError::Version {
+                path: path.to_path_buf(),
+                found: version.map(ToString::to_string),
+            });
+        }
+        let repr: FileRepr = serde_json::from_value(value).map_err(json_err)?;
+        let invalid = |field: String, reason: String| DecompositionFileError::Invalid {
+            path: path.to_path_buf(),
+            field,
+            reason,
+        };
+        for (i, t) in repr.terms.iter().enumerate() {
+            for (name, v) in [
+                ("weight", t.weight),
+                ("x", t.x),
+                ("y", t.y),
+                ("sigma", t.sigma),
+            ] {
+                if !v.is_finite() {
+                    return Err(invalid(
+                        format!("terms[{i}].{name}"),
+                        format!("{v} is not finite"),
+                    ));
+                }
+            }
+            if t.sigma <= 0.0 {
+                return Err(invalid(
+                    format!("terms[{i}].sigma"),
+                    format!("{} is not positive", t.sigma),
+                ));
+            }
+        }
+        if let Some(k) = &repr.kernel
+            && (k.width % 2 == 0 || k.height % 2 == 0)
+        {
+            return Err(invalid(
+                "kernel".into(),
+                format!("size {}x{} is not odd", k.width, k.height),
+            ));
+        }
+        if let Some(p) = &repr.dictionary
+            && !(p.levels >= 1
+                && p.ratio.is_finite()
+                && p.ratio > 0.0
+                && p.sigmas_per_octave >= 1
+                && p.oversampling >= 1
+                && p.half_width.is_finite()
+                && p.half_width > 0.0)
+        {
+            return Err(invalid(
+                "dictionary".into(),
+                format!("out-of-range parameters {p:?}"),
+            ));
+        }
+        Ok(Self {
+            terms: repr.terms,
+            kernel_size: repr.kernel.as_ref().map(|k| (k.width, k.height)),
+            spec: repr.kernel.and_then(|k| k.spec),
+            dictionary: repr.dictionary,
+            report: repr.report,
+        })
+    }
+
+    /// Writes the decomposition file.
+    ///
+    /// # Errors
+    /// [`DecompositionFileError::Io`] when the file cannot be written.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<(), DecompositionFileError> {
+        let path = path.as_ref();
+        std::fs::write(path, self.to_json_string() + "\n").map_err(|source| {
+            DecompositionFileError::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })
+    }
+
+    /// Reads and validates a decomposition file.
+    ///
+    /// # Errors
+    /// See [`DecompositionFileError`]: unreadable file, malformed or truncated
+    /// JSON, missing fields, wrong format or version, non-finite values,
+    /// non-positive widths.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, DecompositionFileError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| DecompositionFileError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// The kernel the decomposition represents, evaluated at integer offset
+    /// `(dx, dy)` from the kernel centre.
+    #[must_use]
+    pub fn eval(&self, dx: f64, dy: f64) -> f64 {
+        self.terms
+            .iter()
+            .map(|t| {
+                let ex = dx - t.x;
+                let ey = dy - t.y;
+                let s2 = t.sigma * t.sigma;
+                t.weight * (-(ex * ex + ey * ey) / (2.0 * s2)).exp()
+                    / (2.0 * std::f64::consts::PI * s2)
+            })
+            .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Decomposition {
+        let k: crate::Kernel = "gauss:sx=5,sy=2,theta=20".parse().unwrap();
+        crate::fit::decompose(&k, &crate::fit::DecomposeOptions::default(), |_, _, _| {}).unwrap()
+    }
+
+    #[test]
+    fn file_round_trip() {
+        let d = sample();
+        assert!(d.report.is_some() && d.dictionary.is_some());
+        let dir = std::env::temp_dir().join(format!("ifd-planar-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("d.json");
+        d.save(&path).unwrap();
+        let back = Decomposition::load(&path).unwrap();
+        assert_eq!(back, d);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn malformed_files_are_rejected() {
+        let good = sample().to_json_string();
+        let parse = |s: &str| Decomposition::from_json_str(s).unwrap_err();
+        assert!(matches!(
+            parse(&good[..good.len() / 2]),
+            DecompositionFileError::Json { .. }
+        ));
+        assert!(matches!(
+            parse(&good.replace("ifd-decomposition", "other")),
+            DecompositionFileError::Format { .. }
+        ));
+        assert!(matches!(
+            parse(&good.replace("\"version\": 1", "\"version\": 7")),
+            DecompositionFileError::Version { .. }
+        ));
+        assert!(matches!(
+            parse("{\"format\": \"ifd-decomposition\"}"),
+            DecompositionFileError::Version { .. }
+        ));
+        let e = parse(
+            "{\"format\": \"ifd-decomposition\", \"version\": 1, \"kernel\": null, \"dictionary\": null, \"report\": null}",
+        );
+        assert!(e.to_string().contains("terms"), "{e}");
+        let one = |t: &str| {
+            format!(
+                "{{\"format\": \"ifd-decomposition\", \"version\": 1, \"kernel\": null, \"dictionary\": null, \"report\": null, \"terms\": [{t}]}}"
+            )
+        };
+        assert!(
+            Decomposition::from_json_str(&one("{\"weight\": 1, \"x\": 0, \"y\": 0, \"sigma\": 1}"))
+                .is_ok()
+        );
+        let e = parse(&one("{\"weight\": 1, \"x\": 0, \"y\": 0, \"sigma\": -1}"));
+        assert!(e.to_string().contains("terms[0].sigma"), "{e}");
+        // NaN is not JSON; a string in its place is a type error naming the field.
+        let e = parse(&one(
+            "{\"weight\": \"NaN\", \"x\": 0, \"y\": 0, \"sigma\": 1}",
+        ));
+        assert!(matches!(e, DecompositionFileError::Json { .. }), "{e}");
+        let e = parse(&one(
+            "{\"weight\": 1e999, \"x\": 0, \"y\": 0, \"sigma\": 1}",
+        ));
+        assert!(
+            e.to_string().contains("weight") || e.to_string().contains("number"),
+            "{e}"
+        );
+        let e = parse(&one("{\"weight\": 1, \"x\": 0, \"sigma\": 1}"));
+        assert!(e.to_string().contains("`y`"), "{e}");
+        assert!(matches!(
+            Decomposition::load("/nonexistent/d.json"),
+            Err(DecompositionFileError::Io { .. })
+        ));
+    }
+}

@@ -1,0 +1,697 @@
+//! The Mixture-of-Gaussians dictionary of the IFD paper (Eq. 3) as a matrix-free
+//! [`LinearOperator`].
+//!
+//! # Layout
+//! Let `D` be the kernel's half-size (`max(R_x, R_y)` px). Level `l = 1..b` has
+//! the *nominal spacing* `h_l = D / 2^(l-1)` and the atom width
+//! `sigma_l = ratio * h_l` (std dev of the normalised Gaussian `g_sigma`, see the
+//! crate conventions). Its atoms sit on the grid `{(m h_l / o, n h_l / o)}`
+//! (`o` = oversampling; integer `m, n`) clipped to the kernel's rectangle, so the
+//! grid is odd and always has an atom at the kernel centre; level 1 with `o = 1`
+//! is the 3 x 3 grid `{-D, 0, D}^2` — the paper's `2^l x 2^l` grid made centred.
+//! With `sigmas_per_octave = n > 1`, each level also carries the intermediate
+//! widths `sigma_l 2^(j/n)`, `j = 1..n-1`, on the same grid: a scale stack keeps
+//! those widths anyway, so they cost no prefiltering.
+//!
+//! # Separable operator
+//! An atom is `g_sigma(d - c) = gx(d_x) gy(d_y)` with 1D factors
+//! `gx(u) = exp(-(u - c_x)^2 / (2 sigma^2)) / (sqrt(2 pi) sigma)`. For one group
+//! (a width `sigma` and its grid `x_1..x_{n_x}`, `y_1..y_{n_y}`) put the sampled
+//! factors into matrices `Gx` (`n_x x W`, row `i` = factor of column `x_i`) and
+//! `Gy` (`n_y x H`), and the group's coefficients into `Lambda` (`n_y x n_x`).
+//! Then the group's contribution to `A x` is the `H x W` image
+//! `Gy^T (Lambda Gx)`, and its block of `A^T r` (with `r` an `H x W` image) is
+//! `(Gy r) Gx^T`. Each factor is cut at `6 sigma` (relative value `1.5e-8`),
+//! which makes `Gx`, `Gy` banded: a group costs `O(n_y band_y W + n_y n_x band_x)`
+//! instead of the `O(n_x n_y H W)` of a dense matrix, and rows of `Lambda`
+//! that are zero are skipped in `A x`. The same truncation is used in both
+//! products, so they are exact adjoints of each other.
+//!
+//! Columns are scaled to unit L2 norm (the solver's `x_k` is `w_k ||a_k||`),
+//! so that the l1 penalty does not favour narrow atoms, whose sampled norm
+//! `~1 / (2 sqrt(pi) sigma)` is larger. Since `||gx gy|| = ||gx|| ||gy||`, it
+//! suffices to normalise the 1D factors; [`Dictionary::to_terms`] undoes it.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::Term;
+use crate::kernel::Kernel;
+use crate::sparsa::LinearOperator;
+
+/// Truncation of the 1D factors, in standard deviations.
+const CUTOFF_SIGMAS: f64 = 6.0;
+/// The most levels accepted.
+pub const MAX_LEVELS: usize = 12;
+/// The most atoms a dictionary may have.
+pub const MAX_ATOMS: usize = 4_000_000;
+
+/// How to build a dictionary for a kernel; see [`DictionaryParams::for_kernel`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DictionaryOptions {
+    /// Number of levels `b`; `None` chooses from the kernel (finest width at or
+    /// below `feature_factor` times the kernel's feature width, not below `min_sigma`).
+    pub levels: Option<usize>,
+    /// `sigma_l / h_l`.
+    pub ratio: f64,
+    /// Widths per level (1 = one per octave).
+    pub sigmas_per_octave: usize,
+    /// Grid points per nominal spacing `h_l`.
+    pub oversampling: usize,
+    /// The automatic level choice stops refining below this width, px.
+    pub min_sigma: f64,
+    /// The automatic level choice wants the finest width at or below this
+    /// fraction of the kernel's feature width (see [`feature_width`]).
+    pub feature_factor: f64,
+}
+
+impl Default for DictionaryOptions {
+    /// The defaults chosen by the dictionary study (`docs/dictionary-study.md`).
+    fn default() -> Self {
+        Self {
+            levels: None,
+            ratio: 0.5,
+            sigmas_per_octave: 4,
+            oversampling: 1,
+            min_sigma: 0.7,
+            feature_factor: 0.7,
+        }
+    }
+}
+
+/// The resolved parameters of a dictionary (stored in decomposition files).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DictionaryParams {
+    /// Number of levels `b`.
+    pub levels: usize,
+    /// `sigma_l / h_l`.
+    pub ratio: f64,
+    /// Widths per level.
+    pub sigmas_per_octave: usize,
+    /// Grid points per nominal spacing.
+    pub oversampling: usize,
+    /// `D`: the nominal spacing of level 1, px.
+    pub half_width: f64,
+}
+
+/// Invalid dictionary parameters.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DictionaryError {
+    /// A parameter is out of range.
+    #[error("invalid dictionary parameter {name} = {value}: {reason}")]
+    Invalid {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// Why it is rejected.
+        reason: &'static str,
+    },
+    /// The dictionary would be too large.
+    #[error("dictionary would have {atoms} atoms (limit {MAX_ATOMS}); use fewer levels")]
+    TooLarge {
+        /// Atom count.
+        atoms: usize,
+    },
+}
+
+/// The kernel's feature width: `sqrt(||k||^2 / (2 ||grad k||^2))`, px (finite
+/// differences). It is exactly `s` for a 1D Gaussian of std dev `s`, and about
+/// the smaller std dev for an elongated 2D Gaussian.
+#[must_use]
+pub fn feature_width(kernel: &Kernel) -> f64 {
+    let (w, h) = (kernel.width(), kernel.height());
+    let d = kernel.data();
+    let e: f64 = d.iter().map(|v| v * v).sum();
+    let mut g = 0.0;
+    for row in 0..h {
+        for col in 0..w {
+            let v = d[row * w + col];
+            let right = if col + 1 < w {
+                d[row * w + col + 1]
+            } else {
+                0.0
+            };
+            let down = if row + 1 < h {
+                d[(row + 1) * w + col]
+            } else {
+                0.0
+            };
+            g += (right - v).powi(2) + (down - v).powi(2);
+        }
+    }
+    // Pixels at the left/top border see a zero neighbour too.
+    for row in 0..h {
+        g += d[row * w].powi(2);
+    }
+    for col in 0..w {
+        g += d[col].powi(2);
+    }
+    if g <= 0.0 {
+        return f64::INFINITY;
+    }
+    (e / (2.0 * g)).sqrt()
+}
+
+impl DictionaryParams {
+    /// Resolves `opts` for `kernel`.
+    ///
+    /// ```
+    /// use ifd_planar::{Kernel, dictionary::{DictionaryOptions, DictionaryParams}};
+    /// let k: Kernel = "gauss:sx=12,sy=3,theta=30".parse()?;
+    /// let p = DictionaryParams::for_kernel(&k, &DictionaryOptions::default())?;
+    /// assert_eq!(p.half_width, 48.0);
+    /// assert!(p.finest_sigma() <= 3.0);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`DictionaryError`] for out-of-range options or a dictionary above [`MAX_ATOMS`].
+    pub fn for_kernel(kernel: &Kernel, opts: &DictionaryOptions) -> Result<Self, DictionaryError> {
+        let check = |name, value: f64, ok: bool, reason| {
+            if ok {
+                Ok(())
+            } else {
+                Err(DictionaryError::Invalid {
+                    name,
+                    value,
+                    reason,
+                })
+            }
+        };
+        check(
+            "ratio",
+            opts.ratio,
+            opts.ratio.is_finite() && opts.ratio > 0.0 && opts.ratio <= 8.0,
+            "expected 0 < ratio <= 8",
+        )?;
+        check(
+            "sigmas_per_octave",
+            opts.sigmas_per_octave as f64,
+            (1..=8).contains(&opts.sigmas_per_octave),
+            "expected 1..=8",
+        )?;
+        check(
+            "oversampling",
+            opts.oversampling as f64,
+            (1..=4).contains(&opts.oversampling),
+            "expected 1..=4",
+        )?;
+        check(
+            "min_sigma",
+            opts.min_sigma,
+            opts.min_sigma.is_finite() && opts.min_sigma > 0.0,
+            "expected a positive width",
+        )?;
+        check(
+            "feature_factor",
+            opts.feature_factor,
+            opts.feature_factor.is_finite() && opts.feature_factor > 0.0,
+            "expected a positive factor",
+        )?;
+        let half_width = kernel.radius_x().max(kernel.radius_y()).max(1) as f64;
+        let levels = if let Some(b) = opts.levels {
+            check(
+                "levels",
+                b as f64,
+                (1..=MAX_LEVELS).contains(&b),
+                "expected 1..=12",
+            )?;
+            b
+        } else {
+            let target = (opts.feature_factor * feature_width(kernel)).max(opts.min_sigma);
+            let mut b = 1;
+            while b < MAX_LEVELS && opts.ratio * half_width / f64::powi(2.0, b as i32 - 1) > target
+            {
+                b += 1;
+            }
+            b
+        };
+        let p = Self {
+            levels,
+            ratio: opts.ratio,
+            sigmas_per_octave: opts.sigmas_per_octave,
+            oversampling: opts.oversampling,
+            half_width,
+        };
+        let atoms = p.atom_count(kernel.width(), kernel.height());
+        if atoms > MAX_ATOMS {
+            return Err(DictionaryError::TooLarge { atoms });
+        }
+        Ok(p)
+    }
+
+    /// The nominal spacing `h_l` of level `l` (1-based).
+    #[must_use]
+    pub fn spacing(&self, level: usize) -> f64 {
+        self.half_width / f64::powi(2.0, level as i32 - 1)
+    }
+
+    /// The base width `sigma_l = ratio h_l` of level `l`.
+    #[must_use]
+    pub fn sigma(&self, level: usize) -> f64 {
+        self.ratio * self.spacing(level)
+    }
+
+    /// The narrowest atom width.
+    #[must_use]
+    pub fn finest_sigma(&self) -> f64 {
+        self.sigma(self.levels)
+    }
+
+    /// Every atom width with its level, widest first.
+    #[must_use]
+    pub fn sigmas(&self) -> Vec<(usize, f64)> {
+        let n = self.sigmas_per_octave;
+        let mut out = Vec::new();
+        for l in 1..=self.levels {
+            for j in (0..n).rev() {
+                out.push((l, self.sigma(l) * f64::powf(2.0, j as f64 / n as f64)));
+            }
+        }
+        out
+    }
+
+    /// The level (1-based) that an atom of width `sigma` belongs to.
+    #[must_use]
+    pub fn level_of(&self, sigma: f64) -> usize {
+        let l = 1.0 + (self.sigma(1) * 1.000_001 / sigma).log2().floor();
+        (l.max(1.0) as usize).min(self.levels.max(1))
+    }
+
+    fn grid(&self, level: usize, radius: usize) -> Vec<f64> {
+        let step = self.spacing(level) / self.oversampling as f64;
+        let m = ((radius as f64 + 1e-9) / step).floor() as i64;
+        (-m..=m).map(|k| k as f64 * step).collect()
+    }
+
+    fn atom_count(&self, width: usize, height: usize) -> usize {
+        (1..=self.levels)
+            .map(|l| self.grid(l, width / 2).len() * self.grid(l, height / 2).len())
+            .sum::<usize>()
+            * self.sigmas_per_octave
+    }
+}
+
+/// A sampled, unit-norm 1D Gaussian factor with its band of non-zero samples.
+#[derive(Clone, Debug)]
+struct Profile {
+    start: usize,
+    vals: Vec<f64>,
+    /// L2 norm of the sampled `exp(-u^2/(2 s^2)) / (sqrt(2 pi) s)` before scaling.
+    norm: f64,
+}
+
+impl Profile {
+    fn new(centre: f64, sigma: f64, len: usize) -> Self {
+        // `centre` is in sample coordinates (0..len).
+        let reach = CUTOFF_SIGMAS * sigma;
+        let lo = (centre - reach).ceil().max(0.0) as usize;
+        let hi = ((centre + reach).floor().max(0.0) as usize).min(len - 1);
+        let c = 1.0 / ((2.0 * std::f64::consts::PI).sqrt() * sigma);
+        let mut vals: Vec<f64> = (lo..=hi)
+            .map(|u| c * (-(u as f64 - centre).powi(2) / (2.0 * sigma * sigma)).exp())
+            .collect();
+        let norm = vals.iter().map(|v| v * v).sum::<f64>().sqrt();
+        vals.iter_mut().for_each(|v| *v /= norm);
+        Self {
+            start: lo,
+            vals,
+            norm,
+        }
+    }
+
+    fn end(&self) -> usize {
+        self.start + self.vals.len()
+    }
+}
+
+/// One width with its grid.
+#[derive(Clone, Debug)]
+struct Group {
+    level: usize,
+    sigma: f64,
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    px: Vec<Profile>,
+    py: Vec<Profile>,
+    offset: usize,
+}
+
+impl Group {
+    fn len(&self) -> usize {
+        self.xs.len() * self.ys.len()
+    }
+}
+
+/// The MoG dictionary for one kernel size, as a [`LinearOperator`] from unit-norm
+/// atom coefficients to kernel samples (row-major, the kernel's layout).
+#[derive(Clone, Debug)]
+pub struct Dictionary {
+    params: DictionaryParams,
+    width: usize,
+    height: usize,
+    groups: Vec<Group>,
+    atoms: usize,
+}
+
+/// One atom of a [`Dictionary`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Atom {
+    /// Centre offset along `x`, px.
+    pub x: f64,
+    /// Centre offset along `y`, px.
+    pub y: f64,
+    /// Width (std dev), px.
+    pub sigma: f64,
+    /// Level, 1-based.
+    pub level: usize,
+    /// L2 norm of the sampled normalised Gaussian `g_sigma(d - c)`: a unit-norm
+    /// coefficient `x_k` is the weight `x_k / norm`.
+    pub norm: f64,
+}
+
+impl Dictionary {
+    /// The dictionary for a `width x height` kernel (odd sizes).
+    ///
+    /// ```
+    /// use ifd_planar::dictionary::{Dictionary, DictionaryParams};
+    /// let p = DictionaryParams { levels: 2, ratio: 0.5, sigmas_per_octave: 1, oversampling: 1, half_width: 8.0 };
+    /// let d = Dictionary::new(&p, 17, 17);
+    /// assert_eq!(d.len(), 9 + 25); // 3x3 then 5x5 centred grids
+    /// ```
+    #[must_use]
+    pub fn new(params: &DictionaryParams, width: usize, height: usize) -> Self {
+        let (rx, ry) = (width / 2, height / 2);
+        let mut groups = Vec::new();
+        let mut offset = 0;
+        for (level, sigma) in params.sigmas() {
+            let xs = params.grid(level, rx);
+            let ys = params.grid(level, ry);
+            let px = xs
+                .iter()
+                .map(|&c| Profile::new(c + rx as f64, sigma, width))
+                .collect();
+            let py = ys
+                .iter()
+                .map(|&c| Profile::new(c + ry as f64, sigma, height))
+                .collect();
+            let g = Group {
+                level,
+                sigma,
+                xs,
+                ys,
+                px,
+                py,
+                offset,
+            };
+            offset += g.len();
+            groups.push(g);
+        }
+        Self {
+            params: params.clone(),
+            width,
+            height,
+            groups,
+            atoms: offset,
+        }
+    }
+
+    /// The parameters.
+    #[must_use]
+    pub fn params(&self) -> &DictionaryParams {
+        &self.params
+    }
+
+    /// Number of atoms.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.atoms
+    }
+
+    /// Whether there are no atoms.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.atoms == 0
+    }
+
+    /// The atom behind coefficient `k`.
+    ///
+    /// # Panics
+    /// When `k >= self.len()`.
+    #[must_use]
+    pub fn atom(&self, k: usize) -> Atom {
+        let g = self
+            .groups
+            .iter()
+            .rev()
+            .find(|g| g.offset <= k)
+            .expect("atom index below the first group offset");
+        let local = k - g.offset;
+        let (j, i) = (local / g.xs.len(), local % g.xs.len());
+        Atom {
+            x: g.xs[i],
+            y: g.ys[j],
+            sigma: g.sigma,
+            level: g.level,
+            norm: g.px[i].norm * g.py[j].norm,
+        }
+    }
+
+    /// The terms (kernel weights) of unit-norm coefficients `x` (zeros dropped).
+    #[must_use]
+    pub fn to_terms(&self, x: &[f64]) -> Vec<Term> {
+        x.iter()
+            .enumerate()
+            .filter(|(_, v)| **v != 0.0)
+            .map(|(k, &v)| {
+                let a = self.atom(k);
+                Term {
+                    weight: v / a.norm,
+                    x: a.x,
+                    y: a.y,
+                    sigma: a.sigma,
+                }
+            })
+            .collect()
+    }
+
+    /// Adds group `g`'s rows `j` of `A x` into `out` (`H x W`).
+    fn forward_group(&self, g: &Group, x: &[f64], out: &mut [f64], t: &mut Vec<f64>) {
+        let w = self.width;
+        let nx = g.xs.len();
+        t.resize(w, 0.0);
+        for (j, py) in g.py.iter().enumerate() {
+            let row = &x[g.offset + j * nx..g.offset + (j + 1) * nx];
+            if row.iter().all(|v| *v == 0.0) {
+                continue;
+            }
+            // t = Lambda[j] Gx over the touched columns [c0, c1).
+            let (mut c0, mut c1) = (w, 0);
+            for (i, &lam) in row.iter().enumerate() {
+                if lam != 0.0 {
+                    let p = &g.px[i];
+                    c0 = c0.min(p.start);
+                    c1 = c1.max(p.end());
+                }
+            }
+            t[c0..c1].fill(0.0);
+            for (i, &lam) in row.iter().enumerate() {
+                if lam != 0.0 {
+                    let p = &g.px[i];
+                    for (tv, pv) in t[p.start..p.end()].iter_mut().zip(&p.vals) {
+                        *tv += lam * pv;
+                    }
+                }
+            }
+            // out += Gy[j]^T t
+            for (r, &gy) in (py.start..py.end()).zip(&py.vals) {
+                let o = &mut out[r * w + c0..r * w + c1];
+                for (ov, tv) in o.iter_mut().zip(&t[c0..c1]) {
+                    *ov += gy * tv;
+                }
+            }
+        }
+    }
+
+    /// Group `g`'s row `j` of `A^T r` into `out` (length `n_x`).
+    fn adjoint_row(&self, g: &Group, j: usize, r: &[f64], out: &mut [f64], p: &mut Vec<f64>) {
+        let w = self.width;
+        let py = &g.py[j];
+        // Columns touched by any atom of the row.
+        let c0 = g.px.first().map_or(0, |q| q.start);
+        let c1 = g.px.last().map_or(0, Profile::end);
+        p.resize(w, 0.0);
+        p[c0..c1].fill(0.0);
+        for (rr, &gy) in (py.start..py.end()).zip(&py.vals) {
+            let src = &r[rr * w + c0..rr * w + c1];
+            for (pv, rv) in p[c0..c1].iter_mut().zip(src) {
+                *pv += gy * rv;
+            }
+        }
+        for (o, px) in out.iter_mut().zip(&g.px) {
+            *o = px
+                .vals
+                .iter()
+                .zip(&p[px.start..px.end()])
+                .map(|(a, b)| a * b)
+                .sum();
+        }
+    }
+}
+
+impl LinearOperator for Dictionary {
+    fn rows(&self) -> usize {
+        self.width * self.height
+    }
+
+    fn cols(&self) -> usize {
+        self.atoms
+    }
+
+    fn apply(&self, x: &[f64], out: &mut [f64]) {
+        let n = self.rows();
+        let total = self
+            .groups
+            .par_iter()
+            .filter(|g| x[g.offset..g.offset + g.len()].iter().any(|v| *v != 0.0))
+            .fold(
+                || (Vec::new(), Vec::new()),
+                |(mut acc, mut t): (Vec<f64>, Vec<f64>), g| {
+                    if acc.is_empty() {
+                        acc = vec![0.0; n];
+                    }
+                    self.forward_group(g, x, &mut acc, &mut t);
+                    (acc, t)
+                },
+            )
+            .map(|(acc, _)| acc)
+            .reduce(Vec::new, |mut a, b| {
+                if a.is_empty() {
+                    return b;
+                }
+                if !b.is_empty() {
+                    a.iter_mut().zip(&b).for_each(|(u, v)| *u += v);
+                }
+                a
+            });
+        if total.is_empty() {
+            out.fill(0.0);
+        } else {
+            out.copy_from_slice(&total);
+        }
+    }
+
+    fn apply_adjoint(&self, r: &[f64], out: &mut [f64]) {
+        // One task per (group, grid row): each writes a disjoint slice of `out`.
+        let mut tasks: Vec<(&Group, usize, &mut [f64])> = Vec::new();
+        let mut rest = out;
+        for g in &self.groups {
+            for j in 0..g.ys.len() {
+                let (head, tail) = rest.split_at_mut(g.xs.len());
+                tasks.push((g, j, head));
+                rest = tail;
+            }
+        }
+        tasks
+            .into_par_iter()
+            .for_each_init(Vec::new, |p, (g, j, o)| {
+                self.adjoint_row(g, j, r, o, p);
+            });
+    }
+
+    fn apply_adjoint_subset(&self, r: &[f64], idx: &[usize], out: &mut [f64]) {
+        let w = self.width;
+        out.par_iter_mut().zip(idx).for_each(|(o, &k)| {
+            let g = self
+                .groups
+                .iter()
+                .rev()
+                .find(|g| g.offset <= k)
+                .expect("atom index below the first group offset");
+            let local = k - g.offset;
+            let (j, i) = (local / g.xs.len(), local % g.xs.len());
+            let (px, py) = (&g.px[i], &g.py[j]);
+            let mut s = 0.0;
+            for (rr, &gy) in (py.start..py.end()).zip(&py.vals) {
+                let row = &r[rr * w + px.start..rr * w + px.end()];
+                s += gy * row.iter().zip(&px.vals).map(|(a, b)| a * b).sum::<f64>();
+            }
+            *o = s;
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small() -> Dictionary {
+        let p = DictionaryParams {
+            levels: 3,
+            ratio: 0.5,
+            sigmas_per_octave: 2,
+            oversampling: 1,
+            half_width: 10.0,
+        };
+        Dictionary::new(&p, 21, 15)
+    }
+
+    #[test]
+    fn adjoint_matches_forward() {
+        let d = small();
+        let x: Vec<f64> = (0..d.len())
+            .map(|k| ((k * 37 % 11) as f64 - 5.0) * f64::from(u8::from(k % 3 == 0)))
+            .collect();
+        let r: Vec<f64> = (0..d.rows())
+            .map(|k| ((k * 13 % 7) as f64 - 3.0) / 3.0)
+            .collect();
+        let mut ax = vec![0.0; d.rows()];
+        d.apply(&x, &mut ax);
+        let mut atr = vec![0.0; d.len()];
+        d.apply_adjoint(&r, &mut atr);
+        let lhs: f64 = ax.iter().zip(&r).map(|(a, b)| a * b).sum();
+        let rhs: f64 = x.iter().zip(&atr).map(|(a, b)| a * b).sum();
+        assert!(
+            (lhs - rhs).abs() < 1e-10 * lhs.abs().max(1.0),
+            "{lhs} vs {rhs}"
+        );
+        let idx = [0, 5, d.len() - 1];
+        let mut sub = [0.0; 3];
+        d.apply_adjoint_subset(&r, &idx, &mut sub);
+        for (s, &k) in sub.iter().zip(&idx) {
+            assert!((s - atr[k]).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn columns_are_sampled_gaussians_with_unit_norm() {
+        let d = small();
+        let k = d.len() - 7;
+        let mut e = vec![0.0; d.len()];
+        e[k] = 1.0;
+        let mut col = vec![0.0; d.rows()];
+        d.apply(&e, &mut col);
+        let norm: f64 = col.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!((norm - 1.0).abs() < 1e-12);
+        let t = d.to_terms(&e)[0];
+        let dec = crate::Decomposition::from_terms(vec![t]);
+        for row in 0..15 {
+            for c in 0..21 {
+                let v = dec.eval(c as f64 - 10.0, row as f64 - 7.0);
+                assert!((v - col[row * 21 + c]).abs() < 1e-7 * t.weight.abs().max(1.0));
+            }
+        }
+    }
+
+    #[test]
+    fn grids_are_centred_and_levels_resolve() {
+        let d = small();
+        let a = d.atom(4); // the centre of the 3x3 level-1 grid
+        assert_eq!((a.x, a.y, a.level), (0.0, 0.0, 1));
+        let p = d.params();
+        assert_eq!(p.level_of(p.sigma(2)), 2);
+        assert_eq!(p.level_of(p.sigma(2) * 1.5), 2);
+        assert_eq!(p.level_of(p.sigma(3)), 3);
+    }
+}

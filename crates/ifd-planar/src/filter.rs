@@ -1,0 +1,642 @@
+//! IFD filtering (Eq. 3): `out(p) = sum_t w_t fhat_{s sigma_t}(p + s R_theta c_t)`
+//! with one trilinear scale-stack lookup per term and pixel.
+//!
+//! ```
+//! use ifd_image::Image;
+//! use ifd_planar::{Border, Decomposition, Field, Filter, StackOptions, Term, stack_for_decomposition};
+//! // An anisotropic kernel: two displaced Gaussians along x.
+//! let d = Decomposition::from_terms(vec![
+//!     Term { weight: 0.5, x: -3.0, y: 0.0, sigma: 2.0 },
+//!     Term { weight: 0.5, x: 3.0, y: 0.0, sigma: 2.0 },
+//! ]);
+//! let mut img = Image::new(64, 48, 1)?;
+//! img.set(32, 24, 0, 1.0);
+//! let stack = stack_for_decomposition(&img, &d, 1.0, 1.0, Border::Reflect101, StackOptions::default())?;
+//! let filter = Filter::new(&stack, &d)?;
+//! // Rotated by 90 degrees (counter-clockwise on screen) the lobes lie along y.
+//! let out = filter.apply(Field::Constant(90.0), Field::Constant(1.0))?;
+//! assert!(out.get(32, 21, 0) > 10.0 * out.get(35, 24, 0));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use ifd_image::Image;
+use rayon::prelude::*;
+
+use crate::border::Border;
+use crate::decomposition::Decomposition;
+use crate::stack::{ScaleStack, StackOptions, check_finite};
+
+/// Errors of prefiltering, filtering and the brute-force references.
+#[derive(Debug, thiserror::Error)]
+pub enum FilterError {
+    /// A zero-sized image.
+    #[error("image is empty ({width}x{height} with {channels} channels)")]
+    EmptyImage {
+        /// Width.
+        width: usize,
+        /// Height.
+        height: usize,
+        /// Channels.
+        channels: usize,
+    },
+    /// NaN or infinite values in an image or map.
+    #[error(
+        "{what} has {count} non-finite (NaN or infinite) values, first at x={x}, y={y}, channel {channel}"
+    )]
+    NonFinite {
+        /// What holds them ("image", "angle map", ...).
+        what: &'static str,
+        /// How many.
+        count: usize,
+        /// Column of the first.
+        x: usize,
+        /// Row of the first.
+        y: usize,
+        /// Channel of the first.
+        channel: usize,
+    },
+    /// A sigma range or stack option that makes no sense.
+    #[error("invalid scale-stack range: {0}")]
+    InvalidRange(String),
+    /// A lookup at a sigma the stack does not cover.
+    #[error("sigma {sigma} px is outside the scale stack's range [{min}, {max}] px")]
+    SigmaOutOfRange {
+        /// The sigma asked for.
+        sigma: f64,
+        /// Smallest sigma of the stack.
+        min: f64,
+        /// Largest sigma of the stack.
+        max: f64,
+    },
+    /// A filter scale whose `s * sigma_t` falls outside the stack.
+    #[error(
+        "scale {scale}{location} needs sigma {needed} px (term sigma {term_sigma} px), outside the scale stack's range [{min}, {max}] px"
+    )]
+    ScaleOutOfRange {
+        /// The offending scale.
+        scale: f64,
+        /// `" at pixel (x, y)"` for a map value, empty for a constant.
+        location: String,
+        /// The term's sigma.
+        term_sigma: f64,
+        /// `scale * term_sigma`.
+        needed: f64,
+        /// Smallest sigma of the stack.
+        min: f64,
+        /// Largest sigma of the stack.
+        max: f64,
+    },
+    /// A per-pixel map of the wrong size.
+    #[error("{name} map has {len} values, expected {width}x{height} = {expected}")]
+    MapSize {
+        /// "angle" or "scale".
+        name: &'static str,
+        /// Values given.
+        len: usize,
+        /// Image width.
+        width: usize,
+        /// Image height.
+        height: usize,
+        /// `width * height`.
+        expected: usize,
+    },
+    /// An invalid angle or scale value.
+    #[error("invalid {name} {value}{location}: {why}")]
+    InvalidValue {
+        /// "angle" or "scale".
+        name: &'static str,
+        /// The value.
+        value: f32,
+        /// `" at pixel (x, y)"` for a map value, empty for a constant.
+        location: String,
+        /// Why it is invalid.
+        why: &'static str,
+    },
+    /// An unknown border mode name.
+    #[error(
+        "unknown border mode {0:?} (expected reflect101, constant, constant:VALUE, replicate or wrap)"
+    )]
+    InvalidBorder(String),
+    /// A decomposition term that cannot be evaluated.
+    #[error("decomposition term {index} is invalid: {why}")]
+    InvalidTerm {
+        /// Index of the term.
+        index: usize,
+        /// Why.
+        why: String,
+    },
+    /// Mismatched shapes or lengths (kernels, buffers).
+    #[error("{0}")]
+    Shape(String),
+    /// Another parameter outside its valid range.
+    #[error("{0}")]
+    InvalidParameter(String),
+    /// The computation would need too much memory.
+    #[error("too large: {0}")]
+    TooLarge(String),
+}
+
+/// A per-pixel parameter (angle in degrees, or scale): a constant or a
+/// row-major map of `width * height` values.
+#[derive(Clone, Copy, Debug)]
+pub enum Field<'a> {
+    /// The same value at every pixel.
+    Constant(f32),
+    /// One value per pixel, row-major.
+    Map(&'a [f32]),
+}
+
+impl Field<'_> {
+    /// The value at pixel index `i` (`y * width + x`).
+    #[inline]
+    #[must_use]
+    pub fn at(&self, i: usize) -> f32 {
+        match self {
+            Field::Constant(v) => *v,
+            Field::Map(m) => m[i],
+        }
+    }
+
+    /// Checks the size and values; returns `(min, max)`.
+    ///
+    /// `positive` additionally requires values `> 0` (scales).
+    pub(crate) fn validate(
+        &self,
+        name: &'static str,
+        width: usize,
+        height: usize,
+        positive: bool,
+    ) -> Result<(f32, f32), FilterError> {
+        let bad = |value: f32, location: String, why| FilterError::InvalidValue {
+            name,
+            value,
+            location,
+            why,
+        };
+        let check = |v: f32, location: &dyn Fn() -> String| -> Result<(), FilterError> {
+            if !v.is_finite() {
+                Err(bad(v, location(), "not finite"))
+            } else if positive && v <= 0.0 {
+                Err(bad(v, location(), "must be positive"))
+            } else if v.abs() > 1e6 {
+                Err(bad(v, location(), "absurdly large"))
+            } else {
+                Ok(())
+            }
+        };
+        match self {
+            Field::Constant(v) => {
+                check(*v, &String::new)?;
+                Ok((*v, *v))
+            }
+            Field::Map(m) => {
+                let expected = width * height;
+                if m.len() != expected {
+                    return Err(FilterError::MapSize {
+                        name,
+                        len: m.len(),
+                        width,
+                        height,
+                        expected,
+                    });
+                }
+                let mut lo = f32::INFINITY;
+                let mut hi = f32::NEG_INFINITY;
+                for (i, &v) in m.iter().enumerate() {
+                    check(v, &|| pixel_location(i, width))?;
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+                Ok((lo, hi))
+            }
+        }
+    }
+
+    /// Where a value occurs: `" at pixel (x, y)"` for a map, empty for a constant.
+    fn location_of(&self, value: f32, width: usize) -> String {
+        match self {
+            Field::Constant(_) => String::new(),
+            Field::Map(m) => m
+                .iter()
+                .position(|&v| v == value)
+                .map(|i| pixel_location(i, width))
+                .unwrap_or_default(),
+        }
+    }
+}
+
+fn pixel_location(i: usize, width: usize) -> String {
+    format!(" at pixel ({}, {})", i % width, i / width)
+}
+
+/// One decomposition term, prepared for lookups.
+#[derive(Clone, Copy, Debug)]
+struct Prepared {
+    weight: f32,
+    cx: f32,
+    cy: f32,
+    sigma: f64,
+    ln_sigma: f64,
+}
+
+/// One resolved lookup: level, displacement from the pixel and weight.
+#[derive(Clone, Copy, Debug)]
+struct Tap {
+    level: usize,
+    ox: f32,
+    oy: f32,
+    weight: f32,
+}
+
+/// A decomposition bound to a scale stack, ready to filter.
+#[derive(Clone, Debug)]
+pub struct Filter<'a> {
+    stack: &'a ScaleStack,
+    terms: Vec<Prepared>,
+    sigma_lo: f64,
+    sigma_hi: f64,
+}
+
+impl<'a> Filter<'a> {
+    /// Prepares `decomposition` for lookups into `stack`.
+    ///
+    /// # Errors
+    /// [`FilterError::InvalidTerm`] for non-finite values or a sigma `<= 0`,
+    /// [`FilterError::InvalidParameter`] for a decomposition without terms.
+    pub fn new(stack: &'a ScaleStack, decomposition: &Decomposition) -> Result<Self, FilterError> {
+        let terms = prepare_terms(decomposition)?;
+        let sigma_lo = terms.iter().map(|t| t.sigma).fold(f64::INFINITY, f64::min);
+        let sigma_hi = terms.iter().map(|t| t.sigma).fold(0.0, f64::max);
+        Ok(Self {
+            stack,
+            terms,
+            sigma_lo,
+            sigma_hi,
+        })
+    }
+
+    /// The stack the filter reads.
+    #[must_use]
+    pub fn stack(&self) -> &ScaleStack {
+        self.stack
+    }
+
+    /// Number of terms `s` (lookups per pixel, each trilinear).
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.terms.len()
+    }
+
+    /// Always false: a filter has at least one term.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.terms.is_empty()
+    }
+
+    /// Checks that every `scale * sigma_t` is covered by the stack.
+    fn check_scales(&self, lo: f32, hi: f32, field: &Field<'_>) -> Result<(), FilterError> {
+        let (min, max) = self.stack.sigma_range();
+        for (scale, term_sigma) in [(lo, self.sigma_lo), (hi, self.sigma_hi)] {
+            let needed = f64::from(scale) * term_sigma;
+            if !self.stack.covers(needed) {
+                return Err(FilterError::ScaleOutOfRange {
+                    scale: f64::from(scale),
+                    location: field.location_of(scale, self.stack.width()),
+                    term_sigma,
+                    needed,
+                    min,
+                    max,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Filters the whole image with the decomposed kernel rotated by `angle`
+    /// (degrees, counter-clockwise on screen) and scaled by `scale`, each a
+    /// constant or a per-pixel map.
+    ///
+    /// # Errors
+    /// [`FilterError::MapSize`] for maps of the wrong size,
+    /// [`FilterError::InvalidValue`] for non-finite angles or non-positive
+    /// scales, [`FilterError::ScaleOutOfRange`] when some `scale * sigma_t`
+    /// is not covered by the stack.
+    pub fn apply(&self, angle: Field<'_>, scale: Field<'_>) -> Result<Image, FilterError> {
+        let (w, h, c) = (
+            self.stack.width(),
+            self.stack.height(),
+            self.stack.channels(),
+        );
+        angle.validate("angle", w, h, false)?;
+        let (lo, hi) = scale.validate("scale", w, h, true)?;
+        self.check_scales(lo, hi, &scale)?;
+        let mut out = vec![0.0f32; w * h * c];
+        match (angle, scale) {
+            (Field::Constant(theta), Field::Constant(s)) => {
+                let taps = self.taps(theta, s);
+                out.par_chunks_mut(w * c)
+                    .enumerate()
+                    .for_each(|(y, row)| self.row_constant(&taps, y, row));
+            }
+            (angle, Field::Constant(s)) => {
+                let levels = self.term_levels(s);
+                out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+                    for (x, acc) in row.chunks_exact_mut(c).enumerate() {
+                        let (sin, cos) = angle.at(y * w + x).to_radians().sin_cos();
+                        self.pixel_rotated(&levels, x as f32, y as f32, cos * s, sin * s, acc);
+                    }
+                });
+            }
+            (angle, scale) => {
+                out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+                    for (x, acc) in row.chunks_exact_mut(c).enumerate() {
+                        let i = y * w + x;
+                        let (sin, cos) = angle.at(i).to_radians().sin_cos();
+                        self.pixel_general(x as f32, y as f32, cos, sin, scale.at(i), acc);
+                    }
+                });
+            }
+        }
+        Image::from_vec(w, h, c, out).map_err(|e| FilterError::Shape(e.to_string()))
+    }
+
+    /// The filtered value (all channels) at one point `(x, y)` (pixel
+    /// coordinates, need not be integers) for angle `theta` (degrees) and
+    /// scale `s`: `s` trilinear lookups, for interactive use.
+    ///
+    /// # Errors
+    /// [`FilterError::InvalidValue`] for non-finite input or `s <= 0`,
+    /// [`FilterError::ScaleOutOfRange`] when `s * sigma_t` is not covered.
+    pub fn filter_at(&self, x: f32, y: f32, theta: f32, s: f32) -> Result<Vec<f32>, FilterError> {
+        let mut out = vec![0.0; self.stack.channels()];
+        self.filter_at_into(x, y, theta, s, &mut out)?;
+        Ok(out)
+    }
+
+    /// As [`Filter::filter_at`], writing one value per channel into `out`.
+    ///
+    /// # Errors
+    /// As [`Filter::filter_at`], and [`FilterError::Shape`] when `out.len()`
+    /// is not the channel count.
+    pub fn filter_at_into(
+        &self,
+        x: f32,
+        y: f32,
+        theta: f32,
+        s: f32,
+        out: &mut [f32],
+    ) -> Result<(), FilterError> {
+        if out.len() != self.stack.channels() {
+            return Err(FilterError::Shape(format!(
+                "output has {} channels, the stack {}",
+                out.len(),
+                self.stack.channels()
+            )));
+        }
+        for (name, v) in [("x", x), ("y", y)] {
+            if !v.is_finite() {
+                return Err(FilterError::InvalidValue {
+                    name,
+                    value: v,
+                    location: String::new(),
+                    why: "not finite",
+                });
+            }
+        }
+        Field::Constant(theta).validate("angle", 1, 1, false)?;
+        Field::Constant(s).validate("scale", 1, 1, true)?;
+        self.check_scales(s, s, &Field::Constant(s))?;
+        out.fill(0.0);
+        let (sin, cos) = theta.to_radians().sin_cos();
+        self.pixel_general(x, y, cos, sin, s, out);
+        Ok(())
+    }
+
+    /// Per term: `(level a, level b, weight a, weight b)` for scale `s`.
+    fn term_levels(&self, s: f32) -> Vec<(usize, usize, f32, f32)> {
+        let ln_s = f64::from(s).ln();
+        self.terms
+            .iter()
+            .map(|t| {
+                let (a, b, wa, wb) = self.stack.locate_ln(ln_s + t.ln_sigma);
+                (a, b, wa * t.weight, wb * t.weight)
+            })
+            .collect()
+    }
+
+    /// All lookups for a constant angle and scale, zero weights dropped.
+    fn taps(&self, theta: f32, s: f32) -> Vec<Tap> {
+        let (sin, cos) = theta.to_radians().sin_cos();
+        let levels = self.term_levels(s);
+        let mut taps = Vec::with_capacity(2 * self.terms.len());
+        for (t, &(a, b, wa, wb)) in self.terms.iter().zip(&levels) {
+            let ox = s * (cos * t.cx + sin * t.cy);
+            let oy = s * (-sin * t.cx + cos * t.cy);
+            for (level, weight) in [(a, wa), (b, wb)] {
+                if weight != 0.0 {
+                    taps.push(Tap {
+                        level,
+                        ox,
+                        oy,
+                        weight,
+                    });
+                }
+            }
+        }
+        taps
+    }
+
+    /// One output row for constant taps: full-resolution levels are applied
+    /// as a 2x2 stencil over the row's interior (contiguous, vectorisable),
+    /// everything else through the general lookup.
+    fn row_constant(&self, taps: &[Tap], y: usize, row: &mut [f32]) {
+        let stack = self.stack;
+        let c = stack.channels();
+        let w = stack.width();
+        let yf = y as f32;
+        for tap in taps {
+            let level = &stack.levels[tap.level];
+            let lay = &level.layout;
+            let general = |row: &mut [f32], xs: std::ops::Range<usize>| {
+                for x in xs {
+                    stack.accumulate(
+                        tap.level,
+                        x as f32 + tap.ox,
+                        yf + tap.oy,
+                        tap.weight,
+                        &mut row[x * c..(x + 1) * c],
+                    );
+                }
+            };
+            if lay.step != 1 {
+                general(row, 0..w);
+                continue;
+            }
+            let fx = tap.ox.floor();
+            let fy = tap.oy.floor();
+            let ax = tap.ox - fx;
+            let ay = tap.oy - fy;
+            // Stored column of pixel x is x + di, stored row is y + dj.
+            let di = fx as i64 - lay.origin;
+            let iv = y as i64 + fy as i64 - lay.origin;
+            if iv < 0 || iv + 1 >= lay.ny as i64 {
+                general(row, 0..w);
+                continue;
+            }
+            let x0 = (-di).clamp(0, w as i64) as usize;
+            let x1 = (lay.nx as i64 - 1 - di).clamp(x0 as i64, w as i64) as usize;
+            general(row, 0..x0);
+            general(row, x1..w);
+            if x1 > x0 {
+                let nxc = lay.nx * c;
+                let r0 = &level.data[iv as usize * nxc..(iv as usize + 1) * nxc];
+                let r1 = &level.data[(iv as usize + 1) * nxc..(iv as usize + 2) * nxc];
+                let start = ((x0 as i64 + di) as usize) * c;
+                let len = (x1 - x0) * c;
+                let a00 = tap.weight * (1.0 - ax) * (1.0 - ay);
+                let a01 = tap.weight * ax * (1.0 - ay);
+                let a10 = tap.weight * (1.0 - ax) * ay;
+                let a11 = tap.weight * ax * ay;
+                let out = &mut row[x0 * c..x1 * c];
+                let p00 = &r0[start..start + len];
+                let p01 = &r0[start + c..start + c + len];
+                let p10 = &r1[start..start + len];
+                let p11 = &r1[start + c..start + c + len];
+                for ((((o, &v00), &v01), &v10), &v11) in
+                    out.iter_mut().zip(p00).zip(p01).zip(p10).zip(p11)
+                {
+                    *o += a00 * v00 + a01 * v01 + a10 * v10 + a11 * v11;
+                }
+            }
+        }
+    }
+
+    /// One pixel with constant scale (levels precomputed) and a per-pixel
+    /// rotation; `cs = s cos theta`, `ss = s sin theta`.
+    #[inline]
+    fn pixel_rotated(
+        &self,
+        levels: &[(usize, usize, f32, f32)],
+        x: f32,
+        y: f32,
+        cs: f32,
+        ss: f32,
+        acc: &mut [f32],
+    ) {
+        for (t, &(a, b, wa, wb)) in self.terms.iter().zip(levels) {
+            let px = x + cs * t.cx + ss * t.cy;
+            let py = y - ss * t.cx + cs * t.cy;
+            self.stack.accumulate(a, px, py, wa, acc);
+            if wb != 0.0 {
+                self.stack.accumulate(b, px, py, wb, acc);
+            }
+        }
+    }
+
+    /// One pixel, everything per pixel.
+    #[inline]
+    fn pixel_general(&self, x: f32, y: f32, cos: f32, sin: f32, s: f32, acc: &mut [f32]) {
+        let (ln0, inv) = self.stack.ln_params();
+        let last = self.stack.sigmas().len() - 1;
+        let t_s = (f64::from(s).ln() - ln0) * inv;
+        let cs = cos * s;
+        let ss = sin * s;
+        for t in &self.terms {
+            let px = x + cs * t.cx + ss * t.cy;
+            let py = y - ss * t.cx + cs * t.cy;
+            if last == 0 {
+                self.stack.accumulate(0, px, py, t.weight, acc);
+                continue;
+            }
+            let u = (t_s + t.ln_sigma * inv).clamp(0.0, last as f64);
+            let a = (u as usize).min(last - 1);
+            let f = (u - a as f64) as f32;
+            self.stack.accumulate(a, px, py, t.weight * (1.0 - f), acc);
+            if f != 0.0 {
+                self.stack.accumulate(a + 1, px, py, t.weight * f, acc);
+            }
+        }
+    }
+}
+
+fn prepare_terms(decomposition: &Decomposition) -> Result<Vec<Prepared>, FilterError> {
+    if decomposition.terms.is_empty() {
+        return Err(FilterError::InvalidParameter(
+            "the decomposition has no terms".into(),
+        ));
+    }
+    decomposition
+        .terms
+        .iter()
+        .enumerate()
+        .map(|(index, t)| {
+            if !(t.weight.is_finite() && t.x.is_finite() && t.y.is_finite() && t.sigma.is_finite())
+            {
+                return Err(FilterError::InvalidTerm {
+                    index,
+                    why: format!("non-finite value in {t:?}"),
+                });
+            }
+            if t.sigma <= 0.0 {
+                return Err(FilterError::InvalidTerm {
+                    index,
+                    why: format!("sigma {} is not positive", t.sigma),
+                });
+            }
+            Ok(Prepared {
+                weight: t.weight as f32,
+                cx: t.x as f32,
+                cy: t.y as f32,
+                sigma: t.sigma,
+                ln_sigma: t.sigma.ln(),
+            })
+        })
+        .collect()
+}
+
+/// Builds the scale stack a decomposition needs for scales in
+/// `[scale_min, scale_max]`: sigmas `[scale_min * min sigma_t, scale_max *
+/// max sigma_t]`, and for replicate/constant borders a margin covering the
+/// largest displacement `scale_max * max |c_t|`.
+///
+/// # Errors
+/// [`FilterError::InvalidTerm`]/[`FilterError::InvalidParameter`] for a bad
+/// decomposition or scale range, and the errors of [`ScaleStack::new`].
+pub fn stack_for_decomposition(
+    image: &Image,
+    decomposition: &Decomposition,
+    scale_min: f32,
+    scale_max: f32,
+    border: Border,
+    options: StackOptions,
+) -> Result<ScaleStack, FilterError> {
+    let terms = prepare_terms(decomposition)?;
+    if !(scale_min.is_finite()
+        && scale_max.is_finite()
+        && scale_min > 0.0
+        && scale_min <= scale_max)
+    {
+        return Err(FilterError::InvalidParameter(format!(
+            "scale range [{scale_min}, {scale_max}] must be finite, positive and increasing"
+        )));
+    }
+    check_finite(image.data(), image.width(), image.channels())?;
+    let sigma_lo = terms.iter().map(|t| t.sigma).fold(f64::INFINITY, f64::min);
+    let sigma_hi = terms.iter().map(|t| t.sigma).fold(0.0, f64::max);
+    let reach = terms
+        .iter()
+        .map(|t| f64::from(t.cx).hypot(f64::from(t.cy)))
+        .fold(0.0, f64::max);
+    let mut options = options;
+    if matches!(border, Border::Replicate | Border::Constant(_)) {
+        let need = (f64::from(scale_max) * reach).ceil() as usize + 2;
+        options.margin = options.margin.max(need);
+    }
+    ScaleStack::new(
+        image,
+        f64::from(scale_min) * sigma_lo,
+        f64::from(scale_max) * sigma_hi,
+        border,
+        options,
+    )
+}

@@ -1,0 +1,947 @@
+//! Sampled 2D filters ([`Kernel`]) and the built-in filter specs ([`KernelSpec`]).
+//!
+//! A kernel has odd width and height; its centre is the middle pixel and it is
+//! addressed by offset from the centre, `x` = column (right), `y` = row (down).
+//!
+//! # Spec strings
+//! `name:key=value,key=value`, parsed by [`KernelSpec`]'s `FromStr` (and by
+//! [`Kernel`]'s, which also samples it):
+//!
+//! | spec | keys (defaults) | filter |
+//! |---|---|---|
+//! | `gauss` | `sx`, `sy` (= `sx`), `theta` (0) | anisotropic Gaussian, std devs in px along the rotated axes, normalised to sum 1 |
+//! | `dgauss` | `order` = `xx`/`xy`/`yy`, `sigma`, `theta` (0) | second derivative of the normalised Gaussian `g_sigma` |
+//! | `log` | `sigma` | Laplacian of `g_sigma` (`g_xx + g_yy`) |
+//! | `gabor` | `sigma`, `freq` (cycles/px), `theta` (0) | `g_sigma(d) cos(2 pi freq u)`, `u` along the rotated `x` axis |
+//! | `box` | `w`, `h` (= `w`), `theta` (0) | rectangle `w x h` px, area-sampled, sum 1 |
+//! | `disk` | `r` | disk of radius `r` px, area-sampled, sum 1 |
+//! | `line` | `len`, `width` (1), `theta` (0) | motion blur: a `len x width` rectangle along `theta`, area-sampled, sum 1 |
+//!
+//! Every spec also takes `radius=` (alias `r=` except for `disk`, where `r` is
+//! the disk radius): the half-size `R` of the `(2R+1) x (2R+1)` grid. By default
+//! `R = ceil(4 * largest sigma)` for the smooth filters and the smallest `R`
+//! holding the shape for the hard-edged ones.
+//!
+//! Angles are degrees, counter-clockwise on screen. With
+//! `R_theta = [[cos, sin], [-sin, cos]]` in `(x right, y down)` coordinates, a
+//! filter rotated by `theta` is `k_theta(d) = k(R_{-theta} d)`: its local
+//! coordinates are `(u, v) = R_{-theta} d = (cos x - sin y, sin x + cos y)`.
+//!
+//! ```
+//! use ifd_planar::Kernel;
+//! let k: Kernel = "gauss:sx=6,sy=2,theta=30".parse()?;
+//! assert_eq!((k.width(), k.height()), (49, 49)); // R = ceil(4 * 6) = 24
+//! assert!((k.sum() - 1.0).abs() < 1e-12);
+//! assert!(k.get(0, 0) > k.get(0, 3));
+//! # Ok::<(), ifd_planar::KernelError>(())
+//! ```
+
+use std::fmt;
+use std::str::FromStr;
+
+/// The largest accepted kernel half-size `R` (the grid is `(2R+1)^2`).
+pub const MAX_RADIUS: usize = 2048;
+
+/// Samples per pixel along each axis when area-sampling hard-edged shapes.
+const SUPERSAMPLE: usize = 16;
+
+/// Everything that can be wrong with a kernel or a kernel spec.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum KernelError {
+    /// Width or height is even (or zero): the kernel would have no centre pixel.
+    #[error(
+        "kernel is {width}x{height}, expected odd width and height (the centre is the middle pixel)"
+    )]
+    EvenSize {
+        /// Width in pixels.
+        width: usize,
+        /// Height in pixels.
+        height: usize,
+    },
+    /// The sample count does not match the size.
+    #[error("kernel is {width}x{height} but {len} samples were given")]
+    SizeMismatch {
+        /// Width in pixels.
+        width: usize,
+        /// Height in pixels.
+        height: usize,
+        /// Samples given.
+        len: usize,
+    },
+    /// A sample is NaN or infinite.
+    #[error("kernel sample at column {x}, row {y} is {value} (not finite)")]
+    NonFinite {
+        /// Column.
+        x: usize,
+        /// Row.
+        y: usize,
+        /// The value.
+        value: f64,
+    },
+    /// Every sample is zero.
+    #[error("kernel is all zero ({width}x{height})")]
+    AllZero {
+        /// Width in pixels.
+        width: usize,
+        /// Height in pixels.
+        height: usize,
+    },
+    /// An image with more than one channel was given as a kernel.
+    #[error("kernel image has {channels} channels, expected 1")]
+    Channels {
+        /// The channel count.
+        channels: usize,
+    },
+    /// The kernel would be larger than [`MAX_RADIUS`].
+    #[error("kernel half-size {radius} px is larger than the limit {MAX_RADIUS} px")]
+    TooLarge {
+        /// The half-size asked for.
+        radius: f64,
+    },
+    /// The spec name is not one of the built-in filters.
+    #[error("unknown kernel spec {name:?} (known: gauss, dgauss, log, gabor, box, disk, line)")]
+    UnknownSpec {
+        /// The name given.
+        name: String,
+    },
+    /// A key the spec does not take.
+    #[error("spec {spec:?} has no key {key:?} (keys: {known})")]
+    UnknownKey {
+        /// The spec name.
+        spec: String,
+        /// The key given.
+        key: String,
+        /// The keys it takes.
+        known: String,
+    },
+    /// A required key is missing.
+    #[error("spec {spec:?} needs {key}=")]
+    MissingKey {
+        /// The spec name.
+        spec: String,
+        /// The missing key.
+        key: &'static str,
+    },
+    /// A value could not be parsed or is out of range.
+    #[error("bad value {key}={value:?}: {reason}")]
+    BadValue {
+        /// The key.
+        key: String,
+        /// The value given.
+        value: String,
+        /// Why it is rejected.
+        reason: String,
+    },
+    /// The spec string is not `name:key=value,...`.
+    #[error("cannot parse kernel spec {spec:?}: {reason}")]
+    Syntax {
+        /// The spec string.
+        spec: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Which second derivative [`KernelSpec::DGauss`] takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DerivOrder {
+    /// `d^2/dx^2` (x = column).
+    Xx,
+    /// `d^2/dxdy`.
+    Xy,
+    /// `d^2/dy^2` (y = row).
+    Yy,
+}
+
+/// A built-in filter, parsed from a spec string such as `gauss:sx=24,sy=3,theta=30`.
+///
+/// `radius` is the grid half-size `R` when given; `None` picks the default.
+/// Lengths are in pixels, angles in degrees (see the [module docs](self)).
+#[derive(Clone, Debug, PartialEq)]
+pub enum KernelSpec {
+    /// Anisotropic Gaussian normalised to sum 1.
+    Gauss {
+        /// Std dev along the rotated `x` axis.
+        sx: f64,
+        /// Std dev along the rotated `y` axis.
+        sy: f64,
+        /// Rotation, degrees CCW.
+        theta: f64,
+        /// Grid half-size.
+        radius: Option<usize>,
+    },
+    /// Second derivative of the normalised isotropic Gaussian.
+    DGauss {
+        /// Which derivative.
+        order: DerivOrder,
+        /// Std dev.
+        sigma: f64,
+        /// Rotation, degrees CCW.
+        theta: f64,
+        /// Grid half-size.
+        radius: Option<usize>,
+    },
+    /// Laplacian of the normalised Gaussian.
+    Log {
+        /// Std dev.
+        sigma: f64,
+        /// Grid half-size.
+        radius: Option<usize>,
+    },
+    /// Gabor filter `g_sigma(d) cos(2 pi freq u)`.
+    Gabor {
+        /// Std dev of the envelope.
+        sigma: f64,
+        /// Frequency, cycles per pixel.
+        freq: f64,
+        /// Rotation, degrees CCW.
+        theta: f64,
+        /// Grid half-size.
+        radius: Option<usize>,
+    },
+    /// Rotated rectangle, area-sampled, sum 1.
+    Box {
+        /// Width along the rotated `x` axis.
+        w: f64,
+        /// Height along the rotated `y` axis.
+        h: f64,
+        /// Rotation, degrees CCW.
+        theta: f64,
+        /// Grid half-size.
+        radius: Option<usize>,
+    },
+    /// Disk, area-sampled, sum 1.
+    Disk {
+        /// Disk radius.
+        r: f64,
+        /// Grid half-size.
+        radius: Option<usize>,
+    },
+    /// Motion blur: a `len x width` segment along `theta`, area-sampled, sum 1.
+    Line {
+        /// Length.
+        len: f64,
+        /// Width.
+        width: f64,
+        /// Direction, degrees CCW.
+        theta: f64,
+        /// Grid half-size.
+        radius: Option<usize>,
+    },
+}
+
+/// Parsed `key=value` pairs of one spec, consumed key by key.
+struct Keys {
+    spec: String,
+    pairs: Vec<(String, String)>,
+}
+
+impl Keys {
+    fn take(&mut self, key: &str) -> Option<String> {
+        let i = self.pairs.iter().position(|(k, _)| k == key)?;
+        Some(self.pairs.remove(i).1)
+    }
+
+    fn num(&mut self, key: &'static str) -> Result<Option<f64>, KernelError> {
+        let Some(v) = self.take(key) else {
+            return Ok(None);
+        };
+        let x: f64 = v.trim().parse().map_err(|_| KernelError::BadValue {
+            key: key.to_string(),
+            value: v.clone(),
+            reason: "not a number".into(),
+        })?;
+        if !x.is_finite() {
+            return Err(KernelError::BadValue {
+                key: key.to_string(),
+                value: v,
+                reason: "not finite".into(),
+            });
+        }
+        Ok(Some(x))
+    }
+
+    fn positive(&mut self, key: &'static str) -> Result<Option<f64>, KernelError> {
+        match self.num(key)? {
+            Some(x) if x <= 0.0 => Err(KernelError::BadValue {
+                key: key.to_string(),
+                value: format!("{x}"),
+                reason: "must be positive".into(),
+            }),
+            other => Ok(other),
+        }
+    }
+
+    fn required(&mut self, key: &'static str) -> Result<f64, KernelError> {
+        self.positive(key)?.ok_or_else(|| KernelError::MissingKey {
+            spec: self.spec.clone(),
+            key,
+        })
+    }
+
+    fn radius(&mut self, alias_r: bool) -> Result<Option<usize>, KernelError> {
+        let mut value = self.take("radius");
+        if alias_r && value.is_none() {
+            value = self.take("r");
+        }
+        let Some(v) = value else { return Ok(None) };
+        let n: usize = v.trim().parse().map_err(|_| KernelError::BadValue {
+            key: "radius".into(),
+            value: v.clone(),
+            reason: "not a non-negative integer".into(),
+        })?;
+        if n > MAX_RADIUS {
+            return Err(KernelError::TooLarge { radius: n as f64 });
+        }
+        Ok(Some(n))
+    }
+
+    fn finish(self, known: &str) -> Result<(), KernelError> {
+        match self.pairs.into_iter().next() {
+            None => Ok(()),
+            Some((key, _)) => Err(KernelError::UnknownKey {
+                spec: self.spec,
+                key,
+                known: known.to_string(),
+            }),
+        }
+    }
+}
+
+impl FromStr for KernelSpec {
+    type Err = KernelError;
+
+    fn from_str(s: &str) -> Result<Self, KernelError> {
+        let s = s.trim();
+        let (name, rest) = s.split_once(':').unwrap_or((s, ""));
+        let name = name.trim().to_ascii_lowercase();
+        let mut pairs = Vec::new();
+        for item in rest.split(',').map(str::trim).filter(|t| !t.is_empty()) {
+            let Some((k, v)) = item.split_once('=') else {
+                return Err(KernelError::Syntax {
+                    spec: s.to_string(),
+                    reason: format!("{item:?} is not key=value"),
+                });
+            };
+            let k = k.trim().to_string();
+            if pairs.iter().any(|(p, _): &(String, String)| *p == k) {
+                return Err(KernelError::Syntax {
+                    spec: s.to_string(),
+                    reason: format!("key {k:?} given twice"),
+                });
+            }
+            pairs.push((k, v.trim().to_string()));
+        }
+        let mut keys = Keys {
+            spec: name.clone(),
+            pairs,
+        };
+        let spec = match name.as_str() {
+            "gauss" => {
+                let sx = keys.required("sx")?;
+                let sy = keys.positive("sy")?.unwrap_or(sx);
+                let theta = keys.num("theta")?.unwrap_or(0.0);
+                let radius = keys.radius(true)?;
+                keys.finish("sx, sy, theta, radius/r")?;
+                Self::Gauss {
+                    sx,
+                    sy,
+                    theta,
+                    radius,
+                }
+            }
+            "dgauss" => {
+                let order = match keys.take("order").as_deref() {
+                    Some("xx") => DerivOrder::Xx,
+                    Some("xy" | "yx") => DerivOrder::Xy,
+                    Some("yy") => DerivOrder::Yy,
+                    Some(other) => {
+                        return Err(KernelError::BadValue {
+                            key: "order".into(),
+                            value: other.to_string(),
+                            reason: "expected xx, xy or yy".into(),
+                        });
+                    }
+                    None => {
+                        return Err(KernelError::MissingKey {
+                            spec: name,
+                            key: "order",
+                        });
+                    }
+                };
+                let sigma = keys.required("sigma")?;
+                let theta = keys.num("theta")?.unwrap_or(0.0);
+                let radius = keys.radius(true)?;
+                keys.finish("order, sigma, theta, radius/r")?;
+                Self::DGauss {
+                    order,
+                    sigma,
+                    theta,
+                    radius,
+                }
+            }
+            "log" => {
+                let sigma = keys.required("sigma")?;
+                let radius = keys.radius(true)?;
+                keys.finish("sigma, radius/r")?;
+                Self::Log { sigma, radius }
+            }
+            "gabor" => {
+                let sigma = keys.required("sigma")?;
+                let freq = keys.num("freq")?.ok_or(KernelError::MissingKey {
+                    spec: name.clone(),
+                    key: "freq",
+                })?;
+                let theta = keys.num("theta")?.unwrap_or(0.0);
+                let radius = keys.radius(true)?;
+                keys.finish("sigma, freq, theta, radius/r")?;
+                Self::Gabor {
+                    sigma,
+                    freq,
+                    theta,
+                    radius,
+                }
+            }
+            "box" => {
+                let w = keys.required("w")?;
+                let h = keys.positive("h")?.unwrap_or(w);
+                let theta = keys.num("theta")?.unwrap_or(0.0);
+                let radius = keys.radius(true)?;
+                keys.finish("w, h, theta, radius/r")?;
+                Self::Box {
+                    w,
+                    h,
+                    theta,
+                    radius,
+                }
+            }
+            "disk" => {
+                let r = keys.required("r")?;
+                let radius = keys.radius(false)?;
+                keys.finish("r, radius")?;
+                Self::Disk { r, radius }
+            }
+            "line" => {
+                let len = keys.required("len")?;
+                let width = keys.positive("width")?.unwrap_or(1.0);
+                let theta = keys.num("theta")?.unwrap_or(0.0);
+                let radius = keys.radius(true)?;
+                keys.finish("len, width, theta, radius/r")?;
+                Self::Line {
+                    len,
+                    width,
+                    theta,
+                    radius,
+                }
+            }
+            _ => return Err(KernelError::UnknownSpec { name }),
+        };
+        spec.check_size()?;
+        Ok(spec)
+    }
+}
+
+/// `(u, v) = R_{-theta} (x, y)`: offsets in the filter's own (unrotated) frame.
+fn to_local(x: f64, y: f64, cos: f64, sin: f64) -> (f64, f64) {
+    (cos * x - sin * y, sin * x + cos * y)
+}
+
+impl KernelSpec {
+    /// The grid half-size `R` this spec samples on, before the size check.
+    fn radius_f(&self) -> f64 {
+        let given = match self {
+            Self::Gauss { radius, .. }
+            | Self::DGauss { radius, .. }
+            | Self::Log { radius, .. }
+            | Self::Gabor { radius, .. }
+            | Self::Box { radius, .. }
+            | Self::Disk { radius, .. }
+            | Self::Line { radius, .. } => *radius,
+        };
+        if let Some(r) = given {
+            return r as f64;
+        }
+        let rect = |w: f64, h: f64, theta: f64| {
+            let (s, c) = theta.to_radians().sin_cos();
+            let ex = 0.5 * (c.abs() * w + s.abs() * h);
+            let ey = 0.5 * (s.abs() * w + c.abs() * h);
+            (ex.max(ey) - 0.5).max(0.0).ceil()
+        };
+        match *self {
+            Self::Gauss { sx, sy, .. } => (4.0 * sx.max(sy)).ceil(),
+            Self::DGauss { sigma, .. } | Self::Log { sigma, .. } | Self::Gabor { sigma, .. } => {
+                (4.0 * sigma).ceil()
+            }
+            Self::Box { w, h, theta, .. } => rect(w, h, theta),
+            Self::Line {
+                len, width, theta, ..
+            } => rect(len, width, theta),
+            Self::Disk { r, .. } => (r - 0.5).max(0.0).ceil(),
+        }
+    }
+
+    fn check_size(&self) -> Result<(), KernelError> {
+        let r = self.radius_f();
+        if r > MAX_RADIUS as f64 {
+            return Err(KernelError::TooLarge { radius: r });
+        }
+        Ok(())
+    }
+
+    /// The grid half-size `R`: the kernel is `(2R+1) x (2R+1)`.
+    #[must_use]
+    pub fn radius(&self) -> usize {
+        self.radius_f().min(MAX_RADIUS as f64) as usize
+    }
+
+    /// Samples the filter.
+    ///
+    /// # Errors
+    /// [`KernelError::AllZero`] when the sampled filter vanishes (e.g. a tiny
+    /// grid for a Gabor filter), [`KernelError::TooLarge`] for `R > MAX_RADIUS`.
+    pub fn to_kernel(&self) -> Result<Kernel, KernelError> {
+        self.check_size()?;
+        let r = self.radius();
+        let n = 2 * r + 1;
+        let rf = r as f64;
+        let mut data = vec![0.0; n * n];
+        let pixel = |f: &dyn Fn(f64, f64) -> f64, data: &mut Vec<f64>| {
+            for row in 0..n {
+                for col in 0..n {
+                    data[row * n + col] = f(col as f64 - rf, row as f64 - rf);
+                }
+            }
+        };
+        let area = |inside: &dyn Fn(f64, f64) -> bool, data: &mut Vec<f64>| {
+            let ss = SUPERSAMPLE as f64;
+            for row in 0..n {
+                for col in 0..n {
+                    let mut count = 0usize;
+                    for sy in 0..SUPERSAMPLE {
+                        for sx in 0..SUPERSAMPLE {
+                            let x = col as f64 - rf - 0.5 + (sx as f64 + 0.5) / ss;
+                            let y = row as f64 - rf - 0.5 + (sy as f64 + 0.5) / ss;
+                            if inside(x, y) {
+                                count += 1;
+                            }
+                        }
+                    }
+                    data[row * n + col] = count as f64 / (ss * ss);
+                }
+            }
+        };
+        let mut normalise = false;
+        match *self {
+            Self::Gauss { sx, sy, theta, .. } => {
+                let (s, c) = theta.to_radians().sin_cos();
+                pixel(
+                    &|x, y| {
+                        let (u, v) = to_local(x, y, c, s);
+                        (-0.5 * ((u / sx).powi(2) + (v / sy).powi(2))).exp()
+                    },
+                    &mut data,
+                );
+                normalise = true;
+            }
+            Self::DGauss {
+                order,
+                sigma,
+                theta,
+                ..
+            } => {
+                let (s, c) = theta.to_radians().sin_cos();
+                let s2 = sigma * sigma;
+                pixel(
+                    &|x, y| {
+                        let (u, v) = to_local(x, y, c, s);
+                        let g = (-(u * u + v * v) / (2.0 * s2)).exp()
+                            / (2.0 * std::f64::consts::PI * s2);
+                        match order {
+                            DerivOrder::Xx => g * (u * u / (s2 * s2) - 1.0 / s2),
+                            DerivOrder::Xy => g * u * v / (s2 * s2),
+                            DerivOrder::Yy => g * (v * v / (s2 * s2) - 1.0 / s2),
+                        }
+                    },
+                    &mut data,
+                );
+            }
+            Self::Log { sigma, .. } => {
+                let s2 = sigma * sigma;
+                pixel(
+                    &|x, y| {
+                        let q = x * x + y * y;
+                        let g = (-q / (2.0 * s2)).exp() / (2.0 * std::f64::consts::PI * s2);
+                        g * (q / (s2 * s2) - 2.0 / s2)
+                    },
+                    &mut data,
+                );
+            }
+            Self::Gabor {
+                sigma, freq, theta, ..
+            } => {
+                let (s, c) = theta.to_radians().sin_cos();
+                let s2 = sigma * sigma;
+                pixel(
+                    &|x, y| {
+                        let (u, _) = to_local(x, y, c, s);
+                        let g = (-(x * x + y * y) / (2.0 * s2)).exp()
+                            / (2.0 * std::f64::consts::PI * s2);
+                        g * (2.0 * std::f64::consts::PI * freq * u).cos()
+                    },
+                    &mut data,
+                );
+            }
+            Self::Box { w, h, theta, .. }
+            | Self::Line {
+                len: w,
+                width: h,
+                theta,
+                ..
+            } => {
+                let (s, c) = theta.to_radians().sin_cos();
+                area(
+                    &|x, y| {
+                        let (u, v) = to_local(x, y, c, s);
+                        u.abs() <= 0.5 * w && v.abs() <= 0.5 * h
+                    },
+                    &mut data,
+                );
+                normalise = true;
+            }
+            Self::Disk { r: rad, .. } => {
+                area(&|x, y| x * x + y * y <= rad * rad, &mut data);
+                normalise = true;
+            }
+        }
+        if normalise {
+            let sum: f64 = data.iter().sum();
+            if sum > 0.0 {
+                data.iter_mut().for_each(|v| *v /= sum);
+            }
+        }
+        let mut k = Kernel::new(n, n, data)?;
+        k.spec = Some(self.to_string());
+        Ok(k)
+    }
+}
+
+impl fmt::Display for KernelSpec {
+    /// The canonical spec string (parses back to the same spec).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let radius = |r: &Option<usize>| r.map(|r| format!(",radius={r}")).unwrap_or_default();
+        match self {
+            Self::Gauss {
+                sx,
+                sy,
+                theta,
+                radius: r,
+            } => write!(f, "gauss:sx={sx},sy={sy},theta={theta}{}", radius(r)),
+            Self::DGauss {
+                order,
+                sigma,
+                theta,
+                radius: r,
+            } => {
+                let o = match order {
+                    DerivOrder::Xx => "xx",
+                    DerivOrder::Xy => "xy",
+                    DerivOrder::Yy => "yy",
+                };
+                write!(
+                    f,
+                    "dgauss:order={o},sigma={sigma},theta={theta}{}",
+                    radius(r)
+                )
+            }
+            Self::Log { sigma, radius: r } => write!(f, "log:sigma={sigma}{}", radius(r)),
+            Self::Gabor {
+                sigma,
+                freq,
+                theta,
+                radius: r,
+            } => write!(
+                f,
+                "gabor:sigma={sigma},freq={freq},theta={theta}{}",
+                radius(r)
+            ),
+            Self::Box {
+                w,
+                h,
+                theta,
+                radius: r,
+            } => write!(f, "box:w={w},h={h},theta={theta}{}", radius(r)),
+            Self::Disk { r, radius: rr } => write!(f, "disk:r={r}{}", radius(rr)),
+            Self::Line {
+                len,
+                width,
+                theta,
+                radius: r,
+            } => write!(f, "line:len={len},width={width},theta={theta}{}", radius(r)),
+        }
+    }
+}
+
+/// A sampled 2D filter: odd width and height, centre at the middle pixel,
+/// `f64` samples row-major (row = `y`, down; column = `x`, right).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Kernel {
+    width: usize,
+    height: usize,
+    data: Vec<f64>,
+    spec: Option<String>,
+}
+
+impl Kernel {
+    /// A kernel from row-major samples.
+    ///
+    /// ```
+    /// use ifd_planar::Kernel;
+    /// let k = Kernel::new(3, 1, vec![1.0, 2.0, 3.0])?;
+    /// assert_eq!(k.get(-1, 0), 1.0);
+    /// assert_eq!(k.get(1, 0), 3.0);
+    /// assert_eq!(k.get(2, 0), 0.0); // outside
+    /// assert!(Kernel::new(2, 1, vec![1.0, 1.0]).is_err());
+    /// # Ok::<(), ifd_planar::KernelError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`KernelError::EvenSize`], [`KernelError::SizeMismatch`],
+    /// [`KernelError::NonFinite`], [`KernelError::AllZero`], or
+    /// [`KernelError::TooLarge`] for a half-size above [`MAX_RADIUS`].
+    pub fn new(width: usize, height: usize, data: Vec<f64>) -> Result<Self, KernelError> {
+        if width % 2 == 0 || height % 2 == 0 {
+            return Err(KernelError::EvenSize { width, height });
+        }
+        if width / 2 > MAX_RADIUS || height / 2 > MAX_RADIUS {
+            return Err(KernelError::TooLarge {
+                radius: (width.max(height) / 2) as f64,
+            });
+        }
+        if data.len() != width * height {
+            return Err(KernelError::SizeMismatch {
+                width,
+                height,
+                len: data.len(),
+            });
+        }
+        if let Some(i) = data.iter().position(|v| !v.is_finite()) {
+            return Err(KernelError::NonFinite {
+                x: i % width,
+                y: i / width,
+                value: data[i],
+            });
+        }
+        if data.iter().all(|&v| v == 0.0) {
+            return Err(KernelError::AllZero { width, height });
+        }
+        Ok(Self {
+            width,
+            height,
+            data,
+            spec: None,
+        })
+    }
+
+    /// A kernel from a single-channel image (e.g. loaded from `.npy`, `.png`
+    /// or `.exr`), used as is (no normalisation).
+    ///
+    /// # Errors
+    /// [`KernelError::Channels`] for more than one channel, and the errors of [`Kernel::new`].
+    pub fn from_image(image: &ifd_image::Image) -> Result<Self, KernelError> {
+        if image.channels() != 1 {
+            return Err(KernelError::Channels {
+                channels: image.channels(),
+            });
+        }
+        Self::new(
+            image.width(),
+            image.height(),
+            image.data().iter().map(|&v| f64::from(v)).collect(),
+        )
+    }
+
+    /// Width in pixels (odd).
+    #[must_use]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels (odd).
+    #[must_use]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Half-width: offsets `dx` run over `-radius_x()..=radius_x()`.
+    #[must_use]
+    pub fn radius_x(&self) -> usize {
+        self.width / 2
+    }
+
+    /// Half-height: offsets `dy` run over `-radius_y()..=radius_y()`.
+    #[must_use]
+    pub fn radius_y(&self) -> usize {
+        self.height / 2
+    }
+
+    /// The samples, row-major.
+    #[must_use]
+    pub fn data(&self) -> &[f64] {
+        &self.data
+    }
+
+    /// The spec string the kernel was made from, if any.
+    #[must_use]
+    pub fn spec(&self) -> Option<&str> {
+        self.spec.as_deref()
+    }
+
+    /// Sets or clears the spec string recorded with the kernel.
+    pub fn set_spec(&mut self, spec: Option<String>) {
+        self.spec = spec;
+    }
+
+    /// The sample at offset `(dx, dy)` from the centre; zero outside the kernel.
+    #[must_use]
+    pub fn get(&self, dx: isize, dy: isize) -> f64 {
+        let col = dx + self.radius_x() as isize;
+        let row = dy + self.radius_y() as isize;
+        if col < 0 || row < 0 || col >= self.width as isize || row >= self.height as isize {
+            return 0.0;
+        }
+        self.data[row as usize * self.width + col as usize]
+    }
+
+    /// Sum of all samples (the filter's DC gain).
+    #[must_use]
+    pub fn sum(&self) -> f64 {
+        self.data.iter().sum()
+    }
+
+    /// L2 norm of the samples.
+    #[must_use]
+    pub fn l2_norm(&self) -> f64 {
+        self.data.iter().map(|v| v * v).sum::<f64>().sqrt()
+    }
+
+    /// Largest absolute sample.
+    #[must_use]
+    pub fn max_abs(&self) -> f64 {
+        self.data.iter().fold(0.0, |m, v| m.max(v.abs()))
+    }
+}
+
+impl FromStr for Kernel {
+    type Err = KernelError;
+
+    /// Parses a [`KernelSpec`] and samples it.
+    fn from_str(s: &str) -> Result<Self, KernelError> {
+        s.parse::<KernelSpec>()?.to_kernel()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gauss_rotation_convention() {
+        // theta = 90: the long axis points up on screen (negative y).
+        let k: Kernel = "gauss:sx=6,sy=1,theta=90".parse().unwrap();
+        assert!(k.get(0, -8) > 100.0 * k.get(8, 0));
+        let k: Kernel = "gauss:sx=6,sy=1,theta=45".parse().unwrap();
+        // CCW on screen by 45 degrees: towards (+x, -y).
+        assert!(k.get(5, -5) > 100.0 * k.get(5, 5));
+        assert_eq!(k.width(), 25);
+    }
+
+    #[test]
+    fn dgauss_signs_and_symmetry() {
+        let k: Kernel = "dgauss:order=xx,sigma=4".parse().unwrap();
+        assert!(k.get(0, 0) < 0.0);
+        assert!(k.get(8, 0) > 0.0);
+        assert!((k.get(3, 2) - k.get(-3, -2)).abs() < 1e-15);
+        let k: Kernel = "dgauss:order=xy,sigma=4".parse().unwrap();
+        assert!(k.get(3, 3) > 0.0 && k.get(3, -3) < 0.0);
+        let yy: Kernel = "dgauss:order=yy,sigma=4".parse().unwrap();
+        let xx: Kernel = "dgauss:order=xx,sigma=4".parse().unwrap();
+        assert!((yy.get(2, 5) - xx.get(5, 2)).abs() < 1e-15);
+        let log: Kernel = "log:sigma=4".parse().unwrap();
+        assert!((log.get(2, 5) - xx.get(2, 5) - yy.get(2, 5)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn hard_edged_shapes() {
+        let b: Kernel = "box:w=5,h=3".parse().unwrap();
+        assert_eq!(b.width(), 5);
+        assert!((b.sum() - 1.0).abs() < 1e-12);
+        assert!((b.get(2, 1) - 1.0 / 15.0).abs() < 1e-12);
+        let d: Kernel = "disk:r=10".parse().unwrap();
+        assert_eq!(d.width(), 21);
+        let l: Kernel = "line:len=21,theta=90".parse().unwrap();
+        assert!(l.get(0, -10) > 0.0 && l.get(3, 0) == 0.0);
+        let g: Kernel = "gabor:sigma=4,freq=0.1,theta=30,r=5".parse().unwrap();
+        assert_eq!(g.width(), 11);
+    }
+
+    #[test]
+    fn spec_errors() {
+        let err = |s: &str| s.parse::<Kernel>().unwrap_err();
+        assert!(matches!(err("blob:x=1"), KernelError::UnknownSpec { .. }));
+        assert!(matches!(
+            err("gauss:sx=1,q=2"),
+            KernelError::UnknownKey { .. }
+        ));
+        assert!(matches!(err("gauss:sy=1"), KernelError::MissingKey { .. }));
+        assert!(matches!(err("gauss:sx=-1"), KernelError::BadValue { .. }));
+        assert!(matches!(err("gauss:sx=0"), KernelError::BadValue { .. }));
+        assert!(matches!(err("gauss:sx=nan"), KernelError::BadValue { .. }));
+        assert!(matches!(err("gauss:sx=1e6"), KernelError::TooLarge { .. }));
+        assert!(matches!(err("gauss:sx"), KernelError::Syntax { .. }));
+        assert!(matches!(
+            err("dgauss:order=zz,sigma=1"),
+            KernelError::BadValue { .. }
+        ));
+        assert!(err("gauss:sx=abc").to_string().contains("abc"));
+        assert!(matches!(
+            Kernel::new(3, 3, vec![0.0; 9]),
+            Err(KernelError::AllZero { .. })
+        ));
+        let mut v = vec![1.0; 9];
+        v[4] = f64::NAN;
+        assert!(matches!(
+            Kernel::new(3, 3, v),
+            Err(KernelError::NonFinite { x: 1, y: 1, .. })
+        ));
+        assert!(matches!(
+            Kernel::new(4, 3, vec![1.0; 12]),
+            Err(KernelError::EvenSize { .. })
+        ));
+    }
+
+    #[test]
+    fn spec_display_round_trip() {
+        for s in [
+            "gauss:sx=24,sy=3,theta=30",
+            "dgauss:order=xy,sigma=4",
+            "disk:r=5,radius=9",
+        ] {
+            let spec: KernelSpec = s.parse().unwrap();
+            let again: KernelSpec = spec.to_string().parse().unwrap();
+            assert_eq!(spec, again);
+        }
+    }
+
+    #[test]
+    fn from_image_checks() {
+        let img = ifd_image::Image::new(3, 3, 2).unwrap();
+        assert!(matches!(
+            Kernel::from_image(&img),
+            Err(KernelError::Channels { channels: 2 })
+        ));
+        let mut img = ifd_image::Image::new(3, 5, 1).unwrap();
+        img.set(1, 2, 0, 1.0);
+        let k = Kernel::from_image(&img).unwrap();
+        assert_eq!(k.get(0, 0), 1.0);
+    }
+}

@@ -1,0 +1,578 @@
+//! SpaRSA (Wright, Nowak and Figueiredo, *Sparse Reconstruction by Separable
+//! Approximation*, IEEE TSP 2009) for the l1-regularised least-squares problem
+//!
+//! ```text
+//! minimise  F(x) = 0.5 ||y - A x||^2 + tau ||x||_1
+//! ```
+//!
+//! with `A` given only as an operator ([`LinearOperator`]: `A x` and `A^T r`).
+//!
+//! Each iteration solves the separable model
+//! `x+ = argmin_z  grad . (z - x) + alpha/2 ||z - x||^2 + tau ||z||_1`, i.e.
+//! `x+ = soft(x - grad / alpha, tau / alpha)` with `grad = A^T (A x - y)`;
+//! `alpha` is the Barzilai-Borwein curvature `||A dx||^2 / ||dx||^2` of the last
+//! step, increased (times 2) until the safeguarded non-monotone condition
+//! `F(x+) <= max_{last M+1} F - sigma/2 alpha ||dx||^2` (M = 5, sigma = 0.01)
+//! holds. [`sparsa`] adds the reference implementation's continuation on `tau`
+//! (stages `tau_k = max(tau, 0.2 ||A^T r||_inf)`, warm-started, each stopped on
+//! a relative objective change of `1e-5`), stops the final stage on the relative
+//! duality gap, and can debias by conjugate gradients on the support
+//! ([`debias`]).
+
+use std::collections::VecDeque;
+
+/// A real matrix given as an operator.
+///
+/// Implementations must satisfy `<A x, r> = <x, A^T r>` (to rounding).
+pub trait LinearOperator: Sync {
+    /// Number of rows (length of `A x`).
+    fn rows(&self) -> usize;
+    /// Number of columns (length of `x`).
+    fn cols(&self) -> usize;
+    /// `out = A x` (`out` is overwritten). `x` is often sparse; implementations
+    /// should skip its zeros cheaply.
+    fn apply(&self, x: &[f64], out: &mut [f64]);
+    /// `out = A^T r` (`out` is overwritten).
+    fn apply_adjoint(&self, r: &[f64], out: &mut [f64]);
+    /// `out[k] = (A^T r)[idx[k]]` for a few columns. The default computes the
+    /// whole product; operators with cheap columns should override it.
+    fn apply_adjoint_subset(&self, r: &[f64], idx: &[usize], out: &mut [f64]) {
+        let mut full = vec![0.0; self.cols()];
+        self.apply_adjoint(r, &mut full);
+        for (o, &i) in out.iter_mut().zip(idx) {
+            *o = full[i];
+        }
+    }
+}
+
+/// A small dense row-major matrix as a [`LinearOperator`] (tests, small problems).
+///
+/// ```
+/// use ifd_planar::sparsa::{DenseOperator, LinearOperator};
+/// let a = DenseOperator::new(2, 2, vec![1.0, 2.0, 3.0, 4.0]);
+/// let mut y = [0.0; 2];
+/// a.apply(&[1.0, 1.0], &mut y);
+/// assert_eq!(y, [3.0, 7.0]);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct DenseOperator {
+    rows: usize,
+    cols: usize,
+    data: Vec<f64>,
+}
+
+impl DenseOperator {
+    /// A `rows x cols` matrix from row-major entries.
+    ///
+    /// # Panics
+    /// When `data.len() != rows * cols`.
+    #[must_use]
+    pub fn new(rows: usize, cols: usize, data: Vec<f64>) -> Self {
+        assert_eq!(data.len(), rows * cols, "DenseOperator: wrong entry count");
+        Self { rows, cols, data }
+    }
+}
+
+impl LinearOperator for DenseOperator {
+    fn rows(&self) -> usize {
+        self.rows
+    }
+    fn cols(&self) -> usize {
+        self.cols
+    }
+    fn apply(&self, x: &[f64], out: &mut [f64]) {
+        for (o, row) in out.iter_mut().zip(self.data.chunks_exact(self.cols)) {
+            *o = row.iter().zip(x).map(|(a, b)| a * b).sum();
+        }
+    }
+    fn apply_adjoint(&self, r: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        for (row, &ri) in self.data.chunks_exact(self.cols).zip(r) {
+            for (o, a) in out.iter_mut().zip(row) {
+                *o += a * ri;
+            }
+        }
+    }
+}
+
+/// When a SpaRSA stage stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StopCriterion {
+    /// Relative duality gap `(P - D) / P` at or below the value.
+    DualityGap(f64),
+    /// Relative change of the objective between iterations at or below the value.
+    ObjectiveChange(f64),
+}
+
+/// Options of [`sparsa`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SparsaOptions {
+    /// The l1 weight `tau` (absolute).
+    pub tau: f64,
+    /// Stopping rule of the final stage (default: relative duality gap 0.01).
+    pub stop: StopCriterion,
+    /// Iteration limit over all stages.
+    pub max_iter: usize,
+    /// Minimum iterations of the final stage.
+    pub min_iter: usize,
+    /// Continuation on `tau` (default on).
+    pub continuation: bool,
+    /// Debias by conjugate gradients on the support after the last stage.
+    pub debias: bool,
+}
+
+impl Default for SparsaOptions {
+    fn default() -> Self {
+        Self {
+            tau: 1e-3,
+            stop: StopCriterion::DualityGap(0.01),
+            max_iter: 10_000,
+            min_iter: 5,
+            continuation: true,
+            debias: false,
+        }
+    }
+}
+
+/// The result of [`sparsa`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SparsaOutput {
+    /// The solution (debiased when asked).
+    pub x: Vec<f64>,
+    /// `F(x)` before debiasing.
+    pub objective: f64,
+    /// SpaRSA iterations over all stages.
+    pub iterations: usize,
+    /// Conjugate-gradient iterations of the debiasing.
+    pub debias_iterations: usize,
+}
+
+/// Safeguard parameters (reference values).
+const MEMORY: usize = 5;
+const SIGMA: f64 = 0.01;
+const ETA: f64 = 2.0;
+const ALPHA_MIN: f64 = 1e-30;
+const ALPHA_MAX: f64 = 1e30;
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn norm_inf(a: &[f64]) -> f64 {
+    a.iter().fold(0.0, |m, v| m.max(v.abs()))
+}
+
+fn soft(v: f64, t: f64) -> f64 {
+    if v > t {
+        v - t
+    } else if v < -t {
+        v + t
+    } else {
+        0.0
+    }
+}
+
+/// A SpaRSA solver state: the iterate `x`, the residual `r = y - A x` and
+/// `A^T r`, kept between stages so that continuation warm-starts.
+pub struct Sparsa<'a, A: LinearOperator + ?Sized> {
+    a: &'a A,
+    y: &'a [f64],
+    x: Vec<f64>,
+    r: Vec<f64>,
+    atr: Vec<f64>,
+    iterations: usize,
+}
+
+impl<'a, A: LinearOperator + ?Sized> Sparsa<'a, A> {
+    /// A solver starting from `x0` (zero when `None`).
+    ///
+    /// # Panics
+    /// When `y` or `x0` have the wrong length.
+    pub fn new(a: &'a A, y: &'a [f64], x0: Option<&[f64]>) -> Self {
+        assert_eq!(y.len(), a.rows(), "sparsa: y has the wrong length");
+        let x = x0.map_or_else(|| vec![0.0; a.cols()], <[f64]>::to_vec);
+        assert_eq!(x.len(), a.cols(), "sparsa: x0 has the wrong length");
+        let mut ax = vec![0.0; a.rows()];
+        a.apply(&x, &mut ax);
+        let r: Vec<f64> = y.iter().zip(&ax).map(|(y, ax)| y - ax).collect();
+        let mut atr = vec![0.0; a.cols()];
+        a.apply_adjoint(&r, &mut atr);
+        Self {
+            a,
+            y,
+            x,
+            r,
+            atr,
+            iterations: 0,
+        }
+    }
+
+    /// The current iterate.
+    #[must_use]
+    pub fn x(&self) -> &[f64] {
+        &self.x
+    }
+
+    /// The current residual `y - A x`.
+    #[must_use]
+    pub fn residual(&self) -> &[f64] {
+        &self.r
+    }
+
+    /// `||A^T (y - A x)||_inf` at the current iterate (`||A^T y||_inf` at zero:
+    /// the smallest `tau` whose solution is zero).
+    #[must_use]
+    pub fn max_correlation(&self) -> f64 {
+        norm_inf(&self.atr)
+    }
+
+    /// Iterations done so far, over all stages.
+    #[must_use]
+    pub fn iterations(&self) -> usize {
+        self.iterations
+    }
+
+    /// `F(x) = 0.5 ||r||^2 + tau ||x||_1` at the current iterate.
+    #[must_use]
+    pub fn objective(&self, tau: f64) -> f64 {
+        0.5 * dot(&self.r, &self.r) + tau * self.x.iter().map(|v| v.abs()).sum::<f64>()
+    }
+
+    /// Relative duality gap `(P - D) / P` at the current iterate, with the
+    /// dual point `u = r min(1, tau / ||A^T r||_inf)`, `D = u.y - 0.5 ||u||^2`.
+    #[must_use]
+    pub fn relative_gap(&self, tau: f64) -> f64 {
+        let p = self.objective(tau);
+        let m = norm_inf(&self.atr);
+        let scale = if m > tau { tau / m } else { 1.0 };
+        let d = scale * dot(&self.r, self.y) - 0.5 * scale * scale * dot(&self.r, &self.r);
+        if p <= 0.0 {
+            0.0
+        } else {
+            ((p - d) / p).max(0.0)
+        }
+    }
+
+    /// Runs SpaRSA iterations at a fixed `tau` until `stop` holds (after at
+    /// least `min_iter` iterations) or `max_iter` more iterations were done.
+    /// Calls `progress(total_iterations, objective, nnz)` after each iteration.
+    pub fn solve_stage(
+        &mut self,
+        tau: f64,
+        stop: StopCriterion,
+        min_iter: usize,
+        max_iter: usize,
+        progress: &mut dyn FnMut(usize, f64, usize),
+    ) {
+        let n = self.a.cols();
+        let m = self.a.rows();
+        let mut alpha = 1.0;
+        let mut f = self.objective(tau);
+        let mut hist: VecDeque<f64> = VecDeque::with_capacity(MEMORY + 1);
+        hist.push_back(f);
+        let mut x_new = vec![0.0; n];
+        let mut dx = vec![0.0; n];
+        let mut adx = vec![0.0; m];
+        let mut r_new = vec![0.0; m];
+        for it in 0..max_iter {
+            let f_ref = hist.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+            let (f_new, dxx) = loop {
+                // grad = -A^T r
+                let t = tau / alpha;
+                for k in 0..n {
+                    x_new[k] = soft(self.x[k] + self.atr[k] / alpha, t);
+                    dx[k] = x_new[k] - self.x[k];
+                }
+                let dxx = dot(&dx, &dx);
+                if dxx == 0.0 {
+                    break (f, 0.0);
+                }
+                self.a.apply(&dx, &mut adx);
+                for k in 0..m {
+                    r_new[k] = self.r[k] - adx[k];
+                }
+                let f_new =
+                    0.5 * dot(&r_new, &r_new) + tau * x_new.iter().map(|v| v.abs()).sum::<f64>();
+                if f_new <= f_ref - 0.5 * SIGMA * alpha * dxx || alpha >= ALPHA_MAX {
+                    break (f_new, dxx);
+                }
+                alpha = (alpha * ETA).min(ALPHA_MAX);
+            };
+            self.iterations += 1;
+            if dxx == 0.0 {
+                // A fixed point of the prox-gradient map: optimal.
+                progress(self.iterations, f, nnz(&self.x));
+                return;
+            }
+            std::mem::swap(&mut self.x, &mut x_new);
+            std::mem::swap(&mut self.r, &mut r_new);
+            self.a.apply_adjoint(&self.r, &mut self.atr);
+            let f_prev = f;
+            f = f_new;
+            if hist.len() > MEMORY {
+                hist.pop_front();
+            }
+            hist.push_back(f);
+            alpha = (dot(&adx, &adx) / dxx).clamp(ALPHA_MIN, ALPHA_MAX);
+            progress(self.iterations, f, nnz(&self.x));
+            if it + 1 >= min_iter {
+                let done = match stop {
+                    StopCriterion::DualityGap(tol) => self.relative_gap(tau) <= tol,
+                    StopCriterion::ObjectiveChange(tol) => {
+                        (f_prev - f).abs() <= tol * f_prev.abs().max(f64::MIN_POSITIVE)
+                    }
+                };
+                if done {
+                    return;
+                }
+            }
+        }
+    }
+}
+
+/// Number of non-zero entries.
+#[must_use]
+pub fn nnz(x: &[f64]) -> usize {
+    x.iter().filter(|v| **v != 0.0).count()
+}
+
+/// Debiasing: least squares on the support of `x`,
+/// `min_z ||y - A_S z||` by conjugate gradients on the normal equations,
+/// warm-started at `x_S`, until the squared gradient norm drops below
+/// `tol` times its initial value or after `max_iter` iterations. Entries
+/// outside the support stay zero. Returns the number of CG iterations.
+pub fn debias<A: LinearOperator + ?Sized>(
+    a: &A,
+    y: &[f64],
+    x: &mut [f64],
+    tol: f64,
+    max_iter: usize,
+) -> usize {
+    let support: Vec<usize> = (0..x.len()).filter(|&k| x[k] != 0.0).collect();
+    if support.is_empty() {
+        return 0;
+    }
+    let m = a.rows();
+    let mut ax = vec![0.0; m];
+    a.apply(x, &mut ax);
+    let mut r: Vec<f64> = y.iter().zip(&ax).map(|(y, v)| y - v).collect();
+    let s = support.len();
+    let mut g = vec![0.0; s];
+    a.apply_adjoint_subset(&r, &support, &mut g);
+    let mut p = g.clone();
+    let mut gg = dot(&g, &g);
+    let g0 = gg;
+    let mut full = vec![0.0; x.len()];
+    let mut q = vec![0.0; m];
+    let mut iters = 0;
+    while iters < max_iter && gg > tol * g0 && gg > 0.0 {
+        for (k, &i) in support.iter().enumerate() {
+            full[i] = p[k];
+        }
+        a.apply(&full, &mut q);
+        let qq = dot(&q, &q);
+        if qq <= 0.0 {
+            break;
+        }
+        let step = gg / qq;
+        for (k, &i) in support.iter().enumerate() {
+            x[i] += step * p[k];
+        }
+        for (rv, qv) in r.iter_mut().zip(&q) {
+            *rv -= step * qv;
+        }
+        a.apply_adjoint_subset(&r, &support, &mut g);
+        let gg_new = dot(&g, &g);
+        let beta = gg_new / gg;
+        gg = gg_new;
+        for (pv, gv) in p.iter_mut().zip(&g) {
+            *pv = gv + beta * *pv;
+        }
+        iters += 1;
+    }
+    iters
+}
+
+/// SpaRSA with continuation and optional debiasing (see the [module docs](self)).
+///
+/// ```
+/// use ifd_planar::sparsa::{sparsa, DenseOperator, SparsaOptions};
+/// // An orthogonal A: the exact answer is soft-thresholding of A^T y.
+/// let a = DenseOperator::new(2, 2, vec![0.6, 0.8, -0.8, 0.6]);
+/// let y = [1.0, 2.0]; // A^T y = (-1.0, 2.0)
+/// let opts = SparsaOptions { tau: 0.5, ..SparsaOptions::default() };
+/// let out = sparsa(&a, &y, None, &opts, &mut |_, _, _| {});
+/// assert!((out.x[0] + 0.5).abs() < 1e-3 && (out.x[1] - 1.5).abs() < 1e-3);
+/// ```
+///
+/// # Panics
+/// When `y` or `x0` have the wrong length.
+pub fn sparsa<A: LinearOperator + ?Sized>(
+    a: &A,
+    y: &[f64],
+    x0: Option<&[f64]>,
+    opts: &SparsaOptions,
+    progress: &mut dyn FnMut(usize, f64, usize),
+) -> SparsaOutput {
+    let mut s = Sparsa::new(a, y, x0);
+    let tau = opts.tau.max(0.0);
+    if opts.continuation {
+        loop {
+            let tau_k = tau.max(0.2 * s.max_correlation());
+            if tau_k <= tau || s.iterations() >= opts.max_iter {
+                break;
+            }
+            let left = opts.max_iter - s.iterations();
+            s.solve_stage(
+                tau_k,
+                StopCriterion::ObjectiveChange(1e-5),
+                1,
+                left,
+                progress,
+            );
+        }
+    }
+    let left = opts.max_iter.saturating_sub(s.iterations());
+    s.solve_stage(tau, opts.stop, opts.min_iter, left, progress);
+    let objective = s.objective(tau);
+    let iterations = s.iterations();
+    let mut x = s.x;
+    let debias_iterations = if opts.debias {
+        debias(a, y, &mut x, 1e-4, 200)
+    } else {
+        0
+    };
+    SparsaOutput {
+        x,
+        objective,
+        iterations,
+        debias_iterations,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A deterministic pseudo-random generator (xorshift), values in [-1, 1).
+    fn rng(seed: &mut u64) -> f64 {
+        *seed ^= *seed << 13;
+        *seed ^= *seed >> 7;
+        *seed ^= *seed << 17;
+        (*seed >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+
+    fn random_problem(m: usize, n: usize, seed: u64) -> (DenseOperator, Vec<f64>) {
+        let mut s = seed;
+        let data: Vec<f64> = (0..m * n).map(|_| rng(&mut s)).collect();
+        let a = DenseOperator::new(m, n, data);
+        let mut x = vec![0.0; n];
+        for k in (0..n).step_by(7) {
+            x[k] = 3.0 * rng(&mut s);
+        }
+        let mut y = vec![0.0; m];
+        a.apply(&x, &mut y);
+        for v in &mut y {
+            *v += 0.01 * rng(&mut s);
+        }
+        (a, y)
+    }
+
+    #[test]
+    fn kkt_conditions_hold_on_a_dense_problem() {
+        let (a, y) = random_problem(40, 100, 12345);
+        let mut aty = vec![0.0; 100];
+        a.apply_adjoint(&y, &mut aty);
+        let tau = 0.1 * norm_inf(&aty);
+        let opts = SparsaOptions {
+            tau,
+            stop: StopCriterion::DualityGap(1e-8),
+            ..SparsaOptions::default()
+        };
+        let out = sparsa(&a, &y, None, &opts, &mut |_, _, _| {});
+        // KKT: (A^T r)_i = tau sign(x_i) on the support, |(A^T r)_i| <= tau off it.
+        let mut ax = vec![0.0; 40];
+        a.apply(&out.x, &mut ax);
+        let r: Vec<f64> = y.iter().zip(&ax).map(|(y, v)| y - v).collect();
+        let mut atr = vec![0.0; 100];
+        a.apply_adjoint(&r, &mut atr);
+        assert!(nnz(&out.x) > 0);
+        for (xi, gi) in out.x.iter().zip(&atr) {
+            if *xi != 0.0 {
+                assert!((gi - tau * xi.signum()).abs() < 1e-3 * tau, "{gi} vs {tau}");
+            } else {
+                assert!(gi.abs() <= tau * (1.0 + 1e-3), "{gi} > {tau}");
+            }
+        }
+    }
+
+    #[test]
+    fn orthogonal_operator_gives_soft_thresholding() {
+        // A Householder reflection H = I - 2 v v^T / |v|^2 is orthogonal.
+        let n = 16;
+        let mut s = 99u64;
+        let v: Vec<f64> = (0..n).map(|_| rng(&mut s)).collect();
+        let vv = dot(&v, &v);
+        let mut h = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                h[i * n + j] = f64::from(u8::from(i == j)) - 2.0 * v[i] * v[j] / vv;
+            }
+        }
+        let a = DenseOperator::new(n, n, h);
+        let y: Vec<f64> = (0..n).map(|_| 2.0 * rng(&mut s)).collect();
+        let mut aty = vec![0.0; n];
+        a.apply_adjoint(&y, &mut aty);
+        let tau = 0.4;
+        let opts = SparsaOptions {
+            tau,
+            stop: StopCriterion::DualityGap(1e-10),
+            ..SparsaOptions::default()
+        };
+        let out = sparsa(&a, &y, None, &opts, &mut |_, _, _| {});
+        for (xi, bi) in out.x.iter().zip(&aty) {
+            assert!(
+                (xi - soft(*bi, tau)).abs() < 1e-6,
+                "{xi} vs {}",
+                soft(*bi, tau)
+            );
+        }
+    }
+
+    #[test]
+    fn debiasing_solves_least_squares_on_the_support() {
+        let (a, y) = random_problem(60, 30, 777);
+        let mut aty = vec![0.0; 30];
+        a.apply_adjoint(&y, &mut aty);
+        let opts = SparsaOptions {
+            tau: 0.05 * norm_inf(&aty),
+            debias: true,
+            ..SparsaOptions::default()
+        };
+        let out = sparsa(&a, &y, None, &opts, &mut |_, _, _| {});
+        let support: Vec<usize> = (0..30).filter(|&k| out.x[k] != 0.0).collect();
+        assert!(!support.is_empty());
+        // Normal equations on the support: A_S^T (y - A x) = 0.
+        let mut ax = vec![0.0; 60];
+        a.apply(&out.x, &mut ax);
+        let r: Vec<f64> = y.iter().zip(&ax).map(|(y, v)| y - v).collect();
+        let mut g = vec![0.0; support.len()];
+        a.apply_adjoint_subset(&r, &support, &mut g);
+        assert!(norm_inf(&g) < 1e-4 * norm_inf(&aty), "{g:?}");
+    }
+
+    #[test]
+    fn zero_solution_above_tau_max_and_progress_is_called() {
+        let (a, y) = random_problem(10, 20, 5);
+        let mut aty = vec![0.0; 20];
+        a.apply_adjoint(&y, &mut aty);
+        let opts = SparsaOptions {
+            tau: 1.01 * norm_inf(&aty),
+            ..SparsaOptions::default()
+        };
+        let mut calls = 0;
+        let out = sparsa(&a, &y, None, &opts, &mut |_, _, _| calls += 1);
+        assert_eq!(nnz(&out.x), 0);
+        assert!(calls >= 1);
+    }
+}

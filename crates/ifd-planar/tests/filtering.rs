@@ -1,0 +1,547 @@
+//! Prefiltering and IFD evaluation against the brute-force references.
+//!
+//! Run with `--nocapture` to see the measured PSNRs.
+
+use ifd_image::Image;
+use ifd_planar::reference::{correlate, correlate_varying, sample_kernel};
+use ifd_planar::{
+    Border, Decomposition, Field, Filter, FilterError, ScaleStack, StackOptions, Term,
+    stack_for_decomposition,
+};
+use proptest::prelude::*;
+
+const BORDERS: [Border; 4] = [
+    Border::Reflect101,
+    Border::Replicate,
+    Border::Wrap,
+    Border::Constant(0.25),
+];
+
+/// Deterministic pseudo-random numbers in [0, 1).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// A test image in [0, 1]: smooth shading, hard-edged shapes, stripes and mild noise.
+fn test_image(w: usize, h: usize, c: usize, seed: u64) -> Image {
+    let mut rng = Rng(seed | 1);
+    let mut data = Vec::with_capacity(w * h * c);
+    for y in 0..h {
+        for x in 0..w {
+            for ch in 0..c {
+                let (xf, yf) = (x as f32, y as f32);
+                let mut v = 0.3 + 0.2 * (0.11 * xf + 0.07 * yf + ch as f32).sin();
+                let (dx, dy) = (xf - 0.4 * w as f32, yf - 0.55 * h as f32);
+                if dx * dx + dy * dy < (0.2 * w as f32).powi(2) {
+                    v += 0.3;
+                }
+                if (x / 7 + y / 11) % 3 == ch % 3 {
+                    v += 0.15;
+                }
+                v += 0.05 * rng.next();
+                data.push(v.clamp(0.0, 1.0));
+            }
+        }
+    }
+    Image::from_vec(w, h, c, data).expect("valid image")
+}
+
+fn psnr(a: &Image, b: &Image) -> f64 {
+    assert!(a.same_shape(b));
+    let mse = a
+        .data()
+        .iter()
+        .zip(b.data())
+        .map(|(x, y)| (f64::from(*x) - f64::from(*y)).powi(2))
+        .sum::<f64>()
+        / a.data().len() as f64;
+    10.0 * (1.0 / mse.max(1e-30)).log10()
+}
+
+fn max_abs_diff(a: &Image, b: &Image) -> f32 {
+    a.data()
+        .iter()
+        .zip(b.data())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
+}
+
+/// A realistic anisotropic kernel (about 4:1): a line of sigma-2 Gaussians
+/// weighted by a Gaussian profile, plus a small negative side lobe and a
+/// finer atom off-axis so several sigmas are involved.
+fn anisotropic_decomposition() -> Decomposition {
+    let mut terms = Vec::new();
+    let mut total = 0.0;
+    for i in -10..=10 {
+        let x = 2.0 * f64::from(i);
+        let w = (-(x * x) / (2.0 * 8.0 * 8.0)).exp();
+        total += w;
+        terms.push(Term {
+            weight: w,
+            x,
+            y: 0.0,
+            sigma: 2.0,
+        });
+    }
+    for t in &mut terms {
+        t.weight /= total;
+    }
+    terms.push(Term {
+        weight: -0.08,
+        x: 0.0,
+        y: 4.0,
+        sigma: 3.0,
+    });
+    terms.push(Term {
+        weight: 0.05,
+        x: 5.0,
+        y: -3.0,
+        sigma: 1.2,
+    });
+    Decomposition::from_terms(terms)
+}
+
+/// A few displaced Gaussians of varied sigma.
+fn small_decomposition() -> Decomposition {
+    Decomposition::from_terms(vec![
+        Term {
+            weight: 0.6,
+            x: -2.0,
+            y: 1.0,
+            sigma: 1.0,
+        },
+        Term {
+            weight: 0.3,
+            x: 3.0,
+            y: 0.5,
+            sigma: 1.6,
+        },
+        Term {
+            weight: -0.2,
+            x: 0.0,
+            y: -3.0,
+            sigma: 2.4,
+        },
+        Term {
+            weight: 0.3,
+            x: 1.5,
+            y: 2.5,
+            sigma: 1.3,
+        },
+    ])
+}
+
+fn kernel_radius(d: &Decomposition, s: f64) -> usize {
+    d.terms
+        .iter()
+        .map(|t| s * (t.x.hypot(t.y) + 6.0 * t.sigma))
+        .fold(0.0, f64::max)
+        .ceil() as usize
+}
+
+/// Direct sum of the sampled Gaussian against the border-extended image at one point.
+fn brute_gauss_at(img: &Image, border: Border, sigma: f64, px: i64, py: i64, ch: usize) -> f64 {
+    let r = (7.0 * sigma).ceil() as i64;
+    let mut acc = 0.0;
+    for dy in -r..=r {
+        for dx in -r..=r {
+            let g = (-((dx * dx + dy * dy) as f64) / (2.0 * sigma * sigma)).exp()
+                / (2.0 * std::f64::consts::PI * sigma * sigma);
+            let v = match (
+                border.resolve(px + dx, img.width()),
+                border.resolve(py + dy, img.height()),
+            ) {
+                (Some(x), Some(y)) => img.get(x, y, ch),
+                _ => border.constant(),
+            };
+            acc += g * f64::from(v);
+        }
+    }
+    acc
+}
+
+#[test]
+fn stack_levels_match_brute_force_gaussian() {
+    let img = test_image(40, 33, 3, 7);
+    for border in BORDERS {
+        let stack = ScaleStack::new(
+            &img,
+            0.5,
+            12.0,
+            border,
+            StackOptions {
+                margin: 6,
+                ..StackOptions::default()
+            },
+        )
+        .expect("stack");
+        let mut worst_grid = 0.0f64;
+        let mut worst_any = 0.0f64;
+        for l in stack.level_layouts() {
+            let step = l.step as i64;
+            // Points inside, on the margin and far outside the image.
+            for py in (-9..42).step_by(3) {
+                for px in (-8..48).step_by(5) {
+                    let v = stack
+                        .sample(px as f32, py as f32, l.sigma)
+                        .expect("covered sigma");
+                    for (ch, &got) in v.iter().enumerate() {
+                        let want = brute_gauss_at(&img, border, l.sigma, px, py, ch);
+                        let err = (f64::from(got) - want).abs();
+                        let in_margin = (-6..=39 + 6).contains(&px) && (-6..=32 + 6).contains(&py);
+                        let exact_mode = matches!(border, Border::Reflect101 | Border::Wrap);
+                        if px % step == 0 && py % step == 0 && (in_margin || exact_mode) {
+                            worst_grid = worst_grid.max(err);
+                        }
+                        if in_margin || exact_mode {
+                            worst_any = worst_any.max(err);
+                        }
+                    }
+                }
+            }
+        }
+        eprintln!(
+            "{border}: levels {}, max error on stored samples {worst_grid:.2e}, anywhere {worst_any:.2e}",
+            stack.sigmas().len()
+        );
+        assert!(
+            worst_grid < 2e-5,
+            "{border}: stored samples off by {worst_grid}"
+        );
+        // Off-grid samples of subsampled levels are bilinear interpolations.
+        assert!(
+            worst_any < 2e-2,
+            "{border}: interpolated samples off by {worst_any}"
+        );
+    }
+}
+
+#[test]
+fn stack_sample_errors() {
+    let img = test_image(16, 16, 1, 3);
+    let stack = ScaleStack::new(&img, 1.0, 4.0, Border::Reflect101, StackOptions::default())
+        .expect("stack");
+    assert!(matches!(
+        stack.sample(1.0, 1.0, 5.0),
+        Err(FilterError::SigmaOutOfRange { .. })
+    ));
+    assert!(stack.sample(1.0, 1.0, 0.5).is_err());
+    assert!(stack.sample(f32::NAN, 1.0, 2.0).is_err());
+    let msg = stack.sample(1.0, 1.0, 5.0).err().map(|e| e.to_string());
+    assert!(msg.is_some_and(|m| m.contains("sigma 5")));
+    // Interpolating in log sigma between levels stays between them.
+    let a = stack.sample(5.0, 5.0, stack.sigmas()[2]).expect("ok")[0];
+    let b = stack.sample(5.0, 5.0, stack.sigmas()[3]).expect("ok")[0];
+    let mid = stack
+        .sample(5.0, 5.0, (stack.sigmas()[2] * stack.sigmas()[3]).sqrt())
+        .expect("ok")[0];
+    assert!((mid - 0.5 * (a + b)).abs() < 1e-5);
+    // NaN pixels and empty images.
+    let mut bad = img.clone();
+    bad.set(3, 4, 0, f32::NAN);
+    let e = ScaleStack::new(&bad, 1.0, 4.0, Border::Reflect101, StackOptions::default());
+    assert!(matches!(e, Err(FilterError::NonFinite { x: 3, y: 4, .. })));
+    let e = ScaleStack::from_interleaved(
+        0,
+        4,
+        1,
+        &[],
+        1.0,
+        2.0,
+        Border::Wrap,
+        StackOptions::default(),
+    );
+    assert!(matches!(e, Err(FilterError::EmptyImage { .. })));
+    let e = ScaleStack::new(&img, 1.0, 1e7, Border::Wrap, StackOptions::default());
+    assert!(matches!(e, Err(FilterError::InvalidRange(_))));
+    assert!(stack.bytes() > 0);
+}
+
+#[test]
+fn constant_filter_matches_brute_force_each_border() {
+    let img = test_image(72, 60, 3, 11);
+    let d = anisotropic_decomposition();
+    for border in BORDERS {
+        for (theta, s) in [(30.0f32, 1.0f32), (-75.0, 1.5), (0.0, 0.7)] {
+            let stack = stack_for_decomposition(&img, &d, s, s, border, StackOptions::default())
+                .expect("stack");
+            let out = Filter::new(&stack, &d)
+                .expect("filter")
+                .apply(Field::Constant(theta), Field::Constant(s))
+                .expect("apply");
+            let r = kernel_radius(&d, f64::from(s));
+            let k = sample_kernel(|u, v| d.eval(u, v), f64::from(theta), f64::from(s), r);
+            let want = correlate(&img, &k, 2 * r + 1, 2 * r + 1, border).expect("reference");
+            let p = psnr(&out, &want);
+            eprintln!(
+                "constant filter, {border}, theta {theta}, s {s}: PSNR {p:.1} dB, max error {:.2e}",
+                max_abs_diff(&out, &want)
+            );
+            assert!(p >= 40.0, "{border} theta {theta} s {s}: PSNR {p:.1} dB");
+        }
+    }
+}
+
+#[test]
+fn filter_at_matches_whole_image() {
+    let img = test_image(40, 30, 2, 5);
+    let d = small_decomposition();
+    let stack = stack_for_decomposition(
+        &img,
+        &d,
+        0.8,
+        2.0,
+        Border::Reflect101,
+        StackOptions::default(),
+    )
+    .expect("stack");
+    let f = Filter::new(&stack, &d).expect("filter");
+    let out = f
+        .apply(Field::Constant(20.0), Field::Constant(1.3))
+        .expect("apply");
+    for (x, y) in [(0, 0), (5, 7), (39, 29), (20, 3)] {
+        let v = f
+            .filter_at(x as f32, y as f32, 20.0, 1.3)
+            .expect("filter_at");
+        for (ch, &got) in v.iter().enumerate() {
+            assert!((got - out.get(x, y, ch)).abs() < 1e-5);
+        }
+    }
+    assert!(matches!(
+        f.filter_at(1.0, 1.0, 0.0, 10.0),
+        Err(FilterError::ScaleOutOfRange { .. })
+    ));
+    assert!(f.filter_at(1.0, 1.0, f32::NAN, 1.0).is_err());
+}
+
+fn angle_field(w: usize, h: usize) -> Vec<f32> {
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
+            150.0 * x + 60.0 * (std::f32::consts::PI * y).sin() - 40.0
+        })
+        .collect()
+}
+
+#[test]
+fn varying_angle_matches_brute_force() {
+    let (w, h) = (64, 56);
+    let img = test_image(w, h, 1, 21);
+    let d = anisotropic_decomposition();
+    let angles = angle_field(w, h);
+    let r = kernel_radius(&d, 1.0);
+    let want = correlate_varying(
+        &img,
+        r,
+        Field::Map(&angles),
+        Field::Constant(1.0),
+        Border::Reflect101,
+        |u, v| d.eval(u, v),
+    )
+    .expect("reference");
+    let stack = stack_for_decomposition(
+        &img,
+        &d,
+        1.0,
+        1.0,
+        Border::Reflect101,
+        StackOptions::default(),
+    )
+    .expect("stack");
+    let out = Filter::new(&stack, &d)
+        .expect("filter")
+        .apply(Field::Map(&angles), Field::Constant(1.0))
+        .expect("apply");
+    let p = psnr(&out, &want);
+    eprintln!(
+        "varying angle: PSNR {p:.1} dB, max error {:.2e}",
+        max_abs_diff(&out, &want)
+    );
+    assert!(p >= 40.0, "PSNR {p:.1} dB");
+}
+
+#[test]
+fn varying_angle_and_scale_matches_brute_force() {
+    let (w, h) = (48, 40);
+    let img = test_image(w, h, 2, 33);
+    let d = small_decomposition();
+    let angles = angle_field(w, h);
+    let scales: Vec<f32> = (0..w * h)
+        .map(|i| 0.8 + 1.2 * (i / w) as f32 / h as f32 + 0.3 * (i % w) as f32 / w as f32)
+        .collect();
+    let r = kernel_radius(&d, 2.3);
+    let want = correlate_varying(
+        &img,
+        r,
+        Field::Map(&angles),
+        Field::Map(&scales),
+        Border::Reflect101,
+        |u, v| d.eval(u, v),
+    )
+    .expect("reference");
+    let stack = stack_for_decomposition(
+        &img,
+        &d,
+        0.8,
+        2.3,
+        Border::Reflect101,
+        StackOptions::default(),
+    )
+    .expect("stack");
+    let out = Filter::new(&stack, &d)
+        .expect("filter")
+        .apply(Field::Map(&angles), Field::Map(&scales))
+        .expect("apply");
+    let p = psnr(&out, &want);
+    eprintln!(
+        "varying angle and scale: PSNR {p:.1} dB, max error {:.2e}",
+        max_abs_diff(&out, &want)
+    );
+    assert!(p >= 40.0, "PSNR {p:.1} dB");
+}
+
+#[test]
+fn filter_errors() {
+    let img = test_image(20, 10, 1, 1);
+    let d = small_decomposition();
+    let stack = stack_for_decomposition(
+        &img,
+        &d,
+        1.0,
+        2.0,
+        Border::Reflect101,
+        StackOptions::default(),
+    )
+    .expect("stack");
+    let f = Filter::new(&stack, &d).expect("filter");
+    let e = f.apply(Field::Map(&[0.0; 199]), Field::Constant(1.0));
+    assert!(matches!(
+        e,
+        Err(FilterError::MapSize {
+            len: 199,
+            expected: 200,
+            ..
+        })
+    ));
+    let mut scales = vec![1.5f32; 200];
+    scales[47] = 3.5;
+    let e = f.apply(Field::Constant(0.0), Field::Map(&scales));
+    let msg = e.err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(msg.contains("scale 3.5") && msg.contains("(7, 2)"), "{msg}");
+    scales[47] = -1.0;
+    assert!(matches!(
+        f.apply(Field::Constant(0.0), Field::Map(&scales)),
+        Err(FilterError::InvalidValue { .. })
+    ));
+    let mut angles = vec![0.0f32; 200];
+    angles[3] = f32::NAN;
+    assert!(f.apply(Field::Map(&angles), Field::Constant(1.0)).is_err());
+    assert!(Filter::new(&stack, &Decomposition::from_terms(vec![])).is_err());
+    let bad = Decomposition::from_terms(vec![Term {
+        weight: 1.0,
+        x: 0.0,
+        y: 0.0,
+        sigma: -1.0,
+    }]);
+    assert!(matches!(
+        Filter::new(&stack, &bad),
+        Err(FilterError::InvalidTerm { index: 0, .. })
+    ));
+}
+
+/// Rotates an interleaved image 90 degrees counter-clockwise on screen:
+/// `g(y, w - 1 - x) = f(x, y)`.
+fn rot90(data: &[f32], w: usize, h: usize, c: usize) -> Vec<f32> {
+    let mut out = vec![0.0; data.len()];
+    for y in 0..h {
+        for x in 0..w {
+            let (gx, gy) = (y, w - 1 - x);
+            for ch in 0..c {
+                out[(gy * h + gx) * c + ch] = data[(y * w + x) * c + ch];
+            }
+        }
+    }
+    out
+}
+
+fn no_pyramid() -> StackOptions {
+    StackOptions {
+        pyramid_factor: f64::INFINITY,
+        ..StackOptions::default()
+    }
+}
+
+fn border_strategy() -> impl Strategy<Value = Border> {
+    prop_oneof![
+        Just(Border::Reflect101),
+        Just(Border::Replicate),
+        Just(Border::Wrap),
+        (-1.0f32..1.0).prop_map(Border::Constant),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn filtering_is_linear(
+        w in 8usize..20,
+        h in 8usize..20,
+        seed in 1u64..1000,
+        a in -2.0f32..2.0,
+        b in -2.0f32..2.0,
+        theta in -180.0f32..180.0,
+        s in 0.8f32..1.6,
+        border in border_strategy(),
+    ) {
+        let f = test_image(w, h, 2, seed);
+        let g = test_image(w, h, 2, seed + 17);
+        let d = small_decomposition();
+        // Linearity holds for a zero constant border only (the constant is not scaled).
+        let border = if let Border::Constant(_) = border { Border::Constant(0.0) } else { border };
+        let mix: Vec<f32> = f.data().iter().zip(g.data()).map(|(x, y)| a * x + b * y).collect();
+        let mix = Image::from_vec(w, h, 2, mix).expect("image");
+        let run = |img: &Image| {
+            let stack = stack_for_decomposition(img, &d, 0.8, 1.6, border, StackOptions::default()).expect("stack");
+            Filter::new(&stack, &d).expect("filter").apply(Field::Constant(theta), Field::Constant(s)).expect("apply")
+        };
+        let (ff, fg, fm) = (run(&f), run(&g), run(&mix));
+        for ((x, y), m) in ff.data().iter().zip(fg.data()).zip(fm.data()) {
+            prop_assert!((a * x + b * y - m).abs() < 1e-4 * (1.0 + m.abs()));
+        }
+    }
+
+    #[test]
+    fn rotating_image_and_angle_field_commutes(
+        w in 6usize..18,
+        h in 6usize..18,
+        seed in 1u64..1000,
+        theta0 in -180.0f32..180.0,
+        slope in -20.0f32..20.0,
+        s in 0.8f32..1.5,
+        border in border_strategy(),
+    ) {
+        let c = 2;
+        let f = test_image(w, h, c, seed);
+        let d = small_decomposition();
+        let angles: Vec<f32> = (0..w * h).map(|i| theta0 + slope * (i % w) as f32 - 0.5 * slope * (i / w) as f32).collect();
+        let run = |img: &Image, angles: &[f32]| {
+            let stack = stack_for_decomposition(img, &d, s, s, border, no_pyramid()).expect("stack");
+            Filter::new(&stack, &d).expect("filter").apply(Field::Map(angles), Field::Constant(s)).expect("apply")
+        };
+        let out = run(&f, &angles);
+        let g = Image::from_vec(h, w, c, rot90(f.data(), w, h, c)).expect("image");
+        let g_angles: Vec<f32> = rot90(&angles, w, h, 1).iter().map(|a| a + 90.0).collect();
+        let out_g = run(&g, &g_angles);
+        let want = rot90(out.data(), w, h, c);
+        for (x, y) in want.iter().zip(out_g.data()) {
+            prop_assert!((x - y).abs() < 2e-4, "{} vs {}", x, y);
+        }
+    }
+}

@@ -1,0 +1,106 @@
+#!/usr/bin/env bash
+# The whole ifd test suite, set-up included. Safe to re-run: every step that
+# installs something skips itself when already done.
+#
+#   1. Debian packages (software Vulkan, Xvfb and the X11/EGL libraries the GPU
+#      and GUI tests need), when missing and when running as root.
+#   2. A Python virtual environment in .venv with the reference libraries
+#      (reused when tests/python/requirements.txt has not changed).
+#   3. cargo fmt --check, cargo clippy --all-targets -D warnings, cargo test.
+#   4. The reference comparisons in tests/python (pytest; scikit-image, OpenCV,
+#      SciPy, pyshtools, ducc0 against the `ifd` binary).
+# It ends with one line `N passed, M failed` and exits non-zero on any failure.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+LOG_DIR=${IFD_TEST_LOG_DIR:-$ROOT/tests/artifacts}
+mkdir -p "$LOG_DIR"
+passed=0
+failed=0
+failures=()
+start=$(date +%s)
+
+step() { printf '\n==> %s\n' "$*"; }
+ok() { passed=$((passed + ${2:-1})); echo "ok: $1"; }
+fail() { failed=$((failed + ${2:-1})); failures+=("$1"); echo "FAILED: $1"; }
+
+APT_PACKAGES=(mesa-vulkan-drivers libvulkan1 xvfb xauth libxkbcommon-x11-0 libxkbcommon0
+  libx11-6 libx11-xcb1 libxcursor1 libxi6 libgl1-mesa-dri libegl1 libegl-mesa0 libgl1
+  libwayland-client0 x11-apps)
+
+step "Debian packages"
+missing=()
+for p in "${APT_PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "all present"
+elif [ "$(id -u)" -eq 0 ]; then
+  echo "installing: ${missing[*]}"
+  if (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}") >"$LOG_DIR/apt.log" 2>&1; then
+    ok "apt packages"
+  else
+    tail -20 "$LOG_DIR/apt.log"
+    fail "apt packages (see $LOG_DIR/apt.log)"
+  fi
+else
+  echo "warning: not root, cannot install: ${missing[*]}"
+fi
+
+step "Python virtual environment (.venv)"
+PY=${PYTHON:-python3}
+REQ=tests/python/requirements.txt
+STAMP=.venv/.requirements.sha256
+want=$(sha256sum "$REQ" | cut -d' ' -f1)
+if [ ! -x .venv/bin/python ] || [ "$(cat "$STAMP" 2>/dev/null)" != "$want" ]; then
+  if "$PY" -m venv .venv >"$LOG_DIR/pip.log" 2>&1 &&
+    .venv/bin/pip install -q --upgrade pip >>"$LOG_DIR/pip.log" 2>&1 &&
+    .venv/bin/pip install -q -r "$REQ" >>"$LOG_DIR/pip.log" 2>&1; then
+    echo "$want" >"$STAMP"
+    ok "python venv"
+  else
+    tail -20 "$LOG_DIR/pip.log"
+    fail "python venv (see $LOG_DIR/pip.log)"
+  fi
+else
+  echo "up to date"
+fi
+
+step "cargo fmt --check"
+if cargo fmt --all -- --check >"$LOG_DIR/fmt.log" 2>&1; then ok "fmt"; else head -40 "$LOG_DIR/fmt.log"; fail "cargo fmt"; fi
+
+step "cargo clippy --all-targets -- -D warnings"
+if cargo clippy --workspace --all-targets --quiet -- -D warnings >"$LOG_DIR/clippy.log" 2>&1; then
+  ok "clippy"
+else
+  grep -E '^(error|warning)' -A5 "$LOG_DIR/clippy.log" | head -60
+  fail "cargo clippy"
+fi
+
+step "cargo test"
+cargo test --workspace --no-fail-fast 2>&1 | tee "$LOG_DIR/cargo-test.log" | grep -E '^(test result|error|failures:|    [a-z_:]+$)|FAILED|panicked' || true
+cargo_status=${PIPESTATUS[0]}
+read -r cp cf < <(awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } } END { print p + 0, f + 0 }' "$LOG_DIR/cargo-test.log")
+passed=$((passed + cp))
+failed=$((failed + cf))
+if [ "$cargo_status" -ne 0 ] && [ "$cf" -eq 0 ]; then fail "cargo test (build or harness failure, see $LOG_DIR/cargo-test.log)"; fi
+[ "$cf" -gt 0 ] && failures+=("$cf cargo tests")
+
+step "reference comparisons (pytest tests/python)"
+if cargo build --quiet -p ifd-cli >"$LOG_DIR/build-cli.log" 2>&1; then
+  .venv/bin/python -m pytest -q -p no:cacheprovider tests/python 2>&1 | tee "$LOG_DIR/pytest.log" | tail -25
+  read -r pp pf < <(awk '/ passed| failed| error/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p = $i; if ($(i+1) ~ /^(failed|errors?)/) f += $i } } END { print p + 0, f + 0 }' <(tail -1 "$LOG_DIR/pytest.log"))
+  passed=$((passed + pp))
+  failed=$((failed + pf))
+  [ "$pf" -gt 0 ] && failures+=("$pf python reference tests")
+  [ "$pp" -eq 0 ] && [ "$pf" -eq 0 ] && fail "pytest ran no test"
+else
+  tail -20 "$LOG_DIR/build-cli.log"
+  fail "building the ifd binary"
+fi
+
+echo
+echo "took $(( $(date +%s) - start )) s"
+for f in "${failures[@]}"; do echo "failed: $f"; done
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]

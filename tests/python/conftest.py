@@ -1,0 +1,60 @@
+"""Shared fixtures: the `ifd` binary, the bundled test data, a scratch folder."""
+
+import json
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+TESTDATA = ROOT / "testdata"
+
+
+def _binary() -> pathlib.Path:
+    if "IFD_BIN" in os.environ:
+        return pathlib.Path(os.environ["IFD_BIN"])
+    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
+    return target / "debug" / "ifd"
+
+
+@pytest.fixture(scope="session")
+def ifd_bin() -> pathlib.Path:
+    b = _binary()
+    if not b.exists():
+        pytest.fail(f"{b} not built: run `cargo build -p ifd-cli` first")
+    return b
+
+
+@pytest.fixture(scope="session")
+def run_ifd(ifd_bin):
+    """Runs `ifd ARGS...`; returns the CompletedProcess (text mode)."""
+
+    def run(*args, check=True):
+        p = subprocess.run([str(ifd_bin), *map(str, args)], capture_output=True, text=True)
+        if check and p.returncode != 0:
+            raise AssertionError(f"ifd {' '.join(map(str, args))} failed ({p.returncode}):\n{p.stderr}")
+        return p
+
+    return run
+
+
+@pytest.fixture(scope="session")
+def run_json(run_ifd):
+    def run(*args):
+        return json.loads(run_ifd(*args).stdout)
+
+    return run
+
+
+def load_gray(name: str) -> np.ndarray:
+    import skimage.io
+
+    img = skimage.io.imread(TESTDATA / name)
+    return img.astype(np.float64) / 255.0
+
+
+def save_npy(path, arr) -> pathlib.Path:
+    np.save(path, np.asarray(arr, dtype=np.float32))
+    return pathlib.Path(path)
