@@ -29,6 +29,16 @@ enum Command {
     Filter(commands::filter::Filter),
     /// Write a synthetic per-pixel angle or scale field (.npy).
     Field(commands::field::FieldCmd),
+    /// Convert an image between formats (PNG, JPEG, TIFF, EXR, HDR, NPY).
+    Convert(commands::convert::Convert),
+    /// Print an image's size, channels, format and value range.
+    Info(commands::info::Info),
+    /// Hessian (Hxx, Hxy, Hyy) of an image at a scale, computed with IFD.
+    Hessian(commands::hessian::Hessian),
+    /// Edge-respecting anisotropic smoothing driven by the image Hessian.
+    Smooth(commands::smooth::Smooth),
+    /// Spherical harmonics, SH rotation and isotropic spherical decompositions.
+    Sphere(commands::sphere::Sphere),
 }
 
 fn main() -> ExitCode {
@@ -38,6 +48,11 @@ fn main() -> ExitCode {
         Command::Decompose(c) => c.run(),
         Command::Filter(c) => c.run(),
         Command::Field(c) => c.run(),
+        Command::Sphere(c) => c.run(),
+        Command::Convert(c) => c.run(),
+        Command::Info(c) => c.run(),
+        Command::Hessian(c) => c.run(),
+        Command::Smooth(c) => c.run(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -47,3 +62,4 @@ fn main() -> ExitCode {
         }
     }
 }
+

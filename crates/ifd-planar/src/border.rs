@@ -1,6 +1,6 @@
 //! Border modes: how an image is extended beyond its edges.
 //!
-//! The names and semantics follow OpenCV's `BorderTypes`. For an image row
+//! The names and semantics follow `OpenCV`'s `BorderTypes`. For an image row
 //! `abcdefgh` the extensions are:
 //!
 //! | mode | left extension | `|` image `|` | right extension |
@@ -35,15 +35,15 @@ use crate::filter::FilterError;
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Border {
     /// Mirror without repeating the edge pixel: `gfedcb|abcdefgh|gfedcba`
-    /// (OpenCV `BORDER_REFLECT_101` = `BORDER_DEFAULT`, scipy `'mirror'`).
+    /// (`OpenCV` `BORDER_REFLECT_101` = `BORDER_DEFAULT`, scipy `'mirror'`).
     #[default]
     Reflect101,
     /// A constant value outside the image: `vvvvvv|abcdefgh|vvvvvvv`
-    /// (OpenCV `BORDER_CONSTANT`).
+    /// (`OpenCV` `BORDER_CONSTANT`).
     Constant(f32),
-    /// The edge pixel repeated: `aaaaaa|abcdefgh|hhhhhhh` (OpenCV `BORDER_REPLICATE`).
+    /// The edge pixel repeated: `aaaaaa|abcdefgh|hhhhhhh` (`OpenCV` `BORDER_REPLICATE`).
     Replicate,
-    /// Periodic: `cdefgh|abcdefgh|abcdefg` (OpenCV `BORDER_WRAP`).
+    /// Periodic: `cdefgh|abcdefgh|abcdefg` (`OpenCV` `BORDER_WRAP`).
     Wrap,
 }
 
@@ -106,6 +106,18 @@ impl Border {
             Border::Reflect101 => {
                 if n <= 1 {
                     return 0.0;
+                }
+                // One reflection suffices for most lookups; fall back to the
+                // periodic reduction only far outside.
+                let once = if x < 0.0 {
+                    -x
+                } else if x > last {
+                    2.0 * last - x
+                } else {
+                    x
+                };
+                if (0.0..=last).contains(&once) {
+                    return once;
                 }
                 let period = 2.0 * last;
                 let r = x.rem_euclid(period);
@@ -195,7 +207,7 @@ mod tests {
         );
         // 1_000_000 mod 14 = 8 -> g, 9 -> f, 10 -> e.
         assert_eq!(ext(Border::Reflect101, 1_000_000, 1_000_003), "gfe");
-        assert_eq!(ext(Border::Wrap, -17, -13), "hab");
+        assert_eq!(ext(Border::Wrap, -17, -13), "habc");
         assert_eq!(Border::Wrap.resolve(-17, 8), Some(7));
         assert_eq!(Border::Replicate.resolve(i64::MIN / 2, 8), Some(0));
         // A single pixel reflects onto itself.

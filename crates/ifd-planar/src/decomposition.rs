@@ -1,6 +1,29 @@
 //! The result of decomposing a filter: a list of weighted, displaced isotropic
 //! Gaussians (Eq. 2 of the IFD paper), and its file format.
 //!
+//! # Why rotated and scaled filters cost one lookup per term
+//! Let `k(d) = sum_t w_t g_{sigma_t}(d - c_t)` and
+//! `k_{theta,s}(d) = k(R_{-theta} d / s) / s^2` (the crate convention). For one term,
+//! using `R_{-theta} d / s - c = R_{-theta} (d - s R_theta c) / s`, the isotropy
+//! `g_sigma(R u) = g_sigma(u)` and the scaling `g_sigma(u / s) / s^2 = g_{s sigma}(u)`:
+//!
+//! ```text
+//! g_sigma(R_{-theta} d / s - c) / s^2 = g_sigma((d - s R_theta c) / s) / s^2
+//!                                     = g_{s sigma}(d - s R_theta c),
+//! ```
+//!
+//! so `k_{theta,s}(d) = sum_t w_t g_{s sigma_t}(d - s R_theta c_t)`: the same
+//! weights, atoms widened by `s`, centres rotated and scaled. Correlating an
+//! image `f` with it, and using the symmetry `g(-u) = g(u)`,
+//!
+//! ```text
+//! out(p) = sum_q k_{theta,s}(q - p) f(q)
+//!        = sum_t w_t sum_q g_{s sigma_t}(q - p - s R_theta c_t) f(q)
+//!        = sum_t w_t fhat_{s sigma_t}(p + s R_theta c_t),   fhat_sigma = f (*) g_sigma,
+//! ```
+//!
+//! one lookup per term into the scale stack `fhat` (Eq. 3 of the paper).
+//!
 //! # File format
 //! JSON, versioned and self-describing:
 //!
@@ -228,7 +251,7 @@ impl Decomposition {
             }
         }
         if let Some(k) = &repr.kernel
-            && (k.width % 2 == 0 || k.height % 2 == 0)
+            && (k.width.is_multiple_of(2) || k.height.is_multiple_of(2))
         {
             return Err(invalid(
                 "kernel".into(),
@@ -305,6 +328,7 @@ impl Decomposition {
 }
 
 #[cfg(test)]
+#[expect(clippy::unwrap_used, reason = "tests fail loudly on unexpected errors")]
 mod tests {
     use super::*;
 

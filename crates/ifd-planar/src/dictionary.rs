@@ -141,12 +141,8 @@ pub fn feature_width(kernel: &Kernel) -> f64 {
         }
     }
     // Pixels at the left/top border see a zero neighbour too.
-    for row in 0..h {
-        g += d[row * w].powi(2);
-    }
-    for col in 0..w {
-        g += d[col].powi(2);
-    }
+    g += (0..h).map(|row| d[row * w].powi(2)).sum::<f64>();
+    g += d[..w].iter().map(|v| v * v).sum::<f64>();
     if g <= 0.0 {
         return f64::INFINITY;
     }
@@ -275,7 +271,8 @@ impl DictionaryParams {
     /// The level (1-based) that an atom of width `sigma` belongs to.
     #[must_use]
     pub fn level_of(&self, sigma: f64) -> usize {
-        let l = 1.0 + (self.sigma(1) * 1.000_001 / sigma).log2().floor();
+        // Level l holds the widths sigma_l 2^(j/n), j = 0..n-1, in (sigma_{l-1}, sigma_l].
+        let l = 1.0 + ((self.sigma(1) / sigma).log2() - 1e-6).ceil();
         (l.max(1.0) as usize).min(self.levels.max(1))
     }
 
@@ -313,7 +310,9 @@ impl Profile {
             .map(|u| c * (-(u as f64 - centre).powi(2) / (2.0 * sigma * sigma)).exp())
             .collect();
         let norm = vals.iter().map(|v| v * v).sum::<f64>().sqrt();
-        vals.iter_mut().for_each(|v| *v /= norm);
+        for v in &mut vals {
+            *v /= norm;
+        }
         Self {
             start: lo,
             vals,
@@ -324,6 +323,19 @@ impl Profile {
     fn end(&self) -> usize {
         self.start + self.vals.len()
     }
+}
+
+fn profile_dot(a: &Profile, b: &Profile) -> f64 {
+    let lo = a.start.max(b.start);
+    let hi = a.end().min(b.end());
+    if lo >= hi {
+        return 0.0;
+    }
+    a.vals[lo - a.start..hi - a.start]
+        .iter()
+        .zip(&b.vals[lo - b.start..hi - b.start])
+        .map(|(u, v)| u * v)
+        .sum()
 }
 
 /// One width with its grid.
@@ -344,7 +356,7 @@ impl Group {
     }
 }
 
-/// The MoG dictionary for one kernel size, as a [`LinearOperator`] from unit-norm
+/// The `MoG` dictionary for one kernel size, as a [`LinearOperator`] from unit-norm
 /// atom coefficients to kernel samples (row-major, the kernel's layout).
 #[derive(Clone, Debug)]
 pub struct Dictionary {
@@ -441,14 +453,7 @@ impl Dictionary {
     /// When `k >= self.len()`.
     #[must_use]
     pub fn atom(&self, k: usize) -> Atom {
-        let g = self
-            .groups
-            .iter()
-            .rev()
-            .find(|g| g.offset <= k)
-            .expect("atom index below the first group offset");
-        let local = k - g.offset;
-        let (j, i) = (local / g.xs.len(), local % g.xs.len());
+        let (g, j, i) = self.locate(k);
         Atom {
             x: g.xs[i],
             y: g.ys[j],
@@ -456,6 +461,54 @@ impl Dictionary {
             level: g.level,
             norm: g.px[i].norm * g.py[j].norm,
         }
+    }
+
+    fn locate(&self, k: usize) -> (&Group, usize, usize) {
+        let g = self
+            .groups
+            .iter()
+            .rev()
+            .find(|g| g.offset <= k)
+            .expect("atom index below the first group offset");
+        let local = k - g.offset;
+        (g, local / g.xs.len(), local % g.xs.len())
+    }
+
+    /// The Gram matrix `A_S^T A_S` of the (unit-norm) atoms `idx`, row-major
+    /// `s x s`. Separable: `<a_p, a_q> = <gx_p, gx_q> <gy_p, gy_q>`, so each
+    /// entry costs two 1D dot products over the overlap of the bands.
+    ///
+    /// # Panics
+    /// When an index is out of range.
+    #[must_use]
+    pub fn gram(&self, idx: &[usize]) -> Vec<f64> {
+        let s = idx.len();
+        let prof: Vec<(&Profile, &Profile)> = idx
+            .iter()
+            .map(|&k| {
+                let (g, j, i) = self.locate(k);
+                (&g.px[i], &g.py[j])
+            })
+            .collect();
+        let mut out = vec![0.0; s * s];
+        out.par_chunks_mut(s.max(1))
+            .enumerate()
+            .for_each(|(p, row)| {
+                for q in 0..=p {
+                    let gx = profile_dot(prof[p].0, prof[q].0);
+                    row[q] = if gx == 0.0 {
+                        0.0
+                    } else {
+                        gx * profile_dot(prof[p].1, prof[q].1)
+                    };
+                }
+            });
+        for p in 0..s {
+            for q in 0..p {
+                out[q * s + p] = out[p * s + q];
+            }
+        }
+        out
     }
 
     /// The terms (kernel weights) of unit-norm coefficients `x` (zeros dropped).
@@ -603,14 +656,7 @@ impl LinearOperator for Dictionary {
     fn apply_adjoint_subset(&self, r: &[f64], idx: &[usize], out: &mut [f64]) {
         let w = self.width;
         out.par_iter_mut().zip(idx).for_each(|(o, &k)| {
-            let g = self
-                .groups
-                .iter()
-                .rev()
-                .find(|g| g.offset <= k)
-                .expect("atom index below the first group offset");
-            let local = k - g.offset;
-            let (j, i) = (local / g.xs.len(), local % g.xs.len());
+            let (g, j, i) = self.locate(k);
             let (px, py) = (&g.px[i], &g.py[j]);
             let mut s = 0.0;
             for (rr, &gy) in (py.start..py.end()).zip(&py.vals) {
@@ -661,6 +707,24 @@ mod tests {
         d.apply_adjoint_subset(&r, &idx, &mut sub);
         for (s, &k) in sub.iter().zip(&idx) {
             assert!((s - atr[k]).abs() < 1e-12);
+        }
+        // Gram entries against explicit columns.
+        let cols: Vec<Vec<f64>> = idx
+            .iter()
+            .map(|&k| {
+                let mut e = vec![0.0; d.len()];
+                e[k] = 1.0;
+                let mut c = vec![0.0; d.rows()];
+                d.apply(&e, &mut c);
+                c
+            })
+            .collect();
+        let g = d.gram(&idx);
+        for p in 0..3 {
+            for q in 0..3 {
+                let dot: f64 = cols[p].iter().zip(&cols[q]).map(|(a, b)| a * b).sum();
+                assert!((g[p * 3 + q] - dot).abs() < 1e-12, "{p} {q}");
+            }
         }
     }
 

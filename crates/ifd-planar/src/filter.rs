@@ -157,6 +157,29 @@ impl Field<'_> {
         }
     }
 
+    /// `(min, max)` of the finite values (for sizing a stack from a scale
+    /// map); `None` when there are none.
+    ///
+    /// ```
+    /// use ifd_planar::Field;
+    /// assert_eq!(Field::Map(&[1.5, 0.5, 2.0]).range(), Some((0.5, 2.0)));
+    /// assert_eq!(Field::Constant(3.0).range(), Some((3.0, 3.0)));
+    /// ```
+    #[must_use]
+    pub fn range(&self) -> Option<(f32, f32)> {
+        let values: &[f32] = match self {
+            Field::Constant(v) => std::slice::from_ref(v),
+            Field::Map(m) => m,
+        };
+        values
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold(None, |acc, &v| match acc {
+                None => Some((v, v)),
+                Some((lo, hi)) => Some((v.min(lo), v.max(hi))),
+            })
+    }
+
     /// Checks the size and values; returns `(min, max)`.
     ///
     /// `positive` additionally requires values `> 0` (scales).
@@ -338,24 +361,13 @@ impl<'a> Filter<'a> {
                     .enumerate()
                     .for_each(|(y, row)| self.row_constant(&taps, y, row));
             }
-            (angle, Field::Constant(s)) => {
-                let levels = self.term_levels(s);
-                out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
-                    for (x, acc) in row.chunks_exact_mut(c).enumerate() {
-                        let (sin, cos) = angle.at(y * w + x).to_radians().sin_cos();
-                        self.pixel_rotated(&levels, x as f32, y as f32, cos * s, sin * s, acc);
-                    }
-                });
-            }
-            (angle, scale) => {
-                out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
-                    for (x, acc) in row.chunks_exact_mut(c).enumerate() {
-                        let i = y * w + x;
-                        let (sin, cos) = angle.at(i).to_radians().sin_cos();
-                        self.pixel_general(x as f32, y as f32, cos, sin, scale.at(i), acc);
-                    }
-                });
-            }
+            (angle, scale) => match c {
+                1 => self.per_pixel::<1>(angle, scale, &mut out),
+                2 => self.per_pixel::<2>(angle, scale, &mut out),
+                3 => self.per_pixel::<3>(angle, scale, &mut out),
+                4 => self.per_pixel::<4>(angle, scale, &mut out),
+                _ => self.per_pixel::<0>(angle, scale, &mut out),
+            },
         }
         Image::from_vec(w, h, c, out).map_err(|e| FilterError::Shape(e.to_string()))
     }
@@ -408,7 +420,7 @@ impl<'a> Filter<'a> {
         self.check_scales(s, s, &Field::Constant(s))?;
         out.fill(0.0);
         let (sin, cos) = theta.to_radians().sin_cos();
-        self.pixel_general(x, y, cos, sin, s, out);
+        self.pixel_general::<0>(x, y, cos, sin, s, out);
         Ok(())
     }
 
@@ -511,49 +523,109 @@ impl<'a> Filter<'a> {
         }
     }
 
+    /// Per-pixel angle and/or scale over the whole image. `C` is the channel
+    /// count when it is 1 to 4 (accumulators in registers), 0 for any count.
+    fn per_pixel<const C: usize>(&self, angle: Field<'_>, scale: Field<'_>, out: &mut [f32]) {
+        let (w, c) = (self.stack.width(), self.stack.channels());
+        let constant_scale = match scale {
+            Field::Constant(s) => Some((s, self.term_levels(s))),
+            Field::Map(_) => None,
+        };
+        out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+            for (x, px) in row.chunks_exact_mut(c).enumerate() {
+                let i = y * w + x;
+                let (sin, cos) = angle.at(i).to_radians().sin_cos();
+                let (xf, yf) = (x as f32, y as f32);
+                match &constant_scale {
+                    Some((s, levels)) => {
+                        self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, px);
+                    }
+                    None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), px),
+                }
+            }
+        });
+    }
+
     /// One pixel with constant scale (levels precomputed) and a per-pixel
-    /// rotation; `cs = s cos theta`, `ss = s sin theta`.
+    /// rotation; `cs = s cos theta`, `ss = s sin theta`. Adds into `out`.
     #[inline]
-    fn pixel_rotated(
+    fn pixel_rotated<const C: usize>(
         &self,
         levels: &[(usize, usize, f32, f32)],
         x: f32,
         y: f32,
         cs: f32,
         ss: f32,
-        acc: &mut [f32],
+        out: &mut [f32],
     ) {
+        let mut acc = [0.0f32; C];
         for (t, &(a, b, wa, wb)) in self.terms.iter().zip(levels) {
             let px = x + cs * t.cx + ss * t.cy;
             let py = y - ss * t.cx + cs * t.cy;
-            self.stack.accumulate(a, px, py, wa, acc);
+            self.add::<C>(a, px, py, wa, &mut acc, out);
             if wb != 0.0 {
-                self.stack.accumulate(b, px, py, wb, acc);
+                self.add::<C>(b, px, py, wb, &mut acc, out);
             }
+        }
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o += a;
         }
     }
 
-    /// One pixel, everything per pixel.
+    /// Adds `weight *` the bilinear lookup of level `li` to `acc` when
+    /// `C > 0`, else to `out`.
     #[inline]
-    fn pixel_general(&self, x: f32, y: f32, cos: f32, sin: f32, s: f32, acc: &mut [f32]) {
+    fn add<const C: usize>(
+        &self,
+        li: usize,
+        x: f32,
+        y: f32,
+        weight: f32,
+        acc: &mut [f32; C],
+        out: &mut [f32],
+    ) {
+        if C == 0 {
+            self.stack.accumulate(li, x, y, weight, out);
+        } else {
+            self.stack.accumulate_fixed::<C>(li, x, y, weight, acc);
+        }
+    }
+
+    /// One pixel, everything per pixel. Adds into `out`.
+    #[inline]
+    fn pixel_general<const C: usize>(
+        &self,
+        x: f32,
+        y: f32,
+        cos: f32,
+        sin: f32,
+        s: f32,
+        out: &mut [f32],
+    ) {
         let (ln0, inv) = self.stack.ln_params();
         let last = self.stack.sigmas().len() - 1;
         let t_s = (f64::from(s).ln() - ln0) * inv;
         let cs = cos * s;
         let ss = sin * s;
+        let mut acc = [0.0f32; C];
         for t in &self.terms {
             let px = x + cs * t.cx + ss * t.cy;
             let py = y - ss * t.cx + cs * t.cy;
             if last == 0 {
-                self.stack.accumulate(0, px, py, t.weight, acc);
+                self.add::<C>(0, px, py, t.weight, &mut acc, out);
                 continue;
             }
             let u = (t_s + t.ln_sigma * inv).clamp(0.0, last as f64);
             let a = (u as usize).min(last - 1);
             let f = (u - a as f64) as f32;
-            self.stack.accumulate(a, px, py, t.weight * (1.0 - f), acc);
+            self.add::<C>(a, px, py, t.weight * (1.0 - f), &mut acc, out);
             if f != 0.0 {
-                self.stack.accumulate(a + 1, px, py, t.weight * f, acc);
+                self.add::<C>(a + 1, px, py, t.weight * f, &mut acc, out);
+            }
+        }
+        if C > 0 {
+            for (o, a) in out.iter_mut().zip(acc) {
+                *o += a;
             }
         }
     }

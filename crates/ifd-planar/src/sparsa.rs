@@ -1,4 +1,4 @@
-//! SpaRSA (Wright, Nowak and Figueiredo, *Sparse Reconstruction by Separable
+//! `SpaRSA` (Wright, Nowak and Figueiredo, *Sparse Reconstruction by Separable
 //! Approximation*, IEEE TSP 2009) for the l1-regularised least-squares problem
 //!
 //! ```text
@@ -95,7 +95,7 @@ impl LinearOperator for DenseOperator {
     }
 }
 
-/// When a SpaRSA stage stops.
+/// When a `SpaRSA` stage stops.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum StopCriterion {
     /// Relative duality gap `(P - D) / P` at or below the value.
@@ -141,7 +141,7 @@ pub struct SparsaOutput {
     pub x: Vec<f64>,
     /// `F(x)` before debiasing.
     pub objective: f64,
-    /// SpaRSA iterations over all stages.
+    /// `SpaRSA` iterations over all stages.
     pub iterations: usize,
     /// Conjugate-gradient iterations of the debiasing.
     pub debias_iterations: usize,
@@ -172,7 +172,7 @@ fn soft(v: f64, t: f64) -> f64 {
     }
 }
 
-/// A SpaRSA solver state: the iterate `x`, the residual `r = y - A x` and
+/// A `SpaRSA` solver state: the iterate `x`, the residual `r = y - A x` and
 /// `A^T r`, kept between stages so that continuation warm-starts.
 pub struct Sparsa<'a, A: LinearOperator + ?Sized> {
     a: &'a A,
@@ -253,7 +253,7 @@ impl<'a, A: LinearOperator + ?Sized> Sparsa<'a, A> {
         }
     }
 
-    /// Runs SpaRSA iterations at a fixed `tau` until `stop` holds (after at
+    /// Runs `SpaRSA` iterations at a fixed `tau` until `stop` holds (after at
     /// least `min_iter` iterations) or `max_iter` more iterations were done.
     /// Calls `progress(total_iterations, objective, nnz)` after each iteration.
     pub fn solve_stage(
@@ -393,7 +393,7 @@ pub fn debias<A: LinearOperator + ?Sized>(
     iters
 }
 
-/// SpaRSA with continuation and optional debiasing (see the [module docs](self)).
+/// `SpaRSA` with continuation and optional debiasing (see the [module docs](self)).
 ///
 /// ```
 /// use ifd_planar::sparsa::{sparsa, DenseOperator, SparsaOptions};
@@ -498,10 +498,10 @@ mod tests {
         a.apply_adjoint(&r, &mut atr);
         assert!(nnz(&out.x) > 0);
         for (xi, gi) in out.x.iter().zip(&atr) {
-            if *xi != 0.0 {
-                assert!((gi - tau * xi.signum()).abs() < 1e-3 * tau, "{gi} vs {tau}");
-            } else {
+            if *xi == 0.0 {
                 assert!(gi.abs() <= tau * (1.0 + 1e-3), "{gi} > {tau}");
+            } else {
+                assert!((gi - tau * xi.signum()).abs() < 1e-3 * tau, "{gi} vs {tau}");
             }
         }
     }
@@ -549,7 +549,10 @@ mod tests {
             debias: true,
             ..SparsaOptions::default()
         };
-        let out = sparsa(&a, &y, None, &opts, &mut |_, _, _| {});
+        let mut out = sparsa(&a, &y, None, &opts, &mut |_, _, _| {});
+        assert!(out.debias_iterations > 0);
+        // The default debiasing stops at a 1e-4 reduction of |g|^2; go all the way here.
+        debias(&a, &y, &mut out.x, 1e-24, 500);
         let support: Vec<usize> = (0..30).filter(|&k| out.x[k] != 0.0).collect();
         assert!(!support.is_empty());
         // Normal equations on the support: A_S^T (y - A x) = 0.
@@ -558,7 +561,7 @@ mod tests {
         let r: Vec<f64> = y.iter().zip(&ax).map(|(y, v)| y - v).collect();
         let mut g = vec![0.0; support.len()];
         a.apply_adjoint_subset(&r, &support, &mut g);
-        assert!(norm_inf(&g) < 1e-4 * norm_inf(&aty), "{g:?}");
+        assert!(norm_inf(&g) < 1e-9 * norm_inf(&aty), "{g:?}");
     }
 
     #[test]

@@ -290,7 +290,7 @@ fn next_smooth(n: usize) -> usize {
     loop {
         let mut r = m;
         for p in [2, 3, 5, 7] {
-            while r % p == 0 {
+            while r.is_multiple_of(p) {
                 r /= p;
             }
         }
@@ -506,8 +506,7 @@ impl ScaleStack {
     ///
     /// # Errors
     /// [`FilterError::SigmaOutOfRange`] when `sigma` is not covered,
-    /// [`FilterError::NonFinite`]-like [`FilterError::InvalidParameter`] for
-    /// non-finite coordinates.
+    /// [`FilterError::InvalidParameter`] for non-finite coordinates.
     pub fn sample(&self, x: f32, y: f32, sigma: f64) -> Result<Vec<f32>, FilterError> {
         let mut out = vec![0.0; self.channels];
         self.sample_into(x, y, sigma, &mut out)?;
@@ -553,39 +552,85 @@ impl ScaleStack {
 
     /// Adds `weight *` bilinear sample of level `li` at full-resolution
     /// `(x, y)` to `acc` (one value per channel).
-    #[inline]
+    #[expect(clippy::inline_always, reason = "the hot path of filtering; measured")]
+    #[inline(always)]
     pub(crate) fn accumulate(&self, li: usize, x: f32, y: f32, weight: f32, acc: &mut [f32]) {
         let level = &self.levels[li];
         let u = (x - level.origin) * level.inv_step;
         let v = (y - level.origin) * level.inv_step;
-        let iu = u.floor();
-        let iv = v.floor();
-        let nx = level.layout.nx;
-        let ny = level.layout.ny;
-        if iu >= 0.0 && iv >= 0.0 && (iu as usize) + 1 < nx && (iv as usize) + 1 < ny {
-            let fu = u - iu;
-            let fv = v - iv;
-            let c = self.channels;
-            let i00 = ((iv as usize) * nx + iu as usize) * c;
-            let i10 = i00 + nx * c;
-            let d = &level.data;
-            let w00 = weight * (1.0 - fu) * (1.0 - fv);
-            let w01 = weight * fu * (1.0 - fv);
-            let w10 = weight * (1.0 - fu) * fv;
-            let w11 = weight * fu * fv;
-            for (k, a) in acc.iter_mut().enumerate() {
-                *a += w00 * d[i00 + k]
-                    + w01 * d[i00 + c + k]
-                    + w10 * d[i10 + k]
-                    + w11 * d[i10 + c + k];
+        // For non-negative values truncation is floor (and avoids a libm call
+        // on baseline x86-64).
+        if u >= 0.0 && v >= 0.0 {
+            // (Huge values saturate and fail the range test below.)
+            let (iu, iv) = (u as i32 as usize, v as i32 as usize);
+            let (nx, ny) = (level.layout.nx, level.layout.ny);
+            if iu + 1 < nx && iv + 1 < ny {
+                let fu = u - iu as f32;
+                let fv = v - iv as f32;
+                let c = self.channels;
+                let i00 = (iv * nx + iu) * c;
+                let i10 = i00 + nx * c;
+                let d = &level.data;
+                if c == 1 {
+                    let (a0, a1) = (d[i00], d[i00 + 1]);
+                    let (b0, b1) = (d[i10], d[i10 + 1]);
+                    let r0 = a0 + fu * (a1 - a0);
+                    let r1 = b0 + fu * (b1 - b0);
+                    acc[0] += weight * (r0 + fv * (r1 - r0));
+                    return;
+                }
+                let top = &d[i00..i00 + 2 * c];
+                let bottom = &d[i10..i10 + 2 * c];
+                for (k, a) in acc.iter_mut().enumerate() {
+                    let r0 = top[k] + fu * (top[c + k] - top[k]);
+                    let r1 = bottom[k] + fu * (bottom[c + k] - bottom[k]);
+                    *a += weight * (r0 + fv * (r1 - r0));
+                }
+                return;
             }
-        } else {
-            self.accumulate_outside(level, x, y, weight, acc);
         }
+        self.accumulate_outside(level, x, y, weight, acc);
+    }
+
+    /// As [`Self::accumulate`] for a compile-time channel count `C` (the
+    /// accumulator stays in registers).
+    #[expect(clippy::inline_always, reason = "the hot path of filtering; measured")]
+    #[inline(always)]
+    pub(crate) fn accumulate_fixed<const C: usize>(
+        &self,
+        li: usize,
+        x: f32,
+        y: f32,
+        weight: f32,
+        acc: &mut [f32; C],
+    ) {
+        let level = &self.levels[li];
+        let u = (x - level.origin) * level.inv_step;
+        let v = (y - level.origin) * level.inv_step;
+        if u >= 0.0 && v >= 0.0 {
+            let (iu, iv) = (u as i32 as usize, v as i32 as usize);
+            let (nx, ny) = (level.layout.nx, level.layout.ny);
+            if iu + 1 < nx && iv + 1 < ny {
+                let fu = u - iu as f32;
+                let fv = v - iv as f32;
+                let i00 = (iv * nx + iu) * C;
+                let i10 = i00 + nx * C;
+                let top = &level.data[i00..i00 + 2 * C];
+                let bottom = &level.data[i10..i10 + 2 * C];
+                for k in 0..C {
+                    let r0 = top[k] + fu * (top[C + k] - top[k]);
+                    let r1 = bottom[k] + fu * (bottom[C + k] - bottom[k]);
+                    acc[k] += weight * (r0 + fv * (r1 - r0));
+                }
+                return;
+            }
+        }
+        self.accumulate_outside(level, x, y, weight, acc.as_mut_slice());
     }
 
     /// Slow path of [`Self::accumulate`]: the 2x2 footprint leaves the stored region.
     #[cold]
+    #[inline(never)]
     fn accumulate_outside(&self, level: &Level, x: f32, y: f32, weight: f32, acc: &mut [f32]) {
         let step = level.layout.step as f32;
         let lo = level.origin;
@@ -675,6 +720,9 @@ fn gaussian_transfer(sigma: f64, n: usize, planner: &mut FftPlanner<f64>) -> Vec
     buf.iter().map(|c| c.re as f32).collect()
 }
 
+/// A planned FFT.
+type FftPlan = Arc<dyn Fft<f32>>;
+
 /// In-place FFT of every consecutive `len`-long row of `data`, in parallel.
 fn fft_rows(data: &mut [Complex32], len: usize, fft: &Arc<dyn Fft<f32>>) {
     let rows_per_task = (1usize << 15).div_ceil(len).max(1);
@@ -728,7 +776,7 @@ fn build_levels(layout: &StackLayout, data: &[f32], border: Border, levels: &mut
             )
         })
         .collect();
-    let inverse: Vec<(Arc<dyn Fft<f32>>, Arc<dyn Fft<f32>>)> = layout
+    let inverse: Vec<(FftPlan, FftPlan)> = layout
         .levels
         .iter()
         .map(|l| {

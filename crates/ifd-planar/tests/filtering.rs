@@ -545,3 +545,67 @@ proptest! {
         }
     }
 }
+
+/// CPU seconds used by this process so far (user + system), from `/proc/self/stat`.
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let after = stat.rsplit(')').next().unwrap_or_default();
+    let fields: Vec<&str> = after.split_whitespace().collect();
+    let ticks: f64 = fields
+        .get(11..13)
+        .map(|f| f.iter().filter_map(|v| v.parse::<f64>().ok()).sum())
+        .unwrap_or(0.0);
+    ticks / 100.0
+}
+
+/// Cost per lookup in CPU time (robust to a machine shared with other jobs;
+/// the criterion bench reports wall time). `cargo test -p ifd-planar --release
+/// --test filtering -- --ignored --nocapture timing_probe`
+#[test]
+#[ignore = "timing, not a check"]
+fn timing_probe() {
+    let (w, h) = (512, 512);
+    let img = test_image(w, h, 1, 3);
+    let angles = angle_field(w, h);
+    let d = anisotropic_decomposition();
+    let stack = stack_for_decomposition(
+        &img,
+        &d,
+        1.0,
+        2.0,
+        Border::Reflect101,
+        StackOptions::default(),
+    )
+    .expect("stack");
+    let f = Filter::new(&stack, &d).expect("filter");
+    let scales: Vec<f32> = (0..w * h)
+        .map(|i| 1.0 + (i % w) as f32 / w as f32)
+        .collect();
+    for (name, angle, scale) in [
+        (
+            "constant angle+scale",
+            Field::Constant(30.0),
+            Field::Constant(1.3),
+        ),
+        ("per-pixel angle", Field::Map(&angles), Field::Constant(1.3)),
+        (
+            "per-pixel angle+scale",
+            Field::Map(&angles),
+            Field::Map(&scales),
+        ),
+    ] {
+        let reps = 10;
+        let t0 = cpu_seconds();
+        for _ in 0..reps {
+            std::hint::black_box(f.apply(angle, scale).expect("apply"));
+        }
+        let cpu = (cpu_seconds() - t0) / f64::from(reps);
+        let lookups = (w * h * f.len()) as f64;
+        eprintln!(
+            "{name}: {:.1} ms CPU per 512x512 image, {} terms, {:.2} ns CPU per term lookup",
+            cpu * 1e3,
+            f.len(),
+            cpu * 1e9 / lookups
+        );
+    }
+}

@@ -1,6 +1,11 @@
 //! One module per subcommand, each a clap struct with a `run` method.
 
 pub mod compare;
+pub mod convert;
 pub mod decompose;
 pub mod field;
 pub mod filter;
+pub mod sphere;
+pub mod hessian;
+pub mod info;
+pub mod smooth;

@@ -1,0 +1,242 @@
+//! Prefiltering and IFD filtering benchmarks.
+//!
+//! `cargo bench -p ifd-planar --bench filtering`. Groups:
+//! - `prefilter`: scale stack of a 1024x1024 single-channel image over sigma
+//!   1..32 px at 4 levels per octave (throughput in pixels: time per megapixel).
+//! - `terms`: filtering a 256x256 image as a function of the number of terms
+//!   `s`, constant angle and scale, and per-pixel angle (throughput in
+//!   pixels; lookups/s = pixels/s * s, each lookup trilinear).
+//! - `extent`: spatially varying (smooth angle field) 8:1 anisotropic Gaussian
+//!   on a 1024x1024 image at kernel extents 31, 63, 127, 255. IFD filters the
+//!   whole image (prefiltering excluded, it is in `prefilter`); brute force
+//!   (`reference::correlate_varying_rows`, one closure call per tap) is timed
+//!   on a **sample of rows only** — the bench id says how many of the 1024
+//!   rows — so compare the reported throughputs (pixels/s), not the times.
+//!   The PSNR of IFD against brute force on those rows is printed at setup.
+//!
+//! Both sides use rayon's default thread count.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use ifd_image::Image;
+use ifd_planar::reference::correlate_varying_rows;
+use ifd_planar::{
+    Border, Decomposition, Field, Filter, ScaleStack, StackOptions, Term, stack_for_decomposition,
+};
+
+fn test_image(w: usize, h: usize) -> Image {
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let data = (0..w * h)
+        .map(|i| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let (x, y) = ((i % w) as f32, (i / w) as f32);
+            let noise = (state >> 40) as f32 / (1u64 << 24) as f32;
+            let disk = if (x - 400.0).hypot(y - 600.0) < 150.0 {
+                0.3
+            } else {
+                0.0
+            };
+            0.4 + 0.2 * (0.05 * x + 0.03 * y).sin() + disk + 0.05 * noise
+        })
+        .collect();
+    Image::from_vec(w, h, 1, data).expect("valid image")
+}
+
+/// An 8:1 anisotropic Gaussian along x with `sigma_x = 5`, `sigma_y = 0.625`
+/// (extent 31 = support of `+-3 sigma_x`): a line of isotropic Gaussians of
+/// sigma `sigma_y` at spacing `sigma_y`, weighted by a Gaussian profile.
+fn line_decomposition() -> (Decomposition, f64, f64) {
+    let (sx, sy) = (5.0f64, 0.625f64);
+    let profile = (sx * sx - sy * sy).sqrt();
+    let mut terms = Vec::new();
+    let n = (3.5 * sx / sy).ceil() as i32;
+    for i in -n..=n {
+        let x = f64::from(i) * sy;
+        terms.push(Term {
+            weight: (-(x * x) / (2.0 * profile * profile)).exp(),
+            x,
+            y: 0.0,
+            sigma: sy,
+        });
+    }
+    let total: f64 = terms.iter().map(|t| t.weight).sum();
+    for t in &mut terms {
+        t.weight /= total;
+    }
+    (Decomposition::from_terms(terms), sx, sy)
+}
+
+/// `s` displaced Gaussians of varied sigma spread over a 30 px disc.
+fn random_decomposition(s: usize) -> Decomposition {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    Decomposition::from_terms(
+        (0..s)
+            .map(|_| Term {
+                weight: next() - 0.3,
+                x: 30.0 * (next() - 0.5),
+                y: 30.0 * (next() - 0.5),
+                sigma: 1.0 + 4.0 * next(),
+            })
+            .collect(),
+    )
+}
+
+fn angle_field(w: usize, h: usize) -> Vec<f32> {
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
+            180.0 * x + 45.0 * (std::f32::consts::PI * y).sin()
+        })
+        .collect()
+}
+
+fn prefilter(c: &mut Criterion) {
+    let img = test_image(1024, 1024);
+    let mut g = c.benchmark_group("prefilter");
+    g.sample_size(10).measurement_time(Duration::from_secs(8));
+    g.throughput(Throughput::Elements(1024 * 1024));
+    g.bench_function("1024x1024x1_sigma_1_to_32_4_per_octave", |b| {
+        b.iter(|| {
+            ScaleStack::new(
+                black_box(&img),
+                1.0,
+                32.0,
+                Border::Reflect101,
+                StackOptions::default(),
+            )
+            .expect("stack")
+        });
+    });
+    g.finish();
+}
+
+fn terms(c: &mut Criterion) {
+    let (w, h) = (256, 256);
+    let img = test_image(w, h);
+    let angles = angle_field(w, h);
+    let mut g = c.benchmark_group("terms");
+    g.sample_size(10)
+        .measurement_time(Duration::from_secs(2))
+        .warm_up_time(Duration::from_millis(500));
+    g.throughput(Throughput::Elements((w * h) as u64));
+    for s in [4usize, 16, 64, 256] {
+        let d = random_decomposition(s);
+        let stack = stack_for_decomposition(
+            &img,
+            &d,
+            1.0,
+            1.0,
+            Border::Reflect101,
+            StackOptions::default(),
+        )
+        .expect("stack");
+        let f = Filter::new(&stack, &d).expect("filter");
+        g.bench_with_input(BenchmarkId::new("constant_angle", s), &s, |b, _| {
+            b.iter(|| {
+                f.apply(Field::Constant(30.0), Field::Constant(1.0))
+                    .expect("apply")
+            });
+        });
+        g.bench_with_input(BenchmarkId::new("per_pixel_angle", s), &s, |b, _| {
+            b.iter(|| {
+                f.apply(Field::Map(&angles), Field::Constant(1.0))
+                    .expect("apply")
+            });
+        });
+    }
+    g.finish();
+}
+
+fn psnr(a: &[f32], b: &[f32]) -> f64 {
+    let mse = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (f64::from(*x) - f64::from(*y)).powi(2))
+        .sum::<f64>()
+        / a.len() as f64;
+    10.0 * (1.0 / mse.max(1e-30)).log10()
+}
+
+fn extent(c: &mut Criterion) {
+    let (w, h) = (1024usize, 1024usize);
+    let img = test_image(w, h);
+    let angles = angle_field(w, h);
+    let (d, sx, sy) = line_decomposition();
+    let mut g = c.benchmark_group("extent");
+    g.sample_size(10)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_millis(500));
+    for extent in [31usize, 63, 127, 255] {
+        let s = (extent - 1) as f32 / 30.0;
+        let radius = (extent - 1) / 2;
+        let stack =
+            stack_for_decomposition(&img, &d, s, s, Border::Reflect101, StackOptions::default())
+                .expect("stack");
+        let f = Filter::new(&stack, &d).expect("filter");
+        g.throughput(Throughput::Elements((w * h) as u64));
+        g.bench_with_input(
+            BenchmarkId::new("ifd_full_image", extent),
+            &extent,
+            |b, _| {
+                b.iter(|| {
+                    f.apply(Field::Map(&angles), Field::Constant(s))
+                        .expect("apply")
+                });
+            },
+        );
+        // The analytic kernel: k(u, v) = exp(-(u^2/sx^2 + v^2/sy^2)/2) / (2 pi sx sy).
+        let (a, b) = (1.0 / (2.0 * sx * sx), 1.0 / (2.0 * sy * sy));
+        let norm = 1.0 / (2.0 * std::f64::consts::PI * sx * sy);
+        let kernel = move |u: f64, v: f64| norm * (-(a * u * u + b * v * v)).exp();
+        let rows = (64 * 31 * 31 / (extent * extent)).max(1);
+        let first = h / 2 - rows / 2;
+        let brute = || {
+            correlate_varying_rows(
+                &img,
+                radius,
+                Field::Map(&angles),
+                Field::Constant(s),
+                Border::Reflect101,
+                kernel,
+                first..first + rows,
+            )
+            .expect("reference")
+        };
+        // PSNR printed once, only when this bench is selected.
+        let report = std::sync::Once::new();
+        let check = || {
+            let want = brute();
+            let got = f
+                .apply(Field::Map(&angles), Field::Constant(s))
+                .expect("apply");
+            let p = psnr(&got.data()[first * w..(first + rows) * w], want.data());
+            eprintln!(
+                "extent {extent}: {} terms, IFD vs brute force on {rows} rows: PSNR {p:.1} dB",
+                f.len()
+            );
+        };
+        g.throughput(Throughput::Elements((w * rows) as u64));
+        g.bench_with_input(
+            BenchmarkId::new(format!("brute_force_{rows}_of_1024_rows"), extent),
+            &extent,
+            |bch, _| {
+                report.call_once(&check);
+                bch.iter(brute);
+            },
+        );
+    }
+    g.finish();
+}
+
+criterion_group!(benches, prefilter, terms, extent);
+criterion_main!(benches);

@@ -1,0 +1,221 @@
+//! Decompositions of anisotropic Gaussians tabulated over aspect ratio.
+//!
+//! Entry `i` is the decomposition of the Gaussian with standard deviations
+//! `sx = sigma_ref sqrt(a_i)`, `sy = sigma_ref / sqrt(a_i)` along `x` and `y`
+//! (`sx sy = sigma_ref^2`: every entry has the same footprint area, and an
+//! anisotropic Gaussian with `sx sy = S^2` attenuates white noise exactly as
+//! much as an isotropic one of sigma `S`, since `sum k^2 = 1 / (4 pi sx sy)`).
+//! The aspect ratios `a_i` are log-spaced from 1 to `max_aspect`.
+//!
+//! Between entries the weights are blended linearly in `log a`: filtering is
+//! linear, so `(1 - t) F_i + t F_{i+1}` is exactly the filter of the blended
+//! decomposition `(1 - t) D_i + t D_{i+1}` (the union of both term lists with
+//! scaled weights). The blended kernel is not exactly the Gaussian of the
+//! intermediate aspect ratio; [`AspectBank::blend_error`] measures by how much
+//! (see the tests and `docs/smoothing.md`).
+
+use std::path::Path;
+
+use ifd_planar::{DecomposeOptions, Decomposition, KernelSpec, Term, decompose};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{SmoothError, check_range};
+
+/// How to build an [`AspectBank`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BankOptions {
+    /// Largest tabulated aspect ratio (1..=16).
+    pub max_aspect: f64,
+    /// Entries per doubling of the aspect ratio.
+    pub steps_per_octave: usize,
+    /// Geometric-mean sigma of every entry, in pixels.
+    pub sigma_ref: f64,
+    /// Target relative L2 error of each decomposition.
+    pub tol: f64,
+}
+
+impl Default for BankOptions {
+    fn default() -> Self {
+        Self {
+            max_aspect: 16.0,
+            steps_per_octave: 2,
+            sigma_ref: 6.0,
+            tol: 0.01,
+        }
+    }
+}
+
+/// Decompositions of `gauss:sx=sigma_ref sqrt(a),sy=sigma_ref/sqrt(a)` for
+/// log-spaced aspect ratios `a`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AspectBank {
+    /// The options it was built with.
+    pub options: BankOptions,
+    /// The tabulated aspect ratios, increasing, starting at 1.
+    pub aspects: Vec<f64>,
+    /// One decomposition per aspect ratio (terms only).
+    pub terms: Vec<Vec<Term>>,
+}
+
+impl AspectBank {
+    /// Fits every entry; `progress(done, total)` after each.
+    ///
+    /// # Errors
+    /// [`SmoothError::OutOfRange`] for bad options, [`SmoothError::Decompose`]
+    /// when a fit fails.
+    pub fn build(
+        options: BankOptions,
+        mut progress: impl FnMut(usize, usize),
+    ) -> Result<Self, SmoothError> {
+        check_range("bank max aspect", options.max_aspect, 1.0, 16.0)?;
+        check_range("bank sigma_ref", options.sigma_ref, 2.0, 32.0)?;
+        check_range("bank tolerance", options.tol, 1e-4, 0.5)?;
+        check_range("bank steps per octave", options.steps_per_octave as f64, 1.0, 8.0)?;
+        let octaves = options.max_aspect.log2();
+        let n = (octaves * options.steps_per_octave as f64).ceil() as usize + 1;
+        let aspects: Vec<f64> = (0..n)
+            .map(|i| {
+                if n == 1 {
+                    1.0
+                } else {
+                    2f64.powf(octaves * i as f64 / (n - 1) as f64)
+                }
+            })
+            .collect();
+        let mut terms = Vec::with_capacity(n);
+        for (i, &a) in aspects.iter().enumerate() {
+            let spec_s = Self::spec(options.sigma_ref, a);
+            let kernel = spec_s.parse::<KernelSpec>()?.to_kernel()?;
+            let opts = DecomposeOptions {
+                tol: options.tol,
+                ..DecomposeOptions::default()
+            };
+            let d = decompose(&kernel, &opts, |_, _, _| {}).map_err(|source| {
+                SmoothError::Decompose {
+                    spec: spec_s.clone(),
+                    source,
+                }
+            })?;
+            terms.push(d.terms);
+            progress(i + 1, n);
+        }
+        Ok(Self {
+            options,
+            aspects,
+            terms,
+        })
+    }
+
+    /// The filter spec of the entry with aspect ratio `a`.
+    #[must_use]
+    pub fn spec(sigma_ref: f64, a: f64) -> String {
+        format!(
+            "gauss:sx={},sy={},theta=0",
+            sigma_ref * a.sqrt(),
+            sigma_ref / a.sqrt()
+        )
+    }
+
+    /// Index `i` and blend weight `t` for aspect ratio `a` (clamped to the
+    /// table): the filter is `(1 - t) D_i + t D_{i+1}`.
+    #[must_use]
+    pub fn locate(&self, a: f64) -> (usize, f64) {
+        let n = self.aspects.len();
+        if n < 2 || !a.is_finite() || a <= 1.0 {
+            return (0, 0.0);
+        }
+        let top = self.aspects[n - 1];
+        let la = a.min(top).ln();
+        let step = top.ln() / (n - 1) as f64;
+        let f = (la / step).clamp(0.0, (n - 1) as f64);
+        let i = (f.floor() as usize).min(n - 2);
+        (i, f - i as f64)
+    }
+
+    /// The blended decomposition for aspect ratio `a`.
+    #[must_use]
+    pub fn blended(&self, a: f64) -> Decomposition {
+        let (i, t) = self.locate(a);
+        let mut terms: Vec<Term> = self.terms[i]
+            .iter()
+            .map(|x| Term {
+                weight: x.weight * (1.0 - t),
+                ..*x
+            })
+            .collect();
+        if t > 0.0 {
+            terms.extend(self.terms[i + 1].iter().map(|x| Term {
+                weight: x.weight * t,
+                ..*x
+            }));
+        }
+        Decomposition::from_terms(terms)
+    }
+
+    /// Relative L2 error of the blended decomposition for aspect ratio `a`
+    /// against the exactly sampled Gaussian of that aspect ratio.
+    ///
+    /// # Errors
+    /// [`SmoothError::Kernel`] if the kernel cannot be sampled.
+    pub fn blend_error(&self, a: f64) -> Result<f64, SmoothError> {
+        let kernel = Self::spec(self.options.sigma_ref, a)
+            .parse::<KernelSpec>()?
+            .to_kernel()?;
+        let d = self.blended(a);
+        let (rx, ry) = (kernel.radius_x() as isize, kernel.radius_y() as isize);
+        let (mut num, mut den) = (0.0, 0.0);
+        for dy in -ry..=ry {
+            for dx in -rx..=rx {
+                let k = kernel.get(dx, dy);
+                let e = d.eval(dx as f64, dy as f64) - k;
+                num += e * e;
+                den += k * k;
+            }
+        }
+        Ok((num / den).sqrt())
+    }
+
+    /// Smallest and largest atom sigma over all entries.
+    #[must_use]
+    pub fn sigma_range(&self) -> (f64, f64) {
+        self.terms
+            .iter()
+            .flatten()
+            .map(|t| t.sigma)
+            .fold((f64::INFINITY, 0.0), |(lo, hi), s| (lo.min(s), hi.max(s)))
+    }
+
+    /// Writes the bank as JSON (atomically).
+    ///
+    /// # Errors
+    /// [`SmoothError::Image`] wrapping the write error.
+    pub fn save(&self, path: &Path) -> Result<(), SmoothError> {
+        let text = serde_json::to_string(self)
+            .map_err(|e| SmoothError::BadImage(format!("serialising the bank: {e}")))?;
+        ifd_image::atomic_write(path, |w| {
+            use std::io::Write;
+            w.write_all(text.as_bytes()).map_err(|e| e.to_string())
+        })?;
+        Ok(())
+    }
+
+    /// Reads a bank written by [`AspectBank::save`], checking it.
+    ///
+    /// # Errors
+    /// [`SmoothError::BadImage`] naming the file and the problem.
+    pub fn load(path: &Path) -> Result<Self, SmoothError> {
+        let bad = |why: String| SmoothError::BadImage(format!("{}: {why}", path.display()));
+        let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+        let bank: Self = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        if bank.aspects.is_empty() || bank.aspects.len() != bank.terms.len() {
+            return Err(bad("aspect table and terms differ in length".into()));
+        }
+        let finite = bank.terms.iter().flatten().all(|t| {
+            t.weight.is_finite() && t.x.is_finite() && t.y.is_finite() && t.sigma > 0.0
+        });
+        if !finite || bank.terms.iter().any(Vec::is_empty) {
+            return Err(bad("invalid terms (non-finite, non-positive sigma or empty)".into()));
+        }
+        Ok(bank)
+    }
+}

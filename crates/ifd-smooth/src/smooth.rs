@@ -1,0 +1,492 @@
+//! The [`Smoother`]: one prefiltered scale stack, the Hessian-derived
+//! orientation field, and the aspect-ratio bank; smooths whole images or dabs.
+
+use std::sync::Arc;
+
+use ifd_image::Image;
+use ifd_planar::{Border, Filter, ScaleStack};
+use rayon::prelude::*;
+
+use crate::bank::{AspectBank, BankOptions};
+use crate::error::{SmoothError, check_range};
+use crate::hessian::{HESSIAN_SIGMA_RANGE, HessianBank, hessian_stack_options};
+use crate::orientation::{AnisoParams, Orientation, tensor};
+
+/// Smallest and largest footprint scale `S` (pixels) supported.
+pub const SCALE_RANGE: (f64, f64) = (2.0, 128.0);
+
+/// Where the filter of a pixel comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Mode {
+    /// The paper's mode: the Hessian at the dab's centre gives one filter for
+    /// the whole dab. For whole images, the image is covered by a grid of
+    /// dabs (spacing `2 S`) whose results are blended bilinearly.
+    Dab,
+    /// Every pixel uses the filter from its own (tensor-averaged) Hessian.
+    #[default]
+    PerPixel,
+}
+
+/// Parameters of [`Smoother`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SmoothOptions {
+    /// Footprint scale `S`: the geometric mean of the Gaussian's two standard
+    /// deviations, in pixels (`sx sy = S^2`, so the noise reduction equals an
+    /// isotropic Gaussian of sigma `S` whatever the aspect ratio).
+    pub scale: f64,
+    /// Hessian scale, pixels (default `max(1.5, S / 2)`).
+    pub hessian_sigma: Option<f64>,
+    /// Sigma of the tensor averaging, pixels (default: the Hessian scale).
+    pub tensor_sigma: Option<f64>,
+    /// The Hessian-to-filter mapping.
+    pub aniso: AnisoParams,
+    /// Border handling.
+    pub border: Border,
+    /// Fit tolerance of the derivative filters.
+    pub hessian_tol: f64,
+    /// How the aspect-ratio bank is built (when not given).
+    pub bank: BankOptions,
+}
+
+impl Default for SmoothOptions {
+    fn default() -> Self {
+        Self {
+            scale: 6.0,
+            hessian_sigma: None,
+            tensor_sigma: None,
+            aniso: AnisoParams::default(),
+            border: Border::Reflect101,
+            hessian_tol: 0.01,
+            bank: BankOptions::default(),
+        }
+    }
+}
+
+impl SmoothOptions {
+    /// The Hessian scale in use.
+    #[must_use]
+    pub fn hessian_sigma(&self) -> f64 {
+        self.hessian_sigma.unwrap_or((self.scale / 2.0).max(1.5))
+    }
+
+    /// The tensor averaging sigma in use.
+    #[must_use]
+    pub fn tensor_sigma(&self) -> f64 {
+        self.tensor_sigma.unwrap_or_else(|| self.hessian_sigma())
+    }
+
+    fn validate(&self) -> Result<(), SmoothError> {
+        check_range("scale", self.scale, SCALE_RANGE.0, SCALE_RANGE.1)?;
+        let (lo, hi) = HESSIAN_SIGMA_RANGE;
+        check_range("hessian sigma", self.hessian_sigma(), lo, hi)?;
+        check_range("tensor sigma", self.tensor_sigma(), 0.0, 64.0)?;
+        self.aniso.validate()
+    }
+}
+
+/// One brush dab.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dab {
+    /// Centre, column.
+    pub x: f32,
+    /// Centre, row.
+    pub y: f32,
+    /// Radius in pixels.
+    pub radius: f32,
+    /// Fraction of the radius over which the effect fades to zero (0: hard edge, 1: from the centre).
+    pub falloff: f32,
+    /// Blend of the smoothed result into the image at the centre, 0..=1.
+    pub strength: f32,
+}
+
+impl Dab {
+    /// The dab's weight at distance `d` from its centre.
+    #[must_use]
+    pub fn weight(&self, d: f32) -> f32 {
+        let inner = self.radius * (1.0 - self.falloff);
+        if d >= self.radius {
+            0.0
+        } else if d <= inner {
+            self.strength
+        } else {
+            let t = (self.radius - d) / (self.radius - inner);
+            self.strength * t * t * (3.0 - 2.0 * t)
+        }
+    }
+
+    fn validate(&self) -> Result<(), SmoothError> {
+        check_range("dab x", f64::from(self.x), -1e7, 1e7)?;
+        check_range("dab y", f64::from(self.y), -1e7, 1e7)?;
+        check_range("dab radius", f64::from(self.radius), 0.5, 4096.0)?;
+        check_range("dab falloff", f64::from(self.falloff), 0.0, 1.0)?;
+        check_range("dab strength", f64::from(self.strength), 0.0, 1.0)
+    }
+}
+
+/// What [`Smoother::apply_dab`] touched.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DabRegion {
+    /// First column.
+    pub x0: usize,
+    /// First row.
+    pub y0: usize,
+    /// Width.
+    pub width: usize,
+    /// Height.
+    pub height: usize,
+}
+
+/// Hessian-driven anisotropic smoothing of one image.
+#[derive(Debug)]
+pub struct Smoother {
+    stack: ScaleStack,
+    bank: Arc<AspectBank>,
+    opts: SmoothOptions,
+    field: Vec<Orientation>,
+    width: usize,
+    height: usize,
+    channels: usize,
+}
+
+impl Smoother {
+    /// Builds the decompositions (a few seconds), the stack and the orientation field.
+    ///
+    /// # Errors
+    /// Out-of-range options, NaN pixels, empty images, failed fits.
+    pub fn new(image: &Image, opts: &SmoothOptions) -> Result<Self, SmoothError> {
+        opts.validate()?;
+        let hbank = HessianBank::new(opts.hessian_tol)?;
+        let bank = AspectBank::build(opts.bank, |_, _| {})?;
+        Self::with_banks(image, opts, Arc::new(bank), &hbank)
+    }
+
+    /// As [`Smoother::new`] with decompositions fitted (or loaded) beforehand.
+    ///
+    /// # Errors
+    /// Out-of-range options, NaN pixels, empty images.
+    pub fn with_banks(
+        image: &Image,
+        opts: &SmoothOptions,
+        bank: Arc<AspectBank>,
+        hbank: &HessianBank,
+    ) -> Result<Self, SmoothError> {
+        opts.validate()?;
+        let n_bad = image.count_non_finite();
+        if n_bad > 0 {
+            return Err(SmoothError::BadImage(format!(
+                "image has {n_bad} NaN or infinite values; replace them first"
+            )));
+        }
+        let hs = opts.hessian_sigma();
+        let (hlo, hhi) = hbank.stack_sigmas(hs, hs);
+        let (blo, bhi) = bank.sigma_range();
+        let s = opts.scale / bank.options.sigma_ref;
+        let lo = hlo.min(blo * s);
+        let hi = hhi.max(bhi * s);
+        let stack = ScaleStack::new(image, lo, hi, opts.border, hessian_stack_options())?;
+        let (w, h) = (image.width(), image.height());
+        let field = {
+            let [hxx, hxy, hyy] = hbank.bind(&stack)?.planes(hs)?;
+            let mut t: [Vec<f32>; 3] = [vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h]];
+            for i in 0..w * h {
+                let ti = tensor([f64::from(hxx[i]), f64::from(hxy[i]), f64::from(hyy[i])]);
+                for k in 0..3 {
+                    t[k][i] = ti[k] as f32;
+                }
+            }
+            let rho = opts.tensor_sigma();
+            let t = t.map(|p| gaussian_blur(&p, w, h, rho));
+            (0..w * h)
+                .into_par_iter()
+                .map(|i| {
+                    Orientation::from_tensor(
+                        [f64::from(t[0][i]), f64::from(t[1][i]), f64::from(t[2][i])],
+                        hs,
+                        &opts.aniso,
+                    )
+                })
+                .collect()
+        };
+        Ok(Self {
+            stack,
+            bank,
+            opts: *opts,
+            field,
+            width: w,
+            height: h,
+            channels: image.channels(),
+        })
+    }
+
+    /// The options in use.
+    #[must_use]
+    pub fn options(&self) -> &SmoothOptions {
+        &self.opts
+    }
+
+    /// The aspect-ratio bank.
+    #[must_use]
+    pub fn bank(&self) -> &AspectBank {
+        &self.bank
+    }
+
+    /// The prefiltered stack.
+    #[must_use]
+    pub fn stack(&self) -> &ScaleStack {
+        &self.stack
+    }
+
+    /// The per-pixel filter orientations (row-major).
+    #[must_use]
+    pub fn orientation_field(&self) -> &[Orientation] {
+        &self.field
+    }
+
+    /// The filter at pixel `(x, y)` (clamped into the image).
+    #[must_use]
+    pub fn orientation_at(&self, x: f32, y: f32) -> Orientation {
+        let xi = (x.round().max(0.0) as usize).min(self.width - 1);
+        let yi = (y.round().max(0.0) as usize).min(self.height - 1);
+        self.field[yi * self.width + xi]
+    }
+
+    fn filters(&self) -> Result<Vec<Filter<'_>>, SmoothError> {
+        self.bank
+            .terms
+            .iter()
+            .map(|t| {
+                Filter::new(&self.stack, &ifd_planar::Decomposition::from_terms(t.clone()))
+                    .map_err(SmoothError::from)
+            })
+            .collect()
+    }
+
+    fn filter_scale(&self) -> f32 {
+        (self.opts.scale / self.bank.options.sigma_ref) as f32
+    }
+
+    /// The smoothed value at `(x, y)` for filter `o`: the blend of two bank
+    /// entries, `s_i + s_{i+1}` lookups.
+    fn smoothed_at(
+        &self,
+        filters: &[Filter<'_>],
+        x: f32,
+        y: f32,
+        o: Orientation,
+        tmp: &mut [f32],
+        out: &mut [f32],
+    ) -> Result<(), SmoothError> {
+        let (i, t) = self.bank.locate(f64::from(o.aspect));
+        let s = self.filter_scale();
+        filters[i].filter_at_into(x, y, o.theta, s, out)?;
+        if t > 0.0 {
+            filters[i + 1].filter_at_into(x, y, o.theta, s, tmp)?;
+            let t = t as f32;
+            for (a, b) in out.iter_mut().zip(tmp.iter()) {
+                *a = (1.0 - t) * *a + t * b;
+            }
+        }
+        Ok(())
+    }
+
+    /// Smooths the whole image.
+    ///
+    /// # Errors
+    /// Filtering errors (should not happen for a valid smoother).
+    pub fn smooth_image(&self, mode: Mode) -> Result<Image, SmoothError> {
+        let (w, h, c) = (self.width, self.height, self.channels);
+        let filters = self.filters()?;
+        let mut out = vec![0.0f32; w * h * c];
+        match mode {
+            Mode::PerPixel => {
+                out.par_chunks_mut(w * c)
+                    .enumerate()
+                    .try_for_each(|(y, row)| -> Result<(), SmoothError> {
+                        let mut tmp = vec![0.0; c];
+                        for (x, px) in row.chunks_exact_mut(c).enumerate() {
+                            let o = self.field[y * w + x];
+                            self.smoothed_at(&filters, x as f32, y as f32, o, &mut tmp, px)?;
+                        }
+                        Ok(())
+                    })?;
+            }
+            Mode::Dab => {
+                // Dab centres on a grid of spacing g; each pixel blends the
+                // results of the filters of its four surrounding centres.
+                let g = (2.0 * self.opts.scale).max(4.0) as f32;
+                out.par_chunks_mut(w * c)
+                    .enumerate()
+                    .try_for_each(|(y, row)| -> Result<(), SmoothError> {
+                        let mut tmp = vec![0.0; c];
+                        let mut acc = vec![0.0; c];
+                        let gy = y as f32 / g;
+                        let (j0, fy) = (gy.floor(), gy - gy.floor());
+                        for (x, px) in row.chunks_exact_mut(c).enumerate() {
+                            let gx = x as f32 / g;
+                            let (i0, fx) = (gx.floor(), gx - gx.floor());
+                            px.fill(0.0);
+                            for (di, dj, wgt) in [
+                                (0.0, 0.0, (1.0 - fx) * (1.0 - fy)),
+                                (1.0, 0.0, fx * (1.0 - fy)),
+                                (0.0, 1.0, (1.0 - fx) * fy),
+                                (1.0, 1.0, fx * fy),
+                            ] {
+                                if wgt == 0.0 {
+                                    continue;
+                                }
+                                let o = self.orientation_at((i0 + di) * g, (j0 + dj) * g);
+                                self.smoothed_at(&filters, x as f32, y as f32, o, &mut tmp, &mut acc)?;
+                                for (p, a) in px.iter_mut().zip(&acc) {
+                                    *p += wgt * a;
+                                }
+                            }
+                        }
+                        Ok(())
+                    })?;
+            }
+        }
+        Ok(Image::from_vec(w, h, c, out)?)
+    }
+
+    /// Applies one dab to `target` (an image of the smoother's size, usually
+    /// the image being edited): inside the dab each pixel moves towards the
+    /// smoothed value by the dab's weight. In [`Mode::Dab`] one filter, from
+    /// the orientation at the dab's centre, serves every pixel; in
+    /// [`Mode::PerPixel`] each pixel uses its own. Returns the touched region
+    /// (`None` when the dab misses the image).
+    ///
+    /// # Errors
+    /// [`SmoothError::OutOfRange`] for bad dab parameters,
+    /// [`SmoothError::BadImage`] when `target` has another shape.
+    pub fn apply_dab(
+        &self,
+        dab: &Dab,
+        mode: Mode,
+        target: &mut Image,
+    ) -> Result<Option<DabRegion>, SmoothError> {
+        dab.validate()?;
+        let (w, h, c) = (self.width, self.height, self.channels);
+        if (target.width(), target.height(), target.channels()) != (w, h, c) {
+            return Err(SmoothError::BadImage(format!(
+                "target is {}x{}x{}, the smoother's image {w}x{h}x{c}",
+                target.width(),
+                target.height(),
+                target.channels()
+            )));
+        }
+        let x0 = (dab.x - dab.radius).floor().max(0.0) as usize;
+        let y0 = (dab.y - dab.radius).floor().max(0.0) as usize;
+        let x1 = ((dab.x + dab.radius).ceil().max(-1.0) as i64).min(w as i64 - 1);
+        let y1 = ((dab.y + dab.radius).ceil().max(-1.0) as i64).min(h as i64 - 1);
+        if x1 < x0 as i64 || y1 < y0 as i64 {
+            return Ok(None);
+        }
+        let (x1, y1) = (x1 as usize, y1 as usize);
+        let filters = self.filters()?;
+        let centre = self.orientation_at(dab.x, dab.y);
+        let rw = x1 - x0 + 1;
+        target
+            .data_mut()
+            .par_chunks_mut(w * c)
+            .enumerate()
+            .skip(y0)
+            .take(y1 - y0 + 1)
+            .try_for_each(|(y, row)| -> Result<(), SmoothError> {
+                let mut tmp = vec![0.0; c];
+                let mut sm = vec![0.0; c];
+                for x in x0..=x1 {
+                    let d = ((x as f32 - dab.x).powi(2) + (y as f32 - dab.y).powi(2)).sqrt();
+                    let wgt = dab.weight(d);
+                    if wgt <= 0.0 {
+                        continue;
+                    }
+                    let o = match mode {
+                        Mode::Dab => centre,
+                        Mode::PerPixel => self.field[y * w + x],
+                    };
+                    self.smoothed_at(&filters, x as f32, y as f32, o, &mut tmp, &mut sm)?;
+                    for (p, s) in row[x * c..(x + 1) * c].iter_mut().zip(&sm) {
+                        *p += wgt * (s - *p);
+                    }
+                }
+                Ok(())
+            })?;
+        Ok(Some(DabRegion {
+            x0,
+            y0,
+            width: rw,
+            height: y1 - y0 + 1,
+        }))
+    }
+}
+
+/// Separable Gaussian blur of a plane (reflect-101 border, radius 3 sigma).
+fn gaussian_blur(p: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
+    if sigma < 0.3 {
+        return p.to_vec();
+    }
+    let r = (3.0 * sigma).ceil() as i64;
+    let k: Vec<f32> = (-r..=r)
+        .map(|i| (-0.5 * (i * i) as f64 / (sigma * sigma)).exp() as f32)
+        .collect();
+    let ks: f32 = k.iter().sum();
+    let k: Vec<f32> = k.into_iter().map(|v| v / ks).collect();
+    let reflect = |i: i64, n: usize| -> usize {
+        let n = n as i64;
+        if n == 1 {
+            return 0;
+        }
+        let period = 2 * (n - 1);
+        let m = i.rem_euclid(period);
+        (if m < n { m } else { period - m }) as usize
+    };
+    let mut tmp = vec![0.0f32; w * h];
+    tmp.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        let src = &p[y * w..(y + 1) * w];
+        for (x, o) in row.iter_mut().enumerate() {
+            *o = k
+                .iter()
+                .enumerate()
+                .map(|(j, kv)| kv * src[reflect(x as i64 + j as i64 - r, w)])
+                .sum();
+        }
+    });
+    let mut out = vec![0.0f32; w * h];
+    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, o) in row.iter_mut().enumerate() {
+            *o = k
+                .iter()
+                .enumerate()
+                .map(|(j, kv)| kv * tmp[reflect(y as i64 + j as i64 - r, h) * w + x])
+                .sum();
+        }
+    });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dab_weight_profile() {
+        let d = Dab {
+            x: 0.0,
+            y: 0.0,
+            radius: 10.0,
+            falloff: 0.5,
+            strength: 0.8,
+        };
+        assert_eq!(d.weight(0.0), 0.8);
+        assert_eq!(d.weight(5.0), 0.8);
+        assert!(d.weight(7.5) > 0.0 && d.weight(7.5) < 0.8);
+        assert_eq!(d.weight(10.0), 0.0);
+    }
+
+    #[test]
+    fn blur_preserves_constants() {
+        let p = vec![2.0f32; 30 * 20];
+        let b = gaussian_blur(&p, 30, 20, 2.5);
+        assert!(b.iter().all(|v| (v - 2.0).abs() < 1e-5));
+    }
+}

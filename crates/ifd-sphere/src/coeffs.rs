@@ -1,0 +1,281 @@
+//! [`ShCoeffs`]: real SH coefficients of a (multi-channel) spherical function,
+//! and their `.npy` file format.
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::error::{Result, SphereError, check_degree};
+use crate::sh::{ShEvaluator, sh_count, sh_index};
+
+/// Real SH coefficients `c_l^m` for `l <= L` of a function with `C` channels.
+///
+/// Layout: `((L + 1)^2, C)` row-major, row `l (l + 1) + m` (see [`crate::sh`]
+/// for the basis convention). This is also the layout of the `.npy` files
+/// written by [`ShCoeffs::write_npy`] (float64).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShCoeffs {
+    l_max: usize,
+    channels: usize,
+    data: Vec<f64>,
+}
+
+impl ShCoeffs {
+    /// All-zero coefficients.
+    ///
+    /// # Errors
+    /// [`SphereError::DegreeTooHigh`], or [`SphereError::Parameter`] for zero channels.
+    pub fn zeros(l_max: usize, channels: usize) -> Result<Self> {
+        check_degree(l_max)?;
+        if channels == 0 {
+            return Err(SphereError::Parameter {
+                name: "channels",
+                value: "0".into(),
+                reason: "at least one channel is needed",
+            });
+        }
+        Ok(Self {
+            l_max,
+            channels,
+            data: vec![0.0; sh_count(l_max) * channels],
+        })
+    }
+
+    /// Wraps `((L + 1)^2, C)` row-major values.
+    ///
+    /// # Errors
+    /// [`SphereError::Length`] when the length does not match.
+    pub fn from_vec(l_max: usize, channels: usize, data: Vec<f64>) -> Result<Self> {
+        let mut z = Self::zeros(l_max, channels)?;
+        if data.len() != z.data.len() {
+            return Err(SphereError::Length {
+                what: "SH coefficients",
+                got: data.len(),
+                expected: z.data.len(),
+            });
+        }
+        z.data = data;
+        Ok(z)
+    }
+
+    /// Builds coefficients from `rows x channels` values, inferring `L` from
+    /// `rows = (L + 1)^2`.
+    ///
+    /// # Errors
+    /// [`SphereError::Length`] when `rows` is not a perfect square.
+    pub fn from_rows(rows: usize, channels: usize, data: Vec<f64>) -> Result<Self> {
+        let l1 = (rows as f64).sqrt().round() as usize;
+        if l1 == 0 || l1 * l1 != rows {
+            return Err(SphereError::Length {
+                what: "SH coefficient rows (must be (L+1)^2)",
+                got: rows,
+                expected: l1.max(1) * l1.max(1),
+            });
+        }
+        Self::from_vec(l1 - 1, channels, data)
+    }
+
+    /// Maximum degree `L`.
+    #[must_use]
+    pub fn l_max(&self) -> usize {
+        self.l_max
+    }
+
+    /// Channel count `C`.
+    #[must_use]
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// The raw `((L + 1)^2, C)` values.
+    #[must_use]
+    pub fn data(&self) -> &[f64] {
+        &self.data
+    }
+
+    /// Mutable raw values.
+    pub fn data_mut(&mut self) -> &mut [f64] {
+        &mut self.data
+    }
+
+    /// `c_l^m` of channel `c`.
+    ///
+    /// # Panics
+    /// If `l > L`, `|m| > l` or `c >= C`.
+    #[must_use]
+    pub fn get(&self, l: usize, m: i64, c: usize) -> f64 {
+        assert!(l <= self.l_max && m.unsigned_abs() as usize <= l && c < self.channels);
+        self.data[sh_index(l, m) * self.channels + c]
+    }
+
+    /// Sets `c_l^m` of channel `c`.
+    ///
+    /// # Panics
+    /// If `l > L`, `|m| > l` or `c >= C`.
+    pub fn set(&mut self, l: usize, m: i64, c: usize, v: f64) {
+        assert!(l <= self.l_max && m.unsigned_abs() as usize <= l && c < self.channels);
+        self.data[sh_index(l, m) * self.channels + c] = v;
+    }
+
+    /// One channel as a flat `(L + 1)^2` vector.
+    ///
+    /// # Panics
+    /// If `c >= C`.
+    #[must_use]
+    pub fn channel(&self, c: usize) -> Vec<f64> {
+        assert!(c < self.channels);
+        self.data.iter().skip(c).step_by(self.channels).copied().collect()
+    }
+
+    /// Copy truncated or zero-padded to degree `l_max`.
+    ///
+    /// # Errors
+    /// [`SphereError::DegreeTooHigh`].
+    pub fn resized(&self, l_max: usize) -> Result<Self> {
+        let mut out = Self::zeros(l_max, self.channels)?;
+        let n = sh_count(l_max.min(self.l_max)) * self.channels;
+        out.data[..n].copy_from_slice(&self.data[..n]);
+        Ok(out)
+    }
+
+    /// Evaluates the expansion at direction `d` with a prepared evaluator of
+    /// degree `>= L`; returns one value per channel.
+    ///
+    /// # Errors
+    /// [`SphereError::Mismatch`] when the evaluator's degree is lower than `L`.
+    pub fn eval(&self, sh: &ShEvaluator, d: [f64; 3]) -> Result<Vec<f64>> {
+        if sh.l_max() < self.l_max {
+            return Err(SphereError::Mismatch(format!(
+                "evaluator of degree {} for coefficients of degree {}",
+                sh.l_max(),
+                self.l_max
+            )));
+        }
+        let y = sh.eval(d);
+        let mut out = vec![0.0; self.channels];
+        for (i, yi) in y.iter().take(sh_count(self.l_max)).enumerate() {
+            for (c, o) in out.iter_mut().enumerate() {
+                *o += yi * self.data[i * self.channels + c];
+            }
+        }
+        Ok(out)
+    }
+
+    /// Writes a `((L + 1)^2, C)` float64 `.npy` file (atomically).
+    ///
+    /// # Errors
+    /// [`SphereError::Image`] wrapping the I/O error, naming the file.
+    pub fn write_npy(&self, path: &Path) -> Result<()> {
+        write_npy_f64(path, &[sh_count(self.l_max), self.channels], &self.data)
+    }
+
+    /// Reads a float64 or float32 `.npy` file of shape `((L + 1)^2, C)` or
+    /// `((L + 1)^2,)` (one channel).
+    ///
+    /// # Errors
+    /// [`SphereError::File`] for unreadable or malformed files.
+    pub fn read_npy(path: &Path) -> Result<Self> {
+        let (shape, data) = read_npy_f64(path)?;
+        let (rows, cols) = match shape.as_slice() {
+            [r] => (*r, 1),
+            [r, c] => (*r, *c),
+            _ => {
+                return Err(SphereError::File {
+                    path: path.to_path_buf(),
+                    reason: format!("expected a 1-D or 2-D array, got shape {shape:?}"),
+                });
+            }
+        };
+        Self::from_rows(rows, cols, data)
+    }
+}
+
+/// Writes a C-order float64 `.npy` file (atomic: temporary file, then rename).
+///
+/// # Errors
+/// [`SphereError::Image`] wrapping the I/O error.
+pub fn write_npy_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<()> {
+    let dims: Vec<String> = shape.iter().map(ToString::to_string).collect();
+    let shape_txt = if dims.len() == 1 {
+        format!("({},)", dims[0])
+    } else {
+        format!("({})", dims.join(", "))
+    };
+    let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape_txt}, }}");
+    let unpadded = 10 + header.len() + 1;
+    header.push_str(&" ".repeat((64 - unpadded % 64) % 64));
+    header.push('\n');
+    ifd_image::atomic_write(path, |w| {
+        let mut buf = Vec::with_capacity(16 + header.len() + data.len() * 8);
+        buf.extend_from_slice(b"\x93NUMPY\x01\x00");
+        buf.extend_from_slice(&(header.len() as u16).to_le_bytes());
+        buf.extend_from_slice(header.as_bytes());
+        for v in data {
+            buf.extend_from_slice(&v.to_le_bytes());
+        }
+        w.write_all(&buf).map_err(|e| e.to_string())
+    })?;
+    Ok(())
+}
+
+/// Reads a C-order little-endian float64 or float32 `.npy` file as `f64`.
+///
+/// # Errors
+/// [`SphereError::File`] for unreadable or malformed files.
+pub fn read_npy_f64(path: &Path) -> Result<(Vec<usize>, Vec<f64>)> {
+    let err = |reason: String| SphereError::File {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let bytes = std::fs::read(path).map_err(|e| err(e.to_string()))?;
+    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+        return Err(err("not a .npy file".into()));
+    }
+    let (hlen, start) = match bytes[6] {
+        1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
+        2 | 3 if bytes.len() >= 12 => (
+            u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
+            12,
+        ),
+        v => return Err(err(format!("unsupported .npy version {v}"))),
+    };
+    let header = std::str::from_utf8(bytes.get(start..start + hlen).ok_or_else(|| err("truncated header".into()))?)
+        .map_err(|_| err("header is not UTF-8".into()))?;
+    let size = if header.contains("'<f8'") {
+        8
+    } else if header.contains("'<f4'") {
+        4
+    } else {
+        return Err(err(format!("only little-endian float64/float32 arrays are read; header {header:?}")));
+    };
+    if header.contains("'fortran_order': True") {
+        return Err(err("Fortran-order arrays are not supported".into()));
+    }
+    let shape_txt = header
+        .split("'shape':")
+        .nth(1)
+        .and_then(|s| s.split('(').nth(1))
+        .and_then(|s| s.split(')').next())
+        .ok_or_else(|| err(format!("no shape in header {header:?}")))?;
+    let shape: Vec<usize> = shape_txt
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(str::parse)
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|e| err(format!("bad shape {shape_txt:?}: {e}")))?;
+    let n: usize = shape.iter().product();
+    let body = &bytes[start + hlen..];
+    if body.len() != n * size {
+        return Err(err(format!("{} data bytes for shape {shape:?} ({} expected)", body.len(), n * size)));
+    }
+    let data = if size == 8 {
+        body.chunks_exact(8)
+            .map(|c| f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]))
+            .collect()
+    } else {
+        body.chunks_exact(4)
+            .map(|c| f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]])))
+            .collect()
+    };
+    Ok((shape, data))
+}

@@ -1,0 +1,364 @@
+//! Real spherical harmonics in the graphics (Sloan) convention.
+//!
+//! # Convention
+//! `y_l^m` for `-l <= m <= l`, flat index `l (l + 1) + m`, orthonormal on the unit
+//! sphere, Condon-Shortley phase included:
+//!
+//! ```text
+//! y_l^m  = sqrt(2) K_l^m P_l^m(cos t) cos(m p)      m > 0
+//! y_l^0  =         K_l^0 P_l^0(cos t)
+//! y_l^m  = sqrt(2) K_l^|m| P_l^|m|(cos t) sin(|m| p)  m < 0
+//! K_l^m  = sqrt((2l + 1) / (4 pi) (l - m)! / (l + m)!)
+//! ```
+//!
+//! with `P_l^m` carrying the `(-1)^m` phase, so `y_1^-1 = -0.488603 y`,
+//! `y_1^0 = 0.488603 z`, `y_1^1 = -0.488603 x`. This is pyshtools'
+//! `spharm_lm(l, m, t, p, normalization='ortho', kind='real', csphase=-1)`.
+//!
+//! # Evaluation
+//! The formula above (ISD Eq. 7) is unstable for large `l` when evaluated with
+//! factorials. We use the Cartesian form of Sloan ("Stupid SH tricks", 2008):
+//! `sin^m t cos(m p) = Re (x + i y)^m` and `sin^m t sin(m p) = Im (x + i y)^m`,
+//! and run the standard three-term recurrences on the *normalised, reduced*
+//! Legendre functions `Q_l^m(z) = K_l^m P_l^m(z) / sin^m t`, which stay of
+//! moderate size for every degree:
+//!
+//! ```text
+//! Q_0^0     = 1 / sqrt(4 pi)
+//! Q_m^m     = -sqrt((2m + 1) / (2m)) Q_{m-1}^{m-1}
+//! Q_{m+1}^m = sqrt(2m + 3) z Q_m^m
+//! Q_l^m     = a_lm (z Q_{l-1}^m - b_lm Q_{l-2}^m),
+//!   a_lm = sqrt((4l^2 - 1) / (l^2 - m^2)),
+//!   b_lm = sqrt(((l - 1)^2 - m^2) / (4 (l - 1)^2 - 1)).
+//! ```
+//!
+//! (Derivation: divide the classical recurrence
+//! `(l - m) P_l^m = (2l - 1) z P_{l-1}^m - (l + m - 1) P_{l-2}^m` by `sin^m t` and
+//! fold in the ratios `K_l^m / K_{l-1}^m`.) Errors stay at a few ulps times `l`
+//! (checked against pyshtools to `L = 100`).
+
+use std::f64::consts::PI;
+
+use crate::error::{Result, check_degree};
+
+/// Number of real SH coefficients up to degree `l_max`: `(l_max + 1)^2`.
+#[must_use]
+pub const fn sh_count(l_max: usize) -> usize {
+    (l_max + 1) * (l_max + 1)
+}
+
+/// Flat index `l (l + 1) + m` of `y_l^m`.
+///
+/// `m` must lie in `-l..=l`; this is checked in debug builds only.
+#[must_use]
+pub const fn sh_index(l: usize, m: i64) -> usize {
+    debug_assert!(m.unsigned_abs() as usize <= l);
+    ((l * (l + 1)) as i64 + m) as usize
+}
+
+/// `pi_l = sqrt(4 pi / (2l + 1))`, the convolution factor of the addition
+/// theorem (ISD Eq. 9, ZHF Eq. 3 `n_l*`).
+#[must_use]
+pub fn pi_l(l: usize) -> f64 {
+    (4.0 * PI / (2 * l + 1) as f64).sqrt()
+}
+
+/// Index of `(l, m)`, `0 <= m <= l`, in a triangular table.
+#[inline]
+pub(crate) const fn tri(l: usize, m: usize) -> usize {
+    l * (l + 1) / 2 + m
+}
+
+/// Recurrence coefficients shared by the evaluators and the transforms.
+#[derive(Clone, Debug)]
+pub(crate) struct LegendreTable {
+    pub(crate) l_max: usize,
+    /// `a_lm` at `tri(l, m)` (valid for `l >= m + 2`).
+    pub(crate) a: Vec<f64>,
+    /// `b_lm` at `tri(l, m)` (valid for `l >= m + 2`).
+    pub(crate) b: Vec<f64>,
+    /// `Q_m^m` (the reduced sectoral start values), index `m`.
+    pub(crate) qmm: Vec<f64>,
+    /// `sqrt(2m + 3)`, index `m`.
+    pub(crate) c1: Vec<f64>,
+}
+
+impl LegendreTable {
+    pub(crate) fn new(l_max: usize) -> Self {
+        let n = tri(l_max, l_max) + 1;
+        let mut a = vec![0.0; n];
+        let mut b = vec![0.0; n];
+        for m in 0..=l_max {
+            for l in m + 2..=l_max {
+                let (lf, mf) = (l as f64, m as f64);
+                a[tri(l, m)] = ((4.0 * lf * lf - 1.0) / (lf * lf - mf * mf)).sqrt();
+                let l1 = lf - 1.0;
+                b[tri(l, m)] = ((l1 * l1 - mf * mf) / (4.0 * l1 * l1 - 1.0)).sqrt();
+            }
+        }
+        let mut qmm = vec![0.0; l_max + 1];
+        qmm[0] = 0.5 / PI.sqrt();
+        for m in 1..=l_max {
+            let mf = m as f64;
+            qmm[m] = -((2.0 * mf + 1.0) / (2.0 * mf)).sqrt() * qmm[m - 1];
+        }
+        let c1 = (0..=l_max).map(|m| (2.0 * m as f64 + 3.0).sqrt()).collect();
+        Self {
+            l_max,
+            a,
+            b,
+            qmm,
+            c1,
+        }
+    }
+
+    /// Fully normalised `K_l^m P_l^m(z)` (with `sin^m t` included) for `l >= m`
+    /// of one order `m`, written to `out[l - m]`; `sm = sin^m t`.
+    #[inline]
+    pub(crate) fn column(&self, m: usize, z: f64, sm: f64, out: &mut [f64]) {
+        let l_max = self.l_max;
+        let mut p2 = self.qmm[m] * sm;
+        out[0] = p2;
+        if m == l_max {
+            return;
+        }
+        let mut p1 = self.c1[m] * z * p2;
+        out[1] = p1;
+        for l in m + 2..=l_max {
+            let t = tri(l, m);
+            let p = self.a[t] * (z * p1 - self.b[t] * p2);
+            out[l - m] = p;
+            p2 = p1;
+            p1 = p;
+        }
+    }
+}
+
+/// Shared body of the `f64`/`f32` evaluators (one source, two precisions).
+macro_rules! eval_body {
+    ($l_max:expr, $x:expr, $y:expr, $z:expr, $qmm:expr, $c1:expr, $a:expr, $b:expr, $out:expr, $t:ty) => {{
+        let l_max: usize = $l_max;
+        let out = &mut $out[..(l_max + 1) * (l_max + 1)];
+        let sqrt2: $t = std::f64::consts::SQRT_2 as $t;
+        let (x, y, z): ($t, $t, $t) = ($x, $y, $z);
+        // (c, s) = (x + i y)^m
+        let mut c: $t = 1.0;
+        let mut s: $t = 0.0;
+        for m in 0..=l_max {
+            if m > 0 {
+                let cn = c * x - s * y;
+                s = c * y + s * x;
+                c = cn;
+            }
+            let (fc, fs) = if m == 0 { (1.0, 0.0) } else { (sqrt2 * c, sqrt2 * s) };
+            let mut p2: $t = $qmm[m];
+            let mut put = |l: usize, p: $t| {
+                let base = l * (l + 1);
+                if m == 0 {
+                    out[base] = p;
+                } else {
+                    out[base + m] = p * fc;
+                    out[base - m] = p * fs;
+                }
+            };
+            put(m, p2);
+            if m < l_max {
+                let mut p1: $t = $c1[m] * z * p2;
+                put(m + 1, p1);
+                for l in m + 2..=l_max {
+                    let t = l * (l + 1) / 2 + m;
+                    let p = $a[t] * (z * p1 - $b[t] * p2);
+                    put(l, p);
+                    p2 = p1;
+                    p1 = p;
+                }
+            }
+        }
+    }};
+}
+
+/// Evaluates all real SH up to a fixed degree at a direction; reusable setup.
+///
+/// ```
+/// use ifd_sphere::sh::{ShEvaluator, sh_index};
+/// let sh = ShEvaluator::new(2)?;
+/// let y = sh.eval([1.0, 0.0, 0.0]);
+/// assert!((y[sh_index(1, 1)] + 0.488_602_511_902_919_9).abs() < 1e-15); // y_1^1 = -0.4886 x
+/// # Ok::<(), ifd_sphere::SphereError>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct ShEvaluator {
+    table: LegendreTable,
+    a32: Vec<f32>,
+    b32: Vec<f32>,
+    qmm32: Vec<f32>,
+    c132: Vec<f32>,
+}
+
+impl ShEvaluator {
+    /// Precomputes the recurrence coefficients for degrees `0..=l_max`.
+    ///
+    /// # Errors
+    /// [`crate::SphereError::DegreeTooHigh`] beyond [`crate::MAX_DEGREE`].
+    pub fn new(l_max: usize) -> Result<Self> {
+        check_degree(l_max)?;
+        let table = LegendreTable::new(l_max);
+        let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<_>>();
+        Ok(Self {
+            a32: to32(&table.a),
+            b32: to32(&table.b),
+            qmm32: to32(&table.qmm),
+            c132: to32(&table.c1),
+            table,
+        })
+    }
+
+    /// The maximum degree `L`.
+    #[must_use]
+    pub fn l_max(&self) -> usize {
+        self.table.l_max
+    }
+
+    /// Number of coefficients `(L + 1)^2`.
+    #[must_use]
+    pub fn count(&self) -> usize {
+        sh_count(self.table.l_max)
+    }
+
+    /// All `y_l^m(d)`, `l <= L`, in flat order.
+    ///
+    /// `d` is normalised first; a zero or non-finite vector yields NaN for every `l >= 1`.
+    #[must_use]
+    pub fn eval(&self, d: [f64; 3]) -> Vec<f64> {
+        let mut out = vec![0.0; self.count()];
+        self.eval_into(d, &mut out);
+        out
+    }
+
+    /// [`Self::eval`] into a caller buffer of at least `(L + 1)^2` values.
+    ///
+    /// # Panics
+    /// If `out` is shorter than `(L + 1)^2`.
+    pub fn eval_into(&self, d: [f64; 3], out: &mut [f64]) {
+        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let inv = if n > 0.0 { 1.0 / n } else { f64::NAN };
+        let (x, y, z) = (d[0] * inv, d[1] * inv, d[2] * inv);
+        let t = &self.table;
+        eval_body!(t.l_max, x, y, z, t.qmm, t.c1, t.a, t.b, out, f64);
+    }
+
+    /// The `f32` fast path of [`Self::eval_into`] (same recurrences, `f32`
+    /// arithmetic; relative accuracy about `1e-6 * l`).
+    ///
+    /// # Panics
+    /// If `out` is shorter than `(L + 1)^2`.
+    pub fn eval_f32_into(&self, d: [f32; 3], out: &mut [f32]) {
+        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let inv = if n > 0.0 { 1.0 / n } else { f32::NAN };
+        let (x, y, z) = (d[0] * inv, d[1] * inv, d[2] * inv);
+        eval_body!(
+            self.table.l_max,
+            x,
+            y,
+            z,
+            self.qmm32,
+            self.c132,
+            self.a32,
+            self.b32,
+            out,
+            f32
+        );
+    }
+
+    /// Values of the band-`l` functions only, `y_l^{-l..=l}(d)`, into `out[..2l+1]`.
+    /// Costs as much as a full evaluation up to `l`.
+    ///
+    /// # Panics
+    /// If `l > L` or `out` is shorter than `2l + 1`.
+    pub fn eval_band_into(&self, l: usize, d: [f64; 3], scratch: &mut [f64], out: &mut [f64]) {
+        self.eval_into(d, scratch);
+        out[..2 * l + 1].copy_from_slice(&scratch[l * l..(l + 1) * (l + 1)]);
+    }
+}
+
+
+/// Convenience: all `y_l^m(d)` up to `l_max` (builds an evaluator each call;
+/// keep a [`ShEvaluator`] for repeated use).
+///
+/// # Errors
+/// [`crate::SphereError::DegreeTooHigh`] beyond [`crate::MAX_DEGREE`].
+pub fn eval_sh(l_max: usize, d: [f64; 3]) -> Result<Vec<f64>> {
+    Ok(ShEvaluator::new(l_max)?.eval(d))
+}
+
+/// Direction `(sin t cos p, sin t sin p, cos t)` of polar angle `t` and azimuth `p`.
+#[must_use]
+pub fn direction(theta: f64, phi: f64) -> [f64; 3] {
+    let (st, ct) = theta.sin_cos();
+    let (sp, cp) = phi.sin_cos();
+    [st * cp, st * sp, ct]
+}
+
+/// Legendre polynomial `P_l(t)` (unnormalised, `P_l(1) = 1`), by the Bonnet recurrence.
+#[must_use]
+pub fn legendre_p(l: usize, t: f64) -> f64 {
+    let (mut p0, mut p1) = (1.0, t);
+    if l == 0 {
+        return 1.0;
+    }
+    for k in 2..=l {
+        let kf = k as f64;
+        let p = ((2.0 * kf - 1.0) * t * p1 - (kf - 1.0) * p0) / kf;
+        p0 = p1;
+        p1 = p;
+    }
+    p1
+}
+
+/// All `P_l(t)` for `l = 0..=l_max` into `out`.
+pub fn legendre_all(l_max: usize, t: f64, out: &mut [f64]) {
+    out[0] = 1.0;
+    if l_max == 0 {
+        return;
+    }
+    out[1] = t;
+    for k in 2..=l_max {
+        let kf = k as f64;
+        out[k] = ((2.0 * kf - 1.0) * t * out[k - 1] - (kf - 1.0) * out[k - 2]) / kf;
+    }
+}
+
+/// Gauss-Legendre nodes and weights on `[-1, 1]` (Newton on the Bonnet
+/// recurrence; exact for polynomials of degree `2n - 1`).
+#[must_use]
+pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut x = vec![0.0; n];
+    let mut w = vec![0.0; n];
+    let nf = n as f64;
+    for i in 0..n.div_ceil(2) {
+        let mut t = (PI * (i as f64 + 0.75) / (nf + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            let (mut p0, mut p1) = (1.0, t);
+            for k in 2..=n {
+                let kf = k as f64;
+                let p = ((2.0 * kf - 1.0) * t * p1 - (kf - 1.0) * p0) / kf;
+                p0 = p1;
+                p1 = p;
+            }
+            let (p, pm1) = if n == 1 { (t, 1.0) } else { (p1, p0) };
+            dp = nf * (t * p - pm1) / (t * t - 1.0);
+            let dt = p / dp;
+            t -= dt;
+            if dt.abs() < 1e-16 {
+                break;
+            }
+        }
+        x[i] = t;
+        x[n - 1 - i] = -t;
+        let wi = 2.0 / ((1.0 - t * t) * dp * dp);
+        w[i] = wi;
+        w[n - 1 - i] = wi;
+    }
+    (x, w)
+}

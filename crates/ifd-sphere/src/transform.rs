@@ -1,0 +1,450 @@
+//! SH analysis (projection) and synthesis of environment maps.
+//!
+//! # Equirectangular maps
+//! A `W x H` map with `W = 2H`: column `u` has azimuth `p = 2 pi (u + 0.5) / W`,
+//! row `v` (row 0 at the top) has polar angle `t = pi (v + 0.5) / H`, so the top
+//! row looks up (`+z`). The projection is the quadrature
+//!
+//! ```text
+//! c_l^m = sum_pixels f(w_uv) y_l^m(w_uv) dA_v,
+//! dA_v  = (2 pi / W) (cos(pi v / H) - cos(pi (v + 1) / H))
+//! ```
+//!
+//! where `dA_v` is the *exact* solid angle of the pixel (the weights sum to
+//! `4 pi` exactly). It is computed as an FFT over each row (giving the
+//! azimuthal Fourier coefficients for every `m` at once) followed by the
+//! Legendre recurrences of [`crate::sh`] over `l`, processing the rows `v` and
+//! `H - 1 - v` together (`P_l^m(-z) = (-1)^(l+m) P_l^m(z)`; two real rows share
+//! one complex FFT). Cost `O(H W log W + H L^2)` per channel.
+//! Synthesis runs the same steps backwards and evaluates the expansion exactly
+//! at the pixel centres.
+//!
+//! # Cubemaps
+//! [`analyze_cubemap`] projects a horizontal strip of six square faces in the
+//! order `+X, -X, +Y, -Y, +Z, -Z`, each face laid out as in OpenGL (face
+//! coordinates `sc, tc` of the OpenGL cube-map table, `tc` growing downwards
+//! in the image), with exact per-texel solid angles. It evaluates the SH per
+//! texel (`O(texels L^2)`).
+//!
+//! # Bad input
+//! NaN or infinite samples are an error ([`crate::SphereError::NonFinite`]).
+//! Negative samples (the bundled DWAB files have a few tiny ones) are clamped to
+//! zero by default and counted in [`Analysis::negatives_clamped`].
+
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+use ifd_image::Image;
+use rustfft::num_complex::Complex64;
+use rustfft::{Fft, FftPlanner};
+
+use crate::coeffs::ShCoeffs;
+use crate::error::{Result, SphereError, check_degree};
+use crate::sh::{LegendreTable, ShEvaluator, sh_count};
+
+/// What to do with negative samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Negatives {
+    /// Clamp them to zero and count them (the default: radiance is never negative).
+    #[default]
+    Clamp,
+    /// Keep them as they are.
+    Keep,
+}
+
+/// The result of a projection.
+#[derive(Clone, Debug)]
+pub struct Analysis {
+    /// The SH coefficients, one column per image channel.
+    pub coeffs: ShCoeffs,
+    /// How many samples were negative (and clamped, with [`Negatives::Clamp`]).
+    pub negatives_clamped: usize,
+}
+
+/// A reusable plan for SH analysis/synthesis of `W x H` equirectangular maps
+/// up to degree `L` (FFT plans and recurrence tables).
+///
+/// ```
+/// use ifd_sphere::{EquirectTransform, ShCoeffs};
+/// let t = EquirectTransform::new(8, 64, 32)?;
+/// let mut f = ShCoeffs::zeros(8, 1)?;
+/// f.set(3, -2, 0, 1.0);
+/// let img = t.synthesize(&f)?;
+/// let back = t.analyze(&img, Default::default())?.coeffs;
+/// // band-limited maps round-trip up to the quadrature error of the pixel grid
+/// assert!((back.get(3, -2, 0) - 1.0).abs() < 2e-3);
+/// # Ok::<(), ifd_sphere::SphereError>(())
+/// ```
+pub struct EquirectTransform {
+    l_max: usize,
+    width: usize,
+    height: usize,
+    table: LegendreTable,
+    fwd: Arc<dyn Fft<f64>>,
+    inv: Arc<dyn Fft<f64>>,
+    /// `cos t_v`, `sin t_v`, `dA_v` of the northern rows `v < ceil(H / 2)`.
+    rows: Vec<(f64, f64, f64)>,
+    /// `e^{-i pi m / W}` for `m = 0..=L`.
+    phase: Vec<Complex64>,
+}
+
+impl std::fmt::Debug for EquirectTransform {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EquirectTransform")
+            .field("l_max", &self.l_max)
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .finish_non_exhaustive()
+    }
+}
+
+impl EquirectTransform {
+    /// Plans transforms of `width x height` maps (`width = 2 height`) up to degree `l_max`.
+    ///
+    /// # Errors
+    /// [`SphereError::NotEquirect`] unless `width == 2 height` and `height >= 2`;
+    /// [`SphereError::DegreeTooHigh`].
+    pub fn new(l_max: usize, width: usize, height: usize) -> Result<Self> {
+        check_degree(l_max)?;
+        if height < 2 || width != 2 * height {
+            return Err(SphereError::NotEquirect { width, height });
+        }
+        let mut planner = FftPlanner::new();
+        let hf = height as f64;
+        let rows = (0..height.div_ceil(2))
+            .map(|v| {
+                let t = PI * (v as f64 + 0.5) / hf;
+                let da = (2.0 * PI / width as f64)
+                    * ((PI * v as f64 / hf).cos() - (PI * (v as f64 + 1.0) / hf).cos());
+                (t.cos(), t.sin(), da)
+            })
+            .collect();
+        let phase = (0..=l_max)
+            .map(|m| Complex64::from_polar(1.0, -PI * m as f64 / width as f64))
+            .collect();
+        Ok(Self {
+            l_max,
+            width,
+            height,
+            table: LegendreTable::new(l_max),
+            fwd: planner.plan_fft_forward(width),
+            inv: planner.plan_fft_inverse(width),
+            rows,
+            phase,
+        })
+    }
+
+    /// Maximum degree.
+    #[must_use]
+    pub fn l_max(&self) -> usize {
+        self.l_max
+    }
+
+    /// Map width.
+    #[must_use]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Map height.
+    #[must_use]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Exact solid angle of a pixel of row `v`.
+    ///
+    /// # Panics
+    /// If `v >= H`.
+    #[must_use]
+    pub fn pixel_solid_angle(&self, v: usize) -> f64 {
+        assert!(v < self.height);
+        let vn = v.min(self.height - 1 - v);
+        self.rows[vn].2
+    }
+
+    /// Projects an equirectangular map (any channel count) onto SH up to `L`.
+    ///
+    /// # Errors
+    /// [`SphereError::NotEquirect`] when the image size differs from the plan;
+    /// [`SphereError::NonFinite`] for NaN/infinite samples.
+    pub fn analyze(&self, img: &Image, negatives: Negatives) -> Result<Analysis> {
+        if img.width() != self.width || img.height() != self.height {
+            return Err(SphereError::NotEquirect {
+                width: img.width(),
+                height: img.height(),
+            });
+        }
+        let data = img.data();
+        if let Some(first) = data.iter().position(|v| !v.is_finite()) {
+            return Err(SphereError::NonFinite {
+                what: "environment map",
+                count: data.iter().filter(|v| !v.is_finite()).count(),
+                first,
+            });
+        }
+        let negatives_clamped = data.iter().filter(|&&v| v < 0.0).count();
+        let clamp = negatives == Negatives::Clamp;
+        let (w, h, ch) = (self.width, self.height, img.channels());
+        let l_max = self.l_max;
+        let mut coeffs = ShCoeffs::zeros(l_max, ch)?;
+        let out = coeffs.data_mut();
+        let mut buf = vec![Complex64::default(); w];
+        let mut scratch = vec![Complex64::default(); self.fwd.get_inplace_scratch_len()];
+        // even/odd combinations per (m, channel)
+        let mut even = vec![Complex64::default(); (l_max + 1) * ch];
+        let mut odd = vec![Complex64::default(); (l_max + 1) * ch];
+        let mut col = vec![0.0; l_max + 1];
+        let sample = |v: usize, u: usize, c: usize| {
+            let x = f64::from(data[(v * w + u) * ch + c]);
+            if clamp { x.max(0.0) } else { x }
+        };
+        for (vn, &(z, s, da)) in self.rows.iter().enumerate() {
+            let vs = h - 1 - vn;
+            let paired = vs != vn;
+            for c in 0..ch {
+                for (u, b) in buf.iter_mut().enumerate() {
+                    let south = if paired { sample(vs, u, c) } else { 0.0 };
+                    *b = Complex64::new(sample(vn, u, c), south);
+                }
+                self.fwd.process_with_scratch(&mut buf, &mut scratch);
+                for m in 0..=l_max {
+                    let k = m % w;
+                    let zk = buf[k];
+                    let zmk = buf[(w - k) % w].conj();
+                    let fn_ = (zk + zmk) * 0.5 * self.phase[m];
+                    let fs = (zk - zmk) * Complex64::new(0.0, -0.5) * self.phase[m];
+                    even[m * ch + c] = (fn_ + fs) * da;
+                    odd[m * ch + c] = (fn_ - fs) * da;
+                }
+            }
+            let mut sm = 1.0;
+            for m in 0..=l_max {
+                if m > 0 {
+                    sm *= s;
+                }
+                self.table.column(m, z, sm, &mut col);
+                for l in m..=l_max {
+                    let p = col[l - m];
+                    let src = if (l + m) % 2 == 0 { &even } else { &odd };
+                    let base = l * (l + 1);
+                    for c in 0..ch {
+                        let x = src[m * ch + c];
+                        if m == 0 {
+                            out[base * ch + c] += p * x.re;
+                        } else {
+                            let q = std::f64::consts::SQRT_2 * p;
+                            out[(base + m) * ch + c] += q * x.re;
+                            out[(base - m) * ch + c] -= q * x.im;
+                        }
+                    }
+                }
+            }
+        }
+        Ok(Analysis {
+            coeffs,
+            negatives_clamped,
+        })
+    }
+
+    /// Evaluates an SH expansion at the pixel centres of a `W x H` map, one
+    /// image channel per coefficient channel. Coefficients above the plan's
+    /// degree are ignored; missing ones count as zero.
+    ///
+    /// # Errors
+    /// [`SphereError::Image`] if the image cannot be allocated.
+    pub fn synthesize(&self, f: &ShCoeffs) -> Result<Image> {
+        let (w, h, ch) = (self.width, self.height, f.channels());
+        let l_max = self.l_max.min(f.l_max());
+        let src = f.data();
+        let mut img = Image::new(w, h, ch)?;
+        let data = img.data_mut();
+        let mut col = vec![0.0; self.l_max + 1];
+        let mut spec = vec![Complex64::default(); w * ch];
+        let mut buf = vec![Complex64::default(); w];
+        let mut scratch = vec![Complex64::default(); self.inv.get_inplace_scratch_len()];
+        let sqrt2 = std::f64::consts::SQRT_2;
+        for (vn, &(z, s, _)) in self.rows.iter().enumerate() {
+            let vs = h - 1 - vn;
+            spec.iter_mut().for_each(|x| *x = Complex64::default());
+            let mut sm = 1.0;
+            for m in 0..=l_max {
+                if m > 0 {
+                    sm *= s;
+                }
+                self.table.column(m, z, sm, &mut col);
+                let ph = self.phase[m].conj();
+                for c in 0..ch {
+                    // even/odd (in l + m) partial sums of the cos and sin parts
+                    let (mut ae, mut ao, mut be, mut bo) = (0.0, 0.0, 0.0, 0.0);
+                    for l in m..=l_max {
+                        let p = col[l - m];
+                        let base = l * (l + 1);
+                        let a = src[(base + m) * ch + c] * p;
+                        let b = if m > 0 { src[(base - m) * ch + c] * p } else { 0.0 };
+                        if (l + m) % 2 == 0 {
+                            ae += a;
+                            be += b;
+                        } else {
+                            ao += a;
+                            bo += b;
+                        }
+                    }
+                    let k = if m == 0 { 1.0 } else { sqrt2 };
+                    // G = A - i B, shifted by e^{+i pi m / W}
+                    let gn = Complex64::new(k * (ae + ao), -k * (be + bo)) * ph;
+                    let gs = Complex64::new(k * (ae - ao), -k * (be - bo)) * ph;
+                    // Hermitian spectra H^n, H^s packed as Z = H^n + i H^s
+                    let i = Complex64::new(0.0, 1.0);
+                    if m == 0 {
+                        spec[c] += Complex64::new(gn.re, 0.0) + i * gs.re;
+                    } else {
+                        let kp = m % w;
+                        let km = (w - kp) % w;
+                        spec[kp * ch + c] += (gn + i * gs) * 0.5;
+                        spec[km * ch + c] += (gn.conj() + i * gs.conj()) * 0.5;
+                    }
+                }
+            }
+            for c in 0..ch {
+                for (k, b) in buf.iter_mut().enumerate() {
+                    *b = spec[k * ch + c];
+                }
+                self.inv.process_with_scratch(&mut buf, &mut scratch);
+                for (u, b) in buf.iter().enumerate() {
+                    data[(vn * w + u) * ch + c] = b.re as f32;
+                    if vs != vn {
+                        data[(vs * w + u) * ch + c] = b.im as f32;
+                    }
+                }
+            }
+        }
+        Ok(img)
+    }
+}
+
+/// Projects an equirectangular image (`W = 2H`) onto SH up to `l_max`
+/// (plans an [`EquirectTransform`] and runs it once).
+///
+/// # Errors
+/// As [`EquirectTransform::new`] and [`EquirectTransform::analyze`].
+pub fn analyze_equirect(img: &Image, l_max: usize, negatives: Negatives) -> Result<Analysis> {
+    EquirectTransform::new(l_max, img.width(), img.height())?.analyze(img, negatives)
+}
+
+/// Projects weighted samples: `c_l^m = sum_i w_i f_i y_l^m(d_i)` (any quadrature
+/// rule; `values` is `n x C` row-major).
+///
+/// # Errors
+/// [`SphereError::Length`] for inconsistent lengths, [`SphereError::NonFinite`]
+/// for NaN values or weights, [`SphereError::BadDirection`] for zero/NaN directions.
+pub fn project_samples(
+    l_max: usize,
+    dirs: &[[f64; 3]],
+    weights: &[f64],
+    values: &[f64],
+    channels: usize,
+) -> Result<ShCoeffs> {
+    let mut out = ShCoeffs::zeros(l_max, channels)?;
+    if weights.len() != dirs.len() || values.len() != dirs.len() * channels {
+        return Err(SphereError::Length {
+            what: "samples (weights, values = directions x channels)",
+            got: values.len(),
+            expected: dirs.len() * channels,
+        });
+    }
+    if let Some(first) = values.iter().chain(weights).position(|v| !v.is_finite()) {
+        return Err(SphereError::NonFinite {
+            what: "sample values or weights",
+            count: values.iter().chain(weights).filter(|v| !v.is_finite()).count(),
+            first,
+        });
+    }
+    let sh = ShEvaluator::new(l_max)?;
+    let mut y = vec![0.0; sh_count(l_max)];
+    let o = out.data_mut();
+    for (i, d) in dirs.iter().enumerate() {
+        crate::zhf::check_direction(i, *d)?;
+        sh.eval_into(*d, &mut y);
+        for (k, yk) in y.iter().enumerate() {
+            let wy = weights[i] * yk;
+            for c in 0..channels {
+                o[k * channels + c] += wy * values[i * channels + c];
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Direction of texel `(i, j)` (column, row from the top) of cube face `face`
+/// (`0..6` = `+X, -X, +Y, -Y, +Z, -Z`) of size `n`, and its exact solid angle.
+#[must_use]
+pub fn cube_texel(face: usize, i: usize, j: usize, n: usize) -> ([f64; 3], f64) {
+    let nf = n as f64;
+    let sc = 2.0 * (i as f64 + 0.5) / nf - 1.0;
+    let tc = 2.0 * (j as f64 + 0.5) / nf - 1.0;
+    // OpenGL table: direction = ma * major + sc * s_axis + tc * t_axis
+    let d = match face {
+        0 => [1.0, -tc, -sc],
+        1 => [-1.0, -tc, sc],
+        2 => [sc, 1.0, tc],
+        3 => [sc, -1.0, -tc],
+        4 => [sc, -tc, 1.0],
+        _ => [-sc, -tc, -1.0],
+    };
+    let f = |a: f64, b: f64| (a * b).atan2((a * a + b * b + 1.0).sqrt());
+    let (a0, a1) = (2.0 * i as f64 / nf - 1.0, 2.0 * (i as f64 + 1.0) / nf - 1.0);
+    let (b0, b1) = (2.0 * j as f64 / nf - 1.0, 2.0 * (j as f64 + 1.0) / nf - 1.0);
+    let sa = f(a1, b1) - f(a0, b1) - f(a1, b0) + f(a0, b0);
+    (d, sa)
+}
+
+/// Projects a cubemap strip (`W = 6H`, faces `+X, -X, +Y, -Y, +Z, -Z`) onto SH.
+///
+/// # Errors
+/// [`SphereError::NotCubemap`] for other shapes, [`SphereError::NonFinite`] for NaN.
+pub fn analyze_cubemap(img: &Image, l_max: usize, negatives: Negatives) -> Result<Analysis> {
+    let (w, h, ch) = (img.width(), img.height(), img.channels());
+    if w != 6 * h {
+        return Err(SphereError::NotCubemap {
+            width: w,
+            height: h,
+        });
+    }
+    let data = img.data();
+    if let Some(first) = data.iter().position(|v| !v.is_finite()) {
+        return Err(SphereError::NonFinite {
+            what: "cubemap",
+            count: data.iter().filter(|v| !v.is_finite()).count(),
+            first,
+        });
+    }
+    let negatives_clamped = data.iter().filter(|&&v| v < 0.0).count();
+    let sh = ShEvaluator::new(l_max)?;
+    let mut coeffs = ShCoeffs::zeros(l_max, ch)?;
+    let o = coeffs.data_mut();
+    let mut y = vec![0.0; sh_count(l_max)];
+    for face in 0..6 {
+        for j in 0..h {
+            for i in 0..h {
+                let (d, sa) = cube_texel(face, i, j, h);
+                sh.eval_into(d, &mut y);
+                let px = (j * w + face * h + i) * ch;
+                for c in 0..ch {
+                    let mut v = f64::from(data[px + c]);
+                    if negatives == Negatives::Clamp {
+                        v = v.max(0.0);
+                    }
+                    let wv = sa * v;
+                    for (k, yk) in y.iter().enumerate() {
+                        o[k * ch + c] += wv * yk;
+                    }
+                }
+            }
+        }
+    }
+    Ok(Analysis {
+        coeffs,
+        negatives_clamped,
+    })
+}
