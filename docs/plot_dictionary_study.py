@@ -3,7 +3,8 @@
     .venv/bin/python docs/plot_dictionary_study.py docs/dictionary-study.csv docs/dictionary-study.png
 
 One panel per filter: relative L2 error (log) against the number of terms,
-one line per dictionary configuration.
+one line per dictionary configuration, joining the fits at decreasing target
+errors (tol = 4%, 2%, 1%, 0.5%, 0.25%).
 """
 
 import csv
@@ -24,7 +25,7 @@ def main() -> None:
     configs = list(dict.fromkeys(r["config"] for r in rows))
     data = defaultdict(list)
     for r in rows:
-        data[(r["filter"], r["config"])].append((int(r["terms"]), float(r["rel_l2_error"])))
+        data[(r["filter"], r["config"])].append((-float(r["tol"]), int(r["terms"]), float(r["rel_l2_error"])))
     fig, axes = plt.subplots(1, len(filters), figsize=(5.2 * len(filters), 4.4), sharey=True)
     styles = ["-o", "--s", "-.^", ":v", "-D", "--x", "-.P", ":*", "-h", "--p"]
     for ax, f in zip(axes, filters):
@@ -32,7 +33,7 @@ def main() -> None:
             pts = sorted(data[(f, c)])
             if not pts:
                 continue
-            ax.plot([p[0] for p in pts], [100 * p[1] for p in pts], styles[i % len(styles)],
+            ax.plot([p[1] for p in pts], [100 * p[2] for p in pts], styles[i % len(styles)],
                     label=c, lw=2.2 if c == "default" else 1.0, ms=4,
                     color="black" if c == "default" else None)
         ax.set_xscale("log")

@@ -230,7 +230,7 @@ fn extent(c: &mut Criterion) {
             BenchmarkId::new(format!("brute_force_{rows}_of_1024_rows"), extent),
             &extent,
             |bch, _| {
-                report.call_once(&check);
+                report.call_once(check);
                 bch.iter(brute);
             },
         );

@@ -58,7 +58,7 @@ fn run(spec: &str, c: &Config, tol: f64, gap: f64) -> Result<String, Box<dyn std
     let r = d.report.as_ref().ok_or("no report")?;
     let p = d.dictionary.as_ref().ok_or("no dictionary")?;
     Ok(format!(
-        "{},{},{},{},{},{},{},{},{:.3},{},{:.6},{:.6},{:.3e},{},{:.3}",
+        "\"{}\",\"{}\",{},{},{},{},{},{},{:.3},{},{:.6},{:.6},{:.3e},{},{:.3}",
         c.name,
         spec,
         c.ratio,
@@ -142,7 +142,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     configs.push(Config {
         spo: 1,
         ratio: 0.7,
-        ..base("spo=1,ratio=0.7 (probe)")
+        ..base("spo=1 ratio=0.7 (probe)")
     });
     let filters = [
         "gauss:sx=12,sy=3,theta=30",

@@ -70,7 +70,12 @@ impl AspectBank {
         check_range("bank max aspect", options.max_aspect, 1.0, 16.0)?;
         check_range("bank sigma_ref", options.sigma_ref, 2.0, 32.0)?;
         check_range("bank tolerance", options.tol, 1e-4, 0.5)?;
-        check_range("bank steps per octave", options.steps_per_octave as f64, 1.0, 8.0)?;
+        check_range(
+            "bank steps per octave",
+            options.steps_per_octave as f64,
+            1.0,
+            8.0,
+        )?;
         let octaves = options.max_aspect.log2();
         let n = (octaves * options.steps_per_octave as f64).ceil() as usize + 1;
         let aspects: Vec<f64> = (0..n)
@@ -210,11 +215,14 @@ impl AspectBank {
         if bank.aspects.is_empty() || bank.aspects.len() != bank.terms.len() {
             return Err(bad("aspect table and terms differ in length".into()));
         }
-        let finite = bank.terms.iter().flatten().all(|t| {
-            t.weight.is_finite() && t.x.is_finite() && t.y.is_finite() && t.sigma > 0.0
-        });
+        let finite =
+            bank.terms.iter().flatten().all(|t| {
+                t.weight.is_finite() && t.x.is_finite() && t.y.is_finite() && t.sigma > 0.0
+            });
         if !finite || bank.terms.iter().any(Vec::is_empty) {
-            return Err(bad("invalid terms (non-finite, non-positive sigma or empty)".into()));
+            return Err(bad(
+                "invalid terms (non-finite, non-positive sigma or empty)".into(),
+            ));
         }
         Ok(bank)
     }

@@ -200,5 +200,9 @@ pub fn hessian_image(
     let (slo, shi) = bank.stack_sigmas(sigma, sigma);
     let stack = ScaleStack::new(image, slo, shi, border, hessian_stack_options())?;
     let [hxx, hxy, hyy] = bank.bind(&stack)?.planes(sigma)?;
-    Ok(Image::from_planes(image.width(), image.height(), &[hxx, hxy, hyy])?)
+    Ok(Image::from_planes(
+        image.width(),
+        image.height(),
+        &[hxx, hxy, hyy],
+    )?)
 }

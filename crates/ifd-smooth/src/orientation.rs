@@ -130,7 +130,13 @@ mod tests {
     #[test]
     fn horizontal_ridge_smooths_horizontally() {
         let o = Orientation::from_hessian([0.0, 0.0, -0.5], 2.0, &AnisoParams::default());
-        assert!(o.theta.rem_euclid(180.0).min(180.0 - o.theta.rem_euclid(180.0)) < 1e-4, "{o:?}");
+        assert!(
+            o.theta
+                .rem_euclid(180.0)
+                .min(180.0 - o.theta.rem_euclid(180.0))
+                < 1e-4,
+            "{o:?}"
+        );
     }
 
     #[test]

@@ -255,8 +255,11 @@ impl Smoother {
             .terms
             .iter()
             .map(|t| {
-                Filter::new(&self.stack, &ifd_planar::Decomposition::from_terms(t.clone()))
-                    .map_err(SmoothError::from)
+                Filter::new(
+                    &self.stack,
+                    &ifd_planar::Decomposition::from_terms(t.clone()),
+                )
+                .map_err(SmoothError::from)
             })
             .collect()
     }
@@ -299,24 +302,23 @@ impl Smoother {
         let mut out = vec![0.0f32; w * h * c];
         match mode {
             Mode::PerPixel => {
-                out.par_chunks_mut(w * c)
-                    .enumerate()
-                    .try_for_each(|(y, row)| -> Result<(), SmoothError> {
+                out.par_chunks_mut(w * c).enumerate().try_for_each(
+                    |(y, row)| -> Result<(), SmoothError> {
                         let mut tmp = vec![0.0; c];
                         for (x, px) in row.chunks_exact_mut(c).enumerate() {
                             let o = self.field[y * w + x];
                             self.smoothed_at(&filters, x as f32, y as f32, o, &mut tmp, px)?;
                         }
                         Ok(())
-                    })?;
+                    },
+                )?;
             }
             Mode::Dab => {
                 // Dab centres on a grid of spacing g; each pixel blends the
                 // results of the filters of its four surrounding centres.
                 let g = (2.0 * self.opts.scale).max(4.0) as f32;
-                out.par_chunks_mut(w * c)
-                    .enumerate()
-                    .try_for_each(|(y, row)| -> Result<(), SmoothError> {
+                out.par_chunks_mut(w * c).enumerate().try_for_each(
+                    |(y, row)| -> Result<(), SmoothError> {
                         let mut tmp = vec![0.0; c];
                         let mut acc = vec![0.0; c];
                         let gy = y as f32 / g;
@@ -335,14 +337,17 @@ impl Smoother {
                                     continue;
                                 }
                                 let o = self.orientation_at((i0 + di) * g, (j0 + dj) * g);
-                                self.smoothed_at(&filters, x as f32, y as f32, o, &mut tmp, &mut acc)?;
+                                self.smoothed_at(
+                                    &filters, x as f32, y as f32, o, &mut tmp, &mut acc,
+                                )?;
                                 for (p, a) in px.iter_mut().zip(&acc) {
                                     *p += wgt * a;
                                 }
                             }
                         }
                         Ok(())
-                    })?;
+                    },
+                )?;
             }
         }
         Ok(Image::from_vec(w, h, c, out)?)

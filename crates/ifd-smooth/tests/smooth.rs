@@ -59,7 +59,10 @@ fn hessian_of_a_quadratic_is_exact() {
         let want = [2.0 * a, b, 2.0 * c];
         for k in 0..3 {
             let err = (f64::from(got[k]) - want[k]).abs();
-            assert!(err < 0.03 * 2.0 * a, "sigma {sigma} component {k}: {got:?} vs {want:?}");
+            assert!(
+                err < 0.03 * 2.0 * a,
+                "sigma {sigma} component {k}: {got:?} vs {want:?}"
+            );
         }
     }
 }
@@ -85,7 +88,12 @@ fn point_hessian_equals_whole_image() {
         let p = f.at(x as f32, y as f32, 3.0).unwrap();
         for k in 0..3 {
             let d = (p[k] - f64::from(whole.get(x, y, k))).abs();
-            assert!(d < 1e-5, "({x}, {y}) component {k}: {} vs {}", p[k], whole.get(x, y, k));
+            assert!(
+                d < 1e-5,
+                "({x}, {y}) component {k}: {} vs {}",
+                p[k],
+                whole.get(x, y, k)
+            );
         }
     }
 }
@@ -109,8 +117,16 @@ fn constant_image_stays_constant() {
     for mode in [Mode::PerPixel, Mode::Dab] {
         let out = s.smooth_image(mode).unwrap();
         // Flat images give a zero Hessian: isotropic filters, never NaN.
-        assert!(s.orientation_field().iter().all(|o| o.aspect < 1.001 && o.theta.is_finite()));
-        let err = out.data().iter().map(|v| (v - 0.25).abs()).fold(0.0f32, f32::max);
+        assert!(
+            s.orientation_field()
+                .iter()
+                .all(|o| o.aspect < 1.001 && o.theta.is_finite())
+        );
+        let err = out
+            .data()
+            .iter()
+            .map(|v| (v - 0.25).abs())
+            .fold(0.0f32, f32::max);
         assert!(err < 0.01 * 0.25, "{mode:?}: {err}");
     }
 }
@@ -119,7 +135,9 @@ fn constant_image_stays_constant() {
 fn smoothing_runs_along_edges() {
     // A vertical step edge: smoothing along it keeps it sharp.
     let (w, h) = (64, 64);
-    let data: Vec<f32> = (0..w * h).map(|i| if i % w < 32 { 0.0 } else { 1.0 }).collect();
+    let data: Vec<f32> = (0..w * h)
+        .map(|i| if i % w < 32 { 0.0 } else { 1.0 })
+        .collect();
     let img = Image::from_vec(w, h, 1, data).unwrap();
     let s = smoother(&img, 4.0);
     let o = s.orientation_at(31.5, 32.0);
@@ -131,7 +149,12 @@ fn smoothing_runs_along_edges() {
     let iso = ifd_planar::reference::correlate(&img, &k, 33, 33, Border::Reflect101).unwrap();
     // The anisotropic result keeps more contrast across the edge than an isotropic Gaussian.
     let contrast = |im: &Image| im.get(34, 32, 0) - im.get(29, 32, 0);
-    assert!(contrast(&out) > contrast(&iso) + 0.1, "{} vs {}", contrast(&out), contrast(&iso));
+    assert!(
+        contrast(&out) > contrast(&iso) + 0.1,
+        "{} vs {}",
+        contrast(&out),
+        contrast(&iso)
+    );
 }
 
 #[test]
@@ -147,7 +170,10 @@ fn dab_matches_whole_image_inside() {
         falloff: 0.0,
         strength: 1.0,
     };
-    let region = s.apply_dab(&dab, Mode::PerPixel, &mut target).unwrap().unwrap();
+    let region = s
+        .apply_dab(&dab, Mode::PerPixel, &mut target)
+        .unwrap()
+        .unwrap();
     assert!(region.width <= 34 && region.height <= 34);
     for (x, y) in [(40, 36), (50, 40), (30, 30)] {
         assert!((target.get(x, y, 0) - whole.get(x, y, 0)).abs() < 1e-6);
@@ -168,7 +194,10 @@ fn bad_input_is_refused() {
         ..SmoothOptions::default()
     };
     let e = Smoother::with_banks(&img, &opts, bank.clone(), hbank).unwrap_err();
-    assert!(matches!(e, SmoothError::OutOfRange { name: "scale", .. }), "{e}");
+    assert!(
+        matches!(e, SmoothError::OutOfRange { name: "scale", .. }),
+        "{e}"
+    );
     img.set(3, 4, 0, f32::NAN);
     let e = Smoother::with_banks(&img, &SmoothOptions::default(), bank.clone(), hbank).unwrap_err();
     assert!(e.to_string().contains("NaN"), "{e}");
@@ -184,7 +213,10 @@ fn bad_input_is_refused() {
     };
     assert!(s.apply_dab(&dab, Mode::Dab, &mut wrong).is_err());
     let mut ok = img.clone();
-    let bad = Dab { strength: 2.0, ..dab };
+    let bad = Dab {
+        strength: 2.0,
+        ..dab
+    };
     assert!(s.apply_dab(&bad, Mode::Dab, &mut ok).is_err());
     assert!(hessian_image(&img, 0.1, hbank, Border::Reflect101).is_err());
 }

@@ -123,7 +123,12 @@ impl ShCoeffs {
     #[must_use]
     pub fn channel(&self, c: usize) -> Vec<f64> {
         assert!(c < self.channels);
-        self.data.iter().skip(c).step_by(self.channels).copied().collect()
+        self.data
+            .iter()
+            .skip(c)
+            .step_by(self.channels)
+            .copied()
+            .collect()
     }
 
     /// Copy truncated or zero-padded to degree `l_max`.
@@ -238,14 +243,20 @@ pub fn read_npy_f64(path: &Path) -> Result<(Vec<usize>, Vec<f64>)> {
         ),
         v => return Err(err(format!("unsupported .npy version {v}"))),
     };
-    let header = std::str::from_utf8(bytes.get(start..start + hlen).ok_or_else(|| err("truncated header".into()))?)
-        .map_err(|_| err("header is not UTF-8".into()))?;
+    let header = std::str::from_utf8(
+        bytes
+            .get(start..start + hlen)
+            .ok_or_else(|| err("truncated header".into()))?,
+    )
+    .map_err(|_| err("header is not UTF-8".into()))?;
     let size = if header.contains("'<f8'") {
         8
     } else if header.contains("'<f4'") {
         4
     } else {
-        return Err(err(format!("only little-endian float64/float32 arrays are read; header {header:?}")));
+        return Err(err(format!(
+            "only little-endian float64/float32 arrays are read; header {header:?}"
+        )));
     };
     if header.contains("'fortran_order': True") {
         return Err(err("Fortran-order arrays are not supported".into()));
@@ -266,7 +277,11 @@ pub fn read_npy_f64(path: &Path) -> Result<(Vec<usize>, Vec<f64>)> {
     let n: usize = shape.iter().product();
     let body = &bytes[start + hlen..];
     if body.len() != n * size {
-        return Err(err(format!("{} data bytes for shape {shape:?} ({} expected)", body.len(), n * size)));
+        return Err(err(format!(
+            "{} data bytes for shape {shape:?} ({} expected)",
+            body.len(),
+            n * size
+        )));
     }
     let data = if size == 8 {
         body.chunks_exact(8)

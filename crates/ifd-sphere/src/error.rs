@@ -33,7 +33,9 @@ pub enum SphereError {
         height: usize,
     },
     /// A cubemap whose faces are not square or not six.
-    #[error("a cubemap must be a 6-face cross-free strip of square faces (W = 6H); got {width}x{height}")]
+    #[error(
+        "a cubemap must be a 6-face cross-free strip of square faces (W = 6H); got {width}x{height}"
+    )]
     NotCubemap {
         /// Width in pixels.
         width: usize,

@@ -84,7 +84,9 @@ impl Decomposition {
         let mut out = vec![0.0; ch];
         for l in 0..=self.l_max() {
             for (j, d) in self.directions.band(l).iter().enumerate() {
-                let g = self.profile.eval(l, d[0] * w[0] + d[1] * w[1] + d[2] * w[2]);
+                let g = self
+                    .profile
+                    .eval(l, d[0] * w[0] + d[1] * w[1] + d[2] * w[2]);
                 for (c, o) in out.iter_mut().enumerate() {
                     *o += self.weights.data[(l * l + j) * ch + c] * g;
                 }

@@ -58,17 +58,28 @@ impl Kernel {
         let (name, args) = text.split_once(':').unwrap_or((text, ""));
         let mut kv = std::collections::BTreeMap::new();
         for part in args.split(',').filter(|s| !s.trim().is_empty()) {
-            let (k, v) = part.split_once('=').ok_or_else(|| perr("expected key=value"))?;
-            let v: f64 = v.trim().parse().map_err(|_| perr("a value is not a number"))?;
+            let (k, v) = part
+                .split_once('=')
+                .ok_or_else(|| perr("expected key=value"))?;
+            let v: f64 = v
+                .trim()
+                .parse()
+                .map_err(|_| perr("a value is not a number"))?;
             if !v.is_finite() || v <= 0.0 {
                 return Err(perr("values must be finite and positive"));
             }
             kv.insert(k.trim().to_string(), v);
         }
-        let get = |k: &str| kv.get(k).copied().ok_or_else(|| perr(&format!("missing {k}=")));
+        let get = |k: &str| {
+            kv.get(k)
+                .copied()
+                .ok_or_else(|| perr(&format!("missing {k}=")))
+        };
         let kernel = match name.trim() {
             "phong" => Self::Phong { s: get("s")? },
-            "vmf" => Self::Vmf { kappa: get("kappa")? },
+            "vmf" => Self::Vmf {
+                kappa: get("kappa")?,
+            },
             "gauss" => Self::Gauss { s: get("s")? },
             "aniso-gauss" => Self::AnisoGauss {
                 s1: get("s1")?,
@@ -93,7 +104,11 @@ impl Kernel {
             Self::AnisoGauss { s1, s2 } => {
                 let th = t.acos();
                 let r = w[0].hypot(w[1]);
-                let (c, sn) = if r > 0.0 { (w[0] / r, w[1] / r) } else { (1.0, 0.0) };
+                let (c, sn) = if r > 0.0 {
+                    (w[0] / r, w[1] / r)
+                } else {
+                    (1.0, 0.0)
+                };
                 let (a, b) = (th * c, th * sn);
                 (-a * a / (2.0 * s1 * s1) - b * b / (2.0 * s2 * s2)).exp()
             }
@@ -128,7 +143,11 @@ impl Kernel {
 /// # Errors
 /// [`SphereError::NonFinite`] when the function returns NaN or infinity;
 /// [`SphereError::DegreeTooHigh`].
-pub fn project_function(l_max: usize, f: impl Fn([f64; 3]) -> f64, n_theta: usize) -> Result<ShCoeffs> {
+pub fn project_function(
+    l_max: usize,
+    f: impl Fn([f64; 3]) -> f64,
+    n_theta: usize,
+) -> Result<ShCoeffs> {
     let n_theta = n_theta.max(l_max + 1);
     let n_phi = 2 * n_theta;
     let sh = ShEvaluator::new(l_max)?;

@@ -9,7 +9,7 @@
 //! // A 64x32 map, projected to degree 4 with the FFT + Legendre transform.
 //! let t = EquirectTransform::new(4, 64, 32)?;
 //! let img = ifd_image::Image::from_vec(64, 32, 1, (0..64 * 32).map(|i| (i % 7) as f32).collect())?;
-//! let c = t.analyze(&img, Default::default())?.coeffs;
+//! let c = t.analyze(&img, ifd_sphere::Negatives::Clamp)?.coeffs;
 //! // Rotate it by ZHF (Eq. 10) and by the Ivanic-Ruedenberg reference.
 //! let r = Rotation::from_zyz(0.1, 0.7, -0.3);
 //! let basis = RzhBasis::new(DirectionSet::new(4, Sharing::Shared, Chooser::Fibonacci)?)?;

@@ -119,7 +119,9 @@ impl Profile {
     pub fn eval(self, l: usize, t: f64) -> f64 {
         let lf = l as f64;
         match self {
-            Self::Zonal => ((2.0 * lf + 1.0) / (4.0 * std::f64::consts::PI)).sqrt() * legendre_p(l, t),
+            Self::Zonal => {
+                ((2.0 * lf + 1.0) / (4.0 * std::f64::consts::PI)).sqrt() * legendre_p(l, t)
+            }
             Self::Legendre => legendre_p(l, t),
             Self::Phong => t.max(0.0).powi(4 * l as i32),
             Self::Gauss => (-(1.0 - t) * lf * lf).exp(),
@@ -129,7 +131,8 @@ impl Profile {
                     1.0 / (4.0 * std::f64::consts::PI)
                 } else {
                     // kappa / (4 pi sinh kappa) e^{kappa t}, overflow-free
-                    k / (2.0 * std::f64::consts::PI * (1.0 - (-2.0 * k).exp())) * (k * (t - 1.0)).exp()
+                    k / (2.0 * std::f64::consts::PI * (1.0 - (-2.0 * k).exp()))
+                        * (k * (t - 1.0)).exp()
                 }
             }
             Self::Hybrid => (-(1.0 - t) * lf * lf).exp() * legendre_p(l, t),
@@ -151,7 +154,10 @@ impl Profile {
                 let (t, w) = graded_rule(l_max);
                 let mut p = vec![0.0; n];
                 let k: Vec<f64> = (0..n)
-                    .map(|l| 2.0 * std::f64::consts::PI * ((2 * l + 1) as f64 / (4.0 * std::f64::consts::PI)).sqrt())
+                    .map(|l| {
+                        2.0 * std::f64::consts::PI
+                            * ((2 * l + 1) as f64 / (4.0 * std::f64::consts::PI)).sqrt()
+                    })
                     .collect();
                 for (&ti, &wi) in t.iter().zip(&w) {
                     legendre_all(l_max, ti, &mut p);
@@ -273,7 +279,7 @@ impl IsdBasis {
     pub fn with_limit(profile: Profile, dirs: DirectionSet, cond_limit: f64) -> Result<Self> {
         let (m, beta) = isd_matrix(profile, &dirs)?;
         let cond = condition_number(&m);
-        if !(cond <= cond_limit) {
+        if cond.is_nan() || cond > cond_limit {
             return Err(SphereError::Degenerate {
                 band: dirs.l_max(),
                 cond,

@@ -88,7 +88,7 @@ impl Rotation {
     #[must_use]
     pub fn from_axis_angle(axis: [f64; 3], angle: f64) -> Self {
         let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
-        if !(n > 0.0) || !n.is_finite() {
+        if n.is_nan() || n <= 0.0 || !n.is_finite() {
             return Self::IDENTITY;
         }
         let [x, y, z] = [axis[0] / n, axis[1] / n, axis[2] / n];
@@ -109,7 +109,7 @@ impl Rotation {
     #[must_use]
     pub fn aligning_z_to(d: [f64; 3]) -> Self {
         let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        if !(n > 0.0) {
+        if n.is_nan() || n <= 0.0 {
             return Self::IDENTITY;
         }
         let d = [d[0] / n, d[1] / n, d[2] / n];
@@ -140,9 +140,21 @@ impl Rotation {
         let [x, y, z, w] = q;
         Self {
             m: [
-                [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * z + y * w)],
-                [2.0 * (x * y + z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - x * w)],
-                [2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y)],
+                [
+                    1.0 - 2.0 * (y * y + z * z),
+                    2.0 * (x * y - z * w),
+                    2.0 * (x * z + y * w),
+                ],
+                [
+                    2.0 * (x * y + z * w),
+                    1.0 - 2.0 * (x * x + z * z),
+                    2.0 * (y * z - x * w),
+                ],
+                [
+                    2.0 * (x * z - y * w),
+                    2.0 * (y * z + x * w),
+                    1.0 - 2.0 * (x * x + y * y),
+                ],
             ],
         }
     }
@@ -235,7 +247,7 @@ impl ShRotation {
     pub fn new(rot: &Rotation, l_max: usize) -> Result<Self> {
         check_degree(l_max)?;
         let err = rot.orthogonality_error();
-        if !(err < 1e-6) {
+        if err.is_nan() || err >= 1e-6 {
             return Err(SphereError::Parameter {
                 name: "rotation",
                 value: format!("{:?}", rot.m),
@@ -349,21 +361,25 @@ fn ir_band(l: usize, r1: &[f64], prev: &[f64]) -> Vec<f64> {
             };
             let am = m.abs();
             let u = (((li + m) * (li - m)) as f64 / denom).sqrt();
-            let v = 0.5 * ((1.0 + d) * ((li + am - 1) * (li + am)) as f64 / denom).sqrt() * (1.0 - 2.0 * d);
+            let v = 0.5
+                * ((1.0 + d) * ((li + am - 1) * (li + am)) as f64 / denom).sqrt()
+                * (1.0 - 2.0 * d);
             let w = -0.5 * (((li - am - 1) * (li - am)) as f64 / denom).sqrt() * (1.0 - d);
             let mut val = 0.0;
             if u != 0.0 {
                 val += u * p(0, m, nn);
             }
             if v != 0.0 {
-                let vv = if m == 0 {
-                    p(1, 1, nn) + p(-1, -1, nn)
-                } else if m > 0 {
-                    let d1: f64 = if m == 1 { 1.0 } else { 0.0 };
-                    p(1, m - 1, nn) * (1.0 + d1).sqrt() - p(-1, -m + 1, nn) * (1.0 - d1)
-                } else {
-                    let d1: f64 = if m == -1 { 1.0 } else { 0.0 };
-                    p(1, m + 1, nn) * (1.0 - d1) + p(-1, -m - 1, nn) * (1.0 + d1).sqrt()
+                let vv = match m.cmp(&0) {
+                    std::cmp::Ordering::Equal => p(1, 1, nn) + p(-1, -1, nn),
+                    std::cmp::Ordering::Greater => {
+                        let d1: f64 = if m == 1 { 1.0 } else { 0.0 };
+                        p(1, m - 1, nn) * (1.0 + d1).sqrt() - p(-1, -m + 1, nn) * (1.0 - d1)
+                    }
+                    std::cmp::Ordering::Less => {
+                        let d1: f64 = if m == -1 { 1.0 } else { 0.0 };
+                        p(1, m + 1, nn) * (1.0 - d1) + p(-1, -m - 1, nn) * (1.0 + d1).sqrt()
+                    }
                 };
                 val += v * vv;
             }

@@ -150,7 +150,11 @@ macro_rules! eval_body {
                 s = c * y + s * x;
                 c = cn;
             }
-            let (fc, fs) = if m == 0 { (1.0, 0.0) } else { (sqrt2 * c, sqrt2 * s) };
+            let (fc, fs) = if m == 0 {
+                (1.0, 0.0)
+            } else {
+                (sqrt2 * c, sqrt2 * s)
+            };
             let mut p2: $t = $qmm[m];
             let mut put = |l: usize, p: $t| {
                 let base = l * (l + 1);
@@ -277,10 +281,9 @@ impl ShEvaluator {
     /// If `l > L` or `out` is shorter than `2l + 1`.
     pub fn eval_band_into(&self, l: usize, d: [f64; 3], scratch: &mut [f64], out: &mut [f64]) {
         self.eval_into(d, scratch);
-        out[..2 * l + 1].copy_from_slice(&scratch[l * l..(l + 1) * (l + 1)]);
+        out[..=2 * l].copy_from_slice(&scratch[l * l..(l + 1) * (l + 1)]);
     }
 }
-
 
 /// Convenience: all `y_l^m(d)` up to `l_max` (builds an evaluator each call;
 /// keep a [`ShEvaluator`] for repeated use).

@@ -129,7 +129,7 @@ impl SplitMix64 {
 /// For zero-length or non-finite vectors.
 pub fn check_direction(index: usize, d: [f64; 3]) -> Result<[f64; 3]> {
     let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    if !(n > 1e-300) || !n.is_finite() {
+    if n.is_nan() || n <= 1e-300 || !n.is_finite() {
         return Err(SphereError::BadDirection {
             index,
             x: d[0],
@@ -215,7 +215,7 @@ impl DirectionSet {
     ///
     /// # Errors
     /// [`SphereError::Length`] for the wrong count, [`SphereError::BadDirection`].
-    pub fn from_dirs(l_max: usize, sharing: Sharing, dirs: Vec<[f64; 3]>) -> Result<Self> {
+    pub fn from_dirs(l_max: usize, sharing: Sharing, dirs: &[[f64; 3]]) -> Result<Self> {
         check_degree(l_max)?;
         let need = Self::required(l_max, sharing);
         if dirs.len() != need {
@@ -259,12 +259,18 @@ impl DirectionSet {
             // spread over one hemisphere loses nothing.) A fixed band-dependent
             // tilt keeps the bands' poles apart.
             let r = Rotation::from_zyz(0.7 * l as f64, 0.3 + 0.1 * l as f64, 0.0);
-            fibonacci(2 * (2 * l + 1)).into_iter().take(2 * l + 1).map(|d| r.apply(d)).collect()
+            fibonacci(2 * (2 * l + 1))
+                .into_iter()
+                .take(2 * l + 1)
+                .map(|d| r.apply(d))
+                .collect()
         };
         let dirs = match (chooser, sharing) {
             (Chooser::Random { seed }, _) => {
                 let mut rng = SplitMix64::new(seed);
-                (0..Self::required(l_max, sharing)).map(|_| rng.direction()).collect()
+                (0..Self::required(l_max, sharing))
+                    .map(|_| rng.direction())
+                    .collect()
             }
             (Chooser::Fibonacci | Chooser::Optimized { .. }, Sharing::PerBand) => {
                 (0..=l_max).flat_map(per_band_fib).collect()
@@ -272,7 +278,11 @@ impl DirectionSet {
             (Chooser::Fibonacci | Chooser::Optimized { .. }, Sharing::Shared) => {
                 let r = Rotation::from_zyz(0.4, 0.3, 0.0);
                 let n = 2 * l_max + 1;
-                let pts: Vec<_> = fibonacci(2 * n).into_iter().take(n).map(|d| r.apply(d)).collect();
+                let pts: Vec<_> = fibonacci(2 * n)
+                    .into_iter()
+                    .take(n)
+                    .map(|d| r.apply(d))
+                    .collect();
                 farthest_point_order(&pts)
             }
         };
@@ -314,7 +324,7 @@ impl DirectionSet {
         assert!(l <= self.l_max);
         match self.sharing {
             Sharing::PerBand => &self.dirs[l * l..(l + 1) * (l + 1)],
-            Sharing::Shared => &self.dirs[..2 * l + 1],
+            Sharing::Shared => &self.dirs[..=2 * l],
         }
     }
 
@@ -333,7 +343,11 @@ impl DirectionSet {
     pub fn condition_numbers(&self) -> Vec<f64> {
         let sh = ShEvaluator::new(self.l_max).ok();
         (0..=self.l_max)
-            .map(|l| sh.as_ref().map_or(f64::INFINITY, |sh| condition_number(&band_matrix(sh, l, self.band(l)))))
+            .map(|l| {
+                sh.as_ref().map_or(f64::INFINITY, |sh| {
+                    condition_number(&band_matrix(sh, l, self.band(l)))
+                })
+            })
             .collect()
     }
 
@@ -350,7 +364,8 @@ impl DirectionSet {
                     let n = 2 * l + 1;
                     let mut best = cond_of(&self.dirs[off..off + n], l);
                     for it in 0..iterations {
-                        let step = 0.5 / (n as f64).sqrt() * (1.0 - it as f64 / iterations as f64) + 1e-3;
+                        let step =
+                            0.5 / (n as f64).sqrt() * (1.0 - it as f64 / iterations as f64) + 1e-3;
                         let j = (rng.next_u64() % n as u64) as usize;
                         let old = self.dirs[off + j];
                         self.dirs[off + j] = perturb(&mut rng, old, step);
@@ -369,7 +384,7 @@ impl DirectionSet {
                     let mut worst: f64 = 0.0;
                     let mut sum = 0.0;
                     for l in 1..=self.l_max {
-                        let c = cond_of(&dirs[..2 * l + 1], l).ln();
+                        let c = cond_of(&dirs[..=2 * l], l).ln();
                         worst = worst.max(c);
                         sum += c;
                     }
@@ -378,7 +393,8 @@ impl DirectionSet {
                 let n = self.dirs.len();
                 let mut best = score(&self.dirs);
                 for it in 0..iterations {
-                    let step = 0.5 / (n as f64).sqrt() * (1.0 - it as f64 / iterations as f64) + 1e-3;
+                    let step =
+                        0.5 / (n as f64).sqrt() * (1.0 - it as f64 / iterations as f64) + 1e-3;
                     let j = (rng.next_u64() % n as u64) as usize;
                     let old = self.dirs[j];
                     self.dirs[j] = perturb(&mut rng, old, step);
@@ -429,7 +445,7 @@ pub fn condition_number(m: &DMatrix<f64>) -> f64 {
     let sv = m.clone().svd(false, false).singular_values;
     let max = sv.iter().copied().fold(0.0, f64::max);
     let min = sv.iter().copied().fold(f64::INFINITY, f64::min);
-    if !(min > 0.0) || !max.is_finite() {
+    if min.is_nan() || min <= 0.0 || !max.is_finite() {
         f64::INFINITY
     } else {
         max / min
@@ -510,7 +526,11 @@ impl RzhBasis {
         for l in 0..=dirs.l_max() {
             let m = band_matrix(&sh, l, dirs.band(l));
             let cond = condition_number(&m);
-            let inv = if cond <= cond_limit { m.clone().try_inverse() } else { None };
+            let inv = if cond <= cond_limit {
+                m.clone().try_inverse()
+            } else {
+                None
+            };
             let Some(inv) = inv else {
                 return Err(SphereError::Degenerate {
                     band: l,
@@ -582,7 +602,13 @@ impl RzhBasis {
         let ch = f.channels();
         let mut out = vec![0.0; f.data().len()];
         for (l, b) in self.bands.iter().enumerate() {
-            block_mul(&b.minv, 2 * l + 1, &f.data()[l * l * ch..], &mut out[l * l * ch..], ch);
+            block_mul(
+                &b.minv,
+                2 * l + 1,
+                &f.data()[l * l * ch..],
+                &mut out[l * l * ch..],
+                ch,
+            );
         }
         Ok(RzhCoeffs {
             l_max: f.l_max(),
@@ -600,7 +626,13 @@ impl RzhBasis {
         let ch = z.channels;
         let mut out = ShCoeffs::zeros(z.l_max, ch)?;
         for (l, b) in self.bands.iter().enumerate() {
-            block_mul(&b.m, 2 * l + 1, &z.data[l * l * ch..], &mut out.data_mut()[l * l * ch..], ch);
+            block_mul(
+                &b.m,
+                2 * l + 1,
+                &z.data[l * l * ch..],
+                &mut out.data_mut()[l * l * ch..],
+                ch,
+            );
         }
         Ok(out)
     }
@@ -655,7 +687,7 @@ impl RzhBasis {
             // lobe j contributes to bands l0..=l1
             for l in l0..=l1 {
                 let p = pi_l(l);
-                for i in 0..2 * l + 1 {
+                for i in 0..=2 * l {
                     let yi = p * y[l * l + i];
                     for c in 0..ch {
                         o[(l * l + i) * ch + c] += yi * z.data[(l * l + j) * ch + c];
@@ -698,7 +730,7 @@ impl RzhBasis {
         let mut s = vec![0.0; src.len()];
         let mut sample_bands = |l0: usize, l1: usize, j: usize, y: &[f64]| {
             for l in l0..=l1 {
-                for i in 0..2 * l + 1 {
+                for i in 0..=2 * l {
                     let yi = y[l * l + i];
                     for c in 0..ch {
                         s[(l * l + j) * ch + c] += yi * src[(l * l + i) * ch + c];

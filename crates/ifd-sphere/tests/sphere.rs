@@ -1,5 +1,9 @@
 //! Integration tests of `ifd-sphere` against independent references:
 //! closed forms, quadrature, pointwise evaluation and brute-force integrals.
+#![expect(
+    clippy::unwrap_used,
+    reason = "test code: a failed unwrap is a test failure"
+)]
 
 use std::f64::consts::PI;
 
@@ -14,13 +18,18 @@ use ifd_sphere::{EquirectTransform, Rotation, ShCoeffs, ShRotation, SphereError}
 
 fn random_coeffs(l_max: usize, ch: usize, seed: u64) -> ShCoeffs {
     let mut rng = SplitMix64::new(seed);
-    let data = (0..sh_count(l_max) * ch).map(|_| 2.0 * rng.uniform() - 1.0).collect();
+    let data = (0..sh_count(l_max) * ch)
+        .map(|_| 2.0 * rng.uniform() - 1.0)
+        .collect();
     ShCoeffs::from_vec(l_max, ch, data).unwrap()
 }
 
 fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len());
-    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
 }
 
 fn random_rotation(rng: &mut SplitMix64) -> Rotation {
@@ -102,7 +111,10 @@ mod sh {
             for l in [0, 1, 5, 32, 64, 100, 150] {
                 let s: f64 = (l * l..(l + 1) * (l + 1)).map(|i| ya[i] * yb[i]).sum();
                 let want = (2 * l + 1) as f64 / (4.0 * PI) * legendre_p(l, t);
-                assert!((s - want).abs() < 1e-11 * (2 * l + 1) as f64, "l={l}: {s} vs {want}");
+                assert!(
+                    (s - want).abs() < 1e-11 * (2 * l + 1) as f64,
+                    "l={l}: {s} vs {want}"
+                );
             }
             // a = b: sum of squares is (2l+1)/(4 pi) exactly
             for l in [100, 150] {
@@ -125,7 +137,10 @@ mod sh {
             }
         }
         assert!(sh.eval([0.0, 0.0, 0.0]).iter().skip(1).all(|v| v.is_nan()));
-        assert!(matches!(ShEvaluator::new(5000), Err(SphereError::DegreeTooHigh { .. })));
+        assert!(matches!(
+            ShEvaluator::new(5000),
+            Err(SphereError::DegreeTooHigh { .. })
+        ));
     }
 
     #[test]
@@ -138,7 +153,11 @@ mod sh {
             let d = rng.direction();
             let y = sh.eval(d);
             sh.eval_f32_into([d[0] as f32, d[1] as f32, d[2] as f32], &mut out);
-            let err = y.iter().zip(&out).map(|(a, b)| (a - f64::from(*b)).abs()).fold(0.0, f64::max);
+            let err = y
+                .iter()
+                .zip(&out)
+                .map(|(a, b)| (a - f64::from(*b)).abs())
+                .fold(0.0, f64::max);
             assert!(err < 2e-4, "f32 error {err}");
         }
     }
@@ -152,7 +171,12 @@ mod rotation {
         let r = Rotation::from_zyz(0.3, 1.2, -2.0);
         let (a, b, c) = r.to_zyz();
         let r2 = Rotation::from_zyz(a, b, c);
-        assert!(r.m.iter().flatten().zip(r2.m.iter().flatten()).all(|(x, y)| (x - y).abs() < 1e-14));
+        assert!(
+            r.m.iter()
+                .flatten()
+                .zip(r2.m.iter().flatten())
+                .all(|(x, y)| (x - y).abs() < 1e-14)
+        );
         let d = [0.3, -0.5, 0.8];
         let back = r.apply_inverse(r.apply(d));
         assert!(max_abs_diff(&back, &d) < 1e-15);
@@ -162,7 +186,7 @@ mod rotation {
         assert!(max_abs_diff(&z, &[1.0 / n, 2.0 / n, -3.0 / n]) < 1e-15);
     }
 
-    /// The reference rotation against pointwise evaluation: sum c'_i y_i(w) = f(R^T w).
+    /// The reference rotation against pointwise evaluation: `sum c'_i y_i(w) = f(R^T w)`.
     #[test]
     fn reference_rotation_matches_pointwise_evaluation() {
         let mut rng = SplitMix64::new(11);
@@ -176,7 +200,10 @@ mod rotation {
                     let w = rng.direction();
                     let gv = g.eval(&sh, w).unwrap();
                     let fv = f.eval(&sh, r.apply_inverse(w)).unwrap();
-                    assert!(max_abs_diff(&gv, &fv) < 1e-10, "L={l_max}: {gv:?} vs {fv:?}");
+                    assert!(
+                        max_abs_diff(&gv, &fv) < 1e-10,
+                        "L={l_max}: {gv:?} vs {fv:?}"
+                    );
                 }
             }
         }
@@ -188,7 +215,10 @@ mod rotation {
         let l_max = 32;
         let f = random_coeffs(l_max, 1, 9);
         let (r1, r2) = (random_rotation(&mut rng), random_rotation(&mut rng));
-        let a = ShRotation::new(&r1.mul(&r2), l_max).unwrap().apply(&f).unwrap();
+        let a = ShRotation::new(&r1.mul(&r2), l_max)
+            .unwrap()
+            .apply(&f)
+            .unwrap();
         let b = ShRotation::new(&r1, l_max)
             .unwrap()
             .apply(&ShRotation::new(&r2, l_max).unwrap().apply(&f).unwrap())
@@ -218,7 +248,10 @@ mod rotation {
         let bad = Rotation {
             m: [[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         };
-        assert!(matches!(ShRotation::new(&bad, 3), Err(SphereError::Parameter { .. })));
+        assert!(matches!(
+            ShRotation::new(&bad, 3),
+            Err(SphereError::Parameter { .. })
+        ));
     }
 }
 
@@ -250,14 +283,24 @@ mod zhf {
                 let z = basis.zhf(&f).unwrap();
                 let back = basis.zhe(&z).unwrap();
                 let e = max_abs_diff(back.data(), f.data());
-                let worst = basis.condition_numbers().iter().copied().fold(0.0, f64::max);
-                assert!(e < 1e-10, "{name} L={l_max}: ZHE(ZHF(c)) error {e}, worst cond {worst:e}");
+                let worst = basis
+                    .condition_numbers()
+                    .iter()
+                    .copied()
+                    .fold(0.0, f64::max);
+                assert!(
+                    e < 1e-10,
+                    "{name} L={l_max}: ZHE(ZHF(c)) error {e}, worst cond {worst:e}"
+                );
                 // evaluate the RZH sum with Legendre polynomials, independently of the SH code
                 for _ in 0..5 {
                     let w = rng.direction();
                     let a = basis.eval_rzh(&z, w).unwrap();
                     let b = f.eval(&sh, w).unwrap();
-                    assert!((a[0] - b[0]).abs() < 1e-10, "{name} L={l_max}: {a:?} vs {b:?}");
+                    assert!(
+                        (a[0] - b[0]).abs() < 1e-10,
+                        "{name} L={l_max}: {a:?} vs {b:?}"
+                    );
                 }
             }
         }
@@ -276,7 +319,10 @@ mod zhf {
                     let tailored = basis.rotate_tailored(&f, &r).unwrap();
                     let e1 = max_abs_diff(std.data(), reference.data());
                     let e2 = max_abs_diff(tailored.data(), reference.data());
-                    assert!(e1 < 1e-10 && e2 < 1e-10, "{name} L={l_max}: eq10 {e1:e}, eq11 {e2:e}");
+                    assert!(
+                        e1 < 1e-10 && e2 < 1e-10,
+                        "{name} L={l_max}: eq10 {e1:e}, eq11 {e2:e}"
+                    );
                 }
             }
         }
@@ -297,18 +343,26 @@ mod zhf {
             )
             .unwrap();
             let worst = |d: &DirectionSet| d.condition_numbers().into_iter().fold(0.0, f64::max);
-            assert!(worst(&opt) <= worst(&fib), "{sharing:?}: {} > {}", worst(&opt), worst(&fib));
+            assert!(
+                worst(&opt) <= worst(&fib),
+                "{sharing:?}: {} > {}",
+                worst(&opt),
+                worst(&fib)
+            );
         }
     }
 
     #[test]
     fn degenerate_sets_are_reported_with_their_condition_number() {
         // all band-2 directions equal: M_2 has rank 1
-        let mut dirs = DirectionSet::new(2, Sharing::PerBand, Chooser::Fibonacci).unwrap().all().to_vec();
+        let mut dirs = DirectionSet::new(2, Sharing::PerBand, Chooser::Fibonacci)
+            .unwrap()
+            .all()
+            .to_vec();
         for d in &mut dirs[4..9] {
             *d = [0.0, 0.6, 0.8];
         }
-        let set = DirectionSet::from_dirs(2, Sharing::PerBand, dirs).unwrap();
+        let set = DirectionSet::from_dirs(2, Sharing::PerBand, &dirs).unwrap();
         match RzhBasis::new(set) {
             Err(SphereError::Degenerate { band: 2, cond, .. }) => assert!(cond > 1e10),
             other => panic!("expected a degenerate-set error, got {other:?}"),
@@ -317,13 +371,13 @@ mod zhf {
         let set = DirectionSet::from_dirs(
             1,
             Sharing::Shared,
-            vec![[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]],
+            &[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]],
         )
         .unwrap();
         let err = RzhBasis::new(set).unwrap_err();
         assert!(err.to_string().contains("condition number"), "{err}");
         assert!(matches!(
-            DirectionSet::from_dirs(0, Sharing::Shared, vec![[0.0, 0.0, 0.0]]),
+            DirectionSet::from_dirs(0, Sharing::Shared, &[[0.0, 0.0, 0.0]]),
             Err(SphereError::BadDirection { .. })
         ));
     }
@@ -339,7 +393,8 @@ mod transform {
         let mut out = ShCoeffs::zeros(l_max, ch).unwrap();
         for v in 0..h {
             let t = PI * (v as f64 + 0.5) / h as f64;
-            let da = 2.0 * PI / w as f64 * ((PI * v as f64 / h as f64).cos() - (PI * (v + 1) as f64 / h as f64).cos());
+            let da = 2.0 * PI / w as f64
+                * ((PI * v as f64 / h as f64).cos() - (PI * (v + 1) as f64 / h as f64).cos());
             for u in 0..w {
                 let y = sh.eval(direction(t, 2.0 * PI * (u as f64 + 0.5) / w as f64));
                 for c in 0..ch {
@@ -355,14 +410,23 @@ mod transform {
 
     fn noise_image(w: usize, h: usize, ch: usize, seed: u64) -> Image {
         let mut rng = SplitMix64::new(seed);
-        Image::from_vec(w, h, ch, (0..w * h * ch).map(|_| rng.uniform() as f32).collect()).unwrap()
+        Image::from_vec(
+            w,
+            h,
+            ch,
+            (0..w * h * ch).map(|_| rng.uniform() as f32).collect(),
+        )
+        .unwrap()
     }
 
     #[test]
     fn fft_analysis_equals_brute_force_quadrature() {
         for (l_max, h) in [(0, 2), (3, 5), (10, 16), (20, 17), (40, 24)] {
             let img = noise_image(2 * h, h, 3, h as u64);
-            let fast = EquirectTransform::new(l_max, 2 * h, h).unwrap().analyze(&img, Negatives::Keep).unwrap();
+            let fast = EquirectTransform::new(l_max, 2 * h, h)
+                .unwrap()
+                .analyze(&img, Negatives::Keep)
+                .unwrap();
             let slow = brute_analysis(&img, l_max);
             let e = max_abs_diff(fast.coeffs.data(), slow.data());
             assert!(e < 1e-11, "L={l_max} H={h}: {e}");
@@ -373,15 +437,21 @@ mod transform {
     fn synthesis_equals_pointwise_evaluation() {
         for (l_max, h) in [(6, 8), (25, 21), (33, 16)] {
             let f = random_coeffs(l_max, 2, 1);
-            let img = EquirectTransform::new(l_max, 2 * h, h).unwrap().synthesize(&f).unwrap();
+            let img = EquirectTransform::new(l_max, 2 * h, h)
+                .unwrap()
+                .synthesize(&f)
+                .unwrap();
             let sh = ShEvaluator::new(l_max).unwrap();
             let mut err: f64 = 0.0;
             for v in 0..h {
                 for u in 0..2 * h {
-                    let d = direction(PI * (v as f64 + 0.5) / h as f64, 2.0 * PI * (u as f64 + 0.5) / (2 * h) as f64);
+                    let d = direction(
+                        PI * (v as f64 + 0.5) / h as f64,
+                        2.0 * PI * (u as f64 + 0.5) / (2 * h) as f64,
+                    );
                     let want = f.eval(&sh, d).unwrap();
-                    for c in 0..2 {
-                        err = err.max((f64::from(img.get(u, v, c)) - want[c]).abs() / (1.0 + want[c].abs()));
+                    for (c, wc) in want.iter().enumerate() {
+                        err = err.max((f64::from(img.get(u, v, c)) - wc).abs() / (1.0 + wc.abs()));
                     }
                 }
             }
@@ -395,7 +465,10 @@ mod transform {
         let mut prev = f64::INFINITY;
         for h in [32, 64, 128] {
             let t = EquirectTransform::new(8, 2 * h, h).unwrap();
-            let back = t.analyze(&t.synthesize(&f).unwrap(), Negatives::Keep).unwrap().coeffs;
+            let back = t
+                .analyze(&t.synthesize(&f).unwrap(), Negatives::Keep)
+                .unwrap()
+                .coeffs;
             let e = max_abs_diff(back.data(), f.data());
             assert!(e < prev / 3.0, "H={h}: {e} vs previous {prev}");
             prev = e;
@@ -407,12 +480,18 @@ mod transform {
     fn bad_maps_are_rejected_or_clamped() {
         assert!(matches!(
             EquirectTransform::new(4, 30, 20),
-            Err(SphereError::NotEquirect { width: 30, height: 20 })
+            Err(SphereError::NotEquirect {
+                width: 30,
+                height: 20
+            })
         ));
         let mut img = noise_image(16, 8, 1, 1);
         img.set(3, 2, 0, f32::NAN);
         let t = EquirectTransform::new(4, 16, 8).unwrap();
-        assert!(matches!(t.analyze(&img, Negatives::Clamp), Err(SphereError::NonFinite { count: 1, .. })));
+        assert!(matches!(
+            t.analyze(&img, Negatives::Clamp),
+            Err(SphereError::NonFinite { count: 1, .. })
+        ));
         img.set(3, 2, 0, -1.0);
         img.set(4, 2, 0, -2.0);
         let a = t.analyze(&img, Negatives::Clamp).unwrap();
@@ -440,10 +519,16 @@ mod transform {
                 }
             }
         }
-        assert!((total - 4.0 * PI).abs() < 1e-10, "solid angles sum to {total}");
+        assert!(
+            (total - 4.0 * PI).abs() < 1e-10,
+            "solid angles sum to {total}"
+        );
         let c = analyze_cubemap(&cube, 4, Negatives::Keep).unwrap().coeffs;
         assert!(max_abs_diff(c.data(), f.data()) < 2e-3);
-        assert!(matches!(analyze_cubemap(&Image::new(10, 2, 1).unwrap(), 2, Negatives::Keep), Err(SphereError::NotCubemap { .. })));
+        assert!(matches!(
+            analyze_cubemap(&Image::new(10, 2, 1).unwrap(), 2, Negatives::Keep),
+            Err(SphereError::NotCubemap { .. })
+        ));
     }
 
     #[test]
@@ -476,7 +561,11 @@ mod profile {
         let k = |l: usize| ((2 * l + 1) as f64 / (4.0 * PI)).sqrt();
         let ints = [1.0 / 5.0, 1.0 / 6.0, 4.0 / 35.0, 1.0 / 16.0];
         for (lp, i) in ints.iter().enumerate() {
-            assert!((b[n + lp] - 2.0 * PI * k(lp) * i).abs() < 1e-14, "l'={lp}: {}", b[n + lp]);
+            assert!(
+                (b[n + lp] - 2.0 * PI * k(lp) * i).abs() < 1e-14,
+                "l'={lp}: {}",
+                b[n + lp]
+            );
         }
         // vMF l = 0 is the uniform density: <1/(4 pi), y_0^0> = 1/sqrt(4 pi)
         let b = Profile::Vmf.beta(3).unwrap();
@@ -488,10 +577,15 @@ mod profile {
             let mut s = 0.0;
             for i in 0..m {
                 let th = PI * (i as f64 + 0.5) / m as f64;
-                s += Profile::Gauss.eval(l, th.cos()) * legendre_p(lp, th.cos()) * th.sin() * PI / m as f64;
+                s += Profile::Gauss.eval(l, th.cos()) * legendre_p(lp, th.cos()) * th.sin() * PI
+                    / m as f64;
             }
             let want = 2.0 * PI * k(lp) * s;
-            assert!((b[l * 7 + lp] - want).abs() < 1e-9, "({l},{lp}): {} vs {want}", b[l * 7 + lp]);
+            assert!(
+                (b[l * 7 + lp] - want).abs() < 1e-9,
+                "({l},{lp}): {} vs {want}",
+                b[l * 7 + lp]
+            );
         }
     }
 
@@ -517,13 +611,24 @@ mod profile {
         let kc = project_function(l_max, |w| k.eval(w), k.suggested_nodes(l_max)).unwrap();
         let sh = ShEvaluator::new(l_max).unwrap();
         let mut rng = SplitMix64::new(9);
-        for profile in [Profile::Zonal, Profile::Legendre, Profile::Gauss, Profile::Vmf, Profile::Hybrid, Profile::Phong] {
+        for profile in [
+            Profile::Zonal,
+            Profile::Legendre,
+            Profile::Gauss,
+            Profile::Vmf,
+            Profile::Hybrid,
+            Profile::Phong,
+        ] {
             let dirs = DirectionSet::new(l_max, Sharing::PerBand, Chooser::Fibonacci).unwrap();
             let basis = IsdBasis::with_limit(profile, dirs, 1e14).unwrap();
             let dec = Decomposition::new(&basis, &kc).unwrap();
             let back = basis.reconstruct(&dec.weights).unwrap();
-            let e = max_abs_diff(back.data(), kc.data()) / kc.data().iter().map(|v| v.abs()).fold(0.0, f64::max);
-            assert!(e < 1e-13 * basis.condition_number().max(1.0), "{profile:?}: {e:e}");
+            let e = max_abs_diff(back.data(), kc.data())
+                / kc.data().iter().map(|v| v.abs()).fold(0.0, f64::max);
+            assert!(
+                e < 1e-13 * basis.condition_number().max(1.0),
+                "{profile:?}: {e:e}"
+            );
             if matches!(profile, Profile::Zonal | Profile::Legendre) {
                 // band-limited profiles: the lobe sum equals the kernel's SH projection pointwise
                 for _ in 0..5 {
@@ -542,11 +647,17 @@ mod profile {
         let l_max = 10;
         let cond = |p: Profile, s: Sharing| {
             let d = DirectionSet::new(l_max, s, Chooser::Fibonacci).unwrap();
-            IsdBasis::with_limit(p, d, f64::INFINITY).unwrap().condition_number()
+            IsdBasis::with_limit(p, d, f64::INFINITY)
+                .unwrap()
+                .condition_number()
         };
-        let leg = cond(Profile::Legendre, Sharing::Shared) / cond(Profile::Legendre, Sharing::PerBand);
+        let leg =
+            cond(Profile::Legendre, Sharing::Shared) / cond(Profile::Legendre, Sharing::PerBand);
         let gau = cond(Profile::Gauss, Sharing::Shared) / cond(Profile::Gauss, Sharing::PerBand);
-        assert!(gau > 10.0 * leg, "ratios shared/per-band: legendre {leg}, gauss {gau}");
+        assert!(
+            gau > 10.0 * leg,
+            "ratios shared/per-band: legendre {leg}, gauss {gau}"
+        );
     }
 }
 
@@ -577,7 +688,10 @@ mod filter {
         let f = random_coeffs(l_max, 1, 77);
         let mut rng = SplitMix64::new(12);
         let rots: Vec<Rotation> = (0..4).map(|_| random_rotation(&mut rng)).collect();
-        let want: Vec<f64> = rots.iter().map(|r| brute(|w| k.eval(w), &f, r, 300)).collect();
+        let want: Vec<f64> = rots
+            .iter()
+            .map(|r| brute(|w| k.eval(w), &f, r, 300))
+            .collect();
         for (profile, sharing) in [
             (Profile::Zonal, Sharing::Shared),
             (Profile::Zonal, Sharing::PerBand),
@@ -591,7 +705,10 @@ mod filter {
             for (r, w) in rots.iter().zip(&want) {
                 let got = dec.filter(&pre, r).unwrap()[0];
                 let tol = 1e-9 * basis.condition_number().max(1.0);
-                assert!((got - w).abs() < tol.max(1e-9), "{profile:?}/{sharing:?}: {got} vs {w}");
+                assert!(
+                    (got - w).abs() < tol.max(1e-9),
+                    "{profile:?}/{sharing:?}: {got} vs {w}"
+                );
             }
         }
     }
@@ -606,7 +723,11 @@ mod filter {
         let b3 = pre.band_coeffs(3).unwrap();
         for l in 0..=5 {
             for m in -(l as i64)..=l as i64 {
-                let want = if l == 3 { ifd_sphere::sh::pi_l(3) * f.get(l, m, 1) } else { 0.0 };
+                let want = if l == 3 {
+                    ifd_sphere::sh::pi_l(3) * f.get(l, m, 1)
+                } else {
+                    0.0
+                };
                 assert!((b3.get(l, m, 1) - want).abs() < 1e-15);
             }
         }
@@ -619,10 +740,17 @@ mod filter {
     fn real_environment_map() {
         // Bundled DWAB EXR: the ISD result equals the pixel-quadrature integral of the
         // band-limited kernel against the map, for random rotations.
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/forest_dwab.exr");
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../testdata/forest_dwab.exr"
+        );
         let img = ifd_image::read(path).unwrap();
         let (w, h) = (img.width(), img.height());
-        let img = if w == 2 * h { img } else { panic!("forest map is {w}x{h}") };
+        let img = if w == 2 * h {
+            img
+        } else {
+            panic!("forest map is {w}x{h}")
+        };
         let l_max = 12;
         let t = EquirectTransform::new(l_max, w, h).unwrap();
         let an = t.analyze(&img, Negatives::Clamp).unwrap();
@@ -642,7 +770,10 @@ mod filter {
             for v in 0..h {
                 let da = t.pixel_solid_angle(v);
                 for u in 0..w {
-                    let d = direction(PI * (v as f64 + 0.5) / h as f64, 2.0 * PI * (u as f64 + 0.5) / w as f64);
+                    let d = direction(
+                        PI * (v as f64 + 0.5) / h as f64,
+                        2.0 * PI * (u as f64 + 0.5) / w as f64,
+                    );
                     let kv = kc.eval(&sh, r.apply_inverse(d)).unwrap()[0];
                     for (c, o) in want.iter_mut().enumerate() {
                         *o += kv * f64::from(img.get(u, v, c).max(0.0)) * da;

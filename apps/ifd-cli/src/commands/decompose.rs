@@ -66,8 +66,12 @@ pub fn load_kernel(filter: &str, input: &InputOptions) -> Result<(Kernel, Option
     if !filter.contains(':') && path.extension().is_some() {
         bail!("{filter}: no such file");
     }
-    let spec: KernelSpec = filter.parse().with_context(|| format!("filter spec {filter:?}"))?;
-    let k = spec.to_kernel().with_context(|| format!("filter spec {filter:?}"))?;
+    let spec: KernelSpec = filter
+        .parse()
+        .with_context(|| format!("filter spec {filter:?}"))?;
+    let k = spec
+        .to_kernel()
+        .with_context(|| format!("filter spec {filter:?}"))?;
     Ok((k, Some(spec.to_string())))
 }
 
@@ -130,9 +134,18 @@ fn report(d: &Decomposition, as_json: bool) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         if let Some((w, h)) = d.kernel_size {
-            println!("kernel        {w}x{h}{}", d.spec.as_ref().map(|s| format!(" ({s})")).unwrap_or_default());
+            println!(
+                "kernel        {w}x{h}{}",
+                d.spec
+                    .as_ref()
+                    .map(|s| format!(" ({s})"))
+                    .unwrap_or_default()
+            );
         }
-        println!("terms         {} (of {} atoms)", r.terms, r.dictionary_atoms);
+        println!(
+            "terms         {} (of {} atoms)",
+            r.terms, r.dictionary_atoms
+        );
         println!("rel. L2 error {:.3}%", 100.0 * r.rel_l2_error);
         println!("max error     {:.3}% of max |k|", 100.0 * r.max_error);
         println!("DC error      {:.3e}", r.dc_error);

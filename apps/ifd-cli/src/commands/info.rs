@@ -30,7 +30,9 @@ impl Info {
                 let p = img.plane(c);
                 let (lo, hi) = p
                     .iter()
-                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+                        (lo.min(v), hi.max(v))
+                    });
                 let mean = p.iter().map(|&v| f64::from(v)).sum::<f64>() / p.len() as f64;
                 (lo, hi, mean)
             })

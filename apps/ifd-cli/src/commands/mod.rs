@@ -5,7 +5,7 @@ pub mod convert;
 pub mod decompose;
 pub mod field;
 pub mod filter;
-pub mod sphere;
 pub mod hessian;
 pub mod info;
 pub mod smooth;
+pub mod sphere;

@@ -93,7 +93,11 @@ impl ShCmd {
                 "note: {}: {} negative samples {}",
                 self.envmap.display(),
                 a.negatives_clamped,
-                if self.keep_negatives { "kept" } else { "clamped to 0" }
+                if self.keep_negatives {
+                    "kept"
+                } else {
+                    "clamped to 0"
+                }
             );
         }
         a.coeffs.write_npy(&self.output)?;
@@ -160,7 +164,8 @@ impl RotateCmd {
         let g = match self.method {
             Method::Reference => ShRotation::new(&r, l)?.apply(&f)?,
             Method::Zhf | Method::Tailored => {
-                let basis = RzhBasis::new(DirectionSet::new(l, Sharing::Shared, Chooser::Fibonacci)?)?;
+                let basis =
+                    RzhBasis::new(DirectionSet::new(l, Sharing::Shared, Chooser::Fibonacci)?)?;
                 if matches!(self.method, Method::Zhf) {
                     basis.rotate(&f, &r)?
                 } else {
@@ -179,9 +184,9 @@ enum Directions {
     Fibonacci,
     /// One nested set of 2L+1 Fibonacci directions shared by all bands (lobe sharing).
     Shared,
-    /// Per-band sets optimised for the conditioning of each M_l.
+    /// Per-band sets optimised for the conditioning of each `M_l`.
     Optimized,
-    /// Shared nested set optimised for the worst M_l.
+    /// Shared nested set optimised for the worst `M_l`.
     OptimizedShared,
     /// Per-band uniformly random directions (--seed).
     Random,
@@ -193,10 +198,16 @@ impl Directions {
         Ok(match self {
             Self::Fibonacci => DirectionSet::new(l_max, Sharing::PerBand, Chooser::Fibonacci)?,
             Self::Shared => DirectionSet::new(l_max, Sharing::Shared, Chooser::Fibonacci)?,
-            Self::Optimized => DirectionSet::new(l_max, Sharing::PerBand, Chooser::Optimized { seed, iterations })?,
-            Self::OptimizedShared => {
-                DirectionSet::new(l_max, Sharing::Shared, Chooser::Optimized { seed, iterations })?
-            }
+            Self::Optimized => DirectionSet::new(
+                l_max,
+                Sharing::PerBand,
+                Chooser::Optimized { seed, iterations },
+            )?,
+            Self::OptimizedShared => DirectionSet::new(
+                l_max,
+                Sharing::Shared,
+                Chooser::Optimized { seed, iterations },
+            )?,
             Self::Random => DirectionSet::new(l_max, Sharing::PerBand, Chooser::Random { seed })?,
         })
     }
@@ -243,7 +254,7 @@ impl DecomposeCmd {
             if name.ends_with(".sh.npy") {
                 return Ok(ShCoeffs::read_npy(p)?.resized(self.lmax)?);
             }
-            if name.ends_with(".npy") {
+            if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy")) {
                 let (shape, data) = read_npy_f64(p)?;
                 if let [n, cols @ (4 | 5)] = shape.as_slice() {
                     let (n, cols) = (*n, *cols);
@@ -256,8 +267,8 @@ impl DecomposeCmd {
                     } else {
                         vec![4.0 * std::f64::consts::PI / n as f64; n]
                     };
-                    return Ok(project_samples(self.lmax, &dirs, &w, &vals, 1)
-                        .with_context(|| format!("{}", p.display()))?);
+                    return project_samples(self.lmax, &dirs, &w, &vals, 1)
+                        .with_context(|| format!("{}", p.display()));
                 }
             }
             let img = self.input.read(p)?.image;
@@ -266,7 +277,11 @@ impl DecomposeCmd {
             return Ok(ShCoeffs::from_vec(self.lmax, 1, a.coeffs.channel(0))?);
         }
         let k = Kernel::parse(&self.spec)?;
-        Ok(project_function(self.lmax, |w| k.eval(w), k.suggested_nodes(self.lmax))?)
+        Ok(project_function(
+            self.lmax,
+            |w| k.eval(w),
+            k.suggested_nodes(self.lmax),
+        )?)
     }
 
     fn run(self) -> Result<()> {
@@ -324,12 +339,15 @@ impl ConditionCmd {
                 rows.push((profile, sharing, series));
             }
         }
-        let mut csv = String::from("L,profile,sharing,cond\n");
-        for (p, s, series) in &rows {
-            for (i, c) in series.iter().enumerate() {
-                csv.push_str(&format!("{},{},{},{c:e}\n", i + 1, p.name(), sharing_name(*s)));
-            }
-        }
+        let lines: Vec<String> = rows
+            .iter()
+            .flat_map(|(p, s, series)| {
+                series.iter().enumerate().map(move |(i, c)| {
+                    format!("{},{},{},{c:e}\n", i + 1, p.name(), sharing_name(*s))
+                })
+            })
+            .collect();
+        let csv = format!("L,profile,sharing,cond\n{}", lines.concat());
         if let Some(path) = &self.csv {
             ifd_image::atomic_write(path, |w| {
                 use std::io::Write;
@@ -368,7 +386,11 @@ fn plot(rows: &[(Profile, Sharing, Vec<f64>)], l_max: usize) -> Result<Image> {
         .flat_map(|r| r.2.iter().copied())
         .filter(|c| c.is_finite() && *c > 0.0)
         .collect();
-    let ymax = finite.iter().fold(1.0f64, |a, b| a.max(b.log10())).ceil().max(1.0);
+    let ymax = finite
+        .iter()
+        .fold(1.0f64, |a, b| a.max(b.log10()))
+        .ceil()
+        .max(1.0);
     let to_px = |l: f64, c: f64| -> (f64, f64) {
         let x = pad as f64 + (l - 1.0) / ((l_max.max(2) - 1) as f64) * (w - 2 * pad) as f64;
         let y = (h - pad) as f64 - c.max(1.0).log10().min(ymax) / ymax * (h - 2 * pad) as f64;
@@ -386,14 +408,24 @@ fn plot(rows: &[(Profile, Sharing, Vec<f64>)], l_max: usize) -> Result<Image> {
     for d in 0..=ymax as usize {
         let (_, y) = to_px(1.0, 10f64.powi(d as i32));
         for x in pad..w - pad {
-            put(&mut img, x as f64, y, if d == 0 { [0.0; 3] } else { [0.85; 3] });
+            put(
+                &mut img,
+                x as f64,
+                y,
+                if d == 0 { [0.0; 3] } else { [0.85; 3] },
+            );
         }
     }
     for l in 1..=l_max {
         let (x, _) = to_px(l as f64, 1.0);
         for y in pad..h - pad {
             if l == 1 || y % 6 == 0 {
-                put(&mut img, x, y as f64, if l == 1 { [0.0; 3] } else { [0.9; 3] });
+                put(
+                    &mut img,
+                    x,
+                    y as f64,
+                    if l == 1 { [0.0; 3] } else { [0.9; 3] },
+                );
             }
         }
     }
@@ -407,8 +439,14 @@ fn plot(rows: &[(Profile, Sharing, Vec<f64>)], l_max: usize) -> Result<Image> {
             Profile::Hybrid => [0.6, 0.2, 0.8],
         };
         for (i, pair) in series.windows(2).enumerate() {
-            let (x0, y0) = to_px((i + 1) as f64, if pair[0].is_finite() { pair[0] } else { 1e300 });
-            let (x1, y1) = to_px((i + 2) as f64, if pair[1].is_finite() { pair[1] } else { 1e300 });
+            let (x0, y0) = to_px(
+                (i + 1) as f64,
+                if pair[0].is_finite() { pair[0] } else { 1e300 },
+            );
+            let (x1, y1) = to_px(
+                (i + 2) as f64,
+                if pair[1].is_finite() { pair[1] } else { 1e300 },
+            );
             let steps = ((x1 - x0).abs().max((y1 - y0).abs()) as usize).max(1);
             for k in 0..=steps {
                 if *s == Sharing::Shared && (k / 4) % 2 == 1 {
@@ -446,7 +484,10 @@ impl EvalCmd {
     fn run(self) -> Result<()> {
         let (shape, data) = read_npy_f64(&self.dirs)?;
         let [n, 3] = shape.as_slice() else {
-            bail!("{}: expected an (N, 3) array, got {shape:?}", self.dirs.display());
+            bail!(
+                "{}: expected an (N, 3) array, got {shape:?}",
+                self.dirs.display()
+            );
         };
         let sh = ShEvaluator::new(self.lmax)?;
         let k = sh.count();

@@ -1,0 +1,183 @@
+"""Reference checks of `ifd sphere` against pyshtools, scipy and ducc0.
+
+Conventions (see crates/ifd-sphere docs): real SH in the Sloan graphics convention
+= pyshtools ortho/real/csphase=-1, flat index l(l+1)+m; R = Rz(a) Ry(b) Rz(c),
+g(w) = f(R^T w) = ducc0.sht.rotate_alm(alm, lmax, psi=c, theta=b, phi=a).
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+pysh = pytest.importorskip("pyshtools")
+ducc0 = pytest.importorskip("ducc0")
+scipy_special = pytest.importorskip("scipy.special")
+
+
+def real_to_alm(c: np.ndarray, lmax: int) -> np.ndarray:
+    """Sloan real coefficients -> ducc0/healpy complex alm (m >= 0, index m(2L+1-m)/2 + l)."""
+    alm = np.zeros((lmax + 1) * (lmax + 2) // 2, dtype=np.complex128)
+    for m in range(lmax + 1):
+        for l in range(m, lmax + 1):
+            i = m * (2 * lmax + 1 - m) // 2 + l
+            if m == 0:
+                alm[i] = c[l * (l + 1)]
+            else:
+                alm[i] = (c[l * (l + 1) + m] - 1j * c[l * (l + 1) - m]) / np.sqrt(2)
+    return alm
+
+
+def alm_to_real(alm: np.ndarray, lmax: int) -> np.ndarray:
+    c = np.zeros((lmax + 1) ** 2)
+    for m in range(lmax + 1):
+        for l in range(m, lmax + 1):
+            a = alm[m * (2 * lmax + 1 - m) // 2 + l]
+            if m == 0:
+                c[l * (l + 1)] = a.real
+            else:
+                c[l * (l + 1) + m] = np.sqrt(2) * a.real
+                c[l * (l + 1) - m] = -np.sqrt(2) * a.imag
+    return c
+
+
+def random_dirs(n, seed=0):
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    # include the poles and the equator
+    d[0] = [0, 0, 1]
+    d[1] = [0, 0, -1]
+    d[2] = [1, 0, 0]
+    return d
+
+
+@pytest.mark.parametrize("lmax", [2, 20, 100])
+def test_sh_values_match_pyshtools(run_ifd, tmp_path, lmax):
+    dirs = random_dirs(12, seed=lmax)
+    np.save(tmp_path / "dirs.npy", dirs)
+    run_ifd("sphere", "eval", "--lmax", lmax, "--dirs", tmp_path / "dirs.npy", "-o", tmp_path / "y.npy")
+    y = np.load(tmp_path / "y.npy")
+    assert y.shape == (len(dirs), (lmax + 1) ** 2) and y.dtype == np.float64
+    for k, (x, yy, z) in enumerate(dirs):
+        theta, phi = np.arccos(np.clip(z, -1, 1)), np.arctan2(yy, x)
+        ref = pysh.expand.spharm(lmax, theta, phi, normalization="ortho", kind="real", csphase=-1, degrees=False)
+        want = np.zeros((lmax + 1) ** 2)
+        for l in range(lmax + 1):
+            want[l * (l + 1)] = ref[0, l, 0]
+            for m in range(1, l + 1):
+                want[l * (l + 1) + m] = ref[0, l, m]
+                want[l * (l + 1) - m] = ref[1, l, m]
+        np.testing.assert_allclose(y[k], want, rtol=0, atol=1e-10)
+
+
+def test_sh_values_match_scipy_and_f32_path(run_ifd, tmp_path):
+    lmax = 30
+    dirs = random_dirs(8, seed=3)
+    np.save(tmp_path / "dirs.npy", dirs)
+    run_ifd("sphere", "eval", "--lmax", lmax, "--dirs", tmp_path / "dirs.npy", "-o", tmp_path / "y.npy")
+    run_ifd("sphere", "eval", "--lmax", lmax, "--dirs", tmp_path / "dirs.npy", "--f32", "-o", tmp_path / "y32.npy")
+    y, y32 = np.load(tmp_path / "y.npy"), np.load(tmp_path / "y32.npy")
+    theta = np.arccos(np.clip(dirs[:, 2], -1, 1))
+    phi = np.arctan2(dirs[:, 1], dirs[:, 0])
+    for l in range(lmax + 1):
+        for m in range(-l, l + 1):
+            Y = scipy_special.sph_harm_y(l, abs(m), theta, phi)  # Condon-Shortley phase included
+            want = Y.real if m == 0 else np.sqrt(2) * (Y.real if m > 0 else Y.imag)
+            np.testing.assert_allclose(y[:, l * (l + 1) + m], want, atol=1e-10)
+    assert np.abs(y32 - y).max() < 1e-4
+
+
+@pytest.mark.parametrize("lmax", [1, 3, 8, 16, 32])
+@pytest.mark.parametrize("method", ["zhf", "tailored", "reference"])
+def test_rotation_matches_ducc0(run_ifd, tmp_path, lmax, method):
+    rng = np.random.default_rng(lmax)
+    c = rng.uniform(-1, 1, size=((lmax + 1) ** 2, 2))
+    np.save(tmp_path / "c.npy", c)
+    a, b, g = 0.7, -1.9, 2.4
+    run_ifd("sphere", "rotate", tmp_path / "c.npy", "--zyz", f"{a},{b},{g}", "--method", method, "-o", tmp_path / "r.npy")
+    got = np.load(tmp_path / "r.npy")
+    for ch in range(2):
+        alm = real_to_alm(c[:, ch], lmax)
+        rot = ducc0.sht.rotate_alm(alm, lmax, g, b, a)
+        want = alm_to_real(rot, lmax)
+        np.testing.assert_allclose(got[:, ch], want, rtol=0, atol=1e-10)
+
+
+def test_equirect_analysis_matches_ducc0(run_ifd, tmp_path):
+    """Same quadrature (exact pixel solid angles, pixel centres) via ducc0's adjoint SHT."""
+    H, W, L = 96, 192, 40
+    rng = np.random.default_rng(1)
+    img = rng.random((H, W, 3)).astype(np.float32)
+    np.save(tmp_path / "map.npy", img)
+    out = json.loads(run_ifd("sphere", "sh", tmp_path / "map.npy", "--lmax", L, "-o", tmp_path / "c.npy").stdout)
+    assert out["negatives"] == 0
+    c = np.load(tmp_path / "c.npy")
+    assert c.shape == ((L + 1) ** 2, 3)
+    v = np.arange(H)
+    dA = (2 * np.pi / W) * (np.cos(np.pi * v / H) - np.cos(np.pi * (v + 1) / H))
+    for ch in range(3):
+        mp = (img[:, :, ch].astype(np.float64) * dA[:, None])[None]
+        alm = ducc0.sht.experimental.adjoint_synthesis_2d(map=mp, spin=0, lmax=L, geometry="F1", phi0=np.pi / W)[0]
+        np.testing.assert_allclose(c[:, ch], alm_to_real(alm, L), rtol=0, atol=1e-10)
+
+
+def test_synthesis_matches_ducc0(run_ifd, tmp_path):
+    H, W, L = 64, 128, 24
+    rng = np.random.default_rng(2)
+    img = rng.random((H, W, 1)).astype(np.float32)
+    np.save(tmp_path / "map.npy", img)
+    run_ifd("sphere", "sh", tmp_path / "map.npy", "--lmax", L, "-o", tmp_path / "c.npy",
+            "--reconstruct", tmp_path / "rec.npy")
+    c = np.load(tmp_path / "c.npy")[:, 0]
+    rec = np.load(tmp_path / "rec.npy").reshape(H, W)
+    alm = real_to_alm(c, L)
+    want = ducc0.sht.experimental.synthesis_2d(alm=alm[None], spin=0, lmax=L, geometry="F1", ntheta=H, nphi=W,
+                                               phi0=np.pi / W)[0]
+    np.testing.assert_allclose(rec, want, atol=1e-5)  # rec is stored as float32
+
+
+def test_bundled_envmap_negatives_are_clamped_and_counted(run_ifd, tmp_path):
+    from conftest import TESTDATA
+
+    out = run_ifd("sphere", "sh", TESTDATA / "forest_dwab.exr", "--lmax", 8, "-o", tmp_path / "c.npy")
+    info = json.loads(out.stdout)
+    assert info["negatives"] > 0 and "clamped" in out.stderr
+    c = np.load(tmp_path / "c.npy")
+    assert c.shape == (81, info["channels"]) and c[0].min() > 0
+
+
+def test_bad_inputs_fail_cleanly(run_ifd, tmp_path):
+    np.save(tmp_path / "sq.npy", np.ones((16, 16, 3), np.float32))
+    p = run_ifd("sphere", "sh", tmp_path / "sq.npy", "--lmax", 4, "-o", tmp_path / "c.npy", check=False)
+    assert p.returncode == 2 and "2:1" in p.stderr
+    nan = np.ones((8, 16), np.float32)
+    nan[3, 4] = np.nan
+    np.save(tmp_path / "nan.npy", nan)
+    p = run_ifd("sphere", "sh", tmp_path / "nan.npy", "--lmax", 4, "-o", tmp_path / "c.npy", check=False)
+    assert p.returncode == 2 and ("non-finite" in p.stderr or "NaN" in p.stderr)
+    p = run_ifd("sphere", "sh", tmp_path / "sq.npy", "--lmax", 5000, "-o", tmp_path / "c.npy", check=False)
+    assert p.returncode == 2
+    np.save(tmp_path / "c.npy", np.ones((5, 1)))
+    p = run_ifd("sphere", "rotate", tmp_path / "c.npy", "--zyz", "0,1,0", "-o", tmp_path / "r.npy", check=False)
+    assert p.returncode == 2 and "(L+1)^2" in p.stderr
+
+
+def test_decompose_and_condition(run_ifd, tmp_path):
+    out = json.loads(run_ifd("sphere", "decompose", "aniso-gauss:s1=0.3,s2=0.05", "--lmax", 8,
+                             "--directions", "shared", "-o", tmp_path / "d.json").stdout)
+    assert out["lobes"] == 81 and out["condition_number"] < 1e4
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert d["profile"] == "zonal" and d["directions"]["sharing"] == "shared"
+    out = json.loads(run_ifd("sphere", "decompose", "vmf:kappa=50", "--lmax", 6, "--profile", "gauss",
+                             "-o", tmp_path / "g.json").stdout)
+    assert out["profile"] == "gauss"
+    p = run_ifd("sphere", "decompose", "phong:s=-3", "--lmax", 4, "-o", tmp_path / "x.json", check=False)
+    assert p.returncode == 2 and "phong:s=-3" in p.stderr
+    rows = json.loads(run_ifd("sphere", "condition", "--lmax", 6, "--plot", tmp_path / "c.png",
+                              "--csv", tmp_path / "c.csv").stdout)
+    assert (tmp_path / "c.png").stat().st_size > 1000
+    by = {(r["profile"], r["sharing"]): r["cond"] for r in rows}
+    # ISD Fig. 13: sharing matters little for Legendre, a lot for Gauss
+    assert by[("gauss", "shared")][-1] > 10 * by[("gauss", "per-band")][-1]
+    assert by[("legendre", "shared")][-1] < 100 * by[("legendre", "per-band")][-1]
