@@ -36,6 +36,7 @@ pub mod border;
 pub mod filter;
 pub mod reference;
 pub mod stack;
+pub mod stack_refresh;
 
 pub use decomposition::{Decomposition, Term};
 pub use fit::{DecomposeError, DecomposeOptions, FitReport, decompose};
@@ -45,3 +46,4 @@ pub use plot::render_plot;
 pub use border::Border;
 pub use filter::{Field, Filter, FilterError, stack_for_decomposition};
 pub use stack::{LevelLayout, ScaleStack, StackLayout, StackOptions};
+pub use stack_refresh::{PixelRect, RefreshReport};

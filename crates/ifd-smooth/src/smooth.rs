@@ -469,6 +469,9 @@ fn gaussian_blur(p: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
     out
 }
 
+mod refresh;
+pub use refresh::RegionRefresh;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,0 +1,104 @@
+//! The brush's hot paths (issue 4, "The brush app"):
+//!
+//! `cargo bench -p ifd-brush --bench brush`
+//!
+//! - one dab of radius 64 px applied and shown: `Engine::stroke_to` (dab
+//!   through `ifd-smooth`, undo tiles) plus the display update of the dirty
+//!   region (sRGB tile patch and `TextureHandle::set_partial` on a headless
+//!   egui context; the GPU upload of the 129x129 patch is not included), in
+//!   the paper's dab mode and per pixel, on the bundled 512x512 photo;
+//! - the stack and orientation-field refresh after a stroke (region of one
+//!   r64 dab), against a full rebuild of the smoother.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use egui::TextureOptions;
+use ifd_brush::app::bundled_image;
+use ifd_brush::display;
+use ifd_brush::engine::{Banks, Engine};
+use ifd_brush::{BrushMode, BrushSettings};
+use ifd_image::MemoryBudget;
+use ifd_planar::PixelRect;
+use ifd_smooth::Smoother;
+
+fn bench(c: &mut Criterion) {
+    let cache = std::env::temp_dir().join("ifd-brush-bench-bank.json");
+    let banks = Banks::load_or_build(Some(&cache), |_, _| {}).expect("banks");
+    let mut g = c.benchmark_group("brush");
+    g.sample_size(20).measurement_time(Duration::from_secs(4));
+    let ctx = egui::Context::default();
+    for (name, mode) in [
+        ("dab r64 apply+show, paper (dab) mode", BrushMode::Dab),
+        ("dab r64 apply+show, per-pixel mode", BrushMode::PerPixel),
+    ] {
+        let mut engine = Engine::new(banks.clone(), MemoryBudget::default_for_machine());
+        let path = bundled_image();
+        let brush = BrushSettings {
+            radius: 64.0,
+            spacing: 1.0,
+            mode,
+            scale: 6.0,
+            ..BrushSettings::default()
+        };
+        let loaded = engine.read(&path, &brush).expect("read");
+        let img = loaded.image;
+        let rects = display::tile_rects(img.width(), img.height());
+        let mut tex: Vec<_> = rects
+            .iter()
+            .map(|&r| {
+                ctx.load_texture(
+                    "t",
+                    display::color_image(&img, r, false),
+                    TextureOptions::default(),
+                )
+            })
+            .collect();
+        engine.set_image(img, None, false);
+        engine.begin_stroke(brush).expect("stroke");
+        // Alternate between two centres 64 px apart: one dab per call.
+        let mut k = 0u32;
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                k += 1;
+                let x = if k.is_multiple_of(2) { 224.0 } else { 288.0 };
+                let batch = engine.stroke_to(black_box(x), 256.0).expect("dab");
+                let rect = batch.rect.expect("inside");
+                let image = engine.image().expect("image");
+                for p in display::tile_patches(image, rect, false) {
+                    tex[p.tile].set_partial(p.pos, p.image, TextureOptions::default());
+                }
+                batch.times.len()
+            });
+        });
+        engine.end_stroke().expect("end");
+    }
+
+    let img = ifd_image::read(bundled_image()).expect("read");
+    let opts = BrushSettings::default().smooth_options();
+    let mut sm =
+        Smoother::with_banks(&img, &opts, banks.aspect.clone(), &banks.hessian).expect("smoother");
+    let rect = PixelRect {
+        x0: 192,
+        y0: 192,
+        width: 129,
+        height: 129,
+    };
+    g.bench_function("refresh after a r64 dab (stack + field)", |b| {
+        b.iter(|| {
+            sm.refresh_region(black_box(&img), rect, &banks.hessian)
+                .expect("refresh")
+        });
+    });
+    g.bench_function("full smoother rebuild 512x512 (for comparison)", |b| {
+        b.iter(|| {
+            Smoother::with_banks(black_box(&img), &opts, banks.aspect.clone(), &banks.hessian)
+                .expect("smoother")
+        });
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

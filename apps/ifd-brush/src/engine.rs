@@ -1,0 +1,549 @@
+//! The document and its edits, without any GUI: the app's worker thread and
+//! headless replay both drive an [`Engine`].
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, RwLock};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, bail};
+use ifd_image::{Image, LoadedImage, MemoryBudget, NonFinitePolicy, ReadOptions};
+use ifd_planar::{PixelRect, StackLayout};
+use ifd_smooth::{AspectBank, BankOptions, Dab, HessianBank, Smoother, hessian};
+
+use crate::history::{EditRecorder, History};
+use crate::settings::BrushSettings;
+use crate::stroke::StrokeInterpolator;
+use crate::strokes::{Action, StrokesFile};
+
+/// The smoother shared with the UI thread (which only ever `try_read`s it,
+/// for the filter ellipse under the cursor).
+pub type SharedSmoother = Arc<RwLock<Option<Smoother>>>;
+
+/// The decompositions in use and what the UI shows about them.
+#[derive(Clone, Debug)]
+pub struct Banks {
+    /// Anisotropic Gaussians over aspect ratio.
+    pub aspect: Arc<AspectBank>,
+    /// Second-derivative filters for the Hessian.
+    pub hessian: Arc<HessianBank>,
+    /// Summary for the decomposition panel.
+    pub info: BankInfo,
+}
+
+/// Number of terms and fit error of each decomposition.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BankInfo {
+    /// Tabulated aspect ratios.
+    pub aspects: Vec<f64>,
+    /// Terms of each entry.
+    pub terms: Vec<usize>,
+    /// Relative L2 error of each entry against its sampled Gaussian.
+    pub errors: Vec<f64>,
+    /// Terms of the `xx` and `xy` Hessian filters.
+    pub hessian_terms: [usize; 2],
+    /// Where the aspect bank came from (a file, or "fitted").
+    pub source: String,
+}
+
+/// Fit tolerance of the Hessian filters.
+const HESSIAN_TOL: f64 = 0.01;
+
+impl Banks {
+    /// Loads the aspect bank from `cache` when it holds a valid one with the
+    /// default options, else fits it (a few seconds; `progress(done, total)`)
+    /// and writes it there; fits the Hessian filters.
+    ///
+    /// # Errors
+    /// Failed fits. A cache that cannot be written is not an error.
+    pub fn load_or_build(
+        cache: Option<&Path>,
+        mut progress: impl FnMut(usize, usize),
+    ) -> anyhow::Result<Self> {
+        let wanted = BankOptions::default();
+        let cached = cache
+            .and_then(|p| AspectBank::load(p).ok())
+            .filter(|b| b.options == wanted);
+        let (aspect, source) = if let Some(b) = cached {
+            let src = cache.map_or_else(String::new, |p| p.display().to_string());
+            (b, src)
+        } else {
+            let b = AspectBank::build(wanted, &mut progress).context("fitting the aspect bank")?;
+            if let Some(p) = cache {
+                if let Some(dir) = p.parent() {
+                    // Best effort: a cache is an optimisation.
+                    std::fs::create_dir_all(dir).ok();
+                }
+                if let Err(e) = b.save(p) {
+                    eprintln!("warning: cannot cache the aspect bank: {e}");
+                }
+            }
+            (b, "fitted".to_string())
+        };
+        let hessian = HessianBank::new(HESSIAN_TOL).context("fitting the Hessian filters")?;
+        let errors = aspect
+            .aspects
+            .iter()
+            .map(|&a| aspect.blend_error(a).unwrap_or(f64::NAN))
+            .collect();
+        let info = BankInfo {
+            aspects: aspect.aspects.clone(),
+            terms: aspect.terms.iter().map(Vec::len).collect(),
+            errors,
+            hessian_terms: [hessian.xx.terms.len(), hessian.xy.terms.len()],
+            source,
+        };
+        Ok(Self {
+            aspect: Arc::new(aspect),
+            hessian: Arc::new(hessian),
+            info,
+        })
+    }
+
+    /// The default cache file: `$XDG_CACHE_HOME/ifd-brush/aspect-bank-v1.json`
+    /// (or `~/.cache/...`).
+    #[must_use]
+    pub fn default_cache() -> Option<PathBuf> {
+        let base = std::env::var_os("XDG_CACHE_HOME")
+            .map(PathBuf::from)
+            .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
+        Some(base.join("ifd-brush").join("aspect-bank-v1.json"))
+    }
+}
+
+/// What painting along a stroke did.
+#[derive(Clone, Debug, Default)]
+pub struct DabBatch {
+    /// Union of the regions the dabs changed (`None`: all missed the image).
+    pub rect: Option<PixelRect>,
+    /// Time of each dab (apply only).
+    pub times: Vec<Duration>,
+}
+
+struct ActiveStroke {
+    brush: BrushSettings,
+    interp: StrokeInterpolator,
+    recorder: EditRecorder,
+    rect: Option<PixelRect>,
+}
+
+/// An opened image with its edit history and smoother.
+pub struct Engine {
+    banks: Banks,
+    budget: MemoryBudget,
+    image: Option<Image>,
+    path: Option<PathBuf>,
+    float_source: bool,
+    smoother: SharedSmoother,
+    history: History,
+    stroke: Option<ActiveStroke>,
+    recording: Option<StrokesFile>,
+}
+
+/// Bytes an image of this shape needs in the app with `brush`: the stack and
+/// orientation field of its smoother, the document, the UI's copy, and the
+/// display tiles (current and original).
+#[must_use]
+pub fn estimate_bytes(
+    banks: &Banks,
+    width: usize,
+    height: usize,
+    channels: usize,
+    brush: &BrushSettings,
+) -> u64 {
+    let o = brush.smooth_options();
+    let hs = o.hessian_sigma();
+    let (hlo, hhi) = banks.hessian.stack_sigmas(hs, hs);
+    let (blo, bhi) = banks.aspect.sigma_range();
+    let s = o.scale / banks.aspect.options.sigma_ref;
+    let px = (width * height) as u64;
+    let stack = StackLayout::new(
+        width,
+        height,
+        channels,
+        hlo.min(blo * s),
+        hhi.max(bhi * s),
+        hessian::hessian_stack_options(),
+    )
+    .map_or(u64::MAX / 2, |l| l.bytes());
+    stack + px * 8 + 2 * px * channels as u64 * 4 + 2 * px * 4
+}
+
+impl Engine {
+    /// An engine with no image, images limited by `budget`.
+    #[must_use]
+    pub fn new(banks: Banks, budget: MemoryBudget) -> Self {
+        Self {
+            banks,
+            budget,
+            image: None,
+            path: None,
+            float_source: false,
+            smoother: Arc::new(RwLock::new(None)),
+            history: History::default(),
+            stroke: None,
+            recording: None,
+        }
+    }
+
+    /// The decompositions.
+    #[must_use]
+    pub fn banks(&self) -> &Banks {
+        &self.banks
+    }
+
+    /// The smoother, shared.
+    #[must_use]
+    pub fn shared_smoother(&self) -> SharedSmoother {
+        Arc::clone(&self.smoother)
+    }
+
+    /// The current image.
+    #[must_use]
+    pub fn image(&self) -> Option<&Image> {
+        self.image.as_ref()
+    }
+
+    /// The current image's file.
+    #[must_use]
+    pub fn path(&self) -> Option<&Path> {
+        self.path.as_deref()
+    }
+
+    /// Whether the image came from a float file (EXR, HDR).
+    #[must_use]
+    pub fn float_source(&self) -> bool {
+        self.float_source
+    }
+
+    /// The undo history.
+    #[must_use]
+    pub fn history(&self) -> &History {
+        &self.history
+    }
+
+    /// Reads an image file and checks that the app can hold it with `brush`
+    /// (memory budget) and smooth it (no NaN or infinite values). Does not
+    /// change the engine: on error the current document is untouched.
+    ///
+    /// # Errors
+    /// Unreadable or unsupported files, images beyond the budget, non-finite samples.
+    pub fn read(&self, path: &Path, brush: &BrushSettings) -> anyhow::Result<LoadedImage> {
+        let opts = ReadOptions {
+            budget: self.budget,
+            non_finite: NonFinitePolicy::Error,
+            ..ReadOptions::default()
+        };
+        let loaded = ifd_image::read_image(path, &opts)?;
+        self.check_fits(&loaded.image, brush)
+            .with_context(|| format!("{}", path.display()))?;
+        Ok(loaded)
+    }
+
+    /// Checks the memory budget and the samples of an image.
+    ///
+    /// # Errors
+    /// As [`Engine::read`].
+    pub fn check_fits(&self, image: &Image, brush: &BrushSettings) -> anyhow::Result<()> {
+        let (w, h, c) = (image.width(), image.height(), image.channels());
+        let need = estimate_bytes(&self.banks, w, h, c, brush);
+        if need > self.budget.limit() {
+            bail!(
+                "a {w}x{h} image with {c} channel(s) needs about {} for smoothing, more than the memory budget of {}",
+                ifd_image::fmt_bytes(need),
+                self.budget.describe()
+            );
+        }
+        let bad = image.count_non_finite();
+        if bad > 0 {
+            bail!("the image has {bad} NaN or infinite values; the smoother cannot use it");
+        }
+        Ok(())
+    }
+
+    /// Makes `image` the document (history cleared, smoother dropped until
+    /// [`Engine::prepare`]).
+    pub fn set_image(&mut self, image: Image, path: Option<PathBuf>, float_source: bool) {
+        if let Ok(mut s) = self.smoother.write() {
+            *s = None;
+        }
+        if let Some(r) = &mut self.recording {
+            r.image_size = Some([image.width(), image.height()]);
+            r.strokes.clear();
+        }
+        self.image = Some(image);
+        self.path = path;
+        self.float_source = float_source;
+        self.history = History::default();
+        self.stroke = None;
+    }
+
+    /// Builds the smoother for `brush` unless the current one fits (the
+    /// stack depends on the footprint scale, the field on the anisotropy).
+    /// Returns whether it built one.
+    ///
+    /// # Errors
+    /// No image, or prefiltering failed.
+    pub fn prepare(&mut self, brush: &BrushSettings) -> anyhow::Result<bool> {
+        let Some(image) = &self.image else {
+            bail!("no image");
+        };
+        let opts = brush.smooth_options();
+        let fits = self
+            .smoother
+            .read()
+            .map_err(|_| anyhow::anyhow!("smoother lock poisoned"))?
+            .as_ref()
+            .is_some_and(|s| *s.options() == opts);
+        if fits {
+            return Ok(false);
+        }
+        let sm = Smoother::with_banks(
+            image,
+            &opts,
+            Arc::clone(&self.banks.aspect),
+            &self.banks.hessian,
+        )
+        .context("prefiltering")?;
+        *self
+            .smoother
+            .write()
+            .map_err(|_| anyhow::anyhow!("smoother lock poisoned"))? = Some(sm);
+        Ok(true)
+    }
+
+    /// Whether a smoother is ready.
+    #[must_use]
+    pub fn is_ready(&self) -> bool {
+        self.smoother.read().is_ok_and(|s| s.is_some())
+    }
+
+    /// Starts recording strokes (for `--record`).
+    pub fn start_recording(&mut self) {
+        self.recording = Some(StrokesFile {
+            image_size: self.image.as_ref().map(|i| [i.width(), i.height()]),
+            ..StrokesFile::default()
+        });
+    }
+
+    /// The recording so far.
+    #[must_use]
+    pub fn recording(&self) -> Option<&StrokesFile> {
+        self.recording.as_ref()
+    }
+
+    /// Starts a stroke (ends one in progress), building the smoother if the
+    /// brush needs another.
+    ///
+    /// # Errors
+    /// As [`Engine::prepare`].
+    pub fn begin_stroke(&mut self, brush: BrushSettings) -> anyhow::Result<()> {
+        self.end_stroke()?;
+        let brush = brush.clamped();
+        self.prepare(&brush)?;
+        let Some(image) = &self.image else {
+            bail!("no image");
+        };
+        if let Some(r) = &mut self.recording {
+            r.strokes.push(Action::Stroke(crate::strokes::Stroke {
+                brush,
+                points: Vec::new(),
+            }));
+        }
+        self.stroke = Some(ActiveStroke {
+            brush,
+            interp: StrokeInterpolator::new(brush.spacing_px()),
+            recorder: EditRecorder::new(image),
+            rect: None,
+        });
+        Ok(())
+    }
+
+    /// The pointer moved to `(x, y)` (image pixels) during a stroke: applies
+    /// the dabs it adds.
+    ///
+    /// # Errors
+    /// No stroke in progress, or a dab failed.
+    pub fn stroke_to(&mut self, x: f32, y: f32) -> anyhow::Result<DabBatch> {
+        let (Some(st), Some(image)) = (&mut self.stroke, &mut self.image) else {
+            bail!("no stroke in progress");
+        };
+        if let Some(Action::Stroke(s)) = self.recording.as_mut().and_then(|r| r.strokes.last_mut())
+        {
+            s.points.push([x, y]);
+        }
+        let guard = self
+            .smoother
+            .read()
+            .map_err(|_| anyhow::anyhow!("smoother lock poisoned"))?;
+        let Some(sm) = guard.as_ref() else {
+            bail!("the smoother is not ready");
+        };
+        let mut batch = DabBatch::default();
+        let b = st.brush;
+        for (cx, cy) in st.interp.push(x, y) {
+            let dab = Dab {
+                x: cx,
+                y: cy,
+                radius: b.radius,
+                falloff: b.falloff,
+                strength: b.strength,
+            };
+            let t0 = Instant::now();
+            if let Some(r) = dab_rect(&dab, image.width(), image.height()) {
+                st.recorder.before_change(image, r);
+            }
+            if let Some(r) = sm.apply_dab(&dab, b.mode.into(), image)? {
+                let r = PixelRect {
+                    x0: r.x0,
+                    y0: r.y0,
+                    width: r.width,
+                    height: r.height,
+                };
+                batch.rect = Some(batch.rect.map_or(r, |a| a.union(r)));
+                st.rect = Some(st.rect.map_or(r, |a| a.union(r)));
+            }
+            batch.times.push(t0.elapsed());
+        }
+        Ok(batch)
+    }
+
+    /// Ends the stroke in progress: records it for undo and refreshes the
+    /// smoother where the image changed. Returns the changed rectangle.
+    ///
+    /// # Errors
+    /// A failed refresh.
+    pub fn end_stroke(&mut self) -> anyhow::Result<Option<PixelRect>> {
+        let (Some(st), Some(image)) = (self.stroke.take(), &self.image) else {
+            return Ok(None);
+        };
+        let Some(rect) = st.rect else {
+            return Ok(None);
+        };
+        if let Some(edit) = st.recorder.finish(image) {
+            self.history.push(edit);
+        }
+        self.refresh(rect)?;
+        Ok(Some(rect))
+    }
+
+    fn refresh(&mut self, rect: PixelRect) -> anyhow::Result<()> {
+        let Some(image) = &self.image else {
+            return Ok(());
+        };
+        let mut guard = self
+            .smoother
+            .write()
+            .map_err(|_| anyhow::anyhow!("smoother lock poisoned"))?;
+        if let Some(sm) = guard.as_mut() {
+            sm.refresh_region(image, rect, &self.banks.hessian)
+                .context("refreshing the prefiltered stack")?;
+        }
+        Ok(())
+    }
+
+    /// Undoes the latest stroke; returns the changed rectangle.
+    ///
+    /// # Errors
+    /// A failed refresh.
+    pub fn undo(&mut self) -> anyhow::Result<Option<PixelRect>> {
+        self.end_stroke()?;
+        let Some(image) = &mut self.image else {
+            return Ok(None);
+        };
+        let r = self.history.undo(image);
+        if let Some(rec) = &mut self.recording {
+            rec.strokes.push(Action::Undo { undo: true });
+        }
+        if let Some(r) = r {
+            self.refresh(r)?;
+        }
+        Ok(r)
+    }
+
+    /// Redoes the latest undone stroke; returns the changed rectangle.
+    ///
+    /// # Errors
+    /// A failed refresh.
+    pub fn redo(&mut self) -> anyhow::Result<Option<PixelRect>> {
+        self.end_stroke()?;
+        let Some(image) = &mut self.image else {
+            return Ok(None);
+        };
+        let r = self.history.redo(image);
+        if let Some(rec) = &mut self.recording {
+            rec.strokes.push(Action::Redo { redo: true });
+        }
+        if let Some(r) = r {
+            self.refresh(r)?;
+        }
+        Ok(r)
+    }
+
+    /// Writes the image (format from the extension: PNG, TIFF, EXR, ...; atomic).
+    ///
+    /// # Errors
+    /// No image, unsupported extension, write failure.
+    pub fn save(&mut self, path: &Path) -> anyhow::Result<()> {
+        let Some(image) = &self.image else {
+            bail!("no image to save");
+        };
+        ifd_image::write(path, image).with_context(|| format!("saving {}", path.display()))?;
+        Ok(())
+    }
+
+    /// Replays a strokes file on the current image; returns the dabs applied.
+    ///
+    /// # Errors
+    /// Another image size than recorded, and the errors of painting.
+    pub fn replay(&mut self, file: &StrokesFile) -> anyhow::Result<usize> {
+        let Some(image) = &self.image else {
+            bail!("no image");
+        };
+        if let Some([w, h]) = file.image_size
+            && (w, h) != (image.width(), image.height())
+        {
+            bail!(
+                "the strokes were recorded on a {w}x{h} image, this one is {}x{}",
+                image.width(),
+                image.height()
+            );
+        }
+        let mut dabs = 0;
+        for a in &file.strokes {
+            match a {
+                Action::Stroke(s) => {
+                    self.begin_stroke(s.brush)?;
+                    for p in &s.points {
+                        dabs += self.stroke_to(p[0], p[1])?.times.len();
+                    }
+                    self.end_stroke()?;
+                }
+                Action::Undo { .. } => {
+                    self.undo()?;
+                }
+                Action::Redo { .. } => {
+                    self.redo()?;
+                }
+            }
+        }
+        Ok(dabs)
+    }
+}
+
+/// The pixels a dab can change (as [`Smoother::apply_dab`] bounds them).
+#[must_use]
+pub fn dab_rect(dab: &Dab, width: usize, height: usize) -> Option<PixelRect> {
+    let x0 = (dab.x - dab.radius).floor().max(0.0) as usize;
+    let y0 = (dab.y - dab.radius).floor().max(0.0) as usize;
+    let x1 = ((dab.x + dab.radius).ceil().max(-1.0) as i64).min(width as i64 - 1);
+    let y1 = ((dab.y + dab.radius).ceil().max(-1.0) as i64).min(height as i64 - 1);
+    if x1 < x0 as i64 || y1 < y0 as i64 {
+        return None;
+    }
+    Some(PixelRect {
+        x0,
+        y0,
+        width: x1 as usize - x0 + 1,
+        height: y1 as usize - y0 + 1,
+    })
+}

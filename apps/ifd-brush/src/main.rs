@@ -1,0 +1,176 @@
+//! The `ifd-brush` program: a window on the brush app, or a headless replay.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Parser;
+use ifd_brush::app::{Automation, BrushApp, Persisted, STORAGE_KEY, StartOptions, bundled_image};
+use ifd_brush::engine::{Banks, Engine};
+use ifd_brush::strokes::StrokesFile;
+use ifd_image::MemoryBudget;
+
+/// Paint Hessian-driven anisotropic smoothing onto an image.
+///
+/// Without options, opens the bundled test image in a window.
+#[derive(Parser, Debug)]
+#[command(version)]
+struct Args {
+    /// Image to open (PNG, JPEG, TIFF, EXR, HDR).
+    #[arg(long, value_name = "IN")]
+    image: Option<PathBuf>,
+    /// Replay recorded strokes (see the crate docs for the format).
+    #[arg(long, value_name = "STROKES.json")]
+    replay: Option<PathBuf>,
+    /// Record the strokes painted in this session to a file (written on
+    /// exit, and after a replay).
+    #[arg(long, value_name = "FILE")]
+    record: Option<PathBuf>,
+    /// Save the image here after the replay (PNG, EXR, TIFF by extension).
+    #[arg(long, value_name = "OUT")]
+    save: Option<PathBuf>,
+    /// Take a screenshot of the window once the image is shown (and the replay done).
+    #[arg(long, value_name = "PATH.png")]
+    screenshot: Option<PathBuf>,
+    /// Exit when done. With --replay and without --screenshot, runs without a window.
+    #[arg(long)]
+    exit: bool,
+    /// Aspect-bank cache file (default: ~/.cache/ifd-brush/aspect-bank-v1.json).
+    #[arg(long, value_name = "FILE")]
+    bank: Option<PathBuf>,
+    /// Memory budget for images, MiB (default: 75% of physical memory).
+    #[arg(long, value_name = "MiB")]
+    memory_budget: Option<u64>,
+    /// Brush settings for a headless replay's strokes that give none, and
+    /// the window's start settings: JSON like {"radius": 20, "mode": "dab"}.
+    #[arg(long, value_name = "JSON")]
+    brush: Option<String>,
+}
+
+fn headless(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
+    let replay = args.replay.as_ref().context("--replay is needed")?;
+    let file = StrokesFile::load(replay)?;
+    let bank_cache = args.bank.clone().or_else(Banks::default_cache);
+    let banks = Banks::load_or_build(bank_cache.as_deref(), |d, n| {
+        eprintln!("fitting decompositions {d}/{n}");
+    })?;
+    let mut engine = Engine::new(banks, budget);
+    let brush = match &args.brush {
+        Some(j) => serde_json::from_str(j).context("parsing --brush")?,
+        None => ifd_brush::BrushSettings::default(),
+    };
+    let path = args.image.clone().unwrap_or_else(bundled_image);
+    let loaded = engine.read(&path, &brush)?;
+    let float = loaded.integer_bits.is_none();
+    engine.set_image(loaded.image, Some(path), float);
+    if args.record.is_some() {
+        engine.start_recording();
+    }
+    let t0 = std::time::Instant::now();
+    let dabs = engine.replay(&file)?;
+    eprintln!(
+        "replayed {dabs} dabs in {:.2} s (prefiltering included)",
+        t0.elapsed().as_secs_f64()
+    );
+    if let Some(out) = &args.save {
+        engine.save(out)?;
+        eprintln!("saved {}", out.display());
+    }
+    if let (Some(rec), Some(p)) = (engine.recording(), &args.record) {
+        rec.save(p)?;
+    }
+    Ok(())
+}
+
+fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
+    let replay = args
+        .replay
+        .as_ref()
+        .map(|p| StrokesFile::load(p))
+        .transpose()?;
+    let brush_override: Option<ifd_brush::BrushSettings> = args
+        .brush
+        .as_ref()
+        .map(|j| serde_json::from_str(j))
+        .transpose()
+        .context("parsing --brush")?;
+    let start = StartOptions {
+        image: args.image.clone(),
+        bank_cache: args.bank.clone().or_else(Banks::default_cache),
+        budget,
+        automation: Automation {
+            replay,
+            save: args.save.clone(),
+            record: args.record.clone(),
+            screenshot: args.screenshot.clone(),
+            exit: args.exit,
+        },
+    };
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title("ifd brush")
+            .with_inner_size([1280.0, 800.0])
+            .with_drag_and_drop(true),
+        // IFD_BRUSH_STATE_DIR keeps tests away from the user's settings.
+        persistence_path: std::env::var_os("IFD_BRUSH_STATE_DIR")
+            .map(|d| PathBuf::from(d).join("settings.ron")),
+        ..eframe::NativeOptions::default()
+    };
+    eframe::run_native(
+        "ifd-brush",
+        options,
+        Box::new(move |cc| {
+            let mut settings: Persisted = cc
+                .storage
+                .and_then(|s| eframe::get_value(s, STORAGE_KEY))
+                .unwrap_or_default();
+            if let Some(b) = brush_override {
+                settings.brush = b;
+            }
+            Ok(Box::new(Shell(BrushApp::new(
+                &cc.egui_ctx,
+                settings,
+                start,
+            ))))
+        }),
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+/// The eframe shell around the app.
+struct Shell(BrushApp);
+
+impl eframe::App for Shell {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        self.0.frame(ui);
+    }
+
+    fn save(&mut self, storage: &mut dyn eframe::Storage) {
+        eframe::set_value(storage, STORAGE_KEY, &self.0.settings);
+    }
+
+    fn on_exit(&mut self) {
+        self.0.finish();
+    }
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let budget = args
+        .memory_budget
+        .map_or_else(MemoryBudget::default_for_machine, |m| {
+            MemoryBudget::bytes(m << 20)
+        });
+    let result = if args.exit && args.replay.is_some() && args.screenshot.is_none() {
+        headless(&args, budget)
+    } else {
+        window(&args, budget)
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,414 @@
+//! The worker thread: owns the [`Engine`], runs every slow step (fitting,
+//! decoding, prefiltering, dabs, stack refreshes, saving) and reports to the
+//! UI through events, so the UI thread never waits on any of them.
+//!
+//! Commands are handled in order. While the smoother is being built (after
+//! an image opens, or when the footprint scale or anisotropy changes),
+//! stroke commands wait in the channel and are applied as soon as it is
+//! ready ("queue dabs until ready"): the image is shown and can be painted
+//! on at once; the result appears when prefiltering is done.
+
+use std::path::PathBuf;
+use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use egui::ColorImage;
+use ifd_image::{Image, MemoryBudget};
+use ifd_planar::PixelRect;
+
+use crate::display::{self, TilePatch};
+use crate::engine::{BankInfo, Banks, Engine, SharedSmoother};
+use crate::history::extract;
+use crate::settings::BrushSettings;
+use crate::strokes::StrokesFile;
+
+/// What the UI asks the worker to do.
+#[derive(Clone, Debug)]
+pub enum Command {
+    /// Read an image file and make it the document.
+    Open(PathBuf, BrushSettings),
+    /// Make this image the document (e.g. the generated fallback).
+    SetImage(Image, Option<PathBuf>, BrushSettings),
+    /// Build the smoother for these settings now (not at the next stroke).
+    Prepare(BrushSettings),
+    /// Start a stroke.
+    BeginStroke(BrushSettings),
+    /// Pointer position during a stroke, image pixels.
+    StrokeTo(f32, f32),
+    /// End the stroke.
+    EndStroke,
+    /// Undo the latest stroke.
+    Undo,
+    /// Redo.
+    Redo,
+    /// Save the image.
+    Save(PathBuf),
+    /// Replay strokes.
+    Replay(StrokesFile),
+    /// Start recording strokes.
+    StartRecording,
+    /// Write the recording.
+    SaveRecording(PathBuf),
+}
+
+/// What the worker reports.
+#[derive(Debug)]
+pub enum Event {
+    /// A slow step started or progressed (`fraction` when known).
+    Progress {
+        /// What is being done.
+        stage: String,
+        /// Done fraction, when known.
+        fraction: Option<f32>,
+    },
+    /// The decompositions are ready.
+    BanksReady(BankInfo),
+    /// A new document: its pixels and display tiles (current and original).
+    Loaded {
+        /// The samples.
+        image: Image,
+        /// The file.
+        path: Option<PathBuf>,
+        /// From a float file (display through sRGB).
+        float_source: bool,
+        /// Display tiles, [`display::tile_rects`] order.
+        tiles: Vec<ColorImage>,
+        /// The same, kept for the before/after toggle.
+        original: Vec<ColorImage>,
+        /// The smoother (for the cursor's filter ellipse).
+        smoother: SharedSmoother,
+    },
+    /// The smoother is ready.
+    Ready {
+        /// Time spent prefiltering.
+        took: Duration,
+    },
+    /// Pixels changed.
+    Patch {
+        /// Where.
+        rect: PixelRect,
+        /// The new samples of `rect`.
+        pixels: Vec<f32>,
+        /// Display updates.
+        tiles: Vec<TilePatch>,
+        /// Time of each dab applied (empty for undo/redo).
+        dab_times: Vec<Duration>,
+    },
+    /// Undo state after an edit, undo or redo.
+    History {
+        /// Edits that can be undone.
+        undo: usize,
+        /// Edits that can be redone.
+        redo: usize,
+        /// Id of the current state ([`crate::history::History::current_id`]).
+        state: u64,
+    },
+    /// A stroke ended and the stack was refreshed.
+    Refreshed {
+        /// How long the refresh took.
+        took: Duration,
+    },
+    /// The image was saved in this state.
+    Saved {
+        /// Where.
+        path: PathBuf,
+        /// State id saved.
+        state: u64,
+    },
+    /// A replay finished.
+    ReplayDone {
+        /// Dabs applied.
+        dabs: usize,
+    },
+    /// The recording was written.
+    RecordingSaved(PathBuf),
+    /// Something failed; the document is unchanged.
+    Error(String),
+}
+
+/// The UI's handle on the worker.
+pub struct Worker {
+    /// Commands.
+    pub tx: Sender<Command>,
+    /// Events.
+    pub rx: Receiver<Event>,
+    /// The thread (joined on drop of the app, never waited on by the UI).
+    pub handle: Option<JoinHandle<()>>,
+}
+
+/// Starts the worker: fits or loads the decompositions, then serves commands.
+/// `wake` is called after every event (the UI's repaint request).
+#[must_use]
+pub fn spawn(
+    bank_cache: Option<PathBuf>,
+    budget: MemoryBudget,
+    wake: impl Fn() + Send + 'static,
+) -> Worker {
+    let (tx, crx) = channel::<Command>();
+    let (etx, rx) = channel::<Event>();
+    let handle = std::thread::Builder::new()
+        .name("ifd-brush worker".into())
+        .spawn(move || {
+            let send = |e: Event| {
+                // The UI may be gone (closing): nothing left to tell.
+                if etx.send(e).is_ok() {
+                    wake();
+                }
+            };
+            send(Event::Progress {
+                stage: "fitting decompositions".into(),
+                fraction: Some(0.0),
+            });
+            let banks = match Banks::load_or_build(bank_cache.as_deref(), |d, n| {
+                send(Event::Progress {
+                    stage: format!("fitting decompositions {d}/{n}"),
+                    fraction: Some(d as f32 / n as f32),
+                });
+            }) {
+                Ok(b) => b,
+                Err(e) => {
+                    send(Event::Error(format!("{e:#}")));
+                    return;
+                }
+            };
+            send(Event::BanksReady(banks.info.clone()));
+            let mut engine = Engine::new(banks, budget);
+            let mut pending: Option<Command> = None;
+            loop {
+                let cmd = match pending.take() {
+                    Some(c) => c,
+                    None => match crx.recv() {
+                        Ok(c) => c,
+                        Err(_) => return,
+                    },
+                };
+                pending = serve(&mut engine, cmd, &crx, &send);
+            }
+        })
+        .ok();
+    Worker { tx, rx, handle }
+}
+
+fn history_event(engine: &Engine) -> Event {
+    let h = engine.history();
+    Event::History {
+        undo: h.undo_len(),
+        redo: h.redo_len(),
+        state: h.current_id(),
+    }
+}
+
+fn patch_event(engine: &Engine, rect: PixelRect, dab_times: Vec<Duration>) -> Option<Event> {
+    let image = engine.image()?;
+    Some(Event::Patch {
+        rect,
+        pixels: extract(image, rect),
+        tiles: display::tile_patches(image, rect, engine.float_source()),
+        dab_times,
+    })
+}
+
+fn prepare(engine: &mut Engine, brush: &BrushSettings, send: &impl Fn(Event)) {
+    if engine.image().is_none() {
+        return;
+    }
+    send(Event::Progress {
+        stage: "prefiltering".into(),
+        fraction: None,
+    });
+    let t0 = Instant::now();
+    match engine.prepare(brush) {
+        Ok(_) => send(Event::Ready { took: t0.elapsed() }),
+        Err(e) => send(Event::Error(format!("{e:#}"))),
+    }
+}
+
+fn loaded(engine: &mut Engine, image: Image, path: Option<PathBuf>, float: bool) -> Event {
+    let rects = display::tile_rects(image.width(), image.height());
+    let tiles: Vec<ColorImage> = rects
+        .iter()
+        .map(|&r| display::color_image(&image, r, float))
+        .collect();
+    let copy = image.clone();
+    engine.set_image(image, path.clone(), float);
+    Event::Loaded {
+        image: copy,
+        path,
+        float_source: float,
+        original: tiles.clone(),
+        tiles,
+        smoother: engine.shared_smoother(),
+    }
+}
+
+/// Handles one command; returns a command it read ahead and did not handle.
+fn serve(
+    engine: &mut Engine,
+    cmd: Command,
+    crx: &Receiver<Command>,
+    send: &impl Fn(Event),
+) -> Option<Command> {
+    let fail = |e: anyhow::Error| send(Event::Error(format!("{e:#}")));
+    match cmd {
+        Command::Open(path, brush) => {
+            send(Event::Progress {
+                stage: format!("reading {}", path.display()),
+                fraction: None,
+            });
+            match engine.read(&path, &brush) {
+                Ok(l) => {
+                    let float = l.integer_bits.is_none();
+                    send(loaded(engine, l.image, Some(path), float));
+                    send(history_event(engine));
+                    prepare(engine, &brush, send);
+                }
+                Err(e) => fail(e),
+            }
+        }
+        Command::SetImage(image, path, brush) => match engine.check_fits(&image, &brush) {
+            Ok(()) => {
+                send(loaded(engine, image, path, false));
+                send(history_event(engine));
+                prepare(engine, &brush, send);
+            }
+            Err(e) => fail(e),
+        },
+        Command::Prepare(brush) => {
+            if engine.image().is_some() {
+                prepare(engine, &brush, send);
+            }
+        }
+        Command::BeginStroke(brush) => {
+            if engine.image().is_some() {
+                let needs_build = !engine.is_ready()
+                    || engine
+                        .shared_smoother()
+                        .read()
+                        .ok()
+                        .and_then(|s| s.as_ref().map(|s| *s.options() != brush.smooth_options()))
+                        .unwrap_or(true);
+                if needs_build {
+                    prepare(engine, &brush, send);
+                }
+                if let Err(e) = engine.begin_stroke(brush) {
+                    fail(e);
+                }
+            }
+        }
+        Command::StrokeTo(x, y) => {
+            // Coalesce the pointer positions already queued into one update.
+            let mut rect: Option<PixelRect> = None;
+            let mut times = Vec::new();
+            let mut next = Some(Command::StrokeTo(x, y));
+            let mut ahead = None;
+            while let Some(c) = next.take() {
+                if let Command::StrokeTo(x, y) = c {
+                    // Without a stroke (no image, or starting it failed and
+                    // was reported) the movement is ignored.
+                    if let Ok(b) = engine.stroke_to(x, y) {
+                        times.extend(b.times);
+                        if let Some(r) = b.rect {
+                            rect = Some(rect.map_or(r, |a| a.union(r)));
+                        }
+                    }
+                    if times.len() < 64 {
+                        match crx.try_recv() {
+                            Ok(c) => next = Some(c),
+                            Err(TryRecvError::Empty | TryRecvError::Disconnected) => {}
+                        }
+                    }
+                } else {
+                    ahead = Some(c);
+                }
+            }
+            if let Some(r) = rect
+                && let Some(ev) = patch_event(engine, r, times)
+            {
+                send(ev);
+            }
+            return ahead;
+        }
+        Command::EndStroke => {
+            let t0 = Instant::now();
+            match engine.end_stroke() {
+                Ok(Some(_)) => {
+                    send(Event::Refreshed { took: t0.elapsed() });
+                    send(history_event(engine));
+                }
+                Ok(None) => {}
+                Err(e) => fail(e),
+            }
+        }
+        Command::Undo | Command::Redo => {
+            let r = if matches!(cmd, Command::Undo) {
+                engine.undo()
+            } else {
+                engine.redo()
+            };
+            match r {
+                Ok(Some(rect)) => {
+                    if let Some(ev) = patch_event(engine, rect, Vec::new()) {
+                        send(ev);
+                    }
+                    send(history_event(engine));
+                }
+                Ok(None) => {}
+                Err(e) => fail(e),
+            }
+        }
+        Command::Save(path) => {
+            // A stroke in progress belongs to the saved image.
+            if let Err(e) = engine.end_stroke() {
+                fail(e);
+            }
+            send(history_event(engine));
+            send(Event::Progress {
+                stage: format!("saving {}", path.display()),
+                fraction: None,
+            });
+            match engine.save(&path) {
+                Ok(()) => send(Event::Saved {
+                    path,
+                    state: engine.history().current_id(),
+                }),
+                Err(e) => fail(e),
+            }
+        }
+        Command::Replay(file) => {
+            let before = engine.history().current_id();
+            match engine.replay(&file) {
+                Ok(dabs) => {
+                    if before != engine.history().current_id()
+                        && let Some(img) = engine.image()
+                    {
+                        let all = PixelRect {
+                            x0: 0,
+                            y0: 0,
+                            width: img.width(),
+                            height: img.height(),
+                        };
+                        if let Some(ev) = patch_event(engine, all, Vec::new()) {
+                            send(ev);
+                        }
+                    }
+                    send(history_event(engine));
+                    send(Event::ReplayDone { dabs });
+                }
+                Err(e) => fail(e),
+            }
+        }
+        Command::StartRecording => engine.start_recording(),
+        Command::SaveRecording(path) => {
+            if let Err(e) = engine.end_stroke() {
+                fail(e);
+            }
+            match engine.recording().map(|r| r.save(&path)) {
+                Some(Ok(())) => send(Event::RecordingSaved(path)),
+                Some(Err(e)) => fail(e),
+                None => fail(anyhow::anyhow!("not recording")),
+            }
+        }
+    }
+    None
+}

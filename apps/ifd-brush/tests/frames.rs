@@ -1,0 +1,90 @@
+//! Loading and prefiltering an 8-megapixel image never stalls the UI thread:
+//! the app runs in a headless egui harness (no window, no GPU: the frame
+//! time is the app's `frame` plus egui's layout and tessellation) at about
+//! 60 frames per second while the worker decodes and prefilters. The test
+//! prints the numbers BENCHMARKS.md reports.
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use egui::{RawInput, Rect, pos2, vec2};
+use ifd_brush::app::{Automation, BrushApp, Persisted, StartOptions};
+use ifd_image::{Image, MemoryBudget};
+
+#[test]
+fn loading_8_megapixels_keeps_frames_under_50_ms() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    // 3264 x 2448 RGB (8.0 Mpx), tiled from the bundled photo.
+    let (w, h) = (3264, 2448);
+    let src = common::crop(0, 0, 512, 512);
+    let data = (0..w * h * 3)
+        .map(|i| {
+            let p = i / 3;
+            let v = src.get((p % w) % 512, (p / w) % 512, 0);
+            [v, 1.0 - v, 0.5 * v][i % 3]
+        })
+        .collect();
+    let path = dir.path().join("8mp.png");
+    ifd_image::write(&path, &Image::from_vec(w, h, 3, data).expect("image")).expect("write");
+    common::banks(); // fit (or load) the decompositions before timing
+
+    let ctx = egui::Context::default();
+    let mut app = BrushApp::new(
+        &ctx,
+        Persisted::default(),
+        StartOptions {
+            image: Some(path),
+            bank_cache: Some(common::bank_cache()),
+            budget: MemoryBudget::default_for_machine(),
+            automation: Automation::default(),
+        },
+    );
+    let screen = Rect::from_min_size(pos2(0.0, 0.0), vec2(1280.0, 800.0));
+    let t0 = Instant::now();
+    let mut times: Vec<f32> = Vec::new();
+    let mut shown_at = None;
+    let mut k = 0u32;
+    while !app.is_ready() {
+        assert!(app.errors().is_empty(), "{:?}", app.errors());
+        assert!(
+            t0.elapsed() < Duration::from_secs(400),
+            "prefiltering never finished"
+        );
+        k += 1;
+        let input = RawInput {
+            screen_rect: Some(screen),
+            // A pointer moving over the canvas: the footprint and ellipse are drawn.
+            events: vec![egui::Event::PointerMoved(pos2(
+                600.0 + (k % 200) as f32,
+                400.0,
+            ))],
+            ..RawInput::default()
+        };
+        let f0 = Instant::now();
+        let mut out = ctx.run_ui(input, |ui| app.frame(ui));
+        // No renderer: the texture uploads are dropped.
+        out.textures_delta.clear();
+        let prims = ctx.tessellate(out.shapes, out.pixels_per_point);
+        drop(prims);
+        times.push(f0.elapsed().as_secs_f32() * 1e3);
+        if shown_at.is_none() && app.has_image() {
+            shown_at = Some(t0.elapsed());
+        }
+        std::thread::sleep(Duration::from_millis(16));
+    }
+    let total = t0.elapsed();
+    let mut sorted = times.clone();
+    sorted.sort_by(f32::total_cmp);
+    let max = *sorted.last().expect("frames");
+    let p99 = sorted[(sorted.len() * 99 / 100).min(sorted.len() - 1)];
+    let median = sorted[sorted.len() / 2];
+    eprintln!(
+        "8 Mpx RGB: image shown after {:.2} s, ready after {:.2} s; {} frames, UI frame median {median:.2} ms, p99 {p99:.2} ms, max {max:.2} ms",
+        shown_at.unwrap_or(total).as_secs_f64(),
+        total.as_secs_f64(),
+        times.len()
+    );
+    assert!(app.has_image());
+    assert!(max < 50.0, "a UI frame took {max:.1} ms");
+}

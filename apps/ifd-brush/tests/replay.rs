@@ -1,0 +1,194 @@
+//! Replay and bad input, without a window.
+
+mod common;
+
+use std::process::Command;
+
+use ifd_brush::engine::Engine;
+use ifd_brush::stroke::dab_centres;
+use ifd_brush::strokes::{Action, Stroke, StrokesFile};
+use ifd_brush::{BrushMode, BrushSettings};
+use ifd_image::{Image, MemoryBudget};
+use ifd_smooth::{Dab, Smoother};
+
+fn strokes() -> StrokesFile {
+    let b1 = BrushSettings {
+        radius: 20.0,
+        strength: 0.8,
+        falloff: 0.5,
+        spacing: 0.3,
+        mode: BrushMode::PerPixel,
+        ..BrushSettings::default()
+    };
+    let b2 = BrushSettings {
+        radius: 25.0,
+        strength: 1.0,
+        falloff: 0.3,
+        mode: BrushMode::Dab,
+        ..b1
+    };
+    StrokesFile {
+        image_size: Some([200, 160]),
+        strokes: vec![
+            Action::Stroke(Stroke {
+                brush: b1,
+                points: vec![[30.0, 40.0], [120.0, 60.0], [150.0, 130.0]],
+            }),
+            Action::Stroke(Stroke {
+                brush: b2,
+                points: vec![[40.0, 120.0], [100.0, 30.0]],
+            }),
+            Action::Undo { undo: true },
+            Action::Redo { redo: true },
+            // Crosses both: reads the stack refreshed after stroke 2's redo.
+            Action::Stroke(Stroke {
+                brush: b1,
+                points: vec![[20.0, 70.0], [180.0, 80.0]],
+            }),
+        ],
+        ..StrokesFile::default()
+    }
+}
+
+/// The library alone: the same dabs through `Smoother::apply_dab`, with a
+/// smoother rebuilt from scratch after every stroke (`refresh: true`) or
+/// never (`false`, to show the test sees the difference).
+fn reference(img: &Image, file: &StrokesFile, refresh: bool) -> Image {
+    let banks = common::banks();
+    let mut img = img.clone();
+    let mut done: Vec<&Stroke> = Vec::new();
+    let mut undone: Vec<&Stroke> = Vec::new();
+    // Undo/redo in this file are an undo then a redo of the same stroke.
+    for a in &file.strokes {
+        match a {
+            Action::Stroke(s) => {
+                done.push(s);
+                undone.clear();
+            }
+            Action::Undo { .. } => undone.extend(done.pop()),
+            Action::Redo { .. } => done.extend(undone.pop()),
+        }
+    }
+    let mut sm: Option<Smoother> = None;
+    for s in done {
+        let opts = s.brush.smooth_options();
+        if refresh || sm.is_none() {
+            sm = Some(
+                Smoother::with_banks(&img, &opts, banks.aspect.clone(), &banks.hessian)
+                    .expect("smoother"),
+            );
+        }
+        let smoother = sm.as_ref().expect("built");
+        for (x, y) in dab_centres(&s.points, s.brush.spacing_px()) {
+            let dab = Dab {
+                x,
+                y,
+                radius: s.brush.radius,
+                falloff: s.brush.falloff,
+                strength: s.brush.strength,
+            };
+            smoother
+                .apply_dab(&dab, s.brush.mode.into(), &mut img)
+                .expect("dab");
+        }
+    }
+    img
+}
+
+#[test]
+fn headless_replay_equals_library_region_smoothing() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let input = dir.path().join("in.png");
+    let img = common::crop(150, 100, 200, 160);
+    ifd_image::write(&input, &img).expect("write");
+    // What the binary reads (8-bit quantised).
+    let img = ifd_image::read(&input).expect("read");
+    let file = strokes();
+    let sfile = dir.path().join("strokes.json");
+    file.save(&sfile).expect("save strokes");
+    let out = dir.path().join("out.exr");
+    let rec = dir.path().join("recorded.json");
+    let status = Command::new(env!("CARGO_BIN_EXE_ifd-brush"))
+        .args(["--image", input.to_str().expect("utf8")])
+        .args(["--replay", sfile.to_str().expect("utf8")])
+        .args(["--save", out.to_str().expect("utf8")])
+        .args(["--record", rec.to_str().expect("utf8")])
+        .args(["--bank", common::bank_cache().to_str().expect("utf8")])
+        .arg("--exit")
+        .status()
+        .expect("run ifd-brush");
+    assert!(status.success(), "ifd-brush failed: {status}");
+    let got = ifd_image::read(&out).expect("result");
+    // EXR stores grey as RGB.
+    let got = Image::from_vec(got.width(), got.height(), 1, got.plane(0)).expect("grey");
+    let want = reference(&img, &file, true);
+    let stale = reference(&img, &file, false);
+    let d = common::max_diff(&got, &want);
+    let changed = common::max_diff(&img, &want);
+    let stale_d = common::max_diff(&stale, &want);
+    eprintln!(
+        "replay vs library: max |diff| {d:.2e}; edit size {changed:.3}; without refresh {stale_d:.2e}"
+    );
+    assert!(
+        changed > 0.05,
+        "the strokes must change the image ({changed})"
+    );
+    assert!(stale_d > 1e-3, "refreshing must matter here ({stale_d})");
+    assert!(d < 2e-4, "replay differs from the library by {d}");
+    // --record wrote the same strokes back.
+    let recorded = StrokesFile::load(&rec).expect("recording");
+    assert_eq!(recorded.strokes, file.strokes);
+}
+
+#[test]
+fn bad_inputs_leave_the_document_untouched() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut engine = Engine::new(common::banks(), MemoryBudget::bytes(64 << 20));
+    let brush = BrushSettings::default();
+    let good = dir.path().join("good.png");
+    ifd_image::write(&good, &common::crop(0, 0, 96, 80)).expect("write");
+    let l = engine.read(&good, &brush).expect("read");
+    engine.set_image(l.image, Some(good.clone()), false);
+    engine.begin_stroke(brush).expect("stroke");
+    engine.stroke_to(40.0, 40.0).expect("dab");
+    engine.end_stroke().expect("end");
+    let edited = engine.image().expect("image").clone();
+    assert_eq!(engine.history().undo_len(), 1);
+
+    // Unreadable: missing, garbage, wrong extension.
+    let garbage = dir.path().join("garbage.png");
+    std::fs::write(&garbage, b"not a png").expect("write");
+    let notes = dir.path().join("notes.txt");
+    std::fs::write(&notes, b"text").expect("write");
+    for p in [dir.path().join("missing.png"), garbage, notes] {
+        let e = engine.read(&p, &brush).expect_err("must fail");
+        let msg = format!("{e:#}");
+        assert!(
+            msg.contains(p.file_name().expect("name").to_str().expect("utf8")),
+            "{msg}"
+        );
+    }
+    // NaN pixels (EXR).
+    let mut nan = common::crop(0, 0, 16, 16);
+    nan.set(3, 4, 0, f32::NAN);
+    let nan_path = dir.path().join("nan.exr");
+    ifd_image::write(&nan_path, &nan).expect("write exr");
+    let msg = format!("{:#}", engine.read(&nan_path, &brush).expect_err("NaN"));
+    assert!(
+        msg.to_lowercase().contains("nan") || msg.contains("non-finite"),
+        "{msg}"
+    );
+    // Beyond the 64 MiB budget: 3000x3000 RGB.
+    let big = Image::new(3000, 3000, 3).expect("image");
+    let msg = format!("{:#}", engine.check_fits(&big, &brush).expect_err("budget"));
+    assert!(msg.contains("memory budget"), "{msg}");
+    let big_path = dir.path().join("big.png");
+    ifd_image::write(&big_path, &big).expect("write");
+    assert!(engine.read(&big_path, &brush).is_err());
+
+    // Nothing lost.
+    assert_eq!(engine.image().expect("image").data(), edited.data());
+    assert_eq!(engine.history().undo_len(), 1);
+    engine.undo().expect("undo");
+    assert_ne!(engine.image().expect("image").data(), edited.data());
+}

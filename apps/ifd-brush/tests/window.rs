@@ -1,0 +1,131 @@
+//! The app in a real window under Xvfb (software Vulkan through lavapipe):
+//! replays strokes, saves, takes a screenshot, and checks it shows the
+//! image and the controls. The screenshot is kept in `tests/artifacts/`.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn have(cmd: &str) -> bool {
+    Command::new("sh")
+        .args(["-c", &format!("command -v {cmd}")])
+        .stdout(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+#[test]
+fn window_under_xvfb_shows_image_and_controls() {
+    if !have("xvfb-run") || !have("Xvfb") {
+        eprintln!(
+            "\n\n*** SKIPPED window_under_xvfb_shows_image_and_controls: Xvfb/xvfb-run not installed \
+             (apt-get install xvfb xauth; scripts/test-all.sh does) ***\n\n"
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let input = dir.path().join("in.png");
+    let img = common::crop(100, 50, 320, 256);
+    ifd_image::write(&input, &img).expect("write");
+    let strokes = dir.path().join("strokes.json");
+    std::fs::write(
+        &strokes,
+        r#"{"format": "ifd-brush-strokes", "version": 1, "strokes": [
+            {"brush": {"radius": 24, "strength": 1.0}, "points": [[60, 60], [250, 180]]}]}"#,
+    )
+    .expect("strokes");
+    let artifacts = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/artifacts");
+    std::fs::create_dir_all(&artifacts).expect("artifacts dir");
+    let shot = artifacts.join("brush-screenshot.png");
+    std::fs::remove_file(&shot).ok();
+    let out = dir.path().join("out.exr");
+    let runtime = dir.path().join("xdg");
+    std::fs::create_dir(&runtime).expect("xdg dir");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700)).expect("chmod");
+    }
+    let mut child = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1280x800x24"])
+        .arg(env!("CARGO_BIN_EXE_ifd-brush"))
+        .args(["--image", input.to_str().expect("utf8")])
+        .args(["--replay", strokes.to_str().expect("utf8")])
+        .args(["--save", out.to_str().expect("utf8")])
+        .args(["--screenshot", shot.to_str().expect("utf8")])
+        .args(["--bank", common::bank_cache().to_str().expect("utf8")])
+        .arg("--exit")
+        .env("IFD_BRUSH_STATE_DIR", dir.path())
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .spawn()
+        .expect("start xvfb-run");
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break s;
+        }
+        if t0.elapsed() > Duration::from_mins(5) {
+            child.kill().ok();
+            panic!("the app did not exit within 5 minutes");
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    assert!(status.success(), "ifd-brush in Xvfb failed: {status}");
+
+    // The windowed replay saved the same result as the headless one would.
+    let saved = ifd_image::read(&out).expect("saved result");
+    let saved =
+        ifd_image::Image::from_vec(saved.width(), saved.height(), 1, saved.plane(0)).expect("grey");
+    assert!(common::max_diff(&saved, &ifd_image::read(&input).expect("input")) > 0.02);
+
+    let s = ifd_image::read(&shot).expect("screenshot");
+    let (w, h) = (s.width(), s.height());
+    assert!(w >= 800 && h >= 600, "screenshot is {w}x{h}");
+    let lum = |x: usize, y: usize| (s.get(x, y, 0) + s.get(x, y, 1) + s.get(x, y, 2)) / 3.0;
+    let stats = |x0: usize, x1: usize, y0: usize, y1: usize| {
+        let v: Vec<f32> = (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .map(|(x, y)| lum(x, y))
+            .collect();
+        let m = v.iter().sum::<f32>() / v.len() as f32;
+        let var = v.iter().map(|a| (a - m) * (a - m)).sum::<f32>() / v.len() as f32;
+        (m, var)
+    };
+    // Whole window: not blank.
+    let (_, var) = stats(0, w, 0, h);
+    assert!(var > 1e-3, "screenshot is blank (variance {var})");
+    // Controls on the left: text on the panel background.
+    let (_, var_left) = stats(5, 280, 40, 400);
+    assert!(var_left > 1e-3, "no controls visible (variance {var_left})");
+    // The image in the canvas: grey photo pixels (r = g = b) of many levels,
+    // unlike the flat canvas background.
+    let mut levels = std::collections::BTreeSet::new();
+    let mut grey = 0usize;
+    let mut n = 0usize;
+    for y in (h / 4..3 * h / 4).step_by(3) {
+        for x in (w / 2..w - 60).step_by(3) {
+            n += 1;
+            let (r, g, b) = (s.get(x, y, 0), s.get(x, y, 1), s.get(x, y, 2));
+            if (r - g).abs() < 0.01 && (g - b).abs() < 0.01 {
+                grey += 1;
+                levels.insert((r * 255.0).round() as u32);
+            }
+        }
+    }
+    assert!(
+        grey * 2 > n,
+        "canvas is not the grey photo ({grey} of {n} grey)"
+    );
+    assert!(
+        levels.len() > 40,
+        "canvas has only {} grey levels",
+        levels.len()
+    );
+    eprintln!(
+        "screenshot {w}x{h}: variance {var:.4}, controls variance {var_left:.4}, {} grey levels in the canvas; kept at {}",
+        levels.len(),
+        shot.display()
+    );
+}
