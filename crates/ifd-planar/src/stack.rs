@@ -688,6 +688,26 @@ impl ScaleStack {
     }
 }
 
+/// Raw access for other evaluators of the same stack (the GPU path in
+/// `ifd-gpu` uploads exactly these samples and locates levels as
+/// [`ScaleStack::sample`] does).
+impl ScaleStack {
+    /// The samples of level `index`, interleaved `[iy][ix][channel]` with
+    /// the geometry of the level's [`LevelLayout`]; `None` past the last level.
+    #[must_use]
+    pub fn level_data(&self, index: usize) -> Option<&[f32]> {
+        self.levels.get(index).map(|l| l.data.as_slice())
+    }
+
+    /// `(ln sigma_0, 1 / ln r)`: sigma lies at fractional level
+    /// `(ln sigma - ln sigma_0) / ln r`, clamped to the levels (`1 / ln r` is
+    /// 0 for a one-level stack).
+    #[must_use]
+    pub fn ln_sigma_params(&self) -> (f64, f64) {
+        self.ln_params()
+    }
+}
+
 /// Errors on the first non-finite sample.
 pub(crate) fn check_finite(data: &[f32], width: usize, channels: usize) -> Result<(), FilterError> {
     let count = data.iter().filter(|v| !v.is_finite()).count();

@@ -1,0 +1,75 @@
+//! Errors of GPU evaluation.
+
+use ifd_planar::FilterError;
+
+/// Everything that can go wrong creating a device or evaluating on it.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter at all (neither hardware nor software Vulkan).
+    #[error(
+        "no GPU adapter found ({0}); install a Vulkan driver (for a software one, Debian's \
+         mesa-vulkan-drivers provides lavapipe) or use the CPU path"
+    )]
+    NoAdapter(String),
+    /// The adapter refused to create a device.
+    #[error("creating a device on {adapter}: {reason}")]
+    RequestDevice {
+        /// The adapter's name.
+        adapter: String,
+        /// What wgpu said.
+        reason: String,
+    },
+    /// A resource or dispatch would exceed one of the device's limits.
+    #[error(
+        "{what} needs {needed} but the device's {limit_name} is {limit}; use a smaller image, \
+         region or sigma range, or the CPU path"
+    )]
+    Limit {
+        /// What was being created.
+        what: String,
+        /// How much it needs (with units).
+        needed: String,
+        /// The `wgpu::Limits` field.
+        limit_name: &'static str,
+        /// The limit's value (with units).
+        limit: String,
+    },
+    /// Invalid input (the same checks and messages as the CPU path).
+    #[error(transparent)]
+    Filter(#[from] FilterError),
+    /// Invalid smoothing input.
+    #[error(transparent)]
+    Smooth(#[from] ifd_smooth::SmoothError),
+    /// Something the GPU path does not do (yet).
+    #[error("not supported on the GPU: {0}")]
+    Unsupported(String),
+    /// wgpu reported an error while `context` (caught by an error scope).
+    #[error("GPU error while {context}: {message}")]
+    Device {
+        /// What was being done.
+        context: String,
+        /// wgpu's message.
+        message: String,
+    },
+    /// Reading a result back failed.
+    #[error("reading back {what}: {reason}")]
+    Readback {
+        /// What was read.
+        what: &'static str,
+        /// Why it failed.
+        reason: String,
+    },
+}
+
+/// Bytes in words: `1.5 GiB`, `12.0 MiB`, `512 B`.
+pub(crate) fn fmt_bytes(n: u64) -> String {
+    const KIB: f64 = 1024.0;
+    let f = n as f64;
+    if f >= KIB * KIB * KIB {
+        format!("{:.2} GiB ({n} bytes)", f / (KIB * KIB * KIB))
+    } else if f >= KIB * KIB {
+        format!("{:.1} MiB ({n} bytes)", f / (KIB * KIB))
+    } else {
+        format!("{n} bytes")
+    }
+}

@@ -1,0 +1,874 @@
+//! Decompositions, per-pixel poses and the evaluation dispatch.
+
+use std::time::Duration;
+
+use bytemuck::{Pod, Zeroable};
+use ifd_image::Image;
+use ifd_planar::{Border, Decomposition, Field, FilterError, Term};
+use wgpu::util::DeviceExt as _;
+
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use crate::stack::GpuStack;
+
+/// A buffer holding `contents` (at least 16 bytes: empty bindings are invalid).
+pub(crate) fn buffer_init(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    let mut padded;
+    let contents = if contents.len() < 16 || !contents.len().is_multiple_of(4) {
+        padded = contents.to_vec();
+        padded.resize(contents.len().next_multiple_of(4).max(16), 0);
+        &padded[..]
+    } else {
+        contents
+    };
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage,
+    })
+}
+
+fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
+/// The shader's `struct Params`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct Params {
+    region_x0: u32,
+    region_y0: u32,
+    region_w: u32,
+    region_h: u32,
+    width: u32,
+    height: u32,
+    channels: u32,
+    chunk_c0: u32,
+    chunk_nc: u32,
+    n_levels: u32,
+    border_mode: u32,
+    border_value: f32,
+    inv_ln_ratio: f32,
+    cos_t: f32,
+    sin_t: f32,
+    scale: f32,
+    u_offset: f32,
+    entry: f32,
+    flags: u32,
+    rot_off: u32,
+    scale_off: u32,
+    entry_off: u32,
+    n_entries: u32,
+    pad: u32,
+}
+
+/// The shader's `struct Term`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GpuTerm {
+    weight: f32,
+    cx: f32,
+    cy: f32,
+    ln_sigma: f32,
+}
+
+/// One or more decompositions ("entries") on the GPU, terms concatenated.
+///
+/// A plain filter is one entry. The aspect-ratio bank of anisotropic
+/// smoothing is one entry per aspect ratio; each pixel then blends entries
+/// `i` and `i + 1` with weight `t` (the pose's entry value `i + t`).
+#[derive(Debug)]
+pub struct GpuDecomposition {
+    terms: wgpu::Buffer,
+    entries: wgpu::Buffer,
+    n_entries: u32,
+    n_terms: usize,
+    sigma_range: (f64, f64),
+}
+
+impl GpuDecomposition {
+    /// Uploads one decomposition.
+    ///
+    /// # Errors
+    /// As [`GpuDecomposition::from_entries`].
+    pub fn new(ctx: &GpuContext, decomposition: &Decomposition) -> Result<Self, GpuError> {
+        Self::from_entries(ctx, &[decomposition.terms.as_slice()])
+    }
+
+    /// Uploads several decompositions, concatenated with their offsets.
+    ///
+    /// # Errors
+    /// [`FilterError::InvalidParameter`] for no entries or an entry without
+    /// terms, [`FilterError::InvalidTerm`] for non-finite values or a sigma
+    /// `<= 0` (as the CPU [`ifd_planar::Filter::new`]), [`GpuError::Limit`]
+    /// when the terms exceed a device limit.
+    pub fn from_entries(ctx: &GpuContext, entries: &[&[Term]]) -> Result<Self, GpuError> {
+        if entries.is_empty() {
+            return Err(FilterError::InvalidParameter("no decompositions given".into()).into());
+        }
+        let mut terms = Vec::new();
+        let mut offsets: Vec<[u32; 2]> = Vec::with_capacity(entries.len());
+        let mut lo = f64::INFINITY;
+        let mut hi = 0.0f64;
+        for (e, list) in entries.iter().enumerate() {
+            if list.is_empty() {
+                return Err(FilterError::InvalidParameter(if entries.len() == 1 {
+                    "the decomposition has no terms".into()
+                } else {
+                    format!("decomposition {e} has no terms")
+                })
+                .into());
+            }
+            offsets.push([terms.len() as u32, list.len() as u32]);
+            for (index, t) in list.iter().enumerate() {
+                if !(t.weight.is_finite()
+                    && t.x.is_finite()
+                    && t.y.is_finite()
+                    && t.sigma.is_finite())
+                {
+                    return Err(FilterError::InvalidTerm {
+                        index,
+                        why: format!("non-finite value in {t:?}"),
+                    }
+                    .into());
+                }
+                if t.sigma <= 0.0 {
+                    return Err(FilterError::InvalidTerm {
+                        index,
+                        why: format!("sigma {} is not positive", t.sigma),
+                    }
+                    .into());
+                }
+                lo = lo.min(t.sigma);
+                hi = hi.max(t.sigma);
+                terms.push(GpuTerm {
+                    weight: t.weight as f32,
+                    cx: t.x as f32,
+                    cy: t.y as f32,
+                    ln_sigma: t.sigma.ln() as f32,
+                });
+            }
+        }
+        let bytes = (terms.len() * std::mem::size_of::<GpuTerm>()) as u64;
+        ctx.check_buffer(&format!("{} decomposition terms", terms.len()), bytes, true)?;
+        let device = ctx.device();
+        let (tb, eb) = ctx.scoped("uploading the decomposition", || {
+            Ok((
+                buffer_init(
+                    device,
+                    "ifd terms",
+                    bytemuck::cast_slice(&terms),
+                    wgpu::BufferUsages::STORAGE,
+                ),
+                buffer_init(
+                    device,
+                    "ifd entries",
+                    bytemuck::cast_slice(&offsets),
+                    wgpu::BufferUsages::STORAGE,
+                ),
+            ))
+        })?;
+        Ok(Self {
+            terms: tb,
+            entries: eb,
+            n_entries: offsets.len() as u32,
+            n_terms: terms.len(),
+            sigma_range: (lo, hi),
+        })
+    }
+
+    /// Number of entries.
+    #[must_use]
+    pub fn entries(&self) -> usize {
+        self.n_entries as usize
+    }
+
+    /// Total number of terms.
+    #[must_use]
+    pub fn terms(&self) -> usize {
+        self.n_terms
+    }
+}
+
+/// A rectangle of output pixels, inside the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Region {
+    /// First column.
+    pub x0: usize,
+    /// First row.
+    pub y0: usize,
+    /// Columns.
+    pub width: usize,
+    /// Rows.
+    pub height: usize,
+}
+
+impl Region {
+    /// The whole `width x height` image.
+    #[must_use]
+    pub fn full(width: usize, height: usize) -> Self {
+        Self {
+            x0: 0,
+            y0: 0,
+            width,
+            height,
+        }
+    }
+}
+
+/// Per-pixel rotation, scale and bank entry, uploaded for one stack.
+///
+/// Angle maps are uploaded as `(cos, sin)` pairs computed on the CPU with
+/// the same `f32` `sin_cos` as the CPU path (WGSL only promises `sin`/`cos`
+/// to `2^-11` absolute, which would move a lookup 200 px away by 0.1 px);
+/// scale maps as `(s, level offset)` pairs, the level offset
+/// `(ln s - ln sigma_0) / ln r` computed in `f64`. Constant fields need no
+/// map. A pose can be reused for many evaluations (the brush uploads the
+/// orientation field once and evaluates dab after dab).
+#[derive(Debug)]
+pub struct GpuPose {
+    maps: wgpu::Buffer,
+    width: u32,
+    height: u32,
+    flags: u32,
+    rot_off: u32,
+    scale_off: u32,
+    entry_off: u32,
+    cos_t: f32,
+    sin_t: f32,
+    scale: f32,
+    u_offset: f32,
+    entry: f32,
+    scale_range: (f32, f32),
+    scale_field_is_map: bool,
+    /// `(value, pixel index)` of the smallest and largest scale, for messages.
+    scale_where: [(f32, usize); 2],
+}
+
+/// Checks a field like the CPU's `Field::validate`; returns
+/// `((min, index), (max, index))`.
+fn validate_field(
+    field: &Field<'_>,
+    name: &'static str,
+    width: usize,
+    height: usize,
+    positive: bool,
+) -> Result<[(f32, usize); 2], FilterError> {
+    let check = |v: f32, i: Option<usize>| -> Result<(), FilterError> {
+        let why = if !v.is_finite() {
+            "not finite"
+        } else if positive && v <= 0.0 {
+            "must be positive"
+        } else if v.abs() > 1e6 {
+            "absurdly large"
+        } else {
+            return Ok(());
+        };
+        Err(FilterError::InvalidValue {
+            name,
+            value: v,
+            location: i.map(|i| location(i, width)).unwrap_or_default(),
+            why,
+        })
+    };
+    match field {
+        Field::Constant(v) => {
+            check(*v, None)?;
+            Ok([(*v, 0), (*v, 0)])
+        }
+        Field::Map(m) => {
+            let expected = width * height;
+            if m.len() != expected {
+                return Err(FilterError::MapSize {
+                    name,
+                    len: m.len(),
+                    width,
+                    height,
+                    expected,
+                });
+            }
+            let mut lo = (f32::INFINITY, 0);
+            let mut hi = (f32::NEG_INFINITY, 0);
+            for (i, &v) in m.iter().enumerate() {
+                check(v, Some(i))?;
+                if v < lo.0 {
+                    lo = (v, i);
+                }
+                if v > hi.0 {
+                    hi = (v, i);
+                }
+            }
+            Ok([lo, hi])
+        }
+    }
+}
+
+fn location(i: usize, width: usize) -> String {
+    format!(" at pixel ({}, {})", i % width, i / width)
+}
+
+impl GpuPose {
+    /// Uploads the per-pixel maps among `angle` (degrees, counter-clockwise
+    /// on screen), `scale` and `entry` (bank entry `i + t`: entries `i` and
+    /// `i + 1` blended with weight `t`; 0 for a single decomposition) for
+    /// evaluations on `stack`.
+    ///
+    /// # Errors
+    /// As the CPU path: [`FilterError::MapSize`] for maps of the wrong size,
+    /// [`FilterError::InvalidValue`] for non-finite angles, non-positive
+    /// scales or negative entries; [`GpuError::Limit`] when the maps exceed
+    /// a buffer limit.
+    pub fn new(
+        ctx: &GpuContext,
+        stack: &GpuStack,
+        angle: Field<'_>,
+        scale: Field<'_>,
+        entry: Field<'_>,
+    ) -> Result<Self, GpuError> {
+        let (w, h) = (stack.width(), stack.height());
+        validate_field(&angle, "angle", w, h, false)?;
+        let scale_where = validate_field(&scale, "scale", w, h, true)?;
+        let [(elo, ei), _] = validate_field(&entry, "bank entry", w, h, false)?;
+        if elo < 0.0 {
+            return Err(FilterError::InvalidValue {
+                name: "bank entry",
+                value: elo,
+                location: match entry {
+                    Field::Map(_) => location(ei, w),
+                    Field::Constant(_) => String::new(),
+                },
+                why: "must not be negative",
+            }
+            .into());
+        }
+        let (ln0, inv) = stack.ln_params;
+        let level_offset = |s: f32| ((f64::from(s).ln() - ln0) * inv) as f32;
+        let mut maps: Vec<f32> = Vec::new();
+        let mut flags = 0;
+        let (mut rot_off, mut scale_off, mut entry_off) = (0, 0, 0);
+        let (mut cos_t, mut sin_t, mut s_c, mut u_c, mut e_c) = (1.0, 0.0, 1.0, 0.0, 0.0);
+        match angle {
+            Field::Constant(a) => (sin_t, cos_t) = a.to_radians().sin_cos(),
+            Field::Map(m) => {
+                flags |= 1;
+                rot_off = maps.len();
+                maps.reserve(2 * m.len());
+                for a in m {
+                    let (s, c) = a.to_radians().sin_cos();
+                    maps.extend([c, s]);
+                }
+            }
+        }
+        match scale {
+            Field::Constant(s) => {
+                s_c = s;
+                u_c = level_offset(s);
+            }
+            Field::Map(m) => {
+                flags |= 2;
+                scale_off = maps.len();
+                maps.reserve(2 * m.len());
+                for &s in m {
+                    maps.extend([s, level_offset(s)]);
+                }
+            }
+        }
+        match entry {
+            Field::Constant(e) => e_c = e,
+            Field::Map(m) => {
+                flags |= 4;
+                entry_off = maps.len();
+                maps.extend_from_slice(m);
+            }
+        }
+        let too_big = |what| GpuError::Limit {
+            what: format!("the {what} offset in the pose maps"),
+            needed: maps.len().to_string(),
+            limit_name: "u32 indexing in the shader",
+            limit: u32::MAX.to_string(),
+        };
+        let rot_off = u32::try_from(rot_off).map_err(|_| too_big("rotation"))?;
+        let scale_off = u32::try_from(scale_off).map_err(|_| too_big("scale"))?;
+        let entry_off = u32::try_from(entry_off).map_err(|_| too_big("entry"))?;
+        ctx.check_buffer(
+            &format!("per-pixel maps of a {w}x{h} image"),
+            (maps.len() * 4) as u64,
+            true,
+        )?;
+        let buffer = ctx.scoped("uploading the per-pixel maps", || {
+            Ok(buffer_init(
+                ctx.device(),
+                "ifd pose maps",
+                bytemuck::cast_slice(&maps),
+                wgpu::BufferUsages::STORAGE,
+            ))
+        })?;
+        Ok(Self {
+            maps: buffer,
+            width: stack.width,
+            height: stack.height,
+            flags,
+            rot_off,
+            scale_off,
+            entry_off,
+            cos_t,
+            sin_t,
+            scale: s_c,
+            u_offset: u_c,
+            entry: e_c,
+            scale_range: (scale_where[0].0, scale_where[1].0),
+            scale_field_is_map: matches!(scale, Field::Map(_)),
+            scale_where,
+        })
+    }
+
+    /// A constant angle and scale on `stack`, entry 0 (no upload beyond a
+    /// 16-byte placeholder).
+    ///
+    /// # Errors
+    /// As [`GpuPose::new`].
+    pub fn constant(
+        ctx: &GpuContext,
+        stack: &GpuStack,
+        angle: f32,
+        scale: f32,
+    ) -> Result<Self, GpuError> {
+        Self::new(
+            ctx,
+            stack,
+            Field::Constant(angle),
+            Field::Constant(scale),
+            Field::Constant(0.0),
+        )
+    }
+}
+
+/// The result of an evaluation: a storage buffer of `f32`, interleaved
+/// `height x width x channels`, row-major, on the device.
+///
+/// Read it back with [`GpuOutput::read`], or hand [`GpuOutput::buffer`] (or
+/// [`GpuOutput::to_rgba8_texture`]) to a renderer on the same device.
+#[derive(Debug)]
+pub struct GpuOutput {
+    buffer: wgpu::Buffer,
+    region: Region,
+    channels: usize,
+    timestamps: Option<wgpu::Buffer>,
+}
+
+impl GpuOutput {
+    /// The output buffer (usage `STORAGE | COPY_SRC`).
+    #[must_use]
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        &self.buffer
+    }
+
+    /// The region evaluated; output pixel `(0, 0)` is image pixel `(x0, y0)`.
+    #[must_use]
+    pub fn region(&self) -> Region {
+        self.region
+    }
+
+    /// Channels per pixel.
+    #[must_use]
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// Copies the result to the CPU as a `width x height` image of the region.
+    ///
+    /// # Errors
+    /// [`GpuError::Readback`] when mapping fails, [`GpuError::Device`] for a
+    /// wgpu error.
+    pub fn read(&self, ctx: &GpuContext) -> Result<Image, GpuError> {
+        let data = read_buffer(ctx, &self.buffer, "the result")?;
+        let floats: Vec<f32> = bytemuck::pod_collect_to_vec(&data);
+        let n = self.region.width * self.region.height * self.channels;
+        Image::from_vec(
+            self.region.width,
+            self.region.height,
+            self.channels,
+            floats[..n].to_vec(),
+        )
+        .map_err(|e| GpuError::Readback {
+            what: "the result",
+            reason: e.to_string(),
+        })
+    }
+
+    /// GPU time of the evaluation, from timestamp queries; `None` when the
+    /// device has no timestamp queries.
+    ///
+    /// # Errors
+    /// As [`GpuOutput::read`].
+    pub fn gpu_time(&self, ctx: &GpuContext) -> Result<Option<Duration>, GpuError> {
+        let Some(ts) = &self.timestamps else {
+            return Ok(None);
+        };
+        let data = read_buffer(ctx, ts, "the timestamps")?;
+        let t: Vec<u64> = bytemuck::pod_collect_to_vec(&data);
+        let ticks = t[1].saturating_sub(t[0]);
+        let ns = ticks as f64 * f64::from(ctx.queue().get_timestamp_period());
+        Ok(Some(Duration::from_secs_f64(ns * 1e-9)))
+    }
+
+    /// Converts the result to a new `rgba8unorm` texture of the region's size
+    /// (usages `STORAGE_BINDING | TEXTURE_BINDING | COPY_SRC`) on the GPU, for
+    /// display without a round trip: 1 channel grey, 2 grey + alpha, 3 RGB,
+    /// 4 RGBA, clamped to `[0, 1]`, sRGB-encoded when `srgb`.
+    ///
+    /// # Errors
+    /// [`GpuError::Unsupported`] for more than 4 channels, [`GpuError::Limit`]
+    /// for a region larger than `max_texture_dimension_2d`.
+    pub fn to_rgba8_texture(
+        &self,
+        ctx: &GpuContext,
+        srgb: bool,
+    ) -> Result<wgpu::Texture, GpuError> {
+        if self.channels > 4 {
+            return Err(GpuError::Unsupported(format!(
+                "an RGBA8 texture of a {}-channel result",
+                self.channels
+            )));
+        }
+        let (w, h) = (self.region.width as u32, self.region.height as u32);
+        let max = ctx.device().limits().max_texture_dimension_2d;
+        if w.max(h) > max {
+            return Err(GpuError::Limit {
+                what: "the display texture".into(),
+                needed: format!("{w}x{h} texels"),
+                limit_name: "max_texture_dimension_2d",
+                limit: max.to_string(),
+            });
+        }
+        ctx.check_dispatch("the display conversion", w, h)?;
+        ctx.scoped("converting the result to a texture", || {
+            let device = ctx.device();
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("ifd result rgba8"),
+                size: wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba8Unorm,
+                usage: wgpu::TextureUsages::STORAGE_BINDING
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+            let params = buffer_init(
+                device,
+                "to_rgba8 params",
+                bytemuck::cast_slice(&[w, h, self.channels as u32, u32::from(srgb)]),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("to_rgba8"),
+                layout: &ctx.rgba8_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: params.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: self.buffer.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::TextureView(&view),
+                    },
+                ],
+            });
+            let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("to_rgba8"),
+            });
+            {
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("to_rgba8"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(&ctx.rgba8_pipeline);
+                pass.set_bind_group(0, &bind, &[]);
+                pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+            }
+            ctx.queue().submit([enc.finish()]);
+            Ok(texture)
+        })
+    }
+}
+
+/// Copies `buffer` into a mappable one and reads it.
+fn read_buffer(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    what: &'static str,
+) -> Result<Vec<u8>, GpuError> {
+    let size = buffer.size();
+    let device = ctx.device();
+    let staging = ctx.scoped("copying the result for readback", || {
+        let staging = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("ifd readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("ifd readback"),
+        });
+        enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        ctx.queue().submit([enc.finish()]);
+        Ok(staging)
+    })?;
+    let (tx, rx) = std::sync::mpsc::channel();
+    staging.map_async(wgpu::MapMode::Read, .., move |r| {
+        // The receiver outlives the poll below; a send error cannot happen.
+        tx.send(r).ok();
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| GpuError::Readback {
+            what,
+            reason: e.to_string(),
+        })?;
+    rx.recv()
+        .map_err(|e| GpuError::Readback {
+            what,
+            reason: e.to_string(),
+        })?
+        .map_err(|e| GpuError::Readback {
+            what,
+            reason: e.to_string(),
+        })?;
+    let bytes = staging
+        .get_mapped_range(..)
+        .map_err(|e| GpuError::Readback {
+            what,
+            reason: e.to_string(),
+        })?
+        .to_vec();
+    staging.unmap();
+    Ok(bytes)
+}
+
+impl GpuContext {
+    /// Evaluates `decomposition` (rotated, scaled and blended per `pose`) on
+    /// `stack` over `region` (the whole image when `None`): the GPU version of
+    /// [`ifd_planar::Filter::apply`], one trilinear lookup per term and pixel.
+    /// The work is submitted; [`GpuOutput::read`] waits for it.
+    ///
+    /// ```no_run
+    /// use ifd_gpu::{GpuContext, GpuDecomposition, GpuPose, GpuStack};
+    /// use ifd_planar::{Border, Decomposition, StackOptions, Term, stack_for_decomposition};
+    /// let ctx = GpuContext::new()?;
+    /// let img = ifd_image::read("testdata/camera.png")?;
+    /// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 4.0, y: 0.0, sigma: 2.0 }]);
+    /// let stack = stack_for_decomposition(&img, &d, 1.0, 1.0, Border::Reflect101, StackOptions::default())?;
+    /// let gstack = GpuStack::upload(&ctx, &stack)?;
+    /// let gd = GpuDecomposition::new(&ctx, &d)?;
+    /// let pose = GpuPose::constant(&ctx, &gstack, 30.0, 1.0)?;
+    /// let out = ctx.evaluate(&gstack, &gd, &pose, None)?.read(&ctx)?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`FilterError::ScaleOutOfRange`] when some `scale * sigma_t` is not
+    /// covered by the stack, [`FilterError::InvalidParameter`] for a region
+    /// outside the image or a pose made for another stack, a bank entry past
+    /// the last, [`GpuError::Limit`] for an output larger than the device's
+    /// buffer limits, [`GpuError::Device`] for a wgpu error.
+    pub fn evaluate(
+        &self,
+        stack: &GpuStack,
+        decomposition: &GpuDecomposition,
+        pose: &GpuPose,
+        region: Option<Region>,
+    ) -> Result<GpuOutput, GpuError> {
+        let (w, h) = (stack.width(), stack.height());
+        if (pose.width, pose.height) != (stack.width, stack.height) {
+            return Err(FilterError::InvalidParameter(format!(
+                "the pose was made for a {}x{} image, the stack is {w}x{h}",
+                pose.width, pose.height
+            ))
+            .into());
+        }
+        let region = region.unwrap_or(Region::full(w, h));
+        if region.width == 0
+            || region.height == 0
+            || region.x0 + region.width > w
+            || region.y0 + region.height > h
+        {
+            return Err(FilterError::InvalidParameter(format!(
+                "region {}x{} at ({}, {}) is empty or not inside the {w}x{h} image",
+                region.width, region.height, region.x0, region.y0
+            ))
+            .into());
+        }
+        if pose.flags & 4 == 0 && pose.entry > (decomposition.n_entries - 1) as f32 {
+            return Err(FilterError::InvalidParameter(format!(
+                "bank entry {} is past the last entry {}",
+                pose.entry,
+                decomposition.n_entries - 1
+            ))
+            .into());
+        }
+        // Coverage, as the CPU's Filter::check_scales.
+        let (min, max) = stack.sigma_range;
+        let (slo, shi) = decomposition.sigma_range;
+        for ((scale, at), term_sigma) in pose.scale_where.iter().zip([slo, shi]) {
+            let needed = f64::from(*scale) * term_sigma;
+            if !stack.covers(needed) {
+                return Err(FilterError::ScaleOutOfRange {
+                    scale: f64::from(*scale),
+                    location: if pose.scale_field_is_map {
+                        location(*at, w)
+                    } else {
+                        String::new()
+                    },
+                    term_sigma,
+                    needed,
+                    min,
+                    max,
+                }
+                .into());
+            }
+        }
+        debug_assert!(pose.scale_range.0 <= pose.scale_range.1);
+        let (rw, rh) = (region.width as u32, region.height as u32);
+        self.check_dispatch("the evaluation", rw, rh)?;
+        let out_bytes = (region.width * region.height * stack.channels()) as u64 * 4;
+        self.check_buffer(
+            &format!(
+                "the {}x{}x{} result",
+                region.width,
+                region.height,
+                stack.channels()
+            ),
+            out_bytes,
+            true,
+        )?;
+        let (border_mode, border_value) = match stack.border {
+            Border::Reflect101 => (0, 0.0),
+            Border::Constant(v) => (1, v),
+            Border::Replicate => (2, 0.0),
+            Border::Wrap => (3, 0.0),
+        };
+        let device = self.device();
+        self.scoped("evaluating the decomposition", || {
+            let output = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("ifd result"),
+                size: out_bytes.max(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let binds: Vec<wgpu::BindGroup> = stack
+                .chunks
+                .iter()
+                .map(|chunk| {
+                    let params = Params {
+                        region_x0: region.x0 as u32,
+                        region_y0: region.y0 as u32,
+                        region_w: rw,
+                        region_h: rh,
+                        width: stack.width,
+                        height: stack.height,
+                        channels: stack.channels,
+                        chunk_c0: chunk.c0,
+                        chunk_nc: chunk.nc,
+                        n_levels: stack.n_levels,
+                        border_mode,
+                        border_value,
+                        inv_ln_ratio: stack.ln_params.1 as f32,
+                        cos_t: pose.cos_t,
+                        sin_t: pose.sin_t,
+                        scale: pose.scale,
+                        u_offset: pose.u_offset,
+                        entry: pose.entry,
+                        flags: pose.flags,
+                        rot_off: pose.rot_off,
+                        scale_off: pose.scale_off,
+                        entry_off: pose.entry_off,
+                        n_entries: decomposition.n_entries,
+                        pad: 0,
+                    };
+                    let pb = buffer_init(
+                        device,
+                        "ifd params",
+                        bytemuck::bytes_of(&params),
+                        wgpu::BufferUsages::UNIFORM,
+                    );
+                    device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("ifd_eval"),
+                        layout: &self.eval_layout,
+                        entries: &[
+                            entry(0, &pb),
+                            entry(1, &chunk.levels),
+                            entry(2, &chunk.data),
+                            entry(3, &decomposition.terms),
+                            entry(4, &decomposition.entries),
+                            entry(5, &pose.maps),
+                            entry(6, &output),
+                        ],
+                    })
+                })
+                .collect();
+            let timing = self.has_timestamps().then(|| {
+                let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("ifd timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: 2,
+                });
+                let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("ifd timestamps"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                });
+                (set, resolve)
+            });
+            let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("ifd_eval"),
+            });
+            {
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("ifd_eval"),
+                    timestamp_writes: timing.as_ref().map(|(set, _)| {
+                        wgpu::ComputePassTimestampWrites {
+                            query_set: set,
+                            beginning_of_pass_write_index: Some(0),
+                            end_of_pass_write_index: Some(1),
+                        }
+                    }),
+                });
+                pass.set_pipeline(&self.eval_pipeline);
+                for bind in &binds {
+                    pass.set_bind_group(0, bind, &[]);
+                    pass.dispatch_workgroups(rw.div_ceil(8), rh.div_ceil(8), 1);
+                }
+            }
+            if let Some((set, resolve)) = &timing {
+                enc.resolve_query_set(set, 0..2, resolve, 0);
+            }
+            self.queue().submit([enc.finish()]);
+            Ok(GpuOutput {
+                buffer: output,
+                region,
+                channels: stack.channels(),
+                timestamps: timing.map(|(_, r)| r),
+            })
+        })
+    }
+}

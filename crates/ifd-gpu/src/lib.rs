@@ -1,0 +1,93 @@
+//! GPU evaluation of planar isotropic filter decompositions with wgpu
+//! (Vulkan; hardware drivers or Mesa's software lavapipe) and a WGSL compute
+//! shader (`shaders/ifd_eval.wgsl`).
+//!
+//! The scale stack is built on the CPU (`ifd_planar::ScaleStack`, by FFT)
+//! and uploaded once; then any decomposition is evaluated per pixel as
+//! `out(p) = sum_t w_t fhat_{s sigma_t}(p + s R_theta c_t)` with per-pixel
+//! angle and scale maps, the conventions and border handling of the CPU path
+//! (`ifd_planar::Filter::apply`): correlation, angles in degrees
+//! counter-clockwise on screen, `x` = column, `y` = row.
+//!
+//! ```no_run
+//! use ifd_gpu::{GpuContext, filter_image};
+//! use ifd_planar::{Border, Decomposition, Field, StackOptions, stack_for_decomposition};
+//! let ctx = GpuContext::new()?; // hardware, else lavapipe; GpuError::NoAdapter if neither
+//! let img = ifd_image::read("testdata/camera.png")?;
+//! let d = Decomposition::load(std::path::Path::new("d.json"))?;
+//! let stack = stack_for_decomposition(&img, &d, 1.0, 1.0, Border::Reflect101, StackOptions::default())?;
+//! let out = filter_image(&ctx, &stack, &d, Field::Constant(30.0), Field::Constant(1.0))?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! Lower level, for reuse and for renderers: [`GpuStack::upload`],
+//! [`GpuDecomposition`], [`GpuPose`] (per-pixel maps uploaded once),
+//! [`GpuContext::evaluate`] over the whole image or a [`Region`] (brush dabs),
+//! [`GpuOutput`] (the result stays on the device as a storage buffer; read it
+//! back, or convert it to an `rgba8unorm` texture for display). Smoothing and
+//! the Hessian of `ifd-smooth`: [`GpuSmoother`], [`GpuHessian`].
+//!
+//! # Devices
+//! [`GpuContext::new`] creates a headless device: the best enumerated
+//! adapter (discrete, integrated, virtual, then CPU), else `request_adapter`
+//! without and then with `force_fallback_adapter`. Nothing global is set;
+//! `WGPU_BACKEND` is honoured when set. [`GpuContext::from_device`] wraps a
+//! device made elsewhere (the brush app's renderer, a test), so device
+//! creation and execution are separate.
+//!
+//! # Design
+//! **Storage buffers, not a texture array.** Levels of the stack have
+//! different sizes (levels with sigma >= 2 px are subsampled, a Gaussian
+//! pyramid), which a texture array cannot hold without padding every layer
+//! to full resolution (33 levels of a 4096x4096 stack: 2.2 GiB per channel
+//! padded, against 0.19 GiB as stored). Hardware bilinear filtering cannot
+//! be used either way: it interpolates with 8-bit fixed-point weights on
+//! most GPUs (relative error up to about 4e-3, far above the 1e-4 target)
+//! and 32-bit float textures are not filterable without an optional
+//! feature. So the shader does the four fetches and the interpolation
+//! itself, and then a storage buffer is as good as a texture: see
+//! `BENCHMARKS.md` ("GPU") for the measured comparison of the two fetch
+//! paths. Samples are stored per group of at most four channels, level after
+//! level, planar per channel; a stack larger than the device's
+//! `max_storage_buffer_binding_size` is split into more groups (down to one
+//! channel per buffer, evaluated by one dispatch each).
+//!
+//! **Same arithmetic as the CPU.** The shader locates levels as
+//! `ScaleStack` does (linear in `ln sigma`), takes the same fast bilinear
+//! path when the 2x2 footprint is stored and resolves other coordinates with
+//! the same border mapping. Angle maps are turned into `(cos, sin)` on the
+//! CPU with the same `f32` `sin_cos` (WGSL allows `sin`/`cos` an absolute
+//! error of `2^-11`); scale maps carry their level offset computed in `f64`.
+//!
+//! **Tolerance.** GPU and CPU agree within `1e-4` of the result's largest
+//! magnitude (checked in `tests/gpu.rs`). Differences come from `f32`
+//! rounding in a different order (fused multiply-adds, the level position
+//! `ln sigma_t / ln r + offset` in `f32` rather than `f64`: about `3e-6` of a
+//! level), each of order `1e-6` relative per term; a few hundred terms
+//! accumulate to well under `1e-5` in practice. `1e-4` leaves a margin for
+//! GPUs with less careful float arithmetic, while any real bug (a wrong
+//! level, a half-pixel shift, a wrong border) shows up at `1e-2` or more.
+//!
+//! **Limits.** Every buffer is checked against `max_buffer_size` and
+//! `max_storage_buffer_binding_size`, every dispatch against
+//! `max_compute_workgroups_per_dimension`, before anything is created; a
+//! violation is a [`GpuError::Limit`] naming the limit. Resource creation and
+//! dispatches run inside wgpu error scopes, so a wgpu error becomes a
+//! [`GpuError::Device`], never a panic.
+//!
+//! **Timing.** When the adapter has `TIMESTAMP_QUERY`, the evaluation pass
+//! is bracketed by timestamps and [`GpuOutput::gpu_time`] reports the GPU
+//! time.
+
+mod context;
+mod error;
+mod eval;
+pub mod shaders;
+mod smooth;
+mod stack;
+
+pub use context::{AdapterChoice, GpuContext, list_adapters};
+pub use error::GpuError;
+pub use eval::{GpuDecomposition, GpuOutput, GpuPose, Region};
+pub use smooth::{GpuHessian, GpuSmoother, filter_image};
+pub use stack::GpuStack;

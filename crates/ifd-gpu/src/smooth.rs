@@ -1,0 +1,314 @@
+//! The Hessian and Hessian-driven anisotropic smoothing of `ifd-smooth` on
+//! the GPU: the same lookup kernel with other decompositions.
+
+use ifd_image::Image;
+use ifd_planar::{Field, ScaleStack};
+use ifd_smooth::smooth::DabRegion;
+use ifd_smooth::{Dab, HessianBank, Mode, Smoother};
+
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use crate::eval::{GpuDecomposition, GpuOutput, GpuPose, Region};
+use crate::stack::GpuStack;
+
+/// The Hessian filters of a [`HessianBank`] on the GPU.
+#[derive(Debug)]
+pub struct GpuHessian {
+    xx: GpuDecomposition,
+    xy: GpuDecomposition,
+    sigma0: f64,
+}
+
+impl GpuHessian {
+    /// Uploads the `xx` and `xy` decompositions.
+    ///
+    /// # Errors
+    /// As [`GpuDecomposition::new`].
+    pub fn new(ctx: &GpuContext, bank: &HessianBank) -> Result<Self, GpuError> {
+        Ok(Self {
+            xx: GpuDecomposition::new(ctx, &bank.xx)?,
+            xy: GpuDecomposition::new(ctx, &bank.xy)?,
+            sigma0: bank.sigma0,
+        })
+    }
+
+    /// `(Hxx, Hxy, Hyy)` planes of the channel mean at scale `sigma`, as
+    /// `ifd_smooth::hessian::HessianFilters::planes`: `xx` at 0 degrees, `xy`
+    /// at 0 and `xx` at 90, at filter scale `s = sigma / sigma0`, divided by
+    /// `s^2`. The lookups run on the GPU; the channel mean on the CPU.
+    ///
+    /// # Errors
+    /// [`ifd_planar::FilterError::ScaleOutOfRange`] when the stack does not
+    /// cover the scale, and the errors of [`GpuContext::evaluate`].
+    pub fn planes(
+        &self,
+        ctx: &GpuContext,
+        stack: &GpuStack,
+        sigma: f64,
+    ) -> Result<[Vec<f32>; 3], GpuError> {
+        let s = (sigma / self.sigma0) as f32;
+        let inv_s2 = 1.0 / (s * s);
+        let c = stack.channels();
+        let mean = |img: Image| -> Vec<f32> {
+            img.data()
+                .chunks_exact(c)
+                .map(|px| px.iter().sum::<f32>() / c as f32 * inv_s2)
+                .collect()
+        };
+        let p0 = GpuPose::constant(ctx, stack, 0.0, s)?;
+        let p90 = GpuPose::constant(ctx, stack, 90.0, s)?;
+        // Submit all three, then read.
+        let outs = [
+            ctx.evaluate(stack, &self.xx, &p0, None)?,
+            ctx.evaluate(stack, &self.xy, &p0, None)?,
+            ctx.evaluate(stack, &self.xx, &p90, None)?,
+        ];
+        let [a, b, d] = outs;
+        Ok([mean(a.read(ctx)?), mean(b.read(ctx)?), mean(d.read(ctx)?)])
+    }
+}
+
+/// A [`Smoother`]'s stack, aspect-ratio bank and orientation field on the
+/// GPU, for whole images and brush dabs.
+///
+/// All bank entries' terms are uploaded concatenated with their offsets; each
+/// pixel blends entries `i` and `i + 1` with weight `t` (from
+/// `AspectBank::locate` of its aspect ratio, computed on the CPU) and rotates
+/// by its orientation, at the smoother's constant filter scale. The
+/// orientation field is uploaded once.
+#[derive(Debug)]
+pub struct GpuSmoother {
+    stack: GpuStack,
+    bank: GpuDecomposition,
+    field: GpuPose,
+    scale: f32,
+    entries: Vec<f32>,
+    thetas: Vec<f32>,
+}
+
+impl GpuSmoother {
+    /// Uploads `smoother`'s stack, bank and orientation field.
+    ///
+    /// # Errors
+    /// [`GpuError::Limit`] when something exceeds the device's limits, and
+    /// the errors of [`GpuDecomposition::from_entries`].
+    pub fn new(ctx: &GpuContext, smoother: &Smoother) -> Result<Self, GpuError> {
+        let stack = GpuStack::upload(ctx, smoother.stack())?;
+        let bank = smoother.bank();
+        let entries_terms: Vec<&[ifd_planar::Term]> =
+            bank.terms.iter().map(Vec::as_slice).collect();
+        let gbank = GpuDecomposition::from_entries(ctx, &entries_terms)?;
+        let scale = (smoother.options().scale / bank.options.sigma_ref) as f32;
+        let field = smoother.orientation_field();
+        let thetas: Vec<f32> = field.iter().map(|o| o.theta).collect();
+        let entries: Vec<f32> = field
+            .iter()
+            .map(|o| entry_value(bank.locate(f64::from(o.aspect))))
+            .collect();
+        let pose = GpuPose::new(
+            ctx,
+            &stack,
+            Field::Map(&thetas),
+            Field::Constant(scale),
+            Field::Map(&entries),
+        )?;
+        Ok(Self {
+            stack,
+            bank: gbank,
+            field: pose,
+            scale,
+            entries,
+            thetas,
+        })
+    }
+
+    /// The uploaded stack.
+    #[must_use]
+    pub fn stack(&self) -> &GpuStack {
+        &self.stack
+    }
+
+    /// Smooths `region` (the whole image when `None`), each pixel with the
+    /// filter of its own orientation ([`Mode::PerPixel`]); the result stays
+    /// on the device.
+    ///
+    /// # Errors
+    /// The errors of [`GpuContext::evaluate`].
+    pub fn smooth_per_pixel(
+        &self,
+        ctx: &GpuContext,
+        region: Option<Region>,
+    ) -> Result<GpuOutput, GpuError> {
+        ctx.evaluate(&self.stack, &self.bank, &self.field, region)
+    }
+
+    /// Smooths `region` with one filter for every pixel: the orientation at
+    /// image pixel `(x, y)` (clamped into the image, as
+    /// `Smoother::orientation_at`), the paper's brush dab.
+    ///
+    /// # Errors
+    /// The errors of [`GpuContext::evaluate`].
+    pub fn smooth_with_orientation_at(
+        &self,
+        ctx: &GpuContext,
+        x: f32,
+        y: f32,
+        region: Option<Region>,
+    ) -> Result<GpuOutput, GpuError> {
+        let (w, h) = (self.stack.width(), self.stack.height());
+        let xi = (x.round().max(0.0) as usize).min(w - 1);
+        let yi = (y.round().max(0.0) as usize).min(h - 1);
+        let i = yi * w + xi;
+        let pose = GpuPose::new(
+            ctx,
+            &self.stack,
+            Field::Constant(self.thetas[i]),
+            Field::Constant(self.scale),
+            Field::Constant(self.entries[i]),
+        )?;
+        ctx.evaluate(&self.stack, &self.bank, &pose, region)
+    }
+
+    /// The whole image smoothed, read back, as `Smoother::smooth_image`.
+    ///
+    /// # Errors
+    /// [`GpuError::Unsupported`] for [`Mode::Dab`] over a whole image (the
+    /// grid of blended dabs is CPU-only), and the errors of evaluation.
+    pub fn smooth_image(&self, ctx: &GpuContext, mode: Mode) -> Result<Image, GpuError> {
+        match mode {
+            Mode::PerPixel => self.smooth_per_pixel(ctx, None)?.read(ctx),
+            Mode::Dab => Err(GpuError::Unsupported(
+                "whole-image smoothing in dab mode (a grid of blended dabs); use per-pixel mode \
+                 or the CPU path"
+                    .into(),
+            )),
+        }
+    }
+
+    /// Applies one dab to `target` as `Smoother::apply_dab` does: the dab's
+    /// bounding box is smoothed on the GPU (per pixel, or with the filter at
+    /// the dab's centre in [`Mode::Dab`]), read back and blended in with the
+    /// dab's weights. Returns the touched region (`None` when the dab misses
+    /// the image).
+    ///
+    /// # Errors
+    /// [`ifd_smooth::SmoothError::BadImage`] when `target` has another shape,
+    /// [`ifd_smooth::SmoothError::OutOfRange`] for bad dab parameters, and
+    /// the errors of evaluation.
+    pub fn apply_dab(
+        &self,
+        ctx: &GpuContext,
+        dab: &Dab,
+        mode: Mode,
+        target: &mut Image,
+    ) -> Result<Option<DabRegion>, GpuError> {
+        let (w, h, c) = (
+            self.stack.width(),
+            self.stack.height(),
+            self.stack.channels(),
+        );
+        if (target.width(), target.height(), target.channels()) != (w, h, c) {
+            return Err(ifd_smooth::SmoothError::BadImage(format!(
+                "target is {}x{}x{}, the smoother's image {w}x{h}x{c}",
+                target.width(),
+                target.height(),
+                target.channels()
+            ))
+            .into());
+        }
+        let Some(r) = dab_region(dab, w, h)? else {
+            return Ok(None);
+        };
+        let region = Region {
+            x0: r.x0,
+            y0: r.y0,
+            width: r.width,
+            height: r.height,
+        };
+        let out = match mode {
+            Mode::PerPixel => self.smooth_per_pixel(ctx, Some(region))?,
+            Mode::Dab => self.smooth_with_orientation_at(ctx, dab.x, dab.y, Some(region))?,
+        };
+        let sm = out.read(ctx)?;
+        let data = target.data_mut();
+        for ry in 0..r.height {
+            let y = r.y0 + ry;
+            for rx in 0..r.width {
+                let x = r.x0 + rx;
+                let d = ((x as f32 - dab.x).powi(2) + (y as f32 - dab.y).powi(2)).sqrt();
+                let wgt = dab.weight(d);
+                if wgt <= 0.0 {
+                    continue;
+                }
+                let src = &sm.data()[(ry * r.width + rx) * c..(ry * r.width + rx + 1) * c];
+                for (p, s) in data[(y * w + x) * c..(y * w + x + 1) * c]
+                    .iter_mut()
+                    .zip(src)
+                {
+                    *p += wgt * (s - *p);
+                }
+            }
+        }
+        Ok(Some(r))
+    }
+}
+
+/// `i + t` for the shader, from `AspectBank::locate`.
+fn entry_value((i, t): (usize, f64)) -> f32 {
+    (i as f64 + t) as f32
+}
+
+/// The dab's bounding box clipped to the image, as `Smoother::apply_dab`.
+fn dab_region(dab: &Dab, w: usize, h: usize) -> Result<Option<DabRegion>, GpuError> {
+    let ok = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;
+    for (name, v, lo, hi) in [
+        ("dab x", dab.x, -1e7, 1e7),
+        ("dab y", dab.y, -1e7, 1e7),
+        ("dab radius", dab.radius, 0.5, 4096.0),
+        ("dab falloff", dab.falloff, 0.0, 1.0),
+        ("dab strength", dab.strength, 0.0, 1.0),
+    ] {
+        if !ok(v, lo, hi) {
+            return Err(ifd_smooth::SmoothError::OutOfRange {
+                name,
+                value: f64::from(v),
+                range: format!("[{lo}, {hi}]"),
+            }
+            .into());
+        }
+    }
+    let x0 = (dab.x - dab.radius).floor().max(0.0) as usize;
+    let y0 = (dab.y - dab.radius).floor().max(0.0) as usize;
+    let x1 = ((dab.x + dab.radius).ceil().max(-1.0) as i64).min(w as i64 - 1);
+    let y1 = ((dab.y + dab.radius).ceil().max(-1.0) as i64).min(h as i64 - 1);
+    if x1 < x0 as i64 || y1 < y0 as i64 {
+        return Ok(None);
+    }
+    Ok(Some(DabRegion {
+        x0,
+        y0,
+        width: x1 as usize - x0 + 1,
+        height: y1 as usize - y0 + 1,
+    }))
+}
+
+/// Filters a whole image on the GPU: uploads `stack` and `decomposition`,
+/// evaluates with `angle` and `scale` (constants or per-pixel maps) and reads
+/// the result back. The GPU counterpart of
+/// `Filter::new(stack, decomposition)?.apply(angle, scale)`.
+///
+/// # Errors
+/// The errors of [`GpuStack::upload`], [`GpuPose::new`] and
+/// [`GpuContext::evaluate`].
+pub fn filter_image(
+    ctx: &GpuContext,
+    stack: &ScaleStack,
+    decomposition: &ifd_planar::Decomposition,
+    angle: Field<'_>,
+    scale: Field<'_>,
+) -> Result<Image, GpuError> {
+    let gstack = GpuStack::upload(ctx, stack)?;
+    let gd = GpuDecomposition::new(ctx, decomposition)?;
+    let pose = GpuPose::new(ctx, &gstack, angle, scale, Field::Constant(0.0))?;
+    ctx.evaluate(&gstack, &gd, &pose, None)?.read(ctx)
+}

@@ -1,0 +1,233 @@
+//! Uploading a prefiltered scale stack.
+
+use bytemuck::{Pod, Zeroable};
+use ifd_planar::{Border, ScaleStack};
+
+use crate::context::GpuContext;
+use crate::error::{GpuError, fmt_bytes};
+
+/// One level's geometry as the shader reads it (`struct Level`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(crate) struct LevelMeta {
+    origin: f32,
+    inv_step: f32,
+    step: f32,
+    nx: u32,
+    ny: u32,
+    offset: u32,
+    plane: u32,
+    pad: u32,
+}
+
+/// Up to four channels of every level, in one storage buffer.
+#[derive(Debug)]
+pub(crate) struct Chunk {
+    /// First channel.
+    pub(crate) c0: u32,
+    /// Channels (1..=4).
+    pub(crate) nc: u32,
+    pub(crate) levels: wgpu::Buffer,
+    pub(crate) data: wgpu::Buffer,
+}
+
+/// A [`ScaleStack`] on the GPU: the same samples, the same level geometry and
+/// border mode.
+///
+/// The samples are stored in storage buffers, one per group of at most four
+/// channels, level after level and planar per channel within a level. A
+/// stack whose channels do not all fit in one buffer (the device's
+/// `max_storage_buffer_binding_size`) is split into more groups, down to one
+/// channel per buffer; one channel that does not fit is refused with
+/// [`GpuError::Limit`].
+#[derive(Debug)]
+pub struct GpuStack {
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) channels: u32,
+    pub(crate) border: Border,
+    pub(crate) n_levels: u32,
+    pub(crate) sigma_range: (f64, f64),
+    pub(crate) ln_params: (f64, f64),
+    pub(crate) chunks: Vec<Chunk>,
+    bytes: u64,
+}
+
+impl GpuStack {
+    /// Uploads `stack`.
+    ///
+    /// # Errors
+    /// [`GpuError::Limit`] when one channel of the stack exceeds the device's
+    /// `max_storage_buffer_binding_size` or `max_buffer_size` or the image is
+    /// too large to index, [`GpuError::Device`] if wgpu fails to allocate.
+    pub fn upload(ctx: &GpuContext, stack: &ScaleStack) -> Result<Self, GpuError> {
+        let channels = stack.channels();
+        let layouts: Vec<_> = stack.level_layouts().copied().collect();
+        let plane_bytes: u64 = layouts.iter().map(|l| (l.nx * l.ny * 4) as u64).sum();
+        let too_big = |what: &str, v: usize| GpuError::Limit {
+            what: what.to_string(),
+            needed: v.to_string(),
+            limit_name: "u32 indexing in the shader",
+            limit: u32::MAX.to_string(),
+        };
+        let (w, h) = (stack.width(), stack.height());
+        let width = u32::try_from(w).map_err(|_| too_big("image width", w))?;
+        let height = u32::try_from(h).map_err(|_| too_big("image height", h))?;
+        u32::try_from(w * h).map_err(|_| too_big("image pixels", w * h))?;
+        let limits = ctx.device().limits();
+        let cap = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        // Channels per buffer.
+        let per = (cap / plane_bytes.max(1)).min(4) as usize;
+        if per == 0 {
+            ctx.check_buffer(
+                &format!(
+                    "one channel of the {w}x{h} scale stack ({} levels, sigma {:.3}..{:.3} px)",
+                    layouts.len(),
+                    stack.sigma_range().0,
+                    stack.sigma_range().1
+                ),
+                plane_bytes,
+                true,
+            )?;
+        }
+        let per = per.max(1);
+        let mut chunks = Vec::new();
+        let mut c0 = 0;
+        while c0 < channels {
+            let nc = per.min(channels - c0);
+            chunks.push(ctx.scoped("uploading the scale stack", || {
+                upload_chunk(ctx, stack, &layouts, c0, nc)
+            })?);
+            c0 += nc;
+        }
+        Ok(Self {
+            width,
+            height,
+            channels: channels as u32,
+            border: stack.border(),
+            n_levels: layouts.len() as u32,
+            sigma_range: stack.sigma_range(),
+            ln_params: stack.ln_sigma_params(),
+            chunks,
+            bytes: plane_bytes * channels as u64,
+        })
+    }
+
+    /// Image width.
+    #[must_use]
+    pub fn width(&self) -> usize {
+        self.width as usize
+    }
+
+    /// Image height.
+    #[must_use]
+    pub fn height(&self) -> usize {
+        self.height as usize
+    }
+
+    /// Channels.
+    #[must_use]
+    pub fn channels(&self) -> usize {
+        self.channels as usize
+    }
+
+    /// Bytes of samples on the device.
+    #[must_use]
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    /// Storage buffers the samples are split into (one per group of at most
+    /// four channels).
+    #[must_use]
+    pub fn buffers(&self) -> usize {
+        self.chunks.len()
+    }
+
+    /// Whether `sigma` lies in the covered range ([`ScaleStack::covers`]).
+    #[must_use]
+    pub fn covers(&self, sigma: f64) -> bool {
+        let (lo, hi) = self.sigma_range;
+        sigma >= lo * (1.0 - 1e-6) && sigma <= hi * (1.0 + 1e-6)
+    }
+}
+
+fn upload_chunk(
+    ctx: &GpuContext,
+    stack: &ScaleStack,
+    layouts: &[ifd_planar::LevelLayout],
+    c0: usize,
+    nc: usize,
+) -> Result<Chunk, GpuError> {
+    let channels = stack.channels();
+    let mut metas = Vec::with_capacity(layouts.len());
+    let mut offset = 0u64;
+    for l in layouts {
+        let plane = (l.nx * l.ny) as u64;
+        metas.push(LevelMeta {
+            origin: l.origin as f32,
+            inv_step: 1.0 / l.step as f32,
+            step: l.step as f32,
+            nx: l.nx as u32,
+            ny: l.ny as u32,
+            offset: offset as u32,
+            plane: plane as u32,
+            pad: 0,
+        });
+        offset += plane * nc as u64;
+    }
+    let bytes = offset * 4;
+    ctx.check_buffer(
+        &format!("scale stack channels {c0}..{}", c0 + nc),
+        bytes,
+        true,
+    )?;
+    let device = ctx.device();
+    let levels = crate::eval::buffer_init(
+        device,
+        "ifd stack levels",
+        bytemuck::cast_slice(&metas),
+        wgpu::BufferUsages::STORAGE,
+    );
+    let data = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("ifd stack samples"),
+        size: bytes,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: true,
+    });
+    {
+        let mut view = data
+            .get_mapped_range_mut(..)
+            .map_err(|e| GpuError::Device {
+                context: format!("mapping the stack buffer ({})", fmt_bytes(bytes)),
+                message: e.to_string(),
+            })?;
+        // Mapped memory is write-only: fill one level at a time on the host.
+        let mut at = 0usize;
+        let mut level = Vec::new();
+        for (li, l) in layouts.iter().enumerate() {
+            let src = stack.level_data(li).unwrap_or(&[]);
+            let plane = l.nx * l.ny;
+            level.clear();
+            level.resize(plane * nc, 0.0f32);
+            for k in 0..nc {
+                let out = &mut level[k * plane..(k + 1) * plane];
+                for (o, px) in out.iter_mut().zip(src.chunks_exact(channels)) {
+                    *o = px[c0 + k];
+                }
+            }
+            let bytes: &[u8] = bytemuck::cast_slice(&level);
+            view.slice(at..at + bytes.len()).copy_from_slice(bytes);
+            at += bytes.len();
+        }
+    }
+    data.unmap();
+    Ok(Chunk {
+        c0: c0 as u32,
+        nc: nc as u32,
+        levels,
+        data,
+    })
+}

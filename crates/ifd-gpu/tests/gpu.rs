@@ -1,0 +1,722 @@
+//! GPU against CPU on the bundled images, shader validation, limits and bad
+//! input.
+//!
+//! The device tests need a Vulkan adapter; on a machine without a GPU that
+//! is Mesa's lavapipe (Debian `mesa-vulkan-drivers`). Without any adapter
+//! they fail, unless `IFD_GPU_TESTS=skip` is set.
+//!
+//! Tolerance: `max |gpu - cpu| <= 1e-4 * max |cpu|` (see the crate docs,
+//! "Tolerance"; set for lavapipe, where the measured worst case is printed
+//! with `--nocapture`).
+
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use ifd_gpu::{
+    GpuContext, GpuDecomposition, GpuError, GpuHessian, GpuPose, GpuSmoother, GpuStack, Region,
+    filter_image,
+};
+use ifd_image::Image;
+use ifd_planar::{
+    Border, Decomposition, Field, Filter, FilterError, ScaleStack, StackOptions, Term,
+    stack_for_decomposition,
+};
+
+const TOL: f32 = 1e-4;
+
+fn ctx() -> Option<&'static GpuContext> {
+    static CTX: OnceLock<Option<GpuContext>> = OnceLock::new();
+    CTX.get_or_init(|| match GpuContext::new() {
+        Ok(c) => {
+            eprintln!("{}", c.describe());
+            Some(c)
+        }
+        Err(e) => {
+            assert!(
+                std::env::var("IFD_GPU_TESTS").is_ok_and(|v| v == "skip"),
+                "no GPU device for the GPU tests ({e}); install mesa-vulkan-drivers or set \
+                 IFD_GPU_TESTS=skip"
+            );
+            eprintln!("skipping GPU tests: {e}");
+            None
+        }
+    })
+    .as_ref()
+}
+
+fn testdata(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../testdata")
+        .join(name)
+}
+
+fn read(name: &str) -> Image {
+    ifd_image::read(testdata(name)).expect("bundled image")
+}
+
+/// Deterministic pseudo-random numbers in [0, 1).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// `n` terms with displacements up to `reach` px and sigmas in [0.8, 6] px,
+/// signed weights summing to about 1.
+fn decomposition(n: usize, reach: f64, seed: u64) -> Decomposition {
+    let mut r = Rng(seed | 1);
+    let terms = (0..n)
+        .map(|_| Term {
+            weight: (r.next() - 0.3) * 2.0 / n as f64,
+            x: (r.next() * 2.0 - 1.0) * reach,
+            y: (r.next() * 2.0 - 1.0) * reach,
+            sigma: 0.8 + 5.2 * r.next(),
+        })
+        .collect();
+    Decomposition::from_terms(terms)
+}
+
+/// `max |a - b| / max |b|`, asserted below `TOL`.
+fn assert_close(gpu: &Image, cpu: &Image, what: &str) {
+    assert_eq!(
+        (gpu.width(), gpu.height(), gpu.channels()),
+        (cpu.width(), cpu.height(), cpu.channels()),
+        "{what}: shapes differ"
+    );
+    let scale = cpu.data().iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let (mut worst, mut at) = (0.0f32, 0);
+    for (i, (a, b)) in gpu.data().iter().zip(cpu.data()).enumerate() {
+        let d = (a - b).abs();
+        if d > worst || d.is_nan() {
+            worst = d;
+            at = i;
+        }
+    }
+    let rel = worst / scale.max(f32::MIN_POSITIVE);
+    eprintln!("{what}: max |gpu - cpu| = {worst:.3e} ({rel:.2e} of max |cpu| = {scale:.3})");
+    let c = cpu.channels();
+    let px = at / c;
+    assert!(
+        rel <= TOL,
+        "{what}: GPU and CPU differ by {rel:.3e} (relative) at x={}, y={}, channel {}: gpu {} cpu {}",
+        px % cpu.width(),
+        px / cpu.width(),
+        at % c,
+        gpu.data()[at],
+        cpu.data()[at]
+    );
+}
+
+fn crop(img: &Image, r: Region) -> Image {
+    let c = img.channels();
+    let mut data = Vec::with_capacity(r.width * r.height * c);
+    for y in r.y0..r.y0 + r.height {
+        let row = &img.data()[(y * img.width() + r.x0) * c..(y * img.width() + r.x0 + r.width) * c];
+        data.extend_from_slice(row);
+    }
+    Image::from_vec(r.width, r.height, c, data).expect("crop")
+}
+
+#[test]
+fn every_shader_parses_and_validates() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).expect("shaders/ exists") {
+        let path = entry.expect("dir entry").path();
+        if path.extension().is_none_or(|e| e != "wgsl") {
+            continue;
+        }
+        let src = std::fs::read_to_string(&path).expect("readable shader");
+        let module = naga::front::wgsl::parse_str(&src)
+            .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&src)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::empty(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&src)));
+        n += 1;
+    }
+    assert!(n >= 2, "found only {n} shaders in {}", dir.display());
+    // The compiled-in sources are the files.
+    assert!(ifd_gpu::shaders::IFD_EVAL.contains("fn bilinear"));
+}
+
+#[test]
+fn constant_filter_matches_cpu_every_border() {
+    let Some(ctx) = ctx() else { return };
+    let img = read("camera.png");
+    // Reach 40 px at scale 1.5: lookups far outside the image at every edge.
+    let d = decomposition(48, 40.0, 7);
+    for border in [
+        Border::Reflect101,
+        Border::Replicate,
+        Border::Wrap,
+        Border::Constant(0.3),
+    ] {
+        let stack = stack_for_decomposition(&img, &d, 1.5, 1.5, border, StackOptions::default())
+            .expect("stack");
+        let cpu = Filter::new(&stack, &d)
+            .expect("filter")
+            .apply(Field::Constant(30.0), Field::Constant(1.5))
+            .expect("cpu");
+        let gpu = filter_image(ctx, &stack, &d, Field::Constant(30.0), Field::Constant(1.5))
+            .expect("gpu");
+        assert_close(
+            &gpu,
+            &cpu,
+            &format!("camera, 48 terms, 30 deg, s=1.5, {border}"),
+        );
+    }
+}
+
+#[test]
+fn rgb_constant_filter_matches_cpu() {
+    let Some(ctx) = ctx() else { return };
+    let img = read("coffee.png");
+    let d = decomposition(64, 24.0, 11);
+    let stack = stack_for_decomposition(
+        &img,
+        &d,
+        2.0,
+        2.0,
+        Border::Reflect101,
+        StackOptions::default(),
+    )
+    .expect("stack");
+    let cpu = Filter::new(&stack, &d)
+        .expect("filter")
+        .apply(Field::Constant(-75.0), Field::Constant(2.0))
+        .expect("cpu");
+    let gpu = filter_image(
+        ctx,
+        &stack,
+        &d,
+        Field::Constant(-75.0),
+        Field::Constant(2.0),
+    )
+    .expect("gpu");
+    assert_close(&gpu, &cpu, "coffee RGB, 64 terms, -75 deg, s=2");
+}
+
+#[test]
+fn spatially_varying_filter_matches_cpu() {
+    let Some(ctx) = ctx() else { return };
+    let img = read("astronaut.png");
+    let (w, h) = (img.width(), img.height());
+    let d = decomposition(32, 16.0, 3);
+    let angles: Vec<f32> = (0..w * h)
+        .map(|i| ((i % w) as f32 * 0.9 - (i / w) as f32 * 0.4) % 360.0)
+        .collect();
+    let scales: Vec<f32> = (0..w * h)
+        .map(|i| 0.5 + 2.5 * ((i % w) + (i / w)) as f32 / (w + h) as f32)
+        .collect();
+    for border in [Border::Reflect101, Border::Constant(0.0)] {
+        let stack = stack_for_decomposition(&img, &d, 0.5, 3.0, border, StackOptions::default())
+            .expect("stack");
+        let filter = Filter::new(&stack, &d).expect("filter");
+        for (angle, scale, what) in [
+            (
+                Field::Map(&angles),
+                Field::Map(&scales),
+                "angle and scale maps",
+            ),
+            (Field::Map(&angles), Field::Constant(1.25), "angle map"),
+            (Field::Constant(10.0), Field::Map(&scales), "scale map"),
+        ] {
+            let cpu = filter.apply(angle, scale).expect("cpu");
+            let gpu = filter_image(ctx, &stack, &d, angle, scale).expect("gpu");
+            assert_close(&gpu, &cpu, &format!("astronaut RGB, {what}, {border}"));
+        }
+    }
+}
+
+#[test]
+fn region_is_the_crop_of_the_full_result() {
+    let Some(ctx) = ctx() else { return };
+    let img = read("brick.png");
+    let d = decomposition(24, 12.0, 5);
+    let stack = stack_for_decomposition(&img, &d, 1.0, 1.0, Border::Wrap, StackOptions::default())
+        .expect("stack");
+    let cpu = Filter::new(&stack, &d)
+        .expect("filter")
+        .apply(Field::Constant(45.0), Field::Constant(1.0))
+        .expect("cpu");
+    let gs = GpuStack::upload(ctx, &stack).expect("upload");
+    let gd = GpuDecomposition::new(ctx, &d).expect("terms");
+    let pose = GpuPose::constant(ctx, &gs, 45.0, 1.0).expect("pose");
+    for r in [
+        Region {
+            x0: 0,
+            y0: 0,
+            width: 37,
+            height: 21,
+        },
+        Region {
+            x0: 480,
+            y0: 500,
+            width: 32,
+            height: 12,
+        },
+        Region {
+            x0: 200,
+            y0: 100,
+            width: 1,
+            height: 1,
+        },
+    ] {
+        let out = ctx.evaluate(&gs, &gd, &pose, Some(r)).expect("region");
+        assert_eq!(out.region(), r);
+        let gpu = out.read(ctx).expect("read");
+        assert_close(&gpu, &crop(&cpu, r), &format!("brick region {r:?}"));
+    }
+}
+
+#[test]
+fn many_channels_split_into_groups() {
+    let Some(ctx) = ctx() else { return };
+    // 6 channels: two groups of channels (4 + 2), one dispatch each.
+    let src = read("coffee.png");
+    let (w, h) = (160, 96);
+    let mut data = Vec::with_capacity(w * h * 6);
+    for y in 0..h {
+        for x in 0..w {
+            let p = &src.data()[(y * src.width() + x) * 3..(y * src.width() + x) * 3 + 3];
+            data.extend_from_slice(&[p[0], p[1], p[2], 1.0 - p[0], p[1] * p[2], 0.5]);
+        }
+    }
+    let img = Image::from_vec(w, h, 6, data).expect("image");
+    let d = decomposition(16, 10.0, 9);
+    let stack = stack_for_decomposition(
+        &img,
+        &d,
+        1.0,
+        1.0,
+        Border::Replicate,
+        StackOptions::default(),
+    )
+    .expect("stack");
+    let gs = GpuStack::upload(ctx, &stack).expect("upload");
+    assert_eq!(gs.buffers(), 2);
+    let cpu = Filter::new(&stack, &d)
+        .expect("filter")
+        .apply(Field::Constant(120.0), Field::Constant(1.0))
+        .expect("cpu");
+    let gpu = filter_image(
+        ctx,
+        &stack,
+        &d,
+        Field::Constant(120.0),
+        Field::Constant(1.0),
+    )
+    .expect("gpu");
+    assert_close(&gpu, &cpu, "6 channels");
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let Some(ctx) = ctx() else { return };
+    let img = read("camera.png");
+    let d = decomposition(8, 4.0, 1);
+    let stack = stack_for_decomposition(
+        &img,
+        &d,
+        1.0,
+        2.0,
+        Border::Reflect101,
+        StackOptions::default(),
+    )
+    .expect("stack");
+    let gs = GpuStack::upload(ctx, &stack).expect("upload");
+    let gd = GpuDecomposition::new(ctx, &d).expect("terms");
+    let short = vec![0.0f32; 10];
+    let err = GpuPose::new(
+        ctx,
+        &gs,
+        Field::Map(&short),
+        Field::Constant(1.0),
+        Field::Constant(0.0),
+    );
+    assert!(matches!(
+        err,
+        Err(GpuError::Filter(FilterError::MapSize { .. }))
+    ));
+    let err = GpuPose::constant(ctx, &gs, f32::NAN, 1.0);
+    assert!(matches!(
+        err,
+        Err(GpuError::Filter(FilterError::InvalidValue { .. }))
+    ));
+    let err = GpuPose::constant(ctx, &gs, 0.0, -1.0);
+    assert!(matches!(
+        err,
+        Err(GpuError::Filter(FilterError::InvalidValue { .. }))
+    ));
+    // Scale 8 needs sigmas the stack does not have: the CPU's error.
+    let pose = GpuPose::constant(ctx, &gs, 0.0, 8.0).expect("pose");
+    let err = ctx.evaluate(&gs, &gd, &pose, None);
+    assert!(
+        matches!(
+            err,
+            Err(GpuError::Filter(FilterError::ScaleOutOfRange { .. }))
+        ),
+        "{err:?}"
+    );
+    let pose = GpuPose::constant(ctx, &gs, 0.0, 1.0).expect("pose");
+    for r in [
+        Region {
+            x0: 500,
+            y0: 0,
+            width: 20,
+            height: 4,
+        },
+        Region {
+            x0: 0,
+            y0: 0,
+            width: 0,
+            height: 4,
+        },
+    ] {
+        let err = ctx.evaluate(&gs, &gd, &pose, Some(r));
+        assert!(matches!(
+            err,
+            Err(GpuError::Filter(FilterError::InvalidParameter(_)))
+        ));
+    }
+    let err = GpuDecomposition::new(ctx, &Decomposition::from_terms(vec![]));
+    assert!(matches!(
+        err,
+        Err(GpuError::Filter(FilterError::InvalidParameter(_)))
+    ));
+    let bad = Decomposition::from_terms(vec![Term {
+        weight: 1.0,
+        x: 0.0,
+        y: f64::NAN,
+        sigma: 1.0,
+    }]);
+    assert!(matches!(
+        GpuDecomposition::new(ctx, &bad),
+        Err(GpuError::Filter(FilterError::InvalidTerm { .. }))
+    ));
+    // A pose made for another stack.
+    let small = Image::new(16, 16, 1).expect("image");
+    let s2 = stack_for_decomposition(
+        &small,
+        &d,
+        1.0,
+        1.0,
+        Border::Reflect101,
+        StackOptions::default(),
+    )
+    .expect("stack");
+    let gs2 = GpuStack::upload(ctx, &s2).expect("upload");
+    let p2 = GpuPose::constant(ctx, &gs2, 0.0, 1.0).expect("pose");
+    assert!(ctx.evaluate(&gs, &gd, &p2, None).is_err());
+}
+
+/// A device with deliberately small limits: stacks split into one buffer per
+/// channel, and what cannot fit is refused naming the limit.
+#[test]
+fn small_limits_split_or_fail_clearly() {
+    let Some(big) = ctx() else { return };
+    let small = pollster::block_on(async {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
+        let adapter = adapters
+            .into_iter()
+            .find(|a| a.get_info().name == big.adapter_info().name)
+            .expect("the same adapter again");
+        let info = adapter.get_info();
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: 4 << 20,
+            max_buffer_size: 8 << 20,
+            ..wgpu::Limits::default()
+        };
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("small limits"),
+                required_limits: limits,
+                ..wgpu::DeviceDescriptor::default()
+            })
+            .await
+            .expect("device with small limits");
+        GpuContext::from_device(device, queue, info).expect("pipelines")
+    });
+    // 256x256 RGB, sigma 1..2: about 2.7 MiB per channel, so one channel per buffer.
+    let img = read("coffee.png");
+    let sub = crop(
+        &img,
+        Region {
+            x0: 100,
+            y0: 50,
+            width: 256,
+            height: 256,
+        },
+    );
+    let d = decomposition(12, 6.0, 2);
+    let stack = stack_for_decomposition(
+        &sub,
+        &d,
+        1.0,
+        1.0,
+        Border::Reflect101,
+        StackOptions::default(),
+    )
+    .expect("stack");
+    let gs = GpuStack::upload(&small, &stack).expect("upload split");
+    assert_eq!(gs.buffers(), 3, "one channel per buffer");
+    let cpu = Filter::new(&stack, &d)
+        .expect("filter")
+        .apply(Field::Constant(5.0), Field::Constant(1.0))
+        .expect("cpu");
+    let gpu = filter_image(
+        &small,
+        &stack,
+        &d,
+        Field::Constant(5.0),
+        Field::Constant(1.0),
+    )
+    .expect("gpu");
+    assert_close(&gpu, &cpu, "small limits, one channel per buffer");
+    // The full-size image: one channel of its stack exceeds the binding limit.
+    let stack = ScaleStack::new(&img, 1.0, 2.0, Border::Reflect101, StackOptions::default())
+        .expect("stack");
+    let err = GpuStack::upload(&small, &stack).expect_err("too large");
+    let msg = err.to_string();
+    assert!(matches!(err, GpuError::Limit { .. }), "{msg}");
+    assert!(msg.contains("max_storage_buffer_binding_size"), "{msg}");
+    eprintln!("{msg}");
+}
+
+#[test]
+fn rgba8_texture_holds_the_result() {
+    let Some(ctx) = ctx() else { return };
+    let img = read("camera.png");
+    let d = decomposition(8, 5.0, 4);
+    let stack = stack_for_decomposition(
+        &img,
+        &d,
+        1.0,
+        1.0,
+        Border::Reflect101,
+        StackOptions::default(),
+    )
+    .expect("stack");
+    let gs = GpuStack::upload(ctx, &stack).expect("upload");
+    let gd = GpuDecomposition::new(ctx, &d).expect("terms");
+    let pose = GpuPose::constant(ctx, &gs, 0.0, 1.0).expect("pose");
+    let r = Region {
+        x0: 10,
+        y0: 20,
+        width: 70,
+        height: 30,
+    };
+    let out = ctx.evaluate(&gs, &gd, &pose, Some(r)).expect("eval");
+    let values = out.read(ctx).expect("read");
+    let tex = out.to_rgba8_texture(ctx, false).expect("texture");
+    // Read the texture back (rows padded to 256 bytes).
+    let device = ctx.device();
+    let row = (r.width as u32 * 4).next_multiple_of(256);
+    let buf = device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: u64::from(row) * r.height as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+    enc.copy_texture_to_buffer(
+        tex.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buf,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: None,
+            },
+        },
+        tex.size(),
+    );
+    ctx.queue().submit([enc.finish()]);
+    buf.map_async(wgpu::MapMode::Read, .., |r| r.expect("map"));
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .expect("poll");
+    let bytes = buf.get_mapped_range(..).expect("mapped").to_vec();
+    let mut checked = 0;
+    for y in 0..r.height {
+        for x in 0..r.width {
+            let v = values.get(x, y, 0).clamp(0.0, 1.0);
+            let px = &bytes[y * row as usize + x * 4..y * row as usize + x * 4 + 4];
+            let expect = v * 255.0;
+            assert!(
+                (f32::from(px[0]) - expect).abs() <= 0.51,
+                "texel ({x}, {y}): {} for {v}",
+                px[0]
+            );
+            assert_eq!((px[0], px[3]), (px[1], 255));
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, r.width * r.height);
+}
+
+mod smoothing {
+    use std::sync::{Arc, OnceLock};
+
+    use ifd_smooth::hessian::HessianFilters;
+    use ifd_smooth::{AspectBank, BankOptions, Dab, HessianBank, Mode, SmoothOptions, Smoother};
+
+    use super::*;
+
+    fn banks() -> &'static (Arc<AspectBank>, HessianBank) {
+        static BANKS: OnceLock<(Arc<AspectBank>, HessianBank)> = OnceLock::new();
+        BANKS.get_or_init(|| {
+            let bank = AspectBank::build(
+                BankOptions {
+                    max_aspect: 4.0,
+                    steps_per_octave: 2,
+                    ..BankOptions::default()
+                },
+                |_, _| {},
+            )
+            .expect("bank");
+            (
+                Arc::new(bank),
+                HessianBank::new(0.01).expect("hessian bank"),
+            )
+        })
+    }
+
+    fn smoother(img: &Image) -> Smoother {
+        let (bank, hbank) = banks();
+        let opts = SmoothOptions {
+            scale: 4.0,
+            ..SmoothOptions::default()
+        };
+        Smoother::with_banks(img, &opts, Arc::clone(bank), hbank).expect("smoother")
+    }
+
+    #[test]
+    fn per_pixel_smoothing_matches_cpu() {
+        let Some(ctx) = ctx() else { return };
+        let img = crop(
+            &read("camera.png"),
+            Region {
+                x0: 128,
+                y0: 96,
+                width: 200,
+                height: 160,
+            },
+        );
+        let sm = smoother(&img);
+        // The test must exercise the blend between bank entries.
+        let blended = sm
+            .orientation_field()
+            .iter()
+            .filter(|o| sm.bank().locate(f64::from(o.aspect)).1 > 0.0)
+            .count();
+        assert!(blended > 100, "only {blended} pixels blend two entries");
+        let cpu = sm.smooth_image(Mode::PerPixel).expect("cpu");
+        let gsm = GpuSmoother::new(ctx, &sm).expect("upload");
+        let gpu = gsm.smooth_image(ctx, Mode::PerPixel).expect("gpu");
+        assert_close(&gpu, &cpu, "camera crop, per-pixel smoothing");
+        assert!(matches!(
+            gsm.smooth_image(ctx, Mode::Dab),
+            Err(GpuError::Unsupported(_))
+        ));
+    }
+
+    #[test]
+    fn dabs_match_cpu() {
+        let Some(ctx) = ctx() else { return };
+        let img = crop(
+            &read("coffee.png"),
+            Region {
+                x0: 200,
+                y0: 100,
+                width: 180,
+                height: 140,
+            },
+        );
+        let sm = smoother(&img);
+        let gsm = GpuSmoother::new(ctx, &sm).expect("upload");
+        for mode in [Mode::Dab, Mode::PerPixel] {
+            let mut cpu = img.clone();
+            let mut gpu = img.clone();
+            for dab in [
+                Dab {
+                    x: 60.0,
+                    y: 70.0,
+                    radius: 25.0,
+                    falloff: 0.5,
+                    strength: 0.9,
+                },
+                // Clipped by the image's corner.
+                Dab {
+                    x: 175.0,
+                    y: 2.0,
+                    radius: 20.0,
+                    falloff: 1.0,
+                    strength: 1.0,
+                },
+            ] {
+                let a = sm.apply_dab(&dab, mode, &mut cpu).expect("cpu dab");
+                let b = gsm.apply_dab(ctx, &dab, mode, &mut gpu).expect("gpu dab");
+                assert_eq!(a, b);
+            }
+            assert_close(&gpu, &cpu, &format!("coffee crop, two dabs, {mode:?}"));
+            assert_ne!(gpu.data(), img.data(), "the dabs changed nothing");
+        }
+        // A dab that misses, and a bad one.
+        let mut t = img.clone();
+        let miss = Dab {
+            x: -100.0,
+            y: -100.0,
+            radius: 10.0,
+            falloff: 0.5,
+            strength: 1.0,
+        };
+        assert_eq!(
+            gsm.apply_dab(ctx, &miss, Mode::Dab, &mut t).expect("miss"),
+            None
+        );
+        let bad = Dab {
+            radius: f32::NAN,
+            ..miss
+        };
+        assert!(gsm.apply_dab(ctx, &bad, Mode::Dab, &mut t).is_err());
+    }
+
+    #[test]
+    fn hessian_matches_cpu() {
+        let Some(ctx) = ctx() else { return };
+        let img = read("brick.png");
+        let (_, hbank) = banks();
+        let sigma = 3.0;
+        let (lo, hi) = hbank.stack_sigmas(sigma, sigma);
+        let stack = ScaleStack::new(
+            &img,
+            lo,
+            hi,
+            Border::Reflect101,
+            ifd_smooth::hessian::hessian_stack_options(),
+        )
+        .expect("stack");
+        let cpu: HessianFilters<'_> = hbank.bind(&stack).expect("bind");
+        let cpu = cpu.planes(sigma).expect("cpu");
+        let gs = GpuStack::upload(ctx, &stack).expect("upload");
+        let gpu = GpuHessian::new(ctx, hbank)
+            .expect("terms")
+            .planes(ctx, &gs, sigma)
+            .expect("gpu");
+        for (name, (g, c)) in ["Hxx", "Hxy", "Hyy"].iter().zip(gpu.iter().zip(&cpu)) {
+            let (w, h) = (img.width(), img.height());
+            let gi = Image::from_vec(w, h, 1, g.clone()).expect("image");
+            let ci = Image::from_vec(w, h, 1, c.clone()).expect("image");
+            assert_close(&gi, &ci, &format!("brick {name} at sigma {sigma}"));
+        }
+    }
+}

@@ -1,0 +1,288 @@
+// IFD evaluation (Eq. 3 of the 2013 paper) on the GPU, one invocation per
+// output pixel and up to four channels:
+//
+//   out(p) = sum_e b_e sum_{t in entry e} w_t fhat_{s sigma_t}(p + s R_theta c_t)
+//
+// with one trilinear lookup (bilinear in space, linear in ln sigma) per term.
+// A plain filter is one entry with b = 1; anisotropic smoothing blends two
+// entries of the aspect-ratio bank, b = (1 - t, t). Every step mirrors the
+// CPU path `ifd_planar::Filter` (crates/ifd-planar/src/filter.rs, stack.rs):
+// the same level location, the same fast bilinear path and the same
+// border handling outside the stored region, so the two agree to f32
+// rounding.
+//
+// Storage (see crates/ifd-gpu/src/lib.rs, "Design"): the scale stack is one
+// storage buffer of f32 per chunk of at most four channels, level after
+// level, each level planar per channel (`offset + k * plane + iy * nx + ix`).
+
+struct Params {
+    // Output region, in image pixels.
+    region_x0: u32,
+    region_y0: u32,
+    region_w: u32,
+    region_h: u32,
+    // Image.
+    width: u32,
+    height: u32,
+    channels: u32,
+    // First channel and channel count (1..=4) of this chunk.
+    chunk_c0: u32,
+    chunk_nc: u32,
+    n_levels: u32,
+    // 0 reflect-101, 1 constant, 2 replicate, 3 wrap.
+    border_mode: u32,
+    border_value: f32,
+    // Level position u = ln_sigma_t * inv_ln_ratio + u_offset, where
+    // u_offset = (ln s - ln sigma_0) * inv_ln_ratio.
+    inv_ln_ratio: f32,
+    // Constant pose: cos(theta), sin(theta), s, u_offset and entry (i + t),
+    // each replaced per pixel by its map when the map's flag is set.
+    cos_t: f32,
+    sin_t: f32,
+    scale: f32,
+    u_offset: f32,
+    entry: f32,
+    // Bit 0: rotation map (cos, sin pairs at rot_off); bit 1: scale map
+    // (s, u_offset pairs at scale_off); bit 2: entry map at entry_off.
+    flags: u32,
+    rot_off: u32,
+    scale_off: u32,
+    entry_off: u32,
+    n_entries: u32,
+    _pad: u32,
+}
+
+struct Level {
+    origin: f32,
+    inv_step: f32,
+    step: f32,
+    nx: u32,
+    ny: u32,
+    // Index of sample (0, 0) of channel 0 of this chunk.
+    offset: u32,
+    // nx * ny: distance between channel planes.
+    plane: u32,
+    _pad: u32,
+}
+
+// (weight, cx, cy, ln sigma).
+struct Term {
+    weight: f32,
+    cx: f32,
+    cy: f32,
+    ln_sigma: f32,
+}
+
+// Terms [start, start + count) form one bank entry.
+struct Entry {
+    start: u32,
+    count: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> levels: array<Level>;
+@group(0) @binding(2) var<storage, read> data: array<f32>;
+@group(0) @binding(3) var<storage, read> terms: array<Term>;
+@group(0) @binding(4) var<storage, read> entries: array<Entry>;
+@group(0) @binding(5) var<storage, read> maps: array<f32>;
+@group(0) @binding(6) var<storage, read_write> out: array<f32>;
+
+const BORDER_REFLECT101: u32 = 0u;
+const BORDER_CONSTANT: u32 = 1u;
+const BORDER_REPLICATE: u32 = 2u;
+const BORDER_WRAP: u32 = 3u;
+
+// Rust's f32::rem_euclid: truncated remainder, shifted into [0, |m|).
+fn rem_euclid(x: f32, m: f32) -> f32 {
+    let r = x % m;
+    if r < 0.0 {
+        return r + abs(m);
+    }
+    return r;
+}
+
+// Border::map_continuous of ifd-planar.
+fn map_continuous(x: f32, n: u32) -> f32 {
+    let last = f32(max(n, 1u) - 1u);
+    if params.border_mode == BORDER_WRAP {
+        let nf = f32(max(n, 1u));
+        let r = rem_euclid(x, nf);
+        if r >= nf {
+            return 0.0;
+        }
+        return r;
+    }
+    // Reflect-101.
+    if n <= 1u {
+        return 0.0;
+    }
+    var once = x;
+    if x < 0.0 {
+        once = -x;
+    } else if x > last {
+        once = 2.0 * last - x;
+    }
+    if once >= 0.0 && once <= last {
+        return once;
+    }
+    let period = 2.0 * last;
+    var r = rem_euclid(x, period);
+    if r > last {
+        r = period - r;
+    }
+    return clamp(r, 0.0, last);
+}
+
+// Coordinate p resolved into the stored range [lo, hi] of a level.
+fn map_coord(p: f32, n: u32, lo: f32, hi: f32) -> f32 {
+    if p >= lo && p <= hi {
+        return p;
+    }
+    switch params.border_mode {
+        case BORDER_CONSTANT: {
+            return p;
+        }
+        case BORDER_REPLICATE: {
+            return clamp(p, lo, hi);
+        }
+        default: {
+            return map_continuous(p, n);
+        }
+    }
+}
+
+fn texel(base: u32, plane: u32, nc: u32) -> vec4<f32> {
+    var v = vec4<f32>(0.0);
+    for (var k = 0u; k < nc; k++) {
+        v[k] = data[base + k * plane];
+    }
+    return v;
+}
+
+// Bilinear lookup of level li at full-resolution (x, y), all channels of the
+// chunk (ScaleStack::accumulate and accumulate_outside).
+fn bilinear(li: u32, x: f32, y: f32) -> vec4<f32> {
+    let lv = levels[li];
+    let nc = params.chunk_nc;
+    let u = (x - lv.origin) * lv.inv_step;
+    let v = (y - lv.origin) * lv.inv_step;
+    // Fast path: the 2x2 footprint is stored (u < nx - 1 also keeps the
+    // float-to-integer conversion in range).
+    if u >= 0.0 && v >= 0.0 && u < f32(lv.nx - 1u) && v < f32(lv.ny - 1u) {
+        let iu = u32(u);
+        let iv = u32(v);
+        let fu = u - f32(iu);
+        let fv = v - f32(iv);
+        let i00 = lv.offset + iv * lv.nx + iu;
+        let a0 = texel(i00, lv.plane, nc);
+        let a1 = texel(i00 + 1u, lv.plane, nc);
+        let b0 = texel(i00 + lv.nx, lv.plane, nc);
+        let b1 = texel(i00 + lv.nx + 1u, lv.plane, nc);
+        let r0 = a0 + fu * (a1 - a0);
+        let r1 = b0 + fu * (b1 - b0);
+        return r0 + fv * (r1 - r0);
+    }
+    // Slow path: resolve the coordinates by the border mode.
+    let lo = lv.origin;
+    let hi_x = lo + f32(lv.nx - 1u) * lv.step;
+    let hi_y = lo + f32(lv.ny - 1u) * lv.step;
+    let mx = map_coord(x, params.width, lo, hi_x);
+    let my = map_coord(y, params.height, lo, hi_y);
+    let mu = (mx - lo) * lv.inv_step;
+    let mv = (my - lo) * lv.inv_step;
+    let fiu = floor(mu);
+    let fiv = floor(mv);
+    let fu = mu - fiu;
+    let fv = mv - fiv;
+    let is_constant = params.border_mode == BORDER_CONSTANT;
+    let nxi = i32(lv.nx);
+    let nyi = i32(lv.ny);
+    var acc = vec4<f32>(0.0);
+    for (var corner = 0u; corner < 4u; corner++) {
+        let dx = i32(corner & 1u);
+        let dy = i32(corner >> 1u);
+        var w = select(1.0 - fu, fu, dx == 1) * select(1.0 - fv, fv, dy == 1);
+        if w == 0.0 {
+            continue;
+        }
+        var ix = i32(fiu) + dx;
+        var iy = i32(fiv) + dy;
+        let inside = ix >= 0 && ix < nxi && iy >= 0 && iy < nyi;
+        if !inside && is_constant {
+            acc += vec4<f32>(w * params.border_value);
+            continue;
+        }
+        ix = clamp(ix, 0, nxi - 1);
+        iy = clamp(iy, 0, nyi - 1);
+        let base = lv.offset + u32(iy) * lv.nx + u32(ix);
+        acc += w * texel(base, lv.plane, nc);
+    }
+    return acc;
+}
+
+// One bank entry at pixel (x, y) for pose (cs, ss, u_offset).
+fn eval_entry(e: u32, x: f32, y: f32, cs: f32, ss: f32, u_offset: f32) -> vec4<f32> {
+    let entry = entries[e];
+    let last = params.n_levels - 1u;
+    var acc = vec4<f32>(0.0);
+    for (var i = entry.start; i < entry.start + entry.count; i++) {
+        let t = terms[i];
+        let px = x + cs * t.cx + ss * t.cy;
+        let py = y - ss * t.cx + cs * t.cy;
+        if last == 0u {
+            acc += t.weight * bilinear(0u, px, py);
+            continue;
+        }
+        let u = clamp(t.ln_sigma * params.inv_ln_ratio + u_offset, 0.0, f32(last));
+        let a = min(u32(u), last - 1u);
+        let f = u - f32(a);
+        acc += (t.weight * (1.0 - f)) * bilinear(a, px, py);
+        if f != 0.0 {
+            acc += (t.weight * f) * bilinear(a + 1u, px, py);
+        }
+    }
+    return acc;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if gid.x >= params.region_w || gid.y >= params.region_h {
+        return;
+    }
+    let x = params.region_x0 + gid.x;
+    let y = params.region_y0 + gid.y;
+    let pixel = y * params.width + x;
+    var cos_t = params.cos_t;
+    var sin_t = params.sin_t;
+    var scale = params.scale;
+    var u_offset = params.u_offset;
+    var entry = params.entry;
+    if (params.flags & 1u) != 0u {
+        // (cos, sin) of the pixel's angle, computed on the CPU exactly as
+        // the CPU path does (WGSL's sin/cos may be as coarse as 2^-11).
+        cos_t = maps[params.rot_off + 2u * pixel];
+        sin_t = maps[params.rot_off + 2u * pixel + 1u];
+    }
+    if (params.flags & 2u) != 0u {
+        scale = maps[params.scale_off + 2u * pixel];
+        u_offset = maps[params.scale_off + 2u * pixel + 1u];
+    }
+    if (params.flags & 4u) != 0u {
+        entry = maps[params.entry_off + pixel];
+    }
+    let cs = cos_t * scale;
+    let ss = sin_t * scale;
+    let xf = f32(x);
+    let yf = f32(y);
+    let e0 = min(u32(max(entry, 0.0)), params.n_entries - 1u);
+    let t = clamp(entry - f32(e0), 0.0, 1.0);
+    var acc = eval_entry(e0, xf, yf, cs, ss, u_offset);
+    if t > 0.0 && e0 + 1u < params.n_entries {
+        let b = eval_entry(e0 + 1u, xf, yf, cs, ss, u_offset);
+        acc = (1.0 - t) * acc + t * b;
+    }
+    let o = ((gid.y * params.region_w + gid.x) * params.channels) + params.chunk_c0;
+    for (var k = 0u; k < params.chunk_nc; k++) {
+        out[o + k] = acc[k];
+    }
+}
