@@ -259,6 +259,18 @@ impl BrushApp {
         self.doc.is_some()
     }
 
+    /// Strokes that can be undone and redone, as the worker last reported.
+    #[must_use]
+    pub fn undo_redo(&self) -> (usize, usize) {
+        (self.undo_len, self.redo_len)
+    }
+
+    /// Whether the "unsaved edits" question is showing for quitting.
+    #[must_use]
+    pub fn asks_before_quit(&self) -> bool {
+        matches!(self.pending, Some(Pending::Quit))
+    }
+
     /// Error messages shown so far (dialogs).
     #[must_use]
     pub fn errors(&self) -> &[String] {
@@ -541,12 +553,13 @@ impl BrushApp {
             return;
         }
         let cmd_shift = Modifiers::COMMAND | Modifiers::SHIFT;
-        let (undo, redo, redo2, open, save, fit, one, before, bigger, smaller) =
+        // `consume_key` ignores an extra Shift, so Ctrl+Shift+Z is taken first.
+        let (redo, redo2, undo, open, save, fit, one, before, bigger, smaller) =
             ctx.input_mut(|i| {
                 (
-                    i.consume_key(Modifiers::COMMAND, Key::Z),
                     i.consume_key(cmd_shift, Key::Z),
                     i.consume_key(Modifiers::COMMAND, Key::Y),
+                    i.consume_key(Modifiers::COMMAND, Key::Z),
                     i.consume_key(Modifiers::COMMAND, Key::O),
                     i.consume_key(Modifiers::COMMAND, Key::S),
                     i.consume_key(Modifiers::NONE, Key::F),
@@ -556,7 +569,6 @@ impl BrushApp {
                     i.consume_key(Modifiers::NONE, Key::OpenBracket),
                 )
             });
-        // consume_key matches modifiers loosely for shift: check redo first.
         if redo || redo2 {
             self.send(Command::Redo);
         } else if undo {
