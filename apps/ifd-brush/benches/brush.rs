@@ -7,6 +7,8 @@
 //!   region (sRGB tile patch and `TextureHandle::set_partial` on a headless
 //!   egui context; the GPU upload of the 129x129 patch is not included), in
 //!   the paper's dab mode and per pixel, on the bundled 512x512 photo;
+//! - the same per pixel through `ifd-gpu` (on this machine's adapter:
+//!   lavapipe, a software Vulkan, so this measures the path, not a GPU);
 //! - the stack and orientation-field refresh after a stroke (region of one
 //!   r64 dab), against a full rebuild of the smoother.
 
@@ -17,7 +19,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use egui::TextureOptions;
 use ifd_brush::app::bundled_image;
 use ifd_brush::display;
-use ifd_brush::engine::{Banks, Engine};
+use ifd_brush::engine::{Banks, Engine, GpuChoice};
 use ifd_brush::{BrushMode, BrushSettings};
 use ifd_image::MemoryBudget;
 use ifd_planar::PixelRect;
@@ -29,11 +31,34 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("brush");
     g.sample_size(20).measurement_time(Duration::from_secs(4));
     let ctx = egui::Context::default();
-    for (name, mode) in [
-        ("dab r64 apply+show, paper (dab) mode", BrushMode::Dab),
-        ("dab r64 apply+show, per-pixel mode", BrushMode::PerPixel),
+    for (name, mode, gpu) in [
+        (
+            "dab r64 apply+show, paper (dab) mode",
+            BrushMode::Dab,
+            false,
+        ),
+        (
+            "dab r64 apply+show, per-pixel mode",
+            BrushMode::PerPixel,
+            false,
+        ),
+        (
+            "dab r64 apply+show, per-pixel mode, GPU path",
+            BrushMode::PerPixel,
+            true,
+        ),
     ] {
         let mut engine = Engine::new(banks.clone(), MemoryBudget::default_for_machine());
+        let name = if gpu {
+            let (label, _) = engine.enable_gpu(GpuChoice::On);
+            if !label.starts_with("GPU") {
+                eprintln!("no GPU adapter: skipping {name}");
+                continue;
+            }
+            format!("{name} ({label})")
+        } else {
+            name.to_string()
+        };
         let path = bundled_image();
         let brush = BrushSettings {
             radius: 64.0,
@@ -59,7 +84,7 @@ fn bench(c: &mut Criterion) {
         engine.begin_stroke(brush).expect("stroke");
         // Alternate between two centres 64 px apart: one dab per call.
         let mut k = 0u32;
-        g.bench_function(name, |b| {
+        g.bench_function(&name, |b| {
             b.iter(|| {
                 k += 1;
                 let x = if k.is_multiple_of(2) { 224.0 } else { 288.0 };

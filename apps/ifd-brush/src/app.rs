@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::browser::{FileBrowser, Purpose};
 use crate::display;
-use crate::engine::{BankInfo, SharedSmoother};
+use crate::engine::{BankInfo, GpuChoice, SharedSmoother};
 use crate::settings::{BrushMode, BrushSettings, range};
 use crate::strokes::StrokesFile;
 use crate::view::View;
@@ -25,26 +25,6 @@ use crate::worker::{self, Command, Event, Worker};
 
 /// Storage key of the persisted settings.
 pub const STORAGE_KEY: &str = "ifd-brush-settings";
-
-/// Which evaluation path smooths. Only the CPU path exists: `crates/ifd-gpu`
-/// (wgpu evaluation of decompositions) is being written; when it lands, the
-/// worker picks [`ComputePath::Gpu`] if an adapter exists and the status bar
-/// shows it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ComputePath {
-    /// `ifd-smooth` on the CPU (rayon).
-    Cpu,
-}
-
-impl ComputePath {
-    /// Name shown in the status bar.
-    #[must_use]
-    pub fn label(self) -> &'static str {
-        match self {
-            Self::Cpu => "CPU",
-        }
-    }
-}
 
 /// Settings kept between runs (eframe storage).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -94,6 +74,8 @@ pub struct StartOptions {
     pub budget: MemoryBudget,
     /// Unattended steps.
     pub automation: Automation,
+    /// Whether dabs may run on the GPU.
+    pub gpu: GpuChoice,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -160,7 +142,8 @@ pub struct BrushApp {
     stage: Stage,
     shot: Arc<Mutex<Option<Arc<ColorImage>>>>,
     status: String,
-    compute: ComputePath,
+    compute: String,
+    compute_note: Option<String>,
 }
 
 /// The bundled image opened when none is given (the one the library tests use).
@@ -177,9 +160,14 @@ impl BrushApp {
     #[must_use]
     pub fn new(ctx: &egui::Context, settings: Persisted, start: StartOptions) -> Self {
         let wake_ctx = ctx.clone();
-        let worker = worker::spawn(start.bank_cache.clone(), start.budget, move || {
-            wake_ctx.request_repaint();
-        });
+        let worker = worker::spawn(
+            start.bank_cache.clone(),
+            start.budget,
+            start.gpu,
+            move || {
+                wake_ctx.request_repaint();
+            },
+        );
         let brush = settings.brush.clamped();
         let path = start.image.clone().unwrap_or_else(bundled_image);
         let send = |c| {
@@ -231,7 +219,8 @@ impl BrushApp {
             stage,
             shot: Arc::new(Mutex::new(None)),
             status: String::new(),
-            compute: ComputePath::Cpu,
+            compute: "CPU".into(),
+            compute_note: None,
         }
     }
 
@@ -310,6 +299,12 @@ impl BrushApp {
         }
     }
 
+    /// The evaluation path in use, as the status bar shows it.
+    #[must_use]
+    pub fn compute_path(&self) -> &str {
+        &self.compute
+    }
+
     /// Whether unattended steps are done.
     #[must_use]
     pub fn automation_done(&self) -> bool {
@@ -325,6 +320,10 @@ impl BrushApp {
             };
             match ev {
                 Event::Progress { stage, fraction } => self.busy = Some((stage, fraction)),
+                Event::Compute { label, note } => {
+                    self.compute = label;
+                    self.compute_note = note;
+                }
                 Event::BanksReady(info) => {
                     self.bank = Some(info);
                 }
@@ -790,7 +789,10 @@ impl BrushApp {
 
     fn status_bar(&self, ui: &mut egui::Ui) {
         ui.horizontal(|ui| {
-            ui.label(format!("{} ·", self.compute.label()));
+            let r = ui.label(format!("{} ·", self.compute));
+            if let Some(n) = &self.compute_note {
+                r.on_hover_text(n);
+            }
             if let Some(doc) = &self.doc {
                 let im = &doc.image;
                 ui.label(format!("{}×{}×{}", im.width(), im.height(), im.channels()));

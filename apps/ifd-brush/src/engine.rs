@@ -15,6 +15,25 @@ use crate::settings::BrushSettings;
 use crate::stroke::StrokeInterpolator;
 use crate::strokes::{Action, StrokesFile};
 
+/// When dabs are evaluated on the GPU (`ifd-gpu`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GpuChoice {
+    /// Never.
+    Off,
+    /// With a hardware adapter; software ones (lavapipe) are slower than the
+    /// CPU path, so they are not used.
+    #[default]
+    Auto,
+    /// With any adapter, software included (for testing the GPU path here).
+    On,
+}
+
+struct GpuPath {
+    ctx: ifd_gpu::GpuContext,
+    smoother: Option<ifd_gpu::GpuSmoother>,
+}
+
 /// The smoother shared with the UI thread (which only ever `try_read`s it,
 /// for the filter ellipse under the cursor).
 pub type SharedSmoother = Arc<RwLock<Option<Smoother>>>;
@@ -137,6 +156,7 @@ pub struct Engine {
     history: History,
     stroke: Option<ActiveStroke>,
     recording: Option<StrokesFile>,
+    gpu: Option<GpuPath>,
 }
 
 /// Bytes an image of this shape needs in the app with `brush`: the stack and
@@ -182,7 +202,64 @@ impl Engine {
             history: History::default(),
             stroke: None,
             recording: None,
+            gpu: None,
         }
+    }
+
+    /// Sets up the GPU path as `choice` allows; returns the path in use, in
+    /// words ("CPU", or "GPU: adapter name"), and why the GPU is not used.
+    pub fn enable_gpu(&mut self, choice: GpuChoice) -> (String, Option<String>) {
+        self.gpu = None;
+        if choice == GpuChoice::Off {
+            return ("CPU".into(), None);
+        }
+        match ifd_gpu::GpuContext::new() {
+            Ok(ctx) if ctx.is_software() && choice == GpuChoice::Auto => (
+                "CPU".into(),
+                Some(format!(
+                    "the GPU adapter ({}) is software; the CPU path is faster (--gpu on forces it)",
+                    ctx.adapter_info().name
+                )),
+            ),
+            Ok(ctx) => {
+                let label = format!("GPU: {}", ctx.adapter_info().name);
+                self.gpu = Some(GpuPath {
+                    ctx,
+                    smoother: None,
+                });
+                if let Err(e) = self.upload_gpu() {
+                    self.gpu = None;
+                    return ("CPU".into(), Some(format!("{e:#}")));
+                }
+                (label, None)
+            }
+            Err(e) => ("CPU".into(), Some(e.to_string())),
+        }
+    }
+
+    /// Whether dabs run on the GPU.
+    #[must_use]
+    pub fn uses_gpu(&self) -> bool {
+        self.gpu.is_some()
+    }
+
+    /// Uploads the CPU smoother (stack, bank, field) to the GPU path, if any.
+    fn upload_gpu(&mut self) -> anyhow::Result<()> {
+        let Some(g) = &mut self.gpu else {
+            return Ok(());
+        };
+        let guard = self
+            .smoother
+            .read()
+            .map_err(|_| anyhow::anyhow!("smoother lock poisoned"))?;
+        g.smoother = match guard.as_ref() {
+            Some(sm) => Some(
+                ifd_gpu::GpuSmoother::new(&g.ctx, sm)
+                    .context("uploading the smoother to the GPU")?,
+            ),
+            None => None,
+        };
+        Ok(())
     }
 
     /// The decompositions.
@@ -308,6 +385,7 @@ impl Engine {
             .smoother
             .write()
             .map_err(|_| anyhow::anyhow!("smoother lock poisoned"))? = Some(sm);
+        self.upload_gpu()?;
         Ok(true)
     }
 
@@ -392,7 +470,17 @@ impl Engine {
             if let Some(r) = dab_rect(&dab, image.width(), image.height()) {
                 st.recorder.before_change(image, r);
             }
-            if let Some(r) = sm.apply_dab(&dab, b.mode.into(), image)? {
+            let region = match self
+                .gpu
+                .as_ref()
+                .and_then(|g| Some((&g.ctx, g.smoother.as_ref()?)))
+            {
+                Some((ctx, gs)) => gs
+                    .apply_dab(ctx, &dab, b.mode.into(), image)
+                    .context("GPU dab")?,
+                None => sm.apply_dab(&dab, b.mode.into(), image)?,
+            };
+            if let Some(r) = region {
                 let r = PixelRect {
                     x0: r.x0,
                     y0: r.y0,
@@ -438,7 +526,9 @@ impl Engine {
             sm.refresh_region(image, rect, &self.banks.hessian)
                 .context("refreshing the prefiltered stack")?;
         }
-        Ok(())
+        drop(guard);
+        // The GPU copy is replaced whole (ifd-gpu has no region update yet).
+        self.upload_gpu()
     }
 
     /// Undoes the latest stroke; returns the changed rectangle.

@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Parser;
 use ifd_brush::app::{Automation, BrushApp, Persisted, STORAGE_KEY, StartOptions, bundled_image};
-use ifd_brush::engine::{Banks, Engine};
+use ifd_brush::engine::{Banks, Engine, GpuChoice};
 use ifd_brush::strokes::StrokesFile;
 use ifd_image::MemoryBudget;
 
@@ -38,6 +38,11 @@ struct Args {
     /// Aspect-bank cache file (default: ~/.cache/ifd-brush/aspect-bank-v1.json).
     #[arg(long, value_name = "FILE")]
     bank: Option<PathBuf>,
+    /// Evaluate dabs on the GPU: `auto` (hardware adapters only; a software
+    /// one such as lavapipe is slower than the CPU path), `on` (any adapter),
+    /// `off`.
+    #[arg(long, value_enum, default_value = "auto")]
+    gpu: Gpu,
     /// Memory budget for images, MiB (default: 75% of physical memory).
     #[arg(long, value_name = "MiB")]
     memory_budget: Option<u64>,
@@ -45,6 +50,24 @@ struct Args {
     /// the window's start settings: JSON like {"radius": 20, "mode": "dab"}.
     #[arg(long, value_name = "JSON")]
     brush: Option<String>,
+}
+
+/// `--gpu` values.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum Gpu {
+    Auto,
+    On,
+    Off,
+}
+
+impl From<Gpu> for GpuChoice {
+    fn from(g: Gpu) -> Self {
+        match g {
+            Gpu::Auto => GpuChoice::Auto,
+            Gpu::On => GpuChoice::On,
+            Gpu::Off => GpuChoice::Off,
+        }
+    }
 }
 
 fn headless(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
@@ -55,6 +78,11 @@ fn headless(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
         eprintln!("fitting decompositions {d}/{n}");
     })?;
     let mut engine = Engine::new(banks, budget);
+    let (label, note) = engine.enable_gpu(args.gpu.into());
+    eprintln!(
+        "compute: {label}{}",
+        note.map(|n| format!(" ({n})")).unwrap_or_default()
+    );
     let brush = match &args.brush {
         Some(j) => serde_json::from_str(j).context("parsing --brush")?,
         None => ifd_brush::BrushSettings::default(),
@@ -98,6 +126,7 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
         image: args.image.clone(),
         bank_cache: args.bank.clone().or_else(Banks::default_cache),
         budget,
+        gpu: args.gpu.into(),
         automation: Automation {
             replay,
             save: args.save.clone(),

@@ -18,7 +18,7 @@ use ifd_image::{Image, MemoryBudget};
 use ifd_planar::PixelRect;
 
 use crate::display::{self, TilePatch};
-use crate::engine::{BankInfo, Banks, Engine, SharedSmoother};
+use crate::engine::{BankInfo, Banks, Engine, GpuChoice, SharedSmoother};
 use crate::history::extract;
 use crate::settings::BrushSettings;
 use crate::strokes::StrokesFile;
@@ -64,6 +64,14 @@ pub enum Event {
     },
     /// The decompositions are ready.
     BanksReady(BankInfo),
+    /// The evaluation path in use ("CPU" or "GPU: adapter"), and why the GPU
+    /// is not used when it is not.
+    Compute {
+        /// Shown in the status bar.
+        label: String,
+        /// Why not the GPU.
+        note: Option<String>,
+    },
     /// A new document: its pixels and display tiles (current and original).
     Loaded {
         /// The samples.
@@ -143,6 +151,7 @@ pub struct Worker {
 pub fn spawn(
     bank_cache: Option<PathBuf>,
     budget: MemoryBudget,
+    gpu: GpuChoice,
     wake: impl Fn() + Send + 'static,
 ) -> Worker {
     let (tx, crx) = channel::<Command>();
@@ -174,6 +183,8 @@ pub fn spawn(
             };
             send(Event::BanksReady(banks.info.clone()));
             let mut engine = Engine::new(banks, budget);
+            let (label, note) = engine.enable_gpu(gpu);
+            send(Event::Compute { label, note });
             let mut pending: Option<Command> = None;
             loop {
                 let cmd = match pending.take() {

@@ -38,6 +38,7 @@ fn loading_8_megapixels_keeps_frames_under_50_ms() {
             bank_cache: Some(common::bank_cache()),
             budget: MemoryBudget::default_for_machine(),
             automation: Automation::default(),
+            gpu: ifd_brush::engine::GpuChoice::Off,
         },
     );
     let screen = Rect::from_min_size(pos2(0.0, 0.0), vec2(1280.0, 800.0));

@@ -192,3 +192,31 @@ fn bad_inputs_leave_the_document_untouched() {
     engine.undo().expect("undo");
     assert_ne!(engine.image().expect("image").data(), edited.data());
 }
+
+/// The GPU path (`ifd-gpu`, here on whatever adapter exists, lavapipe
+/// included) gives the CPU path's result for the same strokes.
+#[test]
+fn gpu_replay_matches_cpu() {
+    use ifd_brush::engine::GpuChoice;
+    let img = common::crop(150, 100, 200, 160);
+    let file = strokes();
+    let run = |choice: GpuChoice| {
+        let mut engine = Engine::new(common::banks(), MemoryBudget::default_for_machine());
+        let (label, note) = engine.enable_gpu(choice);
+        engine.set_image(img.clone(), None, false);
+        engine.replay(&file).expect("replay");
+        (engine.image().expect("image").clone(), label, note)
+    };
+    let (gpu, label, note) = run(GpuChoice::On);
+    if !label.starts_with("GPU") {
+        eprintln!("\n\n*** SKIPPED gpu_replay_matches_cpu: no GPU adapter ({note:?}) ***\n\n");
+        return;
+    }
+    let (cpu, cpu_label, _) = run(GpuChoice::Off);
+    assert_eq!(cpu_label, "CPU");
+    let d = common::max_diff(&gpu, &cpu);
+    let changed = common::max_diff(&img, &cpu);
+    eprintln!("{label}: GPU vs CPU replay max |diff| {d:.2e} (edit size {changed:.3})");
+    assert!(changed > 0.05);
+    assert!(d < 1e-3, "GPU replay differs from CPU by {d}");
+}

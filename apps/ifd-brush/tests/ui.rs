@@ -65,6 +65,7 @@ fn mouse_stroke_undo_redo_and_quit_question() {
             bank_cache: Some(common::bank_cache()),
             budget: MemoryBudget::default_for_machine(),
             automation: Automation::default(),
+            gpu: ifd_brush::engine::GpuChoice::Off,
         },
     );
     until(&ctx, &mut app, "the smoother", BrushApp::is_ready);
