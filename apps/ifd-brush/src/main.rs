@@ -141,8 +141,9 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
             .with_inner_size([1280.0, 800.0])
             .with_drag_and_drop(true),
         // IFD_BRUSH_STATE_DIR keeps tests away from the user's settings.
+        // (eframe takes the RON file's path here, whatever its docs say.)
         persistence_path: std::env::var_os("IFD_BRUSH_STATE_DIR")
-            .map(|d| PathBuf::from(d).join("settings.ron")),
+            .map(|d| PathBuf::from(d).join("app.ron")),
         ..eframe::NativeOptions::default()
     };
     eframe::run_native(

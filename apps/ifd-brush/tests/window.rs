@@ -41,6 +41,8 @@ fn window_under_xvfb_shows_image_and_controls() {
     let shot = artifacts.join("brush-screenshot.png");
     std::fs::remove_file(&shot).ok();
     let out = dir.path().join("out.exr");
+    let state = dir.path().join("state");
+    std::fs::create_dir(&state).expect("state dir");
     let runtime = dir.path().join("xdg");
     std::fs::create_dir(&runtime).expect("xdg dir");
     #[cfg(unix)]
@@ -56,8 +58,9 @@ fn window_under_xvfb_shows_image_and_controls() {
         .args(["--save", out.to_str().expect("utf8")])
         .args(["--screenshot", shot.to_str().expect("utf8")])
         .args(["--bank", common::bank_cache().to_str().expect("utf8")])
+        .args(["--brush", r#"{"radius": 37.5}"#])
         .arg("--exit")
-        .env("IFD_BRUSH_STATE_DIR", dir.path())
+        .env("IFD_BRUSH_STATE_DIR", &state)
         .env("XDG_RUNTIME_DIR", &runtime)
         .spawn()
         .expect("start xvfb-run");
@@ -73,6 +76,13 @@ fn window_under_xvfb_shows_image_and_controls() {
         std::thread::sleep(Duration::from_millis(200));
     };
     assert!(status.success(), "ifd-brush in Xvfb failed: {status}");
+
+    // Settings were persisted (eframe storage) on exit.
+    let persisted = std::fs::read_to_string(state.join("app.ron")).unwrap_or_default();
+    assert!(
+        persisted.contains("ifd-brush-settings") && persisted.contains("37.5"),
+        "settings not persisted: {persisted:?}"
+    );
 
     // The windowed replay saved the same result as the headless one would.
     let saved = ifd_image::read(&out).expect("saved result");
