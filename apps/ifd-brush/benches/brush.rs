@@ -110,9 +110,24 @@ fn bench(c: &mut Criterion) {
         width: 129,
         height: 129,
     };
+    let r = sm
+        .refresh_region(&img, rect, &banks.hessian)
+        .expect("refresh");
+    eprintln!(
+        "refresh of a 129x129 rectangle: {} of {} stack samples, {} field pixels",
+        r.stack.samples, r.stack.total_samples, r.field_pixels
+    );
     g.bench_function("refresh after a r64 dab (stack + field)", |b| {
         b.iter(|| {
             sm.refresh_region(black_box(&img), rect, &banks.hessian)
+                .expect("refresh")
+        });
+    });
+    let mut stack = sm.stack().clone();
+    g.bench_function("refresh after a r64 dab (stack only)", |b| {
+        b.iter(|| {
+            stack
+                .refresh_region(black_box(&img), rect)
                 .expect("refresh")
         });
     });
