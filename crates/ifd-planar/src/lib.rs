@@ -46,4 +46,4 @@ pub use plot::render_plot;
 pub use border::Border;
 pub use filter::{Field, Filter, FilterError, stack_for_decomposition};
 pub use stack::{LevelLayout, ScaleStack, StackLayout, StackOptions};
-pub use stack_refresh::{PixelRect, RefreshReport};
+pub use stack_refresh::{FixedTap, PixelRect, RefreshReport};

@@ -58,6 +58,20 @@ impl PixelRect {
     }
 }
 
+/// One lookup of a fixed (already rotated and scaled) filter: `weight *
+/// fhat_sigma(x + dx, y + dy)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixedTap {
+    /// Column offset, pixels.
+    pub dx: f32,
+    /// Row offset, pixels.
+    pub dy: f32,
+    /// Gaussian sigma of the stack level, pixels.
+    pub sigma: f64,
+    /// Weight.
+    pub weight: f32,
+}
+
 /// What [`ScaleStack::refresh_region`] recomputed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RefreshReport {
@@ -123,6 +137,72 @@ fn dot(a: &[f32], b: &[f32]) -> f32 {
 }
 
 impl ScaleStack {
+    /// Evaluates a fixed filter, `sum_t weight_t fhat_{sigma_t}(p + d_t)`, at
+    /// every pixel `p` of `rect`; returns `rect.area() * channels` values,
+    /// interleaved, row-major. The lookups are those of
+    /// [`ScaleStack::sample`] (the same interpolation), located once per tap.
+    ///
+    /// # Errors
+    /// [`FilterError::SigmaOutOfRange`] for a tap sigma the stack does not
+    /// cover, [`FilterError::InvalidParameter`] for non-finite offsets or
+    /// weights, [`FilterError::Shape`] for a rectangle leaving the image.
+    pub fn correlate_region(
+        &self,
+        taps: &[FixedTap],
+        rect: PixelRect,
+    ) -> Result<Vec<f32>, FilterError> {
+        if rect.x0 + rect.width > self.width() || rect.y0 + rect.height > self.height() {
+            return Err(FilterError::Shape(format!(
+                "rectangle {}x{} at ({}, {}) leaves the {}x{} image",
+                rect.width,
+                rect.height,
+                rect.x0,
+                rect.y0,
+                self.width(),
+                self.height()
+            )));
+        }
+        let mut lookups: Vec<(usize, f32, f32, f32)> = Vec::with_capacity(2 * taps.len());
+        for t in taps {
+            if !(t.dx.is_finite() && t.dy.is_finite() && t.weight.is_finite()) {
+                return Err(FilterError::InvalidParameter(format!(
+                    "tap {t:?} is not finite"
+                )));
+            }
+            if !t.sigma.is_finite() || !self.covers(t.sigma) {
+                let (min, max) = self.sigma_range();
+                return Err(FilterError::SigmaOutOfRange {
+                    sigma: t.sigma,
+                    min,
+                    max,
+                });
+            }
+            let (a, b, wa, wb) = self.locate_ln(t.sigma.ln());
+            for (level, w) in [(a, wa), (b, wb)] {
+                if w != 0.0 {
+                    lookups.push((level, t.dx, t.dy, w * t.weight));
+                }
+            }
+        }
+        let c = self.channels();
+        let mut out = vec![0.0f32; rect.area() * c];
+        if rect.area() == 0 {
+            return Ok(out);
+        }
+        out.par_chunks_mut(rect.width * c)
+            .enumerate()
+            .for_each(|(j, row)| {
+                let y = (rect.y0 + j) as f32;
+                for (i, px) in row.chunks_exact_mut(c).enumerate() {
+                    let x = (rect.x0 + i) as f32;
+                    for &(level, dx, dy, w) in &lookups {
+                        self.accumulate(level, x + dx, y + dy, w, px);
+                    }
+                }
+            });
+        Ok(out)
+    }
+
     /// Recomputes, in every level, the stored samples that depend on the
     /// pixels of `rect`, from `image` (the stack's image after a change
     /// confined to `rect`). Samples outside the affected region are kept.
@@ -369,6 +449,54 @@ mod tests {
             r.samples,
             r.total_samples
         );
+    }
+
+    #[test]
+    fn correlate_region_matches_sample() {
+        let img = test_image(60, 40, 2, 5);
+        let stack = ScaleStack::new(&img, 1.0, 8.0, Border::Reflect101, StackOptions::default())
+            .expect("stack");
+        let taps = [
+            FixedTap {
+                dx: 3.5,
+                dy: -2.25,
+                sigma: 2.7,
+                weight: 0.7,
+            },
+            FixedTap {
+                dx: -40.0,
+                dy: 1.0,
+                sigma: 6.0,
+                weight: -1.3,
+            },
+        ];
+        let rect = PixelRect {
+            x0: 5,
+            y0: 30,
+            width: 50,
+            height: 10,
+        };
+        let got = stack.correlate_region(&taps, rect).expect("region");
+        for j in 0..rect.height {
+            for i in 0..rect.width {
+                let (x, y) = ((rect.x0 + i) as f32, (rect.y0 + j) as f32);
+                let mut want = [0.0f32; 2];
+                for t in &taps {
+                    let v = stack.sample(x + t.dx, y + t.dy, t.sigma).expect("sample");
+                    want[0] += t.weight * v[0];
+                    want[1] += t.weight * v[1];
+                }
+                for k in 0..2 {
+                    let g = got[(j * rect.width + i) * 2 + k];
+                    assert!((g - want[k]).abs() < 1e-5, "{g} vs {}", want[k]);
+                }
+            }
+        }
+        let bad = [FixedTap {
+            sigma: 20.0,
+            ..taps[0]
+        }];
+        assert!(stack.correlate_region(&bad, rect).is_err());
     }
 
     #[test]

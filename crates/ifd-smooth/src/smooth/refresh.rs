@@ -9,7 +9,7 @@
 //! [`ScaleStack::refresh_region`]: ifd_planar::ScaleStack::refresh_region
 
 use ifd_image::Image;
-use ifd_planar::{Border, PixelRect, RefreshReport};
+use ifd_planar::{Border, FixedTap, PixelRect, RefreshReport};
 use rayon::prelude::*;
 
 use super::Smoother;
@@ -107,27 +107,50 @@ impl Smoother {
         let (tx0, tx1) = (fx0.saturating_sub(rb), (fx1 + rb).min(w - 1));
         let (ty0, ty1) = (fy0.saturating_sub(rb), (fy1 + rb).min(h - 1));
         let (tw, th) = (tx1 - tx0 + 1, ty1 - ty0 + 1);
-        let filters = hbank.bind(&self.stack)?;
+        // The Hessian over the window: the three filters of
+        // `HessianFilters::at` (xx, xy, and xx rotated by 90 degrees) as
+        // fixed taps at scale s, each evaluated once over the rectangle.
+        let s32 = (hs / hbank.sigma0) as f32;
+        let taps = |d: &ifd_planar::Decomposition, theta: f32| -> Vec<FixedTap> {
+            let (sin, cos) = theta.to_radians().sin_cos();
+            d.terms
+                .iter()
+                .map(|t| {
+                    let (cx, cy) = (t.x as f32, t.y as f32);
+                    FixedTap {
+                        dx: s32 * (cos * cx + sin * cy),
+                        dy: s32 * (-sin * cx + cos * cy),
+                        sigma: f64::from(s32) * t.sigma,
+                        weight: t.weight as f32,
+                    }
+                })
+                .collect()
+        };
+        let window = PixelRect {
+            x0: tx0,
+            y0: ty0,
+            width: tw,
+            height: th,
+        };
+        let c = self.channels;
+        let s2 = f64::from(s32) * f64::from(s32);
+        let mut hplanes: Vec<Vec<f64>> = Vec::with_capacity(3);
+        for (d, theta) in [(&hbank.xx, 0.0), (&hbank.xy, 0.0), (&hbank.xx, 90.0)] {
+            let v = self.stack.correlate_region(&taps(d, theta), window)?;
+            hplanes.push(
+                v.chunks_exact(c)
+                    .map(|px| px.iter().map(|&a| f64::from(a)).sum::<f64>() / c as f64 / s2)
+                    .collect(),
+            );
+        }
         // Tensor planes over the window, as in `with_banks` (Hessian rounded
         // to f32 first).
         let mut t: [Vec<f32>; 3] = [vec![0.0; tw * th], vec![0.0; tw * th], vec![0.0; tw * th]];
-        let rows: Vec<Result<Vec<[f32; 3]>, SmoothError>> = (ty0..=ty1)
-            .into_par_iter()
-            .map(|y| {
-                (tx0..=tx1)
-                    .map(|x| {
-                        let hv = filters.at(x as f32, y as f32, hs)?;
-                        let hv = hv.map(|v| f64::from(v as f32));
-                        Ok(tensor(hv).map(|v| v as f32))
-                    })
-                    .collect()
-            })
-            .collect();
-        for (j, row) in rows.into_iter().enumerate() {
-            for (i, tv) in row?.into_iter().enumerate() {
-                for k in 0..3 {
-                    t[k][j * tw + i] = tv[k];
-                }
+        for q in 0..tw * th {
+            let hv = [hplanes[0][q], hplanes[1][q], hplanes[2][q]].map(|v| f64::from(v as f32));
+            let tv = tensor(hv);
+            for k in 0..3 {
+                t[k][q] = tv[k] as f32;
             }
         }
         // Separable blur of the window (same kernel and border as `gaussian_blur`).
