@@ -151,12 +151,22 @@ fn map_coord(p: f32, n: u32, lo: f32, hi: f32) -> f32 {
     }
 }
 
+// Channels k < nc of one sample (nc is uniform: the branches are coherent;
+// a loop with a dynamic vector index is several times slower on lavapipe).
 fn texel(base: u32, plane: u32, nc: u32) -> vec4<f32> {
-    var v = vec4<f32>(0.0);
-    for (var k = 0u; k < nc; k++) {
-        v[k] = data[base + k * plane];
+    let a = data[base];
+    if nc == 1u {
+        return vec4<f32>(a, 0.0, 0.0, 0.0);
     }
-    return v;
+    let b = data[base + plane];
+    if nc == 2u {
+        return vec4<f32>(a, b, 0.0, 0.0);
+    }
+    let c = data[base + 2u * plane];
+    if nc == 3u {
+        return vec4<f32>(a, b, c, 0.0);
+    }
+    return vec4<f32>(a, b, c, data[base + 3u * plane]);
 }
 
 // Bilinear lookup of level li at full-resolution (x, y), all channels of the
@@ -282,7 +292,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         acc = (1.0 - t) * acc + t * b;
     }
     let o = ((gid.y * params.region_w + gid.x) * params.channels) + params.chunk_c0;
-    for (var k = 0u; k < params.chunk_nc; k++) {
-        out[o + k] = acc[k];
+    out[o] = acc.x;
+    if params.chunk_nc > 1u {
+        out[o + 1u] = acc.y;
+    }
+    if params.chunk_nc > 2u {
+        out[o + 2u] = acc.z;
+    }
+    if params.chunk_nc > 3u {
+        out[o + 3u] = acc.w;
     }
 }

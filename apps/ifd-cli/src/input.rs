@@ -51,6 +51,10 @@ impl InputOptions {
 }
 
 /// Writes an image atomically, reporting clipped samples on stderr.
+#[expect(
+    clippy::trivially_copy_pass_by_ref,
+    reason = "write options may grow; every command passes a reference"
+)]
 pub fn write_output(
     path: &Path,
     image: &ifd_image::Image,

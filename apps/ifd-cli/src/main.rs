@@ -3,6 +3,10 @@
 //! Exit codes: 0 on success, 2 for bad input or any other error (the message
 //! names the file and the problem), 101 for an internal bug (a panic).
 
+// Doc comments of the commands are clap help text, shown verbatim to users:
+// formulas and `HxW` in backticks would read worse there.
+#![expect(clippy::doc_markdown, reason = "doc comments are clap help text")]
+
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -33,6 +37,8 @@ enum Command {
     Convert(commands::convert::Convert),
     /// Print an image's size, channels, format and value range.
     Info(commands::info::Info),
+    /// Print the GPU adapter that `--gpu` uses, its limits and timestamp support.
+    GpuInfo(commands::gpu_info::GpuInfo),
     /// Hessian (Hxx, Hxy, Hyy) of an image at a scale, computed with IFD.
     Hessian(commands::hessian::Hessian),
     /// Edge-respecting anisotropic smoothing driven by the image Hessian.
@@ -51,6 +57,7 @@ fn main() -> ExitCode {
         Command::Sphere(c) => c.run(),
         Command::Convert(c) => c.run(),
         Command::Info(c) => c.run(),
+        Command::GpuInfo(c) => c.run(),
         Command::Hessian(c) => c.run(),
         Command::Smooth(c) => c.run(),
     };

@@ -25,7 +25,7 @@ fn testdata(name: &str) -> String {
 
 fn write_file(dir: &Path, name: &str, bytes: &[u8]) -> String {
     let p: PathBuf = dir.join(name);
-    std::fs::write(&p, bytes).unwrap();
+    std::fs::write(&p, bytes).expect("write test file");
     p.to_string_lossy().into_owned()
 }
 
@@ -104,7 +104,7 @@ fn nan_input_refused_or_replaced() {
     let dir = tempfile::tempdir().unwrap();
     // A 12x12 float32 .npy with one NaN.
     let mut header = "{'descr': '<f4', 'fortran_order': False, 'shape': (12, 12), }".to_string();
-    while (10 + header.len() + 1) % 64 != 0 {
+    while !(10 + header.len() + 1).is_multiple_of(64) {
         header.push(' ');
     }
     header.push('\n');
@@ -131,7 +131,7 @@ fn nan_input_refused_or_replaced() {
 fn zero_sized_and_mismatched() {
     let dir = tempfile::tempdir().unwrap();
     let mut header = "{'descr': '<f4', 'fortran_order': False, 'shape': (0, 3), }".to_string();
-    while (10 + header.len() + 1) % 64 != 0 {
+    while !(10 + header.len() + 1).is_multiple_of(64) {
         header.push(' ');
     }
     header.push('\n');
@@ -145,4 +145,155 @@ fn zero_sized_and_mismatched() {
     let (code, _, err) = ifd(&["compare", &testdata("camera.png"), &testdata("coffee.png")]);
     assert_eq!(code, 2);
     assert!(err.contains("512x512") && err.contains("600x400"), "{err}");
+}
+
+/// GPU tests need an adapter (lavapipe on machines without a GPU); with
+/// `IFD_GPU_TESTS=skip` a missing adapter is accepted.
+fn gpu_missing_ok(code: i32, err: &str) -> bool {
+    code == 2
+        && err.contains("no GPU adapter")
+        && std::env::var("IFD_GPU_TESTS").is_ok_and(|v| v == "skip")
+}
+
+/// `max |a - b| / max |b|` over two images read back from files.
+fn relative_difference(a: &str, b: &str) -> f32 {
+    let a = ifd_image::read(a).expect("GPU output");
+    let b = ifd_image::read(b).expect("CPU output");
+    assert_eq!(
+        (a.width(), a.height(), a.channels()),
+        (b.width(), b.height(), b.channels())
+    );
+    let scale = b.data().iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let diff = a
+        .data()
+        .iter()
+        .zip(b.data())
+        .fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
+    diff / scale
+}
+
+#[test]
+fn gpu_info_names_the_adapter() {
+    let (code, out, err) = ifd(&["gpu-info", "--all"]);
+    if gpu_missing_ok(code, &err) {
+        return;
+    }
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("adapters found:"), "{out}");
+    assert!(out.contains("adapter: "), "{out}");
+    assert!(out.contains("max_storage_buffer_binding_size"), "{out}");
+}
+
+#[test]
+fn filter_gpu_matches_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    // A hand-made anisotropic decomposition reaching 30 px outside the image.
+    let terms: Vec<String> = (0..24)
+        .map(|i| {
+            let t = f64::from(i) / 23.0 * 2.0 - 1.0;
+            format!(
+                r#"{{"weight": {}, "x": {}, "y": {}, "sigma": {}}}"#,
+                (1.0 - 0.5 * t * t) / 20.0,
+                30.0 * t,
+                4.0 * t * t,
+                1.0 + 2.0 * t.abs()
+            )
+        })
+        .collect();
+    let decomp = write_file(
+        dir.path(),
+        "d.json",
+        format!(
+            r#"{{"format": "ifd-decomposition", "version": 1, "kernel": null, "dictionary": null, "report": null, "terms": [{}]}}"#,
+            terms.join(", ")
+        )
+        .as_bytes(),
+    );
+    let img = testdata("coffee.png");
+    let (w, h) = (600, 400);
+    let angle: Vec<f32> = (0..w * h).map(|i| (i % w) as f32 * 0.6).collect();
+    let scale: Vec<f32> = (0..w * h)
+        .map(|i| 0.5 + (i / w) as f32 / h as f32)
+        .collect();
+    let amap = dir.path().join("angle.npy");
+    let smap = dir.path().join("scale.npy");
+    ifd_image::write(&amap, &ifd_image::Image::from_vec(w, h, 1, angle).unwrap()).unwrap();
+    ifd_image::write(&smap, &ifd_image::Image::from_vec(w, h, 1, scale).unwrap()).unwrap();
+    let (amap, smap) = (amap.to_string_lossy(), smap.to_string_lossy());
+    for (name, extra) in [
+        ("constant", vec!["--angle", "-35", "--scale", "1.5"]),
+        (
+            "maps",
+            vec![
+                "--angle-map",
+                &*amap,
+                "--scale-map",
+                &*smap,
+                "--border",
+                "constant:0.5",
+            ],
+        ),
+    ] {
+        let cpu = dir.path().join(format!("{name}-cpu.npy"));
+        let gpu = dir.path().join(format!("{name}-gpu.npy"));
+        let (cpu, gpu) = (cpu.to_string_lossy(), gpu.to_string_lossy());
+        let mut args = vec!["filter", &*img, "--decomp", &*decomp, "-o", &*cpu];
+        args.extend(&extra);
+        let (code, _, err) = ifd(&args);
+        assert_eq!(code, 0, "{err}");
+        args[5] = &*gpu;
+        args.extend(["--gpu", "--verbose"]);
+        let (code, _, err) = ifd(&args);
+        if gpu_missing_ok(code, &err) {
+            return;
+        }
+        assert_eq!(code, 0, "{err}");
+        assert!(err.contains("GPU: "), "{err}");
+        let rel = relative_difference(&gpu, &cpu);
+        assert!(rel <= 1e-4, "{name}: GPU and CPU differ by {rel:e}");
+    }
+    // Bad input on the GPU path is exit 2 with the CPU's message.
+    let out = dir.path().join("bad.npy");
+    let (code, _, err) = ifd(&[
+        "filter",
+        &img,
+        "--decomp",
+        &decomp,
+        "--angle-map",
+        &smap.replace("scale", "missing"),
+        "--gpu",
+        "-o",
+        &out.to_string_lossy(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+}
+
+#[test]
+fn smooth_gpu_matches_cpu_and_refuses_dab_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    let cam = ifd_image::read(testdata("camera.png")).unwrap();
+    let (w, h) = (96, 80);
+    let mut data = Vec::with_capacity(w * h);
+    for y in 0..h {
+        data.extend_from_slice(&cam.data()[(y + 100) * 512 + 200..(y + 100) * 512 + 200 + w]);
+    }
+    let small = dir.path().join("small.npy");
+    ifd_image::write(&small, &ifd_image::Image::from_vec(w, h, 1, data).unwrap()).unwrap();
+    let small = small.to_string_lossy();
+    let cpu = dir.path().join("cpu.npy").to_string_lossy().into_owned();
+    let gpu = dir.path().join("gpu.npy").to_string_lossy().into_owned();
+    let (code, _, err) = ifd(&["smooth", &small, "--scale", "3", "-o", &cpu]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = ifd(&["smooth", &small, "--scale", "3", "--gpu", "-o", &gpu]);
+    if gpu_missing_ok(code, &err) {
+        return;
+    }
+    assert_eq!(code, 0, "{err}");
+    let rel = relative_difference(&gpu, &cpu);
+    assert!(rel <= 1e-4, "GPU and CPU smoothing differ by {rel:e}");
+    let (code, _, err) = ifd(&[
+        "smooth", &small, "--scale", "3", "--gpu", "--mode", "dab", "-o", &gpu,
+    ]);
+    assert_eq!(code, 2);
+    assert!(err.contains("per-pixel"), "{err}");
 }

@@ -5,6 +5,7 @@ pub mod convert;
 pub mod decompose;
 pub mod field;
 pub mod filter;
+pub mod gpu_info;
 pub mod hessian;
 pub mod info;
 pub mod smooth;

@@ -65,6 +65,12 @@ pub struct Smooth {
     /// Print timings.
     #[arg(short, long)]
     verbose: bool,
+    /// Run the smoothing pass on the GPU (wgpu, Vulkan; lavapipe when there
+    /// is no GPU). Per-pixel mode only; decompositions, prefiltering and the
+    /// Hessian field stay on the CPU. Fails, naming the problem, when there
+    /// is no adapter.
+    #[arg(long)]
+    gpu: bool,
     #[command(flatten)]
     input: InputOptions,
 }
@@ -78,6 +84,11 @@ impl Smooth {
             .with_context(|| format!("--border {}", self.border))?;
         if !(0.0..=1.0).contains(&self.strength) {
             anyhow::bail!("--strength {} is outside [0, 1]", self.strength);
+        }
+        if self.gpu && matches!(self.mode, ModeArg::Dab) {
+            anyhow::bail!(
+                "--gpu supports --mode per-pixel only (dab mode's grid of blended dabs runs on the CPU)"
+            );
         }
         let img = self.input.read(&self.image)?.image;
         let opts = SmoothOptions {
@@ -112,7 +123,15 @@ impl Smooth {
             ModeArg::Dab => Mode::Dab,
             ModeArg::PerPixel => Mode::PerPixel,
         };
-        let mut out = smoother.smooth_image(mode)?;
+        let mut out = if self.gpu {
+            let ctx = ifd_gpu::GpuContext::new().context("--gpu")?;
+            if self.verbose {
+                eprintln!("GPU: {}", ctx.adapter_info().name);
+            }
+            ifd_gpu::GpuSmoother::new(&ctx, &smoother)?.smooth_image(&ctx, mode)?
+        } else {
+            smoother.smooth_image(mode)?
+        };
         if self.strength < 1.0 {
             for (o, &i) in out.data_mut().iter_mut().zip(img.data()) {
                 *o = i + self.strength * (*o - i);
