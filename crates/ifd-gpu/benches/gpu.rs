@@ -2,8 +2,8 @@
 //!
 //! `cargo bench -p ifd-gpu --bench gpu`. Groups (the adapter is printed first;
 //! on a machine without a GPU it is lavapipe, which runs on the CPU cores):
-//! - `eval`: filtering a 512x512 single-channel image with `s` = 64 and 256
-//!   terms (constant angle/scale, and per-pixel angle and scale maps): the
+//! - `eval`: filtering a 256x256 single-channel image with `s` = 16 and 64
+//!   terms (small, because lavapipe takes seconds per evaluation) (constant angle/scale, and per-pixel angle and scale maps): the
 //!   CPU path (`Filter::apply`, rayon) against the GPU path, both from a
 //!   prebuilt stack. `gpu` is submit + wait (result left on the device),
 //!   `gpu+read` adds the readback. Setup also prints the GPU time of the
@@ -68,7 +68,7 @@ fn ctx() -> Option<GpuContext> {
 
 fn eval(c: &mut Criterion) {
     let Some(ctx) = ctx() else { return };
-    let (w, h) = (512, 512);
+    let (w, h) = (256, 256);
     let img = image(w, h);
     let angles: Vec<f32> = (0..w * h).map(|i| (i % w) as f32 * 0.7).collect();
     let scales: Vec<f32> = (0..w * h)
@@ -76,9 +76,9 @@ fn eval(c: &mut Criterion) {
         .collect();
     let mut group = c.benchmark_group("eval");
     group.sample_size(10);
-    group.measurement_time(Duration::from_secs(8));
+    group.measurement_time(Duration::from_secs(4));
     group.throughput(Throughput::Elements((w * h) as u64));
-    for n in [64, 256] {
+    for n in [16, 64] {
         let d = decomposition(n);
         let stack = stack_for_decomposition(
             &img,

@@ -37,18 +37,24 @@
 //!
 //! # Design
 //! **Storage buffers, not a texture array.** Levels of the stack have
-//! different sizes (levels with sigma >= 2 px are subsampled, a Gaussian
+//! different sizes (levels with sigma >= 4 px are subsampled, a Gaussian
 //! pyramid), which a texture array cannot hold without padding every layer
-//! to full resolution (33 levels of a 4096x4096 stack: 2.2 GiB per channel
-//! padded, against 0.19 GiB as stored). Hardware bilinear filtering cannot
-//! be used either way: it interpolates with 8-bit fixed-point weights on
-//! most GPUs (relative error up to about 4e-3, far above the 1e-4 target)
-//! and 32-bit float textures are not filterable without an optional
-//! feature. So the shader does the four fetches and the interpolation
-//! itself, and then a storage buffer is as good as a texture: see
-//! `BENCHMARKS.md` ("GPU") for the measured comparison of the two fetch
-//! paths. Samples are stored per group of at most four channels, level after
-//! level, planar per channel; a stack larger than the device's
+//! to full resolution: the 33 levels of a 4096x4096 stack over sigma 1..256
+//! take 0.58 GiB per channel as stored and 2.07 GiB padded (3.5x), beyond
+//! most devices' limits. Hardware bilinear filtering cannot be used either
+//! way (interpolation weights with 8 fractional bits on common GPUs, far
+//! from the 1e-4 target, and `r32float` is not filterable without an optional
+//! feature), so the shader fetches four samples and interpolates itself
+//! whatever holds them. Measured on lavapipe (`benches/gpu.rs`, `fetch`,
+//! the case most favourable to textures: 8 equal full-resolution levels,
+//! 512x512, 128 lookups per pixel), two runs on the shared, loaded 2-core
+//! machine: texture array 0.92 s and 0.56 s, storage buffer 1.17 s and
+//! 0.57 s, so textures were 3-21% faster there. That does not pay for 3.5x the
+//! memory (or for an atlas and its extra index arithmetic); on real GPUs,
+//! where the texture cache may matter more, the comparison has not been
+//! measured and should be redone before revisiting this choice. Samples are
+//! stored per group of at most four channels, level after level, planar per
+//! channel; a stack larger than the device's
 //! `max_storage_buffer_binding_size` is split into more groups (down to one
 //! channel per buffer, evaluated by one dispatch each).
 //!
