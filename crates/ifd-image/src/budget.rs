@@ -43,10 +43,12 @@ impl MemoryBudget {
     /// Checks that `needed` bytes fit.
     ///
     /// # Errors
-    /// [`ImageError::TooLarge`] saying how much was needed and the budget.
+    /// [`ImageError::TooLarge`] saying how much was needed and the budget
+    /// (without a file: [`ImageError::in_file`] adds one).
     pub fn check(self, needed: u64) -> Result<(), ImageError> {
         if needed > self.bytes {
             Err(ImageError::TooLarge {
+                path: None,
                 needed_bytes: needed,
                 budget_bytes: self.bytes,
             })

@@ -1,6 +1,6 @@
 //! Errors of image I/O and metrics.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Everything that can go wrong reading, writing or comparing images.
 ///
@@ -49,8 +49,10 @@ pub enum ImageError {
         source: std::io::Error,
     },
     /// A zero-sized image.
-    #[error("image is empty ({width}x{height} with {channels} channels)")]
+    #[error("{}image is empty ({width}x{height} with {channels} channels)", file_prefix(path.as_deref()))]
     Empty {
+        /// The file, when the image came from one.
+        path: Option<PathBuf>,
         /// Width.
         width: usize,
         /// Height.
@@ -59,8 +61,10 @@ pub enum ImageError {
         channels: usize,
     },
     /// An image whose samples would need more memory than the budget.
-    #[error("image would need {} of memory, more than the budget of {}", fmt_bytes(*needed_bytes), fmt_bytes(*budget_bytes))]
+    #[error("{}image would need {} of memory, more than the budget of {}", file_prefix(path.as_deref()), fmt_bytes(*needed_bytes), fmt_bytes(*budget_bytes))]
     TooLarge {
+        /// The file, when the image came from one.
+        path: Option<PathBuf>,
         /// Bytes the samples would need.
         needed_bytes: u64,
         /// The budget.
@@ -86,6 +90,51 @@ pub enum ImageError {
     /// A parameter outside its valid range.
     #[error("{0}")]
     InvalidParameter(String),
+}
+
+impl ImageError {
+    /// Names `path` in an error that was raised without knowing the file
+    /// ([`ImageError::Empty`] and [`ImageError::TooLarge`] from in-memory
+    /// checks such as [`crate::MemoryBudget::check`]); other errors, and
+    /// errors that already name a file, are returned unchanged.
+    ///
+    /// ```
+    /// use ifd_image::MemoryBudget;
+    /// let e = MemoryBudget::bytes(10).check(20).unwrap_err();
+    /// assert!(e.in_file("big.png".as_ref()).to_string().starts_with("big.png: image would need"));
+    /// ```
+    #[must_use]
+    pub fn in_file(self, file: &Path) -> Self {
+        match self {
+            Self::Empty {
+                path: None,
+                width,
+                height,
+                channels,
+            } => Self::Empty {
+                path: Some(file.to_path_buf()),
+                width,
+                height,
+                channels,
+            },
+            Self::TooLarge {
+                path: None,
+                needed_bytes,
+                budget_bytes,
+            } => Self::TooLarge {
+                path: Some(file.to_path_buf()),
+                needed_bytes,
+                budget_bytes,
+            },
+            other => other,
+        }
+    }
+}
+
+/// `"FILE: "` for messages of errors that may or may not have a file.
+fn file_prefix(path: Option<&Path>) -> String {
+    path.map(|p| format!("{}: ", p.display()))
+        .unwrap_or_default()
 }
 
 /// Formats a byte count with a binary unit (`1.5 GiB`).

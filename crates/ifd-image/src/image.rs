@@ -197,6 +197,7 @@ impl Image {
 fn checked_len(width: usize, height: usize, channels: usize) -> Result<usize, ImageError> {
     if width == 0 || height == 0 || channels == 0 {
         return Err(ImageError::Empty {
+            path: None,
             width,
             height,
             channels,
@@ -206,6 +207,7 @@ fn checked_len(width: usize, height: usize, channels: usize) -> Result<usize, Im
         .checked_mul(height)
         .and_then(|n| n.checked_mul(channels))
         .ok_or(ImageError::TooLarge {
+            path: None,
             needed_bytes: u64::MAX,
             budget_bytes: 0,
         })

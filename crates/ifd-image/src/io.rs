@@ -157,10 +157,12 @@ pub fn read(path: impl AsRef<Path>) -> Result<Image, ImageError> {
 pub fn read_image(path: &Path, opts: &ReadOptions) -> Result<LoadedImage, ImageError> {
     let format = FileFormat::from_path(path)?;
     let file = open(path)?;
-    let (mut image, integer_bits) = match format.image_format() {
-        None => (npy::read_npy(path, file, opts.budget)?, None),
-        Some(fmt) => decode_with_image_crate(path, file, fmt, format, opts)?,
+    let decoded = match format.image_format() {
+        None => npy::read_npy(path, file, opts.budget).map(|image| (image, None)),
+        Some(fmt) => decode_with_image_crate(path, file, fmt, format, opts),
     };
+    // The budget and shape checks do not know the file: name it here.
+    let (mut image, integer_bits) = decoded.map_err(|e| e.in_file(path))?;
     let replaced_non_finite = handle_non_finite(path, &mut image, opts.non_finite)?;
     Ok(LoadedImage {
         image,
@@ -206,6 +208,7 @@ fn decode_with_image_crate(
     let channels = usize::from(color.channel_count());
     if w == 0 || h == 0 {
         return Err(ImageError::Empty {
+            path: Some(path.to_path_buf()),
             width: w as usize,
             height: h as usize,
             channels,
@@ -534,7 +537,7 @@ mod tests {
 
     fn ramp(w: usize, h: usize, c: usize) -> Image {
         let data = (0..w * h * c)
-            .map(|i| (i as f32 / (w * h * c - 1) as f32))
+            .map(|i| i as f32 / (w * h * c - 1) as f32)
             .collect();
         Image::from_vec(w, h, c, data).unwrap()
     }
@@ -658,7 +661,35 @@ mod tests {
             ..ReadOptions::default()
         };
         let e = read_image(&p, &opts).unwrap_err().to_string();
-        assert!(e.contains("would need 146.5 KiB"), "{e}");
+        assert!(
+            e.starts_with(&format!("{}: ", p.display())) && e.contains("would need 146.5 KiB"),
+            "{e}"
+        );
+        // NumPy files are checked from their header, before the data is read.
+        let n = dir.path().join("big.npy");
+        write(&n, &ramp(100, 100, 3)).unwrap();
+        let e = read_image(&n, &opts).unwrap_err();
+        assert!(matches!(e, ImageError::TooLarge { .. }), "{e}");
+        let e = e.to_string();
+        assert!(
+            e.starts_with(&format!("{}: ", n.display())) && e.contains("budget of 1000 B"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn empty_images_name_the_file() {
+        let e = Image::new(0, 4, 1).unwrap_err().to_string();
+        assert_eq!(e, "image is empty (0x4 with 1 channels)");
+        let e = ImageError::Empty {
+            path: None,
+            width: 0,
+            height: 4,
+            channels: 1,
+        }
+        .in_file(Path::new("x.npy"))
+        .to_string();
+        assert_eq!(e, "x.npy: image is empty (0x4 with 1 channels)");
     }
 
     #[test]

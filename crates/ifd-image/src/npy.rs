@@ -95,6 +95,7 @@ pub(crate) fn read_npy(
     };
     if h == 0 || w == 0 || c == 0 {
         return Err(ImageError::Empty {
+            path: Some(path.to_path_buf()),
             width: w,
             height: h,
             channels: c,
