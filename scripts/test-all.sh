@@ -3,10 +3,12 @@
 # installs something skips itself when already done.
 #
 #   1. Debian packages (software Vulkan, Xvfb and the X11/EGL libraries the GPU
-#      and GUI tests need), when missing and when running as root.
+#      and GUI tests need, python3-venv), when missing and when running as root.
+#      XDG_RUNTIME_DIR is set to a fresh private folder when unset.
 #   2. A Python virtual environment in .venv with the reference libraries
 #      (reused when tests/python/requirements.txt has not changed).
-#   3. cargo fmt --check, cargo clippy --all-targets -D warnings, cargo test.
+#   3. rustfmt and clippy (rustup component add, when missing), then
+#      cargo fmt --check, cargo clippy --all-targets -D warnings, cargo test.
 #   4. The reference comparisons in tests/python (pytest; scikit-image, OpenCV,
 #      SciPy, pyshtools, ducc0 against the `ifd` binary).
 # It ends with one line `N passed, M failed` and exits non-zero on any failure.
@@ -26,7 +28,16 @@ fail() { failed=$((failed + ${2:-1})); failures+=("$1"); echo "FAILED: $1"; }
 
 APT_PACKAGES=(mesa-vulkan-drivers libvulkan1 xvfb xauth libxkbcommon-x11-0 libxkbcommon0
   libx11-6 libx11-xcb1 libxcursor1 libxi6 libgl1-mesa-dri libegl1 libegl-mesa0 libgl1
-  libwayland-client0 x11-apps)
+  libwayland-client0 x11-apps python3-venv)
+
+# Mesa and winit complain on every start when XDG_RUNTIME_DIR is unset (as under
+# CI or sudo): give the whole run a private one.
+if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "$XDG_RUNTIME_DIR" ]; then
+  XDG_RUNTIME_DIR=$(mktemp -d "${TMPDIR:-/tmp}/ifd-xdg-runtime.XXXXXX")
+  chmod 700 "$XDG_RUNTIME_DIR"
+  export XDG_RUNTIME_DIR
+  trap 'rm -rf "$XDG_RUNTIME_DIR"' EXIT
+fi
 
 step "Debian packages"
 missing=()
@@ -65,6 +76,18 @@ if [ ! -x .venv/bin/python ] || [ "$(cat "$STAMP" 2>/dev/null)" != "$want" ]; th
 else
   echo "up to date"
 fi
+
+step "Rust components (rustfmt, clippy)"
+for pair in fmt:rustfmt clippy:clippy; do
+  sub=${pair%%:*} comp=${pair#*:}
+  cargo "$sub" --version >/dev/null 2>&1 && continue
+  if command -v rustup >/dev/null 2>&1 && rustup component add "$comp" >>"$LOG_DIR/rustup.log" 2>&1; then
+    ok "rustup component add $comp"
+  else
+    tail -5 "$LOG_DIR/rustup.log" 2>/dev/null
+    fail "rust component $comp missing (rustup component add $comp)"
+  fi
+done
 
 step "cargo fmt --check"
 if cargo fmt --all -- --check >"$LOG_DIR/fmt.log" 2>&1; then ok "fmt"; else head -40 "$LOG_DIR/fmt.log"; fail "cargo fmt"; fi
