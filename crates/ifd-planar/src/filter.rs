@@ -440,10 +440,19 @@ impl<'a> Filter<'a> {
 
     /// All lookups for a constant angle and scale, zero weights dropped.
     fn taps(&self, theta: f32, s: f32) -> Vec<Tap> {
+        self.taps_with_levels(theta, s, &self.term_levels(s))
+    }
+
+    /// As [`Self::taps`] with the term levels of `s` given.
+    fn taps_with_levels(
+        &self,
+        theta: f32,
+        s: f32,
+        levels: &[(usize, usize, f32, f32)],
+    ) -> Vec<Tap> {
         let (sin, cos) = theta.to_radians().sin_cos();
-        let levels = self.term_levels(s);
         let mut taps = Vec::with_capacity(2 * self.terms.len());
-        for (t, &(a, b, wa, wb)) in self.terms.iter().zip(&levels) {
+        for (t, &(a, b, wa, wb)) in self.terms.iter().zip(levels) {
             let ox = s * (cos * t.cx + sin * t.cy);
             let oy = s * (-sin * t.cx + cos * t.cy);
             for (level, weight) in [(a, wa), (b, wb)] {
@@ -464,65 +473,7 @@ impl<'a> Filter<'a> {
     /// as a 2x2 stencil over the row's interior (contiguous, vectorisable),
     /// everything else through the general lookup.
     fn row_constant(&self, taps: &[Tap], y: usize, row: &mut [f32]) {
-        let stack = self.stack;
-        let c = stack.channels();
-        let w = stack.width();
-        let yf = y as f32;
-        for tap in taps {
-            let level = &stack.levels[tap.level];
-            let lay = &level.layout;
-            let general = |row: &mut [f32], xs: std::ops::Range<usize>| {
-                for x in xs {
-                    stack.accumulate(
-                        tap.level,
-                        x as f32 + tap.ox,
-                        yf + tap.oy,
-                        tap.weight,
-                        &mut row[x * c..(x + 1) * c],
-                    );
-                }
-            };
-            if lay.step != 1 {
-                general(row, 0..w);
-                continue;
-            }
-            let fx = tap.ox.floor();
-            let fy = tap.oy.floor();
-            let ax = tap.ox - fx;
-            let ay = tap.oy - fy;
-            // Stored column of pixel x is x + di, stored row is y + dj.
-            let di = fx as i64 - lay.origin;
-            let iv = y as i64 + fy as i64 - lay.origin;
-            if iv < 0 || iv + 1 >= lay.ny as i64 {
-                general(row, 0..w);
-                continue;
-            }
-            let x0 = (-di).clamp(0, w as i64) as usize;
-            let x1 = (lay.nx as i64 - 1 - di).clamp(x0 as i64, w as i64) as usize;
-            general(row, 0..x0);
-            general(row, x1..w);
-            if x1 > x0 {
-                let nxc = lay.nx * c;
-                let r0 = &level.data[iv as usize * nxc..(iv as usize + 1) * nxc];
-                let r1 = &level.data[(iv as usize + 1) * nxc..(iv as usize + 2) * nxc];
-                let start = ((x0 as i64 + di) as usize) * c;
-                let len = (x1 - x0) * c;
-                let a00 = tap.weight * (1.0 - ax) * (1.0 - ay);
-                let a01 = tap.weight * ax * (1.0 - ay);
-                let a10 = tap.weight * (1.0 - ax) * ay;
-                let a11 = tap.weight * ax * ay;
-                let out = &mut row[x0 * c..x1 * c];
-                let p00 = &r0[start..start + len];
-                let p01 = &r0[start + c..start + c + len];
-                let p10 = &r1[start..start + len];
-                let p11 = &r1[start + c..start + c + len];
-                for ((((o, &v00), &v01), &v10), &v11) in
-                    out.iter_mut().zip(p00).zip(p01).zip(p10).zip(p11)
-                {
-                    *o += a00 * v00 + a01 * v01 + a10 * v10 + a11 * v11;
-                }
-            }
-        }
+        row_constant(self.stack, taps, y, 0..self.stack.width(), row);
     }
 
     /// Per-pixel angle and/or scale over the whole image. `C` is the channel
@@ -571,6 +522,34 @@ impl<'a> Filter<'a> {
         }
         for (o, a) in out.iter_mut().zip(acc) {
             *o += a;
+        }
+    }
+
+    /// As [`Self::pixel_rotated`], scaling the sum by `weight`.
+    #[inline]
+    #[expect(clippy::too_many_arguments, reason = "hot inner call, all scalars")]
+    fn pixel_rotated_weighted<const C: usize>(
+        &self,
+        levels: &[(usize, usize, f32, f32)],
+        x: f32,
+        y: f32,
+        cs: f32,
+        ss: f32,
+        weight: f32,
+        out: &mut [f32],
+    ) {
+        if C == 0 {
+            let mut tmp = vec![0.0f32; out.len()];
+            self.pixel_rotated::<0>(levels, x, y, cs, ss, &mut tmp);
+            for (o, t) in out.iter_mut().zip(tmp) {
+                *o += weight * t;
+            }
+            return;
+        }
+        let mut acc = [0.0f32; C];
+        self.pixel_rotated::<C>(levels, x, y, cs, ss, &mut acc);
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o += weight * a;
         }
     }
 
@@ -628,6 +607,263 @@ impl<'a> Filter<'a> {
         if C > 0 {
             for (o, a) in out.iter_mut().zip(acc) {
                 *o += a;
+            }
+        }
+    }
+}
+
+/// A [`Filter`] at one fixed scale: the stack levels of every term are
+/// resolved once, so a lookup at any point and rotation costs `s` bilinear
+/// samples (two per term when `scale * sigma_t` falls between stack
+/// levels) and no per-term setup. This is the per-pixel path of spatially
+/// varying smoothing, where the scale is fixed and the angle varies.
+///
+/// ```
+/// use ifd_image::Image;
+/// use ifd_planar::{Border, Decomposition, Filter, StackOptions, Term, stack_for_decomposition};
+/// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 3.0, y: 0.0, sigma: 1.0 }]);
+/// let img = Image::from_vec(64, 16, 1, (0..1024).map(|i| (i % 64) as f32).collect())?;
+/// let stack = stack_for_decomposition(&img, &d, 2.0, 2.0, Border::Reflect101, StackOptions::default())?;
+/// let filter = Filter::new(&stack, &d)?;
+/// let at2 = filter.at_scale(2.0)?;
+/// // The ramp value 6 px to the right of column 5 (the lobe at +3 px, scaled by 2).
+/// let mut v = [0.0f32];
+/// at2.accumulate(5.0, 8.0, 1.0, 0.0.into(), &mut v);
+/// assert!((v[0] - 11.0).abs() < 1e-3);
+/// // The same lookup through the checked point API.
+/// assert!((filter.filter_at(5.0, 8.0, 0.0, 2.0)?[0] - v[0]).abs() < 1e-5);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct ScaledFilter<'f, 'a> {
+    filter: &'f Filter<'a>,
+    scale: f32,
+    levels: Vec<(usize, usize, f32, f32)>,
+}
+
+/// The rotation of a lookup: `cos theta` and `sin theta` (theta in degrees,
+/// counter-clockwise on screen), computed once per pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rotation {
+    /// `cos theta`.
+    pub cos: f32,
+    /// `sin theta`.
+    pub sin: f32,
+}
+
+impl Rotation {
+    /// The rotation by `theta` degrees.
+    #[must_use]
+    pub fn degrees(theta: f32) -> Self {
+        let (sin, cos) = theta.to_radians().sin_cos();
+        Self { cos, sin }
+    }
+}
+
+impl From<f32> for Rotation {
+    /// The rotation by this many degrees.
+    fn from(theta: f32) -> Self {
+        Self::degrees(theta)
+    }
+}
+
+impl<'a> Filter<'a> {
+    /// Binds the filter to a constant `scale` for fast per-point lookups.
+    ///
+    /// # Errors
+    /// [`FilterError::InvalidValue`] for a non-finite or non-positive scale,
+    /// [`FilterError::ScaleOutOfRange`] when some `scale * sigma_t` is not covered.
+    pub fn at_scale(&self, scale: f32) -> Result<ScaledFilter<'_, 'a>, FilterError> {
+        Field::Constant(scale).validate("scale", 1, 1, true)?;
+        self.check_scales(scale, scale, &Field::Constant(scale))?;
+        Ok(ScaledFilter {
+            filter: self,
+            scale,
+            levels: self.term_levels(scale),
+        })
+    }
+}
+
+impl<'a> ScaledFilter<'_, 'a> {
+    /// The scale this filter is bound to.
+    #[must_use]
+    pub fn scale(&self) -> f32 {
+        self.scale
+    }
+
+    /// The underlying filter.
+    #[must_use]
+    pub fn filter(&self) -> &Filter<'a> {
+        self.filter
+    }
+
+    /// Adds `weight *` the filtered value at `(x, y)` with the kernel rotated
+    /// by `rotation` to `out` (one value per channel; `out.len()` must be
+    /// the stack's channel count, else nothing is added). Coordinates must
+    /// be finite; outside the image the border mode applies.
+    #[inline]
+    pub fn accumulate(&self, x: f32, y: f32, weight: f32, rotation: Rotation, out: &mut [f32]) {
+        let f = self.filter;
+        if out.len() != f.stack.channels() {
+            return;
+        }
+        let (cs, ss) = (rotation.cos * self.scale, rotation.sin * self.scale);
+        match out.len() {
+            1 => f.pixel_rotated_weighted::<1>(&self.levels, x, y, cs, ss, weight, out),
+            2 => f.pixel_rotated_weighted::<2>(&self.levels, x, y, cs, ss, weight, out),
+            3 => f.pixel_rotated_weighted::<3>(&self.levels, x, y, cs, ss, weight, out),
+            4 => f.pixel_rotated_weighted::<4>(&self.levels, x, y, cs, ss, weight, out),
+            _ => f.pixel_rotated_weighted::<0>(&self.levels, x, y, cs, ss, weight, out),
+        }
+    }
+
+    /// All lookups for the kernel rotated by `theta` degrees at this scale,
+    /// weighted by `weight`, for region evaluation ([`Taps::apply_region`]).
+    #[must_use]
+    pub fn taps(&self, theta: f32, weight: f32) -> Taps {
+        let mut taps = self
+            .filter
+            .taps_with_levels(theta, self.scale, &self.levels);
+        for t in &mut taps {
+            t.weight *= weight;
+        }
+        Taps { taps }
+    }
+}
+
+/// The lookups of one constant rotation and scale (possibly of several
+/// weighted filters on the same stack, e.g. a blend of two
+/// decompositions), applied over a rectangle with a vectorised 2x2 stencil
+/// per tap: the fast path for a brush dab whose filter is constant.
+#[derive(Clone, Debug, Default)]
+pub struct Taps {
+    taps: Vec<Tap>,
+}
+
+impl Taps {
+    /// The number of bilinear lookups per pixel.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.taps.len()
+    }
+
+    /// No lookups.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.taps.is_empty()
+    }
+
+    /// Appends `other`'s lookups (their weights already include any blend weight).
+    pub fn extend(&mut self, other: Taps) {
+        self.taps.extend(other.taps);
+    }
+
+    /// Filters the rectangle `x0..x0 + width`, `y0..y0 + height` of `stack`
+    /// (which must be the stack the taps were made for): returns
+    /// `width * height * channels` values, row-major, interleaved.
+    ///
+    /// # Errors
+    /// [`FilterError::InvalidParameter`] when the rectangle leaves the image
+    /// or a tap refers to a level the stack does not have.
+    pub fn apply_region(
+        &self,
+        stack: &ScaleStack,
+        x0: usize,
+        y0: usize,
+        width: usize,
+        height: usize,
+    ) -> Result<Vec<f32>, FilterError> {
+        if x0 + width > stack.width() || y0 + height > stack.height() {
+            return Err(FilterError::InvalidParameter(format!(
+                "region {width}x{height} at ({x0}, {y0}) leaves the {}x{} image",
+                stack.width(),
+                stack.height()
+            )));
+        }
+        if self.taps.iter().any(|t| t.level >= stack.levels.len()) {
+            return Err(FilterError::InvalidParameter(
+                "the taps were made for another stack".into(),
+            ));
+        }
+        let c = stack.channels();
+        let mut out = vec![0.0f32; width * height * c];
+        if width == 0 {
+            return Ok(out);
+        }
+        out.par_chunks_mut(width * c)
+            .enumerate()
+            .for_each(|(j, row)| row_constant(stack, &self.taps, y0 + j, x0..x0 + width, row));
+        Ok(out)
+    }
+}
+
+/// Adds constant taps into `out`, the pixels `xs` of row `y` (`out[(x -
+/// xs.start) * c..]`): full-resolution levels are applied as a 2x2 stencil
+/// over the stored interior (contiguous, vectorisable), everything else
+/// through the general lookup with border handling.
+fn row_constant(
+    stack: &ScaleStack,
+    taps: &[Tap],
+    y: usize,
+    xs: std::ops::Range<usize>,
+    out: &mut [f32],
+) {
+    let c = stack.channels();
+    let (xa, xb) = (xs.start, xs.end);
+    let yf = y as f32;
+    for tap in taps {
+        let level = &stack.levels[tap.level];
+        let lay = &level.layout;
+        let general = |out: &mut [f32], xs: std::ops::Range<usize>| {
+            for x in xs {
+                let o = (x - xa) * c;
+                stack.accumulate(
+                    tap.level,
+                    x as f32 + tap.ox,
+                    yf + tap.oy,
+                    tap.weight,
+                    &mut out[o..o + c],
+                );
+            }
+        };
+        if lay.step != 1 {
+            general(out, xa..xb);
+            continue;
+        }
+        let fx = tap.ox.floor();
+        let fy = tap.oy.floor();
+        let ax = tap.ox - fx;
+        let ay = tap.oy - fy;
+        // Stored column of pixel x is x + di, stored row is y + dj.
+        let di = fx as i64 - lay.origin;
+        let iv = y as i64 + fy as i64 - lay.origin;
+        if iv < 0 || iv + 1 >= lay.ny as i64 {
+            general(out, xa..xb);
+            continue;
+        }
+        let x0 = (-di).clamp(xa as i64, xb as i64) as usize;
+        let x1 = (lay.nx as i64 - 1 - di).clamp(x0 as i64, xb as i64) as usize;
+        general(out, xa..x0);
+        general(out, x1..xb);
+        if x1 > x0 {
+            let nxc = lay.nx * c;
+            let r0 = &level.data[iv as usize * nxc..(iv as usize + 1) * nxc];
+            let r1 = &level.data[(iv as usize + 1) * nxc..(iv as usize + 2) * nxc];
+            let start = ((x0 as i64 + di) as usize) * c;
+            let len = (x1 - x0) * c;
+            let a00 = tap.weight * (1.0 - ax) * (1.0 - ay);
+            let a01 = tap.weight * ax * (1.0 - ay);
+            let a10 = tap.weight * (1.0 - ax) * ay;
+            let a11 = tap.weight * ax * ay;
+            let dst = &mut out[(x0 - xa) * c..(x1 - xa) * c];
+            let p00 = &r0[start..start + len];
+            let p01 = &r0[start + c..start + c + len];
+            let p10 = &r1[start..start + len];
+            let p11 = &r1[start + c..start + c + len];
+            for ((((o, &v00), &v01), &v10), &v11) in
+                dst.iter_mut().zip(p00).zip(p01).zip(p10).zip(p11)
+            {
+                *o += a00 * v00 + a01 * v01 + a10 * v10 + a11 * v11;
             }
         }
     }

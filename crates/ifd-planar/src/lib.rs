@@ -44,6 +44,8 @@ pub use kernel::{Kernel, KernelError, KernelSpec};
 pub use plot::render_plot;
 
 pub use border::Border;
-pub use filter::{Field, Filter, FilterError, stack_for_decomposition};
+pub use filter::{
+    Field, Filter, FilterError, Rotation, ScaledFilter, Taps, stack_for_decomposition,
+};
 pub use stack::{LevelLayout, ScaleStack, StackLayout, StackOptions};
 pub use stack_refresh::{FixedTap, PixelRect, RefreshReport};

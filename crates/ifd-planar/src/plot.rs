@@ -169,7 +169,6 @@ pub fn render_plot(kernel: &Kernel, decomposition: &Decomposition) -> Image {
 }
 
 #[cfg(test)]
-#[expect(clippy::unwrap_used, reason = "tests fail loudly on unexpected errors")]
 mod tests {
     use super::*;
     use crate::fit::{DecomposeOptions, decompose};
