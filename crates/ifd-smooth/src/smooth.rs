@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use ifd_image::Image;
-use ifd_planar::{Border, Filter, ScaleStack};
+use ifd_planar::{Border, Filter, Rotation, ScaleStack, ScaledFilter};
 use rayon::prelude::*;
 
 use crate::bank::{AspectBank, BankOptions};
@@ -264,32 +264,43 @@ impl Smoother {
             .collect()
     }
 
+    /// The bank's filters bound to the footprint scale: stack levels are
+    /// resolved once, so each lookup below is `s` bilinear samples.
+    fn scaled<'f, 'a>(
+        &self,
+        filters: &'f [Filter<'a>],
+    ) -> Result<Vec<ScaledFilter<'f, 'a>>, SmoothError> {
+        let s = self.filter_scale();
+        filters
+            .iter()
+            .map(|f| f.at_scale(s).map_err(SmoothError::from))
+            .collect()
+    }
+
     fn filter_scale(&self) -> f32 {
         (self.opts.scale / self.bank.options.sigma_ref) as f32
     }
 
-    /// The smoothed value at `(x, y)` for filter `o`: the blend of two bank
-    /// entries, `s_i + s_{i+1}` lookups.
-    fn smoothed_at(
+    /// Adds `weight *` the smoothed value at `(x, y)` for filter `o` to
+    /// `out`: the blend of two bank entries, `s_i + s_{i+1}` lookups (the
+    /// blend of two decompositions is the decomposition of the blended
+    /// filter, so blending the results is exact).
+    fn add_smoothed(
         &self,
-        filters: &[Filter<'_>],
+        scaled: &[ScaledFilter<'_, '_>],
         x: f32,
         y: f32,
         o: Orientation,
-        tmp: &mut [f32],
+        weight: f32,
         out: &mut [f32],
-    ) -> Result<(), SmoothError> {
+    ) {
         let (i, t) = self.bank.locate(f64::from(o.aspect));
-        let s = self.filter_scale();
-        filters[i].filter_at_into(x, y, o.theta, s, out)?;
+        let t = t as f32;
+        let rot = Rotation::degrees(o.theta);
+        scaled[i].accumulate(x, y, weight * (1.0 - t), rot, out);
         if t > 0.0 {
-            filters[i + 1].filter_at_into(x, y, o.theta, s, tmp)?;
-            let t = t as f32;
-            for (a, b) in out.iter_mut().zip(tmp.iter()) {
-                *a = (1.0 - t) * *a + t * b;
-            }
+            scaled[i + 1].accumulate(x, y, weight * t, rot, out);
         }
-        Ok(())
     }
 
     /// Smooths the whole image.
@@ -299,55 +310,41 @@ impl Smoother {
     pub fn smooth_image(&self, mode: Mode) -> Result<Image, SmoothError> {
         let (w, h, c) = (self.width, self.height, self.channels);
         let filters = self.filters()?;
+        let scaled = self.scaled(&filters)?;
         let mut out = vec![0.0f32; w * h * c];
         match mode {
             Mode::PerPixel => {
-                out.par_chunks_mut(w * c).enumerate().try_for_each(
-                    |(y, row)| -> Result<(), SmoothError> {
-                        let mut tmp = vec![0.0; c];
-                        for (x, px) in row.chunks_exact_mut(c).enumerate() {
-                            let o = self.field[y * w + x];
-                            self.smoothed_at(&filters, x as f32, y as f32, o, &mut tmp, px)?;
-                        }
-                        Ok(())
-                    },
-                )?;
+                out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+                    for (x, px) in row.chunks_exact_mut(c).enumerate() {
+                        let o = self.field[y * w + x];
+                        self.add_smoothed(&scaled, x as f32, y as f32, o, 1.0, px);
+                    }
+                });
             }
             Mode::Dab => {
                 // Dab centres on a grid of spacing g; each pixel blends the
                 // results of the filters of its four surrounding centres.
                 let g = (2.0 * self.opts.scale).max(4.0) as f32;
-                out.par_chunks_mut(w * c).enumerate().try_for_each(
-                    |(y, row)| -> Result<(), SmoothError> {
-                        let mut tmp = vec![0.0; c];
-                        let mut acc = vec![0.0; c];
-                        let gy = y as f32 / g;
-                        let (j0, fy) = (gy.floor(), gy - gy.floor());
-                        for (x, px) in row.chunks_exact_mut(c).enumerate() {
-                            let gx = x as f32 / g;
-                            let (i0, fx) = (gx.floor(), gx - gx.floor());
-                            px.fill(0.0);
-                            for (di, dj, wgt) in [
-                                (0.0, 0.0, (1.0 - fx) * (1.0 - fy)),
-                                (1.0, 0.0, fx * (1.0 - fy)),
-                                (0.0, 1.0, (1.0 - fx) * fy),
-                                (1.0, 1.0, fx * fy),
-                            ] {
-                                if wgt == 0.0 {
-                                    continue;
-                                }
-                                let o = self.orientation_at((i0 + di) * g, (j0 + dj) * g);
-                                self.smoothed_at(
-                                    &filters, x as f32, y as f32, o, &mut tmp, &mut acc,
-                                )?;
-                                for (p, a) in px.iter_mut().zip(&acc) {
-                                    *p += wgt * a;
-                                }
+                out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+                    let gy = y as f32 / g;
+                    let (j0, fy) = (gy.floor(), gy - gy.floor());
+                    for (x, px) in row.chunks_exact_mut(c).enumerate() {
+                        let gx = x as f32 / g;
+                        let (i0, fx) = (gx.floor(), gx - gx.floor());
+                        for (di, dj, wgt) in [
+                            (0.0, 0.0, (1.0 - fx) * (1.0 - fy)),
+                            (1.0, 0.0, fx * (1.0 - fy)),
+                            (0.0, 1.0, (1.0 - fx) * fy),
+                            (1.0, 1.0, fx * fy),
+                        ] {
+                            if wgt == 0.0 {
+                                continue;
                             }
+                            let o = self.orientation_at((i0 + di) * g, (j0 + dj) * g);
+                            self.add_smoothed(&scaled, x as f32, y as f32, o, wgt, px);
                         }
-                        Ok(())
-                    },
-                )?;
+                    }
+                });
             }
         }
         Ok(Image::from_vec(w, h, c, out)?)
@@ -388,16 +385,32 @@ impl Smoother {
         }
         let (x1, y1) = (x1 as usize, y1 as usize);
         let filters = self.filters()?;
-        let centre = self.orientation_at(dab.x, dab.y);
+        let scaled = self.scaled(&filters)?;
+        let rh = y1 - y0 + 1;
         let rw = x1 - x0 + 1;
+        // Paper's mode: one constant filter (the blend of two bank entries at
+        // the centre's orientation) over the dab's bounding box, evaluated as
+        // vectorised 2x2 stencils per tap; per pixel: `s` lookups per pixel.
+        let constant = match mode {
+            Mode::Dab => {
+                let o = self.orientation_at(dab.x, dab.y);
+                let (i, t) = self.bank.locate(f64::from(o.aspect));
+                let t = t as f32;
+                let mut taps = scaled[i].taps(o.theta, 1.0 - t);
+                if t > 0.0 {
+                    taps.extend(scaled[i + 1].taps(o.theta, t));
+                }
+                Some(taps.apply_region(&self.stack, x0, y0, rw, rh)?)
+            }
+            Mode::PerPixel => None,
+        };
         target
             .data_mut()
             .par_chunks_mut(w * c)
             .enumerate()
             .skip(y0)
-            .take(y1 - y0 + 1)
-            .try_for_each(|(y, row)| -> Result<(), SmoothError> {
-                let mut tmp = vec![0.0; c];
+            .take(rh)
+            .for_each(|(y, row)| {
                 let mut sm = vec![0.0; c];
                 for x in x0..=x1 {
                     let d = ((x as f32 - dab.x).powi(2) + (y as f32 - dab.y).powi(2)).sqrt();
@@ -405,22 +418,25 @@ impl Smoother {
                     if wgt <= 0.0 {
                         continue;
                     }
-                    let o = match mode {
-                        Mode::Dab => centre,
-                        Mode::PerPixel => self.field[y * w + x],
+                    let sm: &[f32] = if let Some(region) = &constant {
+                        let o = ((y - y0) * rw + (x - x0)) * c;
+                        &region[o..o + c]
+                    } else {
+                        sm.fill(0.0);
+                        let o = self.field[y * w + x];
+                        self.add_smoothed(&scaled, x as f32, y as f32, o, 1.0, &mut sm);
+                        &sm
                     };
-                    self.smoothed_at(&filters, x as f32, y as f32, o, &mut tmp, &mut sm)?;
-                    for (p, s) in row[x * c..(x + 1) * c].iter_mut().zip(&sm) {
+                    for (p, s) in row[x * c..(x + 1) * c].iter_mut().zip(sm) {
                         *p += wgt * (s - *p);
                     }
                 }
-                Ok(())
-            })?;
+            });
         Ok(Some(DabRegion {
             x0,
             y0,
             width: rw,
-            height: y1 - y0 + 1,
+            height: rh,
         }))
     }
 }

@@ -1,4 +1,8 @@
 //! Hessian and smoothing checked against analytic identities and brute force.
+#![allow(
+    clippy::unwrap_used,
+    reason = "test helpers outside #[test] functions: a panic is the failure report"
+)]
 
 use std::sync::{Arc, OnceLock};
 
@@ -86,12 +90,12 @@ fn point_hessian_equals_whole_image() {
     let f = hbank.bind(&stack).unwrap();
     for (x, y) in [(10, 20), (33, 33), (60, 5)] {
         let p = f.at(x as f32, y as f32, 3.0).unwrap();
-        for k in 0..3 {
-            let d = (p[k] - f64::from(whole.get(x, y, k))).abs();
+        for (k, &pk) in p.iter().enumerate() {
+            let d = (pk - f64::from(whole.get(x, y, k))).abs();
             assert!(
                 d < 1e-5,
                 "({x}, {y}) component {k}: {} vs {}",
-                p[k],
+                pk,
                 whole.get(x, y, k)
             );
         }
