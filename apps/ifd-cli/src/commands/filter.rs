@@ -83,6 +83,25 @@ fn load_map(input: &InputOptions, path: &Path, what: &str, w: usize, h: usize) -
     Ok(img.into_vec())
 }
 
+/// Refuses a filter whose kernel, at the largest scale used, is larger than
+/// the image: its lookups would reach past the image on both sides and the
+/// border rule would fold the image onto itself more than once, which is
+/// almost always a mistake (a wrong `--scale`, or a crop too small). The
+/// kernel's longer side is compared with the image's longer side, since a
+/// rotation can point it either way.
+fn check_kernel_fits(decomposition: &Decomposition, smax: f32, w: usize, h: usize) -> Result<()> {
+    if let Some((kw, kh)) = decomposition.kernel_size {
+        let extent = kw.max(kh) as f32 * smax;
+        if extent > w.max(h) as f32 {
+            bail!(
+                "the filter's kernel is {kw}x{kh} px; at scale {smax} it spans {extent:.0} px, \
+                 larger than the {w}x{h} image (use a smaller --scale or a larger image)"
+            );
+        }
+    }
+    Ok(())
+}
+
 /// The `--gpu` path: upload the stack and the decomposition, evaluate, read back.
 fn filter_gpu(
     stack: &ifd_planar::ScaleStack,
@@ -158,6 +177,7 @@ impl Filter {
         if !(smin.is_finite() && smax.is_finite() && smin > 0.0) {
             bail!("scales must be finite and positive (found range [{smin}, {smax}])");
         }
+        check_kernel_fits(&decomposition, smax, w, h)?;
         let scale = match &scale_map {
             Some(m) => Field::Map(m),
             None => Field::Constant(smin),

@@ -1,0 +1,209 @@
+//! End-to-end tests of `ifd decompose`, `ifd filter` and `ifd smooth`: bad
+//! input gets exit code 2 and a message naming the problem; good input gives
+//! outputs of the right shape.
+
+use std::path::Path;
+use std::process::Command;
+
+use ifd_image::Image;
+
+fn ifd(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_ifd"))
+        .args(args)
+        .output()
+        .expect("run ifd");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn path(dir: &Path, name: &str) -> String {
+    dir.join(name).to_string_lossy().into_owned()
+}
+
+fn save(dir: &Path, name: &str, w: usize, h: usize, data: Vec<f32>) -> String {
+    let p = path(dir, name);
+    let img = Image::from_vec(w, h, 1, data).expect("test image");
+    ifd_image::write(&p, &img).expect("write test image");
+    p
+}
+
+/// Exit code 2, every `needles` in stderr, and no output file left behind.
+fn refused(args: &[&str], needles: &[&str], output: Option<&str>) {
+    let (code, _, err) = ifd(args);
+    assert_eq!(code, 2, "{args:?}: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: expected {n:?} in {err:?}");
+    }
+    assert!(!err.contains("panicked"), "{err}");
+    if let Some(o) = output {
+        assert!(!Path::new(o).exists(), "{o} was written");
+    }
+}
+
+#[test]
+fn decompose_refuses_bad_kernels() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = path(d, "d.json");
+    let zero = save(d, "zero.npy", 9, 9, vec![0.0; 81]);
+    let even = save(d, "even.npy", 8, 9, vec![1.0; 72]);
+    let mut nan = vec![1.0; 81];
+    nan[40] = f32::NAN;
+    let nan = save(d, "nan.npy", 9, 9, nan);
+    refused(&["decompose", &zero, "-o", &out], &["zero"], Some(&out));
+    refused(&["decompose", &even, "-o", &out], &["odd"], Some(&out));
+    refused(&["decompose", &nan, "-o", &out], &["NaN"], Some(&out));
+    refused(
+        &["decompose", "gauss:sx=4,sy=2", "--levels", "40", "-o", &out],
+        &["level"],
+        Some(&out),
+    );
+    refused(
+        &["decompose", "gauss:sx=-4,sy=2", "-o", &out],
+        &["sx"],
+        Some(&out),
+    );
+    refused(
+        &["decompose", "nosuchfilter:a=1", "-o", &out],
+        &["nosuchfilter"],
+        Some(&out),
+    );
+}
+
+#[test]
+fn decompose_then_filter_a_kernel_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A 3:1 Gaussian written as a kernel file, centre at the middle.
+    let r = 12i32;
+    let n = (2 * r + 1) as usize;
+    let k: Vec<f32> = (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as i32 - r, (i / n) as i32 - r);
+            (-0.5 * ((x * x) as f32 / 9.0 + (y * y) as f32)).exp()
+        })
+        .collect();
+    let kfile = save(d, "k.npy", n, n, k);
+    let dec = path(d, "d.json");
+    let (code, out, err) = ifd(&["decompose", &kfile, "-o", &dec, "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(v["rel_l2_error"].as_f64().unwrap() < 0.02, "{v}");
+    assert!(v["terms"].as_u64().unwrap() > 0, "{v}");
+    let img = save(
+        d,
+        "img.npy",
+        64,
+        48,
+        (0..64 * 48).map(|i| (i % 7) as f32).collect(),
+    );
+    let o = path(d, "o.npy");
+    let (code, _, err) = ifd(&["filter", &img, "--decomp", &dec, "-o", &o]);
+    assert_eq!(code, 0, "{err}");
+    let res = ifd_image::read(&o).unwrap();
+    assert_eq!((res.width(), res.height(), res.channels()), (64, 48, 1));
+    assert!(res.data().iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn filter_refuses_bad_maps_scales_and_kernels() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let dec = path(d, "d.json");
+    let (code, _, err) = ifd(&["decompose", "gauss:sx=6,sy=2", "-o", &dec]);
+    assert_eq!(code, 0, "{err}");
+    let (w, h) = (80, 60);
+    let img = save(d, "img.npy", w, h, vec![0.5; w * h]);
+    let small = save(d, "small.npy", 20, 20, vec![0.5; 400]);
+    let wrong = save(d, "wrong.npy", w - 1, h, vec![0.0; (w - 1) * h]);
+    let mut nan = vec![1.0; w * h];
+    nan[123] = f32::NAN;
+    let nan_scale = save(d, "nan-scale.npy", w, h, nan);
+    let neg = save(d, "neg-scale.npy", w, h, vec![-1.0; w * h]);
+    let out = path(d, "out.png");
+    let run = |extra: &[&str], needles: &[&str]| {
+        let mut args = vec!["filter", &*img, "--decomp", &*dec, "-o", &*out];
+        args.extend(extra);
+        refused(&args, needles, Some(&out));
+    };
+    run(&["--angle-map", &wrong], &["angle map", "79x60", "80x60"]);
+    run(&["--scale-map", &wrong], &["scale map", "79x60"]);
+    run(&["--scale-map", &nan_scale], &["scale"]);
+    run(&["--scale-map", &neg], &["scale"]);
+    run(&["--scale", "0"], &["scale"]);
+    run(&["--scale", "1e9"], &["scale"]);
+    run(&["--border", "mirror-ish"], &["--border"]);
+    // The 49x49 kernel does not fit a 20x20 image; at scale 3 it outgrows 80x60.
+    refused(
+        &["filter", &small, "--decomp", &dec, "-o", &out],
+        &["larger than the 20x20 image"],
+        Some(&out),
+    );
+    run(&["--scale", "3"], &["larger than the 80x60 image"]);
+    let bad_dec = path(d, "bad.json");
+    std::fs::write(
+        &bad_dec,
+        b"{\"format\": \"ifd-decomposition\", \"version\": 99}",
+    )
+    .unwrap();
+    refused(
+        &["filter", &img, "--decomp", &bad_dec, "-o", &out],
+        &["bad.json"],
+        Some(&out),
+    );
+}
+
+#[test]
+fn smooth_writes_a_smoothed_image_and_refuses_bad_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (w, h) = (72, 56);
+    // A noisy vertical edge: smoothing must keep the edge and reduce the noise.
+    let mut seed = 12345u32;
+    let mut noise = || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+    };
+    let clean = |x: usize| if x < w / 2 { 0.2 } else { 0.8 };
+    let data: Vec<f32> = (0..w * h).map(|i| clean(i % w) + 0.2 * noise()).collect();
+    let img = save(d, "noisy.npy", w, h, data.clone());
+    let out = path(d, "out.npy");
+    let (code, _, err) = ifd(&["smooth", &img, "--scale", "3", "-o", &out]);
+    assert_eq!(code, 0, "{err}");
+    let res = ifd_image::read(&out).unwrap();
+    assert_eq!((res.width(), res.height(), res.channels()), (w, h, 1));
+    let rms = |v: &[f32]| {
+        let e: f32 = v
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| (i % w).abs_diff(w / 2) > 8 && (i / w) > 8 && (i / w) < h - 8)
+            .map(|(i, p)| (p - clean(i % w)).powi(2))
+            .sum();
+        e.sqrt()
+    };
+    assert!(
+        rms(res.data()) < 0.5 * rms(&data),
+        "noise not reduced: {} vs {}",
+        rms(res.data()),
+        rms(&data)
+    );
+    // The edge survives: the step across the middle stays large.
+    let row = h / 2;
+    let step = res.get(w / 2 + 4, row, 0) - res.get(w / 2 - 5, row, 0);
+    assert!(step > 0.4, "edge blurred away: step {step}");
+    for (extra, needle) in [
+        (vec!["--scale", "0.5"], "scale"),
+        (vec!["--scale", "1000"], "scale"),
+        (vec!["--scale", "3", "--strength", "2"], "strength"),
+        (vec!["--scale", "3", "--max-aspect", "100"], "aspect"),
+        (vec!["--scale", "3", "--mode", "sideways"], "mode"),
+    ] {
+        let mut args = vec!["smooth", &*img, "-o", &*out];
+        args.extend(extra);
+        let _ = std::fs::remove_file(&out);
+        refused(&args, &[needle], Some(&out));
+    }
+}
