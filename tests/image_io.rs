@@ -70,7 +70,13 @@ fn zero_sized_npy_is_refused() {
     bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
     bytes.extend_from_slice(header.as_bytes());
     std::fs::write(&p, bytes).unwrap();
-    assert!(matches!(image::read(&p), Err(ImageError::Empty { .. })));
+    let e = image::read(&p).unwrap_err();
+    assert!(matches!(e, ImageError::Empty { .. }), "{e}");
+    let msg = e.to_string();
+    assert!(
+        msg.starts_with(&format!("{}: image is empty (5x0", p.display())),
+        "{msg}"
+    );
 }
 
 #[test]

@@ -94,7 +94,29 @@ fn memory_budget_is_enforced() {
     let (code, _, err) = ifd(&["compare", &cam, &cam, "--memory-budget", "1"]);
     assert_eq!(code, 2);
     assert!(
-        err.contains("would need 1.2 MiB") && err.contains("budget of 1.0 MiB"),
+        err.contains(&format!("{cam}: image would need 1.2 MiB"))
+            && err.contains("budget of 1.0 MiB"),
+        "{err}"
+    );
+    // A .npy is refused from its header: 20000x20000 float32 would need
+    // 20000^2 x (4 read + 4 kept) bytes = 3.0 GiB; the data is never read
+    // (the file holds none, so a later check would say "truncated").
+    let dir = tempfile::tempdir().unwrap();
+    let mut header =
+        "{'descr': '<f4', 'fortran_order': False, 'shape': (20000, 20000), }".to_string();
+    while !(10 + header.len() + 1).is_multiple_of(64) {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    bytes.extend_from_slice(header.as_bytes());
+    let p = write_file(dir.path(), "huge.npy", &bytes);
+    let (code, _, err) = ifd(&["info", &p, "--memory-budget", "1"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains(&format!("{p}: image would need 3.0 GiB"))
+            && err.contains("budget of 1.0 MiB"),
         "{err}"
     );
 }
@@ -119,12 +141,15 @@ fn nan_input_refused_or_replaced() {
     let (code, _, err) = ifd(&["compare", &p, &p]);
     assert_eq!(code, 2);
     assert!(
-        err.contains("1 non-finite") && err.contains("x=1, y=1"),
+        err.contains(&format!("{p}: 1 non-finite")) && err.contains("x=1, y=1"),
         "{err}"
     );
     let (code, _, err) = ifd(&["compare", &p, &p, "--replace-nonfinite", "0"]);
     assert_eq!(code, 0, "{err}");
-    assert!(err.contains("replaced 1 non-finite"), "{err}");
+    assert!(
+        err.contains(&format!("{p}: replaced 1 non-finite")),
+        "{err}"
+    );
 }
 
 #[test]
@@ -141,7 +166,10 @@ fn zero_sized_and_mismatched() {
     let p = write_file(dir.path(), "empty.npy", &bytes);
     let (code, _, err) = ifd(&["compare", &p, &p]);
     assert_eq!(code, 2);
-    assert!(err.contains("empty"), "{err}");
+    assert!(
+        err.contains(&format!("{p}: image is empty (3x0 with 1 channels)")),
+        "{err}"
+    );
     let (code, _, err) = ifd(&["compare", &testdata("camera.png"), &testdata("coffee.png")]);
     assert_eq!(code, 2);
     assert!(err.contains("512x512") && err.contains("600x400"), "{err}");
