@@ -720,3 +720,52 @@ mod smoothing {
         }
     }
 }
+
+/// Set in the child process of [`no_adapter_is_a_clear_error_not_a_panic`].
+const NO_ADAPTER_CHILD: &str = "IFD_GPU_NO_ADAPTER_CHILD";
+
+/// With no Vulkan driver at all, device creation is `GpuError::NoAdapter`
+/// with a message saying what to install, not a panic. The Vulkan loader is
+/// pointed at a driver manifest that does not exist (`VK_DRIVER_FILES`, and
+/// `VK_ICD_FILENAMES` for older loaders) and wgpu to Vulkan only
+/// (`WGPU_BACKEND=vulkan`: in a whole-workspace build eframe's features
+/// compile wgpu's GL backend in, which would find Mesa's GL llvmpipe), in a
+/// child process so the other tests keep their adapter.
+#[test]
+fn no_adapter_is_a_clear_error_not_a_panic() {
+    if std::env::var_os(NO_ADAPTER_CHILD).is_some() {
+        let e = GpuContext::new().expect_err("no Vulkan driver, yet an adapter was found");
+        assert!(matches!(e, GpuError::NoAdapter(_)), "{e:?}");
+        let msg = e.to_string();
+        assert!(
+            msg.starts_with("no GPU adapter found") && msg.contains("mesa-vulkan-drivers"),
+            "{msg}"
+        );
+        assert!(ifd_gpu::list_adapters().is_empty());
+        println!("child saw: {msg}");
+        return;
+    }
+    let missing = "/nonexistent/ifd-no-vulkan-driver.json";
+    let out = std::process::Command::new(std::env::current_exe().expect("test binary"))
+        .args([
+            "--exact",
+            "no_adapter_is_a_clear_error_not_a_panic",
+            "--nocapture",
+            "--test-threads=1",
+        ])
+        .env(NO_ADAPTER_CHILD, "1")
+        .env("VK_DRIVER_FILES", missing)
+        .env("VK_ICD_FILENAMES", missing)
+        .env_remove("VK_ADD_DRIVER_FILES")
+        .env("WGPU_BACKEND", "vulkan")
+        .output()
+        .expect("run the test binary");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && stdout.contains("child saw: no GPU adapter found"),
+        "child failed ({}):\n{stdout}\n{stderr}",
+        out.status
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
