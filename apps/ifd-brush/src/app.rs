@@ -88,6 +88,17 @@ enum Stage {
     Done,
 }
 
+/// An answer to the "unsaved edits" question (its three buttons).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Answer {
+    /// Save first (opens the save browser), then go on.
+    Save,
+    /// Go on and lose the edits.
+    Discard,
+    /// Do nothing.
+    Cancel,
+}
+
 /// A question waiting for an answer before something that would lose edits.
 #[derive(Clone, Debug)]
 enum Pending {
@@ -146,10 +157,42 @@ pub struct BrushApp {
     compute_note: Option<String>,
 }
 
-/// The bundled image opened when none is given (the one the library tests use).
+/// The bundled image opened when none is given, `testdata/camera.png` (the
+/// one the library tests use).
+///
+/// Looked for, in order: in the executable's folder and up to three folders
+/// above it (an installed copy next to the binary, or a checkout's
+/// `target/release/ifd-brush`), then in the current folder, and last at the
+/// source checkout this binary was built from (a compile-time path, which a
+/// moved or installed binary may no longer have). When none of them exists
+/// that last path is returned, and opening it fails with a message naming it.
 #[must_use]
 pub fn bundled_image() -> PathBuf {
+    let exe = std::env::current_exe().ok();
+    let cwd = std::env::current_dir().ok();
+    bundled_image_candidates(exe.as_deref(), cwd.as_deref())
+        .into_iter()
+        .find(|p| p.is_file())
+        .unwrap_or_else(built_in_bundled_image)
+}
+
+/// `testdata/camera.png` of the checkout the binary was built from.
+fn built_in_bundled_image() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../testdata/camera.png")
+}
+
+/// Where [`bundled_image`] looks, in order.
+fn bundled_image_candidates(exe: Option<&Path>, cwd: Option<&Path>) -> Vec<PathBuf> {
+    let rel = Path::new("testdata").join("camera.png");
+    let mut out: Vec<PathBuf> = exe
+        .and_then(Path::parent)
+        .into_iter()
+        .flat_map(|d| d.ancestors().take(4))
+        .map(|d| d.join(&rel))
+        .collect();
+    out.extend(cwd.map(|d| d.join(&rel)));
+    out.push(built_in_bundled_image());
+    out
 }
 
 const CANVAS_BG: Color32 = Color32::from_gray(40);
@@ -260,10 +303,46 @@ impl BrushApp {
         matches!(self.pending, Some(Pending::Quit))
     }
 
+    /// The image whose opening waits for the "unsaved edits" question.
+    #[must_use]
+    pub fn asks_before_open(&self) -> Option<&Path> {
+        match &self.pending {
+            Some(Pending::Open(p)) => Some(p),
+            _ => None,
+        }
+    }
+
+    /// Answers the "unsaved edits" question as its buttons do; nothing
+    /// happens when no question is showing.
+    pub fn answer(&mut self, ctx: &egui::Context, answer: Answer) {
+        let Some(p) = self.pending.take() else {
+            return;
+        };
+        match answer {
+            Answer::Save => {
+                self.quit_after_save = matches!(p, Pending::Quit);
+                self.browse(Purpose::Save);
+            }
+            Answer::Discard => match p {
+                Pending::Quit => {
+                    self.allow_close = true;
+                    ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                }
+                Pending::Open(path) => self.open_now(path),
+            },
+            Answer::Cancel => {}
+        }
+    }
+
     /// Error messages shown so far (dialogs).
     #[must_use]
     pub fn errors(&self) -> &[String] {
         &self.errors
+    }
+
+    /// Closes the error dialog, as its OK button does.
+    pub fn dismiss_errors(&mut self) {
+        self.errors.clear();
     }
 
     /// The UI-thread durations of recent frames, milliseconds.
@@ -973,7 +1052,7 @@ impl BrushApp {
                 }
             });
             if close {
-                self.errors.clear();
+                self.dismiss_errors();
             }
         }
         if let Some(p) = self.pending.clone() {
@@ -988,34 +1067,18 @@ impl BrushApp {
                 });
                 ui.horizontal(|ui| {
                     if ui.button("Save…").clicked() {
-                        answer = Some(0);
+                        answer = Some(Answer::Save);
                     }
                     if ui.button("Discard edits").clicked() {
-                        answer = Some(1);
+                        answer = Some(Answer::Discard);
                     }
                     if ui.button("Cancel").clicked() {
-                        answer = Some(2);
+                        answer = Some(Answer::Cancel);
                     }
                 });
             });
-            match answer {
-                Some(0) => {
-                    self.pending = None;
-                    self.quit_after_save = matches!(p, Pending::Quit);
-                    self.browse(Purpose::Save);
-                }
-                Some(1) => {
-                    self.pending = None;
-                    match p {
-                        Pending::Quit => {
-                            self.allow_close = true;
-                            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
-                        }
-                        Pending::Open(path) => self.open_now(path),
-                    }
-                }
-                Some(_) => self.pending = None,
-                None => {}
+            if let Some(a) = answer {
+                self.answer(ctx, a);
             }
         }
         if let Some(b) = &mut self.browser {
@@ -1130,4 +1193,36 @@ pub fn write_screenshot(path: &Path, img: &ColorImage) -> anyhow::Result<()> {
     let im = Image::from_vec(w, h, 3, data)?;
     ifd_image::write(path, &im)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bundled_image_is_looked_for_next_to_the_binary_first() {
+        let c = bundled_image_candidates(
+            Some(Path::new("/opt/ifd/bin/ifd-brush")),
+            Some(Path::new("/home/u")),
+        );
+        let want: Vec<PathBuf> = [
+            "/opt/ifd/bin/testdata/camera.png",
+            "/opt/ifd/testdata/camera.png",
+            "/opt/testdata/camera.png",
+            "/testdata/camera.png",
+            "/home/u/testdata/camera.png",
+        ]
+        .iter()
+        .map(PathBuf::from)
+        .chain([built_in_bundled_image()])
+        .collect();
+        assert_eq!(c, want);
+        // Without an executable or current folder only the built-in path is left.
+        assert_eq!(
+            bundled_image_candidates(None, None),
+            [built_in_bundled_image()]
+        );
+        // From a test binary in target/debug/deps, the checkout's copy is found.
+        assert!(bundled_image().is_file(), "{}", bundled_image().display());
+    }
 }
