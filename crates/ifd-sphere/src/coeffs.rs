@@ -177,7 +177,9 @@ impl ShCoeffs {
     /// `((L + 1)^2,)` (one channel).
     ///
     /// # Errors
-    /// [`SphereError::File`] for unreadable or malformed files.
+    /// [`SphereError::File`] for unreadable or malformed files and for NaN or
+    /// infinite coefficients (naming the count and the first row/column);
+    /// [`SphereError::Length`] when the row count is not `(L + 1)^2`.
     pub fn read_npy(path: &Path) -> Result<Self> {
         let (shape, data) = read_npy_f64(path)?;
         let (rows, cols) = match shape.as_slice() {
@@ -190,6 +192,19 @@ impl ShCoeffs {
                 });
             }
         };
+        if let Some(first) = data.iter().position(|v| !v.is_finite()) {
+            let count = data.iter().filter(|v| !v.is_finite()).count();
+            return Err(SphereError::File {
+                path: path.to_path_buf(),
+                reason: format!(
+                    "{count} non-finite SH coefficient(s) (NaN or infinity), first at row {}, \
+                     column {} ({})",
+                    first / cols,
+                    first % cols,
+                    data[first]
+                ),
+            });
+        }
         Self::from_rows(rows, cols, data)
     }
 }

@@ -57,9 +57,26 @@ pub enum SphereError {
         "degenerate direction set for band l = {band}: condition number of M {cond:.3e} exceeds {limit:.1e}"
     )]
     Degenerate {
-        /// The band (or, for a full matrix `M`, the degree `L`).
+        /// The band.
         band: usize,
         /// The 2-norm condition number (infinite when singular).
+        cond: f64,
+        /// The accepted limit.
+        limit: f64,
+    },
+    /// A full ISD matrix `M` (Eq. 17, any profile) that is singular or too badly
+    /// conditioned for its lobe directions.
+    #[error(
+        "ISD matrix M of degree L = {l_max} ({profile} profile) is degenerate: condition number \
+         {cond:.3e} exceeds {limit:.1e} (try per-band or optimized directions, another profile \
+         or a lower L)"
+    )]
+    IllConditioned {
+        /// The degree `L`.
+        l_max: usize,
+        /// The profile's name.
+        profile: &'static str,
+        /// The 2-norm condition number of `M` (infinite when singular).
         cond: f64,
         /// The accepted limit.
         limit: f64,
@@ -95,6 +112,24 @@ pub enum SphereError {
         text: String,
         /// Why.
         reason: String,
+    },
+    /// A dense ISD problem (matrix `M` of Eq. 17 and its SVD) too large to build.
+    #[error(
+        "L = {l_max} is too large for a dense ISD decomposition: M would be {n}x{n} \
+         ({mib:.0} MiB) and its SVD about {gflop:.0} GFLOP; at most L = {max} is supported \
+         (ifd_sphere::profile::MAX_ISD_DEGREE)"
+    )]
+    IsdTooLarge {
+        /// The requested degree.
+        l_max: usize,
+        /// The largest supported degree.
+        max: usize,
+        /// Side of `M`, `(L + 1)^2`.
+        n: usize,
+        /// Memory of `M` alone, MiB.
+        mib: f64,
+        /// Rough cost of the SVD, `~ 10 n^3` flops, in GFLOP.
+        gflop: f64,
     },
     /// Two objects with incompatible degrees or channel counts.
     #[error("mismatch: {0}")]

@@ -46,6 +46,7 @@
 //! - [`profile`]: mother functions, `beta_{l l'}`, the general `M` (Eq. 15-19).
 //! - [`kernel`]: closed-form spherical filters and their projection.
 //! - [`filter`]: prefiltering (Eq. 13) and evaluation of `fhat(R)` (Eq. 6, 14).
+//! - [`plot`]: the condition-number study of Fig. 13 and its plot.
 //! - [`coeffs`]: [`ShCoeffs`] and their `.npy` format.
 
 mod error;
@@ -53,6 +54,7 @@ mod error;
 pub mod coeffs;
 pub mod filter;
 pub mod kernel;
+pub mod plot;
 pub mod profile;
 pub mod rotation;
 pub mod sh;

@@ -232,12 +232,51 @@ impl std::fmt::Debug for IsdBasis {
     }
 }
 
+/// The largest degree of a general ISD basis ([`isd_matrix`], [`IsdBasis`]).
+///
+/// `M` is dense, `(L + 1)^2` square, and its condition number takes a full
+/// SVD (`O((L + 1)^6)`): at the limit `M` is `1681 x 1681` (22 MiB) and
+/// `ifd sphere decompose` takes about 4.5 s (measured, L = 40, Gauss profile;
+/// 1.8 s at L = 32).
+/// Beyond it the cost grows with `L^6`. (RZH bases, [`crate::zhf::RzhBasis`],
+/// are block-diagonal and go to [`crate::MAX_DEGREE`].)
+pub const MAX_ISD_DEGREE: usize = 40;
+
+/// Refuses degrees above [`MAX_ISD_DEGREE`], naming the size and cost of `M`.
+///
+/// ```
+/// use ifd_sphere::profile::{MAX_ISD_DEGREE, check_isd_degree};
+/// assert!(check_isd_degree(MAX_ISD_DEGREE).is_ok());
+/// let e = check_isd_degree(5000).unwrap_err().to_string();
+/// assert!(e.contains("at most L = 40"), "{e}");
+/// ```
+///
+/// # Errors
+/// [`SphereError::IsdTooLarge`].
+pub fn check_isd_degree(l_max: usize) -> Result<()> {
+    if l_max > MAX_ISD_DEGREE {
+        let n = l_max
+            .saturating_add(1)
+            .saturating_mul(l_max.saturating_add(1));
+        let nf = (l_max as f64 + 1.0).powi(2);
+        return Err(SphereError::IsdTooLarge {
+            l_max,
+            max: MAX_ISD_DEGREE,
+            n,
+            mib: nf * nf * 8.0 / f64::from(1u32 << 20),
+            gflop: 10.0 * nf * nf * nf / 1e9,
+        });
+    }
+    Ok(())
+}
+
 /// Builds `M` of Eq. 17 (rows `(l', m')`, columns `(l, j)`).
 ///
 /// # Errors
-/// [`SphereError::DegreeTooHigh`].
+/// [`SphereError::IsdTooLarge`] above [`MAX_ISD_DEGREE`].
 pub fn isd_matrix(profile: Profile, dirs: &DirectionSet) -> Result<(DMatrix<f64>, Vec<f64>)> {
     let l_max = dirs.l_max();
+    check_isd_degree(l_max)?;
     let n = sh_count(l_max);
     let beta = profile.beta(l_max)?;
     let sh = ShEvaluator::new(l_max)?;
@@ -267,7 +306,8 @@ impl IsdBasis {
     /// [`crate::zhf::DEFAULT_COND_LIMIT`] (use [`Self::with_limit`] for Fig. 13-style studies).
     ///
     /// # Errors
-    /// [`SphereError::Degenerate`] with the condition number.
+    /// [`SphereError::IllConditioned`] with the condition number;
+    /// [`SphereError::IsdTooLarge`] above [`MAX_ISD_DEGREE`].
     pub fn new(profile: Profile, dirs: DirectionSet) -> Result<Self> {
         Self::with_limit(profile, dirs, crate::zhf::DEFAULT_COND_LIMIT)
     }
@@ -275,13 +315,14 @@ impl IsdBasis {
     /// [`Self::new`] with a custom limit.
     ///
     /// # Errors
-    /// [`SphereError::Degenerate`].
+    /// [`SphereError::IllConditioned`], [`SphereError::IsdTooLarge`].
     pub fn with_limit(profile: Profile, dirs: DirectionSet, cond_limit: f64) -> Result<Self> {
         let (m, beta) = isd_matrix(profile, &dirs)?;
         let cond = condition_number(&m);
         if cond.is_nan() || cond > cond_limit {
-            return Err(SphereError::Degenerate {
-                band: dirs.l_max(),
+            return Err(SphereError::IllConditioned {
+                l_max: dirs.l_max(),
+                profile: profile.name(),
                 cond,
                 limit: cond_limit,
             });
@@ -337,7 +378,7 @@ impl IsdBasis {
     /// (one column per channel; the coefficients are truncated or zero-padded to `L`).
     ///
     /// # Errors
-    /// [`SphereError::Degenerate`] if the solve fails.
+    /// [`SphereError::IllConditioned`] if the solve fails.
     pub fn decompose(&self, k: &ShCoeffs) -> Result<RzhCoeffs> {
         let k = k.resized(self.l_max())?;
         let n = sh_count(self.l_max());
@@ -345,8 +386,9 @@ impl IsdBasis {
         let mut data = vec![0.0; n * ch];
         for c in 0..ch {
             let b = nalgebra::DVector::from_vec(k.channel(c));
-            let x = self.lu.solve(&b).ok_or(SphereError::Degenerate {
-                band: self.l_max(),
+            let x = self.lu.solve(&b).ok_or(SphereError::IllConditioned {
+                l_max: self.l_max(),
+                profile: self.profile.name(),
                 cond: self.cond,
                 limit: crate::zhf::DEFAULT_COND_LIMIT,
             })?;

@@ -351,7 +351,23 @@ impl DirectionSet {
             .collect()
     }
 
-    fn optimize(&mut self, seed: u64, iterations: usize) {
+    /// Improves this set in place: moves single directions at random (seeded),
+    /// with steps shrinking over the `iterations` proposals, keeping moves that
+    /// lower the condition number of `M_l` (per band, `iterations` proposals
+    /// per band) or, for shared sets, the worst band's condition number and then
+    /// the sum of their logarithms (`iterations` proposals in all). It never makes
+    /// a band worse, so it can start from any set ([`Chooser::Optimized`] starts
+    /// from the Fibonacci set).
+    ///
+    /// ```
+    /// use ifd_sphere::zhf::{Chooser, DirectionSet, Sharing};
+    /// let mut d = DirectionSet::new(4, Sharing::PerBand, Chooser::Random { seed: 1 })?;
+    /// let before = d.condition_numbers();
+    /// d.optimize(7, 50);
+    /// assert!(d.condition_numbers().iter().zip(&before).all(|(a, b)| a <= b));
+    /// # Ok::<(), ifd_sphere::SphereError>(())
+    /// ```
+    pub fn optimize(&mut self, seed: u64, iterations: usize) {
         let Ok(sh) = ShEvaluator::new(self.l_max) else {
             return;
         };
