@@ -150,23 +150,36 @@ def test_bundled_envmap_negatives_are_clamped_and_counted(run_ifd, tmp_path):
 def test_bad_inputs_fail_cleanly(run_ifd, tmp_path):
     np.save(tmp_path / "sq.npy", np.ones((16, 16, 3), np.float32))
     p = run_ifd("sphere", "sh", tmp_path / "sq.npy", "--lmax", 4, "-o", tmp_path / "c.npy", check=False)
-    assert p.returncode == 2 and "2:1" in p.stderr
+    assert p.returncode == 2 and "2:1" in p.stderr and "6:1" in p.stderr and "16x16" in p.stderr, p.stderr
     nan = np.ones((8, 16), np.float32)
     nan[3, 4] = np.nan
     np.save(tmp_path / "nan.npy", nan)
     p = run_ifd("sphere", "sh", tmp_path / "nan.npy", "--lmax", 4, "-o", tmp_path / "c.npy", check=False)
     assert p.returncode == 2 and ("non-finite" in p.stderr or "NaN" in p.stderr)
-    p = run_ifd("sphere", "sh", tmp_path / "sq.npy", "--lmax", 5000, "-o", tmp_path / "c.npy", check=False)
-    assert p.returncode == 2
+    # a valid 2:1 map, so that the degree is what is refused
+    np.save(tmp_path / "eq.npy", np.ones((8, 16, 3), np.float32))
+    p = run_ifd("sphere", "sh", tmp_path / "eq.npy", "--lmax", 5000, "-o", tmp_path / "c.npy", check=False)
+    assert p.returncode == 2 and "L = 5000 is not supported (at most 1000)" in p.stderr, p.stderr
+    p = run_ifd("sphere", "decompose", "gauss:s=0.3", "--lmax", 5000, "-o", tmp_path / "d.json", check=False)
+    assert p.returncode == 2 and "at most L = 40" in p.stderr and "MAX_ISD_DEGREE" in p.stderr, p.stderr
     np.save(tmp_path / "c.npy", np.ones((5, 1)))
     p = run_ifd("sphere", "rotate", tmp_path / "c.npy", "--zyz", "0,1,0", "-o", tmp_path / "r.npy", check=False)
     assert p.returncode == 2 and "(L+1)^2" in p.stderr
+    bad = np.ones((9, 3))
+    bad[4, 2] = np.nan
+    np.save(tmp_path / "bad.sh.npy", bad)
+    for args in (("rotate", tmp_path / "bad.sh.npy", "--zyz", "0,1,0", "-o", tmp_path / "r.npy"),
+                 ("decompose", tmp_path / "bad.sh.npy", "--lmax", 2, "-o", tmp_path / "d.json")):
+        p = run_ifd("sphere", *args, check=False)
+        assert p.returncode == 2 and "1 non-finite SH coefficient(s)" in p.stderr, p.stderr
+        assert "row 4, column 2" in p.stderr and "bad.sh.npy" in p.stderr
 
 
 def test_decompose_and_condition(run_ifd, tmp_path):
     out = json.loads(run_ifd("sphere", "decompose", "aniso-gauss:s1=0.3,s2=0.05", "--lmax", 8,
                              "--directions", "shared", "-o", tmp_path / "d.json").stdout)
-    assert out["lobes"] == 81 and out["condition_number"] < 1e4
+    assert out["lobes"] == 81 and out["directions"] == 17 and out["channels"] == 1
+    assert out["condition_number"] < 1e4
     d = json.loads((tmp_path / "d.json").read_text())
     assert d["profile"] == "zonal" and d["directions"]["sharing"] == "shared"
     out = json.loads(run_ifd("sphere", "decompose", "vmf:kappa=50", "--lmax", 6, "--profile", "gauss",
@@ -177,6 +190,8 @@ def test_decompose_and_condition(run_ifd, tmp_path):
     rows = json.loads(run_ifd("sphere", "condition", "--lmax", 6, "--plot", tmp_path / "c.png",
                               "--csv", tmp_path / "c.csv").stdout)
     assert (tmp_path / "c.png").stat().st_size > 1000
+    csv = (tmp_path / "c.csv").read_text().splitlines()
+    assert csv[0] == "L,profile,sharing,cond,singular" and len(csv) == 1 + 6 * 2 * 6
     by = {(r["profile"], r["sharing"]): r["cond"] for r in rows}
     # ISD Fig. 13: sharing matters little for Legendre, a lot for Gauss
     assert by[("gauss", "shared")][-1] > 10 * by[("gauss", "per-band")][-1]

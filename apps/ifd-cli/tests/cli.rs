@@ -325,3 +325,476 @@ fn smooth_gpu_matches_cpu_and_refuses_dab_mode() {
     assert_eq!(code, 2);
     assert!(err.contains("per-pixel"), "{err}");
 }
+
+/// `ifd sphere ...`: layouts, reconstruction clamping, limits, decomposition inputs.
+mod sphere {
+    use super::{ifd, testdata};
+    use ifd_sphere::ShCoeffs;
+    use ifd_sphere::coeffs::write_npy_f64;
+    use ifd_sphere::kernel::{Kernel, project_function};
+    use ifd_sphere::sh::{direction, gauss_legendre, sh_index};
+    use std::f64::consts::PI;
+    use std::path::Path;
+
+    fn p(dir: &Path, name: &str) -> String {
+        dir.join(name).to_string_lossy().into_owned()
+    }
+
+    fn json(out: &str) -> serde_json::Value {
+        serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}"))
+    }
+
+    /// Lobe weights (rows of `channels` values) of a decomposition JSON file.
+    fn weights(path: &str) -> (usize, Vec<f64>) {
+        let text = std::fs::read_to_string(path).expect("read the decomposition");
+        let v: serde_json::Value = serde_json::from_str(&text).expect("decomposition JSON");
+        let ch = v["weights"]["channels"].as_u64().expect("channels") as usize;
+        let data = v["weights"]["data"]
+            .as_array()
+            .expect("weights")
+            .iter()
+            .map(|x| x.as_f64().expect("a number"))
+            .collect();
+        (ch, data)
+    }
+
+    fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
+        assert_eq!(a.len(), b.len());
+        let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+            / scale
+    }
+
+    #[test]
+    fn sh_reconstruct_to_hdr_clamps_ringing_and_counts_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let map = testdata("forest_dwab.exr");
+        let (code, out, err) = ifd(&[
+            "sphere",
+            "sh",
+            &map,
+            "--lmax",
+            "8",
+            "-o",
+            &p(d, "c.npy"),
+            "--reconstruct",
+            &p(d, "rec.exr"),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        assert_eq!(json(&out)["reconstruct_negatives_clamped"], 0);
+        let (code, out, err) = ifd(&[
+            "sphere",
+            "sh",
+            &map,
+            "--lmax",
+            "8",
+            "-o",
+            &p(d, "c.npy"),
+            "--reconstruct",
+            &p(d, "rec.hdr"),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let v = json(&out);
+        // independent count: the negatives of the EXR reconstruction (which keeps them)
+        let exr = ifd_image::read(p(d, "rec.exr")).unwrap();
+        let negatives = exr.data().iter().filter(|x| **x < 0.0).count();
+        assert!(
+            negatives > 0,
+            "an L = 8 reconstruction of the forest map rings negative"
+        );
+        assert_eq!(v["reconstruct_negatives_clamped"], negatives);
+        assert!(
+            err.contains(&format!("{negatives} negative samples of the band-limited")),
+            "{err}"
+        );
+        let hdr = ifd_image::read(p(d, "rec.hdr")).unwrap();
+        assert_eq!((hdr.width(), hdr.height()), (exr.width(), exr.height()));
+        assert_eq!((hdr.channels(), exr.channels()), (3, 3));
+        for (h, e) in hdr.data().chunks(3).zip(exr.data().chunks(3)) {
+            // RGBE: an 8-bit mantissa per channel with the exponent of the largest
+            // channel, truncated: an error of up to 2^-7 of that channel
+            let top = e.iter().fold(0.0f32, |m, x| m.max(*x));
+            for (h, e) in h.iter().zip(e) {
+                let want = e.max(0.0);
+                assert!((h - want).abs() <= top / 64.0 + 1e-30, "{h} vs {want}");
+            }
+        }
+    }
+
+    #[test]
+    fn sh_refuses_bad_shapes_and_degrees_with_the_limit() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let bad = p(d, "bad.npy");
+        write_npy_f64(Path::new(&bad), &[20, 30], &vec![1.0; 600]).unwrap();
+        let (code, _, err) = ifd(&["sphere", "sh", &bad, "--lmax", "4", "-o", &p(d, "c.npy")]);
+        assert_eq!(code, 2);
+        assert!(
+            err.contains("2:1") && err.contains("6:1") && err.contains("30x20"),
+            "{err}"
+        );
+        let ok = p(d, "ok.npy");
+        write_npy_f64(Path::new(&ok), &[8, 16], &vec![1.0; 128]).unwrap();
+        let (code, _, err) = ifd(&["sphere", "sh", &ok, "--lmax", "5000", "-o", &p(d, "c.npy")]);
+        assert_eq!(code, 2);
+        assert!(
+            err.contains("L = 5000 is not supported (at most 1000)"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn sh_of_cubemap_strip_faces_lands_on_the_right_axes() {
+        // one face at a time set to 1: c_00 = Y_00 * (4 pi / 6) exactly (exact solid
+        // angles), and the l = 1 part points along the face's axis:
+        // y_1^-1 = -c1 y, y_1^0 = c1 z, y_1^1 = -c1 x
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let n = 8;
+        let axes = [
+            (1, -1.0),
+            (1, 1.0),
+            (-1, -1.0),
+            (-1, 1.0),
+            (0, 1.0),
+            (0, -1.0),
+        ];
+        for (face, (m, sign)) in axes.into_iter().enumerate() {
+            let mut img = vec![0.0; 6 * n * n];
+            for j in 0..n {
+                for i in 0..n {
+                    img[j * 6 * n + face * n + i] = 1.0;
+                }
+            }
+            let path = p(d, "cube.npy");
+            write_npy_f64(Path::new(&path), &[n, 6 * n], &img).unwrap();
+            let (code, out, err) = ifd(&[
+                "sphere",
+                "sh",
+                &path,
+                "--lmax",
+                "2",
+                "-o",
+                &p(d, "c.npy"),
+                "--reconstruct",
+                &p(d, "rec.npy"),
+            ]);
+            assert_eq!(code, 0, "{err}");
+            assert_eq!(json(&out)["layout"], "cubemap-strip");
+            let c = ShCoeffs::read_npy(Path::new(&p(d, "c.npy"))).unwrap();
+            let y00 = 0.5 / PI.sqrt();
+            assert!((c.get(0, 0, 0) - y00 * 4.0 * PI / 6.0).abs() < 1e-12);
+            for mm in -1..=1i64 {
+                let v = c.get(1, mm, 0);
+                if mm == m {
+                    assert!(v * sign > 0.1, "face {face}: c_1^{mm} = {v}");
+                } else {
+                    assert!(v.abs() < 1e-12, "face {face}: c_1^{mm} = {v}");
+                }
+            }
+            let rec = ifd_image::read(p(d, "rec.npy")).unwrap();
+            assert_eq!((rec.width(), rec.height()), (4 * n, 2 * n));
+        }
+    }
+
+    #[test]
+    fn decompose_refuses_large_degrees_naming_the_limit() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = p(dir.path(), "d.json");
+        let start = std::time::Instant::now();
+        let (code, _, err) = ifd(&[
+            "sphere",
+            "decompose",
+            "gauss:s=0.3",
+            "--lmax",
+            "5000",
+            "-o",
+            &out,
+        ]);
+        assert_eq!(code, 2);
+        assert!(
+            err.contains("L = 5000 is too large for a dense ISD decomposition")
+                && err.contains("at most L = 40")
+                && err.contains("MAX_ISD_DEGREE"),
+            "{err}"
+        );
+        // refused before any work
+        assert!(start.elapsed().as_secs_f64() < 5.0);
+        let (code, _, err) = ifd(&["sphere", "condition", "--lmax", "41"]);
+        assert_eq!(code, 2);
+        assert!(err.contains("1..=40"), "{err}");
+    }
+
+    #[test]
+    fn decompose_from_samples_and_from_sh_coefficients() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let (l, spec) = (6usize, "vmf:kappa=10");
+        let (code, out, err) = ifd(&[
+            "sphere",
+            "decompose",
+            spec,
+            "--lmax",
+            "6",
+            "-o",
+            &p(d, "spec.json"),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let v = json(&out);
+        assert_eq!(
+            (v["lobes"].as_u64(), v["channels"].as_u64()),
+            (Some(49), Some(1))
+        );
+        let (_, want) = weights(&p(d, "spec.json"));
+        let k = Kernel::parse(spec).unwrap();
+        // (N, 5) samples on a Gauss-Legendre product grid with its weights
+        let (x, wx) = gauss_legendre(40);
+        let mut rows = Vec::new();
+        for (&z, &wz) in x.iter().zip(&wx) {
+            for j in 0..80 {
+                let dd = direction(z.acos(), 2.0 * PI * j as f64 / 80.0);
+                rows.extend_from_slice(&[dd[0], dd[1], dd[2], k.eval(dd), wz * 2.0 * PI / 80.0]);
+            }
+        }
+        let samples = p(d, "samples.npy");
+        write_npy_f64(Path::new(&samples), &[rows.len() / 5, 5], &rows).unwrap();
+        let (code, _, err) = ifd(&[
+            "sphere",
+            "decompose",
+            &samples,
+            "--lmax",
+            "6",
+            "-o",
+            &p(d, "s.json"),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let e = rel_diff(&weights(&p(d, "s.json")).1, &want);
+        assert!(e < 1e-9, "samples vs spec: {e}");
+        // (N, 4) samples: equal weights 4 pi / N on a fine spherical Fibonacci set
+        let fib = ifd_sphere::zhf::fibonacci(40_000);
+        let rows: Vec<f64> = fib
+            .iter()
+            .flat_map(|q| [q[0], q[1], q[2], k.eval(*q)])
+            .collect();
+        write_npy_f64(Path::new(&samples), &[fib.len(), 4], &rows).unwrap();
+        let (code, _, err) = ifd(&[
+            "sphere",
+            "decompose",
+            &samples,
+            "--lmax",
+            "6",
+            "-o",
+            &p(d, "s4.json"),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let e = rel_diff(&weights(&p(d, "s4.json")).1, &want);
+        assert!(e < 1e-3, "equal-weight samples vs spec: {e}");
+        // ((L+1)^2, 2) SH coefficients: the kernel and twice the kernel
+        let kc = project_function(l, |w| k.eval(w), 64).unwrap();
+        let two: Vec<f64> = kc.data().iter().flat_map(|c| [*c, 2.0 * c]).collect();
+        let sh = p(d, "k.sh.npy");
+        write_npy_f64(Path::new(&sh), &[(l + 1) * (l + 1), 2], &two).unwrap();
+        let (code, out, err) = ifd(&[
+            "sphere",
+            "decompose",
+            &sh,
+            "--lmax",
+            "6",
+            "-o",
+            &p(d, "sh.json"),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let v = json(&out);
+        assert_eq!(
+            (v["lobes"].as_u64(), v["channels"].as_u64()),
+            (Some(49), Some(2))
+        );
+        let (ch, w2) = weights(&p(d, "sh.json"));
+        assert_eq!(ch, 2);
+        let c0: Vec<f64> = w2.iter().step_by(2).copied().collect();
+        let c1: Vec<f64> = w2.iter().skip(1).step_by(2).map(|x| x / 2.0).collect();
+        assert!(rel_diff(&c0, &want) < 1e-9 && rel_diff(&c1, &want) < 1e-9);
+        // shared directions: 49 lobes on 13 directions
+        let (code, out, _) = ifd(&[
+            "sphere",
+            "decompose",
+            &sh,
+            "--lmax",
+            "6",
+            "--directions",
+            "shared",
+            "-o",
+            &p(d, "x.json"),
+        ]);
+        assert_eq!(code, 0);
+        let v = json(&out);
+        assert_eq!(
+            (v["lobes"].as_u64(), v["directions"].as_u64()),
+            (Some(49), Some(13))
+        );
+    }
+
+    #[test]
+    fn non_finite_coefficients_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let mut c = vec![0.5; 9 * 2];
+        c[sh_index(2, 1) * 2 + 1] = f64::NAN;
+        c[3] = f64::INFINITY;
+        let path = p(d, "bad.sh.npy");
+        write_npy_f64(Path::new(&path), &[9, 2], &c).unwrap();
+        let (r, j) = (p(d, "r.npy"), p(d, "d.json"));
+        for args in [
+            vec!["sphere", "rotate", &path, "--zyz", "0,1,0", "-o", &r],
+            vec!["sphere", "decompose", &path, "--lmax", "2", "-o", &j],
+        ] {
+            let (code, _, err) = ifd(&args);
+            assert_eq!(code, 2, "{err}");
+            assert!(
+                err.contains(&path)
+                    && err.contains("2 non-finite SH coefficient(s)")
+                    && err.contains("first at row 1, column 1"),
+                "{err}"
+            );
+        }
+        assert!(!d.join("r.npy").exists() && !d.join("d.json").exists());
+    }
+
+    #[test]
+    fn optimized_directions_and_degenerate_sets_through_the_cli() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let run = |dirs: &str| {
+            let (code, out, err) = ifd(&[
+                "sphere",
+                "decompose",
+                "aniso-gauss:s1=0.4,s2=0.2",
+                "--lmax",
+                "6",
+                "--directions",
+                dirs,
+                "-o",
+                &p(d, "o.json"),
+            ]);
+            assert_eq!(code, 0, "{err}");
+            json(&out)["condition_number"].as_f64().unwrap()
+        };
+        let (fib, opt) = (run("fibonacci"), run("optimized"));
+        assert!(opt < fib, "optimized {opt} vs fibonacci {fib}");
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(p(d, "o.json")).unwrap()).unwrap();
+        assert_eq!(v["directions"]["sharing"], "per-band");
+        // a degenerate set: band 2's five directions all equal
+        let l = 2;
+        let mut dirs = Vec::new();
+        for i in 0..(l + 1) * (l + 1) {
+            let q = if i >= 4 {
+                [0.0, 0.6, 0.8]
+            } else {
+                direction(0.3 + i as f64, 1.7 * i as f64)
+            };
+            dirs.extend_from_slice(&q);
+        }
+        let file = p(d, "dirs.npy");
+        write_npy_f64(Path::new(&file), &[(l + 1) * (l + 1), 3], &dirs).unwrap();
+        let (code, _, err) = ifd(&[
+            "sphere",
+            "decompose",
+            "vmf:kappa=8",
+            "--lmax",
+            "2",
+            "--dirs",
+            &file,
+            "-o",
+            &p(d, "x.json"),
+        ]);
+        assert_eq!(code, 2);
+        assert!(
+            err.contains("condition number")
+                && err.contains("is degenerate")
+                && err.contains("l = 2, cond(M_l) = "),
+            "{err}"
+        );
+        // the same file with a wrong degree names the expected shapes
+        let (code, _, err) = ifd(&[
+            "sphere",
+            "decompose",
+            "vmf:kappa=8",
+            "--lmax",
+            "3",
+            "--dirs",
+            &file,
+            "-o",
+            &p(d, "x.json"),
+        ]);
+        assert_eq!(code, 2);
+        assert!(err.contains("(16, 3)") && err.contains("(7, 3)"), "{err}");
+        // a good per-band set from a file decomposes
+        let good: Vec<f64> = ifd_sphere::zhf::DirectionSet::new(
+            2,
+            ifd_sphere::zhf::Sharing::PerBand,
+            ifd_sphere::zhf::Chooser::Fibonacci,
+        )
+        .unwrap()
+        .all()
+        .iter()
+        .flatten()
+        .copied()
+        .collect();
+        write_npy_f64(Path::new(&file), &[9, 3], &good).unwrap();
+        let (code, _, err) = ifd(&[
+            "sphere",
+            "decompose",
+            "vmf:kappa=8",
+            "--lmax",
+            "2",
+            "--dirs",
+            &file,
+            "-o",
+            &p(d, "x.json"),
+        ]);
+        assert_eq!(code, 0, "{err}");
+    }
+
+    #[test]
+    fn condition_marks_singular_values() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let (code, out, err) = ifd(&[
+            "sphere",
+            "condition",
+            "--lmax",
+            "8",
+            "--csv",
+            &p(d, "c.csv"),
+            "--plot",
+            &p(d, "c.png"),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let rows: Vec<serde_json::Value> = serde_json::from_str(out.trim()).unwrap();
+        let csv = std::fs::read_to_string(p(d, "c.csv")).unwrap();
+        assert!(csv.starts_with("L,profile,sharing,cond,singular\n"));
+        let mut singular = 0;
+        for line in csv.lines().skip(1) {
+            let f: Vec<&str> = line.split(',').collect();
+            let cond: f64 = f[3].parse().unwrap();
+            assert_eq!(f[4] == "true", !cond.is_finite() || cond >= 1e16, "{line}");
+            singular += usize::from(f[4] == "true");
+            // the JSON has null exactly where the CSV says singular
+            let l: usize = f[0].parse().unwrap();
+            let r = rows
+                .iter()
+                .find(|r| r["profile"] == f[1] && r["sharing"] == f[2])
+                .unwrap();
+            assert_eq!(r["cond"][l - 1].is_null(), f[4] == "true", "{line}");
+        }
+        // Phong with shared directions loses odd bands (ISD Fig. 13): singular
+        assert!(singular > 0, "{csv}");
+        let png = ifd_image::read(p(d, "c.png")).unwrap();
+        assert_eq!((png.width(), png.height()), (1000, 640));
+    }
+}

@@ -4,12 +4,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
-use ifd_image::Image;
 use ifd_sphere::coeffs::{read_npy_f64, write_npy_f64};
 use ifd_sphere::filter::Decomposition;
 use ifd_sphere::kernel::{Kernel, project_function};
-use ifd_sphere::profile::{IsdBasis, Profile};
-use ifd_sphere::transform::{Negatives, analyze_equirect, project_samples};
+use ifd_sphere::plot::{condition_plot, condition_study, is_singular};
+use ifd_sphere::profile::{IsdBasis, MAX_ISD_DEGREE, Profile, check_isd_degree};
+use ifd_sphere::transform::{Negatives, analyze_cubemap, analyze_equirect, project_samples};
 use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, Sharing};
 use ifd_sphere::{EquirectTransform, Rotation, ShCoeffs, ShEvaluator, ShRotation};
 use serde_json::json;
@@ -27,7 +27,7 @@ pub struct Sphere {
 
 #[derive(Debug, Subcommand)]
 enum SphereCommand {
-    /// Project an equirectangular (2:1) environment map onto SH; write ((L+1)^2, C) float64 .npy.
+    /// Project an environment map (2:1 equirectangular or 6:1 cubemap strip) onto SH; write ((L+1)^2, C) float64 .npy.
     Sh(ShCmd),
     /// Rotate SH coefficients (.npy) by ZHF (Eq. 10), signal-tailored ZHF (Eq. 11) or the reference rotation.
     Rotate(RotateCmd),
@@ -52,10 +52,15 @@ impl Sphere {
     }
 }
 
-/// `ifd sphere sh ENVMAP --lmax L -o coeffs.npy`.
+/// `ifd sphere sh ENVMAP --lmax L -o coeffs.npy [--reconstruct out.hdr]`.
+///
+/// Layouts, told apart by shape: W = 2H is equirectangular (column u at
+/// azimuth 2 pi (u + 0.5) / W, row 0 looking up, +z); W = 6H is a horizontal
+/// cubemap strip of six square faces +X, -X, +Y, -Y, +Z, -Z, each in OpenGL's
+/// orientation (s to the right, t down). Anything else is refused.
 #[derive(Debug, Args)]
 struct ShCmd {
-    /// Equirectangular map (2:1; row 0 looks up, +z); EXR, HDR, PNG, ... or .npy.
+    /// Environment map, 2:1 equirectangular or 6:1 cubemap strip; EXR, HDR, PNG, ... or .npy.
     envmap: PathBuf,
     /// Maximum SH degree L.
     #[arg(long, value_name = "L")]
@@ -63,7 +68,10 @@ struct ShCmd {
     /// Output coefficients, ((L+1)^2, C) float64 .npy.
     #[arg(short, long)]
     output: PathBuf,
-    /// Also write the band-limited reconstruction (same size as the input).
+    /// Also write the band-limited reconstruction, equirectangular (the input's size for an
+    /// equirectangular map, 4H x 2H for a cubemap strip of H x H faces). It rings negative near
+    /// bright spots: formats that cannot store negatives (HDR, PNG, TIFF, JPEG) get them clamped
+    /// to 0, and the count is reported; EXR and .npy keep them.
     #[arg(long, value_name = "IMAGE")]
     reconstruct: Option<PathBuf>,
     /// Keep negative samples (default: clamp them to 0 and report how many).
@@ -73,20 +81,50 @@ struct ShCmd {
     input: InputOptions,
 }
 
+/// Whether a format can store negative samples.
+fn stores_negatives(path: &Path) -> Result<bool> {
+    use ifd_image::FileFormat;
+    Ok(matches!(
+        FileFormat::from_path(path)?,
+        FileFormat::Exr | FileFormat::Npy
+    ))
+}
+
 impl ShCmd {
     fn run(self) -> Result<()> {
         let img = self.input.read(&self.envmap)?.image;
-        let t = EquirectTransform::new(self.lmax, img.width(), img.height())
-            .with_context(|| format!("{}", self.envmap.display()))?;
+        let (w, h) = (img.width(), img.height());
+        let cube = w == 6 * h && h > 0;
+        // an equirectangular map of the right size for the reconstruction
+        let t = if cube {
+            EquirectTransform::new(self.lmax, 4 * h.max(1), 2 * h.max(1))
+        } else {
+            EquirectTransform::new(self.lmax, w, h)
+        };
+        let t = t.map_err(|e| match e {
+            ifd_sphere::SphereError::NotEquirect { .. } => anyhow::anyhow!(
+                "{}: a map must be 2:1 (equirectangular, W = 2H, H >= 2) or 6:1 (cubemap \
+                     strip +X,-X,+Y,-Y,+Z,-Z); got {w}x{h}",
+                self.envmap.display()
+            ),
+            e => anyhow::Error::new(e).context(format!("{}", self.envmap.display())),
+        })?;
+        if let Some(path) = &self.reconstruct {
+            // refuse an unknown output extension before the work
+            stores_negatives(path)?;
+        }
         let neg = if self.keep_negatives {
             Negatives::Keep
         } else {
             Negatives::Clamp
         };
         let start = std::time::Instant::now();
-        let a = t
-            .analyze(&img, neg)
-            .with_context(|| format!("{}", self.envmap.display()))?;
+        let a = if cube {
+            analyze_cubemap(&img, self.lmax, neg)
+        } else {
+            t.analyze(&img, neg)
+        }
+        .with_context(|| format!("{}", self.envmap.display()))?;
         let secs = start.elapsed().as_secs_f64();
         if a.negatives_clamped > 0 {
             eprintln!(
@@ -101,16 +139,34 @@ impl ShCmd {
             );
         }
         a.coeffs.write_npy(&self.output)?;
+        let mut rec_clamped = 0usize;
         if let Some(path) = &self.reconstruct {
-            let rec = t.synthesize(&a.coeffs)?;
+            let mut rec = t.synthesize(&a.coeffs)?;
+            if !stores_negatives(path)? {
+                for v in rec.data_mut() {
+                    if *v < 0.0 {
+                        *v = 0.0;
+                        rec_clamped += 1;
+                    }
+                }
+                if rec_clamped > 0 {
+                    eprintln!(
+                        "note: {}: {rec_clamped} negative samples of the band-limited \
+                         reconstruction (ringing) clamped to 0; write .exr or .npy to keep them",
+                        path.display()
+                    );
+                }
+            }
             crate::input::write_output(path, &rec, &ifd_image::WriteOptions::default())?;
         }
         println!(
             "{}",
             json!({
                 "lmax": self.lmax, "channels": a.coeffs.channels(),
-                "width": img.width(), "height": img.height(),
+                "layout": if cube { "cubemap-strip" } else { "equirect" },
+                "width": w, "height": h,
                 "negatives": a.negatives_clamped, "seconds": secs,
+                "reconstruct_negatives_clamped": rec_clamped,
             })
         );
         Ok(())
@@ -218,18 +274,25 @@ impl Directions {
 /// SPEC is a kernel centred on +z: `phong:s=32` (max(cos,0)^s), `vmf:kappa=50`,
 /// `gauss:s=0.2`, `aniso-gauss:s1=0.3,s2=0.05` (radians); or a file: an (N, 4)
 /// .npy of samples x,y,z,value (equal weights 4 pi / N), an (N, 5) .npy with a
-/// quadrature weight in the last column, a ((L+1)^2,) .npy of SH coefficients
-/// (name ending in `.sh.npy`), or an equirectangular image.
+/// quadrature weight in the last column, a ((L+1)^2, C) or ((L+1)^2,) .npy of SH
+/// coefficients (name ending in `.sh.npy`; one set of weights per column), or an
+/// equirectangular image (first channel).
+///
+/// M is dense, (L+1)^2 square, and factorised with an SVD: L is limited to 40.
 #[derive(Debug, Args)]
 struct DecomposeCmd {
     /// Kernel spec or file (see above).
     spec: String,
-    /// Maximum degree L.
+    /// Maximum degree L (at most 40: M is a dense (L+1)^2 x (L+1)^2 matrix).
     #[arg(long, value_name = "L")]
     lmax: usize,
     /// Lobe directions.
     #[arg(long, value_enum, default_value_t = Directions::Fibonacci)]
     directions: Directions,
+    /// Lobe directions from a file instead: an (N, 3) .npy with N = (L+1)^2 (per band, band l
+    /// owns rows l^2 .. (l+1)^2) or N = 2L+1 (shared, band l uses the first 2l+1 rows).
+    #[arg(long, value_name = "NPY", conflicts_with = "directions")]
+    dirs: Option<PathBuf>,
     /// Mother functions: zonal (= rzh), legendre, phong, gauss, vmf, hybrid.
     #[arg(long, default_value = "zonal")]
     profile: String,
@@ -284,20 +347,59 @@ impl DecomposeCmd {
         )?)
     }
 
+    fn direction_set(&self) -> Result<DirectionSet> {
+        let Some(path) = &self.dirs else {
+            return self.directions.build(self.lmax, self.seed);
+        };
+        let (shape, data) = read_npy_f64(path)?;
+        let l = self.lmax;
+        let (per_band, shared) = ((l + 1) * (l + 1), 2 * l + 1);
+        let sharing = match shape.as_slice() {
+            [n, 3] if *n == per_band => Sharing::PerBand,
+            [n, 3] if *n == shared => Sharing::Shared,
+            _ => bail!(
+                "{}: lobe directions for L = {l} must be a ({per_band}, 3) (per band) or \
+                 ({shared}, 3) (shared) array, got shape {shape:?}",
+                path.display()
+            ),
+        };
+        let dirs: Vec<[f64; 3]> = data.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        DirectionSet::from_dirs(l, sharing, &dirs).with_context(|| format!("{}", path.display()))
+    }
+
     fn run(self) -> Result<()> {
+        // size check first: the kernel projection and the direction optimiser
+        // would otherwise run for a long time before M is refused
+        check_isd_degree(self.lmax)?;
         let profile = Profile::parse(&self.profile)?;
         let kc = self.kernel_coeffs()?;
-        let dirs = self.directions.build(self.lmax, self.seed)?;
-        let basis = IsdBasis::with_limit(profile, dirs, self.max_cond)?;
+        let dirs = self.direction_set()?;
+        let basis = IsdBasis::with_limit(profile, dirs.clone(), self.max_cond).map_err(|e| {
+            let per_band = dirs.condition_numbers();
+            let (l, c) = per_band
+                .iter()
+                .enumerate()
+                .fold((0, 0.0f64), |a, (l, &c)| if c > a.1 { (l, c) } else { a });
+            anyhow::Error::new(e).context(format!(
+                "decompose with {} lobe directions (worst band of the direction set: \
+                 l = {l}, cond(M_l) = {c:.3e})",
+                dirs.all().len()
+            ))
+        })?;
         let dec = Decomposition::new(&basis, &kc)?;
         let text = dec.to_json()?;
         ifd_image::atomic_write(&self.output, |w| {
             use std::io::Write;
             w.write_all(text.as_bytes()).map_err(|e| e.to_string())
         })?;
+        let channels = dec.weights.channels;
         println!(
             "{}",
-            json!({"lmax": self.lmax, "profile": profile.name(), "lobes": dec.weights.data.len(),
+            json!({"lmax": self.lmax, "profile": profile.name(),
+                   "sharing": sharing_name(dec.directions.sharing()),
+                   "lobes": dec.weights.data.len() / channels.max(1),
+                   "directions": dec.directions.all().len(),
+                   "channels": channels,
                    "condition_number": dec.condition_number})
         );
         Ok(())
@@ -306,48 +408,49 @@ impl DecomposeCmd {
 
 /// `ifd sphere condition --lmax L --plot cond.png` (ISD Fig. 13).
 ///
-/// Plot: x = L (1..=lmax), y = log10 cond(M) (grid line every decade). Colours:
-/// zonal black, legendre blue, phong red, gauss green, vmf orange, hybrid purple;
-/// solid = per-band directions, dotted = shared directions.
+/// Plot: x = L (1..=lmax), y = cond(M) on a log scale with a labelled tick every
+/// decade; colours (legend on the right): zonal black, legendre blue, phong red,
+/// gauss green, vmf orange, hybrid purple; solid = per-band directions, dotted =
+/// shared directions. Condition numbers >= 1e16 (beyond f64 precision) or
+/// infinite are drawn on a separate top row labelled "> 1e16 (singular)", reported
+/// as null in the JSON and flagged in the CSV's `singular` column.
 #[derive(Debug, Args)]
 struct ConditionCmd {
-    /// Largest degree L.
+    /// Largest degree L (1..=40).
     #[arg(long, value_name = "L", default_value_t = 16)]
     lmax: usize,
     /// Write the plot (PNG).
     #[arg(long, value_name = "PNG")]
     plot: Option<PathBuf>,
-    /// Write the numbers as CSV (L, profile, sharing, cond).
+    /// Write the numbers as CSV (L, profile, sharing, cond, singular).
     #[arg(long, value_name = "CSV")]
     csv: Option<PathBuf>,
 }
 
 impl ConditionCmd {
     fn run(self) -> Result<()> {
-        if self.lmax == 0 || self.lmax > 40 {
-            bail!("--lmax {}: use 1..=40 (M is (L+1)^2 square)", self.lmax);
+        if self.lmax == 0 || self.lmax > MAX_ISD_DEGREE {
+            bail!(
+                "--lmax {}: use 1..={MAX_ISD_DEGREE} (M is a dense (L+1)^2 x (L+1)^2 matrix)",
+                self.lmax
+            );
         }
-        let mut rows = Vec::new();
-        for profile in Profile::ALL {
-            for sharing in [Sharing::PerBand, Sharing::Shared] {
-                let mut series = Vec::new();
-                for l in 1..=self.lmax {
-                    let dirs = DirectionSet::new(l, sharing, Chooser::Fibonacci)?;
-                    let (m, _) = ifd_sphere::profile::isd_matrix(profile, &dirs)?;
-                    series.push(ifd_sphere::zhf::condition_number(&m));
-                }
-                rows.push((profile, sharing, series));
-            }
-        }
+        let rows = condition_study(self.lmax)?;
         let lines: Vec<String> = rows
             .iter()
-            .flat_map(|(p, s, series)| {
-                series.iter().enumerate().map(move |(i, c)| {
-                    format!("{},{},{},{c:e}\n", i + 1, p.name(), sharing_name(*s))
+            .flat_map(|r| {
+                r.cond.iter().enumerate().map(move |(i, c)| {
+                    format!(
+                        "{},{},{},{c:e},{}\n",
+                        i + 1,
+                        r.profile.name(),
+                        sharing_name(r.sharing),
+                        is_singular(*c)
+                    )
                 })
             })
             .collect();
-        let csv = format!("L,profile,sharing,cond\n{}", lines.concat());
+        let csv = format!("L,profile,sharing,cond,singular\n{}", lines.concat());
         if let Some(path) = &self.csv {
             ifd_image::atomic_write(path, |w| {
                 use std::io::Write;
@@ -355,14 +458,14 @@ impl ConditionCmd {
             })?;
         }
         if let Some(path) = &self.plot {
-            let img = plot(&rows, self.lmax)?;
+            let img = condition_plot(&rows)?;
             crate::input::write_output(path, &img, &ifd_image::WriteOptions::default())?;
         }
         let out: Vec<_> = rows
             .iter()
-            .map(|(p, s, v)| {
-                json!({"profile": p.name(), "sharing": sharing_name(*s),
-                       "cond": v.iter().map(|c| if c.is_finite() { json!(c) } else { json!(null) }).collect::<Vec<_>>()})
+            .map(|r| {
+                json!({"profile": r.profile.name(), "sharing": sharing_name(r.sharing),
+                       "cond": r.cond.iter().map(|c| if is_singular(*c) { json!(null) } else { json!(c) }).collect::<Vec<_>>()})
             })
             .collect();
         println!("{}", serde_json::to_string(&out)?);
@@ -375,92 +478,6 @@ fn sharing_name(s: Sharing) -> &'static str {
         Sharing::PerBand => "per-band",
         Sharing::Shared => "shared",
     }
-}
-
-/// Draws the Fig. 13 curves into an RGB image.
-fn plot(rows: &[(Profile, Sharing, Vec<f64>)], l_max: usize) -> Result<Image> {
-    let (w, h, pad) = (900usize, 600usize, 50usize);
-    let mut img = Image::from_vec(w, h, 3, vec![1.0; w * h * 3])?;
-    let finite: Vec<f64> = rows
-        .iter()
-        .flat_map(|r| r.2.iter().copied())
-        .filter(|c| c.is_finite() && *c > 0.0)
-        .collect();
-    let ymax = finite
-        .iter()
-        .fold(1.0f64, |a, b| a.max(b.log10()))
-        .ceil()
-        .max(1.0);
-    let to_px = |l: f64, c: f64| -> (f64, f64) {
-        let x = pad as f64 + (l - 1.0) / ((l_max.max(2) - 1) as f64) * (w - 2 * pad) as f64;
-        let y = (h - pad) as f64 - c.max(1.0).log10().min(ymax) / ymax * (h - 2 * pad) as f64;
-        (x, y)
-    };
-    let put = |img: &mut Image, x: f64, y: f64, col: [f32; 3]| {
-        let (xi, yi) = (x.round() as i64, y.round() as i64);
-        if xi >= 0 && yi >= 0 && (xi as usize) < w && (yi as usize) < h {
-            for (c, v) in col.iter().enumerate() {
-                img.set(xi as usize, yi as usize, c, *v);
-            }
-        }
-    };
-    // decade grid and axes
-    for d in 0..=ymax as usize {
-        let (_, y) = to_px(1.0, 10f64.powi(d as i32));
-        for x in pad..w - pad {
-            put(
-                &mut img,
-                x as f64,
-                y,
-                if d == 0 { [0.0; 3] } else { [0.85; 3] },
-            );
-        }
-    }
-    for l in 1..=l_max {
-        let (x, _) = to_px(l as f64, 1.0);
-        for y in pad..h - pad {
-            if l == 1 || y % 6 == 0 {
-                put(
-                    &mut img,
-                    x,
-                    y as f64,
-                    if l == 1 { [0.0; 3] } else { [0.9; 3] },
-                );
-            }
-        }
-    }
-    for (p, s, series) in rows {
-        let col = match p {
-            Profile::Zonal => [0.0, 0.0, 0.0],
-            Profile::Legendre => [0.1, 0.3, 0.9],
-            Profile::Phong => [0.9, 0.1, 0.1],
-            Profile::Gauss => [0.1, 0.7, 0.2],
-            Profile::Vmf => [1.0, 0.6, 0.0],
-            Profile::Hybrid => [0.6, 0.2, 0.8],
-        };
-        for (i, pair) in series.windows(2).enumerate() {
-            let (x0, y0) = to_px(
-                (i + 1) as f64,
-                if pair[0].is_finite() { pair[0] } else { 1e300 },
-            );
-            let (x1, y1) = to_px(
-                (i + 2) as f64,
-                if pair[1].is_finite() { pair[1] } else { 1e300 },
-            );
-            let steps = ((x1 - x0).abs().max((y1 - y0).abs()) as usize).max(1);
-            for k in 0..=steps {
-                if *s == Sharing::Shared && (k / 4) % 2 == 1 {
-                    continue;
-                }
-                let t = k as f64 / steps as f64;
-                let (x, y) = (x0 + t * (x1 - x0), y0 + t * (y1 - y0));
-                for (dx, dy) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)] {
-                    put(&mut img, x + dx, y + dy, col);
-                }
-            }
-        }
-    }
-    Ok(img)
 }
 
 /// `ifd sphere eval --lmax L --dirs dirs.npy -o values.npy`.
