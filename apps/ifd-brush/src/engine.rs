@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, bail};
 use ifd_image::{Image, LoadedImage, MemoryBudget, NonFinitePolicy, ReadOptions};
 use ifd_planar::{PixelRect, StackLayout};
-use ifd_smooth::{AspectBank, BankOptions, Dab, HessianBank, Smoother, hessian};
+use ifd_smooth::{AspectBank, BankOptions, Dab, HessianBank, Smoother};
 
 use crate::history::{EditRecorder, History};
 use crate::settings::BrushSettings;
@@ -182,7 +182,7 @@ pub fn estimate_bytes(
         channels,
         hlo.min(blo * s),
         hhi.max(bhi * s),
-        hessian::hessian_stack_options(),
+        ifd_smooth::smoother_stack_options(&banks.aspect, o.scale, width, height),
     )
     .map_or(u64::MAX / 2, |l| l.bytes());
     stack + px * 8 + 2 * px * channels as u64 * 4 + 2 * px * 4

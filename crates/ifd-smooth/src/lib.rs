@@ -36,4 +36,6 @@ pub use bank::{AspectBank, BankOptions};
 pub use error::SmoothError;
 pub use hessian::{HessianBank, hessian_image};
 pub use orientation::{AnisoParams, Orientation};
-pub use smooth::{Dab, DabRegion, Mode, RegionRefresh, SmoothOptions, Smoother};
+pub use smooth::{
+    Dab, DabRegion, Mode, RegionRefresh, SmoothOptions, Smoother, smoother_stack_options,
+};

@@ -183,8 +183,14 @@ impl Smoother {
         let s = opts.scale / bank.options.sigma_ref;
         let lo = hlo.min(blo * s);
         let hi = hhi.max(bhi * s);
-        let stack = ScaleStack::new(image, lo, hi, opts.border, hessian_stack_options())?;
         let (w, h) = (image.width(), image.height());
+        let stack = ScaleStack::new(
+            image,
+            lo,
+            hi,
+            opts.border,
+            smoother_stack_options(&bank, opts.scale, w, h),
+        )?;
         let field = {
             let [hxx, hxy, hyy] = hbank.bind(&stack)?.planes(hs)?;
             let mut t: [Vec<f32>; 3] = [vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h]];
@@ -438,6 +444,35 @@ impl Smoother {
             width: rw,
             height: rh,
         }))
+    }
+}
+
+/// The stack options of a [`Smoother`] for a `width x height` image at
+/// footprint scale `scale`: Hessian-grade levels
+/// ([`hessian_stack_options`]) plus a stored margin covering the reach of
+/// the bank's filters at that scale, capped at a quarter of the image's
+/// larger side. Without it, dabs whose filters reach past the image border
+/// take the slow border-resolving lookup for every tap (an 8:1 dab of radius
+/// 64 px, 72 px from the border, measured 20x slower than one in the middle).
+#[must_use]
+pub fn smoother_stack_options(
+    bank: &AspectBank,
+    scale: f64,
+    width: usize,
+    height: usize,
+) -> ifd_planar::StackOptions {
+    let reach = bank
+        .terms
+        .iter()
+        .flatten()
+        .map(|t| t.x.hypot(t.y))
+        .fold(0.0, f64::max)
+        * scale
+        / bank.options.sigma_ref;
+    let need = reach.ceil() as usize + 2;
+    ifd_planar::StackOptions {
+        margin: need.min(width.max(height) / 4),
+        ..hessian_stack_options()
     }
 }
 
