@@ -1,9 +1,11 @@
 """Times ducc0 and pyshtools on the spherical tasks benchmarked for ifd-sphere.
 
 Run from the repository root:  .venv/bin/python tests/bench/bench_sphere.py
-(our numbers come from `cargo bench -p ifd-sphere --bench sphere` in the same
-session; the script also times `ifd sphere sh`, whose JSON reports the in-process
-analysis time, when target/debug/ifd or target/release/ifd exists).
+ifd is timed in the same run through `ifd sphere sh` (single-threaded,
+RAYON_NUM_THREADS=1), whose JSON reports the in-process analysis time, when
+target/release/ifd or target/debug/ifd exists (`--ifd PATH` to choose); the
+criterion bench `cargo bench -p ifd-sphere --bench sphere` gives the same
+analysis without the CLI.
 
 Tasks: SH analysis of a 1024x512 RGB equirectangular map at L = 8, 16, 32, 64
 (ducc0: adjoint_synthesis_2d on the F1 grid with the exact pixel solid angles,
@@ -12,7 +14,9 @@ which reproduces ifd's coefficients to 1e-15; pyshtools: SHExpandDH on the
 at orders N = 3..20 (ducc0.sht.rotate_alm), all single-threaded.
 """
 
+import argparse
 import json
+import os
 import pathlib
 import subprocess
 import tempfile
@@ -36,21 +40,26 @@ def best(f, repeat=5, number=1):
 
 
 def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--ifd", help="the ifd binary (default: target/release/ifd, else target/debug/ifd)")
+    a = ap.parse_args()
     H, W = 512, 1024
     rng = np.random.default_rng(0)
     img = rng.random((H, W, 3))
     v = np.arange(H)
     dA = (2 * np.pi / W) * (np.cos(np.pi * v / H) - np.cos(np.pi * (v + 1) / H))
     print("## SH analysis, 1024x512 RGB, single thread (ms)")
-    print("| L | ducc0 | pyshtools SHExpandDH | ifd sphere sh (CLI, in-process) |")
-    print("|---|---|---|---|")
-    ifd = next((p for p in [ROOT / "target/release/ifd", ROOT / "target/debug/ifd"] if p.exists()), None)
+    print("| L | ifd sphere sh (in-process) | ducc0 | pyshtools SHExpandDH | ifd / ducc0 |")
+    print("|---|---|---|---|---|")
+    ifd = pathlib.Path(a.ifd) if a.ifd else next((p for p in [ROOT / "target/release/ifd", ROOT / "target/debug/ifd"] if p.exists()), None)
+    env = dict(os.environ, RAYON_NUM_THREADS="1")
+    # The solid-angle weighting is done once, outside ducc0's timing.
+    weighted = [np.ascontiguousarray((img[:, :, c] * dA[:, None])[None]) for c in range(3)]
     with tempfile.TemporaryDirectory() as tmp:
         np.save(f"{tmp}/map.npy", img.astype(np.float32))
         for L in [8, 16, 32, 64]:
             def ducc():
-                for c in range(3):
-                    mp = (img[:, :, c] * dA[:, None])[None]
+                for mp in weighted:
                     ducc0.sht.experimental.adjoint_synthesis_2d(
                         map=mp, spin=0, lmax=L, geometry="F1", phi0=np.pi / W, nthreads=1)
 
@@ -64,10 +73,11 @@ def main():
                 for _ in range(5):
                     out = subprocess.run([str(ifd), "sphere", "sh", f"{tmp}/map.npy", "--lmax", str(L),
                                           "--keep-negatives", "-o", f"{tmp}/c.npy"],
-                                         capture_output=True, text=True, check=True)
+                                         capture_output=True, text=True, check=True, env=env)
                     ts.append(json.loads(out.stdout)["seconds"])
                 t_ifd = min(ts)
-            print(f"| {L} | {best(ducc) * 1e3:.2f} | {best(shtools) * 1e3:.2f} | {t_ifd * 1e3:.2f} |")
+            t_ducc = best(ducc)
+            print(f"| {L} | {t_ifd * 1e3:.2f} | {t_ducc * 1e3:.2f} | {best(shtools) * 1e3:.2f} | {t_ifd / t_ducc:.2f} |")
 
     print()
     print("## SH rotation, ducc0.sht.rotate_alm, one real function, single thread (us per rotation)")
