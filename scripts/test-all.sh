@@ -110,7 +110,15 @@ if [ "$cargo_status" -ne 0 ] && [ "$cf" -eq 0 ]; then fail "cargo test (build or
 [ "$cf" -gt 0 ] && failures+=("$cf cargo tests")
 
 step "reference comparisons (pytest tests/python)"
-if cargo build --quiet -p ifd-cli >"$LOG_DIR/build-cli.log" 2>&1; then
+# `cargo test --workspace` has just built the `ifd` binary (its integration
+# tests run it) with the workspace's unified features. `cargo build -p ifd-cli`
+# would resolve features for ifd-cli alone and rebuild wgpu and its
+# dependencies (3 minutes cold) for the same program, so the tests' binary is
+# used whenever that build compiled; otherwise it is built here.
+IFD_BIN=${CARGO_TARGET_DIR:-$ROOT/target}/debug/ifd
+export IFD_BIN
+if { [ -x "$IFD_BIN" ] && ! grep -q '^error: could not compile' "$LOG_DIR/cargo-test.log"; } ||
+  cargo build --quiet -p ifd-cli >"$LOG_DIR/build-cli.log" 2>&1; then
   .venv/bin/python -m pytest -q -p no:cacheprovider tests/python 2>&1 | tee "$LOG_DIR/pytest.log" | tail -25
   read -r pp pf < <(awk '/ passed| failed| error/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p = $i; if ($(i+1) ~ /^(failed|errors?)/) f += $i } } END { print p + 0, f + 0 }' <(tail -1 "$LOG_DIR/pytest.log"))
   passed=$((passed + pp))

@@ -15,7 +15,6 @@ import pytest
 
 from conftest import ROOT, TESTDATA
 
-ENVMAPS = ROOT.parent / "shared" / "testdata" / "envmaps"
 
 
 def _ifd_values(run_ifd, src, tmp_path):
@@ -191,12 +190,9 @@ def test_dwab_exr_matches_the_radiance_version_of_the_same_map(run_ifd, tmp_path
     (measured: every sample; a different DWAB decode would move samples that sit
     near a bin edge, so a few are allowed).
     """
-    hdr_path = ENVMAPS / "forest.hdr"
-    exr_path = ENVMAPS / "forest_dwab.exr"
-    if not exr_path.exists():
-        exr_path = TESTDATA / "forest_dwab.exr"
-    if not hdr_path.exists():
-        pytest.fail(f"{hdr_path} is missing (shared test data)")
+    # Both files are bundled (copied from the shared test data).
+    hdr_path = TESTDATA / "forest.hdr"
+    exr_path = TESTDATA / "forest_dwab.exr"
     ref = cv2.imread(str(hdr_path), cv2.IMREAD_UNCHANGED)
     assert ref is not None and ref.dtype == np.float32
     ref = ref[..., ::-1].astype(np.float64)  # BGR -> RGB
