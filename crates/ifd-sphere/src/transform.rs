@@ -177,14 +177,25 @@ impl EquirectTransform {
             });
         }
         let data = img.data();
-        if let Some(first) = data.iter().position(|v| !v.is_finite()) {
+        // One branch-free (vectorisable) pass for both counts.
+        let (bad, negatives_clamped) =
+            data.chunks(1 << 12)
+                .fold((0usize, 0usize), |(bad, neg), chunk| {
+                    let (mut b, mut n) = (0u32, 0u32);
+                    for &v in chunk {
+                        b += u32::from(!v.is_finite());
+                        n += u32::from(v < 0.0);
+                    }
+                    (bad + b as usize, neg + n as usize)
+                });
+        if bad > 0 {
+            let first = data.iter().position(|v| !v.is_finite()).unwrap_or(0);
             return Err(SphereError::NonFinite {
                 what: "environment map",
-                count: data.iter().filter(|v| !v.is_finite()).count(),
+                count: bad,
                 first,
             });
         }
-        let negatives_clamped = data.iter().filter(|&&v| v < 0.0).count();
         let clamp = negatives == Negatives::Clamp;
         let (w, h, ch) = (self.width, self.height, img.channels());
         let l_max = self.l_max;
@@ -196,17 +207,34 @@ impl EquirectTransform {
         let mut even = vec![Complex64::default(); (l_max + 1) * ch];
         let mut odd = vec![Complex64::default(); (l_max + 1) * ch];
         let mut col = vec![0.0; l_max + 1];
-        let sample = |v: usize, u: usize, c: usize| {
-            let x = f64::from(data[(v * w + u) * ch + c]);
+        let row = |v: usize| &data[v * w * ch..(v + 1) * w * ch];
+        let load = |x: f32| {
+            let x = f64::from(x);
             if clamp { x.max(0.0) } else { x }
         };
         for (vn, &(z, s, da)) in self.rows.iter().enumerate() {
             let vs = h - 1 - vn;
-            let paired = vs != vn;
+            let north = row(vn);
+            // The southern row of the pair rides in the imaginary part (one
+            // complex FFT for two real rows); the equator row of an odd
+            // height has no partner.
+            let south = (vs != vn).then(|| row(vs));
             for c in 0..ch {
-                for (u, b) in buf.iter_mut().enumerate() {
-                    let south = if paired { sample(vs, u, c) } else { 0.0 };
-                    *b = Complex64::new(sample(vn, u, c), south);
+                match south {
+                    Some(south) => {
+                        for ((b, n), s) in buf
+                            .iter_mut()
+                            .zip(north.iter().skip(c).step_by(ch))
+                            .zip(south.iter().skip(c).step_by(ch))
+                        {
+                            *b = Complex64::new(load(*n), load(*s));
+                        }
+                    }
+                    None => {
+                        for (b, n) in buf.iter_mut().zip(north.iter().skip(c).step_by(ch)) {
+                            *b = Complex64::new(load(*n), 0.0);
+                        }
+                    }
                 }
                 self.fwd.process_with_scratch(&mut buf, &mut scratch);
                 for m in 0..=l_max {
@@ -219,24 +247,33 @@ impl EquirectTransform {
                     odd[m * ch + c] = (fn_ - fs) * da;
                 }
             }
+            // Legendre sums: P_l^m(z) of the northern row, with the even
+            // (l + m even) or odd combination of the row pair.
             let mut sm = 1.0;
             for m in 0..=l_max {
                 if m > 0 {
                     sm *= s;
                 }
                 self.table.column(m, z, sm, &mut col);
-                for l in m..=l_max {
-                    let p = col[l - m];
-                    let src = if (l + m) % 2 == 0 { &even } else { &odd };
-                    let base = l * (l + 1);
-                    for c in 0..ch {
-                        let x = src[m * ch + c];
-                        if m == 0 {
-                            out[base * ch + c] += p * x.re;
-                        } else {
-                            let q = std::f64::consts::SQRT_2 * p;
-                            out[(base + m) * ch + c] += q * x.re;
-                            out[(base - m) * ch + c] -= q * x.im;
+                let (xe, xo) = (&even[m * ch..(m + 1) * ch], &odd[m * ch..(m + 1) * ch]);
+                if m == 0 {
+                    for (l, &p) in col.iter().enumerate().take(l_max + 1) {
+                        let x = if l % 2 == 0 { xe } else { xo };
+                        let o = &mut out[l * (l + 1) * ch..][..ch];
+                        for (o, x) in o.iter_mut().zip(x) {
+                            *o += p * x.re;
+                        }
+                    }
+                    continue;
+                }
+                for (parity, x) in [(0, xe), (1, xo)] {
+                    for l in (m + parity..=l_max).step_by(2) {
+                        let q = std::f64::consts::SQRT_2 * col[l - m];
+                        let base = l * (l + 1);
+                        let (pos, neg) = ((base + m) * ch, (base - m) * ch);
+                        for (c, x) in x.iter().enumerate() {
+                            out[pos + c] += q * x.re;
+                            out[neg + c] -= q * x.im;
                         }
                     }
                 }
