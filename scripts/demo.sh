@@ -8,9 +8,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-out/demo}
 mkdir -p "$OUT"
-echo "==> building ifd (release)"
-cargo build --release --quiet -p ifd-cli
-IFD=${CARGO_TARGET_DIR:-target}/release/ifd
+# The dev profile of this workspace is optimised (opt-level 2, dependencies
+# 3: see Cargo.toml), so this shares its build with `cargo test` instead of
+# compiling wgpu and everything else a second time for `--release`.
+echo "==> building ifd"
+cargo build --quiet -p ifd-cli
+IFD=${CARGO_TARGET_DIR:-target}/debug/ifd
 
 echo "==> decomposing gauss:sx=16,sy=2 (8:1)"
 "$IFD" decompose gauss:sx=16,sy=2,theta=0 -o "$OUT/gauss8.json" --plot "$OUT/gauss8-decomposition.png"
