@@ -176,13 +176,19 @@ pub fn estimate_bytes(
     let (blo, bhi) = banks.aspect.sigma_range();
     let s = o.scale / banks.aspect.options.sigma_ref;
     let px = (width * height) as u64;
+    let (lo, hi) = (hlo.min(blo * s), hhi.max(bhi * s));
     let stack = StackLayout::new(
         width,
         height,
         channels,
-        hlo.min(blo * s),
-        hhi.max(bhi * s),
-        ifd_smooth::smoother_stack_options(&banks.aspect, o.scale, width, height),
+        lo,
+        hi,
+        ifd_smooth::smoother_stack_options(
+            &banks.aspect,
+            o.scale,
+            (width, height, channels),
+            (lo, hi),
+        ),
     )
     .map_or(u64::MAX / 2, |l| l.bytes());
     stack + px * 8 + 2 * px * channels as u64 * 4 + 2 * px * 4

@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use crate::border::Border;
 use crate::decomposition::Decomposition;
-use crate::stack::{ScaleStack, StackOptions, check_finite};
+use crate::stack::{ScaleStack, StackLayout, StackOptions, check_finite};
 
 /// Errors of prefiltering, filtering and the brute-force references.
 #[derive(Debug, thiserror::Error)]
@@ -948,11 +948,17 @@ pub fn stack_for_decomposition(
         // the slow border-resolving lookup; with large kernels a wide band
         // of pixels along the border would take it for most of its taps
         // (43% of a 1024x1024 image for an extent-255 kernel, making it 1.6x
-        // slower than an extent-31 one). Store a margin covering the reach,
-        // up to a quarter of the image's larger side (at most 2.25x the
-        // memory of the unpadded levels).
-        let cap = image.width().max(image.height()) / 4;
-        options.margin = options.margin.max(need.min(cap));
+        // slower than an extent-31 one). Store a margin covering the reach
+        // as far as memory allows (`StackLayout::affordable_margin`).
+        options.margin = StackLayout::affordable_margin(
+            image.width(),
+            image.height(),
+            image.channels(),
+            f64::from(scale_min) * sigma_lo,
+            f64::from(scale_max) * sigma_hi,
+            options,
+            need,
+        )?;
     }
     ScaleStack::new(
         image,

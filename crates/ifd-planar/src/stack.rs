@@ -122,6 +122,48 @@ pub struct StackLayout {
 }
 
 impl StackLayout {
+    /// The largest stored margin up to `wanted` pixels that the stack of a
+    /// `width x height x channels` image over `[sigma_min, sigma_max]` can
+    /// afford: one that grows its memory by at most 25% or 256 MiB (whichever
+    /// is more), and never past 2 GiB when the stack without it fits there.
+    /// A wider margin makes lookups far outside the image exact (replicate,
+    /// constant) or fast (reflect-101, wrap), at the cost of memory.
+    ///
+    /// # Errors
+    /// As [`StackLayout::new`].
+    pub fn affordable_margin(
+        width: usize,
+        height: usize,
+        channels: usize,
+        sigma_min: f64,
+        sigma_max: f64,
+        options: StackOptions,
+        wanted: usize,
+    ) -> Result<usize, FilterError> {
+        const MIB: u64 = 1 << 20;
+        let bytes = |margin: usize| {
+            Self::new(
+                width,
+                height,
+                channels,
+                sigma_min,
+                sigma_max,
+                StackOptions { margin, ..options },
+            )
+            .map(|l| l.bytes())
+        };
+        let base = bytes(options.margin)?;
+        let mut allowed = (base + base / 4).max(base + 256 * MIB);
+        if base <= 2048 * MIB {
+            allowed = allowed.min(2048 * MIB);
+        }
+        let mut margin = wanted.max(options.margin);
+        while margin > options.margin && bytes(margin)? > allowed {
+            margin = options.margin.max(margin * 3 / 4);
+        }
+        Ok(margin)
+    }
+
     /// The layout of the stack of a `width x height x channels` image over
     /// `[sigma_min, sigma_max]`.
     ///
@@ -926,6 +968,27 @@ mod tests {
         for l in layout.levels() {
             assert!(l.sigma >= 2.0 * l.step as f64 || l.step == 1);
         }
+    }
+
+    #[test]
+    fn affordable_margin_respects_the_memory_limits() {
+        let o = StackOptions::default();
+        let bytes = |w, h, c, lo, hi, m| {
+            StackLayout::new(w, h, c, lo, hi, StackOptions { margin: m, ..o })
+                .expect("layout")
+                .bytes()
+        };
+        // Small stacks take the whole margin they ask for (within 256 MiB more).
+        let m = StackLayout::affordable_margin(1024, 1024, 1, 0.6, 6.0, o, 129).expect("margin");
+        assert_eq!(m, 129);
+        // A 4096x4096 RGB stack over sigma 1..256 stays within 2 GiB however
+        // wide a margin is asked for, and gets a smaller one.
+        let m = StackLayout::affordable_margin(4096, 4096, 3, 1.0, 256.0, o, 1024).expect("margin");
+        assert!(m < 1024, "{m}");
+        assert!(bytes(4096, 4096, 3, 1.0, 256.0, m) <= 2 << 30);
+        // It never goes below the margin the options already ask for.
+        let o7 = StackOptions { margin: 7, ..o };
+        assert!(StackLayout::affordable_margin(64, 64, 1, 1.0, 2.0, o7, 0).expect("margin") >= 7);
     }
 
     #[test]

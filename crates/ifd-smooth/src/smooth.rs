@@ -189,7 +189,7 @@ impl Smoother {
             lo,
             hi,
             opts.border,
-            smoother_stack_options(&bank, opts.scale, w, h),
+            smoother_stack_options(&bank, opts.scale, (w, h, image.channels()), (lo, hi)),
         )?;
         let field = {
             let [hxx, hxy, hyy] = hbank.bind(&stack)?.planes(hs)?;
@@ -447,19 +447,20 @@ impl Smoother {
     }
 }
 
-/// The stack options of a [`Smoother`] for a `width x height` image at
-/// footprint scale `scale`: Hessian-grade levels
-/// ([`hessian_stack_options`]) plus a stored margin covering the reach of
-/// the bank's filters at that scale, capped at a quarter of the image's
-/// larger side. Without it, dabs whose filters reach past the image border
-/// take the slow border-resolving lookup for every tap (an 8:1 dab of radius
-/// 64 px, 72 px from the border, measured 20x slower than one in the middle).
+/// The stack options of a [`Smoother`] for a `width x height x channels`
+/// image at footprint scale `scale`, with stack sigmas `[sigma_lo,
+/// sigma_hi]`: Hessian-grade levels ([`hessian_stack_options`]) plus a stored
+/// margin covering the reach of the bank's filters at that scale, as far as
+/// memory allows ([`ifd_planar::StackLayout::affordable_margin`]). Without
+/// it, dabs whose filters reach past the image border take the slow
+/// border-resolving lookup for every tap (an 8:1 dab of radius 64 px, 72 px
+/// from the border, measured 20x slower than one in the middle).
 #[must_use]
 pub fn smoother_stack_options(
     bank: &AspectBank,
     scale: f64,
-    width: usize,
-    height: usize,
+    (width, height, channels): (usize, usize, usize),
+    (sigma_lo, sigma_hi): (f64, f64),
 ) -> ifd_planar::StackOptions {
     let reach = bank
         .terms
@@ -470,10 +471,13 @@ pub fn smoother_stack_options(
         * scale
         / bank.options.sigma_ref;
     let need = reach.ceil() as usize + 2;
-    ifd_planar::StackOptions {
-        margin: need.min(width.max(height) / 4),
-        ..hessian_stack_options()
-    }
+    let options = hessian_stack_options();
+    // An invalid layout fails later, in `ScaleStack::new`, with its error.
+    let margin = ifd_planar::StackLayout::affordable_margin(
+        width, height, channels, sigma_lo, sigma_hi, options, need,
+    )
+    .unwrap_or(options.margin);
+    ifd_planar::StackOptions { margin, ..options }
 }
 
 /// Separable Gaussian blur of a plane (reflect-101 border, radius 3 sigma).
