@@ -134,6 +134,38 @@ impl LegendreTable {
     }
 }
 
+impl LegendreTable {
+    /// As [`LegendreTable::column`] for `N` arguments at once (lane `k` of
+    /// `out[l - m]` is the value at `z[k]`, `sm[k]`): the same recurrence,
+    /// written lane-wise so that it vectorises.
+    #[inline]
+    pub(crate) fn column_lanes<const N: usize>(
+        &self,
+        m: usize,
+        z: &[f64; N],
+        sm: &[f64; N],
+        out: &mut [[f64; N]],
+    ) {
+        let l_max = self.l_max;
+        let mut p2: [f64; N] = std::array::from_fn(|k| self.qmm[m] * sm[k]);
+        out[0] = p2;
+        if m == l_max {
+            return;
+        }
+        let c1 = self.c1[m];
+        let mut p1: [f64; N] = std::array::from_fn(|k| c1 * z[k] * p2[k]);
+        out[1] = p1;
+        for l in m + 2..=l_max {
+            let t = tri(l, m);
+            let (a, b) = (self.a[t], self.b[t]);
+            let p: [f64; N] = std::array::from_fn(|k| a * (z[k] * p1[k] - b * p2[k]));
+            out[l - m] = p;
+            p2 = p1;
+            p1 = p;
+        }
+    }
+}
+
 /// Shared body of the `f64`/`f32` evaluators (one source, two precisions).
 macro_rules! eval_body {
     ($l_max:expr, $x:expr, $y:expr, $z:expr, $qmm:expr, $c1:expr, $a:expr, $b:expr, $out:expr, $t:ty) => {{

@@ -170,6 +170,7 @@ impl EquirectTransform {
     /// [`SphereError::NotEquirect`] when the image size differs from the plan;
     /// [`SphereError::NonFinite`] for NaN/infinite samples.
     pub fn analyze(&self, img: &Image, negatives: Negatives) -> Result<Analysis> {
+        const LANES: usize = 4;
         if img.width() != self.width || img.height() != self.height {
             return Err(SphereError::NotEquirect {
                 width: img.width(),
@@ -203,77 +204,91 @@ impl EquirectTransform {
         let out = coeffs.data_mut();
         let mut buf = vec![Complex64::default(); w];
         let mut scratch = vec![Complex64::default(); self.fwd.get_inplace_scratch_len()];
-        // even/odd combinations per (m, channel)
-        let mut even = vec![Complex64::default(); (l_max + 1) * ch];
-        let mut odd = vec![Complex64::default(); (l_max + 1) * ch];
-        let mut col = vec![0.0; l_max + 1];
+        // Row pairs are processed LANES at a time: their even/odd Fourier
+        // combinations per (m, channel, lane), then the Legendre sums of all
+        // lanes together (`column_lanes` vectorises the recurrence across
+        // rows, and each coefficient is updated once per block).
+        let mut even = vec![Complex64::default(); (l_max + 1) * ch * LANES];
+        let mut odd = vec![Complex64::default(); (l_max + 1) * ch * LANES];
+        let mut col = vec![[0.0; LANES]; l_max + 1];
         let row = |v: usize| &data[v * w * ch..(v + 1) * w * ch];
         let load = |x: f32| {
             let x = f64::from(x);
             if clamp { x.max(0.0) } else { x }
         };
-        for (vn, &(z, s, da)) in self.rows.iter().enumerate() {
-            let vs = h - 1 - vn;
-            let north = row(vn);
-            // The southern row of the pair rides in the imaginary part (one
-            // complex FFT for two real rows); the equator row of an odd
-            // height has no partner.
-            let south = (vs != vn).then(|| row(vs));
-            for c in 0..ch {
-                match south {
-                    Some(south) => {
-                        for ((b, n), s) in buf
-                            .iter_mut()
-                            .zip(north.iter().skip(c).step_by(ch))
-                            .zip(south.iter().skip(c).step_by(ch))
-                        {
-                            *b = Complex64::new(load(*n), load(*s));
+        for (bi, block) in self.rows.chunks(LANES).enumerate() {
+            let first = bi * LANES;
+            // Unused lanes of the last block: zero data, harmless arguments.
+            let mut zs = [0.0; LANES];
+            let mut ss = [1.0; LANES];
+            even.fill(Complex64::default());
+            odd.fill(Complex64::default());
+            for (lane, &(z, s, da)) in block.iter().enumerate() {
+                zs[lane] = z;
+                ss[lane] = s;
+                let vn = first + lane;
+                let vs = h - 1 - vn;
+                let north = row(vn);
+                // The southern row of the pair rides in the imaginary part
+                // (one complex FFT for two real rows); the equator row of an
+                // odd height has no partner.
+                let south = (vs != vn).then(|| row(vs));
+                for c in 0..ch {
+                    match south {
+                        Some(south) => {
+                            for ((b, n), s) in buf
+                                .iter_mut()
+                                .zip(north.iter().skip(c).step_by(ch))
+                                .zip(south.iter().skip(c).step_by(ch))
+                            {
+                                *b = Complex64::new(load(*n), load(*s));
+                            }
+                        }
+                        None => {
+                            for (b, n) in buf.iter_mut().zip(north.iter().skip(c).step_by(ch)) {
+                                *b = Complex64::new(load(*n), 0.0);
+                            }
                         }
                     }
-                    None => {
-                        for (b, n) in buf.iter_mut().zip(north.iter().skip(c).step_by(ch)) {
-                            *b = Complex64::new(load(*n), 0.0);
-                        }
+                    self.fwd.process_with_scratch(&mut buf, &mut scratch);
+                    for m in 0..=l_max {
+                        let k = m % w;
+                        let zk = buf[k];
+                        let zmk = buf[(w - k) % w].conj();
+                        let fn_ = (zk + zmk) * 0.5 * self.phase[m];
+                        let fs = (zk - zmk) * Complex64::new(0.0, -0.5) * self.phase[m];
+                        let i = (m * ch + c) * LANES + lane;
+                        even[i] = (fn_ + fs) * da;
+                        odd[i] = (fn_ - fs) * da;
                     }
-                }
-                self.fwd.process_with_scratch(&mut buf, &mut scratch);
-                for m in 0..=l_max {
-                    let k = m % w;
-                    let zk = buf[k];
-                    let zmk = buf[(w - k) % w].conj();
-                    let fn_ = (zk + zmk) * 0.5 * self.phase[m];
-                    let fs = (zk - zmk) * Complex64::new(0.0, -0.5) * self.phase[m];
-                    even[m * ch + c] = (fn_ + fs) * da;
-                    odd[m * ch + c] = (fn_ - fs) * da;
                 }
             }
-            // Legendre sums: P_l^m(z) of the northern row, with the even
-            // (l + m even) or odd combination of the row pair.
-            let mut sm = 1.0;
+            // Legendre sums: P_l^m(z) of the northern rows, with the even
+            // (l + m even) or odd combination of each row pair.
+            let mut sm = [1.0; LANES];
             for m in 0..=l_max {
                 if m > 0 {
-                    sm *= s;
-                }
-                self.table.column(m, z, sm, &mut col);
-                let (xe, xo) = (&even[m * ch..(m + 1) * ch], &odd[m * ch..(m + 1) * ch]);
-                if m == 0 {
-                    for (l, &p) in col.iter().enumerate().take(l_max + 1) {
-                        let x = if l % 2 == 0 { xe } else { xo };
-                        let o = &mut out[l * (l + 1) * ch..][..ch];
-                        for (o, x) in o.iter_mut().zip(x) {
-                            *o += p * x.re;
-                        }
+                    for (a, b) in sm.iter_mut().zip(&ss) {
+                        *a *= b;
                     }
-                    continue;
                 }
-                for (parity, x) in [(0, xe), (1, xo)] {
-                    for l in (m + parity..=l_max).step_by(2) {
-                        let q = std::f64::consts::SQRT_2 * col[l - m];
-                        let base = l * (l + 1);
-                        let (pos, neg) = ((base + m) * ch, (base - m) * ch);
-                        for (c, x) in x.iter().enumerate() {
-                            out[pos + c] += q * x.re;
-                            out[neg + c] -= q * x.im;
+                self.table.column_lanes(m, &zs, &sm, &mut col);
+                for l in m..=l_max {
+                    let p = &col[l - m];
+                    let src = if (l + m) % 2 == 0 { &even } else { &odd };
+                    let base = l * (l + 1);
+                    for c in 0..ch {
+                        let x = &src[(m * ch + c) * LANES..][..LANES];
+                        let (mut re, mut im) = (0.0, 0.0);
+                        for (p, x) in p.iter().zip(x) {
+                            re += p * x.re;
+                            im += p * x.im;
+                        }
+                        if m == 0 {
+                            out[base * ch + c] += re;
+                        } else {
+                            out[(base + m) * ch + c] += std::f64::consts::SQRT_2 * re;
+                            out[(base - m) * ch + c] -= std::f64::consts::SQRT_2 * im;
                         }
                     }
                 }
