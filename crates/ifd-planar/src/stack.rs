@@ -124,13 +124,16 @@ pub struct StackLayout {
 impl StackLayout {
     /// The largest stored margin up to `wanted` pixels that the stack of a
     /// `width x height x channels` image over `[sigma_min, sigma_max]` can
-    /// afford: one that grows its memory by at most 25% or 256 MiB (whichever
-    /// is more), and never past 2 GiB when the stack without it fits there.
-    /// A wider margin makes lookups far outside the image exact (replicate,
-    /// constant) or fast (reflect-101, wrap), at the cost of memory.
+    /// afford: one that grows the stored levels, and separately the
+    /// transient FFT buffers of the build (24 bytes per FFT sample), by at
+    /// most 25% or 256 MiB each (whichever is more), and never takes the
+    /// stored levels past 2 GiB when they fit there without it. A margin whose layout cannot be built at
+    /// all (an FFT domain beyond the limit) counts as too dear. A wider
+    /// margin makes lookups far outside the image exact (replicate, constant)
+    /// or fast (reflect-101, wrap), at the cost of memory.
     ///
     /// # Errors
-    /// As [`StackLayout::new`].
+    /// As [`StackLayout::new`] for the stack without extra margin.
     pub fn affordable_margin(
         width: usize,
         height: usize,
@@ -150,16 +153,24 @@ impl StackLayout {
                 sigma_max,
                 StackOptions { margin, ..options },
             )
-            .map(|l| l.bytes())
+            .map(|l| {
+                let (fw, fh) = l.fft_size();
+                (l.bytes(), 24 * (fw * fh) as u64)
+            })
         };
-        let base = bytes(options.margin)?;
-        let mut allowed = (base + base / 4).max(base + 256 * MIB);
-        if base <= 2048 * MIB {
-            allowed = allowed.min(2048 * MIB);
+        let grow = |b: u64| (b + b / 4).max(b + 256 * MIB);
+        let (stored, transient) = bytes(options.margin)?;
+        let mut stored_allowed = grow(stored);
+        if stored <= 2048 * MIB {
+            stored_allowed = stored_allowed.min(2048 * MIB);
         }
-        let mut margin = wanted.max(options.margin);
-        while margin > options.margin && bytes(margin)? > allowed {
-            margin = options.margin.max(margin * 3 / 4);
+        let transient_allowed = grow(transient);
+        let mut margin = wanted.clamp(options.margin, options.margin.max(1 << 16));
+        while margin > options.margin {
+            match bytes(margin) {
+                Ok((s, t)) if s <= stored_allowed && t <= transient_allowed => break,
+                _ => margin = options.margin.max(margin * 3 / 4),
+            }
         }
         Ok(margin)
     }
