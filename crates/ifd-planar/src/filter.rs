@@ -479,24 +479,33 @@ impl<'a> Filter<'a> {
     /// Per-pixel angle and/or scale over the whole image. `C` is the channel
     /// count when it is 1 to 4 (accumulators in registers), 0 for any count.
     fn per_pixel<const C: usize>(&self, angle: Field<'_>, scale: Field<'_>, out: &mut [f32]) {
+        const STRIP: usize = 256;
         let (w, c) = (self.stack.width(), self.stack.channels());
         let constant_scale = match scale {
             Field::Constant(s) => Some((s, self.term_levels(s))),
             Field::Map(_) => None,
         };
-        out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
-            for (x, px) in row.chunks_exact_mut(c).enumerate() {
-                let i = y * w + x;
-                let (sin, cos) = angle.at(i).to_radians().sin_cos();
-                let (xf, yf) = (x as f32, y as f32);
-                match &constant_scale {
-                    Some((s, levels)) => {
-                        self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, px);
+        // Column strips, each swept by all threads row by row: a tap's
+        // lookups then stay within a strip-wide band of every level (large
+        // filters read up to their reach above and below each pixel), which
+        // keeps them in cache; whole rows would not fit.
+        for x0 in (0..w).step_by(STRIP) {
+            let x1 = (x0 + STRIP).min(w);
+            out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+                for x in x0..x1 {
+                    let px = &mut row[x * c..(x + 1) * c];
+                    let i = y * w + x;
+                    let (sin, cos) = angle.at(i).to_radians().sin_cos();
+                    let (xf, yf) = (x as f32, y as f32);
+                    match &constant_scale {
+                        Some((s, levels)) => {
+                            self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, px);
+                        }
+                        None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), px),
                     }
-                    None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), px),
                 }
-            }
-        });
+            });
+        }
     }
 
     /// One pixel with constant scale (levels precomputed) and a per-pixel
