@@ -355,22 +355,23 @@ impl<'a> Filter<'a> {
         angle.validate("angle", w, h, false)?;
         let (lo, hi) = scale.validate("scale", w, h, true)?;
         self.check_scales(lo, hi, &scale)?;
-        let mut out = vec![0.0f32; w * h * c];
-        match (angle, scale) {
-            (Field::Constant(theta), Field::Constant(s)) => {
-                let taps = self.taps(theta, s);
-                out.par_chunks_mut(w * c)
-                    .enumerate()
-                    .for_each(|(y, row)| self.row_constant(&taps, y, row));
+        let out = match (angle, scale) {
+            (Field::Constant(theta), Field::Constant(s)) => Taps {
+                taps: self.taps(theta, s),
             }
-            (angle, scale) => match c {
-                1 => self.per_pixel::<1>(angle, scale, &mut out),
-                2 => self.per_pixel::<2>(angle, scale, &mut out),
-                3 => self.per_pixel::<3>(angle, scale, &mut out),
-                4 => self.per_pixel::<4>(angle, scale, &mut out),
-                _ => self.per_pixel::<0>(angle, scale, &mut out),
-            },
-        }
+            .apply_region(self.stack, 0, 0, w, h)?,
+            (angle, scale) => {
+                let mut out = vec![0.0f32; w * h * c];
+                match c {
+                    1 => self.per_pixel::<1>(angle, scale, &mut out),
+                    2 => self.per_pixel::<2>(angle, scale, &mut out),
+                    3 => self.per_pixel::<3>(angle, scale, &mut out),
+                    4 => self.per_pixel::<4>(angle, scale, &mut out),
+                    _ => self.per_pixel::<0>(angle, scale, &mut out),
+                }
+                out
+            }
+        };
         Image::from_vec(w, h, c, out).map_err(|e| FilterError::Shape(e.to_string()))
     }
 
@@ -469,75 +470,35 @@ impl<'a> Filter<'a> {
         taps
     }
 
-    /// One output row for constant taps: full-resolution levels are applied
-    /// as a 2x2 stencil over the row's interior (contiguous, vectorisable),
-    /// everything else through the general lookup.
-    fn row_constant(&self, taps: &[Tap], y: usize, row: &mut [f32]) {
-        row_constant(self.stack, taps, y, 0..self.stack.width(), row);
-    }
-
     /// Per-pixel angle and/or scale over the whole image. `C` is the channel
     /// count when it is 1 to 4 (accumulators in registers), 0 for any count.
     fn per_pixel<const C: usize>(&self, angle: Field<'_>, scale: Field<'_>, out: &mut [f32]) {
-        const STRIP: usize = 256;
         let (w, c) = (self.stack.width(), self.stack.channels());
         let constant_scale = match scale {
             Field::Constant(s) => Some((s, self.term_levels(s))),
             Field::Map(_) => None,
         };
-        // Column strips, each swept by all threads row by row: a tap's
-        // lookups then stay within a strip-wide band of every level (large
-        // filters read up to their reach above and below each pixel), which
-        // keeps them in cache; whole rows would not fit.
-        for x0 in (0..w).step_by(STRIP) {
-            let x1 = (x0 + STRIP).min(w);
-            out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
-                for x in x0..x1 {
-                    let px = &mut row[x * c..(x + 1) * c];
-                    let i = y * w + x;
-                    let (sin, cos) = angle.at(i).to_radians().sin_cos();
-                    let (xf, yf) = (x as f32, y as f32);
-                    match &constant_scale {
-                        Some((s, levels)) => {
-                            self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, px);
-                        }
-                        None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), px),
+        out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+            for (x, px) in row.chunks_exact_mut(c).enumerate() {
+                let i = y * w + x;
+                let (sin, cos) = angle.at(i).to_radians().sin_cos();
+                let (xf, yf) = (x as f32, y as f32);
+                match &constant_scale {
+                    Some((s, levels)) => {
+                        self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, 1.0, px);
                     }
+                    None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), px),
                 }
-            });
-        }
+            }
+        });
     }
 
     /// One pixel with constant scale (levels precomputed) and a per-pixel
-    /// rotation; `cs = s cos theta`, `ss = s sin theta`. Adds into `out`.
-    #[inline]
-    fn pixel_rotated<const C: usize>(
-        &self,
-        levels: &[(usize, usize, f32, f32)],
-        x: f32,
-        y: f32,
-        cs: f32,
-        ss: f32,
-        out: &mut [f32],
-    ) {
-        let mut acc = [0.0f32; C];
-        for (t, &(a, b, wa, wb)) in self.terms.iter().zip(levels) {
-            let px = x + cs * t.cx + ss * t.cy;
-            let py = y - ss * t.cx + cs * t.cy;
-            self.add::<C>(a, px, py, wa, &mut acc, out);
-            if wb != 0.0 {
-                self.add::<C>(b, px, py, wb, &mut acc, out);
-            }
-        }
-        for (o, a) in out.iter_mut().zip(acc) {
-            *o += a;
-        }
-    }
-
-    /// As [`Self::pixel_rotated`], scaling the sum by `weight`.
+    /// rotation; `cs = s cos theta`, `ss = s sin theta`. Adds `weight *` the
+    /// filtered value into `out`.
     #[inline]
     #[expect(clippy::too_many_arguments, reason = "hot inner call, all scalars")]
-    fn pixel_rotated_weighted<const C: usize>(
+    fn pixel_rotated<const C: usize>(
         &self,
         levels: &[(usize, usize, f32, f32)],
         x: f32,
@@ -547,16 +508,22 @@ impl<'a> Filter<'a> {
         weight: f32,
         out: &mut [f32],
     ) {
-        if C == 0 {
-            let mut tmp = vec![0.0f32; out.len()];
-            self.pixel_rotated::<0>(levels, x, y, cs, ss, &mut tmp);
-            for (o, t) in out.iter_mut().zip(tmp) {
-                *o += weight * t;
-            }
-            return;
-        }
         let mut acc = [0.0f32; C];
-        self.pixel_rotated::<C>(levels, x, y, cs, ss, &mut acc);
+        for (t, &(a, b, wa, wb)) in self.terms.iter().zip(levels) {
+            let px = x + cs * t.cx + ss * t.cy;
+            let py = y - ss * t.cx + cs * t.cy;
+            // With `C == 0` the lookups add straight into `out`, so the
+            // weight goes into each tap; otherwise into the sum below.
+            let (wa, wb) = if C == 0 {
+                (wa * weight, wb * weight)
+            } else {
+                (wa, wb)
+            };
+            self.add::<C>(a, px, py, wa, &mut acc, out);
+            if wb != 0.0 {
+                self.add::<C>(b, px, py, wb, &mut acc, out);
+            }
+        }
         for (o, a) in out.iter_mut().zip(acc) {
             *o += weight * a;
         }
@@ -718,11 +685,11 @@ impl<'a> ScaledFilter<'_, 'a> {
         }
         let (cs, ss) = (rotation.cos * self.scale, rotation.sin * self.scale);
         match out.len() {
-            1 => f.pixel_rotated_weighted::<1>(&self.levels, x, y, cs, ss, weight, out),
-            2 => f.pixel_rotated_weighted::<2>(&self.levels, x, y, cs, ss, weight, out),
-            3 => f.pixel_rotated_weighted::<3>(&self.levels, x, y, cs, ss, weight, out),
-            4 => f.pixel_rotated_weighted::<4>(&self.levels, x, y, cs, ss, weight, out),
-            _ => f.pixel_rotated_weighted::<0>(&self.levels, x, y, cs, ss, weight, out),
+            1 => f.pixel_rotated::<1>(&self.levels, x, y, cs, ss, weight, out),
+            2 => f.pixel_rotated::<2>(&self.levels, x, y, cs, ss, weight, out),
+            3 => f.pixel_rotated::<3>(&self.levels, x, y, cs, ss, weight, out),
+            4 => f.pixel_rotated::<4>(&self.levels, x, y, cs, ss, weight, out),
+            _ => f.pixel_rotated::<0>(&self.levels, x, y, cs, ss, weight, out),
         }
     }
 
