@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use ifd_image::Image;
-use ifd_planar::{Border, Filter, Rotation, ScaleStack, ScaledFilter};
+use ifd_planar::{Border, Filter, Rotation, ScaleStack, ScaledFilter, Taps};
 use rayon::prelude::*;
 
 use crate::bank::{AspectBank, BankOptions};
@@ -300,13 +300,18 @@ impl Smoother {
         weight: f32,
         out: &mut [f32],
     ) {
+        let rot = Rotation::degrees(o.theta);
+        for (i, wi) in self.blend(o) {
+            scaled[i].accumulate(x, y, weight * wi, rot, out);
+        }
+    }
+
+    /// The bank entries of filter `o` and their blend weights: `(i, 1 - t)`
+    /// and, unless `t = 0`, `(i + 1, t)` ([`AspectBank::locate`]).
+    fn blend(&self, o: Orientation) -> impl Iterator<Item = (usize, f32)> {
         let (i, t) = self.bank.locate(f64::from(o.aspect));
         let t = t as f32;
-        let rot = Rotation::degrees(o.theta);
-        scaled[i].accumulate(x, y, weight * (1.0 - t), rot, out);
-        if t > 0.0 {
-            scaled[i + 1].accumulate(x, y, weight * t, rot, out);
-        }
+        std::iter::once((i, 1.0 - t)).chain((t > 0.0).then_some((i + 1, t)))
     }
 
     /// Smooths the whole image.
@@ -400,11 +405,9 @@ impl Smoother {
         let constant = match mode {
             Mode::Dab => {
                 let o = self.orientation_at(dab.x, dab.y);
-                let (i, t) = self.bank.locate(f64::from(o.aspect));
-                let t = t as f32;
-                let mut taps = scaled[i].taps(o.theta, 1.0 - t);
-                if t > 0.0 {
-                    taps.extend(scaled[i + 1].taps(o.theta, t));
+                let mut taps = Taps::default();
+                for (i, wi) in self.blend(o) {
+                    taps.extend(scaled[i].taps(o.theta, wi));
                 }
                 Some(taps.apply_region(&self.stack, x0, y0, rw, rh)?)
             }
