@@ -113,33 +113,11 @@ impl LegendreTable {
     }
 
     /// Fully normalised `K_l^m P_l^m(z)` (with `sin^m t` included) for `l >= m`
-    /// of one order `m`, written to `out[l - m]`; `sm = sin^m t`.
+    /// of one order `m`, for `N` arguments at once: lane `k` of `out[l - m]`
+    /// is the value at `z[k]`, with `sm[k] = sin^m t_k`. Written lane-wise so
+    /// that the recurrence vectorises across arguments (`N = 1` for one).
     #[inline]
-    pub(crate) fn column(&self, m: usize, z: f64, sm: f64, out: &mut [f64]) {
-        let l_max = self.l_max;
-        let mut p2 = self.qmm[m] * sm;
-        out[0] = p2;
-        if m == l_max {
-            return;
-        }
-        let mut p1 = self.c1[m] * z * p2;
-        out[1] = p1;
-        for l in m + 2..=l_max {
-            let t = tri(l, m);
-            let p = self.a[t] * (z * p1 - self.b[t] * p2);
-            out[l - m] = p;
-            p2 = p1;
-            p1 = p;
-        }
-    }
-}
-
-impl LegendreTable {
-    /// As [`LegendreTable::column`] for `N` arguments at once (lane `k` of
-    /// `out[l - m]` is the value at `z[k]`, `sm[k]`): the same recurrence,
-    /// written lane-wise so that it vectorises.
-    #[inline]
-    pub(crate) fn column_lanes<const N: usize>(
+    pub(crate) fn column<const N: usize>(
         &self,
         m: usize,
         z: &[f64; N],

@@ -178,25 +178,7 @@ impl EquirectTransform {
             });
         }
         let data = img.data();
-        // One branch-free (vectorisable) pass for both counts.
-        let (bad, negatives_clamped) =
-            data.chunks(1 << 12)
-                .fold((0usize, 0usize), |(bad, neg), chunk| {
-                    let (mut b, mut n) = (0u32, 0u32);
-                    for &v in chunk {
-                        b += u32::from(!v.is_finite());
-                        n += u32::from(v < 0.0);
-                    }
-                    (bad + b as usize, neg + n as usize)
-                });
-        if bad > 0 {
-            let first = data.iter().position(|v| !v.is_finite()).unwrap_or(0);
-            return Err(SphereError::NonFinite {
-                what: "environment map",
-                count: bad,
-                first,
-            });
-        }
+        let negatives_clamped = count_negatives_of_finite_map(data, "environment map")?;
         let clamp = negatives == Negatives::Clamp;
         let (w, h, ch) = (self.width, self.height, img.channels());
         let l_max = self.l_max;
@@ -206,7 +188,7 @@ impl EquirectTransform {
         let mut scratch = vec![Complex64::default(); self.fwd.get_inplace_scratch_len()];
         // Row pairs are processed LANES at a time: their even/odd Fourier
         // combinations per (m, channel, lane), then the Legendre sums of all
-        // lanes together (`column_lanes` vectorises the recurrence across
+        // lanes together (`LegendreTable::column` vectorises the recurrence across
         // rows, and each coefficient is updated once per block).
         let mut even = vec![Complex64::default(); (l_max + 1) * ch * LANES];
         let mut odd = vec![Complex64::default(); (l_max + 1) * ch * LANES];
@@ -272,7 +254,7 @@ impl EquirectTransform {
                         *a *= b;
                     }
                 }
-                self.table.column_lanes(m, &zs, &sm, &mut col);
+                self.table.column(m, &zs, &sm, &mut col);
                 for l in m..=l_max {
                     let p = &col[l - m];
                     let src = if (l + m) % 2 == 0 { &even } else { &odd };
@@ -312,7 +294,7 @@ impl EquirectTransform {
         let src = f.data();
         let mut img = Image::new(w, h, ch)?;
         let data = img.data_mut();
-        let mut col = vec![0.0; self.l_max + 1];
+        let mut col = vec![[0.0; 1]; self.l_max + 1];
         let mut spec = vec![Complex64::default(); w * ch];
         let mut buf = vec![Complex64::default(); w];
         let mut scratch = vec![Complex64::default(); self.inv.get_inplace_scratch_len()];
@@ -325,13 +307,13 @@ impl EquirectTransform {
                 if m > 0 {
                     sm *= s;
                 }
-                self.table.column(m, z, sm, &mut col);
+                self.table.column(m, &[z], &[sm], &mut col);
                 let ph = self.phase[m].conj();
                 for c in 0..ch {
                     // even/odd (in l + m) partial sums of the cos and sin parts
                     let (mut ae, mut ao, mut be, mut bo) = (0.0, 0.0, 0.0, 0.0);
                     for l in m..=l_max {
-                        let p = col[l - m];
+                        let [p] = col[l - m];
                         let base = l * (l + 1);
                         let a = src[(base + m) * ch + c] * p;
                         let b = if m > 0 {
@@ -378,6 +360,31 @@ impl EquirectTransform {
         }
         Ok(img)
     }
+}
+
+/// The number of negative samples of a map, after checking that all are
+/// finite ([`SphereError::NonFinite`] names the count and the first index);
+/// one branch-free (vectorisable) pass for both counts.
+fn count_negatives_of_finite_map(data: &[f32], what: &'static str) -> Result<usize> {
+    let (bad, negatives) = data
+        .chunks(1 << 12)
+        .fold((0usize, 0usize), |(bad, neg), chunk| {
+            let (mut b, mut n) = (0u32, 0u32);
+            for &v in chunk {
+                b += u32::from(!v.is_finite());
+                n += u32::from(v < 0.0);
+            }
+            (bad + b as usize, neg + n as usize)
+        });
+    if bad > 0 {
+        let first = data.iter().position(|v| !v.is_finite()).unwrap_or(0);
+        return Err(SphereError::NonFinite {
+            what,
+            count: bad,
+            first,
+        });
+    }
+    Ok(negatives)
 }
 
 /// Projects an equirectangular image (`W = 2H`) onto SH up to `l_max`
@@ -473,14 +480,7 @@ pub fn analyze_cubemap(img: &Image, l_max: usize, negatives: Negatives) -> Resul
         });
     }
     let data = img.data();
-    if let Some(first) = data.iter().position(|v| !v.is_finite()) {
-        return Err(SphereError::NonFinite {
-            what: "cubemap",
-            count: data.iter().filter(|v| !v.is_finite()).count(),
-            first,
-        });
-    }
-    let negatives_clamped = data.iter().filter(|&&v| v < 0.0).count();
+    let negatives_clamped = count_negatives_of_finite_map(data, "cubemap")?;
     let sh = ShEvaluator::new(l_max)?;
     let mut coeffs = ShCoeffs::zeros(l_max, ch)?;
     let o = coeffs.data_mut();
