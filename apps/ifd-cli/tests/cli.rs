@@ -1,27 +1,9 @@
 //! End-to-end tests of the `ifd` binary: exit codes and messages for bad input.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-fn ifd(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_ifd"))
-        .args(args)
-        .output()
-        .expect("run ifd");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn testdata(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../testdata")
-        .join(name)
-        .to_string_lossy()
-        .into_owned()
-}
+mod common;
+use common::{ifd, testdata};
 
 fn write_file(dir: &Path, name: &str, bytes: &[u8]) -> String {
     let p: PathBuf = dir.join(name);

@@ -6,24 +6,18 @@
 //! unification with eframe compiles wgpu's GL backend in too, and Mesa's GL
 //! llvmpipe would otherwise be found.
 
-use std::path::Path;
-use std::process::Command;
+mod common;
 
 const MISSING: &str = "/nonexistent/ifd-no-vulkan-driver.json";
 
 fn ifd_without_vulkan(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_ifd"))
-        .args(args)
-        .env("VK_DRIVER_FILES", MISSING)
-        .env("VK_ICD_FILENAMES", MISSING)
-        .env_remove("VK_ADD_DRIVER_FILES")
-        .env("WGPU_BACKEND", "vulkan")
-        .output()
-        .expect("run ifd");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
+    common::run(
+        common::ifd_command()
+            .args(args)
+            .env("VK_DRIVER_FILES", MISSING)
+            .env("VK_ICD_FILENAMES", MISSING)
+            .env_remove("VK_ADD_DRIVER_FILES")
+            .env("WGPU_BACKEND", "vulkan"),
     )
 }
 
@@ -53,11 +47,11 @@ fn filter_gpu_without_vulkan_exits_2_and_writes_nothing() {
             "terms": [{"weight": 1.0, "x": 0.0, "y": 0.0, "sigma": 2.0}]}"#,
     )
     .expect("write decomposition");
-    let img = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../testdata/camera.png");
+    let img = common::testdata("camera.png");
     let out = dir.path().join("out.png");
     let (code, _, err) = ifd_without_vulkan(&[
         "filter",
-        img.to_str().expect("utf8"),
+        &img,
         "--decomp",
         decomp.to_str().expect("utf8"),
         "-o",
@@ -69,7 +63,7 @@ fn filter_gpu_without_vulkan_exits_2_and_writes_nothing() {
     // The same command without --gpu works: the failure was the adapter.
     let (code, _, err) = ifd_without_vulkan(&[
         "filter",
-        img.to_str().expect("utf8"),
+        &img,
         "--decomp",
         decomp.to_str().expect("utf8"),
         "-o",

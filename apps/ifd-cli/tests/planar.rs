@@ -3,21 +3,11 @@
 //! outputs of the right shape.
 
 use std::path::Path;
-use std::process::Command;
 
 use ifd_image::Image;
 
-fn ifd(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_ifd"))
-        .args(args)
-        .output()
-        .expect("run ifd");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::ifd;
 
 fn path(dir: &Path, name: &str) -> String {
     dir.join(name).to_string_lossy().into_owned()
