@@ -528,13 +528,22 @@ impl Engine {
             .smoother
             .write()
             .map_err(|_| anyhow::anyhow!("smoother lock poisoned"))?;
-        if let Some(sm) = guard.as_mut() {
-            sm.refresh_region(image, rect, &self.banks.hessian)
-                .context("refreshing the prefiltered stack")?;
-        }
+        let Some(sm) = guard.as_mut() else {
+            return Ok(());
+        };
+        let report = sm
+            .refresh_region(image, rect, &self.banks.hessian)
+            .context("refreshing the prefiltered stack")?;
+        // The GPU copy follows row by row; should that fail, it is uploaded again.
+        let updated = match &mut self.gpu {
+            Some(GpuPath {
+                ctx,
+                smoother: Some(gs),
+            }) => gs.refresh(ctx, sm, rect, &report).is_ok(),
+            _ => true,
+        };
         drop(guard);
-        // The GPU copy is replaced whole (ifd-gpu has no region update yet).
-        self.upload_gpu()
+        if updated { Ok(()) } else { self.upload_gpu() }
     }
 
     /// Undoes the latest stroke; returns the changed rectangle.

@@ -408,7 +408,7 @@ impl GpuPose {
                 ctx.device(),
                 "ifd pose maps",
                 bytemuck::cast_slice(&maps),
-                wgpu::BufferUsages::STORAGE,
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             ))
         })?;
         Ok(Self {
@@ -427,6 +427,75 @@ impl GpuPose {
             scale_range: (scale_where[0].0, scale_where[1].0),
             scale_field_is_map: matches!(scale, Field::Map(_)),
             scale_where,
+        })
+    }
+
+    /// Overwrites rows `y0..y0 + rows` of the angle and bank-entry maps
+    /// (each `rows * width` values; `None` keeps a map, and a field that is
+    /// not a map takes no rows).
+    ///
+    /// # Errors
+    /// [`FilterError::InvalidParameter`] for rows outside the image, maps of
+    /// the wrong length or not uploaded as maps, non-finite values or
+    /// negative entries; [`GpuError::Device`] for a wgpu error.
+    pub(crate) fn write_rows(
+        &self,
+        ctx: &GpuContext,
+        y0: usize,
+        rows: usize,
+        angle: Option<&[f32]>,
+        entry: Option<&[f32]>,
+    ) -> Result<(), GpuError> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let bad = |m: String| GpuError::from(FilterError::InvalidParameter(m));
+        if y0 + rows > h {
+            return Err(bad(format!("rows {y0}..{} of a {w}x{h} pose", y0 + rows)));
+        }
+        let n = rows * w;
+        for (name, m, flag, min) in [
+            ("angle", angle, 1, f32::NEG_INFINITY),
+            ("bank entry", entry, 4, 0.0),
+        ] {
+            let Some(m) = m else { continue };
+            if self.flags & flag == 0 || m.len() != n {
+                return Err(bad(format!(
+                    "{} {name} values for {rows} rows of a pose whose {name} {}",
+                    m.len(),
+                    if self.flags & flag == 0 {
+                        "is constant"
+                    } else {
+                        "is a map"
+                    }
+                )));
+            }
+            if let Some(i) = m.iter().position(|v| !v.is_finite() || *v < min) {
+                return Err(bad(format!(
+                    "{name} {} at pixel ({}, {}) is not finite or negative",
+                    m[i],
+                    i % w,
+                    y0 + i / w
+                )));
+            }
+        }
+        ctx.scoped("updating the per-pixel maps", || {
+            if let Some(a) = angle {
+                let cs: Vec<f32> = a
+                    .iter()
+                    .flat_map(|a| {
+                        let (s, c) = a.to_radians().sin_cos();
+                        [c, s]
+                    })
+                    .collect();
+                let at = (self.rot_off as usize + 2 * y0 * w) * 4;
+                ctx.queue()
+                    .write_buffer(&self.maps, at as u64, bytemuck::cast_slice(&cs));
+            }
+            if let Some(e) = entry {
+                let at = (self.entry_off as usize + y0 * w) * 4;
+                ctx.queue()
+                    .write_buffer(&self.maps, at as u64, bytemuck::cast_slice(e));
+            }
+            Ok(())
         })
     }
 

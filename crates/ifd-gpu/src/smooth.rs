@@ -4,7 +4,7 @@
 use ifd_image::Image;
 use ifd_planar::{Field, ScaleStack};
 use ifd_smooth::smooth::DabRegion;
-use ifd_smooth::{Dab, HessianBank, Mode, Smoother};
+use ifd_smooth::{Dab, HessianBank, Mode, RegionRefresh, Smoother};
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
@@ -120,6 +120,64 @@ impl GpuSmoother {
             entries,
             thetas,
         })
+    }
+
+    /// Brings the upload up to date with `smoother` after
+    /// `smoother.refresh_region(image, changed, ..)` returned `report`: the
+    /// stack rows of [`ScaleStack::refreshed_rows`]`(changed)` and the rows
+    /// of the orientation field in `report.field_rect` are written to the
+    /// device; nothing else is uploaded again. `smoother` must be the one
+    /// this was made from. Returns the bytes written.
+    ///
+    /// # Errors
+    /// [`ifd_planar::FilterError::InvalidParameter`] when `smoother` does not
+    /// match the upload (another shape, level layout or filter scale), and
+    /// [`GpuError::Device`] for a wgpu error.
+    pub fn refresh(
+        &mut self,
+        ctx: &GpuContext,
+        smoother: &Smoother,
+        changed: ifd_planar::PixelRect,
+        report: &RegionRefresh,
+    ) -> Result<u64, GpuError> {
+        let bank = smoother.bank();
+        let scale = (smoother.options().scale / bank.options.sigma_ref) as f32;
+        if scale != self.scale {
+            return Err(ifd_planar::FilterError::InvalidParameter(format!(
+                "the smoother's filter scale is {scale}, the uploaded one {}; upload it again",
+                self.scale
+            ))
+            .into());
+        }
+        let rows = smoother.stack().refreshed_rows(changed);
+        let mut written = self.stack.update_rows(ctx, smoother.stack(), &rows)?;
+        if let Some(r) = report.field_rect.filter(|r| r.width > 0 && r.height > 0) {
+            let w = self.stack.width();
+            let field = smoother.orientation_field();
+            let span = r.y0 * w..(r.y0 + r.height) * w;
+            if span.end > field.len() {
+                return Err(ifd_planar::FilterError::InvalidParameter(format!(
+                    "field rows {}..{} of a {w}x{} field",
+                    r.y0,
+                    r.y0 + r.height,
+                    field.len() / w.max(1)
+                ))
+                .into());
+            }
+            for i in span.clone() {
+                self.thetas[i] = field[i].theta;
+                self.entries[i] = entry_value(bank.locate(f64::from(field[i].aspect)));
+            }
+            self.field.write_rows(
+                ctx,
+                r.y0,
+                r.height,
+                Some(&self.thetas[span.clone()]),
+                Some(&self.entries[span.clone()]),
+            )?;
+            written += span.len() as u64 * 12;
+        }
+        Ok(written)
     }
 
     /// The uploaded stack.

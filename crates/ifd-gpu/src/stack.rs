@@ -29,6 +29,8 @@ pub(crate) struct Chunk {
     pub(crate) nc: u32,
     pub(crate) levels: wgpu::Buffer,
     pub(crate) data: wgpu::Buffer,
+    /// The host's copy of `levels` (offsets for row updates).
+    metas: Vec<LevelMeta>,
 }
 
 /// A [`ScaleStack`] on the GPU: the same samples, the same level geometry and
@@ -146,6 +148,102 @@ impl GpuStack {
         self.chunks.len()
     }
 
+    /// Copies rows of `stack` (the CPU stack this one was uploaded from,
+    /// after [`ScaleStack::refresh_region`]) to the device: rows `j0..=j1` of
+    /// level `l` for every `rows[l] = Some((j0, j1))`, as
+    /// [`ScaleStack::refreshed_rows`] reports them, all channels. The brush
+    /// keeps its uploaded stack in step with the edited image this way
+    /// instead of uploading it again. Returns the bytes written.
+    ///
+    /// ```no_run
+    /// use ifd_gpu::{GpuContext, GpuStack};
+    /// use ifd_planar::{Border, PixelRect, ScaleStack, StackOptions};
+    /// let ctx = GpuContext::new()?;
+    /// let mut img = ifd_image::read("testdata/camera.png")?;
+    /// let mut stack = ScaleStack::new(&img, 1.0, 16.0, Border::Reflect101, StackOptions::default())?;
+    /// let gpu = GpuStack::upload(&ctx, &stack)?;
+    /// img.set(10, 20, 0, 1.0);
+    /// let rect = PixelRect { x0: 10, y0: 20, width: 1, height: 1 };
+    /// let rows = stack.refreshed_rows(rect);
+    /// stack.refresh_region(&img, rect)?;
+    /// gpu.update_rows(&ctx, &stack, &rows)?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`ifd_planar::FilterError::InvalidParameter`] when `stack` has another
+    /// shape or level layout than the uploaded one or a row range leaves its
+    /// level, [`GpuError::Device`] for a wgpu error.
+    pub fn update_rows(
+        &self,
+        ctx: &GpuContext,
+        stack: &ScaleStack,
+        rows: &[Option<(usize, usize)>],
+    ) -> Result<u64, GpuError> {
+        let bad = |m: String| GpuError::from(ifd_planar::FilterError::InvalidParameter(m));
+        let (w, h, c) = (stack.width(), stack.height(), stack.channels());
+        if (w, h, c) != (self.width(), self.height(), self.channels()) {
+            return Err(bad(format!(
+                "the stack is {w}x{h}x{c}, the uploaded one {}x{}x{}",
+                self.width(),
+                self.height(),
+                self.channels()
+            )));
+        }
+        let layouts: Vec<_> = stack.level_layouts().copied().collect();
+        let same = self.chunks.iter().all(|ch| {
+            ch.metas.len() == layouts.len()
+                && ch
+                    .metas
+                    .iter()
+                    .zip(&layouts)
+                    .all(|(m, l)| (m.nx as usize, m.ny as usize) == (l.nx, l.ny))
+        });
+        if !same || rows.len() != layouts.len() {
+            return Err(bad(format!(
+                "the stack has {} levels ({} row ranges given) laid out otherwise than the \
+                 uploaded one; upload it again",
+                layouts.len(),
+                rows.len()
+            )));
+        }
+        for (l, r) in layouts.iter().zip(rows) {
+            if let Some((j0, j1)) = *r
+                && (j0 > j1 || j1 >= l.ny)
+            {
+                return Err(bad(format!(
+                    "rows {j0}..={j1} of a level with {} rows",
+                    l.ny
+                )));
+            }
+        }
+        let mut written = 0u64;
+        ctx.scoped("updating the scale stack", || {
+            let mut part = Vec::new();
+            for chunk in &self.chunks {
+                for (li, (meta, r)) in chunk.metas.iter().zip(rows).enumerate() {
+                    let (Some((j0, j1)), Some(src)) = (*r, stack.level_data(li)) else {
+                        continue;
+                    };
+                    let nx = meta.nx as usize;
+                    let src = &src[j0 * nx * c..(j1 + 1) * nx * c];
+                    for k in 0..chunk.nc as usize {
+                        part.clear();
+                        part.extend(src.chunks_exact(c).map(|px| px[chunk.c0 as usize + k]));
+                        let at = u64::from(meta.offset)
+                            + k as u64 * u64::from(meta.plane)
+                            + (j0 * nx) as u64;
+                        ctx.queue()
+                            .write_buffer(&chunk.data, at * 4, bytemuck::cast_slice(&part));
+                        written += part.len() as u64 * 4;
+                    }
+                }
+            }
+            Ok(())
+        })?;
+        Ok(written)
+    }
+
     /// Whether `sigma` lies in the covered range ([`ScaleStack::covers`]).
     #[must_use]
     pub fn covers(&self, sigma: f64) -> bool {
@@ -194,7 +292,7 @@ fn upload_chunk(
     let data = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("ifd stack samples"),
         size: bytes,
-        usage: wgpu::BufferUsages::STORAGE,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: true,
     });
     {
@@ -229,5 +327,6 @@ fn upload_chunk(
         nc: nc as u32,
         levels,
         data,
+        metas,
     })
 }

@@ -690,6 +690,88 @@ mod smoothing {
         assert!(gsm.apply_dab(ctx, &bad, Mode::Dab, &mut t).is_err());
     }
 
+    /// After an edit, `GpuSmoother::refresh` (rows only) leaves the device
+    /// holding exactly what a fresh upload of the refreshed smoother holds.
+    #[test]
+    fn refresh_matches_a_fresh_upload() {
+        let Some(ctx) = ctx() else { return };
+        // Tall, so that the rows a dab near the top changes are a minority.
+        let img = crop(
+            &read("camera.png"),
+            Region {
+                x0: 100,
+                y0: 0,
+                width: 160,
+                height: 512,
+            },
+        );
+        let mut sm = smoother(&img);
+        let mut gsm = GpuSmoother::new(ctx, &sm).expect("upload");
+        let mut edited = img.clone();
+        let dab = Dab {
+            x: 80.0,
+            y: 40.0,
+            radius: 25.0,
+            falloff: 0.5,
+            strength: 1.0,
+        };
+        let r = sm
+            .apply_dab(&dab, Mode::PerPixel, &mut edited)
+            .expect("dab")
+            .expect("inside");
+        let rect = ifd_planar::PixelRect {
+            x0: r.x0,
+            y0: r.y0,
+            width: r.width,
+            height: r.height,
+        };
+        let stale = gsm.smooth_image(ctx, Mode::PerPixel).expect("stale");
+        let (_, hbank) = banks();
+        let report = sm
+            .refresh_region(&edited, rect, hbank)
+            .expect("cpu refresh");
+        let written = gsm.refresh(ctx, &sm, rect, &report).expect("gpu refresh");
+        let fresh = GpuSmoother::new(ctx, &sm).expect("upload again");
+        eprintln!(
+            "refresh wrote {written} bytes; the stack is {}",
+            fresh.stack().bytes()
+        );
+        assert!(
+            written < fresh.stack().bytes() / 2,
+            "the refresh wrote {written} bytes, the whole stack is {}",
+            fresh.stack().bytes()
+        );
+        let a = gsm.smooth_image(ctx, Mode::PerPixel).expect("refreshed");
+        let b = fresh.smooth_image(ctx, Mode::PerPixel).expect("fresh");
+        assert_ne!(stale.data(), b.data(), "the edit must change the result");
+        assert_eq!(
+            a.data(),
+            b.data(),
+            "refreshed upload differs from a fresh one"
+        );
+        assert_close(
+            &a,
+            &sm.smooth_image(Mode::PerPixel).expect("cpu"),
+            "refreshed smoother",
+        );
+        // A smoother at another scale is not the one uploaded.
+        let (bank, hbank) = banks();
+        let other = Smoother::with_banks(
+            &edited,
+            &SmoothOptions {
+                scale: 3.0,
+                ..SmoothOptions::default()
+            },
+            Arc::clone(bank),
+            hbank,
+        )
+        .expect("smoother");
+        assert!(matches!(
+            gsm.refresh(ctx, &other, rect, &report),
+            Err(GpuError::Filter(FilterError::InvalidParameter(_)))
+        ));
+    }
+
     #[test]
     fn hessian_matches_cpu() {
         let Some(ctx) = ctx() else { return };

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 use crate::border::Border;
 use crate::filter::FilterError;
-use crate::stack::{ScaleStack, check_finite};
+use crate::stack::{LevelLayout, ScaleStack, check_finite};
 
 /// A rectangle of pixels: columns `x0..x0 + width`, rows `y0..y0 + height`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -121,6 +121,30 @@ fn affected_range(
     (lo <= hi).then_some((lo as usize, hi as usize))
 }
 
+/// Reach of a level's Gaussian in [`ScaleStack::refresh_region`]: 5 sigma
+/// and one pixel.
+fn reach(sigma: f64) -> i64 {
+    (5.0 * sigma).ceil() as i64 + 1
+}
+
+/// Stored sample ranges `((i0, i1), (j0, j1))` (columns, rows) of level `l`
+/// that depend on the pixels of the non-empty `rect`; `None` when none.
+fn affected_window(
+    l: &LevelLayout,
+    rect: PixelRect,
+    w: usize,
+    h: usize,
+    border: Border,
+) -> Option<((usize, usize), (usize, usize))> {
+    let r = reach(l.sigma);
+    let step = l.step as i64;
+    let (a_x, b_x) = (rect.x0 as i64, (rect.x0 + rect.width - 1) as i64);
+    let (a_y, b_y) = (rect.y0 as i64, (rect.y0 + rect.height - 1) as i64);
+    let cols = affected_range(a_x, b_x, r, l.origin, step, l.nx, w, border)?;
+    let rows = affected_range(a_y, b_y, r, l.origin, step, l.ny, h, border)?;
+    Some((cols, rows))
+}
+
 /// Dot product in eight independent lanes (vectorises; the summation order
 /// differs from a sequential sum by rounding only).
 fn dot(a: &[f32], b: &[f32]) -> f32 {
@@ -203,6 +227,45 @@ impl ScaleStack {
         Ok(out)
     }
 
+    /// The stored rows `(j0, j1)` (inclusive) of each level that
+    /// [`ScaleStack::refresh_region`] recomputes for a change in `rect`
+    /// (`None`: the level keeps all its samples), for copies of the stack
+    /// that follow it row by row (the GPU's). Empty rectangles, and
+    /// rectangles leaving the image, change nothing.
+    ///
+    /// ```
+    /// use ifd_planar::{Border, PixelRect, ScaleStack, StackOptions};
+    /// let img = ifd_image::Image::from_vec(64, 64, 1, vec![0.5; 64 * 64])?;
+    /// let stack = ScaleStack::new(&img, 1.0, 8.0, Border::Reflect101, StackOptions::default())?;
+    /// let rect = PixelRect { x0: 30, y0: 30, width: 4, height: 4 };
+    /// let rows = stack.refreshed_rows(rect);
+    /// assert_eq!(rows.len(), stack.level_layouts().count());
+    /// // The finest level (sigma 1, reach 5 sigma + 1 = 6 px, one more sample
+    /// // on the far side) recomputes coordinates 30 - 6 ..= 33 + 6 + 1; its
+    /// // stored row 0 is coordinate -1.
+    /// let first = stack.level_layouts().next().unwrap();
+    /// assert_eq!(first.origin, -1);
+    /// assert_eq!(rows[0], Some((25, 41)));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    #[must_use]
+    pub fn refreshed_rows(&self, rect: PixelRect) -> Vec<Option<(usize, usize)>> {
+        let (w, h) = (self.width(), self.height());
+        let inside = rect.width > 0
+            && rect.height > 0
+            && rect.x0 + rect.width <= w
+            && rect.y0 + rect.height <= h;
+        self.levels
+            .iter()
+            .map(|level| {
+                if !inside {
+                    return None;
+                }
+                affected_window(&level.layout, rect, w, h, self.border()).map(|(_, rows)| rows)
+            })
+            .collect()
+    }
+
     /// Recomputes, in every level, the stored samples that depend on the
     /// pixels of `rect`, from `image` (the stack's image after a change
     /// confined to `rect`). Samples outside the affected region are kept.
@@ -247,21 +310,14 @@ impl ScaleStack {
         }
         let border = self.border();
         let cval = border.constant();
-        let (a_x, b_x) = (rect.x0 as i64, (rect.x0 + rect.width - 1) as i64);
-        let (a_y, b_y) = (rect.y0 as i64, (rect.y0 + rect.height - 1) as i64);
         let mut report = RefreshReport::default();
         for level in &mut self.levels {
             let l = level.layout;
             report.total_samples += l.nx * l.ny;
             let sigma = l.sigma;
-            let r = (5.0 * sigma).ceil() as i64 + 1;
+            let r = reach(sigma);
             let step = l.step as i64;
-            let Some((i0, i1)) = affected_range(a_x, b_x, r, l.origin, step, l.nx, w, border)
-            else {
-                continue;
-            };
-            let Some((j0, j1)) = affected_range(a_y, b_y, r, l.origin, step, l.ny, h, border)
-            else {
+            let Some(((i0, i1), (j0, j1))) = affected_window(&l, rect, w, h, border) else {
                 continue;
             };
             let norm = 1.0 / ((2.0 * std::f64::consts::PI).sqrt() * sigma);
@@ -413,9 +469,36 @@ mod tests {
                     &stack,
                     &ScaleStack::new(&img, 0.7, 12.0, border, opts).expect("stack"),
                 );
+                let old = stack.clone();
+                let rows = stack.refreshed_rows(rect);
                 let report = stack.refresh_region(&img, rect).expect("refresh");
                 let rebuilt = ScaleStack::new(&img, 0.7, 12.0, border, opts).expect("stack");
                 let after = max_diff(&stack, &rebuilt);
+                // Rows outside `refreshed_rows` needed no change: there the
+                // stack before the refresh already equals the rebuilt one.
+                for ((lo, lr), range) in old.levels.iter().zip(&rebuilt.levels).zip(&rows) {
+                    let row_len = lo.layout.nx * c;
+                    for (j, (a, b)) in lo
+                        .data
+                        .chunks_exact(row_len)
+                        .zip(lr.data.chunks_exact(row_len))
+                        .enumerate()
+                    {
+                        if range.is_some_and(|(j0, j1)| (j0..=j1).contains(&j)) {
+                            continue;
+                        }
+                        let d = a
+                            .iter()
+                            .zip(b)
+                            .map(|(x, y)| (x - y).abs())
+                            .fold(0.0, f32::max);
+                        assert!(
+                            d < 1e-5,
+                            "{border} {rect:?}: level sigma {} row {j} changed by {d} outside the refreshed rows {range:?}",
+                            lo.layout.sigma
+                        );
+                    }
+                }
                 assert!(before > 1e-2, "{border}: the change must show ({before})");
                 assert!(
                     after < 1e-5,

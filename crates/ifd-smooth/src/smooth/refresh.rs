@@ -24,6 +24,8 @@ pub struct RegionRefresh {
     pub stack: RefreshReport,
     /// Orientation-field pixels recomputed.
     pub field_pixels: usize,
+    /// The rectangle of the orientation field recomputed (`None`: none).
+    pub field_rect: Option<PixelRect>,
 }
 
 /// `[a - r, b + r]` clipped to `[0, n - 1]`; the whole axis for wrap borders
@@ -76,6 +78,7 @@ impl Smoother {
             return Ok(RegionRefresh {
                 stack,
                 field_pixels: 0,
+                field_rect: None,
             });
         }
         // Reach of the Hessian filters: atom offset plus 6 atom sigmas (the
@@ -216,6 +219,12 @@ impl Smoother {
         Ok(RegionRefresh {
             stack,
             field_pixels: fw * fh,
+            field_rect: Some(PixelRect {
+                x0: fx0,
+                y0: fy0,
+                width: fw,
+                height: fh,
+            }),
         })
     }
 }
