@@ -32,6 +32,8 @@ pub struct GpuContext {
     pub(crate) eval_pipeline: wgpu::ComputePipeline,
     pub(crate) rgba8_layout: wgpu::BindGroupLayout,
     pub(crate) rgba8_pipeline: wgpu::ComputePipeline,
+    pub(crate) blend_layout: wgpu::BindGroupLayout,
+    pub(crate) blend_pipeline: wgpu::ComputePipeline,
 }
 
 /// The rank of an adapter type (lower is preferred).
@@ -225,6 +227,10 @@ impl GpuContext {
                 },
             ],
         });
+        let blend_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("dab_blend"),
+            entries: &[uniform, storage(1, true), storage(2, false)],
+        });
         let pipeline = |name: &str, source: &str, layout: &wgpu::BindGroupLayout| {
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(name),
@@ -246,6 +252,7 @@ impl GpuContext {
         };
         let eval_pipeline = pipeline("ifd_eval", shaders::IFD_EVAL, &eval_layout);
         let rgba8_pipeline = pipeline("to_rgba8", shaders::TO_RGBA8, &rgba8_layout);
+        let blend_pipeline = pipeline("dab_blend", shaders::DAB_BLEND, &blend_layout);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Device {
                 context: "building the compute pipelines".into(),
@@ -260,6 +267,8 @@ impl GpuContext {
             eval_pipeline,
             rgba8_layout,
             rgba8_pipeline,
+            blend_layout,
+            blend_pipeline,
         })
     }
 

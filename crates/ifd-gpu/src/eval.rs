@@ -33,7 +33,7 @@ pub(crate) fn buffer_init(
     })
 }
 
-fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+pub(crate) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
         binding,
         resource: buffer.as_entire_binding(),
@@ -638,46 +638,81 @@ impl GpuOutput {
                 view_formats: &[],
             });
             let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-            let params = buffer_init(
-                device,
-                "to_rgba8 params",
-                bytemuck::cast_slice(&[w, h, self.channels as u32, u32::from(srgb)]),
-                wgpu::BufferUsages::UNIFORM,
+            submit_rgba8(
+                ctx,
+                &self.buffer,
+                &Rgba8Params {
+                    width: w,
+                    height: h,
+                    channels: self.channels as u32,
+                    srgb: u32::from(srgb),
+                    src_stride: w,
+                    ..Rgba8Params::default()
+                },
+                &view,
             );
-            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("to_rgba8"),
-                layout: &ctx.rgba8_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: params.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: self.buffer.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: wgpu::BindingResource::TextureView(&view),
-                    },
-                ],
-            });
-            let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("to_rgba8"),
-            });
-            {
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("to_rgba8"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(&ctx.rgba8_pipeline);
-                pass.set_bind_group(0, &bind, &[]);
-                pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-            }
-            ctx.queue().submit([enc.finish()]);
             Ok(texture)
         })
     }
+}
+
+/// The `struct Params` of `shaders/to_rgba8.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub(crate) struct Rgba8Params {
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) channels: u32,
+    pub(crate) srgb: u32,
+    pub(crate) src_x0: u32,
+    pub(crate) src_y0: u32,
+    pub(crate) src_stride: u32,
+    pub(crate) opaque: u32,
+    pub(crate) dst_x0: u32,
+    pub(crate) dst_y0: u32,
+    pub(crate) pad: [u32; 2],
+}
+
+/// Submits the conversion of a rectangle of `src` into `view` (an
+/// `rgba8unorm` storage texture view); see `shaders/to_rgba8.wgsl`.
+pub(crate) fn submit_rgba8(
+    ctx: &GpuContext,
+    src: &wgpu::Buffer,
+    params: &Rgba8Params,
+    view: &wgpu::TextureView,
+) {
+    let device = ctx.device();
+    let pb = buffer_init(
+        device,
+        "to_rgba8 params",
+        bytemuck::bytes_of(params),
+        wgpu::BufferUsages::UNIFORM,
+    );
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("to_rgba8"),
+        layout: &ctx.rgba8_layout,
+        entries: &[
+            entry(0, &pb),
+            entry(1, src),
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::TextureView(view),
+            },
+        ],
+    });
+    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("to_rgba8"),
+    });
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("to_rgba8"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&ctx.rgba8_pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups(params.width.div_ceil(8), params.height.div_ceil(8), 1);
+    }
+    ctx.queue().submit([enc.finish()]);
 }
 
 /// Copies `buffer` into a mappable one and reads it.
@@ -686,7 +721,18 @@ fn read_buffer(
     buffer: &wgpu::Buffer,
     what: &'static str,
 ) -> Result<Vec<u8>, GpuError> {
-    let size = buffer.size();
+    read_buffer_range(ctx, buffer, 0, buffer.size(), what)
+}
+
+/// Copies `size` bytes of `buffer` from `offset` (both multiples of 4) into
+/// a mappable buffer and reads them.
+pub(crate) fn read_buffer_range(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    offset: u64,
+    size: u64,
+    what: &'static str,
+) -> Result<Vec<u8>, GpuError> {
     let device = ctx.device();
     let staging = ctx.scoped("copying the result for readback", || {
         let staging = device.create_buffer(&wgpu::BufferDescriptor {
@@ -698,7 +744,7 @@ fn read_buffer(
         let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("ifd readback"),
         });
-        enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        enc.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
         ctx.queue().submit([enc.finish()]);
         Ok(staging)
     })?;

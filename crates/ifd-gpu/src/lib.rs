@@ -25,7 +25,10 @@
 //! [`GpuContext::evaluate`] over the whole image or a [`Region`] (brush dabs),
 //! [`GpuOutput`] (the result stays on the device as a storage buffer; read it
 //! back, or convert it to an `rgba8unorm` texture for display). Smoothing and
-//! the Hessian of `ifd-smooth`: [`GpuSmoother`], [`GpuHessian`].
+//! the Hessian of `ifd-smooth`: [`GpuSmoother`], [`GpuHessian`]. Painting
+//! without a round trip: [`GpuCanvas`] keeps the image on the device,
+//! blends brush dabs into it and converts the changed pixels into display
+//! textures that a renderer on the same device draws.
 //!
 //! # Devices
 //! [`GpuContext::new`] creates a headless device: the best enumerated
@@ -85,6 +88,7 @@
 //! is bracketed by timestamps and [`GpuOutput::gpu_time`] reports the GPU
 //! time.
 
+mod canvas;
 mod context;
 mod error;
 mod eval;
@@ -92,6 +96,7 @@ pub mod shaders;
 mod smooth;
 mod stack;
 
+pub use canvas::{DisplayTile, GpuCanvas};
 pub use context::{AdapterChoice, GpuContext, list_adapters};
 pub use error::GpuError;
 pub use eval::{GpuDecomposition, GpuOutput, GpuPose, Region};

@@ -7,3 +7,6 @@ pub const IFD_EVAL: &str = include_str!("../../../shaders/ifd_eval.wgsl");
 
 /// Result to `rgba8unorm` texture (`shaders/to_rgba8.wgsl`).
 pub const TO_RGBA8: &str = include_str!("../../../shaders/to_rgba8.wgsl");
+
+/// Brush-dab blend into an image on the device (`shaders/dab_blend.wgsl`).
+pub const DAB_BLEND: &str = include_str!("../../../shaders/dab_blend.wgsl");

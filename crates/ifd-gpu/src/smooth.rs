@@ -274,18 +274,8 @@ impl GpuSmoother {
             ))
             .into());
         }
-        let Some(r) = dab_region(dab, w, h)? else {
+        let Some((r, out)) = self.smooth_dab_box(ctx, dab, mode)? else {
             return Ok(None);
-        };
-        let region = Region {
-            x0: r.x0,
-            y0: r.y0,
-            width: r.width,
-            height: r.height,
-        };
-        let out = match mode {
-            Mode::PerPixel => self.smooth_per_pixel(ctx, Some(region))?,
-            Mode::Dab => self.smooth_with_orientation_at(ctx, dab.x, dab.y, Some(region))?,
         };
         let sm = out.read(ctx)?;
         let data = target.data_mut();
@@ -308,6 +298,33 @@ impl GpuSmoother {
             }
         }
         Ok(Some(r))
+    }
+}
+
+impl GpuSmoother {
+    /// Smooths the bounding box of `dab` (clipped to the image) as
+    /// [`GpuSmoother::apply_dab`] does before blending; `None` when the dab
+    /// misses the image. The result stays on the device.
+    pub(crate) fn smooth_dab_box(
+        &self,
+        ctx: &GpuContext,
+        dab: &Dab,
+        mode: Mode,
+    ) -> Result<Option<(DabRegion, GpuOutput)>, GpuError> {
+        let Some(r) = dab_region(dab, self.stack.width(), self.stack.height())? else {
+            return Ok(None);
+        };
+        let region = Region {
+            x0: r.x0,
+            y0: r.y0,
+            width: r.width,
+            height: r.height,
+        };
+        let out = match mode {
+            Mode::PerPixel => self.smooth_per_pixel(ctx, Some(region))?,
+            Mode::Dab => self.smooth_with_orientation_at(ctx, dab.x, dab.y, Some(region))?,
+        };
+        Ok(Some((r, out)))
     }
 }
 

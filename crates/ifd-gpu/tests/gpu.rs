@@ -13,8 +13,8 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use ifd_gpu::{
-    GpuContext, GpuDecomposition, GpuError, GpuHessian, GpuPose, GpuSmoother, GpuStack, Region,
-    filter_image,
+    GpuCanvas, GpuContext, GpuDecomposition, GpuError, GpuHessian, GpuPose, GpuSmoother, GpuStack,
+    Region, filter_image,
 };
 use ifd_image::Image;
 use ifd_planar::{
@@ -769,6 +769,180 @@ mod smoothing {
         assert!(matches!(
             gsm.refresh(ctx, &other, rect, &report),
             Err(GpuError::Filter(FilterError::InvalidParameter(_)))
+        ));
+    }
+
+    /// The display byte of a sample, as the brush app's CPU display path
+    /// (`apps/ifd-brush/src/display.rs`) computes it.
+    fn display_byte(v: f32, srgb: bool) -> u8 {
+        let v = if srgb {
+            ifd_image::linear_to_srgb(v.max(0.0))
+        } else {
+            v
+        };
+        (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+    }
+
+    /// Checks every display tile of `canvas` against `expected` (the image
+    /// it should show); returns the texels checked.
+    fn check_display(ctx: &GpuContext, canvas: &GpuCanvas, expected: &Image, srgb: bool) -> usize {
+        let c = expected.channels();
+        let mut checked = 0;
+        for (i, t) in canvas.tiles().iter().enumerate() {
+            let texels = canvas.read_tile(ctx, i).expect("tile");
+            let r = t.region;
+            assert_eq!(texels.len(), r.width * r.height);
+            for y in 0..r.height {
+                for x in 0..r.width {
+                    let px = texels[y * r.width + x];
+                    let rgb = if c >= 3 { [0, 1, 2] } else { [0, 0, 0] };
+                    for (k, &ch) in rgb.iter().enumerate() {
+                        let want = display_byte(expected.get(r.x0 + x, r.y0 + y, ch), srgb);
+                        assert!(
+                            px[k].abs_diff(want) <= 1,
+                            "tile {i} texel ({x}, {y}) channel {k}: {} for {want}",
+                            px[k]
+                        );
+                    }
+                    assert_eq!(px[3], 255, "the display is opaque");
+                    checked += 1;
+                }
+            }
+        }
+        checked
+    }
+
+    /// Dabs painted on a `GpuCanvas` (no readback) give the CPU's pixels,
+    /// and its display textures show them as the brush's CPU display does;
+    /// small tiles make the dabs cross tile edges.
+    #[test]
+    fn canvas_dabs_match_cpu_and_show() {
+        let Some(ctx) = ctx() else { return };
+        let img = crop(
+            &read("coffee.png"),
+            Region {
+                x0: 200,
+                y0: 100,
+                width: 180,
+                height: 140,
+            },
+        );
+        let sm = smoother(&img);
+        let gsm = GpuSmoother::new(ctx, &sm).expect("upload");
+        let canvas = GpuCanvas::new(ctx, &img, false, 64).expect("canvas");
+        assert_eq!(canvas.tiles().len(), 3 * 3);
+        assert_eq!(
+            check_display(ctx, &canvas, &img, false),
+            180 * 140,
+            "the new canvas shows the image"
+        );
+        let mut cpu = img.clone();
+        let dabs = [
+            (60.0, 70.0, 25.0, 0.5, 0.9, Mode::Dab),
+            (70.0, 60.0, 30.0, 0.3, 1.0, Mode::PerPixel),
+            // Clipped by the image's corner.
+            (175.0, 2.0, 20.0, 1.0, 1.0, Mode::Dab),
+            (120.0, 100.0, 18.0, 0.0, 0.6, Mode::PerPixel),
+        ];
+        for (x, y, radius, falloff, strength, mode) in dabs {
+            let dab = Dab {
+                x,
+                y,
+                radius,
+                falloff,
+                strength,
+            };
+            let a = sm.apply_dab(&dab, mode, &mut cpu).expect("cpu dab");
+            let b = canvas.apply_dab(ctx, &gsm, &dab, mode).expect("gpu dab");
+            assert_eq!(a, b);
+        }
+        let all = Region::full(180, 140);
+        let gpu =
+            Image::from_vec(180, 140, 3, canvas.read(ctx, all).expect("read")).expect("image");
+        assert_ne!(gpu.data(), img.data(), "the dabs changed nothing");
+        assert_close(&gpu, &cpu, "coffee crop, dabs on the canvas");
+        check_display(ctx, &canvas, &gpu, false);
+        // A sub-region reads as the crop of the whole.
+        let r = Region {
+            x0: 30,
+            y0: 40,
+            width: 50,
+            height: 20,
+        };
+        assert_eq!(
+            canvas.read(ctx, r).expect("read region"),
+            crop(&gpu, r).data().to_vec()
+        );
+        // A miss changes nothing; bad dabs and regions are errors.
+        let miss = Dab {
+            x: -100.0,
+            y: -100.0,
+            radius: 10.0,
+            falloff: 0.5,
+            strength: 1.0,
+        };
+        assert_eq!(
+            canvas.apply_dab(ctx, &gsm, &miss, Mode::Dab).expect("miss"),
+            None
+        );
+        let bad = Dab {
+            strength: f32::NAN,
+            ..miss
+        };
+        assert!(canvas.apply_dab(ctx, &gsm, &bad, Mode::Dab).is_err());
+        let outside = Region {
+            x0: 170,
+            y0: 0,
+            width: 20,
+            height: 5,
+        };
+        assert!(canvas.read(ctx, outside).is_err());
+        assert!(canvas.write(ctx, outside, &[0.0; 300]).is_err());
+        assert!(canvas.write(ctx, r, &[0.0; 7]).is_err());
+        assert!(canvas.read_tile(ctx, 9).is_err());
+        // Another shape than the smoother's.
+        let other = GpuCanvas::new(ctx, &crop(&img, r), false, 64).expect("canvas");
+        assert!(matches!(
+            other.apply_dab(ctx, &gsm, &miss, Mode::Dab),
+            Err(GpuError::Smooth(_))
+        ));
+    }
+
+    /// Writing into a canvas (the brush's undo) replaces the pixels and the
+    /// display; float data is shown sRGB-encoded.
+    #[test]
+    fn canvas_write_read_and_srgb_display() {
+        let Some(ctx) = ctx() else { return };
+        let (w, h) = (70, 50);
+        let lin: Vec<f32> = (0..w * h).map(|i| (i % 97) as f32 / 80.0 - 0.1).collect();
+        let img = Image::from_vec(w, h, 1, lin).expect("image");
+        let canvas = GpuCanvas::new(ctx, &img, true, 32).expect("canvas");
+        check_display(ctx, &canvas, &img, true);
+        let r = Region {
+            x0: 20,
+            y0: 10,
+            width: 30,
+            height: 25,
+        };
+        let patch: Vec<f32> = (0..r.width * r.height)
+            .map(|i| (i % 13) as f32 / 12.0)
+            .collect();
+        canvas.write(ctx, r, &patch).expect("write");
+        let mut expected = img.clone();
+        for y in 0..r.height {
+            for x in 0..r.width {
+                expected.set(r.x0 + x, r.y0 + y, 0, patch[y * r.width + x]);
+            }
+        }
+        assert_eq!(
+            canvas.read(ctx, Region::full(w, h)).expect("read"),
+            expected.data().to_vec()
+        );
+        check_display(ctx, &canvas, &expected, true);
+        let five = Image::from_vec(4, 4, 5, vec![0.0; 80]).expect("image");
+        assert!(matches!(
+            GpuCanvas::new(ctx, &five, false, 64),
+            Err(GpuError::Unsupported(_))
         ));
     }
 
