@@ -76,6 +76,20 @@ pub struct StartOptions {
     pub automation: Automation,
     /// Whether dabs may run on the GPU.
     pub gpu: GpuChoice,
+    /// The window's wgpu renderer (eframe's), when it has one: on the GPU
+    /// path the document is painted on its device and shown from there.
+    pub render_state: Option<WindowGpu>,
+}
+
+/// The window's wgpu renderer (eframe's `RenderState`).
+#[derive(Clone)]
+pub struct WindowGpu(pub eframe::egui_wgpu::RenderState);
+
+impl std::fmt::Debug for WindowGpu {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let info = self.0.adapter.get_info();
+        write!(f, "WindowGpu({}, {:?})", info.name, info.backend)
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -111,6 +125,9 @@ struct Doc {
     path: Option<PathBuf>,
     rects: Vec<PixelRect>,
     tiles: Vec<TextureHandle>,
+    /// The document's textures on the renderer's device (registered with
+    /// egui's renderer), shown instead of `tiles` when present.
+    device_tiles: Vec<egui::TextureId>,
     original: Vec<TextureHandle>,
     smoother: SharedSmoother,
 }
@@ -150,6 +167,7 @@ pub struct BrushApp {
     allow_close: bool,
     quit_after_save: bool,
     automation: Automation,
+    render_state: Option<WindowGpu>,
     stage: Stage,
     shot: Arc<Mutex<Option<Arc<ColorImage>>>>,
     status: String,
@@ -197,16 +215,34 @@ fn bundled_image_candidates(exe: Option<&Path>, cwd: Option<&Path>) -> Vec<PathB
 
 const CANVAS_BG: Color32 = Color32::from_gray(40);
 
+/// Display tiles are magnified nearest (pixels stay visible when zoomed in)
+/// and minified linear; the GPU path's textures use the same sampler.
+const TILE_OPTIONS: TextureOptions = TextureOptions {
+    magnification: egui::TextureFilter::Nearest,
+    minification: egui::TextureFilter::Linear,
+    wrap_mode: egui::TextureWrapMode::ClampToEdge,
+    mipmap_mode: None,
+};
+
 impl BrushApp {
     /// Starts the worker and opens the start image. `settings` come from
     /// storage (or defaults).
     #[must_use]
     pub fn new(ctx: &egui::Context, settings: Persisted, start: StartOptions) -> Self {
         let wake_ctx = ctx.clone();
+        let shared = start
+            .render_state
+            .as_ref()
+            .map(|WindowGpu(rs)| crate::engine::SharedDevice {
+                device: rs.device.clone(),
+                queue: rs.queue.clone(),
+                info: rs.adapter.get_info(),
+            });
         let worker = worker::spawn(
             start.bank_cache.clone(),
             start.budget,
             start.gpu,
+            shared,
             move || {
                 wake_ctx.request_repaint();
             },
@@ -259,6 +295,7 @@ impl BrushApp {
             allow_close: false,
             quit_after_save: false,
             automation: start.automation,
+            render_state: start.render_state,
             stage,
             shot: Arc::new(Mutex::new(None)),
             status: String::new(),
@@ -351,6 +388,54 @@ impl BrushApp {
         &self.frame_ms
     }
 
+    /// Registers the document's textures on the renderer's device with
+    /// egui's renderer (magnified nearest, minified linear, as the CPU
+    /// path's tiles); none without a renderer.
+    fn register_device_tiles(
+        &self,
+        tiles: Option<Vec<(PixelRect, eframe::wgpu::Texture)>>,
+    ) -> Vec<egui::TextureId> {
+        let (Some(tiles), Some(WindowGpu(rs))) = (tiles, &self.render_state) else {
+            return Vec::new();
+        };
+        let mut renderer = rs.renderer.write();
+        tiles
+            .iter()
+            .map(|(_, t)| {
+                let view = t.create_view(&eframe::wgpu::TextureViewDescriptor::default());
+                renderer.register_native_texture_with_sampler_options(
+                    &rs.device,
+                    &view,
+                    eframe::wgpu::SamplerDescriptor {
+                        label: Some("ifd-brush canvas"),
+                        mag_filter: eframe::wgpu::FilterMode::Nearest,
+                        min_filter: eframe::wgpu::FilterMode::Linear,
+                        ..eframe::wgpu::SamplerDescriptor::default()
+                    },
+                )
+            })
+            .collect()
+    }
+
+    /// Frees the current document's device textures in egui's renderer.
+    fn free_device_tiles(&mut self) {
+        let (Some(doc), Some(WindowGpu(rs))) = (&mut self.doc, &self.render_state) else {
+            return;
+        };
+        let mut renderer = rs.renderer.write();
+        for id in doc.device_tiles.drain(..) {
+            renderer.free_texture(&id);
+        }
+    }
+
+    /// Whether the document is shown from the GPU's copy (no readback).
+    #[must_use]
+    pub fn displays_on_device(&self) -> bool {
+        self.doc
+            .as_ref()
+            .is_some_and(|d| !d.device_tiles.is_empty())
+    }
+
     /// The image as the UI holds it.
     #[must_use]
     pub fn image(&self) -> Option<&Image> {
@@ -400,6 +485,12 @@ impl BrushApp {
             match ev {
                 Event::Progress { stage, fraction } => self.busy = Some((stage, fraction)),
                 Event::Compute { label, note } => {
+                    eprintln!(
+                        "ifd-brush: compute: {label}{}",
+                        note.as_deref()
+                            .map(|n| format!(" ({n})"))
+                            .unwrap_or_default()
+                    );
                     self.compute = label;
                     self.compute_note = note;
                 }
@@ -411,15 +502,14 @@ impl BrushApp {
                     path,
                     float_source: _,
                     tiles,
+                    device_tiles,
                     original,
                     smoother,
                 } => {
+                    self.free_device_tiles();
+                    let device_tiles = self.register_device_tiles(device_tiles);
                     let rects = display::tile_rects(image.width(), image.height());
-                    let opts = TextureOptions {
-                        magnification: egui::TextureFilter::Nearest,
-                        minification: egui::TextureFilter::Linear,
-                        ..TextureOptions::default()
-                    };
+                    let opts = TILE_OPTIONS;
                     let tiles = tiles
                         .into_iter()
                         .enumerate()
@@ -435,6 +525,7 @@ impl BrushApp {
                         path,
                         rects,
                         tiles,
+                        device_tiles,
                         original,
                         smoother,
                     });
@@ -450,6 +541,14 @@ impl BrushApp {
                     self.busy = None;
                     self.last_prefilter = Some(took);
                 }
+                Event::Painted { dab_times } => {
+                    for t in dab_times {
+                        self.dab_times.push_back(t.as_secs_f32() * 1e3);
+                    }
+                    while self.dab_times.len() > 240 {
+                        self.dab_times.pop_front();
+                    }
+                }
                 Event::Patch {
                     rect,
                     pixels,
@@ -460,7 +559,9 @@ impl BrushApp {
                         crate::history::paste(&mut doc.image, rect, &pixels);
                         for p in tiles {
                             if let Some(t) = doc.tiles.get_mut(p.tile) {
-                                t.set_partial(p.pos, p.image, TextureOptions::default());
+                                // The same options, or egui switches the
+                                // tile to linear magnification.
+                                t.set_partial(p.pos, p.image, TILE_OPTIONS);
                             }
                         }
                     }
@@ -935,16 +1036,18 @@ impl BrushApp {
             self.view = View::fit(w, h, rect);
             self.fit_pending = false;
         }
-        let tiles = if self.show_original {
-            &doc.original
+        let tiles: Vec<egui::TextureId> = if self.show_original {
+            doc.original.iter().map(TextureHandle::id).collect()
+        } else if doc.device_tiles.is_empty() {
+            doc.tiles.iter().map(TextureHandle::id).collect()
         } else {
-            &doc.tiles
+            doc.device_tiles.clone()
         };
         let uv = Rect::from_min_max(Pos2::ZERO, pos2(1.0, 1.0));
         for (r, t) in doc.rects.iter().zip(tiles) {
             let sr = self.view.pixel_rect(rect, r.x0, r.y0, r.width, r.height);
             if sr.intersects(rect) {
-                painter.image(t.id(), sr, uv, Color32::WHITE);
+                painter.image(t, sr, uv, Color32::WHITE);
             }
         }
         let smoother = Arc::clone(&doc.smoother);

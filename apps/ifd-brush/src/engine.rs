@@ -32,6 +32,23 @@ pub enum GpuChoice {
 struct GpuPath {
     ctx: ifd_gpu::GpuContext,
     smoother: Option<ifd_gpu::GpuSmoother>,
+    /// The document on the device, displayed from there (only on a device
+    /// shared with the renderer): dabs are not read back.
+    canvas: Option<ifd_gpu::GpuCanvas>,
+    /// Whether the device is the renderer's (a canvas can be shown).
+    shared: bool,
+}
+
+/// A renderer's device (the window's, from eframe) that the engine may
+/// evaluate on; its results are then shown without a round trip to the CPU.
+#[derive(Clone, Debug)]
+pub struct SharedDevice {
+    /// The device.
+    pub device: eframe::wgpu::Device,
+    /// Its queue.
+    pub queue: eframe::wgpu::Queue,
+    /// Its adapter.
+    pub info: eframe::wgpu::AdapterInfo,
 }
 
 /// The smoother shared with the UI thread (which only ever `try_read`s it,
@@ -212,32 +229,73 @@ impl Engine {
         }
     }
 
-    /// Sets up the GPU path as `choice` allows; returns the path in use, in
-    /// words ("CPU", or "GPU: adapter name"), and why the GPU is not used.
+    /// Sets up the GPU path as `choice` allows, on a headless device of its
+    /// own; returns the path in use, in words ("CPU", or "GPU: adapter
+    /// name"), and why the GPU is not used.
     pub fn enable_gpu(&mut self, choice: GpuChoice) -> (String, Option<String>) {
+        self.enable_gpu_on(choice, None)
+    }
+
+    /// As [`Engine::enable_gpu`], on the renderer's device `shared` when one
+    /// is given and it is not a GL device (the compute shaders need Vulkan,
+    /// Metal or DX12): the document then lives on the device as well
+    /// ([`Engine::display_tiles`]), dabs are painted and shown there, and
+    /// the CPU copy is brought up to date at the end of each stroke. Without
+    /// `shared`, or on a GL device, a headless device of its own is used and
+    /// every dab is read back.
+    pub fn enable_gpu_on(
+        &mut self,
+        choice: GpuChoice,
+        shared: Option<SharedDevice>,
+    ) -> (String, Option<String>) {
         self.gpu = None;
         if choice == GpuChoice::Off {
             return ("CPU".into(), None);
         }
-        match ifd_gpu::GpuContext::new() {
-            Ok(ctx) if ctx.is_software() && choice == GpuChoice::Auto => (
+        let mut note = None;
+        let made = match shared {
+            Some(d) if d.info.backend == eframe::wgpu::Backend::Gl => {
+                note = Some(format!(
+                    "the window renders with GL ({}); dabs run on a device of their own and are read back",
+                    d.info.name
+                ));
+                ifd_gpu::GpuContext::new().map(|c| (c, false))
+            }
+            Some(d) => {
+                ifd_gpu::GpuContext::from_device(d.device, d.queue, d.info).map(|c| (c, true))
+            }
+            None => ifd_gpu::GpuContext::new().map(|c| (c, false)),
+        };
+        match made {
+            Ok((ctx, _)) if ctx.is_software() && choice == GpuChoice::Auto => (
                 "CPU".into(),
                 Some(format!(
                     "the GPU adapter ({}) is software; the CPU path is faster (--gpu on forces it)",
                     ctx.adapter_info().name
                 )),
             ),
-            Ok(ctx) => {
-                let label = format!("GPU: {}", ctx.adapter_info().name);
+            Ok((ctx, shared)) => {
+                let label = format!(
+                    "GPU: {}{}",
+                    ctx.adapter_info().name,
+                    if shared {
+                        ", shown without readback"
+                    } else {
+                        ""
+                    }
+                );
                 self.gpu = Some(GpuPath {
                     ctx,
                     smoother: None,
+                    canvas: None,
+                    shared,
                 });
                 if let Err(e) = self.upload_gpu() {
                     self.gpu = None;
                     return ("CPU".into(), Some(format!("{e:#}")));
                 }
-                (label, None)
+                self.make_canvas();
+                (label, note)
             }
             Err(e) => ("CPU".into(), Some(e.to_string())),
         }
@@ -247,6 +305,94 @@ impl Engine {
     #[must_use]
     pub fn uses_gpu(&self) -> bool {
         self.gpu.is_some()
+    }
+
+    /// Whether the document lives on the renderer's device and is shown from
+    /// there ([`Engine::enable_gpu_on`]): dabs are not read back, and
+    /// [`Engine::image`] lags a stroke in progress.
+    #[must_use]
+    pub fn displays_on_device(&self) -> bool {
+        self.gpu.as_ref().is_some_and(|g| g.canvas.is_some())
+    }
+
+    /// The display textures of the document on the renderer's device, with
+    /// the image pixels each shows, when the document lives there (see
+    /// [`Engine::enable_gpu_on`]); `None` on the other paths.
+    #[must_use]
+    pub fn display_tiles(&self) -> Option<Vec<(PixelRect, eframe::wgpu::Texture)>> {
+        let canvas = self.gpu.as_ref()?.canvas.as_ref()?;
+        Some(
+            canvas
+                .tiles()
+                .iter()
+                .map(|t| {
+                    let r = t.region;
+                    (
+                        PixelRect {
+                            x0: r.x0,
+                            y0: r.y0,
+                            width: r.width,
+                            height: r.height,
+                        },
+                        t.texture.clone(),
+                    )
+                })
+                .collect(),
+        )
+    }
+
+    /// Puts the document on the shared device, if there is one; on failure
+    /// (limits) dabs are read back instead.
+    fn make_canvas(&mut self) {
+        let (Some(g), Some(image)) = (&mut self.gpu, &self.image) else {
+            return;
+        };
+        g.canvas = None;
+        if g.shared {
+            g.canvas = ifd_gpu::GpuCanvas::new(
+                &g.ctx,
+                image,
+                self.float_source,
+                crate::display::DISPLAY_TILE,
+            )
+            .map_err(|e| eprintln!("ifd-brush: the image stays on the CPU for display: {e}"))
+            .ok();
+        }
+    }
+
+    /// Copies the pixels of `rect` from the device's document into the CPU
+    /// image (a no-op without a canvas).
+    fn pull_from_canvas(&mut self, rect: PixelRect) -> anyhow::Result<()> {
+        let (Some(g), Some(image)) = (&self.gpu, &mut self.image) else {
+            return Ok(());
+        };
+        let Some(canvas) = &g.canvas else {
+            return Ok(());
+        };
+        let pixels = canvas
+            .read(&g.ctx, gpu_region(rect))
+            .context("reading the stroke back from the GPU")?;
+        crate::history::paste(image, rect, &pixels);
+        Ok(())
+    }
+
+    /// Copies the pixels of `rect` from the CPU image to the device's
+    /// document (a no-op without a canvas).
+    fn push_to_canvas(&self, rect: PixelRect) -> anyhow::Result<()> {
+        let (Some(g), Some(image)) = (&self.gpu, &self.image) else {
+            return Ok(());
+        };
+        let Some(canvas) = &g.canvas else {
+            return Ok(());
+        };
+        canvas
+            .write(
+                &g.ctx,
+                gpu_region(rect),
+                &crate::history::extract(image, rect),
+            )
+            .context("writing to the GPU's copy of the image")?;
+        Ok(())
     }
 
     /// Uploads the CPU smoother (stack, bank, field) to the GPU path, if any.
@@ -280,7 +426,9 @@ impl Engine {
         Arc::clone(&self.smoother)
     }
 
-    /// The current image.
+    /// The current image. On the GPU display path ([`Engine::enable_gpu_on`]
+    /// with a shared device) a stroke in progress is only on the device: this
+    /// copy catches up when the stroke ends ([`Engine::end_stroke`]).
     #[must_use]
     pub fn image(&self) -> Option<&Image> {
         self.image.as_ref()
@@ -358,6 +506,11 @@ impl Engine {
         self.float_source = float_source;
         self.history = History::default();
         self.stroke = None;
+        if let Some(g) = &mut self.gpu {
+            // The old document's smoother and canvas go with it.
+            g.smoother = None;
+        }
+        self.make_canvas();
     }
 
     /// Builds the smoother for `brush` unless the current one fits (the
@@ -367,9 +520,9 @@ impl Engine {
     /// # Errors
     /// No image, or prefiltering failed.
     pub fn prepare(&mut self, brush: &BrushSettings) -> anyhow::Result<bool> {
-        let Some(image) = &self.image else {
+        if self.image.is_none() {
             bail!("no image");
-        };
+        }
         let opts = brush.smooth_options();
         let fits = self
             .smoother
@@ -380,6 +533,12 @@ impl Engine {
         if fits {
             return Ok(false);
         }
+        // A stroke in progress ends here (on the GPU display path its pixels
+        // are only on the device until then).
+        self.end_stroke()?;
+        let Some(image) = &self.image else {
+            bail!("no image");
+        };
         let sm = Smoother::with_banks(
             image,
             &opts,
@@ -479,9 +638,14 @@ impl Engine {
             let region = match self
                 .gpu
                 .as_ref()
-                .and_then(|g| Some((&g.ctx, g.smoother.as_ref()?)))
+                .and_then(|g| Some((&g.ctx, g.smoother.as_ref()?, g.canvas.as_ref())))
             {
-                Some((ctx, gs)) => gs
+                // Painted and shown on the device; the CPU image follows at
+                // the end of the stroke.
+                Some((ctx, gs, Some(canvas))) => canvas
+                    .apply_dab(ctx, gs, &dab, b.mode.into())
+                    .context("GPU dab")?,
+                Some((ctx, gs, None)) => gs
                     .apply_dab(ctx, &dab, b.mode.into(), image)
                     .context("GPU dab")?,
                 None => sm.apply_dab(&dab, b.mode.into(), image)?,
@@ -507,10 +671,14 @@ impl Engine {
     /// # Errors
     /// A failed refresh.
     pub fn end_stroke(&mut self) -> anyhow::Result<Option<PixelRect>> {
-        let (Some(st), Some(image)) = (self.stroke.take(), &self.image) else {
+        let Some(st) = self.stroke.take() else {
             return Ok(None);
         };
         let Some(rect) = st.rect else {
+            return Ok(None);
+        };
+        self.pull_from_canvas(rect)?;
+        let Some(image) = &self.image else {
             return Ok(None);
         };
         if let Some(edit) = st.recorder.finish(image) {
@@ -539,6 +707,7 @@ impl Engine {
             Some(GpuPath {
                 ctx,
                 smoother: Some(gs),
+                ..
             }) => gs.refresh(ctx, sm, rect, &report).is_ok(),
             _ => true,
         };
@@ -560,6 +729,7 @@ impl Engine {
             rec.strokes.push(Action::Undo { undo: true });
         }
         if let Some(r) = r {
+            self.push_to_canvas(r)?;
             self.refresh(r)?;
         }
         Ok(r)
@@ -579,6 +749,7 @@ impl Engine {
             rec.strokes.push(Action::Redo { redo: true });
         }
         if let Some(r) = r {
+            self.push_to_canvas(r)?;
             self.refresh(r)?;
         }
         Ok(r)
@@ -632,6 +803,15 @@ impl Engine {
             }
         }
         Ok(dabs)
+    }
+}
+
+fn gpu_region(r: PixelRect) -> ifd_gpu::Region {
+    ifd_gpu::Region {
+        x0: r.x0,
+        y0: r.y0,
+        width: r.width,
+        height: r.height,
     }
 }
 

@@ -5,7 +5,9 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use ifd_brush::app::{Automation, BrushApp, Persisted, STORAGE_KEY, StartOptions, bundled_image};
+use ifd_brush::app::{
+    Automation, BrushApp, Persisted, STORAGE_KEY, StartOptions, WindowGpu, bundled_image,
+};
 use ifd_brush::engine::{Banks, Engine, GpuChoice};
 use ifd_brush::strokes::StrokesFile;
 use ifd_image::MemoryBudget;
@@ -134,6 +136,7 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
             screenshot: args.screenshot.clone(),
             exit: args.exit,
         },
+        render_state: None,
     };
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
@@ -144,12 +147,17 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
         // (eframe takes the RON file's path here, whatever its docs say.)
         persistence_path: std::env::var_os("IFD_BRUSH_STATE_DIR")
             .map(|d| PathBuf::from(d).join("app.ron")),
+        wgpu_options: wgpu_options(),
         ..eframe::NativeOptions::default()
     };
     eframe::run_native(
         "ifd-brush",
         options,
         Box::new(move |cc| {
+            let mut start = start;
+            // The window's device, shared with the GPU path (dabs painted
+            // and shown there without a round trip).
+            start.render_state = cc.wgpu_render_state.clone().map(WindowGpu);
             let mut settings: Persisted = cc
                 .storage
                 .and_then(|s| eframe::get_value(s, STORAGE_KEY))
@@ -165,6 +173,30 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
         }),
     )
     .map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+/// eframe's wgpu set-up, with a device the GPU path can also compute on:
+/// the adapter's own limits (the stack's storage buffers exceed wgpu's
+/// default limits) and timestamp queries when the adapter has them. GL
+/// devices keep eframe's settings (the GPU path does not use them).
+fn wgpu_options() -> eframe::egui_wgpu::WgpuConfiguration {
+    use eframe::egui_wgpu::WgpuSetup;
+    use eframe::wgpu;
+    let mut options = eframe::egui_wgpu::WgpuConfiguration::default();
+    if let WgpuSetup::CreateNew(create) = &mut options.wgpu_setup {
+        let base = std::sync::Arc::clone(&create.device_descriptor);
+        create.device_descriptor = std::sync::Arc::new(move |adapter: &wgpu::Adapter| {
+            let mut d = base(adapter);
+            if adapter.get_info().backend != wgpu::Backend::Gl {
+                d.required_limits = adapter.limits();
+                if adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+                    d.required_features |= wgpu::Features::TIMESTAMP_QUERY;
+                }
+            }
+            d
+        });
+    }
+    options
 }
 
 /// The eframe shell around the app.

@@ -18,7 +18,7 @@ use ifd_image::{Image, MemoryBudget};
 use ifd_planar::PixelRect;
 
 use crate::display::{self, TilePatch};
-use crate::engine::{BankInfo, Banks, Engine, GpuChoice, SharedSmoother};
+use crate::engine::{BankInfo, Banks, Engine, GpuChoice, SharedDevice, SharedSmoother};
 use crate::history::extract;
 use crate::settings::BrushSettings;
 use crate::strokes::StrokesFile;
@@ -80,8 +80,12 @@ pub enum Event {
         path: Option<PathBuf>,
         /// From a float file (display through sRGB).
         float_source: bool,
-        /// Display tiles, [`display::tile_rects`] order.
+        /// Display tiles, [`display::tile_rects`] order (empty when the
+        /// document is shown from the device: `device_tiles`).
         tiles: Vec<ColorImage>,
+        /// The document's display textures on the renderer's device, kept
+        /// up to date there by the dabs ([`Engine::display_tiles`]).
+        device_tiles: Option<Vec<(PixelRect, eframe::wgpu::Texture)>>,
         /// The same, kept for the before/after toggle.
         original: Vec<ColorImage>,
         /// The smoother (for the cursor's filter ellipse).
@@ -92,13 +96,20 @@ pub enum Event {
         /// Time spent prefiltering.
         took: Duration,
     },
+    /// Dabs were painted and shown on the device (the display path of
+    /// [`Engine::displays_on_device`]); the pixels follow in a
+    /// [`Event::Patch`] when the stroke ends.
+    Painted {
+        /// Time of each dab applied.
+        dab_times: Vec<Duration>,
+    },
     /// Pixels changed.
     Patch {
         /// Where.
         rect: PixelRect,
         /// The new samples of `rect`.
         pixels: Vec<f32>,
-        /// Display updates.
+        /// Display updates (none when the display is on the device).
         tiles: Vec<TilePatch>,
         /// Time of each dab applied (empty for undo/redo).
         dab_times: Vec<Duration>,
@@ -148,10 +159,14 @@ pub struct Worker {
 /// Starts the worker: fits or loads the decompositions, then serves commands.
 /// `wake` is called after every event (the UI's repaint request).
 #[must_use]
+///
+/// `shared` is the window's device: on the GPU path the document is then
+/// painted and shown there ([`Engine::enable_gpu_on`]).
 pub fn spawn(
     bank_cache: Option<PathBuf>,
     budget: MemoryBudget,
     gpu: GpuChoice,
+    shared: Option<SharedDevice>,
     wake: impl Fn() + Send + 'static,
 ) -> Worker {
     let (tx, crx) = channel::<Command>();
@@ -183,7 +198,7 @@ pub fn spawn(
             };
             send(Event::BanksReady(banks.info.clone()));
             let mut engine = Engine::new(banks, budget);
-            let (label, note) = engine.enable_gpu(gpu);
+            let (label, note) = engine.enable_gpu_on(gpu, shared);
             send(Event::Compute { label, note });
             let mut pending: Option<Command> = None;
             loop {
@@ -215,7 +230,11 @@ fn patch_event(engine: &Engine, rect: PixelRect, dab_times: Vec<Duration>) -> Op
     Some(Event::Patch {
         rect,
         pixels: extract(image, rect),
-        tiles: display::tile_patches(image, rect, engine.float_source()),
+        tiles: if engine.displays_on_device() {
+            Vec::new()
+        } else {
+            display::tile_patches(image, rect, engine.float_source())
+        },
         dab_times,
     })
 }
@@ -237,18 +256,24 @@ fn prepare(engine: &mut Engine, brush: &BrushSettings, send: &impl Fn(Event)) {
 
 fn loaded(engine: &mut Engine, image: Image, path: Option<PathBuf>, float: bool) -> Event {
     let rects = display::tile_rects(image.width(), image.height());
-    let tiles: Vec<ColorImage> = rects
+    let original: Vec<ColorImage> = rects
         .iter()
         .map(|&r| display::color_image(&image, r, float))
         .collect();
     let copy = image.clone();
     engine.set_image(image, path.clone(), float);
+    let device_tiles = engine.display_tiles();
     Event::Loaded {
         image: copy,
         path,
         float_source: float,
-        original: tiles.clone(),
-        tiles,
+        tiles: if device_tiles.is_some() {
+            Vec::new()
+        } else {
+            original.clone()
+        },
+        device_tiles,
+        original,
         smoother: engine.shared_smoother(),
     }
 }
@@ -333,7 +358,11 @@ fn serve(
                     ahead = Some(c);
                 }
             }
-            if let Some(r) = rect
+            if engine.displays_on_device() {
+                if rect.is_some() {
+                    send(Event::Painted { dab_times: times });
+                }
+            } else if let Some(r) = rect
                 && let Some(ev) = patch_event(engine, r, times)
             {
                 send(ev);
@@ -343,8 +372,14 @@ fn serve(
         Command::EndStroke => {
             let t0 = Instant::now();
             match engine.end_stroke() {
-                Ok(Some(_)) => {
+                Ok(Some(rect)) => {
                     send(Event::Refreshed { took: t0.elapsed() });
+                    // The stroke's pixels, for the UI's copy (already shown).
+                    if engine.displays_on_device()
+                        && let Some(ev) = patch_event(engine, rect, Vec::new())
+                    {
+                        send(ev);
+                    }
                     send(history_event(engine));
                 }
                 Ok(None) => {}
@@ -370,8 +405,14 @@ fn serve(
         }
         Command::Save(path) => {
             // A stroke in progress belongs to the saved image.
-            if let Err(e) = engine.end_stroke() {
-                fail(e);
+            match engine.end_stroke() {
+                Ok(Some(rect)) if engine.displays_on_device() => {
+                    if let Some(ev) = patch_event(engine, rect, Vec::new()) {
+                        send(ev);
+                    }
+                }
+                Ok(_) => {}
+                Err(e) => fail(e),
             }
             send(history_event(engine));
             send(Event::Progress {

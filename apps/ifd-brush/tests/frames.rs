@@ -39,6 +39,7 @@ fn loading_8_megapixels_keeps_frames_under_50_ms() {
             budget: MemoryBudget::default_for_machine(),
             automation: Automation::default(),
             gpu: ifd_brush::engine::GpuChoice::Off,
+            render_state: None,
         },
     );
     let screen = Rect::from_min_size(pos2(0.0, 0.0), vec2(1280.0, 800.0));

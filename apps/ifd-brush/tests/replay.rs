@@ -227,4 +227,74 @@ fn gpu_replay_matches_cpu() {
     eprintln!("{label}: GPU vs CPU replay max |diff| {d:.2e} (edit size {changed:.3})");
     assert!(changed > 0.05);
     assert!(d < 1e-3, "GPU replay differs from CPU by {d}");
+
+    // The display path: the document lives on a device shared with a
+    // renderer (here one made by the test, as eframe's would be), dabs are
+    // painted there without readback and the CPU copy catches up at the
+    // end of each stroke; undo and redo write the CPU's pixels back, and
+    // the last stroke paints over them.
+    let ctx = ifd_gpu::GpuContext::new().expect("a device (the GPU path found one)");
+    let shared = ifd_brush::engine::SharedDevice {
+        device: ctx.device().clone(),
+        queue: ctx.queue().clone(),
+        info: ctx.adapter_info().clone(),
+    };
+    let mut engine = Engine::new(common::banks(), MemoryBudget::default_for_machine());
+    let (shown, note) = engine.enable_gpu_on(GpuChoice::On, Some(shared));
+    assert!(
+        shown.ends_with("shown without readback"),
+        "{shown} ({note:?})"
+    );
+    engine.set_image(img.clone(), None, false);
+    let tiles = engine
+        .display_tiles()
+        .expect("display tiles on the shared device");
+    assert_eq!(tiles.len(), 1);
+    assert_eq!((tiles[0].0.width, tiles[0].0.height), (200, 160));
+    engine.replay(&file).expect("replay");
+    let on_device = engine.image().expect("image").clone();
+    let d = common::max_diff(&on_device, &cpu);
+    eprintln!("{shown}: GPU display path vs CPU replay max |diff| {d:.2e}");
+    assert!(d < 1e-3, "GPU display path differs from CPU by {d}");
+    // Strokes in progress are on the device only: the CPU copy follows at
+    // the end. Then an undo (its pixels written to the device) and a stroke
+    // over it, against the CPU path doing the same.
+    let more = |engine: &mut Engine| {
+        let before = engine.image().expect("image").clone();
+        let brush = BrushSettings {
+            radius: 30.0,
+            strength: 1.0,
+            ..BrushSettings::default()
+        };
+        engine.begin_stroke(brush).expect("stroke");
+        engine.stroke_to(100.0, 80.0).expect("dab");
+        engine.stroke_to(140.0, 90.0).expect("dab");
+        let during = engine.image().expect("image").clone();
+        assert!(engine.end_stroke().expect("end").is_some());
+        assert!(common::max_diff(engine.image().expect("image"), &before) > 0.01);
+        engine.undo().expect("undo");
+        engine.begin_stroke(brush).expect("stroke");
+        engine.stroke_to(120.0, 70.0).expect("dab");
+        engine.stroke_to(90.0, 100.0).expect("dab");
+        engine.end_stroke().expect("end");
+        (
+            during.data() == before.data(),
+            engine.image().expect("image").clone(),
+        )
+    };
+    let (stale_during, on_device) = more(&mut engine);
+    assert!(
+        stale_during,
+        "the CPU copy changed during a stroke on the device"
+    );
+    let mut cpu_engine = Engine::new(common::banks(), MemoryBudget::default_for_machine());
+    cpu_engine.set_image(img.clone(), None, false);
+    cpu_engine.replay(&file).expect("replay");
+    let (live_during, on_cpu) = more(&mut cpu_engine);
+    assert!(!live_during, "the CPU path paints the CPU image at once");
+    let d = common::max_diff(&on_device, &on_cpu);
+    assert!(
+        d < 1e-3,
+        "GPU display path after undo differs from CPU by {d}"
+    );
 }

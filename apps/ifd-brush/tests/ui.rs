@@ -97,6 +97,7 @@ fn start(ctx: &egui::Context, image: PathBuf, budget: MemoryBudget) -> BrushApp 
             budget,
             automation: Automation::default(),
             gpu: ifd_brush::engine::GpuChoice::Off,
+            render_state: None,
         },
     );
     until(ctx, &mut app, "the smoother", BrushApp::is_ready);

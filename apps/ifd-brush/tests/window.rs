@@ -56,32 +56,43 @@ fn window_under_xvfb_shows_image_and_controls() {
         use std::os::unix::fs::PermissionsExt;
         std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700)).expect("chmod");
     }
-    let mut child = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1280x800x24"])
-        .arg(env!("CARGO_BIN_EXE_ifd-brush"))
-        .args(["--image", input.to_str().expect("utf8")])
-        .args(["--replay", strokes.to_str().expect("utf8")])
-        .args(["--save", out.to_str().expect("utf8")])
-        .args(["--screenshot", shot.to_str().expect("utf8")])
-        .args(["--bank", common::bank_cache().to_str().expect("utf8")])
-        .args(["--brush", r#"{"radius": 37.5}"#])
-        .arg("--exit")
-        .env("IFD_BRUSH_STATE_DIR", &state)
-        .env("XDG_RUNTIME_DIR", &runtime)
-        .spawn()
-        .expect("start xvfb-run");
-    let t0 = Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait().expect("wait") {
-            break s;
-        }
-        if t0.elapsed() > Duration::from_mins(5) {
-            child.kill().ok();
-            panic!("the app did not exit within 5 minutes");
-        }
-        std::thread::sleep(Duration::from_millis(200));
+    let run = |gpu: &str, shot: &Path, out: &Path| -> String {
+        let log = dir.path().join(format!("stderr-{gpu}.txt"));
+        let mut child = Command::new("xvfb-run")
+            .args(["-a", "-s", "-screen 0 1280x800x24"])
+            .arg(env!("CARGO_BIN_EXE_ifd-brush"))
+            .args(["--image", input.to_str().expect("utf8")])
+            .args(["--replay", strokes.to_str().expect("utf8")])
+            .args(["--save", out.to_str().expect("utf8")])
+            .args(["--screenshot", shot.to_str().expect("utf8")])
+            .args(["--bank", common::bank_cache().to_str().expect("utf8")])
+            .args(["--brush", r#"{"radius": 37.5}"#])
+            .args(["--gpu", gpu])
+            .arg("--exit")
+            .env("IFD_BRUSH_STATE_DIR", &state)
+            .env("XDG_RUNTIME_DIR", &runtime)
+            .stderr(std::fs::File::create(&log).expect("log file"))
+            .spawn()
+            .expect("start xvfb-run");
+        let t0 = Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().expect("wait") {
+                break s;
+            }
+            if t0.elapsed() > Duration::from_mins(5) {
+                child.kill().ok();
+                panic!("the app did not exit within 5 minutes");
+            }
+            std::thread::sleep(Duration::from_millis(200));
+        };
+        let stderr = std::fs::read_to_string(&log).unwrap_or_default();
+        assert!(
+            status.success(),
+            "ifd-brush --gpu {gpu} in Xvfb failed: {status}\n{stderr}"
+        );
+        stderr
     };
-    assert!(status.success(), "ifd-brush in Xvfb failed: {status}");
+    run("off", &shot, &out);
 
     // Settings were persisted (eframe storage) on exit.
     let persisted = std::fs::read_to_string(state.join("app.ron")).unwrap_or_default();
@@ -143,5 +154,51 @@ fn window_under_xvfb_shows_image_and_controls() {
         "screenshot {w}x{h}: variance {var:.4}, controls variance {var_left:.4}, {} grey levels in the canvas; kept at {}",
         levels.len(),
         shot.display()
+    );
+
+    // The GPU path in the window: the document is painted on the window's
+    // own device and shown from there (no readback per dab). The saved
+    // result and the canvas on screen match the CPU run's.
+    let gpu_shot = artifacts.join("brush-screenshot-gpu.png");
+    std::fs::remove_file(&gpu_shot).ok();
+    let gpu_out = dir.path().join("out-gpu.exr");
+    let log = run("on", &gpu_shot, &gpu_out);
+    if !log.contains("shown without readback") {
+        assert!(
+            std::env::var("IFD_GPU_TESTS").is_ok_and(|v| v == "skip"),
+            "the window's GPU path does not show the document from the device (no Vulkan \
+             adapter under Xvfb? install mesa-vulkan-drivers or set IFD_GPU_TESTS=skip):\n{log}"
+        );
+        eprintln!("skipping the window's GPU display check (IFD_GPU_TESTS=skip):\n{log}");
+        return;
+    }
+    let cpu_saved = ifd_image::read(&out).expect("saved");
+    let gpu_saved = ifd_image::read(&gpu_out).expect("saved");
+    let d = common::max_diff(&gpu_saved, &cpu_saved);
+    assert!(
+        d < 1e-3,
+        "the GPU window saved a result {d} away from the CPU's"
+    );
+    let g = ifd_image::read(&gpu_shot).expect("GPU screenshot");
+    assert_eq!((g.width(), g.height()), (w, h));
+    // The canvas area (the status bar and the side panel show timings and
+    // the adapter, which differ): every pixel within 2 levels of 255.
+    let mut worst = 0.0f32;
+    for y in h / 8..h - 40 {
+        for x in 300..w {
+            for k in 0..3 {
+                worst = worst.max((g.get(x, y, k) - s.get(x, y, k)).abs());
+            }
+        }
+    }
+    eprintln!(
+        "GPU display: canvas within {:.1} levels of the CPU display; kept at {}",
+        worst * 255.0,
+        gpu_shot.display()
+    );
+    assert!(
+        worst <= 2.5 / 255.0,
+        "the GPU-displayed canvas differs from the CPU display by {:.1} levels",
+        worst * 255.0
     );
 }
