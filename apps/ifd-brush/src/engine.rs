@@ -37,6 +37,8 @@ struct GpuPath {
     canvas: Option<ifd_gpu::GpuCanvas>,
     /// Whether the device is the renderer's (a canvas can be shown).
     shared: bool,
+    /// The compute path in words while the smoother is on the device.
+    label: String,
 }
 
 /// A renderer's device (the window's, from eframe) that the engine may
@@ -174,6 +176,8 @@ pub struct Engine {
     stroke: Option<ActiveStroke>,
     recording: Option<StrokesFile>,
     gpu: Option<GpuPath>,
+    /// The compute path in words, and why the GPU is not (fully) used.
+    compute: (String, Option<String>),
 }
 
 /// Bytes an image of this shape needs in the app with `brush`: the stack and
@@ -226,6 +230,7 @@ impl Engine {
             stroke: None,
             recording: None,
             gpu: None,
+            compute: ("CPU".into(), None),
         }
     }
 
@@ -244,6 +249,23 @@ impl Engine {
     /// `shared`, or on a GL device, a headless device of its own is used and
     /// every dab is read back.
     pub fn enable_gpu_on(
+        &mut self,
+        choice: GpuChoice,
+        shared: Option<SharedDevice>,
+    ) -> (String, Option<String>) {
+        self.compute = self.choose_gpu(choice, shared);
+        self.compute.clone()
+    }
+
+    /// The compute path in use, in words, and why the GPU is not (fully)
+    /// used: as [`Engine::enable_gpu_on`] returned it, updated when a
+    /// smoother does not fit on the device (its dabs then run on the CPU).
+    #[must_use]
+    pub fn compute(&self) -> (String, Option<String>) {
+        self.compute.clone()
+    }
+
+    fn choose_gpu(
         &mut self,
         choice: GpuChoice,
         shared: Option<SharedDevice>,
@@ -289,13 +311,12 @@ impl Engine {
                     smoother: None,
                     canvas: None,
                     shared,
+                    label: label.clone(),
                 });
-                if let Err(e) = self.upload_gpu() {
-                    self.gpu = None;
-                    return ("CPU".into(), Some(format!("{e:#}")));
-                }
+                self.compute = (label, note);
+                self.upload_gpu();
                 self.make_canvas();
-                (label, note)
+                self.compute.clone()
             }
             Err(e) => ("CPU".into(), Some(e.to_string())),
         }
@@ -395,23 +416,30 @@ impl Engine {
         Ok(())
     }
 
-    /// Uploads the CPU smoother (stack, bank, field) to the GPU path, if any.
-    fn upload_gpu(&mut self) -> anyhow::Result<()> {
+    /// Uploads the CPU smoother (stack, bank, field) to the GPU path, if
+    /// any. When it does not fit (the device's limits), dabs run on the CPU
+    /// ([`Engine::compute`] says why); a document on the device is still
+    /// shown from there.
+    fn upload_gpu(&mut self) {
         let Some(g) = &mut self.gpu else {
-            return Ok(());
+            return;
         };
-        let guard = self
-            .smoother
-            .read()
-            .map_err(|_| anyhow::anyhow!("smoother lock poisoned"))?;
-        g.smoother = match guard.as_ref() {
-            Some(sm) => Some(
-                ifd_gpu::GpuSmoother::new(&g.ctx, sm)
-                    .context("uploading the smoother to the GPU")?,
-            ),
-            None => None,
+        g.smoother = None;
+        let Ok(guard) = self.smoother.read() else {
+            return;
         };
-        Ok(())
+        let Some(sm) = guard.as_ref() else {
+            return;
+        };
+        match ifd_gpu::GpuSmoother::new(&g.ctx, sm) {
+            Ok(gs) => {
+                g.smoother = Some(gs);
+                if self.compute.0 != g.label {
+                    self.compute = (g.label.clone(), None);
+                }
+            }
+            Err(e) => self.compute = gpu_failed(&e, g.canvas.is_some()),
+        }
     }
 
     /// The decompositions.
@@ -550,7 +578,7 @@ impl Engine {
             .smoother
             .write()
             .map_err(|_| anyhow::anyhow!("smoother lock poisoned"))? = Some(sm);
-        self.upload_gpu()?;
+        self.upload_gpu();
         Ok(true)
     }
 
@@ -635,20 +663,45 @@ impl Engine {
             if let Some(r) = dab_rect(&dab, image.width(), image.height()) {
                 st.recorder.before_change(image, r);
             }
-            let region = match self
-                .gpu
-                .as_ref()
-                .and_then(|g| Some((&g.ctx, g.smoother.as_ref()?, g.canvas.as_ref())))
-            {
-                // Painted and shown on the device; the CPU image follows at
-                // the end of the stroke.
-                Some((ctx, gs, Some(canvas))) => canvas
-                    .apply_dab(ctx, gs, &dab, b.mode.into())
-                    .context("GPU dab")?,
-                Some((ctx, gs, None)) => gs
-                    .apply_dab(ctx, &dab, b.mode.into(), image)
-                    .context("GPU dab")?,
-                None => sm.apply_dab(&dab, b.mode.into(), image)?,
+            let mode = b.mode.into();
+            let on_gpu = self.gpu.as_ref().and_then(|g| {
+                let gs = g.smoother.as_ref()?;
+                Some(match &g.canvas {
+                    // Painted and shown on the device; the CPU image follows
+                    // at the end of the stroke.
+                    Some(canvas) => canvas.apply_dab(&g.ctx, gs, &dab, mode),
+                    None => gs.apply_dab(&g.ctx, &dab, mode, image),
+                })
+            });
+            let region = match on_gpu {
+                Some(Ok(r)) => r,
+                other => {
+                    if let (Some(Err(e)), Some(g)) = (other, &mut self.gpu) {
+                        // From now on the CPU paints (this dab included).
+                        g.smoother = None;
+                        self.compute = gpu_failed(&e, g.canvas.is_some());
+                    }
+                    let r = sm.apply_dab(&dab, mode, image)?;
+                    // A document on the device is shown from there.
+                    if let (Some(r), Some(g)) = (r, &self.gpu)
+                        && let Some(canvas) = &g.canvas
+                    {
+                        let rect = PixelRect {
+                            x0: r.x0,
+                            y0: r.y0,
+                            width: r.width,
+                            height: r.height,
+                        };
+                        canvas
+                            .write(
+                                &g.ctx,
+                                gpu_region(rect),
+                                &crate::history::extract(image, rect),
+                            )
+                            .context("showing the dab")?;
+                    }
+                    r
+                }
             };
             if let Some(r) = region {
                 let r = PixelRect {
@@ -712,7 +765,10 @@ impl Engine {
             _ => true,
         };
         drop(guard);
-        if updated { Ok(()) } else { self.upload_gpu() }
+        if !updated {
+            self.upload_gpu();
+        }
+        Ok(())
     }
 
     /// Undoes the latest stroke; returns the changed rectangle.
@@ -804,6 +860,18 @@ impl Engine {
         }
         Ok(dabs)
     }
+}
+
+/// The compute path after the GPU failed with `e`.
+fn gpu_failed(e: &ifd_gpu::GpuError, shown_on_device: bool) -> (String, Option<String>) {
+    (
+        if shown_on_device {
+            "CPU, shown from the GPU".into()
+        } else {
+            "CPU".into()
+        },
+        Some(format!("the GPU path failed, dabs run on the CPU: {e}")),
+    )
 }
 
 fn gpu_region(r: PixelRect) -> ifd_gpu::Region {

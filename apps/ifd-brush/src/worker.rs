@@ -198,8 +198,11 @@ pub fn spawn(
             };
             send(Event::BanksReady(banks.info.clone()));
             let mut engine = Engine::new(banks, budget);
-            let (label, note) = engine.enable_gpu_on(gpu, shared);
-            send(Event::Compute { label, note });
+            let mut compute = engine.enable_gpu_on(gpu, shared);
+            send(Event::Compute {
+                label: compute.0.clone(),
+                note: compute.1.clone(),
+            });
             let mut pending: Option<Command> = None;
             loop {
                 let cmd = match pending.take() {
@@ -210,6 +213,15 @@ pub fn spawn(
                     },
                 };
                 pending = serve(&mut engine, cmd, &crx, &send);
+                // The GPU path can give way to the CPU (a smoother beyond
+                // the device's limits) and come back.
+                if engine.compute() != compute {
+                    compute = engine.compute();
+                    send(Event::Compute {
+                        label: compute.0.clone(),
+                        note: compute.1.clone(),
+                    });
+                }
             }
         })
         .ok();

@@ -298,3 +298,69 @@ fn gpu_replay_matches_cpu() {
         "GPU display path after undo differs from CPU by {d}"
     );
 }
+
+/// A device too small for the smoother's stack (1 MiB storage bindings) but
+/// large enough for the document: dabs run on the CPU and are written to
+/// the device, which still shows the document; the result is the CPU path's
+/// and the status says why.
+#[test]
+fn gpu_display_paints_on_the_cpu_when_the_smoother_does_not_fit() {
+    use eframe::wgpu;
+    use ifd_brush::engine::{GpuChoice, SharedDevice};
+    let Ok(big) = ifd_gpu::GpuContext::new() else {
+        assert!(
+            std::env::var("IFD_GPU_TESTS").is_ok_and(|v| v == "skip"),
+            "no GPU device for this test; install mesa-vulkan-drivers or set IFD_GPU_TESTS=skip"
+        );
+        return;
+    };
+    let shared = pollster::block_on(async {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let adapter = instance
+            .enumerate_adapters(wgpu::Backends::all())
+            .await
+            .into_iter()
+            .find(|a| a.get_info().name == big.adapter_info().name)
+            .expect("the same adapter again");
+        let info = adapter.get_info();
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("small limits"),
+                required_limits: wgpu::Limits {
+                    max_storage_buffer_binding_size: 1 << 20,
+                    max_buffer_size: 2 << 20,
+                    ..wgpu::Limits::default()
+                },
+                ..wgpu::DeviceDescriptor::default()
+            })
+            .await
+            .expect("device with small limits");
+        SharedDevice {
+            device,
+            queue,
+            info,
+        }
+    });
+    let img = common::crop(150, 100, 200, 160);
+    let file = strokes();
+    let mut engine = Engine::new(common::banks(), MemoryBudget::default_for_machine());
+    engine.enable_gpu_on(GpuChoice::On, Some(shared));
+    engine.set_image(img.clone(), None, false);
+    assert!(
+        engine.displays_on_device(),
+        "a 200x160 document fits in 1 MiB"
+    );
+    engine.replay(&file).expect("replay");
+    let (label, note) = engine.compute();
+    assert_eq!(label, "CPU, shown from the GPU");
+    let note = note.expect("a reason");
+    assert!(note.contains("the device's max_"), "{note}");
+    let mut cpu = Engine::new(common::banks(), MemoryBudget::default_for_machine());
+    cpu.set_image(img.clone(), None, false);
+    cpu.replay(&file).expect("replay");
+    let d = common::max_diff(engine.image().expect("image"), cpu.image().expect("image"));
+    assert!(
+        d < 1e-6,
+        "CPU dabs shown from the GPU differ from the CPU path by {d}"
+    );
+}
