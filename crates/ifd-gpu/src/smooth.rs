@@ -82,6 +82,8 @@ pub struct GpuSmoother {
     bank: GpuDecomposition,
     field: GpuPose,
     scale: f32,
+    /// Spacing of the dab grid of whole-image [`Mode::Dab`] smoothing.
+    grid: f32,
     entries: Vec<f32>,
     thetas: Vec<f32>,
 }
@@ -117,6 +119,7 @@ impl GpuSmoother {
             bank: gbank,
             field: pose,
             scale,
+            grid: (2.0 * smoother.options().scale).max(4.0) as f32,
             entries,
             thetas,
         })
@@ -229,18 +232,88 @@ impl GpuSmoother {
 
     /// The whole image smoothed, read back, as `Smoother::smooth_image`.
     ///
+    /// In [`Mode::Dab`] the filters sit on a grid of dab centres (spacing
+    /// `max(2 S, 4)` pixels) and each pixel blends the results of the
+    /// filters of its four surrounding centres with bilinear weights, as on
+    /// the CPU: one evaluation per corner, each with a per-pixel pose whose
+    /// orientation is that corner's, summed with the weights on the CPU.
+    ///
     /// # Errors
-    /// [`GpuError::Unsupported`] for [`Mode::Dab`] over a whole image (the
-    /// grid of blended dabs is CPU-only), and the errors of evaluation.
+    /// The errors of [`GpuPose::new`] and of evaluation.
     pub fn smooth_image(&self, ctx: &GpuContext, mode: Mode) -> Result<Image, GpuError> {
         match mode {
             Mode::PerPixel => self.smooth_per_pixel(ctx, None)?.read(ctx),
-            Mode::Dab => Err(GpuError::Unsupported(
-                "whole-image smoothing in dab mode (a grid of blended dabs); use per-pixel mode \
-                 or the CPU path"
-                    .into(),
-            )),
+            Mode::Dab => self.smooth_dab_grid(ctx),
         }
+    }
+
+    /// Whole-image [`Mode::Dab`] smoothing (see [`GpuSmoother::smooth_image`]).
+    fn smooth_dab_grid(&self, ctx: &GpuContext) -> Result<Image, GpuError> {
+        let (w, h, c) = (
+            self.stack.width(),
+            self.stack.height(),
+            self.stack.channels(),
+        );
+        let g = self.grid;
+        // As `Smoother::orientation_at`: nearest pixel, clamped into the image.
+        let at = |x: f32, y: f32| {
+            let xi = (x.round().max(0.0) as usize).min(w - 1);
+            let yi = (y.round().max(0.0) as usize).min(h - 1);
+            yi * w + xi
+        };
+        let mut out = vec![0.0f32; w * h * c];
+        let (mut thetas, mut entries, mut weights) = (
+            Vec::with_capacity(w * h),
+            Vec::with_capacity(w * h),
+            Vec::with_capacity(w * h),
+        );
+        for (di, dj) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
+            thetas.clear();
+            entries.clear();
+            weights.clear();
+            for y in 0..h {
+                let gy = y as f32 / g;
+                let (j0, fy) = (gy.floor(), gy - gy.floor());
+                let wy: f32 = if dj == 0.0 { 1.0 - fy } else { fy };
+                for x in 0..w {
+                    let gx = x as f32 / g;
+                    let (i0, fx) = (gx.floor(), gx - gx.floor());
+                    let wx: f32 = if di == 0.0 { 1.0 - fx } else { fx };
+                    let i = at((i0 + di) * g, (j0 + dj) * g);
+                    thetas.push(self.thetas[i]);
+                    entries.push(self.entries[i]);
+                    weights.push(wx * wy);
+                }
+            }
+            if weights.iter().all(|&v| v == 0.0) {
+                continue;
+            }
+            let pose = GpuPose::new(
+                ctx,
+                &self.stack,
+                Field::Map(&thetas),
+                Field::Constant(self.scale),
+                Field::Map(&entries),
+            )?;
+            let part = ctx
+                .evaluate(&self.stack, &self.bank, &pose, None)?
+                .read(ctx)?;
+            for ((o, p), &wt) in out
+                .chunks_exact_mut(c)
+                .zip(part.data().chunks_exact(c))
+                .zip(&weights)
+            {
+                if wt != 0.0 {
+                    for (a, b) in o.iter_mut().zip(p) {
+                        *a += wt * b;
+                    }
+                }
+            }
+        }
+        Image::from_vec(w, h, c, out).map_err(|e| GpuError::Readback {
+            what: "the smoothed image",
+            reason: e.to_string(),
+        })
     }
 
     /// Applies one dab to `target` as `Smoother::apply_dab` does: the dab's

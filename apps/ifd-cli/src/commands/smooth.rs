@@ -66,9 +66,9 @@ pub struct Smooth {
     #[arg(short, long)]
     verbose: bool,
     /// Run the smoothing pass on the GPU (wgpu, Vulkan; lavapipe when there
-    /// is no GPU). Per-pixel mode only; decompositions, prefiltering and the
-    /// Hessian field stay on the CPU. Fails, naming the problem, when there
-    /// is no adapter.
+    /// is no GPU), in either mode (dab mode: one evaluation per corner of
+    /// the dab grid); decompositions, prefiltering and the Hessian field
+    /// stay on the CPU. Fails, naming the problem, when there is no adapter.
     #[arg(long)]
     gpu: bool,
     #[command(flatten)]
@@ -84,11 +84,6 @@ impl Smooth {
             .with_context(|| format!("--border {}", self.border))?;
         if !(0.0..=1.0).contains(&self.strength) {
             anyhow::bail!("--strength {} is outside [0, 1]", self.strength);
-        }
-        if self.gpu && matches!(self.mode, ModeArg::Dab) {
-            anyhow::bail!(
-                "--gpu supports --mode per-pixel only (dab mode's grid of blended dabs runs on the CPU)"
-            );
         }
         let img = self.input.read(&self.image)?.image;
         let opts = SmoothOptions {
