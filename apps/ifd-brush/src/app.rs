@@ -126,8 +126,9 @@ struct Doc {
     rects: Vec<PixelRect>,
     tiles: Vec<TextureHandle>,
     /// The document's textures on the renderer's device (registered with
-    /// egui's renderer), shown instead of `tiles` when present.
-    device_tiles: Vec<egui::TextureId>,
+    /// egui's renderer) and the pixels each shows, drawn instead of `tiles`
+    /// when present.
+    device_tiles: Vec<(PixelRect, egui::TextureId)>,
     original: Vec<TextureHandle>,
     smoother: SharedSmoother,
 }
@@ -394,16 +395,16 @@ impl BrushApp {
     fn register_device_tiles(
         &self,
         tiles: Option<Vec<(PixelRect, eframe::wgpu::Texture)>>,
-    ) -> Vec<egui::TextureId> {
+    ) -> Vec<(PixelRect, egui::TextureId)> {
         let (Some(tiles), Some(WindowGpu(rs))) = (tiles, &self.render_state) else {
             return Vec::new();
         };
         let mut renderer = rs.renderer.write();
         tiles
             .iter()
-            .map(|(_, t)| {
+            .map(|(r, t)| {
                 let view = t.create_view(&eframe::wgpu::TextureViewDescriptor::default());
-                renderer.register_native_texture_with_sampler_options(
+                let id = renderer.register_native_texture_with_sampler_options(
                     &rs.device,
                     &view,
                     eframe::wgpu::SamplerDescriptor {
@@ -412,7 +413,8 @@ impl BrushApp {
                         min_filter: eframe::wgpu::FilterMode::Linear,
                         ..eframe::wgpu::SamplerDescriptor::default()
                     },
-                )
+                );
+                (*r, id)
             })
             .collect()
     }
@@ -423,7 +425,7 @@ impl BrushApp {
             return;
         };
         let mut renderer = rs.renderer.write();
-        for id in doc.device_tiles.drain(..) {
+        for (_, id) in doc.device_tiles.drain(..) {
             renderer.free_texture(&id);
         }
     }
@@ -1036,18 +1038,25 @@ impl BrushApp {
             self.view = View::fit(w, h, rect);
             self.fit_pending = false;
         }
-        let tiles: Vec<egui::TextureId> = if self.show_original {
-            doc.original.iter().map(TextureHandle::id).collect()
+        let cpu_tiles = |t: &[TextureHandle]| -> Vec<(PixelRect, egui::TextureId)> {
+            doc.rects
+                .iter()
+                .copied()
+                .zip(t.iter().map(TextureHandle::id))
+                .collect()
+        };
+        let tiles = if self.show_original {
+            cpu_tiles(&doc.original)
         } else if doc.device_tiles.is_empty() {
-            doc.tiles.iter().map(TextureHandle::id).collect()
+            cpu_tiles(&doc.tiles)
         } else {
             doc.device_tiles.clone()
         };
         let uv = Rect::from_min_max(Pos2::ZERO, pos2(1.0, 1.0));
-        for (r, t) in doc.rects.iter().zip(tiles) {
+        for (r, t) in &tiles {
             let sr = self.view.pixel_rect(rect, r.x0, r.y0, r.width, r.height);
             if sr.intersects(rect) {
-                painter.image(t, sr, uv, Color32::WHITE);
+                painter.image(*t, sr, uv, Color32::WHITE);
             }
         }
         let smoother = Arc::clone(&doc.smoother);

@@ -318,7 +318,10 @@ impl Engine {
                 self.make_canvas();
                 self.compute.clone()
             }
-            Err(e) => ("CPU".into(), Some(e.to_string())),
+            Err(e) => (
+                "CPU".into(),
+                Some(note.map_or_else(|| e.to_string(), |n| format!("{n}; {e}"))),
+            ),
         }
     }
 
@@ -561,9 +564,12 @@ impl Engine {
         if fits {
             return Ok(false);
         }
-        // A stroke in progress ends here (on the GPU display path its pixels
-        // are only on the device until then).
-        self.end_stroke()?;
+        // The new smoother starts from the image as it is, a stroke in
+        // progress included (which goes on): on the GPU display path its
+        // pixels are brought over from the device first.
+        if let Some(r) = self.stroke.as_ref().and_then(|s| s.rect) {
+            self.pull_from_canvas(r)?;
+        }
         let Some(image) = &self.image else {
             bail!("no image");
         };
@@ -677,9 +683,17 @@ impl Engine {
                 Some(Ok(r)) => r,
                 other => {
                     if let (Some(Err(e)), Some(g)) = (other, &mut self.gpu) {
-                        // From now on the CPU paints (this dab included).
+                        // From now on the CPU paints (this dab included),
+                        // starting from the stroke so far, which is only on
+                        // the device.
                         g.smoother = None;
                         self.compute = gpu_failed(&e, g.canvas.is_some());
+                        if let (Some(r), Some(canvas)) = (st.rect, &g.canvas) {
+                            let px = canvas
+                                .read(&g.ctx, gpu_region(r))
+                                .context("reading the stroke back from the GPU")?;
+                            crate::history::paste(image, r, &px);
+                        }
                     }
                     let r = sm.apply_dab(&dab, mode, image)?;
                     // A document on the device is shown from there.
@@ -724,13 +738,17 @@ impl Engine {
     /// # Errors
     /// A failed refresh.
     pub fn end_stroke(&mut self) -> anyhow::Result<Option<PixelRect>> {
+        // The stroke's pixels first: if they cannot be read back, the stroke
+        // stays open (and on screen) rather than being half recorded.
+        if let Some(r) = self.stroke.as_ref().and_then(|s| s.rect) {
+            self.pull_from_canvas(r)?;
+        }
         let Some(st) = self.stroke.take() else {
             return Ok(None);
         };
         let Some(rect) = st.rect else {
             return Ok(None);
         };
-        self.pull_from_canvas(rect)?;
         let Some(image) = &self.image else {
             return Ok(None);
         };

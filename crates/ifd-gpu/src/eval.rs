@@ -780,6 +780,49 @@ pub(crate) fn read_buffer_range(
 }
 
 impl GpuContext {
+    /// Evaluates over the whole image, as [`GpuContext::evaluate`] with no
+    /// region, and reads the result back; in bands of rows when the result
+    /// exceeds the device's `max_storage_buffer_binding_size` or
+    /// `max_buffer_size` (each band is one evaluation and one readback), so
+    /// the size of the result is limited by host memory, not the device.
+    ///
+    /// # Errors
+    /// As [`GpuContext::evaluate`] and [`GpuOutput::read`]; [`GpuError::Limit`]
+    /// when not even one row fits.
+    pub fn evaluate_image(
+        &self,
+        stack: &GpuStack,
+        decomposition: &GpuDecomposition,
+        pose: &GpuPose,
+    ) -> Result<Image, GpuError> {
+        let (w, h, c) = (stack.width(), stack.height(), stack.channels());
+        let limits = self.device().limits();
+        let cap = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        let rows = (cap / (w * c * 4).max(1) as u64).clamp(1, h.max(1) as u64) as usize;
+        if rows >= h {
+            return self.evaluate(stack, decomposition, pose, None)?.read(self);
+        }
+        let mut data = Vec::with_capacity(w * h * c);
+        for y0 in (0..h).step_by(rows) {
+            let band = Region {
+                x0: 0,
+                y0,
+                width: w,
+                height: rows.min(h - y0),
+            };
+            let part = self
+                .evaluate(stack, decomposition, pose, Some(band))?
+                .read(self)?;
+            data.extend_from_slice(part.data());
+        }
+        Image::from_vec(w, h, c, data).map_err(|e| GpuError::Readback {
+            what: "the result",
+            reason: e.to_string(),
+        })
+    }
+
     /// Evaluates `decomposition` (rotated, scaled and blended per `pose`) on
     /// `stack` over `region` (the whole image when `None`): the GPU version of
     /// [`ifd_planar::Filter::apply`], one trilinear lookup per term and pixel.

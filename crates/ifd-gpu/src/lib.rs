@@ -80,7 +80,9 @@
 //! **Limits.** Every buffer is checked against `max_buffer_size` and
 //! `max_storage_buffer_binding_size`, every dispatch against
 //! `max_compute_workgroups_per_dimension`, before anything is created; a
-//! violation is a [`GpuError::Limit`] naming the limit. Resource creation and
+//! violation is a [`GpuError::Limit`] naming the limit; whole-image results
+//! ([`GpuContext::evaluate_image`]) larger than a binding are evaluated in
+//! bands of rows instead. Resource creation and
 //! dispatches run inside wgpu error scopes, so a wgpu error becomes a
 //! [`GpuError::Device`], never a panic.
 //!

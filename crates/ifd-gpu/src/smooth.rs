@@ -57,14 +57,11 @@ impl GpuHessian {
         };
         let p0 = GpuPose::constant(ctx, stack, 0.0, s)?;
         let p90 = GpuPose::constant(ctx, stack, 90.0, s)?;
-        // Submit all three, then read.
-        let outs = [
-            ctx.evaluate(stack, &self.xx, &p0, None)?,
-            ctx.evaluate(stack, &self.xy, &p0, None)?,
-            ctx.evaluate(stack, &self.xx, &p90, None)?,
-        ];
-        let [a, b, d] = outs;
-        Ok([mean(a.read(ctx)?), mean(b.read(ctx)?), mean(d.read(ctx)?)])
+        Ok([
+            mean(ctx.evaluate_image(stack, &self.xx, &p0)?),
+            mean(ctx.evaluate_image(stack, &self.xy, &p0)?),
+            mean(ctx.evaluate_image(stack, &self.xx, &p90)?),
+        ])
     }
 }
 
@@ -242,7 +239,7 @@ impl GpuSmoother {
     /// The errors of [`GpuPose::new`] and of evaluation.
     pub fn smooth_image(&self, ctx: &GpuContext, mode: Mode) -> Result<Image, GpuError> {
         match mode {
-            Mode::PerPixel => self.smooth_per_pixel(ctx, None)?.read(ctx),
+            Mode::PerPixel => ctx.evaluate_image(&self.stack, &self.bank, &self.field),
             Mode::Dab => self.smooth_dab_grid(ctx),
         }
     }
@@ -295,9 +292,7 @@ impl GpuSmoother {
                 Field::Constant(self.scale),
                 Field::Map(&entries),
             )?;
-            let part = ctx
-                .evaluate(&self.stack, &self.bank, &pose, None)?
-                .read(ctx)?;
+            let part = ctx.evaluate_image(&self.stack, &self.bank, &pose)?;
             for ((o, p), &wt) in out
                 .chunks_exact_mut(c)
                 .zip(part.data().chunks_exact(c))
@@ -458,5 +453,5 @@ pub fn filter_image(
     let gstack = GpuStack::upload(ctx, stack)?;
     let gd = GpuDecomposition::new(ctx, decomposition)?;
     let pose = GpuPose::new(ctx, &gstack, angle, scale, Field::Constant(0.0))?;
-    ctx.evaluate(&gstack, &gd, &pose, None)?.read(ctx)
+    ctx.evaluate_image(&gstack, &gd, &pose)
 }

@@ -193,11 +193,11 @@ impl GpuStack {
         let layouts: Vec<_> = stack.level_layouts().copied().collect();
         let same = self.chunks.iter().all(|ch| {
             ch.metas.len() == layouts.len()
-                && ch
-                    .metas
-                    .iter()
-                    .zip(&layouts)
-                    .all(|(m, l)| (m.nx as usize, m.ny as usize) == (l.nx, l.ny))
+                && ch.metas.iter().zip(&layouts).all(|(m, l)| {
+                    (m.nx as usize, m.ny as usize) == (l.nx, l.ny)
+                        && m.step == l.step as f32
+                        && m.origin == l.origin as f32
+                })
         });
         if !same || rows.len() != layouts.len() {
             return Err(bad(format!(

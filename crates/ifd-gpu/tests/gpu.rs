@@ -419,10 +419,10 @@ fn bad_input_is_an_error_not_a_panic() {
 
 /// A device with deliberately small limits: stacks split into one buffer per
 /// channel, and what cannot fit is refused naming the limit.
-#[test]
-fn small_limits_split_or_fail_clearly() {
-    let Some(big) = ctx() else { return };
-    let small = pollster::block_on(async {
+/// A device on `big`'s adapter with 4 MiB storage bindings and 8 MiB
+/// buffers.
+fn small_device(big: &GpuContext) -> GpuContext {
+    pollster::block_on(async {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
         let adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
         let adapter = adapters
@@ -444,7 +444,13 @@ fn small_limits_split_or_fail_clearly() {
             .await
             .expect("device with small limits");
         GpuContext::from_device(device, queue, info).expect("pipelines")
-    });
+    })
+}
+
+#[test]
+fn small_limits_split_or_fail_clearly() {
+    let Some(big) = ctx() else { return };
+    let small = small_device(big);
     // 256x256 RGB, sigma 1..2: about 2.7 MiB per channel, so one channel per buffer.
     let img = read("coffee.png");
     let sub = crop(
@@ -489,6 +495,70 @@ fn small_limits_split_or_fail_clearly() {
     assert!(matches!(err, GpuError::Limit { .. }), "{msg}");
     assert!(msg.contains("max_storage_buffer_binding_size"), "{msg}");
     eprintln!("{msg}");
+}
+
+/// A result larger than a storage binding (4 channels, 600x500: 4.6 MiB
+/// against 4 MiB) while each channel's stack fits: evaluated in bands of
+/// rows, equal to the CPU; a single evaluation of it is refused. (The
+/// 600x400 photo, its last 100 rows repeated mirrored.)
+#[test]
+fn results_beyond_a_binding_are_evaluated_in_bands() {
+    let Some(big) = ctx() else { return };
+    let small = small_device(big);
+    let img = read("coffee.png");
+    let (w, h) = (600, 500);
+    let mut data = Vec::with_capacity(w * h * 4);
+    for y in 0..h {
+        for x in 0..w {
+            let yy = if y < 400 { y } else { 799 - y };
+            let px = [img.get(x, yy, 0), img.get(x, yy, 1), img.get(x, yy, 2)];
+            data.extend_from_slice(&px);
+            data.push(px.iter().sum::<f32>() / 3.0);
+        }
+    }
+    let four = Image::from_vec(w, h, 4, data).expect("image");
+    let d = Decomposition::from_terms(vec![
+        Term {
+            weight: 0.6,
+            x: 3.0,
+            y: -1.5,
+            sigma: 1.2,
+        },
+        Term {
+            weight: 0.4,
+            x: -2.0,
+            y: 4.0,
+            sigma: 1.2,
+        },
+    ]);
+    let stack = ScaleStack::new(&four, 1.2, 1.2, Border::Reflect101, StackOptions::default())
+        .expect("stack");
+    let gs = GpuStack::upload(&small, &stack).expect("upload");
+    assert!(
+        gs.buffers() >= 2,
+        "the stack is split ({} buffers)",
+        gs.buffers()
+    );
+    let gd = GpuDecomposition::new(&small, &d).expect("terms");
+    let angle: Vec<f32> = (0..w * h).map(|i| (i % 360) as f32).collect();
+    let pose = GpuPose::new(
+        &small,
+        &gs,
+        Field::Map(&angle),
+        Field::Constant(1.0),
+        Field::Constant(0.0),
+    )
+    .expect("pose");
+    let err = small
+        .evaluate(&gs, &gd, &pose, None)
+        .expect_err("one buffer for the result is too large");
+    assert!(matches!(err, GpuError::Limit { .. }), "{err}");
+    let gpu = small.evaluate_image(&gs, &gd, &pose).expect("in bands");
+    let cpu = Filter::new(&stack, &d)
+        .expect("filter")
+        .apply(Field::Map(&angle), Field::Constant(1.0))
+        .expect("cpu");
+    assert_close(&gpu, &cpu, "600x500x4 in bands of rows");
 }
 
 #[test]
@@ -699,12 +769,14 @@ mod smoothing {
     }
 
     /// After an edit, `GpuSmoother::refresh` (rows only) leaves the device
-    /// holding exactly what a fresh upload of the refreshed smoother holds.
+    /// giving exactly (bitwise) the results of a fresh upload of the
+    /// refreshed smoother: grey, and RGB (several channels per buffer, and
+    /// one channel per buffer on a device with small limits).
     #[test]
     fn refresh_matches_a_fresh_upload() {
         let Some(ctx) = ctx() else { return };
         // Tall, so that the rows a dab near the top changes are a minority.
-        let img = crop(
+        let grey = crop(
             &read("camera.png"),
             Region {
                 x0: 100,
@@ -713,6 +785,24 @@ mod smoothing {
                 height: 512,
             },
         );
+        assert_eq!(refresh_case(ctx, &grey), 1);
+        let rgb = crop(
+            &read("coffee.png"),
+            Region {
+                x0: 150,
+                y0: 0,
+                width: 120,
+                height: 400,
+            },
+        );
+        assert_eq!(refresh_case(ctx, &rgb), 1, "three channels in one buffer");
+        let small = small_device(ctx);
+        assert_eq!(refresh_case(&small, &rgb), 3, "one channel per buffer");
+    }
+
+    /// Returns the buffers the stack was split into.
+    fn refresh_case(ctx: &GpuContext, img: &Image) -> usize {
+        let img = img.clone();
         let mut sm = smoother(&img);
         let mut gsm = GpuSmoother::new(ctx, &sm).expect("upload");
         let mut edited = img.clone();
@@ -778,6 +868,7 @@ mod smoothing {
             gsm.refresh(ctx, &other, rect, &report),
             Err(GpuError::Filter(FilterError::InvalidParameter(_)))
         ));
+        gsm.stack().buffers()
     }
 
     /// The display byte of a sample, as the brush app's CPU display path

@@ -118,15 +118,25 @@ fn filter_gpu(
     let gd = GpuDecomposition::new(&ctx, decomposition)?;
     let pose = GpuPose::new(&ctx, &gs, angle, scale, Field::Constant(0.0))?;
     let t2 = Instant::now();
-    let out = ctx
-        .evaluate(&gs, &gd, &pose, None)
-        .context("filtering on the GPU")?;
-    let image = out.read(&ctx)?;
+    // One evaluation when the result fits in one buffer (with its GPU
+    // time), else in bands of rows.
+    let (image, out) = match ctx.evaluate(&gs, &gd, &pose, None) {
+        Ok(out) => (out.read(&ctx)?, Some(out)),
+        Err(ifd_gpu::GpuError::Limit { .. }) => (
+            ctx.evaluate_image(&gs, &gd, &pose)
+                .context("filtering on the GPU")?,
+            None,
+        ),
+        Err(e) => return Err(anyhow::Error::from(e).context("filtering on the GPU")),
+    };
     let t3 = Instant::now();
     if verbose {
-        let gpu_time = match out.gpu_time(&ctx)? {
-            Some(t) => format!("{:.2} ms GPU time", t.as_secs_f64() * 1e3),
-            None => "no timestamp queries".into(),
+        let gpu_time = match &out {
+            None => "in bands of rows, no GPU time".into(),
+            Some(o) => match o.gpu_time(&ctx)? {
+                Some(t) => format!("{:.2} ms GPU time", t.as_secs_f64() * 1e3),
+                None => "no timestamp queries".into(),
+            },
         };
         eprintln!(
             "GPU: {} ({:?}); device {:.0} ms, upload {:.1} ms ({} in {} buffer(s)), \
