@@ -8,7 +8,9 @@ use ifd_smooth::{Dab, Mode};
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::eval::{Region, Rgba8Params, buffer_init, entry, read_buffer_range, submit_rgba8};
+use crate::eval::{
+    Region, Rgba8Params, buffer_init, entry, read_buffer_range, rgba8_texture, submit_rgba8,
+};
 use crate::smooth::GpuSmoother;
 
 /// One display texture of a [`GpuCanvas`]: `rgba8unorm`, the pixels of
@@ -132,22 +134,12 @@ impl GpuCanvas {
                         width: side.min(w - x0),
                         height: side.min(h - y0),
                     };
-                    let texture = device.create_texture(&wgpu::TextureDescriptor {
-                        label: Some("ifd canvas display"),
-                        size: wgpu::Extent3d {
-                            width: region.width as u32,
-                            height: region.height as u32,
-                            depth_or_array_layers: 1,
-                        },
-                        mip_level_count: 1,
-                        sample_count: 1,
-                        dimension: wgpu::TextureDimension::D2,
-                        format: wgpu::TextureFormat::Rgba8Unorm,
-                        usage: wgpu::TextureUsages::STORAGE_BINDING
-                            | wgpu::TextureUsages::TEXTURE_BINDING
-                            | wgpu::TextureUsages::COPY_SRC,
-                        view_formats: &[],
-                    });
+                    let texture = rgba8_texture(
+                        device,
+                        "ifd canvas display",
+                        region.width as u32,
+                        region.height as u32,
+                    );
                     tiles.push(DisplayTile { region, texture });
                 }
             }

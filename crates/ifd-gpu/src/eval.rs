@@ -621,22 +621,7 @@ impl GpuOutput {
         ctx.check_dispatch("the display conversion", w, h)?;
         ctx.scoped("converting the result to a texture", || {
             let device = ctx.device();
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("ifd result rgba8"),
-                size: wgpu::Extent3d {
-                    width: w,
-                    height: h,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba8Unorm,
-                usage: wgpu::TextureUsages::STORAGE_BINDING
-                    | wgpu::TextureUsages::TEXTURE_BINDING
-                    | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            });
+            let texture = rgba8_texture(device, "ifd result rgba8", w, h);
             let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
             submit_rgba8(
                 ctx,
@@ -654,6 +639,27 @@ impl GpuOutput {
             Ok(texture)
         })
     }
+}
+
+/// A `w x h` `rgba8unorm` texture that `shaders/to_rgba8.wgsl` writes and a
+/// renderer samples (usages `STORAGE_BINDING | TEXTURE_BINDING | COPY_SRC`).
+pub(crate) fn rgba8_texture(device: &wgpu::Device, label: &str, w: u32, h: u32) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8Unorm,
+        usage: wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
 }
 
 /// The `struct Params` of `shaders/to_rgba8.wgsl`.

@@ -707,9 +707,8 @@ mod smoothing {
         );
     }
 
-    #[test]
-    fn dabs_match_cpu() {
-        let Some(ctx) = ctx() else { return };
+    /// A 180x140 crop of the RGB photo, its smoother and the upload.
+    fn coffee_dab_setup(ctx: &GpuContext) -> (Image, Smoother, GpuSmoother) {
         let img = crop(
             &read("coffee.png"),
             Region {
@@ -721,6 +720,13 @@ mod smoothing {
         );
         let sm = smoother(&img);
         let gsm = GpuSmoother::new(ctx, &sm).expect("upload");
+        (img, sm, gsm)
+    }
+
+    #[test]
+    fn dabs_match_cpu() {
+        let Some(ctx) = ctx() else { return };
+        let (img, sm, gsm) = coffee_dab_setup(ctx);
         for mode in [Mode::Dab, Mode::PerPixel] {
             let mut cpu = img.clone();
             let mut gpu = img.clone();
@@ -917,17 +923,7 @@ mod smoothing {
     #[test]
     fn canvas_dabs_match_cpu_and_show() {
         let Some(ctx) = ctx() else { return };
-        let img = crop(
-            &read("coffee.png"),
-            Region {
-                x0: 200,
-                y0: 100,
-                width: 180,
-                height: 140,
-            },
-        );
-        let sm = smoother(&img);
-        let gsm = GpuSmoother::new(ctx, &sm).expect("upload");
+        let (img, sm, gsm) = coffee_dab_setup(ctx);
         let canvas = GpuCanvas::new(ctx, &img, false, 64).expect("canvas");
         assert_eq!(canvas.tiles().len(), 3 * 3);
         assert_eq!(
