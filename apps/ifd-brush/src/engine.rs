@@ -628,7 +628,15 @@ impl Engine {
         }
         self.stroke = Some(ActiveStroke {
             brush,
-            interp: StrokeInterpolator::new(brush.spacing_px()),
+            interp: StrokeInterpolator::with_bounds(
+                brush.spacing_px(),
+                [
+                    -brush.radius - 1.0,
+                    -brush.radius - 1.0,
+                    image.width() as f32 + brush.radius,
+                    image.height() as f32 + brush.radius,
+                ],
+            ),
             recorder: EditRecorder::new(image),
             rect: None,
         });

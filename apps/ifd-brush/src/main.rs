@@ -98,6 +98,15 @@ fn headless(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
     }
     let t0 = std::time::Instant::now();
     let dabs = engine.replay(&file)?;
+    // The path can change once the image is prepared (a smoother beyond the
+    // device's limits runs on the CPU).
+    let (now, why) = engine.compute();
+    if now != label {
+        eprintln!(
+            "compute: {now}{}",
+            why.map(|n| format!(" ({n})")).unwrap_or_default()
+        );
+    }
     eprintln!(
         "replayed {dabs} dabs in {:.2} s (prefiltering included)",
         t0.elapsed().as_secs_f64()

@@ -364,3 +364,24 @@ fn gpu_display_paints_on_the_cpu_when_the_smoother_does_not_fit() {
         "CPU dabs shown from the GPU differ from the CPU path by {d}"
     );
 }
+
+/// A stroke out to a point absurdly far from the image and back paints the
+/// dabs near the image only (it used to generate every dab along the way:
+/// billions, and run out of memory).
+#[test]
+fn far_stroke_points_cost_only_the_dabs_near_the_image() {
+    let img = common::crop(150, 100, 200, 160);
+    let mut engine = Engine::new(common::banks(), MemoryBudget::default_for_machine());
+    engine.set_image(img.clone(), None, false);
+    let brush = BrushSettings {
+        radius: 20.0,
+        ..BrushSettings::default()
+    };
+    engine.begin_stroke(brush).expect("stroke");
+    let mut dabs = engine.stroke_to(10.0, 10.0).expect("dab").times.len();
+    dabs += engine.stroke_to(1e9, 1e9).expect("far").times.len();
+    dabs += engine.stroke_to(30.0, 150.0).expect("back").times.len();
+    engine.end_stroke().expect("end");
+    assert!(dabs > 2 && dabs < 200, "{dabs} dabs");
+    assert!(common::max_diff(engine.image().expect("image"), &img) > 0.01);
+}

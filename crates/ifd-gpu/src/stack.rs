@@ -117,6 +117,35 @@ impl GpuStack {
         })
     }
 
+    /// Checks, before anything is built, that a stack of this layout (of a
+    /// `width x height` image) can be uploaded to `ctx`'s device (one channel fits in a storage
+    /// binding), so that callers can refuse early instead of after
+    /// prefiltering.
+    ///
+    /// # Errors
+    /// The [`GpuError::Limit`] that [`GpuStack::upload`] would return.
+    pub fn check_fits(
+        ctx: &GpuContext,
+        (width, height): (usize, usize),
+        layout: &ifd_planar::StackLayout,
+    ) -> Result<(), GpuError> {
+        let levels = layout.levels();
+        let plane_bytes: u64 = levels.iter().map(|l| (l.nx * l.ny * 4) as u64).sum();
+        let (sig_lo, sig_hi) = (
+            levels.first().map_or(0.0, |l| l.sigma),
+            levels.last().map_or(0.0, |l| l.sigma),
+        );
+        ctx.check_buffer(
+            &format!(
+                "one channel of the {width}x{height} scale stack ({} levels, sigma \
+                 {sig_lo:.3}..{sig_hi:.3} px)",
+                levels.len(),
+            ),
+            plane_bytes,
+            true,
+        )
+    }
+
     /// Image width.
     #[must_use]
     pub fn width(&self) -> usize {

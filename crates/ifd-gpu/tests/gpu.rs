@@ -495,6 +495,18 @@ fn small_limits_split_or_fail_clearly() {
     assert!(matches!(err, GpuError::Limit { .. }), "{msg}");
     assert!(msg.contains("max_storage_buffer_binding_size"), "{msg}");
     eprintln!("{msg}");
+    // The same verdict from the layout alone, before building anything.
+    let layout = |w: usize, h: usize| {
+        ifd_planar::StackLayout::new(w, h, 3, 1.0, 2.0, StackOptions::default()).expect("layout")
+    };
+    let early = GpuStack::check_fits(
+        &small,
+        (img.width(), img.height()),
+        &layout(img.width(), img.height()),
+    )
+    .expect_err("too large");
+    assert_eq!(early.to_string(), msg);
+    GpuStack::check_fits(&small, (256, 256), &layout(256, 256)).expect("fits");
 }
 
 /// A result larger than a storage binding (4 channels, 600x500: 4.6 MiB

@@ -512,21 +512,34 @@ where
     if !dir.is_dir() {
         return Err(werr(format!("folder {} does not exist", dir.display())));
     }
-    let tmp = tempfile::Builder::new()
-        .prefix(".ifd-tmp-")
-        .tempfile_in(&dir)
-        .map_err(|e| {
-            werr(format!(
-                "cannot create a temporary file in {}: {e}",
-                dir.display()
-            ))
-        })?;
+    // The file gets the permissions an ordinary `File::create` would give
+    // (0666 less the umask; a temporary file alone would be 0600), or those
+    // of the file it replaces.
+    let existing = std::fs::metadata(path).ok().map(|m| m.permissions());
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".ifd-tmp-");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt as _;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let tmp = builder.tempfile_in(&dir).map_err(|e| {
+        werr(format!(
+            "cannot create a temporary file in {}: {e}",
+            dir.display()
+        ))
+    })?;
     {
         let mut w = BufWriter::new(tmp.as_file());
         fill(&mut w).map_err(werr)?;
         w.flush().map_err(|e| werr(e.to_string()))?;
     }
     tmp.as_file().sync_all().map_err(|e| werr(e.to_string()))?;
+    if let Some(p) = existing {
+        tmp.as_file()
+            .set_permissions(p)
+            .map_err(|e| werr(format!("keeping the permissions of the old file: {e}")))?;
+    }
     tmp.persist(path).map_err(|e| werr(e.error.to_string()))?;
     Ok(())
 }
@@ -534,6 +547,25 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// New files get what `File::create` gives (umask applied, not the
+    /// temporary file's 0600); a replaced file keeps its permissions.
+    #[cfg(unix)]
+    #[test]
+    fn written_files_get_ordinary_permissions() {
+        use std::os::unix::fs::PermissionsExt as _;
+        let dir = tempfile::tempdir().unwrap();
+        let plain = dir.path().join("plain");
+        std::fs::File::create(&plain).unwrap();
+        let want = std::fs::metadata(&plain).unwrap().permissions().mode() & 0o777;
+        let out = dir.path().join("out.png");
+        write(&out, &ramp(4, 3, 1)).unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&out), want);
+        std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o640)).unwrap();
+        write(&out, &ramp(4, 3, 1)).unwrap();
+        assert_eq!(mode(&out), 0o640);
+    }
 
     fn ramp(w: usize, h: usize, c: usize) -> Image {
         let data = (0..w * h * c)

@@ -281,17 +281,23 @@ impl Decomposition {
         })
     }
 
-    /// Writes the decomposition file.
+    /// Writes the decomposition file (atomically: on failure no partial
+    /// file is left, and an existing one is unchanged).
     ///
     /// # Errors
     /// [`DecompositionFileError::Io`] when the file cannot be written.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), DecompositionFileError> {
         let path = path.as_ref();
-        std::fs::write(path, self.to_json_string() + "\n").map_err(|source| {
-            DecompositionFileError::Io {
-                path: path.to_path_buf(),
-                source,
-            }
+        let text = self.to_json_string() + "\n";
+        ifd_image::atomic_write(path, |w| {
+            std::io::Write::write_all(w, text.as_bytes()).map_err(|e| e.to_string())
+        })
+        .map_err(|e| DecompositionFileError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(match e {
+                ifd_image::ImageError::Write { reason, .. } => reason,
+                other => other.to_string(),
+            }),
         })
     }
 

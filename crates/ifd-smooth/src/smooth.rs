@@ -4,7 +4,9 @@
 use std::sync::Arc;
 
 use ifd_image::Image;
-use ifd_planar::{Border, Filter, Rotation, ScaleStack, ScaledFilter, Taps};
+use ifd_planar::{
+    Border, Filter, Rotation, ScaleStack, ScaledFilter, StackLayout, StackOptions, Taps,
+};
 use rayon::prelude::*;
 
 use crate::bank::{AspectBank, BankOptions};
@@ -160,6 +162,41 @@ impl Smoother {
         Self::with_banks(image, opts, Arc::new(bank), &hbank)
     }
 
+    /// The sigma range and options of the scale stack a smoother of a
+    /// `(width, height, channels)` image builds: the Hessian filters' range
+    /// and the aspect bank's at the footprint scale.
+    #[must_use]
+    pub fn stack_plan(
+        (width, height, channels): (usize, usize, usize),
+        opts: &SmoothOptions,
+        bank: &AspectBank,
+        hbank: &HessianBank,
+    ) -> ((f64, f64), StackOptions) {
+        let hs = opts.hessian_sigma();
+        let (hlo, hhi) = hbank.stack_sigmas(hs, hs);
+        let (blo, bhi) = bank.sigma_range();
+        let s = opts.scale / bank.options.sigma_ref;
+        let (lo, hi) = (hlo.min(blo * s), hhi.max(bhi * s));
+        let o = smoother_stack_options(bank, opts.scale, (width, height, channels), (lo, hi));
+        ((lo, hi), o)
+    }
+
+    /// The layout of the scale stack a smoother of a `(width, height,
+    /// channels)` image builds ([`Smoother::stack_plan`]), without building
+    /// it (memory budgets, device limits).
+    ///
+    /// # Errors
+    /// As [`StackLayout::new`].
+    pub fn stack_layout(
+        dims: (usize, usize, usize),
+        opts: &SmoothOptions,
+        bank: &AspectBank,
+        hbank: &HessianBank,
+    ) -> Result<StackLayout, SmoothError> {
+        let ((lo, hi), o) = Self::stack_plan(dims, opts, bank, hbank);
+        Ok(StackLayout::new(dims.0, dims.1, dims.2, lo, hi, o)?)
+    }
+
     /// As [`Smoother::new`] with decompositions fitted (or loaded) beforehand.
     ///
     /// # Errors
@@ -178,19 +215,9 @@ impl Smoother {
             )));
         }
         let hs = opts.hessian_sigma();
-        let (hlo, hhi) = hbank.stack_sigmas(hs, hs);
-        let (blo, bhi) = bank.sigma_range();
-        let s = opts.scale / bank.options.sigma_ref;
-        let lo = hlo.min(blo * s);
-        let hi = hhi.max(bhi * s);
         let (w, h) = (image.width(), image.height());
-        let stack = ScaleStack::new(
-            image,
-            lo,
-            hi,
-            opts.border,
-            smoother_stack_options(&bank, opts.scale, (w, h, image.channels()), (lo, hi)),
-        )?;
+        let ((lo, hi), stack_opts) = Self::stack_plan((w, h, image.channels()), opts, &bank, hbank);
+        let stack = ScaleStack::new(image, lo, hi, opts.border, stack_opts)?;
         let field = {
             let [hxx, hxy, hyy] = hbank.bind(&stack)?.planes(hs)?;
             let mut t: [Vec<f32>; 3] = [vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h]];

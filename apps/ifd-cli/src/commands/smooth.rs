@@ -111,6 +111,17 @@ impl Smooth {
             bar.set_position(done as u64);
         })?;
         bar.finish_and_clear();
+        // With --gpu, a stack the device cannot hold is refused before the
+        // prefiltering, not after.
+        let ctx = if self.gpu {
+            let ctx = ifd_gpu::GpuContext::new().context("--gpu")?;
+            let dims = (img.width(), img.height(), img.channels());
+            let layout = Smoother::stack_layout(dims, &opts, &bank, &hbank)?;
+            ifd_gpu::GpuStack::check_fits(&ctx, (dims.0, dims.1), &layout)?;
+            Some(ctx)
+        } else {
+            None
+        };
         let t1 = Instant::now();
         let smoother = Smoother::with_banks(&img, &opts, Arc::new(bank), &hbank)?;
         let t2 = Instant::now();
@@ -118,8 +129,7 @@ impl Smooth {
             ModeArg::Dab => Mode::Dab,
             ModeArg::PerPixel => Mode::PerPixel,
         };
-        let mut out = if self.gpu {
-            let ctx = ifd_gpu::GpuContext::new().context("--gpu")?;
+        let mut out = if let Some(ctx) = ctx {
             if self.verbose {
                 eprintln!("GPU: {}", ctx.adapter_info().name);
             }
