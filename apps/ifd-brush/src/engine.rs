@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use ifd_image::{Image, LoadedImage, MemoryBudget, NonFinitePolicy, ReadOptions};
-use ifd_planar::{PixelRect, StackLayout};
+use ifd_planar::PixelRect;
 use ifd_smooth::{AspectBank, BankOptions, Dab, HessianBank, Smoother};
 
 use crate::history::{EditRecorder, History};
@@ -192,26 +192,10 @@ pub fn estimate_bytes(
     brush: &BrushSettings,
 ) -> u64 {
     let o = brush.smooth_options();
-    let hs = o.hessian_sigma();
-    let (hlo, hhi) = banks.hessian.stack_sigmas(hs, hs);
-    let (blo, bhi) = banks.aspect.sigma_range();
-    let s = o.scale / banks.aspect.options.sigma_ref;
     let px = (width * height) as u64;
-    let (lo, hi) = (hlo.min(blo * s), hhi.max(bhi * s));
-    let stack = StackLayout::new(
-        width,
-        height,
-        channels,
-        lo,
-        hi,
-        ifd_smooth::smoother_stack_options(
-            &banks.aspect,
-            o.scale,
-            (width, height, channels),
-            (lo, hi),
-        ),
-    )
-    .map_or(u64::MAX / 2, |l| l.bytes());
+    let stack =
+        Smoother::stack_layout((width, height, channels), &o, &banks.aspect, &banks.hessian)
+            .map_or(u64::MAX / 2, |l| l.bytes());
     stack + px * 8 + 2 * px * channels as u64 * 4 + 2 * px * 4
 }
 
