@@ -896,6 +896,43 @@ pub fn stack_for_decomposition(
     border: Border,
     options: StackOptions,
 ) -> Result<ScaleStack, FilterError> {
+    let ((lo, hi), options) = stack_plan_for_decomposition(
+        (image.width(), image.height(), image.channels()),
+        decomposition,
+        scale_min,
+        scale_max,
+        border,
+        options,
+    )?;
+    check_finite(image.data(), image.width(), image.channels())?;
+    ScaleStack::new(image, lo, hi, border, options)
+}
+
+/// The sigma range and options of the stack [`stack_for_decomposition`]
+/// builds for a `(width, height, channels)` image, without building it (for
+/// memory budgets and device limits: `StackLayout::new(w, h, c, lo, hi,
+/// options)` is its layout).
+///
+/// ```
+/// use ifd_planar::{Border, Decomposition, StackLayout, StackOptions, Term};
+/// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 3.0, y: 0.0, sigma: 2.0 }]);
+/// let ((lo, hi), o) = ifd_planar::stack_plan_for_decomposition(
+///     (640, 480, 3), &d, 1.0, 4.0, Border::Reflect101, StackOptions::default())?;
+/// assert_eq!((lo, hi), (2.0, 8.0));
+/// let bytes = StackLayout::new(640, 480, 3, lo, hi, o)?.bytes();
+/// # Ok::<(), ifd_planar::FilterError>(())
+/// ```
+///
+/// # Errors
+/// As [`stack_for_decomposition`], except those of the image's samples.
+pub fn stack_plan_for_decomposition(
+    (width, height, channels): (usize, usize, usize),
+    decomposition: &Decomposition,
+    scale_min: f32,
+    scale_max: f32,
+    border: Border,
+    options: StackOptions,
+) -> Result<((f64, f64), StackOptions), FilterError> {
     let terms = prepare_terms(decomposition)?;
     if !(scale_min.is_finite()
         && scale_max.is_finite()
@@ -906,7 +943,6 @@ pub fn stack_for_decomposition(
             "scale range [{scale_min}, {scale_max}] must be finite, positive and increasing"
         )));
     }
-    check_finite(image.data(), image.width(), image.channels())?;
     let sigma_lo = terms.iter().map(|t| t.sigma).fold(f64::INFINITY, f64::min);
     let sigma_hi = terms.iter().map(|t| t.sigma).fold(0.0, f64::max);
     let reach = terms
@@ -927,20 +963,20 @@ pub fn stack_for_decomposition(
         // slower than an extent-31 one). Store a margin covering the reach
         // as far as memory allows (`StackLayout::affordable_margin`).
         options.margin = StackLayout::affordable_margin(
-            image.width(),
-            image.height(),
-            image.channels(),
+            width,
+            height,
+            channels,
             f64::from(scale_min) * sigma_lo,
             f64::from(scale_max) * sigma_hi,
             options,
             need,
         )?;
     }
-    ScaleStack::new(
-        image,
-        f64::from(scale_min) * sigma_lo,
-        f64::from(scale_max) * sigma_hi,
-        border,
+    Ok((
+        (
+            f64::from(scale_min) * sigma_lo,
+            f64::from(scale_max) * sigma_hi,
+        ),
         options,
-    )
+    ))
 }

@@ -46,6 +46,7 @@ pub use plot::render_plot;
 pub use border::Border;
 pub use filter::{
     Field, Filter, FilterError, Rotation, ScaledFilter, Taps, stack_for_decomposition,
+    stack_plan_for_decomposition,
 };
 pub use stack::{LevelLayout, ScaleStack, StackLayout, StackOptions};
 pub use stack_refresh::{FixedTap, PixelRect, RefreshReport};

@@ -102,26 +102,26 @@ fn check_kernel_fits(decomposition: &Decomposition, smax: f32, w: usize, h: usiz
     Ok(())
 }
 
-/// The `--gpu` path: upload the stack and the decomposition, evaluate, read back.
+/// The `--gpu` path: upload the stack and the decomposition, evaluate, read
+/// back (`device` is how long creating `ctx` took).
 fn filter_gpu(
+    (ctx, device): (&ifd_gpu::GpuContext, std::time::Duration),
     stack: &ifd_planar::ScaleStack,
     decomposition: &Decomposition,
     angle: Field<'_>,
     scale: Field<'_>,
     verbose: bool,
 ) -> Result<ifd_image::Image> {
-    use ifd_gpu::{GpuContext, GpuDecomposition, GpuPose, GpuStack};
-    let t0 = Instant::now();
-    let ctx = GpuContext::new().context("--gpu")?;
+    use ifd_gpu::{GpuDecomposition, GpuPose, GpuStack};
     let t1 = Instant::now();
-    let gs = GpuStack::upload(&ctx, stack).context("uploading the scale stack")?;
-    let gd = GpuDecomposition::new(&ctx, decomposition)?;
-    let pose = GpuPose::new(&ctx, &gs, angle, scale, Field::Constant(0.0))?;
+    let gs = GpuStack::upload(ctx, stack).context("uploading the scale stack")?;
+    let gd = GpuDecomposition::new(ctx, decomposition)?;
+    let pose = GpuPose::new(ctx, &gs, angle, scale, Field::Constant(0.0))?;
     let t2 = Instant::now();
     // One evaluation when the result fits in one buffer (with its GPU
     // time), else in bands of rows.
     let (image, out) = match ctx.evaluate(&gs, &gd, &pose, None) {
-        Ok(out) => (out.read(&ctx)?, Some(out)),
+        Ok(out) => (out.read(ctx)?, Some(out)),
         Err(ifd_gpu::GpuError::Limit { .. }) => (
             ctx.evaluate_image(&gs, &gd, &pose)
                 .context("filtering on the GPU")?,
@@ -133,7 +133,7 @@ fn filter_gpu(
     if verbose {
         let gpu_time = match &out {
             None => "in bands of rows, no GPU time".into(),
-            Some(o) => match o.gpu_time(&ctx)? {
+            Some(o) => match o.gpu_time(ctx)? {
                 Some(t) => format!("{:.2} ms GPU time", t.as_secs_f64() * 1e3),
                 None => "no timestamp queries".into(),
             },
@@ -143,7 +143,7 @@ fn filter_gpu(
              evaluation + readback {:.1} ms ({gpu_time})",
             ctx.adapter_info().name,
             ctx.adapter_info().device_type,
-            (t1 - t0).as_secs_f64() * 1e3,
+            device.as_secs_f64() * 1e3,
             (t2 - t1).as_secs_f64() * 1e3,
             ifd_image::fmt_bytes(gs.bytes()),
             gs.buffers(),
@@ -185,12 +185,37 @@ impl Filter {
             (s, s)
         };
         if !(smin.is_finite() && smax.is_finite() && smin > 0.0) {
-            bail!("scales must be finite and positive (found range [{smin}, {smax}])");
+            let source = match &self.scale_map {
+                Some(p) => format!("the scale map {}", p.display()),
+                None => "--scale".to_string(),
+            };
+            bail!("{source}: scales must be finite and positive (found range [{smin}, {smax}])");
         }
         check_kernel_fits(&decomposition, smax, w, h)?;
         let scale = match &scale_map {
             Some(m) => Field::Map(m),
             None => Field::Constant(smin),
+        };
+        // With --gpu, a stack the device cannot hold is refused before the
+        // prefiltering, not after.
+        let gpu = if self.gpu {
+            let t = Instant::now();
+            let ctx = ifd_gpu::GpuContext::new().context("--gpu")?;
+            let device = t.elapsed();
+            let c = image.channels();
+            let ((lo, hi), o) = ifd_planar::stack_plan_for_decomposition(
+                (w, h, c),
+                &decomposition,
+                smin,
+                smax,
+                border,
+                StackOptions::default(),
+            )?;
+            let layout = ifd_planar::StackLayout::new(w, h, c, lo, hi, o)?;
+            ifd_gpu::GpuStack::check_fits(&ctx, (w, h), &layout)?;
+            Some((ctx, device))
+        } else {
+            None
         };
         let t0 = Instant::now();
         let stack = stack_for_decomposition(
@@ -203,8 +228,15 @@ impl Filter {
         )
         .context("prefiltering")?;
         let t1 = Instant::now();
-        let out = if self.gpu {
-            filter_gpu(&stack, &decomposition, angle, scale, self.verbose)?
+        let out = if let Some((ctx, device)) = &gpu {
+            filter_gpu(
+                (ctx, *device),
+                &stack,
+                &decomposition,
+                angle,
+                scale,
+                self.verbose,
+            )?
         } else {
             IfdFilter::new(&stack, &decomposition)?
                 .apply(angle, scale)
