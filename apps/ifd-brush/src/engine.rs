@@ -41,6 +41,31 @@ struct GpuPath {
     label: String,
 }
 
+impl GpuPath {
+    /// Copies the pixels of `rect` from the device's document into `image`
+    /// (a no-op without a canvas).
+    fn pull(&self, image: &mut Image, rect: PixelRect) -> anyhow::Result<()> {
+        if let Some(canvas) = &self.canvas {
+            let pixels = canvas
+                .read(&self.ctx, rect)
+                .context("reading the stroke back from the GPU")?;
+            crate::history::paste(image, rect, &pixels);
+        }
+        Ok(())
+    }
+
+    /// Copies the pixels of `rect` from `image` to the device's document (a
+    /// no-op without a canvas).
+    fn push(&self, image: &Image, rect: PixelRect) -> anyhow::Result<()> {
+        if let Some(canvas) = &self.canvas {
+            canvas
+                .write(&self.ctx, rect, &crate::history::extract(image, rect))
+                .context("writing to the GPU's copy of the image")?;
+        }
+        Ok(())
+    }
+}
+
 /// A renderer's device (the window's, from eframe) that the engine may
 /// evaluate on; its results are then shown without a round trip to the CPU.
 #[derive(Clone, Debug)]
@@ -333,18 +358,7 @@ impl Engine {
             canvas
                 .tiles()
                 .iter()
-                .map(|t| {
-                    let r = t.region;
-                    (
-                        PixelRect {
-                            x0: r.x0,
-                            y0: r.y0,
-                            width: r.width,
-                            height: r.height,
-                        },
-                        t.texture.clone(),
-                    )
-                })
+                .map(|t| (t.region, t.texture.clone()))
                 .collect(),
         )
     }
@@ -371,36 +385,19 @@ impl Engine {
     /// Copies the pixels of `rect` from the device's document into the CPU
     /// image (a no-op without a canvas).
     fn pull_from_canvas(&mut self, rect: PixelRect) -> anyhow::Result<()> {
-        let (Some(g), Some(image)) = (&self.gpu, &mut self.image) else {
-            return Ok(());
-        };
-        let Some(canvas) = &g.canvas else {
-            return Ok(());
-        };
-        let pixels = canvas
-            .read(&g.ctx, gpu_region(rect))
-            .context("reading the stroke back from the GPU")?;
-        crate::history::paste(image, rect, &pixels);
-        Ok(())
+        match (&self.gpu, &mut self.image) {
+            (Some(g), Some(image)) => g.pull(image, rect),
+            _ => Ok(()),
+        }
     }
 
     /// Copies the pixels of `rect` from the CPU image to the device's
     /// document (a no-op without a canvas).
     fn push_to_canvas(&self, rect: PixelRect) -> anyhow::Result<()> {
-        let (Some(g), Some(image)) = (&self.gpu, &self.image) else {
-            return Ok(());
-        };
-        let Some(canvas) = &g.canvas else {
-            return Ok(());
-        };
-        canvas
-            .write(
-                &g.ctx,
-                gpu_region(rect),
-                &crate::history::extract(image, rect),
-            )
-            .context("writing to the GPU's copy of the image")?;
-        Ok(())
+        match (&self.gpu, &self.image) {
+            (Some(g), Some(image)) => g.push(image, rect),
+            _ => Ok(()),
+        }
     }
 
     /// Uploads the CPU smoother (stack, bank, field) to the GPU path, if
@@ -658,7 +655,8 @@ impl Engine {
                 strength: b.strength,
             };
             let t0 = Instant::now();
-            if let Some(r) = dab_rect(&dab, image.width(), image.height()) {
+            // (A bad dab is reported by `apply_dab` below.)
+            if let Ok(Some(r)) = dab.region(image.width(), image.height()) {
                 st.recorder.before_change(image, r);
             }
             let mode = b.mode.into();
@@ -680,42 +678,19 @@ impl Engine {
                         // the device.
                         g.smoother = None;
                         self.compute = gpu_failed(&e, g.canvas.is_some());
-                        if let (Some(r), Some(canvas)) = (st.rect, &g.canvas) {
-                            let px = canvas
-                                .read(&g.ctx, gpu_region(r))
-                                .context("reading the stroke back from the GPU")?;
-                            crate::history::paste(image, r, &px);
+                        if let Some(r) = st.rect {
+                            g.pull(image, r)?;
                         }
                     }
                     let r = sm.apply_dab(&dab, mode, image)?;
                     // A document on the device is shown from there.
-                    if let (Some(r), Some(g)) = (r, &self.gpu)
-                        && let Some(canvas) = &g.canvas
-                    {
-                        let rect = PixelRect {
-                            x0: r.x0,
-                            y0: r.y0,
-                            width: r.width,
-                            height: r.height,
-                        };
-                        canvas
-                            .write(
-                                &g.ctx,
-                                gpu_region(rect),
-                                &crate::history::extract(image, rect),
-                            )
-                            .context("showing the dab")?;
+                    if let (Some(r), Some(g)) = (r, &self.gpu) {
+                        g.push(image, r)?;
                     }
                     r
                 }
             };
             if let Some(r) = region {
-                let r = PixelRect {
-                    x0: r.x0,
-                    y0: r.y0,
-                    width: r.width,
-                    height: r.height,
-                };
                 batch.rect = Some(batch.rect.map_or(r, |a| a.union(r)));
                 st.rect = Some(st.rect.map_or(r, |a| a.union(r)));
             }
@@ -882,31 +857,4 @@ fn gpu_failed(e: &ifd_gpu::GpuError, shown_on_device: bool) -> (String, Option<S
         },
         Some(format!("the GPU path failed, dabs run on the CPU: {e}")),
     )
-}
-
-fn gpu_region(r: PixelRect) -> ifd_gpu::Region {
-    ifd_gpu::Region {
-        x0: r.x0,
-        y0: r.y0,
-        width: r.width,
-        height: r.height,
-    }
-}
-
-/// The pixels a dab can change (as [`Smoother::apply_dab`] bounds them).
-#[must_use]
-pub fn dab_rect(dab: &Dab, width: usize, height: usize) -> Option<PixelRect> {
-    let x0 = (dab.x - dab.radius).floor().max(0.0) as usize;
-    let y0 = (dab.y - dab.radius).floor().max(0.0) as usize;
-    let x1 = ((dab.x + dab.radius).ceil().max(-1.0) as i64).min(width as i64 - 1);
-    let y1 = ((dab.y + dab.radius).ceil().max(-1.0) as i64).min(height as i64 - 1);
-    if x1 < x0 as i64 || y1 < y0 as i64 {
-        return None;
-    }
-    Some(PixelRect {
-        x0,
-        y0,
-        width: x1 as usize - x0 + 1,
-        height: y1 as usize - y0 + 1,
-    })
 }

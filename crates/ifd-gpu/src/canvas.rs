@@ -69,7 +69,7 @@ struct BlendParams {
 /// let dab = Dab { x: 200.0, y: 150.0, radius: 30.0, falloff: 0.5, strength: 1.0 };
 /// let r = canvas.apply_dab(&ctx, &gsm, &dab, Mode::Dab)?.expect("inside");
 /// // Draw canvas.tiles() now; read the pixels back only when needed.
-/// let pixels = canvas.read(&ctx, ifd_gpu::Region { x0: r.x0, y0: r.y0, width: r.width, height: r.height })?;
+/// let pixels = canvas.read(&ctx, r)?;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 #[derive(Debug)]
@@ -316,15 +316,7 @@ impl GpuCanvas {
             ctx.queue().submit([enc.finish()]);
             Ok(())
         })?;
-        self.show(
-            ctx,
-            Region {
-                x0: r.x0,
-                y0: r.y0,
-                width: r.width,
-                height: r.height,
-            },
-        )?;
+        self.show(ctx, r)?;
         Ok(Some(r))
     }
 

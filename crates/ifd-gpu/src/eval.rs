@@ -198,31 +198,9 @@ impl GpuDecomposition {
     }
 }
 
-/// A rectangle of output pixels, inside the image.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Region {
-    /// First column.
-    pub x0: usize,
-    /// First row.
-    pub y0: usize,
-    /// Columns.
-    pub width: usize,
-    /// Rows.
-    pub height: usize,
-}
-
-impl Region {
-    /// The whole `width x height` image.
-    #[must_use]
-    pub fn full(width: usize, height: usize) -> Self {
-        Self {
-            x0: 0,
-            y0: 0,
-            width,
-            height,
-        }
-    }
-}
+/// A rectangle of output pixels, inside the image: the CPU path's
+/// [`ifd_planar::PixelRect`], under the name the GPU API has used.
+pub use ifd_planar::PixelRect as Region;
 
 /// Per-pixel rotation, scale and bank entry, uploaded for one stack.
 ///

@@ -379,18 +379,12 @@ impl GpuSmoother {
         dab: &Dab,
         mode: Mode,
     ) -> Result<Option<(DabRegion, GpuOutput)>, GpuError> {
-        let Some(r) = dab_region(dab, self.stack.width(), self.stack.height())? else {
+        let Some(r) = dab.region(self.stack.width(), self.stack.height())? else {
             return Ok(None);
         };
-        let region = Region {
-            x0: r.x0,
-            y0: r.y0,
-            width: r.width,
-            height: r.height,
-        };
         let out = match mode {
-            Mode::PerPixel => self.smooth_per_pixel(ctx, Some(region))?,
-            Mode::Dab => self.smooth_with_orientation_at(ctx, dab.x, dab.y, Some(region))?,
+            Mode::PerPixel => self.smooth_per_pixel(ctx, Some(r))?,
+            Mode::Dab => self.smooth_with_orientation_at(ctx, dab.x, dab.y, Some(r))?,
         };
         Ok(Some((r, out)))
     }
@@ -399,40 +393,6 @@ impl GpuSmoother {
 /// `i + t` for the shader, from `AspectBank::locate`.
 fn entry_value((i, t): (usize, f64)) -> f32 {
     (i as f64 + t) as f32
-}
-
-/// The dab's bounding box clipped to the image, as `Smoother::apply_dab`.
-fn dab_region(dab: &Dab, w: usize, h: usize) -> Result<Option<DabRegion>, GpuError> {
-    let ok = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;
-    for (name, v, lo, hi) in [
-        ("dab x", dab.x, -1e7, 1e7),
-        ("dab y", dab.y, -1e7, 1e7),
-        ("dab radius", dab.radius, 0.5, 4096.0),
-        ("dab falloff", dab.falloff, 0.0, 1.0),
-        ("dab strength", dab.strength, 0.0, 1.0),
-    ] {
-        if !ok(v, lo, hi) {
-            return Err(ifd_smooth::SmoothError::OutOfRange {
-                name,
-                value: f64::from(v),
-                range: format!("[{lo}, {hi}]"),
-            }
-            .into());
-        }
-    }
-    let x0 = (dab.x - dab.radius).floor().max(0.0) as usize;
-    let y0 = (dab.y - dab.radius).floor().max(0.0) as usize;
-    let x1 = ((dab.x + dab.radius).ceil().max(-1.0) as i64).min(w as i64 - 1);
-    let y1 = ((dab.y + dab.radius).ceil().max(-1.0) as i64).min(h as i64 - 1);
-    if x1 < x0 as i64 || y1 < y0 as i64 {
-        return Ok(None);
-    }
-    Ok(Some(DabRegion {
-        x0,
-        y0,
-        width: x1 as usize - x0 + 1,
-        height: y1 as usize - y0 + 1,
-    }))
 }
 
 /// Filters a whole image on the GPU: uploads `stack` and `decomposition`,

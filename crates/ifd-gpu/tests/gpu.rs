@@ -831,16 +831,10 @@ mod smoothing {
             falloff: 0.5,
             strength: 1.0,
         };
-        let r = sm
+        let rect = sm
             .apply_dab(&dab, Mode::PerPixel, &mut edited)
             .expect("dab")
             .expect("inside");
-        let rect = ifd_planar::PixelRect {
-            x0: r.x0,
-            y0: r.y0,
-            width: r.width,
-            height: r.height,
-        };
         let stale = gsm.smooth_image(ctx, Mode::PerPixel).expect("stale");
         let (_, hbank) = banks();
         let report = sm

@@ -36,6 +36,17 @@ pub struct PixelRect {
 }
 
 impl PixelRect {
+    /// The whole `width x height` image.
+    #[must_use]
+    pub fn full(width: usize, height: usize) -> Self {
+        Self {
+            x0: 0,
+            y0: 0,
+            width,
+            height,
+        }
+    }
+
     /// The smallest rectangle containing both.
     #[must_use]
     pub fn union(self, other: Self) -> Self {

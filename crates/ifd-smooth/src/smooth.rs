@@ -123,20 +123,41 @@ impl Dab {
         check_range("dab falloff", f64::from(self.falloff), 0.0, 1.0)?;
         check_range("dab strength", f64::from(self.strength), 0.0, 1.0)
     }
+
+    /// The pixels of a `width x height` image the dab can change: its
+    /// bounding box clipped to the image (`None` when it misses the image),
+    /// as [`Smoother::apply_dab`] uses it.
+    ///
+    /// ```
+    /// use ifd_smooth::Dab;
+    /// let dab = Dab { x: 2.0, y: 50.0, radius: 10.0, falloff: 0.5, strength: 1.0 };
+    /// let r = dab.region(100, 80)?.expect("inside");
+    /// assert_eq!((r.x0, r.y0, r.width, r.height), (0, 40, 13, 21));
+    /// # Ok::<(), ifd_smooth::SmoothError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`SmoothError::OutOfRange`] for bad dab parameters.
+    pub fn region(&self, width: usize, height: usize) -> Result<Option<DabRegion>, SmoothError> {
+        self.validate()?;
+        let x0 = (self.x - self.radius).floor().max(0.0) as usize;
+        let y0 = (self.y - self.radius).floor().max(0.0) as usize;
+        let x1 = ((self.x + self.radius).ceil().max(-1.0) as i64).min(width as i64 - 1);
+        let y1 = ((self.y + self.radius).ceil().max(-1.0) as i64).min(height as i64 - 1);
+        if x1 < x0 as i64 || y1 < y0 as i64 {
+            return Ok(None);
+        }
+        Ok(Some(DabRegion {
+            x0,
+            y0,
+            width: x1 as usize - x0 + 1,
+            height: y1 as usize - y0 + 1,
+        }))
+    }
 }
 
-/// What [`Smoother::apply_dab`] touched.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct DabRegion {
-    /// First column.
-    pub x0: usize,
-    /// First row.
-    pub y0: usize,
-    /// Width.
-    pub width: usize,
-    /// Height.
-    pub height: usize,
-}
+/// What [`Smoother::apply_dab`] touched: a [`PixelRect`](ifd_planar::PixelRect).
+pub use ifd_planar::PixelRect as DabRegion;
 
 /// Hessian-driven anisotropic smoothing of one image.
 #[derive(Debug)]
@@ -414,14 +435,11 @@ impl Smoother {
                 target.channels()
             )));
         }
-        let x0 = (dab.x - dab.radius).floor().max(0.0) as usize;
-        let y0 = (dab.y - dab.radius).floor().max(0.0) as usize;
-        let x1 = ((dab.x + dab.radius).ceil().max(-1.0) as i64).min(w as i64 - 1);
-        let y1 = ((dab.y + dab.radius).ceil().max(-1.0) as i64).min(h as i64 - 1);
-        if x1 < x0 as i64 || y1 < y0 as i64 {
+        let Some(bbox) = dab.region(w, h)? else {
             return Ok(None);
-        }
-        let (x1, y1) = (x1 as usize, y1 as usize);
+        };
+        let (x0, y0) = (bbox.x0, bbox.y0);
+        let (x1, y1) = (x0 + bbox.width - 1, y0 + bbox.height - 1);
         let filters = self.filters()?;
         let scaled = self.scaled(&filters)?;
         let rh = y1 - y0 + 1;

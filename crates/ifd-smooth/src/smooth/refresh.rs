@@ -283,12 +283,6 @@ mod tests {
                 .apply_dab(&dab, Mode::PerPixel, &mut img)
                 .expect("dab")
                 .expect("inside");
-            let r = PixelRect {
-                x0: r.x0,
-                y0: r.y0,
-                width: r.width,
-                height: r.height,
-            };
             rect = Some(rect.map_or(r, |a| a.union(r)));
         }
         let rect = rect.expect("dabs applied");
