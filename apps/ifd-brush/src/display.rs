@@ -18,33 +18,7 @@ pub const DISPLAY_TILE: usize = 2048;
 /// The tiles covering a `width x height` image, row by row.
 #[must_use]
 pub fn tile_rects(width: usize, height: usize) -> Vec<PixelRect> {
-    let mut out = Vec::new();
-    for y0 in (0..height).step_by(DISPLAY_TILE) {
-        for x0 in (0..width).step_by(DISPLAY_TILE) {
-            out.push(PixelRect {
-                x0,
-                y0,
-                width: DISPLAY_TILE.min(width - x0),
-                height: DISPLAY_TILE.min(height - y0),
-            });
-        }
-    }
-    out
-}
-
-/// The intersection of two rectangles, if not empty.
-#[must_use]
-pub fn intersect(a: PixelRect, b: PixelRect) -> Option<PixelRect> {
-    let x0 = a.x0.max(b.x0);
-    let y0 = a.y0.max(b.y0);
-    let x1 = (a.x0 + a.width).min(b.x0 + b.width);
-    let y1 = (a.y0 + a.height).min(b.y0 + b.height);
-    (x1 > x0 && y1 > y0).then_some(PixelRect {
-        x0,
-        y0,
-        width: x1 - x0,
-        height: y1 - y0,
-    })
+    PixelRect::tiles(width, height, DISPLAY_TILE)
 }
 
 fn to_byte(v: f32, float_source: bool) -> u8 {
@@ -104,7 +78,7 @@ pub fn tile_patches(image: &Image, rect: PixelRect, float_source: bool) -> Vec<T
         .into_iter()
         .enumerate()
         .filter_map(|(tile, t)| {
-            let r = intersect(t, rect)?;
+            let r = t.intersect(rect)?;
             Some(TilePatch {
                 tile,
                 pos: [r.x0 - t.x0, r.y0 - t.y0],

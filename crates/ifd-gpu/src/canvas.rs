@@ -125,24 +125,18 @@ impl GpuCanvas {
                     | wgpu::BufferUsages::COPY_DST
                     | wgpu::BufferUsages::COPY_SRC,
             );
-            let mut tiles = Vec::new();
-            for y0 in (0..h).step_by(side) {
-                for x0 in (0..w).step_by(side) {
-                    let region = Region {
-                        x0,
-                        y0,
-                        width: side.min(w - x0),
-                        height: side.min(h - y0),
-                    };
-                    let texture = rgba8_texture(
+            let tiles = Region::tiles(w, h, side)
+                .into_iter()
+                .map(|region| DisplayTile {
+                    region,
+                    texture: rgba8_texture(
                         device,
                         "ifd canvas display",
                         region.width as u32,
                         region.height as u32,
-                    );
-                    tiles.push(DisplayTile { region, texture });
-                }
-            }
+                    ),
+                })
+                .collect();
             Ok(Self {
                 width: w as u32,
                 height: h as u32,
@@ -203,13 +197,9 @@ impl GpuCanvas {
     fn show(&self, ctx: &GpuContext, r: Region) -> Result<(), GpuError> {
         ctx.scoped("updating the canvas display", || {
             for t in &self.tiles {
-                let x0 = r.x0.max(t.region.x0);
-                let y0 = r.y0.max(t.region.y0);
-                let x1 = (r.x0 + r.width).min(t.region.x0 + t.region.width);
-                let y1 = (r.y0 + r.height).min(t.region.y0 + t.region.height);
-                if x1 <= x0 || y1 <= y0 {
+                let Some(part) = r.intersect(t.region) else {
                     continue;
-                }
+                };
                 let view = t
                     .texture
                     .create_view(&wgpu::TextureViewDescriptor::default());
@@ -217,16 +207,16 @@ impl GpuCanvas {
                     ctx,
                     &self.image,
                     &Rgba8Params {
-                        width: (x1 - x0) as u32,
-                        height: (y1 - y0) as u32,
+                        width: part.width as u32,
+                        height: part.height as u32,
                         channels: self.channels,
                         srgb: u32::from(self.srgb),
-                        src_x0: x0 as u32,
-                        src_y0: y0 as u32,
+                        src_x0: part.x0 as u32,
+                        src_y0: part.y0 as u32,
                         src_stride: self.width,
                         opaque: 1,
-                        dst_x0: (x0 - t.region.x0) as u32,
-                        dst_y0: (y0 - t.region.y0) as u32,
+                        dst_x0: (part.x0 - t.region.x0) as u32,
+                        dst_y0: (part.y0 - t.region.y0) as u32,
                         pad: [0; 2],
                     },
                     &view,

@@ -67,6 +67,47 @@ impl PixelRect {
     pub fn area(self) -> usize {
         self.width * self.height
     }
+
+    /// The intersection of two rectangles, if not empty.
+    #[must_use]
+    pub fn intersect(self, other: Self) -> Option<Self> {
+        let x0 = self.x0.max(other.x0);
+        let y0 = self.y0.max(other.y0);
+        let x1 = (self.x0 + self.width).min(other.x0 + other.width);
+        let y1 = (self.y0 + self.height).min(other.y0 + other.height);
+        (x1 > x0 && y1 > y0).then(|| Self {
+            x0,
+            y0,
+            width: x1 - x0,
+            height: y1 - y0,
+        })
+    }
+
+    /// The tiles of at most `side` pixels a side (at least 1) covering a
+    /// `width x height` image, row by row.
+    ///
+    /// ```
+    /// use ifd_planar::PixelRect;
+    /// let t = PixelRect::tiles(5, 3, 2);
+    /// assert_eq!(t.len(), 6);
+    /// assert_eq!(t[5], PixelRect { x0: 4, y0: 2, width: 1, height: 1 });
+    /// ```
+    #[must_use]
+    pub fn tiles(width: usize, height: usize, side: usize) -> Vec<Self> {
+        let side = side.max(1);
+        let mut out = Vec::new();
+        for y0 in (0..height).step_by(side) {
+            for x0 in (0..width).step_by(side) {
+                out.push(Self {
+                    x0,
+                    y0,
+                    width: side.min(width - x0),
+                    height: side.min(height - y0),
+                });
+            }
+        }
+        out
+    }
 }
 
 /// One lookup of a fixed (already rotated and scaled) filter: `weight *
