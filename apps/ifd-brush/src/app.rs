@@ -430,12 +430,13 @@ impl BrushApp {
         }
     }
 
-    /// Whether the document is shown from the GPU's copy (no readback).
-    #[must_use]
-    pub fn displays_on_device(&self) -> bool {
-        self.doc
-            .as_ref()
-            .is_some_and(|d| !d.device_tiles.is_empty())
+    /// Keeps the times of the latest 240 dabs, in ms, for the plot.
+    fn record_dab_times(&mut self, times: &[Duration]) {
+        self.dab_times
+            .extend(times.iter().map(|t| t.as_secs_f32() * 1e3));
+        while self.dab_times.len() > 240 {
+            self.dab_times.pop_front();
+        }
     }
 
     /// The image as the UI holds it.
@@ -544,12 +545,7 @@ impl BrushApp {
                     self.last_prefilter = Some(took);
                 }
                 Event::Painted { dab_times } => {
-                    for t in dab_times {
-                        self.dab_times.push_back(t.as_secs_f32() * 1e3);
-                    }
-                    while self.dab_times.len() > 240 {
-                        self.dab_times.pop_front();
-                    }
+                    self.record_dab_times(&dab_times);
                 }
                 Event::Patch {
                     rect,
@@ -567,12 +563,7 @@ impl BrushApp {
                             }
                         }
                     }
-                    for t in dab_times {
-                        self.dab_times.push_back(t.as_secs_f32() * 1e3);
-                    }
-                    while self.dab_times.len() > 240 {
-                        self.dab_times.pop_front();
-                    }
+                    self.record_dab_times(&dab_times);
                 }
                 Event::History { undo, redo, state } => {
                     self.undo_len = undo;

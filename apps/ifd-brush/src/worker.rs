@@ -198,11 +198,11 @@ pub fn spawn(
             };
             send(Event::BanksReady(banks.info.clone()));
             let mut engine = Engine::new(banks, budget);
+            let announce = |(label, note): (String, Option<String>)| {
+                send(Event::Compute { label, note });
+            };
             let mut compute = engine.enable_gpu_on(gpu, shared);
-            send(Event::Compute {
-                label: compute.0.clone(),
-                note: compute.1.clone(),
-            });
+            announce(compute.clone());
             let mut pending: Option<Command> = None;
             loop {
                 let cmd = match pending.take() {
@@ -217,10 +217,7 @@ pub fn spawn(
                 // the device's limits) and come back.
                 if engine.compute() != compute {
                     compute = engine.compute();
-                    send(Event::Compute {
-                        label: compute.0.clone(),
-                        note: compute.1.clone(),
-                    });
+                    announce(compute.clone());
                 }
             }
         })
@@ -249,6 +246,17 @@ fn patch_event(engine: &Engine, rect: PixelRect, dab_times: Vec<Duration>) -> Op
         },
         dab_times,
     })
+}
+
+/// After a stroke ended on the GPU display path: its pixels, for the UI's
+/// copy of the image (the screen shows them already; on the CPU path the
+/// dabs' patches carried them).
+fn send_stroke_pixels(engine: &Engine, rect: PixelRect, send: &impl Fn(Event)) {
+    if engine.displays_on_device()
+        && let Some(ev) = patch_event(engine, rect, Vec::new())
+    {
+        send(ev);
+    }
 }
 
 fn prepare(engine: &mut Engine, brush: &BrushSettings, send: &impl Fn(Event)) {
@@ -386,12 +394,7 @@ fn serve(
             match engine.end_stroke() {
                 Ok(Some(rect)) => {
                     send(Event::Refreshed { took: t0.elapsed() });
-                    // The stroke's pixels, for the UI's copy (already shown).
-                    if engine.displays_on_device()
-                        && let Some(ev) = patch_event(engine, rect, Vec::new())
-                    {
-                        send(ev);
-                    }
+                    send_stroke_pixels(engine, rect, send);
                     send(history_event(engine));
                 }
                 Ok(None) => {}
@@ -418,12 +421,8 @@ fn serve(
         Command::Save(path) => {
             // A stroke in progress belongs to the saved image.
             match engine.end_stroke() {
-                Ok(Some(rect)) if engine.displays_on_device() => {
-                    if let Some(ev) = patch_event(engine, rect, Vec::new()) {
-                        send(ev);
-                    }
-                }
-                Ok(_) => {}
+                Ok(Some(rect)) => send_stroke_pixels(engine, rect, send),
+                Ok(None) => {}
                 Err(e) => fail(e),
             }
             send(history_event(engine));

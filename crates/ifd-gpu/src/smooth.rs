@@ -3,7 +3,7 @@
 
 use ifd_image::Image;
 use ifd_planar::{Field, ScaleStack};
-use ifd_smooth::smooth::DabRegion;
+use ifd_smooth::smooth::{DabRegion, dab_grid_corners, nearest_pixel};
 use ifd_smooth::{Dab, HessianBank, Mode, RegionRefresh, Smoother};
 
 use crate::context::GpuContext;
@@ -116,7 +116,7 @@ impl GpuSmoother {
             bank: gbank,
             field: pose,
             scale,
-            grid: (2.0 * smoother.options().scale).max(4.0) as f32,
+            grid: smoother.dab_grid_spacing(),
             entries,
             thetas,
         })
@@ -213,10 +213,7 @@ impl GpuSmoother {
         y: f32,
         region: Option<Region>,
     ) -> Result<GpuOutput, GpuError> {
-        let (w, h) = (self.stack.width(), self.stack.height());
-        let xi = (x.round().max(0.0) as usize).min(w - 1);
-        let yi = (y.round().max(0.0) as usize).min(h - 1);
-        let i = yi * w + xi;
+        let i = nearest_pixel(x, y, self.stack.width(), self.stack.height());
         let pose = GpuPose::new(
             ctx,
             &self.stack,
@@ -251,35 +248,23 @@ impl GpuSmoother {
             self.stack.height(),
             self.stack.channels(),
         );
-        let g = self.grid;
-        // As `Smoother::orientation_at`: nearest pixel, clamped into the image.
-        let at = |x: f32, y: f32| {
-            let xi = (x.round().max(0.0) as usize).min(w - 1);
-            let yi = (y.round().max(0.0) as usize).min(h - 1);
-            yi * w + xi
-        };
         let mut out = vec![0.0f32; w * h * c];
         let (mut thetas, mut entries, mut weights) = (
             Vec::with_capacity(w * h),
             Vec::with_capacity(w * h),
             Vec::with_capacity(w * h),
         );
-        for (di, dj) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
+        for corner in 0..4 {
             thetas.clear();
             entries.clear();
             weights.clear();
             for y in 0..h {
-                let gy = y as f32 / g;
-                let (j0, fy) = (gy.floor(), gy - gy.floor());
-                let wy: f32 = if dj == 0.0 { 1.0 - fy } else { fy };
                 for x in 0..w {
-                    let gx = x as f32 / g;
-                    let (i0, fx) = (gx.floor(), gx - gx.floor());
-                    let wx: f32 = if di == 0.0 { 1.0 - fx } else { fx };
-                    let i = at((i0 + di) * g, (j0 + dj) * g);
+                    let ((cx, cy), wgt) = dab_grid_corners(x as f32, y as f32, self.grid)[corner];
+                    let i = nearest_pixel(cx, cy, w, h);
                     thetas.push(self.thetas[i]);
                     entries.push(self.entries[i]);
-                    weights.push(wx * wy);
+                    weights.push(wgt);
                 }
             }
             if weights.iter().all(|&v| v == 0.0) {

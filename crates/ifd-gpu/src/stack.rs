@@ -65,7 +65,7 @@ impl GpuStack {
     pub fn upload(ctx: &GpuContext, stack: &ScaleStack) -> Result<Self, GpuError> {
         let channels = stack.channels();
         let layouts: Vec<_> = stack.level_layouts().copied().collect();
-        let plane_bytes: u64 = layouts.iter().map(|l| (l.nx * l.ny * 4) as u64).sum();
+        let plane_bytes = plane_bytes(&layouts);
         let too_big = |what: &str, v: usize| GpuError::Limit {
             what: what.to_string(),
             needed: v.to_string(),
@@ -83,16 +83,7 @@ impl GpuStack {
         // Channels per buffer.
         let per = (cap / plane_bytes.max(1)).min(4) as usize;
         if per == 0 {
-            ctx.check_buffer(
-                &format!(
-                    "one channel of the {w}x{h} scale stack ({} levels, sigma {:.3}..{:.3} px)",
-                    layouts.len(),
-                    stack.sigma_range().0,
-                    stack.sigma_range().1
-                ),
-                plane_bytes,
-                true,
-            )?;
+            check_channel_fits(ctx, (w, h), &layouts)?;
         }
         let per = per.max(1);
         let mut chunks = Vec::new();
@@ -129,21 +120,7 @@ impl GpuStack {
         (width, height): (usize, usize),
         layout: &ifd_planar::StackLayout,
     ) -> Result<(), GpuError> {
-        let levels = layout.levels();
-        let plane_bytes: u64 = levels.iter().map(|l| (l.nx * l.ny * 4) as u64).sum();
-        let (sig_lo, sig_hi) = (
-            levels.first().map_or(0.0, |l| l.sigma),
-            levels.last().map_or(0.0, |l| l.sigma),
-        );
-        ctx.check_buffer(
-            &format!(
-                "one channel of the {width}x{height} scale stack ({} levels, sigma \
-                 {sig_lo:.3}..{sig_hi:.3} px)",
-                levels.len(),
-            ),
-            plane_bytes,
-            true,
-        )
+        check_channel_fits(ctx, (width, height), layout.levels())
     }
 
     /// Image width.
@@ -279,6 +256,33 @@ impl GpuStack {
         let (lo, hi) = self.sigma_range;
         sigma >= lo * (1.0 - 1e-6) && sigma <= hi * (1.0 + 1e-6)
     }
+}
+
+/// Bytes of one channel of a stack with these levels.
+fn plane_bytes(levels: &[ifd_planar::LevelLayout]) -> u64 {
+    levels.iter().map(|l| (l.nx * l.ny * 4) as u64).sum()
+}
+
+/// [`GpuError::Limit`] when one channel of a stack with these levels does
+/// not fit in a storage binding.
+fn check_channel_fits(
+    ctx: &GpuContext,
+    (width, height): (usize, usize),
+    levels: &[ifd_planar::LevelLayout],
+) -> Result<(), GpuError> {
+    let (sig_lo, sig_hi) = (
+        levels.first().map_or(0.0, |l| l.sigma),
+        levels.last().map_or(0.0, |l| l.sigma),
+    );
+    ctx.check_buffer(
+        &format!(
+            "one channel of the {width}x{height} scale stack ({} levels, sigma \
+             {sig_lo:.3}..{sig_hi:.3} px)",
+            levels.len(),
+        ),
+        plane_bytes(levels),
+        true,
+    )
 }
 
 fn upload_chunk(

@@ -156,6 +156,38 @@ impl Dab {
     }
 }
 
+/// Index of the pixel nearest `(x, y)`, clamped into a `width x height`
+/// image (row-major), as [`Smoother::orientation_at`] looks the field up.
+#[must_use]
+pub fn nearest_pixel(x: f32, y: f32, width: usize, height: usize) -> usize {
+    let xi = (x.round().max(0.0) as usize).min(width - 1);
+    let yi = (y.round().max(0.0) as usize).min(height - 1);
+    yi * width + xi
+}
+
+/// The four centres of the dab grid of spacing `g` around pixel `(x, y)`
+/// and their bilinear weights, in the order whole-image [`Mode::Dab`]
+/// smoothing sums them.
+///
+/// ```
+/// let c = ifd_smooth::smooth::dab_grid_corners(3.0, 8.0, 4.0);
+/// assert_eq!(c[0], ((0.0, 8.0), 0.25));
+/// assert_eq!(c[1], ((4.0, 8.0), 0.75));
+/// assert_eq!(c[2].1 + c[3].1, 0.0);
+/// ```
+#[must_use]
+pub fn dab_grid_corners(x: f32, y: f32, g: f32) -> [((f32, f32), f32); 4] {
+    let (gx, gy) = (x / g, y / g);
+    let (i0, fx) = (gx.floor(), gx - gx.floor());
+    let (j0, fy) = (gy.floor(), gy - gy.floor());
+    [
+        ((i0 * g, j0 * g), (1.0 - fx) * (1.0 - fy)),
+        (((i0 + 1.0) * g, j0 * g), fx * (1.0 - fy)),
+        ((i0 * g, (j0 + 1.0) * g), (1.0 - fx) * fy),
+        (((i0 + 1.0) * g, (j0 + 1.0) * g), fx * fy),
+    ]
+}
+
 /// What [`Smoother::apply_dab`] touched: a [`PixelRect`](ifd_planar::PixelRect).
 pub use ifd_planar::PixelRect as DabRegion;
 
@@ -299,9 +331,14 @@ impl Smoother {
     /// The filter at pixel `(x, y)` (clamped into the image).
     #[must_use]
     pub fn orientation_at(&self, x: f32, y: f32) -> Orientation {
-        let xi = (x.round().max(0.0) as usize).min(self.width - 1);
-        let yi = (y.round().max(0.0) as usize).min(self.height - 1);
-        self.field[yi * self.width + xi]
+        self.field[nearest_pixel(x, y, self.width, self.height)]
+    }
+
+    /// Spacing of the dab grid of whole-image [`Mode::Dab`] smoothing:
+    /// `max(2 S, 4)` pixels.
+    #[must_use]
+    pub fn dab_grid_spacing(&self) -> f32 {
+        (2.0 * self.opts.scale).max(4.0) as f32
     }
 
     fn filters(&self) -> Result<Vec<Filter<'_>>, SmoothError> {
@@ -383,24 +420,16 @@ impl Smoother {
             Mode::Dab => {
                 // Dab centres on a grid of spacing g; each pixel blends the
                 // results of the filters of its four surrounding centres.
-                let g = (2.0 * self.opts.scale).max(4.0) as f32;
+                let g = self.dab_grid_spacing();
                 out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
-                    let gy = y as f32 / g;
-                    let (j0, fy) = (gy.floor(), gy - gy.floor());
                     for (x, px) in row.chunks_exact_mut(c).enumerate() {
-                        let gx = x as f32 / g;
-                        let (i0, fx) = (gx.floor(), gx - gx.floor());
-                        for (di, dj, wgt) in [
-                            (0.0, 0.0, (1.0 - fx) * (1.0 - fy)),
-                            (1.0, 0.0, fx * (1.0 - fy)),
-                            (0.0, 1.0, (1.0 - fx) * fy),
-                            (1.0, 1.0, fx * fy),
-                        ] {
+                        let (x, y) = (x as f32, y as f32);
+                        for ((cx, cy), wgt) in dab_grid_corners(x, y, g) {
                             if wgt == 0.0 {
                                 continue;
                             }
-                            let o = self.orientation_at((i0 + di) * g, (j0 + dj) * g);
-                            self.add_smoothed(&scaled, x as f32, y as f32, o, wgt, px);
+                            let o = self.orientation_at(cx, cy);
+                            self.add_smoothed(&scaled, x, y, o, wgt, px);
                         }
                     }
                 });
