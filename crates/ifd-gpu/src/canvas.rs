@@ -9,7 +9,8 @@ use ifd_smooth::{Dab, Mode};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::eval::{
-    Region, Rgba8Params, buffer_init, entry, read_buffer_range, rgba8_texture, submit_rgba8,
+    Region, Rgba8Params, buffer_init, check_region, entry, read_buffer_range, rgba8_texture,
+    submit_pass, submit_rgba8,
 };
 use crate::smooth::GpuSmoother;
 
@@ -182,15 +183,7 @@ impl GpuCanvas {
     }
 
     fn check_region(&self, r: Region) -> Result<(), GpuError> {
-        let (w, h) = (self.width(), self.height());
-        if r.width == 0 || r.height == 0 || r.x0 + r.width > w || r.y0 + r.height > h {
-            return Err(ifd_planar::FilterError::InvalidParameter(format!(
-                "region {}x{} at ({}, {}) is empty or not inside the {w}x{h} canvas",
-                r.width, r.height, r.x0, r.y0
-            ))
-            .into());
-        }
-        Ok(())
+        check_region(r, self.width(), self.height(), "canvas")
     }
 
     /// Converts the pixels of `r` into the display textures.
@@ -287,23 +280,13 @@ impl GpuCanvas {
                 layout: &ctx.blend_layout,
                 entries: &[entry(0, &pb), entry(1, out.buffer()), entry(2, &self.image)],
             });
-            let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("dab_blend"),
-            });
-            {
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("dab_blend"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(&ctx.blend_pipeline);
-                pass.set_bind_group(0, &bind, &[]);
-                pass.dispatch_workgroups(
-                    (r.width as u32).div_ceil(8),
-                    (r.height as u32).div_ceil(8),
-                    1,
-                );
-            }
-            ctx.queue().submit([enc.finish()]);
+            submit_pass(
+                ctx,
+                "dab_blend",
+                &ctx.blend_pipeline,
+                &bind,
+                (r.width as u32, r.height as u32),
+            );
             Ok(())
         })?;
         self.show(ctx, r)?;

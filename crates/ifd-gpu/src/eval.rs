@@ -289,6 +289,13 @@ fn validate_field(
     }
 }
 
+/// `[cos, sin]` of an angle in degrees, as the pose maps hold rotations
+/// (the CPU path's `f32` `sin_cos`).
+fn cos_sin(degrees: f32) -> [f32; 2] {
+    let (s, c) = degrees.to_radians().sin_cos();
+    [c, s]
+}
+
 fn location(i: usize, width: usize) -> String {
     format!(" at pixel ({}, {})", i % width, i / width)
 }
@@ -334,15 +341,12 @@ impl GpuPose {
         let (mut rot_off, mut scale_off, mut entry_off) = (0, 0, 0);
         let (mut cos_t, mut sin_t, mut s_c, mut u_c, mut e_c) = (1.0, 0.0, 1.0, 0.0, 0.0);
         match angle {
-            Field::Constant(a) => (sin_t, cos_t) = a.to_radians().sin_cos(),
+            Field::Constant(a) => [cos_t, sin_t] = cos_sin(a),
             Field::Map(m) => {
                 flags |= 1;
                 rot_off = maps.len();
                 maps.reserve(2 * m.len());
-                for a in m {
-                    let (s, c) = a.to_radians().sin_cos();
-                    maps.extend([c, s]);
-                }
+                maps.extend(m.iter().flat_map(|&a| cos_sin(a)));
             }
         }
         match scale {
@@ -457,13 +461,7 @@ impl GpuPose {
         }
         ctx.scoped("updating the per-pixel maps", || {
             if let Some(a) = angle {
-                let cs: Vec<f32> = a
-                    .iter()
-                    .flat_map(|a| {
-                        let (s, c) = a.to_radians().sin_cos();
-                        [c, s]
-                    })
-                    .collect();
+                let cs: Vec<f32> = a.iter().flat_map(|&a| cos_sin(a)).collect();
                 let at = (self.rot_off as usize + 2 * y0 * w) * 4;
                 ctx.queue()
                     .write_buffer(&self.maps, at as u64, bytemuck::cast_slice(&cs));
@@ -684,19 +682,50 @@ pub(crate) fn submit_rgba8(
             },
         ],
     });
-    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-        label: Some("to_rgba8"),
-    });
+    submit_pass(
+        ctx,
+        "to_rgba8",
+        &ctx.rgba8_pipeline,
+        &bind,
+        (params.width, params.height),
+    );
+}
+
+/// Submits one compute pass of `pipeline` with `bind` over `w x h`
+/// invocations in 8x8 workgroups (the shaders' workgroup size).
+pub(crate) fn submit_pass(
+    ctx: &GpuContext,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind: &wgpu::BindGroup,
+    (w, h): (u32, u32),
+) {
+    let mut enc = ctx
+        .device()
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
     {
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("to_rgba8"),
+            label: Some(label),
             timestamp_writes: None,
         });
-        pass.set_pipeline(&ctx.rgba8_pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups(params.width.div_ceil(8), params.height.div_ceil(8), 1);
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, bind, &[]);
+        pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
     ctx.queue().submit([enc.finish()]);
+}
+
+/// [`FilterError::InvalidParameter`] unless `r` is a non-empty rectangle
+/// inside a `w x h` `what` (image, canvas).
+pub(crate) fn check_region(r: Region, w: usize, h: usize, what: &str) -> Result<(), GpuError> {
+    if r.width == 0 || r.height == 0 || r.x0 + r.width > w || r.y0 + r.height > h {
+        return Err(FilterError::InvalidParameter(format!(
+            "region {}x{} at ({}, {}) is empty or not inside the {w}x{h} {what}",
+            r.width, r.height, r.x0, r.y0
+        ))
+        .into());
+    }
+    Ok(())
 }
 
 /// Copies `buffer` into a mappable one and reads it.
@@ -848,17 +877,7 @@ impl GpuContext {
             .into());
         }
         let region = region.unwrap_or(Region::full(w, h));
-        if region.width == 0
-            || region.height == 0
-            || region.x0 + region.width > w
-            || region.y0 + region.height > h
-        {
-            return Err(FilterError::InvalidParameter(format!(
-                "region {}x{} at ({}, {}) is empty or not inside the {w}x{h} image",
-                region.width, region.height, region.x0, region.y0
-            ))
-            .into());
-        }
+        check_region(region, w, h, "image")?;
         if pose.flags & 4 == 0 && pose.entry > (decomposition.n_entries - 1) as f32 {
             return Err(FilterError::InvalidParameter(format!(
                 "bank entry {} is past the last entry {}",
