@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use crate::border::Border;
 use crate::decomposition::Decomposition;
-use crate::stack::{ScaleStack, StackLayout, StackOptions, check_finite};
+use crate::stack::{ScaleStack, StackLayout, StackOptions};
 
 /// Errors of prefiltering, filtering and the brute-force references.
 #[derive(Debug, thiserror::Error)]
@@ -904,7 +904,6 @@ pub fn stack_for_decomposition(
         border,
         options,
     )?;
-    check_finite(image.data(), image.width(), image.channels())?;
     ScaleStack::new(image, lo, hi, border, options)
 }
 

@@ -6,7 +6,8 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use ifd_planar::{
-    Border, Decomposition, Field, Filter as IfdFilter, StackOptions, stack_for_decomposition,
+    Border, Decomposition, Field, Filter as IfdFilter, ScaleStack, StackOptions,
+    stack_plan_for_decomposition,
 };
 
 use crate::input::{InputOptions, write_output};
@@ -196,30 +197,9 @@ impl Filter {
             Some(m) => Field::Map(m),
             None => Field::Constant(smin),
         };
-        // With --gpu, a stack the device cannot hold is refused before the
-        // prefiltering, not after.
-        let gpu = if self.gpu {
-            let t = Instant::now();
-            let ctx = ifd_gpu::GpuContext::new().context("--gpu")?;
-            let device = t.elapsed();
-            let c = image.channels();
-            let ((lo, hi), o) = ifd_planar::stack_plan_for_decomposition(
-                (w, h, c),
-                &decomposition,
-                smin,
-                smax,
-                border,
-                StackOptions::default(),
-            )?;
-            let layout = ifd_planar::StackLayout::new(w, h, c, lo, hi, o)?;
-            ifd_gpu::GpuStack::check_fits(&ctx, (w, h), &layout)?;
-            Some((ctx, device))
-        } else {
-            None
-        };
-        let t0 = Instant::now();
-        let stack = stack_for_decomposition(
-            &image,
+        let c = image.channels();
+        let ((lo, hi), stack_options) = stack_plan_for_decomposition(
+            (w, h, c),
             &decomposition,
             smin,
             smax,
@@ -227,6 +207,21 @@ impl Filter {
             StackOptions::default(),
         )
         .context("prefiltering")?;
+        // With --gpu, a stack the device cannot hold is refused before the
+        // prefiltering, not after.
+        let gpu = if self.gpu {
+            let t = Instant::now();
+            let ctx = ifd_gpu::GpuContext::new().context("--gpu")?;
+            let device = t.elapsed();
+            let layout = ifd_planar::StackLayout::new(w, h, c, lo, hi, stack_options)?;
+            ifd_gpu::GpuStack::check_fits(&ctx, (w, h), &layout)?;
+            Some((ctx, device))
+        } else {
+            None
+        };
+        let t0 = Instant::now();
+        let stack =
+            ScaleStack::new(&image, lo, hi, border, stack_options).context("prefiltering")?;
         let t1 = Instant::now();
         let out = if let Some((ctx, device)) = &gpu {
             filter_gpu(
