@@ -196,3 +196,127 @@ def test_decompose_and_condition(run_ifd, tmp_path):
     # ISD Fig. 13: sharing matters little for Legendre, a lot for Gauss
     assert by[("gauss", "shared")][-1] > 10 * by[("gauss", "per-band")][-1]
     assert by[("legendre", "shared")][-1] < 100 * by[("legendre", "per-band")][-1]
+
+
+def real_sh_matrix(lmax, dirs):
+    """(N, (L+1)^2) real SH (Sloan convention) from scipy, independent of ifd."""
+    theta = np.arccos(np.clip(dirs[:, 2], -1, 1))
+    phi = np.arctan2(dirs[:, 1], dirs[:, 0])
+    out = np.zeros((len(dirs), (lmax + 1) ** 2))
+    for l in range(lmax + 1):
+        for m in range(-l, l + 1):
+            Y = scipy_special.sph_harm_y(l, abs(m), theta, phi)
+            out[:, l * (l + 1) + m] = Y.real if m == 0 else np.sqrt(2) * (Y.real if m > 0 else Y.imag)
+    return out
+
+
+def kernel_fn(spec):
+    """The closed-form kernels of `ifd sphere decompose`, written again here."""
+    name, args = spec.split(":")
+    a = {k: float(v) for k, v in (kv.split("=") for kv in args.split(","))}
+
+    def k(d):
+        t = np.clip(d[:, 2], -1, 1)
+        if name == "vmf":
+            return np.exp(a["kappa"] * (t - 1))
+        th = np.arccos(t)
+        r = np.hypot(d[:, 0], d[:, 1])
+        c = np.where(r > 0, d[:, 0] / np.where(r > 0, r, 1), 1.0)
+        s = np.where(r > 0, d[:, 1] / np.where(r > 0, r, 1), 0.0)
+        x, y = th * c, th * s
+        return np.exp(-x**2 / (2 * a["s1"] ** 2) - y**2 / (2 * a["s2"] ** 2))
+
+    return k
+
+
+def project(k, lmax, n=64):
+    """SH coefficients of k by Gauss-Legendre x uniform-azimuth quadrature."""
+    z, wz = np.polynomial.legendre.leggauss(n)
+    p = (np.arange(2 * n) + 0.5) * np.pi / n
+    Z, P = np.meshgrid(z, p, indexing="ij")
+    s = np.sqrt(1 - Z**2)
+    d = np.stack([s * np.cos(P), s * np.sin(P), Z], -1).reshape(-1, 3)
+    w = (wz[:, None] * np.full(2 * n, np.pi / n)[None]).reshape(-1)
+    return real_sh_matrix(lmax, d).T @ (w * k(d))
+
+
+def equirect_dirs(H, W):
+    v, u = np.meshgrid(np.arange(H), np.arange(W), indexing="ij")
+    t, p = np.pi * (v + 0.5) / H, 2 * np.pi * (u + 0.5) / W
+    d = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1)
+    dA = (2 * np.pi / W) * (np.cos(np.pi * np.arange(H) / H) - np.cos(np.pi * (np.arange(H) + 1) / H))
+    return d.reshape(-1, 3), np.repeat(dA, W), t.reshape(-1), p.reshape(-1)
+
+
+@pytest.mark.parametrize("spec,lmax,directions", [("vmf:kappa=10", 16, "fibonacci"),
+                                                   ("aniso-gauss:s1=0.6,s2=0.25", 10, "shared")])
+def test_sphere_filter_matches_quadrature(run_ifd, tmp_path, spec, lmax, directions):
+    """`ifd sphere filter` = sum over input texels of E(w') k_L(R(w)^T w') dA', R(w) = Rz(phi) Ry(theta)."""
+    H, W = 24, 48
+    rng = np.random.default_rng(5)
+    env = rng.random((H, W, 2)).astype(np.float32) ** 4  # a few bright texels
+    np.save(tmp_path / "env.npy", env)
+    run_ifd("sphere", "decompose", spec, "--lmax", lmax, "--directions", directions, "-o", tmp_path / "d.json")
+    out = json.loads(run_ifd("sphere", "filter", tmp_path / "env.npy", "--decomp", tmp_path / "d.json",
+                             "--raw", "--size", "32x16", "-o", tmp_path / "f.npy").stdout)
+    assert out["layout"] == "equirect" and out["scale"] == 1.0
+    got = np.load(tmp_path / "f.npy").astype(np.float64)
+    assert got.shape == (16, 32, 2)
+    k = kernel_fn(spec)
+    kc = project(k, lmax)
+    src, dA, _, _ = equirect_dirs(H, W)
+    E = env.reshape(-1, 2).astype(np.float64)
+    dst, _, t, p = equirect_dirs(16, 32)
+    pick = rng.choice(len(dst), 40, replace=False)
+    band, true = [], []
+    for i in pick:
+        ct, st, cp, sp = np.cos(t[i]), np.sin(t[i]), np.cos(p[i]), np.sin(p[i])
+        R = np.array([[cp, -sp, 0], [sp, cp, 0], [0, 0, 1]]) @ np.array([[ct, 0, st], [0, 1, 0], [-st, 0, ct]])
+        local = src @ R  # rows are R^T w'
+        kl = real_sh_matrix(lmax, local) @ kc
+        band.append((kl * dA) @ E)
+        true.append((k(local) * dA) @ E)
+    want = np.array(band)
+    got_px = got.reshape(-1, 2)[pick]
+    scale = np.abs(want).max()
+    # ifd writes float32: 1e-6 of the maximum is float32's resolution plus the solve
+    assert np.abs(got_px - want).max() <= 1e-6 * scale, np.abs(got_px - want).max() / scale
+    if spec.startswith("vmf"):
+        # the kernel's energy beyond L = 16 is below 1e-8: the true kernel agrees as well
+        energy = np.sum(kc**2)
+        tail = project(k, 32)
+        assert np.sum(tail[(lmax + 1) ** 2:] ** 2) / energy < 1e-8
+        assert np.abs(got_px - np.array(true)).max() <= 1e-5 * scale
+
+
+def test_sphere_filter_normalises_and_refuses_bad_input(run_ifd, tmp_path):
+    rng = np.random.default_rng(7)
+    np.save(tmp_path / "env.npy", rng.random((16, 32, 3)).astype(np.float32))
+    run_ifd("sphere", "decompose", "vmf:kappa=10", "--lmax", 16, "-o", tmp_path / "d.json")
+    raw = json.loads(run_ifd("sphere", "filter", tmp_path / "env.npy", "--decomp", tmp_path / "d.json",
+                             "--raw", "--size", "48x8", "-o", tmp_path / "raw.npy").stdout)
+    out = json.loads(run_ifd("sphere", "filter", tmp_path / "env.npy", "--decomp", tmp_path / "d.json",
+                             "--size", "48x8", "-o", tmp_path / "c.npy").stdout)
+    assert out["layout"] == "cubemap-strip" and raw["scale"] == 1.0
+    # int exp(kappa (t - 1)) dw = 2 pi (1 - exp(-2 kappa)) / kappa, and the energy beyond L = 16 is < 1e-8
+    integral = 2 * np.pi * (1 - np.exp(-20.0)) / 10.0
+    assert abs(out["kernel_integral"] - integral) < 1e-7 * integral
+    assert abs(out["scale"] * integral - 1) < 1e-7
+    c, r = np.load(tmp_path / "c.npy"), np.load(tmp_path / "raw.npy")
+    assert c.shape == (8, 48, 3)
+    np.testing.assert_allclose(c, r / integral, rtol=1e-6)
+    np.save(tmp_path / "one.npy", np.ones((16, 32, 3), np.float32))
+    d = json.loads((tmp_path / "d.json").read_text())
+    d["weights"]["data"] = d["weights"]["data"][:-1]
+    (tmp_path / "bad.json").write_text(json.dumps(d))
+    p = run_ifd("sphere", "filter", tmp_path / "one.npy", "--decomp", tmp_path / "bad.json",
+                "-o", tmp_path / "x.exr", check=False)
+    assert p.returncode == 2 and "bad.json" in p.stderr and "weights" in p.stderr, p.stderr
+    assert not (tmp_path / "x.exr").exists()
+    p = run_ifd("sphere", "filter", tmp_path / "one.npy", "--decomp", tmp_path / "d.json", "--size", "30x20",
+                "-o", tmp_path / "x.exr", check=False)
+    assert p.returncode == 2 and "--size 30x20" in p.stderr and "6:1" in p.stderr, p.stderr
+    (tmp_path / "trunc.json").write_text((tmp_path / "d.json").read_text()[:200])
+    p = run_ifd("sphere", "filter", tmp_path / "one.npy", "--decomp", tmp_path / "trunc.json",
+                "-o", tmp_path / "x.exr", check=False)
+    assert p.returncode == 2 and "trunc.json" in p.stderr and "panicked" not in p.stderr, p.stderr

@@ -27,12 +27,16 @@ impl InputOptions {
             non_finite: self
                 .replace_nonfinite
                 .map_or(NonFinitePolicy::Error, NonFinitePolicy::Replace),
-            budget: self
-                .memory_budget
-                .map_or_else(MemoryBudget::default_for_machine, |m| {
-                    MemoryBudget::bytes(m.saturating_mul(1 << 20))
-                }),
+            budget: self.budget(),
         }
+    }
+
+    /// The memory budget for one image (`--memory-budget`, else 75% of physical memory).
+    pub fn budget(&self) -> MemoryBudget {
+        self.memory_budget
+            .map_or_else(MemoryBudget::default_for_machine, |m| {
+                MemoryBudget::bytes(m.saturating_mul(1 << 20))
+            })
     }
 
     /// Reads an image, reporting replaced non-finite values on stderr.

@@ -12,11 +12,15 @@
 //! [`Prefiltered`] holds the per-band convolved signal; [`Decomposition::filter`]
 //! evaluates `fhat(R)` for any rotation with `(L + 1)^2` lookups.
 
+use ifd_image::Image;
+use rayon::prelude::*;
+
 use crate::coeffs::ShCoeffs;
 use crate::error::{Result, SphereError};
 use crate::profile::{IsdBasis, Profile};
 use crate::rotation::Rotation;
 use crate::sh::{ShEvaluator, pi_l, sh_count};
+use crate::transform::cube_texel;
 use crate::zhf::{DirectionSet, RzhCoeffs, Sharing};
 
 /// A kernel decomposed into rotated copies of a profile's mother functions.
@@ -159,13 +163,209 @@ impl Decomposition {
     ///
     /// # Errors
     /// [`SphereError::Parse`].
+    /// Every structural invariant is checked ([`Self::validate`]): a file
+    /// that parses but is inconsistent is refused, never evaluated.
     pub fn from_json(text: &str) -> Result<Self> {
-        serde_json::from_str(text).map_err(|e| SphereError::Parse {
+        let dec: Self = serde_json::from_str(text).map_err(|e| SphereError::Parse {
             what: "decomposition JSON",
             text: text.chars().take(40).collect(),
             reason: e.to_string(),
-        })
+        })?;
+        dec.validate()?;
+        Ok(dec)
     }
+
+    /// Checks the invariants a decomposition read from a file must hold:
+    /// version 1, a valid direction set, `beta` of `(L + 1)^2` finite values,
+    /// weights of degree `L` with `(L + 1)^2 C` finite values, `C >= 1`.
+    ///
+    /// # Errors
+    /// [`SphereError::Parse`] naming the inconsistent field.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |reason: String| SphereError::Parse {
+            what: "decomposition",
+            text: String::new(),
+            reason,
+        };
+        if self.version != 1 {
+            return Err(bad(format!(
+                "version {} is not supported (this build reads version 1)",
+                self.version
+            )));
+        }
+        self.directions.check().map_err(|e| bad(e.to_string()))?;
+        let l = self.l_max();
+        let nb = (l + 1) * (l + 1);
+        if self.beta.len() != nb || self.beta.iter().any(|b| !b.is_finite()) {
+            return Err(bad(format!(
+                "beta must hold {nb} finite values for L = {l}, got {} values",
+                self.beta.len()
+            )));
+        }
+        let w = &self.weights;
+        if w.l_max != l || w.channels == 0 || w.data.len() != nb * w.channels {
+            return Err(bad(format!(
+                "weights of degree {} with {} channel(s) and {} values do not fit lobe \
+                 directions of degree {l} ({nb} values per channel expected)",
+                w.l_max,
+                w.channels,
+                w.data.len()
+            )));
+        }
+        if let Some(i) = w.data.iter().position(|v| !v.is_finite()) {
+            return Err(bad(format!("weight {i} is not finite")));
+        }
+        Ok(())
+    }
+
+    /// `int k(w) dw` of the decomposed (band-limited) kernel, channel 0: the
+    /// filter of the constant signal 1 (`f_0^0 = sqrt(4 pi)`), exact for every
+    /// profile.
+    ///
+    /// ```
+    /// use ifd_sphere::filter::Decomposition;
+    /// use ifd_sphere::kernel::{Kernel, project_function};
+    /// use ifd_sphere::profile::{IsdBasis, Profile};
+    /// use ifd_sphere::zhf::{Chooser, DirectionSet, Sharing};
+    /// // vmf:kappa=10 integrates to 2 pi (1 - exp(-2 kappa)) / kappa
+    /// let k = Kernel::parse("vmf:kappa=10")?;
+    /// let kc = project_function(8, |w| k.eval(w), 64)?;
+    /// let basis = IsdBasis::new(Profile::Zonal, DirectionSet::new(8, Sharing::Shared, Chooser::Fibonacci)?)?;
+    /// let dec = Decomposition::new(&basis, &kc)?;
+    /// let exact = 2.0 * std::f64::consts::PI * (1.0 - (-20.0f64).exp()) / 10.0;
+    /// assert!((dec.kernel_integral()? - exact).abs() < 1e-9);
+    /// # Ok::<(), ifd_sphere::SphereError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Prefiltered::new`].
+    pub fn kernel_integral(&self) -> Result<f64> {
+        let mut one = ShCoeffs::zeros(self.l_max(), 1)?;
+        one.set(0, 0, 0, (4.0 * std::f64::consts::PI).sqrt());
+        let pre = Prefiltered::new(&one, self)?;
+        Ok(self.filter(&pre, &Rotation::IDENTITY)?[0])
+    }
+
+    /// Filters a whole map: every output texel gets `scale * fhat(R(w))`, with
+    /// `w` the texel's direction and `R(w)` its [`meridian_frame`].
+    ///
+    /// The layout follows the size: `W = 2H` equirectangular (texel centres as
+    /// in [`crate::transform`]), `W = 6H` a cubemap strip
+    /// ([`crate::transform::cube_texel`]). Rows run in parallel (rayon); the
+    /// result does not depend on the thread count. `progress(done, total)` is
+    /// called after each row (from any thread).
+    ///
+    /// # Errors
+    /// [`SphereError::NotEquirect`] for other sizes; [`SphereError::Mismatch`]
+    /// when `pre` was prefiltered for another degree.
+    pub fn filter_map(
+        &self,
+        pre: &Prefiltered,
+        width: usize,
+        height: usize,
+        scale: f64,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image> {
+        let layout = MapLayout::from_size(width, height)?;
+        if pre.l_max != self.l_max() {
+            return Err(SphereError::Mismatch(format!(
+                "signal prefiltered to degree {} for a decomposition of degree {}",
+                pre.l_max,
+                self.l_max()
+            )));
+        }
+        let ch = pre.channels;
+        let mut img = Image::new(width, height, ch)?;
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        img.data_mut()
+            .par_chunks_mut(width * ch)
+            .enumerate()
+            .try_for_each(|(v, row)| -> Result<()> {
+                for (u, px) in row.chunks_mut(ch).enumerate() {
+                    let d = layout.direction(u, v, width, height);
+                    let out = self.filter(pre, &meridian_frame(d))?;
+                    for (o, x) in px.iter_mut().zip(&out) {
+                        *o = (scale * x) as f32;
+                    }
+                }
+                let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                progress(n, height);
+                Ok(())
+            })?;
+        Ok(img)
+    }
+}
+
+/// How the texels of a map are laid out on the sphere.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapLayout {
+    /// `W = 2H`: column `u` at azimuth `2 pi (u + 0.5) / W`, row `v` at polar
+    /// angle `pi (v + 0.5) / H` (row 0 at the zenith).
+    Equirect,
+    /// `W = 6H`: a strip of six square faces `+X, -X, +Y, -Y, +Z, -Z` in
+    /// OpenGL's orientation ([`crate::transform::cube_texel`]).
+    CubemapStrip,
+}
+
+impl MapLayout {
+    /// The layout a size implies.
+    ///
+    /// # Errors
+    /// [`SphereError::NotEquirect`] (which names both accepted shapes in the CLI)
+    /// for sizes that are neither 2:1 with `H >= 2` nor 6:1.
+    pub fn from_size(width: usize, height: usize) -> Result<Self> {
+        if height >= 2 && width == 2 * height {
+            Ok(Self::Equirect)
+        } else if height >= 1 && width == 6 * height {
+            Ok(Self::CubemapStrip)
+        } else {
+            Err(SphereError::NotEquirect { width, height })
+        }
+    }
+
+    /// Direction of the centre of texel `(u, v)` of a `width x height` map.
+    #[must_use]
+    pub fn direction(self, u: usize, v: usize, width: usize, height: usize) -> [f64; 3] {
+        match self {
+            Self::Equirect => {
+                let p = 2.0 * std::f64::consts::PI * (u as f64 + 0.5) / width as f64;
+                let t = std::f64::consts::PI * (v as f64 + 0.5) / height as f64;
+                crate::sh::direction(t, p)
+            }
+            Self::CubemapStrip => {
+                let (face, i) = (u / height, u % height);
+                let (d, _) = cube_texel(face, i, v, height);
+                let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                [d[0] / n, d[1] / n, d[2] / n]
+            }
+        }
+    }
+}
+
+/// The frame in which a filtered map evaluates the kernel at direction `w`:
+/// `R(w) = Rz(phi) Ry(theta)`, with `(theta, phi)` the polar angles of `w`.
+///
+/// `R(w)` maps the kernel's axis `+z` onto `w` and its `+x` axis onto the
+/// meridian tangent pointing south (towards growing `theta`), its `+y` axis
+/// onto the parallel pointing east (towards growing `phi`). An isotropic kernel
+/// does not see the frame. For an anisotropic one the frame is singular at the
+/// poles: there every azimuth is a meridian, and this function takes `phi =
+/// atan2(y, x)`, which is `0` exactly at the poles.
+///
+/// ```
+/// use ifd_sphere::filter::meridian_frame;
+/// let w = [0.0, 1.0, 0.0]; // theta = pi/2, phi = pi/2
+/// let r = meridian_frame(w);
+/// let z = r.apply([0.0, 0.0, 1.0]);
+/// let x = r.apply([1.0, 0.0, 0.0]);
+/// assert!((z[1] - 1.0).abs() < 1e-15);
+/// assert!((x[2] + 1.0).abs() < 1e-15); // south on the equator is -z
+/// ```
+#[must_use]
+pub fn meridian_frame(w: [f64; 3]) -> Rotation {
+    let theta = w[2].clamp(-1.0, 1.0).acos();
+    let phi = w[1].atan2(w[0]);
+    Rotation::from_zyz(phi, theta, 0.0)
 }
 
 /// A signal convolved with every band's mother function (Eq. 13), kept as SH

@@ -185,3 +185,128 @@ pub fn project_function(
     }
     Ok(out)
 }
+
+/// Projects a multi-channel function that vanishes outside the band
+/// `z0 <= w_z <= z1` (a hemisphere, say) onto SH up to `l_max`.
+///
+/// The rule is `n_theta` Gauss-Legendre nodes in `z` over `[z0, z1]` times
+/// `n_phi = max(2 n_theta, 2 l_max + 2)` uniform azimuths `(k + 1/2) 2 pi /
+/// n_phi`; per ring, the azimuthal Fourier sums of every order `m <= L` meet
+/// `y_l^|m|(theta, 0)` (`y_l^m = y_l^|m|(theta, 0) cos(m phi)`, `sin(|m| phi)`
+/// for `m < 0`), so a ring costs `O(n_phi L + L^2)` rather than
+/// `O(n_phi L^2)`. Exact for band-limited functions of degree below
+/// `2 n_theta - l_max` when `[z0, z1] = [-1, 1]`; splitting the sphere where
+/// the function has a kink (the horizon of a cosine-weighted BRDF) keeps the
+/// rule spectrally accurate on each side. `f(w, out)` writes `channels` values.
+/// Rings run in parallel; the sum is taken in ring order, so the result does
+/// not depend on the thread count.
+///
+/// ```
+/// use ifd_sphere::kernel::{project_band, project_function};
+/// // max(z, 0) projected over the upper hemisphere only, against the full rule
+/// let a = project_band(6, 1, (0.0, 1.0), 24, |w, o| o[0] = w[2].max(0.0))?;
+/// let b = project_function(6, |w| w[2].max(0.0), 400)?;
+/// assert!(a.data().iter().zip(b.data()).all(|(x, y)| (x - y).abs() < 1e-5));
+/// # Ok::<(), ifd_sphere::SphereError>(())
+/// ```
+///
+/// # Errors
+/// [`SphereError::NonFinite`] when `f` returns NaN or infinity;
+/// [`SphereError::DegreeTooHigh`]; [`SphereError::Parameter`] for a band
+/// outside `[-1, 1]` or empty.
+pub fn project_band(
+    l_max: usize,
+    channels: usize,
+    z_range: (f64, f64),
+    n_theta: usize,
+    f: impl Fn([f64; 3], &mut [f64]) + Sync,
+) -> Result<ShCoeffs> {
+    use rayon::prelude::*;
+    let (z0, z1) = z_range;
+    if !(-1.0..=1.0).contains(&z0) || !(-1.0..=1.0).contains(&z1) || z0 >= z1 {
+        return Err(SphereError::Parameter {
+            name: "z range",
+            value: format!("[{z0}, {z1}]"),
+            reason: "must be a non-empty part of [-1, 1]",
+        });
+    }
+    let sh = ShEvaluator::new(l_max)?;
+    let ch = channels.max(1);
+    let n_theta = n_theta.max(l_max + 1);
+    let n_phi = (2 * n_theta).max(2 * l_max + 2);
+    let dphi = 2.0 * PI / n_phi as f64;
+    // cos(m phi_k), sin(m phi_k) for every order and azimuth
+    let trig: Vec<(f64, f64)> = (0..=l_max)
+        .flat_map(|m| {
+            (0..n_phi).map(move |k| {
+                let (s, c) = (m as f64 * (k as f64 + 0.5) * dphi).sin_cos();
+                (c, s)
+            })
+        })
+        .collect();
+    let (x, w) = gauss_legendre(n_theta);
+    let (mid, half) = (0.5 * (z0 + z1), 0.5 * (z1 - z0));
+    let rings: Vec<Result<Vec<f64>>> = x
+        .par_iter()
+        .zip(&w)
+        .enumerate()
+        .map(|(i, (&xi, &wi))| {
+            let z = mid + half * xi;
+            let s = (1.0 - z * z).max(0.0).sqrt();
+            let mut vals = vec![0.0; n_phi * ch];
+            for k in 0..n_phi {
+                let p = (k as f64 + 0.5) * dphi;
+                let v = &mut vals[k * ch..(k + 1) * ch];
+                f([s * p.cos(), s * p.sin(), z], v);
+                if let Some(c) = v.iter().position(|x| !x.is_finite()) {
+                    return Err(SphereError::NonFinite {
+                        what: "function values",
+                        count: 1,
+                        first: (i * n_phi + k) * ch + c,
+                    });
+                }
+            }
+            // Fourier sums per order and channel: (cos part, sin part)
+            let mut fa = vec![0.0; (l_max + 1) * ch];
+            let mut fb = vec![0.0; (l_max + 1) * ch];
+            for m in 0..=l_max {
+                let t = &trig[m * n_phi..(m + 1) * n_phi];
+                for c in 0..ch {
+                    let (mut a, mut b) = (0.0, 0.0);
+                    for (k, (cs, sn)) in t.iter().enumerate() {
+                        let v = vals[k * ch + c];
+                        a += v * cs;
+                        b += v * sn;
+                    }
+                    fa[m * ch + c] = a * dphi;
+                    fb[m * ch + c] = b * dphi;
+                }
+            }
+            let mut y = vec![0.0; sh_count(l_max)];
+            sh.eval_into([s, 0.0, z], &mut y);
+            let wz = wi * half;
+            let mut out = vec![0.0; sh_count(l_max) * ch];
+            for l in 0..=l_max {
+                let base = l * (l + 1);
+                for m in 0..=l {
+                    let ym = wz * y[base + m];
+                    for c in 0..ch {
+                        out[(base + m) * ch + c] += ym * fa[m * ch + c];
+                        if m > 0 {
+                            out[(base - m) * ch + c] += ym * fb[m * ch + c];
+                        }
+                    }
+                }
+            }
+            Ok(out)
+        })
+        .collect();
+    let mut coeffs = ShCoeffs::zeros(l_max, ch)?;
+    let o = coeffs.data_mut();
+    for r in rings {
+        for (a, b) in o.iter_mut().zip(r?) {
+            *a += b;
+        }
+    }
+    Ok(coeffs)
+}

@@ -338,6 +338,37 @@ impl DirectionSet {
         }
     }
 
+    /// Checks a set that did not come from a constructor (deserialised from a
+    /// file): a supported degree, the count its sharing needs, and unit
+    /// directions (to 1e-6).
+    ///
+    /// # Errors
+    /// [`SphereError::DegreeTooHigh`], [`SphereError::Length`],
+    /// [`SphereError::BadDirection`].
+    pub fn check(&self) -> Result<()> {
+        check_degree(self.l_max)?;
+        let need = Self::required(self.l_max, self.sharing);
+        if self.dirs.len() != need {
+            return Err(SphereError::Length {
+                what: "lobe directions",
+                got: self.dirs.len(),
+                expected: need,
+            });
+        }
+        for (i, d) in self.dirs.iter().enumerate() {
+            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            if !n.is_finite() || (n - 1.0).abs() > 1e-6 {
+                return Err(SphereError::BadDirection {
+                    index: i,
+                    x: d[0],
+                    y: d[1],
+                    z: d[2],
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Condition numbers of every `M_l` (infinite when singular).
     #[must_use]
     pub fn condition_numbers(&self) -> Vec<f64> {
