@@ -8,7 +8,8 @@
 //! - [`image`] (`ifd-image`): f32 image buffers, file I/O, PSNR/SSIM;
 //! - [`planar`] (`ifd-planar`): decompositions, scale stacks, filtering;
 //! - [`smooth`] (`ifd-smooth`): the Hessian and anisotropic smoothing;
-//! - [`sphere`] (`ifd-sphere`): spherical harmonics, rotation, ISD.
+//! - [`sphere`] (`ifd-sphere`): spherical harmonics, rotation, ISD;
+//! - [`shade`] (`ifd-shade`): BRDFs as spherical filters, lobe-weight tables.
 //!
 //! GPU evaluation lives in the `ifd-gpu` crate, which is not re-exported
 //! here, so that depending on `ifd` does not pull in wgpu.
@@ -34,5 +35,6 @@
 
 pub use ifd_image as image;
 pub use ifd_planar as planar;
+pub use ifd_shade as shade;
 pub use ifd_smooth as smooth;
 pub use ifd_sphere as sphere;

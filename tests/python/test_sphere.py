@@ -320,3 +320,64 @@ def test_sphere_filter_normalises_and_refuses_bad_input(run_ifd, tmp_path):
     p = run_ifd("sphere", "filter", tmp_path / "one.npy", "--decomp", tmp_path / "trunc.json",
                 "-o", tmp_path / "x.exr", check=False)
     assert p.returncode == 2 and "trunc.json" in p.stderr and "panicked" not in p.stderr, p.stderr
+
+
+def ggx_albedo_numpy(alpha, theta_o, n=600):
+    """Directional albedo of GGX (glTF, height-correlated Smith, F = 1) by a midpoint rule."""
+    t = (np.arange(n) + 0.5) * (np.pi / 2) / n
+    p = (np.arange(4 * n) + 0.5) * 2 * np.pi / (4 * n)
+    T, P = np.meshgrid(t, p, indexing="ij")
+    wi = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], -1)
+    wo = np.array([np.sin(theta_o), 0.0, np.cos(theta_o)])
+    h = wi + wo
+    h /= np.linalg.norm(h, axis=-1, keepdims=True)
+    a2 = alpha * alpha
+    D = a2 / (np.pi * (h[..., 2] ** 2 * (a2 - 1) + 1) ** 2)
+    nl, nv = wi[..., 2], wo[2]
+    V = 0.5 / (nl * np.sqrt(nv * nv * (1 - a2) + a2) + nv * np.sqrt(nl * nl * (1 - a2) + a2))
+    f = D * V * nl * np.sin(T)
+    return f.sum() * (np.pi / 2 / n) * (2 * np.pi / (4 * n))
+
+
+def test_sphere_brdf_tables(run_ifd, tmp_path):
+    out = json.loads(run_ifd("sphere", "brdf", "lambert", "--lmax", 6, "-o", tmp_path / "l.lobes").stdout)
+    assert abs(out["albedo_min"] - 1) < 1e-6 and abs(out["albedo_max"] - 1) < 1e-6
+    assert out["lobes"] == 13 and out["isotropic"] and out["phi_entries"] == 1
+    # a table of two entries: GGX's directional albedo at the two entry angles (pi/8, 3pi/8)
+    out = json.loads(run_ifd("sphere", "brdf", "ggx:alpha=0.3", "--lmax", 8, "--theta-entries", 2,
+                             "-o", tmp_path / "g.lobes").stdout)
+    want = [ggx_albedo_numpy(0.3, np.pi / 8), ggx_albedo_numpy(0.3, 3 * np.pi / 8)]
+    got = sorted([out["albedo_min"], out["albedo_max"]])
+    np.testing.assert_allclose(got, sorted(want), rtol=2e-4)
+    data = (tmp_path / "g.lobes").read_bytes()
+    assert data[:8] == b"IFDLOBES"
+    hl = int.from_bytes(data[8:12], "little")
+    header = json.loads(data[12:12 + hl])
+    assert header["brdf"] == "ggx:alpha=0.3" and header["l_max"] == 8 and header["version"] == 1
+    assert len(data) == 12 + hl + 4 * out["weight_bytes"] // 4
+    out = json.loads(run_ifd("sphere", "brdf", "ggx:ax=0.3,ay=0.6", "--lmax", 3, "--theta-entries", 4,
+                             "--phi-entries", 8, "-o", tmp_path / "a.lobes").stdout)
+    assert not out["isotropic"] and out["weight_bytes"] == 4 * 8 * 16 * 4
+
+
+@pytest.mark.parametrize("args,needle", [
+    (("ggx:alpha=-0.3", "--lmax", 4), "outside"),
+    (("ggx:alpha=nan", "--lmax", 4), "not"),
+    (("velvet", "--lmax", 4), "unknown BRDF"),
+    (("phong", "--lmax", 4), "missing s="),
+    (("ggx:alpha=0.3", "--lmax", 500), "L <= 100"),
+    (("merl:/nonexistent.binary", "--lmax", 4), "nonexistent.binary"),
+])
+def test_sphere_brdf_refuses_bad_input(run_ifd, tmp_path, args, needle):
+    p = run_ifd("sphere", "brdf", *args, "-o", tmp_path / "t.lobes", check=False)
+    assert p.returncode == 2 and needle in p.stderr and "panicked" not in p.stderr, p.stderr
+    assert not (tmp_path / "t.lobes").exists()
+
+
+def test_sphere_brdf_refuses_truncated_merl_and_missing_folders(run_ifd, tmp_path):
+    (tmp_path / "short.binary").write_bytes(b"\x5a\x00\x00\x00" * 3 + b"\x00" * 64)
+    p = run_ifd("sphere", "brdf", f"merl:{tmp_path / 'short.binary'}", "--lmax", 4, "-o", tmp_path / "t.lobes",
+                check=False)
+    assert p.returncode == 2 and "short.binary" in p.stderr and "34992012" in p.stderr, p.stderr
+    p = run_ifd("sphere", "brdf", "lambert", "--lmax", 4, "-o", tmp_path / "no" / "t.lobes", check=False)
+    assert p.returncode == 2 and "does not exist" in p.stderr, p.stderr

@@ -1,0 +1,372 @@
+//! Checks of the BRDF slices, closed forms, MERL files and lobe tables against
+//! independent references (brute-force quadrature, analytic identities).
+
+use std::f64::consts::PI;
+
+use ifd_shade::brdf::Brdf;
+use ifd_shade::merl::{self, Merl};
+use ifd_shade::slice::project_slice;
+use ifd_shade::table::LobeTable;
+use ifd_shade::zonal::{legendre_moments, zonal_slice};
+use ifd_sphere::kernel::{project_band, project_function};
+use ifd_sphere::sh::{gauss_legendre, legendre_p};
+use ifd_sphere::zhf::{RzhBasis, RzhCoeffs};
+
+fn view(theta: f64, phi: f64) -> [f64; 3] {
+    [
+        theta.sin() * phi.cos(),
+        theta.sin() * phi.sin(),
+        theta.cos(),
+    ]
+}
+
+/// `int k_wo(wi) dwi` by a dense midpoint rule in `(theta, phi)` over the
+/// hemisphere (independent of the SH code).
+fn brute_albedo(b: &Brdf, wo: [f64; 3], n: usize) -> f64 {
+    let mut sum = 0.0;
+    let mut k = [0.0; 3];
+    for i in 0..n {
+        let t = (i as f64 + 0.5) * (PI / 2.0) / n as f64;
+        for j in 0..4 * n {
+            let p = (j as f64 + 0.5) * 2.0 * PI / (4 * n) as f64;
+            b.slice(view(t, p), wo, &mut k);
+            sum += k[0] * t.sin();
+        }
+    }
+    sum * (PI / 2.0 / n as f64) * (2.0 * PI / (4 * n) as f64)
+}
+
+#[test]
+fn legendre_moments_match_quadrature() {
+    let (x, w) = gauss_legendre(200);
+    for s in [0.0, 1.0, 8.0, 32.5] {
+        let m = legendre_moments(s, 20);
+        for (l, ml) in m.iter().enumerate() {
+            // int_0^1 t^s P_l(t) dt on [0, 1]
+            let q: f64 = x
+                .iter()
+                .zip(&w)
+                .map(|(xi, wi)| {
+                    let t = 0.5 * (xi + 1.0);
+                    0.5 * wi * t.powf(s) * legendre_p(l, t)
+                })
+                .sum();
+            assert!((ml - q).abs() < 1e-12, "s = {s}, l = {l}: {ml} vs {q}");
+        }
+    }
+}
+
+#[test]
+fn lambert_zonal_coefficients_are_the_irradiance_factors() {
+    let b = Brdf::parse("lambert").unwrap();
+    let (axis, k) = zonal_slice(&b, [0.0, 0.0, 1.0], 6).unwrap();
+    assert_eq!(axis, [0.0, 0.0, 1.0]);
+    // pi_l k_l = A_hat_l / pi: pi, 2 pi / 3, pi / 4, 0, -pi / 24 (Ramamoorthi-Hanrahan 2001)
+    let want = [
+        PI,
+        2.0 * PI / 3.0,
+        PI / 4.0,
+        0.0,
+        -PI / 24.0,
+        0.0,
+        PI / 64.0,
+    ];
+    for (l, wl) in want.iter().enumerate() {
+        let pil = (4.0 * PI / (2 * l + 1) as f64).sqrt();
+        assert!((pil * k[l] - wl / PI).abs() < 1e-14, "l = {l}");
+    }
+}
+
+#[test]
+fn closed_form_slices_match_numerical_projection() {
+    // Phong about r and Lambert about n against the generic quadrature of the
+    // slice function over the whole sphere
+    for spec in ["phong:s=8", "phong:s=32,albedo=0.7", "lambert:albedo=0.5"] {
+        let b = Brdf::parse(spec).unwrap();
+        let wo = view(0.6, 0.4);
+        let c = project_slice(&b, wo, 12, None).unwrap();
+        let slice = |wi: [f64; 3]| {
+            let mut k = [0.0];
+            b.slice(wi, wo, &mut k);
+            k[0]
+        };
+        // Lambert's kink is at the horizon: integrate the upper hemisphere only
+        let f = if spec.starts_with("lambert") {
+            project_band(12, 1, (0.0, 1.0), 64, |wi, o| o[0] = slice(wi)).unwrap()
+        } else {
+            project_function(12, slice, 600).unwrap()
+        };
+        let scale = f.data().iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        for (a, e) in c.data().iter().zip(f.data()) {
+            assert!((a - e).abs() < 1e-9 * scale, "{spec}: {a} vs {e}");
+        }
+    }
+}
+
+#[test]
+fn white_furnace_albedo_of_every_model() {
+    // the integral of the slice is c_00 sqrt(4 pi); Lambert and Phong are exact
+    // Blinn-Phong's (s + 8) / (8 pi) is an approximate normalisation: its
+    // albedo exceeds 1 near normal incidence (1.027 at s = 64, theta_o = 0;
+    // first order 1 + 4 / s), so it is checked against brute force only
+    let cases: [(&str, f64); 7] = [
+        ("lambert", 1e-12),
+        ("phong:s=32", 1e-12),
+        ("blinn:s=64", 3e-2),
+        ("ggx:alpha=0.3", 1e-3),
+        ("ggx:ax=0.1,ay=0.4", 1e-3),
+        ("ward:ax=0.15,ay=0.3", 1e-3),
+        ("ward:alpha=0.3", 1e-3),
+    ];
+    for (spec, tol) in cases {
+        let b = Brdf::parse(spec).unwrap();
+        for t in [0.0, 0.4, 0.8, 1.2, 1.5] {
+            let wo = view(t, 0.3);
+            let c = project_slice(&b, wo, 8, None).unwrap();
+            let albedo = c.get(0, 0, 0) * (4.0 * PI).sqrt();
+            assert!(
+                albedo <= 1.0 + tol,
+                "{spec} at theta_o = {t}: albedo {albedo}"
+            );
+            if spec == "lambert" || spec.starts_with("phong") {
+                assert!((albedo - 1.0).abs() < 1e-12, "{spec}: {albedo}");
+            } else {
+                // the SH quadrature against an independent brute-force sum
+                let brute = brute_albedo(&b, wo, 800);
+                assert!(
+                    (albedo - brute).abs() < 2e-3 * brute.max(1e-3),
+                    "{spec} at {t}: {albedo} vs brute force {brute}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn ggx_matches_the_gltf_isotropic_formula() {
+    let iso = Brdf::parse("ggx:alpha=0.35").unwrap();
+    let aniso = Brdf::parse("ggx:ax=0.35,ay=0.35").unwrap();
+    let (wi, wo) = (view(0.7, 2.0), view(0.4, -0.3));
+    let (mut a, mut b) = ([0.0], [0.0]);
+    iso.slice(wi, wo, &mut a);
+    aniso.slice(wi, wo, &mut b);
+    // glTF 2.0 Appendix B, written out
+    let a2: f64 = 0.35 * 0.35;
+    let h = {
+        let s = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+        let n = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+        [s[0] / n, s[1] / n, s[2] / n]
+    };
+    let d = a2 / (PI * (h[2] * h[2] * (a2 - 1.0) + 1.0).powi(2));
+    let (nl, nv) = (wi[2], wo[2]);
+    let v =
+        0.5 / (nl * (nv * nv * (1.0 - a2) + a2).sqrt() + nv * (nl * nl * (1.0 - a2) + a2).sqrt());
+    let want = d * v * nl;
+    assert!((a[0] - want).abs() < 1e-12 * want, "{} vs {want}", a[0]);
+    assert!((b[0] - want).abs() < 1e-12 * want);
+    assert!(!Brdf::parse("ggx:ax=0.1,ay=0.4").unwrap().is_isotropic());
+}
+
+#[test]
+fn bad_specs_name_the_problem() {
+    for (spec, needle) in [
+        ("gx:alpha=0.3", "unknown BRDF"),
+        ("ggx:alpha=nan", "not"),
+        ("ggx:alpha=-0.2", "outside"),
+        ("ggx:ax=0.2", "both ax= and ay="),
+        ("phong", "missing s="),
+        ("phong:s=1e9", "outside"),
+        ("lambert:albedo=1.5", "outside"),
+        ("lambert:s=3", "takes no parameter"),
+        ("ward:alpha=0.2,alpha=0.3", "twice"),
+        ("merl:", "merl:FILE"),
+        ("merl:/nonexistent/x.binary", "cannot read"),
+    ] {
+        let e = Brdf::parse(spec).unwrap_err().to_string();
+        assert!(e.contains(needle), "{spec}: {e}");
+    }
+}
+
+fn ggx_rgb(th: f64, td: f64, pd: f64) -> [f64; 3] {
+    let (wi, wo) = merl::from_half_diff(th, 0.0, td, pd);
+    let b = Brdf::parse("ggx:alpha=0.4").expect("a valid spec");
+    if wi[2] <= 0.0 || wo[2] <= 0.0 {
+        return [-1.0; 3]; // invalid, as MERL marks unmeasured bins
+    }
+    let mut k = [0.0];
+    b.slice(wi, wo, &mut k);
+    let f = k[0] / wi[2];
+    [f, 0.5 * f, 0.25 * f]
+}
+
+#[test]
+fn merl_files_round_trip_and_read_as_the_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ggx.binary");
+    Merl::tabulate(ggx_rgb).write(&path).unwrap();
+    assert_eq!(
+        std::fs::metadata(&path).unwrap().len(),
+        merl::FILE_BYTES as u64
+    );
+    let b = Brdf::parse(&format!("merl:{}", path.display())).unwrap();
+    let Some(m) = (match b.model() {
+        ifd_shade::brdf::Model::Merl(m) => Some(m.clone()),
+        _ => None,
+    }) else {
+        panic!("not a MERL BRDF")
+    };
+    assert!(m.invalid_samples() > 0);
+    // at bin centres the reader returns the tabulated model (f32 storage)
+    for i in (0..merl::SAMPLES).step_by(9973) {
+        let (th, td, pd) = merl::bin_centre(i);
+        let want = ggx_rgb(th, td, pd);
+        let (wi, wo) = merl::from_half_diff(th, 1.1, td, pd);
+        let got = m.eval(wi, wo);
+        for c in 0..3 {
+            let w = want[c].max(0.0);
+            assert!(
+                (got[c] - w).abs() <= 1e-6 * w + 1e-12,
+                "bin {i} ch {c}: {} vs {w}",
+                got[c]
+            );
+        }
+    }
+    // the slice of the MERL BRDF integrates like the model's (nearest-bin error)
+    let model = Brdf::parse("ggx:alpha=0.4").unwrap();
+    for t in [0.2, 0.9] {
+        let wo = view(t, 0.0);
+        let a = project_slice(&b, wo, 6, Some(160)).unwrap();
+        let e = project_slice(&model, wo, 6, Some(160)).unwrap();
+        let (ar, ab) = (a.get(0, 0, 0), a.get(0, 0, 2));
+        assert!(
+            (ar - e.get(0, 0, 0)).abs() < 0.03 * e.get(0, 0, 0),
+            "{ar} vs {}",
+            e.get(0, 0, 0)
+        );
+        assert!((ab - 0.25 * ar).abs() < 1e-6 * ar);
+    }
+}
+
+#[test]
+fn merl_reader_refuses_bad_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let short = d.join("short.binary");
+    std::fs::write(&short, [0u8; 100]).unwrap();
+    let e = Merl::read(&short).unwrap_err().to_string();
+    assert!(e.contains("short.binary") && e.contains("100 bytes"), "{e}");
+    let mut bytes = vec![0u8; merl::FILE_BYTES];
+    for (i, dim) in [90i32, 90, 90].iter().enumerate() {
+        bytes[4 * i..4 * i + 4].copy_from_slice(&dim.to_le_bytes());
+    }
+    let dims = d.join("dims.binary");
+    std::fs::write(&dims, &bytes).unwrap();
+    let e = Merl::read(&dims).unwrap_err().to_string();
+    assert!(e.contains("[90, 90, 90]"), "{e}");
+    bytes[8..12].copy_from_slice(&180i32.to_le_bytes());
+    bytes[12 + 8 * 5..12 + 8 * 6].copy_from_slice(&f64::NAN.to_le_bytes());
+    let nan = d.join("nan.binary");
+    std::fs::write(&nan, &bytes).unwrap();
+    let e = Merl::read(&nan).unwrap_err().to_string();
+    assert!(e.contains("non-finite") && e.contains("sample 5"), "{e}");
+}
+
+#[test]
+fn tables_interpolate_their_entries_and_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    for (spec, n_phi) in [("ggx:alpha=0.5", 1), ("ggx:ax=0.3,ay=0.6", 8)] {
+        let b = Brdf::parse(spec).unwrap();
+        let (l, nt) = (5, 12);
+        let t = LobeTable::build(&b, l, nt, n_phi, &|_, _| {}).unwrap();
+        let h = t.header();
+        assert_eq!((h.n_theta, h.isotropic), (nt, n_phi == 1));
+        // an entry's weights are the ZHF of that view's slice
+        let basis = RzhBasis::new(t.directions().clone()).unwrap();
+        let (i, j) = (5, if n_phi == 1 { 0 } else { 3 });
+        let th = (i as f64 + 0.5) * PI / 2.0 / nt as f64;
+        let ph = 2.0 * PI * j as f64 / h.n_phi as f64;
+        let exact = basis
+            .zhf(&project_slice(&b, view(th, ph), l, None).unwrap())
+            .unwrap();
+        let got = t.weights_at(th, ph);
+        let scale = exact.data.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        for (g, e) in got.iter().zip(&exact.data) {
+            assert!((g - e).abs() < 1e-6 * scale, "{spec}: {g} vs {e}");
+        }
+        // the measured interpolation error is real: recompute one midpoint
+        let mid = (i as f64 + 1.0) * PI / 2.0 / nt as f64;
+        let want = project_slice(&b, view(mid, ph), l, None).unwrap();
+        let lam = RzhCoeffs {
+            l_max: l,
+            channels: 1,
+            data: t.weights_at(mid, ph),
+        };
+        let c = basis.zhe(&lam).unwrap();
+        let num: f64 = c
+            .data()
+            .iter()
+            .zip(want.data())
+            .map(|(a, b)| (a - b).powi(2))
+            .sum();
+        let den: f64 = want.data().iter().map(|b| b * b).sum();
+        let err = (num / den).sqrt();
+        assert!(
+            err > 0.0 && err <= h.interpolation_error * 1.000_001,
+            "{err} vs {}",
+            h.interpolation_error
+        );
+        // files
+        let path = dir.path().join("t.lobes");
+        t.write(&path).unwrap();
+        let r = LobeTable::read(&path).unwrap();
+        assert_eq!(r.header(), t.header());
+        assert_eq!(r.weights_at(0.77, 1.3), t.weights_at(0.77, 1.3));
+        r.check_for(&b, l).unwrap();
+        let e = r.check_for(&b, l + 1).unwrap_err().to_string();
+        assert!(e.contains("L = 5, not L = 6"), "{e}");
+        let other = Brdf::parse("ggx:alpha=0.2").unwrap();
+        let e = r.check_for(&other, l).unwrap_err().to_string();
+        assert!(e.contains(spec) && e.contains("ggx:alpha=0.2"), "{e}");
+    }
+}
+
+#[test]
+fn table_reader_refuses_bad_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let b = Brdf::parse("ggx:alpha=0.5").unwrap();
+    let t = LobeTable::build(&b, 3, 4, 1, &|_, _| {}).unwrap();
+    let path = d.join("t.lobes");
+    t.write(&path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("empty", vec![], "IFDLOBES"),
+        ("json", b"{\"brdf\": 1}".to_vec(), "IFDLOBES"),
+        ("truncated", bytes[..bytes.len() - 7].to_vec(), "truncated"),
+        ("header", bytes[..40].to_vec(), "header declares"),
+        (
+            "longer",
+            [bytes.clone(), vec![0; 4]].concat(),
+            "bytes of weights",
+        ),
+        (
+            "version",
+            {
+                let mut v = bytes.clone();
+                let at = v.windows(11).position(|w| w == b"\"version\":1").unwrap();
+                v[at + 10] = b'7';
+                v
+            },
+            "version 7",
+        ),
+    ];
+    for (name, data, needle) in cases {
+        let p = d.join(format!("{name}.lobes"));
+        std::fs::write(&p, &data).unwrap();
+        let e = LobeTable::read(&p).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!("{name}.lobes")) && e.contains(needle),
+            "{name}: {e}"
+        );
+    }
+}
