@@ -316,6 +316,12 @@ def test_sphere_filter_normalises_and_refuses_bad_input(run_ifd, tmp_path):
     p = run_ifd("sphere", "filter", tmp_path / "one.npy", "--decomp", tmp_path / "d.json", "--size", "30x20",
                 "-o", tmp_path / "x.exr", check=False)
     assert p.returncode == 2 and "--size 30x20" in p.stderr and "6:1" in p.stderr, p.stderr
+    d = json.loads((tmp_path / "d.json").read_text())
+    d["beta"][0] = 2.0  # not the zonal profile's beta
+    (tmp_path / "beta.json").write_text(json.dumps(d))
+    p = run_ifd("sphere", "filter", tmp_path / "one.npy", "--decomp", tmp_path / "beta.json",
+                "-o", tmp_path / "x.exr", check=False)
+    assert p.returncode == 2 and "beta[0]" in p.stderr and "zonal" in p.stderr, p.stderr
     (tmp_path / "trunc.json").write_text((tmp_path / "d.json").read_text()[:200])
     p = run_ifd("sphere", "filter", tmp_path / "one.npy", "--decomp", tmp_path / "trunc.json",
                 "-o", tmp_path / "x.exr", check=False)

@@ -237,15 +237,6 @@ impl Brdf {
         self.albedo
     }
 
-    /// The same model with another albedo (spatially varying albedo).
-    #[must_use]
-    pub fn with_albedo(&self, albedo: f64) -> Self {
-        Self {
-            albedo,
-            ..self.clone()
-        }
-    }
-
     /// Channels of the slice: 3 for MERL, 1 for the analytic models.
     #[must_use]
     pub fn channels(&self) -> usize {

@@ -42,7 +42,7 @@ pub const FILE_BYTES: usize = 12 + 3 * SAMPLES * 8;
 pub struct Merl {
     /// `[r, g, b]` per bin, already scaled.
     values: Vec<[f32; 3]>,
-    /// How many stored values were negative (invalid).
+    /// How many stored values (over all three channels) were negative (invalid).
     invalid: usize,
 }
 
@@ -164,9 +164,10 @@ impl Merl {
             .flat_map(|v| v.iter().flat_map(|x| x.to_le_bytes()))
     }
 
-    /// How many samples of the file were negative (invalid, read as 0).
+    /// How many stored values of the file (over all three channels) were
+    /// negative (invalid, read as 0).
     #[must_use]
-    pub fn invalid_samples(&self) -> usize {
+    pub fn invalid_values(&self) -> usize {
         self.invalid
     }
 

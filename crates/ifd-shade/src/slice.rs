@@ -83,7 +83,7 @@ pub fn project_slice(
     let mut n = slice_nodes(brdf, l_max).min(max / 2);
     let mut c = project(n)?;
     while n < max {
-        n *= 2;
+        n = (2 * n).min(max);
         let next = project(n)?;
         let (mut num, mut den) = (0.0, 0.0);
         for (a, b) in c.data().iter().zip(next.data()) {

@@ -160,9 +160,19 @@ impl LobeTable {
                 reason: "use 2..=4096 entries over theta_o and 4..=4096 over phi_o".into(),
             });
         }
+        let total = n_theta * n_phi;
+        // f64 weights per entry while building, then the f32 table
+        let values = (total as u64) * ((l_max + 1) * (l_max + 1) * brdf.channels()) as u64;
+        let budget = ifd_image::MemoryBudget::default_for_machine();
+        budget
+            .check(values.saturating_mul(12))
+            .map_err(|e| ShadeError::Parameter {
+                name: "table size",
+                value: format!("{n_theta} x {n_phi} entries at L = {l_max}"),
+                reason: format!("{e}; use fewer entries or a lower L"),
+            })?;
         let dirs = DirectionSet::new(l_max, Sharing::Shared, Chooser::Fibonacci)?;
         let basis = RzhBasis::new(dirs.clone())?;
-        let total = n_theta * n_phi;
         let done = std::sync::atomic::AtomicUsize::new(0);
         let entries: Vec<Result<RzhCoeffs>> = (0..total)
             .into_par_iter()
@@ -355,6 +365,20 @@ impl LobeTable {
                 h.l_max
             )));
         }
+        if h.channels != brdf.channels() || h.isotropic != brdf.is_isotropic() {
+            return Err(ShadeError::Mismatch(format!(
+                "the table has {} channel(s) and is {}, the BRDF {:?} has {} and is {}",
+                h.channels,
+                if h.isotropic { "1D" } else { "2D" },
+                brdf.spec(),
+                brdf.channels(),
+                if brdf.is_isotropic() {
+                    "isotropic"
+                } else {
+                    "anisotropic"
+                }
+            )));
+        }
         Ok(())
     }
 
@@ -393,24 +417,31 @@ impl LobeTable {
             path: path.to_path_buf(),
             reason,
         };
-        let mut bytes = Vec::new();
-        std::fs::File::open(path)
-            .and_then(|mut f| f.read_to_end(&mut bytes))
-            .map_err(|e| ferr(format!("cannot read: {e}")))?;
-        if bytes.len() < 12 || &bytes[..8] != MAGIC {
+        let meta = std::fs::metadata(path).map_err(|e| ferr(format!("cannot read: {e}")))?;
+        if !meta.is_file() {
+            return Err(ferr("not a regular file".into()));
+        }
+        let file_len = meta.len();
+        let mut file = std::fs::File::open(path).map_err(|e| ferr(format!("cannot read: {e}")))?;
+        let mut head = [0u8; 12];
+        if file_len < 12 || file.read_exact(&mut head).is_err() || &head[..8] != MAGIC {
             return Err(ferr(
                 "not an ifd lobe table (it does not start with IFDLOBES; build one with \
                  `ifd sphere brdf`)"
                     .into(),
             ));
         }
-        let hl = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize;
-        let Some(hbytes) = bytes.get(12..12 + hl) else {
+        let hl = u64::from(u32::from_le_bytes([head[8], head[9], head[10], head[11]]));
+        if 12 + hl > file_len {
             return Err(ferr(format!(
                 "truncated: the header declares {hl} bytes, the file has {}",
-                bytes.len() - 12
+                file_len - 12
             )));
-        };
+        }
+        let mut hbytes = vec![0u8; hl as usize];
+        file.read_exact(&mut hbytes)
+            .map_err(|e| ferr(format!("cannot read the header: {e}")))?;
+        let hbytes = hbytes.as_slice();
         let header: TableHeader =
             serde_json::from_slice(hbytes).map_err(|e| ferr(format!("malformed header: {e}")))?;
         if header.format != "ifd-lobe-table" {
@@ -448,19 +479,22 @@ impl LobeTable {
         h.directions
             .check()
             .map_err(|e| ferr(format!("lobe directions: {e}")))?;
-        let count = h.n_theta * h.n_phi * (h.l_max + 1) * (h.l_max + 1) * h.channels;
-        let data = &bytes[12 + hl..];
-        if data.len() != 4 * count {
+        let count = (h.n_theta as u64)
+            * (h.n_phi as u64)
+            * ((h.l_max + 1) * (h.l_max + 1) * h.channels) as u64;
+        let have = file_len - 12 - hl;
+        if have != 4 * count {
             return Err(ferr(format!(
-                "{} bytes of weights, the header declares {count} f32 values ({} bytes){}",
-                data.len(),
+                "{have} bytes of weights, the header declares {count} f32 values ({} bytes){}",
                 4 * count,
-                if data.len() < 4 * count {
-                    ": truncated"
-                } else {
-                    ""
-                }
+                if have < 4 * count { ": truncated" } else { "" }
             )));
+        }
+        let mut data = Vec::with_capacity(have as usize);
+        file.read_to_end(&mut data)
+            .map_err(|e| ferr(format!("cannot read the weights: {e}")))?;
+        if data.len() as u64 != have {
+            return Err(ferr("the file changed while it was read".into()));
         }
         let weights: Vec<f32> = data
             .chunks_exact(4)

@@ -63,6 +63,8 @@ pub fn zonal_slice(brdf: &Brdf, wo: [f64; 3], l_max: usize) -> Option<([f64; 3],
     let norm = |l: usize| ((2 * l + 1) as f64 / (4.0 * std::f64::consts::PI)).sqrt();
     match *brdf.model() {
         Model::Lambert => {
+            // like every model but Phong, zero for a view below the horizon
+            let a = if wo[2] > 0.0 { a } else { 0.0 };
             let i = legendre_moments(1.0, l_max);
             let k = (0..=l_max).map(|l| 2.0 * a * norm(l) * i[l]).collect();
             Some(([0.0, 0.0, 1.0], k))

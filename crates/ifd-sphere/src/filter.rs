@@ -202,6 +202,17 @@ impl Decomposition {
                 self.beta.len()
             )));
         }
+        let want = self.profile.beta(l)?;
+        if let Some(i) =
+            (0..nb).find(|&i| (self.beta[i] - want[i]).abs() > 1e-9 * (1.0 + want[i].abs()))
+        {
+            return Err(bad(format!(
+                "beta[{i}] = {} does not belong to the {} profile ({} expected)",
+                self.beta[i],
+                self.profile.name(),
+                want[i]
+            )));
+        }
         let w = &self.weights;
         if w.l_max != l || w.channels == 0 || w.data.len() != nb * w.channels {
             return Err(bad(format!(
@@ -364,7 +375,12 @@ impl MapLayout {
 #[must_use]
 pub fn meridian_frame(w: [f64; 3]) -> Rotation {
     let theta = w[2].clamp(-1.0, 1.0).acos();
-    let phi = w[1].atan2(w[0]);
+    // atan2(+-0, -0) would be +-pi: the poles get phi = 0 as documented
+    let phi = if w[0] == 0.0 && w[1] == 0.0 {
+        0.0
+    } else {
+        w[1].atan2(w[0])
+    };
     Rotation::from_zyz(phi, theta, 0.0)
 }
 

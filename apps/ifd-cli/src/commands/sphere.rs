@@ -96,6 +96,37 @@ fn stores_negatives(path: &Path) -> Result<bool> {
     ))
 }
 
+/// Reports negative input samples (clamped, or kept with `--keep-negatives`).
+fn note_input_negatives(path: &Path, count: usize, kept: bool) {
+    if count > 0 {
+        let what = if kept { "kept" } else { "clamped to 0" };
+        eprintln!("note: {}: {count} negative samples {what}", path.display());
+    }
+}
+
+/// Clamps the negatives (ringing) of a band-limited map to 0 when `path`'s
+/// format cannot store them, reporting how many; EXR and .npy keep them.
+fn clamp_output_negatives(path: &Path, img: &mut ifd_image::Image, what: &str) -> Result<usize> {
+    if stores_negatives(path)? {
+        return Ok(0);
+    }
+    let mut clamped = 0usize;
+    for v in img.data_mut() {
+        if *v < 0.0 {
+            *v = 0.0;
+            clamped += 1;
+        }
+    }
+    if clamped > 0 {
+        eprintln!(
+            "note: {}: {clamped} negative samples of the band-limited {what} (ringing) clamped \
+             to 0; write .exr or .npy to keep them",
+            path.display()
+        );
+    }
+    Ok(clamped)
+}
+
 impl ShCmd {
     fn run(self) -> Result<()> {
         let img = self.input.read(&self.envmap)?.image;
@@ -132,37 +163,12 @@ impl ShCmd {
         }
         .with_context(|| format!("{}", self.envmap.display()))?;
         let secs = start.elapsed().as_secs_f64();
-        if a.negatives_clamped > 0 {
-            eprintln!(
-                "note: {}: {} negative samples {}",
-                self.envmap.display(),
-                a.negatives_clamped,
-                if self.keep_negatives {
-                    "kept"
-                } else {
-                    "clamped to 0"
-                }
-            );
-        }
+        note_input_negatives(&self.envmap, a.negatives_clamped, self.keep_negatives);
         a.coeffs.write_npy(&self.output)?;
         let mut rec_clamped = 0usize;
         if let Some(path) = &self.reconstruct {
             let mut rec = t.synthesize(&a.coeffs)?;
-            if !stores_negatives(path)? {
-                for v in rec.data_mut() {
-                    if *v < 0.0 {
-                        *v = 0.0;
-                        rec_clamped += 1;
-                    }
-                }
-                if rec_clamped > 0 {
-                    eprintln!(
-                        "note: {}: {rec_clamped} negative samples of the band-limited \
-                         reconstruction (ringing) clamped to 0; write .exr or .npy to keep them",
-                        path.display()
-                    );
-                }
-            }
+            rec_clamped = clamp_output_negatives(path, &mut rec, "reconstruction")?;
             crate::input::write_output(path, &rec, &ifd_image::WriteOptions::default())?;
         }
         println!(
@@ -638,18 +644,7 @@ impl FilterCmd {
             MapLayout::CubemapStrip => analyze_cubemap(&img, l, neg),
         }
         .with_context(|| format!("{}", self.envmap.display()))?;
-        if a.negatives_clamped > 0 {
-            eprintln!(
-                "note: {}: {} negative samples {}",
-                self.envmap.display(),
-                a.negatives_clamped,
-                if self.keep_negatives {
-                    "kept"
-                } else {
-                    "clamped to 0"
-                }
-            );
-        }
+        note_input_negatives(&self.envmap, a.negatives_clamped, self.keep_negatives);
         let integral = dec.kernel_integral()?;
         let l1: f64 = dec.weights.data.iter().map(|v| v.abs()).sum();
         let scale = if self.raw {
@@ -674,22 +669,7 @@ impl FilterCmd {
         })?;
         bar.finish_and_clear();
         let secs = start.elapsed().as_secs_f64();
-        let mut clamped = 0usize;
-        if !stores_negatives(&self.output)? {
-            for v in out.data_mut() {
-                if *v < 0.0 {
-                    *v = 0.0;
-                    clamped += 1;
-                }
-            }
-            if clamped > 0 {
-                eprintln!(
-                    "note: {}: {clamped} negative samples of the band-limited result (ringing) \
-                     clamped to 0; write .exr or .npy to keep them",
-                    self.output.display()
-                );
-            }
-        }
+        let clamped = clamp_output_negatives(&self.output, &mut out, "result")?;
         crate::input::write_output(&self.output, &out, &ifd_image::WriteOptions::default())?;
         println!(
             "{}",
