@@ -24,11 +24,13 @@
 //! - [`zonal`]: closed-form zonal coefficients (Lambert, Phong).
 //! - [`slice`]: SH projection of slices.
 //! - [`table`]: view-dependent lobe-weight tables and their file format.
+//! - [`shade`]: shading by Eq. 22 (ISD and the SH reference).
 
 mod error;
 
 pub mod brdf;
 pub mod merl;
+pub mod shade;
 pub mod slice;
 pub mod table;
 pub mod zonal;

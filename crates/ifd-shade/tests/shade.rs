@@ -370,3 +370,92 @@ fn table_reader_refuses_bad_files() {
         );
     }
 }
+
+fn unit(v: [f64; 3]) -> [f64; 3] {
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    [v[0] / n, v[1] / n, v[2] / n]
+}
+
+#[test]
+fn isd_and_sh_shading_agree() {
+    use ifd_shade::shade::{Environment, Frame, Material};
+    use ifd_sphere::ShCoeffs;
+    use ifd_sphere::zhf::SplitMix64;
+    let l = 8;
+    let mut rng = SplitMix64::new(3);
+    let mut e = ShCoeffs::zeros(l, 3).unwrap();
+    for v in e.data_mut() {
+        *v = rng.uniform() - 0.5;
+    }
+    let env = Environment::new(e).unwrap();
+    for (spec, table) in [
+        ("lambert:albedo=0.8", false),
+        ("phong:s=16", false),
+        ("ggx:alpha=0.4", true),
+        ("ggx:ax=0.2,ay=0.5", true),
+    ] {
+        let b = Brdf::parse(spec).unwrap();
+        let t = table.then(|| LobeTable::build(&b, l, 6, 8, &|_, _| {}).unwrap());
+        let m = Material::new(&b, l, t).unwrap();
+        assert_eq!(m.is_closed_form(), !table);
+        let mut s = m.scratch(3);
+        let (mut worst, mut scale, mut lit) = (0.0f64, 0.0f64, 0);
+        for _ in 0..30 {
+            let n = rng.direction();
+            let f = Frame::new(n, rng.direction());
+            let wo = rng.direction();
+            let (mut a, mut c) = ([0.0; 3], [0.0; 3]);
+            m.shade_isd(&env, &f, wo, &mut s, &mut a).unwrap();
+            m.shade_sh(&env, &f, wo, &mut c).unwrap();
+            lit += usize::from(a.iter().any(|x| *x != 0.0));
+            for k in 0..3 {
+                worst = worst.max((a[k] - c[k]).abs());
+                scale = scale.max(c[k].abs());
+            }
+        }
+        assert!(lit >= 10, "{spec}: only {lit} lit views");
+        assert!(worst <= 1e-9 * scale, "{spec}: {worst} vs {scale}");
+    }
+}
+
+#[test]
+fn white_furnace_through_shading() {
+    use ifd_shade::shade::{Environment, Frame, Material};
+    use ifd_sphere::ShCoeffs;
+    let l = 6;
+    let mut e = ShCoeffs::zeros(l, 1).unwrap();
+    e.set(0, 0, 0, (4.0 * PI).sqrt()); // E = 1
+    let env = Environment::new(e).unwrap();
+    let f = Frame::new(unit([0.3, -0.2, 0.9]), [1.0, 0.0, 0.0]);
+    for (spec, tol) in [
+        ("lambert", 1e-12),
+        ("phong:s=64", 1e-12),
+        ("ggx:alpha=0.3", 1e-3),
+    ] {
+        let b = Brdf::parse(spec).unwrap();
+        let t =
+            (spec.starts_with("ggx")).then(|| LobeTable::build(&b, l, 16, 1, &|_, _| {}).unwrap());
+        let m = Material::new(&b, l, t).unwrap();
+        let mut s = m.scratch(1);
+        for k in 0..8 {
+            let t = 0.19 * k as f64;
+            let wl = view(t, 0.7);
+            let wo = [
+                f.t[0] * wl[0] + f.b[0] * wl[1] + f.n[0] * wl[2],
+                f.t[1] * wl[0] + f.b[1] * wl[1] + f.n[1] * wl[2],
+                f.t[2] * wl[0] + f.b[2] * wl[1] + f.n[2] * wl[2],
+            ];
+            let mut out = [0.0];
+            m.shade_isd(&env, &f, wo, &mut s, &mut out).unwrap();
+            if tol < 1e-6 {
+                assert!((out[0] - 1.0).abs() < tol, "{spec} at {t}: {}", out[0]);
+            } else {
+                assert!(
+                    out[0] <= 1.0 + tol && out[0] > 0.5,
+                    "{spec} at {t}: {}",
+                    out[0]
+                );
+            }
+        }
+    }
+}
