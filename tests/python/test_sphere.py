@@ -387,3 +387,77 @@ def test_sphere_brdf_refuses_truncated_merl_and_missing_folders(run_ifd, tmp_pat
     assert p.returncode == 2 and "short.binary" in p.stderr and "34992012" in p.stderr, p.stderr
     p = run_ifd("sphere", "brdf", "lambert", "--lmax", 4, "-o", tmp_path / "no" / "t.lobes", check=False)
     assert p.returncode == 2 and "does not exist" in p.stderr, p.stderr
+
+
+def test_render_matches_numpy_brute_force(run_ifd, tmp_path):
+    """A few pixels of `ifd render` (quadrature and isd) against a numpy brute force of the
+    shading integral over the same piecewise-constant environment, GGX written out again."""
+    rng = np.random.default_rng(11)
+    env = (rng.random((8, 16, 3)) ** 3 * 4).astype(np.float32)
+    np.save(tmp_path / "env.npy", env)
+    common = ["--env", tmp_path / "env.npy", "--brdf", "ggx:alpha=0.4", "--size", "24x24",
+              "--eye", "0,-4,1", "--fov", "35", "--env-rotate", "20", "--no-background"]
+    out = json.loads(run_ifd("render", *common, "--method", "quadrature", "--mask", tmp_path / "m.npy",
+                             "-o", tmp_path / "q.npy").stdout)
+    assert out["env_size"] == [16, 8] and out["object_pixels"] > 100
+    run_ifd("render", *common, "--method", "isd", "--lmax", 20, "-o", tmp_path / "i.npy")
+    q, isd = np.load(tmp_path / "q.npy"), np.load(tmp_path / "i.npy")
+    mask = np.load(tmp_path / "m.npy").reshape(24, 24) > 0.5
+    # camera: z up, vertical fov, pixel centres
+    eye, target, up = np.array([0, -4.0, 1]), np.zeros(3), np.array([0, 0, 1.0])
+    f = (target - eye) / np.linalg.norm(target - eye)
+    r = np.cross(f, up); r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    th = np.tan(np.radians(35) / 2)
+    # dense sub-samples of every texel (midpoint, 40 x 40 per texel)
+    k, H, W = 40, 8, 16
+    tt = (np.arange(H * k) + 0.5) * np.pi / (H * k)
+    pp = (np.arange(W * k) + 0.5) * 2 * np.pi / (W * k)
+    T, P = np.meshgrid(tt, pp, indexing="ij")
+    t0, t1 = T - np.pi / (2 * H * k), T + np.pi / (2 * H * k)
+    sa = (np.cos(t0) - np.cos(t1)) * 2 * np.pi / (W * k)
+    Pr = P + np.radians(20)  # the map rotated by 20 degrees about z
+    dirs = np.stack([np.sin(T) * np.cos(Pr), np.sin(T) * np.sin(Pr), np.cos(T)], -1).reshape(-1, 3)
+    E = np.repeat(np.repeat(env.astype(np.float64), k, 0), k, 1).reshape(-1, 3)
+    sa = sa.reshape(-1)
+    a2 = 0.4**2
+    checked = 0
+    for (py, px) in [(12, 12), (8, 14), (15, 9), (12, 5), (6, 12)]:
+        if not mask[py, px]:
+            continue
+        sx = (2 * (px + 0.5) / 24 - 1) * th
+        sy = (1 - 2 * (py + 0.5) / 24) * th
+        d = f + sx * r + sy * u; d /= np.linalg.norm(d)
+        b = eye @ d; c = eye @ eye - 1
+        t = -b - np.sqrt(b * b - c)
+        n = eye + t * d  # unit sphere: the point is the normal
+        wo = -d
+        wi = dirs
+        nl, nv = wi @ n, wo @ n
+        h = wi + wo; h /= np.linalg.norm(h, axis=1, keepdims=True)
+        nh = h @ n
+        D = a2 / (np.pi * (nh**2 * (a2 - 1) + 1) ** 2)
+        V = 0.5 / (nl * np.sqrt(nv * nv * (1 - a2) + a2) + nv * np.sqrt(nl * nl * (1 - a2) + a2))
+        kk = np.where(nl > 0, D * V * nl, 0.0) if nv > 0 else np.zeros_like(nl)
+        want = (kk * sa) @ E
+        np.testing.assert_allclose(q[py, px], want, rtol=2e-3)  # the brute force's own midpoint error
+        np.testing.assert_allclose(isd[py, px], want, rtol=2e-2)
+        checked += 1
+    assert checked >= 4
+
+
+@pytest.mark.parametrize("args,needle", [
+    (("--brdf", "ggx:alpha=0.3"), "--lmax"),
+    (("--brdf", "lambert", "--lmax", 4, "--eye", "0,-4,0", "--target", "0,-8,0"), "sees no object"),
+    (("--brdf", "lambert", "--lmax", 4, "--env-size", "30x15"), "--env-size"),
+    (("--brdf", "lambert", "--lmax", 4, "--scene", "teapot"), "--scene"),
+    (("--brdf", "lambert", "--lmax", 4, "--fov", "0"), "--fov"),
+    (("--brdf", "velvet", "--lmax", 4), "unknown BRDF"),
+    (("--brdf", "lambert", "--lmax", 4, "--method", "mc"), "--method"),
+])
+def test_render_refuses_bad_input(run_ifd, tmp_path, args, needle):
+    np.save(tmp_path / "env.npy", np.ones((8, 16, 3), np.float32))
+    p = run_ifd("render", "--env", tmp_path / "env.npy", "--size", "8x8", *args, "-o", tmp_path / "o.exr",
+                check=False)
+    assert p.returncode == 2 and needle in p.stderr and "panicked" not in p.stderr, p.stderr
+    assert not (tmp_path / "o.exr").exists()

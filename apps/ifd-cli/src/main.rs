@@ -45,6 +45,8 @@ enum Command {
     Smooth(commands::smooth::Smooth),
     /// Spherical harmonics, SH rotation and isotropic spherical decompositions.
     Sphere(commands::sphere::Sphere),
+    /// Render an object lit by an environment map: ISD shading (Eq. 22), its SH reference or the exact quadrature.
+    Render(commands::render::Render),
 }
 
 fn main() -> ExitCode {
@@ -55,6 +57,7 @@ fn main() -> ExitCode {
         Command::Filter(c) => c.run(),
         Command::Field(c) => c.run(),
         Command::Sphere(c) => c.run(),
+        Command::Render(c) => c.run(),
         Command::Convert(c) => c.run(),
         Command::Info(c) => c.run(),
         Command::GpuInfo(c) => c.run(),

@@ -222,6 +222,12 @@ impl Material {
         &self.brdf
     }
 
+    /// The degree `L`.
+    #[must_use]
+    pub fn l_max(&self) -> usize {
+        self.l_max
+    }
+
     /// Whether the weights are closed-form (one lobe per band).
     #[must_use]
     pub fn is_closed_form(&self) -> bool {

@@ -8,5 +8,6 @@ pub mod filter;
 pub mod gpu_info;
 pub mod hessian;
 pub mod info;
+pub mod render;
 pub mod smooth;
 pub mod sphere;

@@ -716,7 +716,7 @@ struct BrdfCmd {
     /// Entries over theta_o (default: from the lobe width, 16..=512).
     #[arg(long, value_name = "N")]
     theta_entries: Option<usize>,
-    /// Entries over phi_o for anisotropic BRDFs (default: 4x the theta entries, at most 512).
+    /// Entries over phi_o for anisotropic BRDFs (default: 2x the theta entries, at most 128).
     #[arg(long, value_name = "N")]
     phi_entries: Option<usize>,
     /// Output table file (binary, conventionally .lobes).
@@ -750,7 +750,7 @@ impl BrdfCmd {
         let nt = self
             .theta_entries
             .unwrap_or_else(|| default_theta_entries(&brdf));
-        let np = self.phi_entries.unwrap_or((4 * nt).min(512));
+        let np = self.phi_entries.unwrap_or((2 * nt).min(128));
         let start = std::time::Instant::now();
         let bar = ProgressBar::new(0);
         bar.set_style(

@@ -1,0 +1,286 @@
+//! `ifd render`: objects lit by an environment map, shaded by ISD (Eq. 22),
+//! its SH reference or the exact texel quadrature.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use glam::DVec3;
+use ifd_render::camera::Camera;
+use ifd_render::envmap::EnvMap;
+use ifd_render::render::{Job, Method, render};
+use ifd_render::scene::Scene;
+use ifd_render::tonemap::Tonemap;
+use ifd_shade::Brdf;
+use ifd_shade::shade::Material;
+use ifd_shade::table::{LobeTable, default_theta_entries};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+
+use crate::input::InputOptions;
+
+/// Render an analytic object lit by an environment map (unshadowed, one ray
+/// per pixel centre).
+///
+/// Frames: world z up, as the SH code and the equirectangular convention.
+/// Every method integrates the same environment, averaged down to --env-size
+/// by solid angle and read as constant over each texel: `isd` and `sh` use its
+/// exact SH projection up to L, `quadrature` integrates each texel against the
+/// exact BRDF (Gauss-Legendre per texel, refined until it changes by less
+/// than 1e-6 of the pixel). Anisotropic BRDFs align `ax` with dP/du of the
+/// surface (the sphere's and torus' azimuth, the plane's x). Lambert and Phong
+/// shade with closed-form weights; other BRDFs need a lobe table (--table, or
+/// one is built at the default resolution). The background shows the full
+/// resolution map (nearest texel).
+///
+/// Output: .exr/.hdr/.npy are linear radiance; .png (8-bit sRGB) gets
+/// --exposure and --tonemap.
+#[derive(Debug, Args)]
+pub struct Render {
+    /// Environment map, 2:1 equirectangular (EXR, HDR, ...).
+    #[arg(long, value_name = "FILE")]
+    env: PathBuf,
+    /// BRDF spec: lambert, phong:s=.., blinn:s=.., ggx:alpha=.. or ggx:ax=..,ay=.., ward:.., merl:FILE.
+    #[arg(long, value_name = "SPEC")]
+    brdf: String,
+    /// Maximum SH degree L (isd, sh).
+    #[arg(long, value_name = "L")]
+    lmax: Option<usize>,
+    /// Lobe table from `ifd sphere brdf` (built on the fly when needed and absent).
+    #[arg(long, value_name = "FILE")]
+    table: Option<PathBuf>,
+    /// Scene: sphere (unit), torus (radii 1 and 0.4 around z) or plane (z = 0, [-2, 2]^2).
+    #[arg(long, default_value = "sphere")]
+    scene: String,
+    /// Image size WxH.
+    #[arg(long, value_name = "WxH", default_value = "256x256")]
+    size: String,
+    /// Camera position.
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        default_value = "3,-2.5,1.2",
+        allow_hyphen_values = true
+    )]
+    eye: String,
+    /// Point looked at.
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        default_value = "0,0,0",
+        allow_hyphen_values = true
+    )]
+    target: String,
+    /// Up direction.
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        default_value = "0,0,1",
+        allow_hyphen_values = true
+    )]
+    up: String,
+    /// Vertical field of view in degrees.
+    #[arg(long, value_name = "DEG", default_value_t = 40.0)]
+    fov: f64,
+    /// Rotate the environment about +z by this many degrees.
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
+    env_rotate: f64,
+    /// Size the environment is averaged down to (2:1, dividing the map's size);
+    /// default 128x64 when it divides the map, else the map's own size.
+    #[arg(long, value_name = "WxH")]
+    env_size: Option<String>,
+    /// Shading: isd (Eq. 22), sh (rotated slice SH, same weights) or quadrature (exact oracle).
+    #[arg(long, default_value = "isd")]
+    method: String,
+    /// Black background instead of the environment.
+    #[arg(long)]
+    no_background: bool,
+    /// Tone curve for PNG output: none, reinhard, aces.
+    #[arg(long, default_value = "aces")]
+    tonemap: String,
+    /// Exposure in stops for PNG output.
+    #[arg(
+        long,
+        value_name = "EV",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
+    exposure: f32,
+    /// Also write the object mask (1 on the object, 0 elsewhere).
+    #[arg(long, value_name = "FILE")]
+    mask: Option<PathBuf>,
+    /// Output image.
+    #[arg(short, long)]
+    output: PathBuf,
+    #[command(flatten)]
+    input: InputOptions,
+}
+
+fn parse_vec(text: &str, option: &str) -> Result<DVec3> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .with_context(|| format!("{option} {text:?}: expected three numbers X,Y,Z"))?;
+    if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+        bail!("{option} {text:?}: expected three finite numbers X,Y,Z");
+    }
+    Ok(DVec3::new(v[0], v[1], v[2]))
+}
+
+fn parse_size(text: &str, option: &str) -> Result<(usize, usize)> {
+    let parsed = text.split_once(['x', 'X']).and_then(|(w, h)| {
+        Some((
+            w.trim().parse::<usize>().ok()?,
+            h.trim().parse::<usize>().ok()?,
+        ))
+    });
+    match parsed {
+        Some((w, h)) if w > 0 && h > 0 && w <= 16384 && h <= 16384 => Ok((w, h)),
+        _ => bail!("{option} {text:?}: expected WxH with integers in 1..=16384, e.g. 256x256"),
+    }
+}
+
+/// Whether the output gets the display transform (8-bit formats).
+fn is_display(path: &std::path::Path) -> Result<bool> {
+    use ifd_image::FileFormat;
+    Ok(matches!(
+        FileFormat::from_path(path)?,
+        FileFormat::Png | FileFormat::Jpeg | FileFormat::Tiff
+    ))
+}
+
+impl Render {
+    /// Runs the command.
+    pub fn run(self) -> Result<()> {
+        let method = Method::parse(&self.method)?;
+        let scene = Scene::parse(&self.scene)?;
+        let tonemap = Tonemap::parse(&self.tonemap)?;
+        if !self.exposure.is_finite() {
+            bail!("--exposure {}: not finite", self.exposure);
+        }
+        let display = is_display(&self.output)?;
+        if let Some(m) = &self.mask {
+            is_display(m)?;
+        }
+        let (w, h) = parse_size(&self.size, "--size")?;
+        let camera = Camera::new(
+            parse_vec(&self.eye, "--eye")?,
+            parse_vec(&self.target, "--target")?,
+            parse_vec(&self.up, "--up")?,
+            self.fov,
+            w,
+            h,
+        )?;
+        let brdf = Brdf::parse(&self.brdf)?;
+        let l_max = match (method, self.lmax) {
+            (Method::Quadrature, l) => l,
+            (_, Some(l)) => Some(l),
+            (_, None) => bail!("--lmax L is needed for --method {}", self.method),
+        };
+        if let Some(l) = l_max.filter(|&l| l > ifd_shade::table::MAX_TABLE_DEGREE) {
+            bail!(
+                "--lmax {l}: shading supports L <= {}",
+                ifd_shade::table::MAX_TABLE_DEGREE
+            );
+        }
+        let full = EnvMap::new(self.input.read(&self.env)?.image, self.env_rotate)
+            .with_context(|| format!("{}", self.env.display()))?;
+        let (mw, mh) = (full.image().width(), full.image().height());
+        let (ew, eh) = match &self.env_size {
+            Some(s) => parse_size(s, "--env-size")?,
+            None if mw % 128 == 0 && mh % 64 == 0 => (128, 64),
+            None => (mw, mh),
+        };
+        let env = full.downsampled(ew, eh)?;
+        let start = std::time::Instant::now();
+        let material = match (method, l_max) {
+            (Method::Quadrature, _) | (_, None) => None,
+            (_, Some(l)) => {
+                let table = match &self.table {
+                    Some(p) => Some(LobeTable::read(p)?),
+                    None if Material::new(&brdf, l, None).is_err() => {
+                        let nt = default_theta_entries(&brdf);
+                        let np = (2 * nt).min(128);
+                        eprintln!(
+                            "note: building the lobe table of {} at L = {l} (save one with \
+                             `ifd sphere brdf` and pass --table to skip this)",
+                            brdf.spec()
+                        );
+                        let bar = progress_bar("table");
+                        let t = LobeTable::build(&brdf, l, nt, np, &|d, n| {
+                            bar.set_length(n as u64);
+                            bar.set_position(d as u64);
+                        })?;
+                        bar.finish_and_clear();
+                        Some(t)
+                    }
+                    None => None,
+                };
+                let m = Material::new(&brdf, l, table);
+                Some(m.with_context(|| match &self.table {
+                    Some(p) => format!("{}", p.display()),
+                    None => "--brdf".into(),
+                })?)
+            }
+        };
+        let job = Job {
+            scene,
+            camera,
+            env: &env,
+            background: (!self.no_background).then_some(&full),
+            brdf: &brdf,
+            material: material.as_ref(),
+            method,
+        };
+        let bar = progress_bar("render");
+        let r = render(&job, &|d, n| {
+            bar.set_length(n as u64);
+            bar.set_position(d as u64);
+        })?;
+        bar.finish_and_clear();
+        let secs = start.elapsed().as_secs_f64();
+        let mut img = r.image;
+        if display {
+            for v in img.data_mut() {
+                *v = tonemap.display(*v, self.exposure);
+            }
+        }
+        if let Some(m) = &self.mask {
+            let data = r.mask.iter().map(|x| f32::from(u8::from(*x))).collect();
+            let mask = ifd_image::Image::from_vec(w, h, 1, data)?;
+            crate::input::write_output(m, &mask, &ifd_image::WriteOptions::default())?;
+        }
+        crate::input::write_output(&self.output, &img, &ifd_image::WriteOptions::default())?;
+        println!(
+            "{}",
+            json!({
+                "method": self.method, "brdf": brdf.spec(), "lmax": l_max,
+                "scene": self.scene, "width": w, "height": h,
+                "env_size": [ew, eh], "object_pixels": r.object_pixels,
+                "closed_form": material.as_ref().map(Material::is_closed_form),
+                "quadrature_max_k": (method == Method::Quadrature).then_some(r.max_k),
+                "quadrature_unconverged_pixels": (method == Method::Quadrature).then_some(r.not_converged),
+                "quadrature_max_residual": (method == Method::Quadrature).then_some(r.max_residual),
+                "seconds": secs,
+            })
+        );
+        Ok(())
+    }
+}
+
+fn progress_bar(what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(0);
+    bar.set_style(
+        ProgressStyle::with_template(&format!(
+            "{what} {{bar:30}} {{pos}}/{{len}} [{{elapsed}}<{{eta}}]"
+        ))
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}

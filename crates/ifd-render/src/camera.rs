@@ -1,0 +1,116 @@
+//! A pinhole camera: world `z` up, as the SH code and the equirectangular
+//! convention.
+
+use glam::DVec3;
+
+use crate::error::{RenderError, Result};
+
+/// A pinhole camera looking from `eye` at `target`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    eye: DVec3,
+    /// Right, up and forward unit vectors.
+    right: DVec3,
+    up: DVec3,
+    forward: DVec3,
+    /// `tan(fov / 2)` (vertical).
+    tan_half: f64,
+    width: usize,
+    height: usize,
+}
+
+impl Camera {
+    /// A camera of vertical field of view `fov_deg` for a `width x height` image.
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use ifd_render::camera::Camera;
+    /// let c = Camera::new(DVec3::new(0.0, -4.0, 0.0), DVec3::ZERO, DVec3::Z, 40.0, 64, 64)?;
+    /// let (o, d) = c.ray(32.0, 32.0); // the image centre looks at the target
+    /// assert!((d - DVec3::Y).length() < 1e-12 && o == DVec3::new(0.0, -4.0, 0.0));
+    /// # Ok::<(), ifd_render::RenderError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`RenderError::Parameter`] for non-finite vectors, `eye == target`, an
+    /// `up` parallel to the view, a field of view outside `(0, 180)` degrees or
+    /// an empty image.
+    pub fn new(
+        eye: DVec3,
+        target: DVec3,
+        up: DVec3,
+        fov_deg: f64,
+        width: usize,
+        height: usize,
+    ) -> Result<Self> {
+        let bad = |name: &'static str, value: String, reason: &str| RenderError::Parameter {
+            name,
+            value,
+            reason: reason.into(),
+        };
+        if !(eye.is_finite() && target.is_finite() && up.is_finite()) {
+            return Err(bad(
+                "camera",
+                format!("eye {eye}, target {target}, up {up}"),
+                "not finite",
+            ));
+        }
+        let f = target - eye;
+        if f.length() < 1e-12 {
+            return Err(bad("--eye", format!("{eye}"), "equals --target"));
+        }
+        let forward = f.normalize();
+        let r = forward.cross(up);
+        if r.length() < 1e-9 * up.length().max(1e-300) || up.length() == 0.0 {
+            return Err(bad(
+                "--up",
+                format!("{up}"),
+                "is zero or parallel to the viewing direction",
+            ));
+        }
+        if !(fov_deg > 0.0 && fov_deg < 180.0) {
+            return Err(bad(
+                "--fov",
+                format!("{fov_deg}"),
+                "use 0 < fov < 180 degrees",
+            ));
+        }
+        if width == 0 || height == 0 {
+            return Err(bad("--size", format!("{width}x{height}"), "empty image"));
+        }
+        let right = r.normalize();
+        Ok(Self {
+            eye,
+            right,
+            up: right.cross(forward),
+            forward,
+            tan_half: (fov_deg.to_radians() * 0.5).tan(),
+            width,
+            height,
+        })
+    }
+
+    /// Image width.
+    #[must_use]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Image height.
+    #[must_use]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// The ray through image point `(x, y)` (pixel units, `(0, 0)` the top-left
+    /// corner; a pixel's centre is `(i + 0.5, j + 0.5)`): origin and unit
+    /// direction.
+    #[must_use]
+    pub fn ray(&self, x: f64, y: f64) -> (DVec3, DVec3) {
+        let aspect = self.width as f64 / self.height as f64;
+        let sx = (2.0 * x / self.width as f64 - 1.0) * self.tan_half * aspect;
+        let sy = (1.0 - 2.0 * y / self.height as f64) * self.tan_half;
+        let d = (self.forward + sx * self.right + sy * self.up).normalize();
+        (self.eye, d)
+    }
+}

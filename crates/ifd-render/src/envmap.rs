@@ -1,0 +1,167 @@
+//! Environment maps for rendering: an equirectangular map read as piecewise
+//! constant over its texels, rotated about `z`, downsampled by solid-angle
+//! averaging, looked up by direction and projected on SH exactly
+//! ([`ifd_sphere::transform::analyze_equirect_box`]).
+
+use std::f64::consts::PI;
+
+use ifd_image::Image;
+use ifd_sphere::transform::{Negatives, analyze_equirect_box};
+use ifd_sphere::{Rotation, ShCoeffs, ShRotation};
+
+use crate::error::{RenderError, Result};
+
+/// An equirectangular environment (`W = 2H`, row 0 at the zenith), rotated by
+/// `rotation` radians about `+z`: `E'(w) = E(Rz(-a) w)`.
+#[derive(Clone, Debug)]
+pub struct EnvMap {
+    img: Image,
+    rotation: f64,
+}
+
+impl EnvMap {
+    /// Wraps an equirectangular image (1 or 3 channels; a fourth, alpha,
+    /// is dropped) rotated by `rotation_deg` about `+z`.
+    ///
+    /// # Errors
+    /// [`RenderError::Parameter`] when the map is not 2:1, has 2 or more than
+    /// 4 channels, or holds NaN/infinite or negative values, or the rotation
+    /// is not finite.
+    pub fn new(img: Image, rotation_deg: f64) -> Result<Self> {
+        let (w, h, ch) = (img.width(), img.height(), img.channels());
+        let bad = |reason: String| RenderError::Parameter {
+            name: "--env",
+            value: format!("{w}x{h}x{ch}"),
+            reason,
+        };
+        if h < 2 || w != 2 * h {
+            return Err(bad(
+                "an environment must be a 2:1 equirectangular map (W = 2H, H >= 2)".into(),
+            ));
+        }
+        if !rotation_deg.is_finite() {
+            return Err(RenderError::Parameter {
+                name: "--env-rotate",
+                value: rotation_deg.to_string(),
+                reason: "not finite".into(),
+            });
+        }
+        let img = match ch {
+            1 | 3 => img,
+            4 => {
+                let data: Vec<f32> = img
+                    .data()
+                    .chunks_exact(4)
+                    .flat_map(|p| [p[0], p[1], p[2]])
+                    .collect();
+                Image::from_vec(w, h, 3, data)?
+            }
+            _ => return Err(bad("1, 3 or 4 (RGBA) channels expected".into())),
+        };
+        if let Some(i) = img.data().iter().position(|v| !v.is_finite() || *v < 0.0) {
+            return Err(bad(format!(
+                "sample {i} is {} (radiance must be finite and non-negative)",
+                img.data()[i]
+            )));
+        }
+        Ok(Self {
+            img,
+            rotation: rotation_deg.to_radians(),
+        })
+    }
+
+    /// The image.
+    #[must_use]
+    pub fn image(&self) -> &Image {
+        &self.img
+    }
+
+    /// The rotation about `+z`, radians.
+    #[must_use]
+    pub fn rotation(&self) -> f64 {
+        self.rotation
+    }
+
+    /// Channels (1 or 3).
+    #[must_use]
+    pub fn channels(&self) -> usize {
+        self.img.channels()
+    }
+
+    /// The map averaged down to `width x height` (a divisor of the size, 2:1):
+    /// each new texel is the solid-angle-weighted mean of the texels it
+    /// covers, so the piecewise-constant function keeps its integral over
+    /// every new texel.
+    ///
+    /// # Errors
+    /// [`RenderError::Parameter`] for sizes that are not 2:1 or do not divide
+    /// the map's.
+    pub fn downsampled(&self, width: usize, height: usize) -> Result<Self> {
+        let (w, h, ch) = (self.img.width(), self.img.height(), self.img.channels());
+        if width == w && height == h {
+            return Ok(self.clone());
+        }
+        if height < 2 || width != 2 * height || w % width != 0 || h % height != 0 {
+            return Err(RenderError::Parameter {
+                name: "--env-size",
+                value: format!("{width}x{height}"),
+                reason: format!("must be 2:1 and divide the map's size {w}x{h}"),
+            });
+        }
+        let f = h / height;
+        let row_sa =
+            |v: usize| (PI * v as f64 / h as f64).cos() - (PI * (v + 1) as f64 / h as f64).cos();
+        let src = self.img.data();
+        let mut out = vec![0.0f32; width * height * ch];
+        for vv in 0..height {
+            for uu in 0..width {
+                let mut acc = vec![0.0f64; ch];
+                let mut wsum = 0.0;
+                for v in vv * f..(vv + 1) * f {
+                    let wv = row_sa(v);
+                    for u in uu * f..(uu + 1) * f {
+                        for (c, a) in acc.iter_mut().enumerate() {
+                            *a += wv * f64::from(src[(v * w + u) * ch + c]);
+                        }
+                        wsum += wv;
+                    }
+                }
+                for (c, a) in acc.iter().enumerate() {
+                    out[(vv * width + uu) * ch + c] = (a / wsum) as f32;
+                }
+            }
+        }
+        Ok(Self {
+            img: Image::from_vec(width, height, ch, out)?,
+            rotation: self.rotation,
+        })
+    }
+
+    /// The texel value seen in direction `d` (unit), nearest texel.
+    pub fn lookup(&self, d: [f64; 3], out: &mut [f64]) {
+        let (w, h, ch) = (self.img.width(), self.img.height(), self.img.channels());
+        let (s, c) = (-self.rotation).sin_cos();
+        let x = c * d[0] - s * d[1];
+        let y = s * d[0] + c * d[1];
+        let t = d[2].clamp(-1.0, 1.0).acos();
+        let p = y.atan2(x).rem_euclid(2.0 * PI);
+        let u = ((p / (2.0 * PI) * w as f64) as usize).min(w - 1);
+        let v = ((t / PI * h as f64) as usize).min(h - 1);
+        let px = &self.img.data()[(v * w + u) * ch..(v * w + u + 1) * ch];
+        for (o, x) in out.iter_mut().zip(px) {
+            *o = f64::from(*x);
+        }
+    }
+
+    /// The exact SH coefficients of the (rotated) piecewise-constant map up to `l_max`.
+    ///
+    /// # Errors
+    /// Degrees beyond [`ifd_sphere::MAX_DEGREE`].
+    pub fn sh(&self, l_max: usize) -> Result<ShCoeffs> {
+        let c = analyze_equirect_box(&self.img, l_max, Negatives::Keep)?.coeffs;
+        if self.rotation == 0.0 {
+            return Ok(c);
+        }
+        Ok(ShRotation::new(&Rotation::rz(self.rotation), l_max)?.apply(&c)?)
+    }
+}

@@ -1,0 +1,202 @@
+//! The render loop: one ray per pixel centre (all methods alike), shading by
+//! ISD (Eq. 22), its SH reference or the quadrature oracle, the environment
+//! behind. Rows run in parallel; every pixel is computed the same way
+//! whatever the thread count, so images do not depend on it.
+
+use ifd_image::Image;
+use ifd_shade::Brdf;
+use ifd_shade::shade::{Environment, Frame, Material};
+use rayon::prelude::*;
+
+use crate::camera::Camera;
+use crate::envmap::EnvMap;
+use crate::error::{RenderError, Result};
+use crate::oracle::Oracle;
+use crate::scene::Scene;
+
+/// How object pixels are shaded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// ISD, Eq. 22: rotated lobes looked up in the per-band environment.
+    Isd,
+    /// The rotated slice's SH dotted with the environment's (same weights).
+    Sh,
+    /// The exact texel quadrature ([`crate::oracle`]).
+    Quadrature,
+}
+
+impl Method {
+    /// `isd`, `sh` or `quadrature`.
+    ///
+    /// # Errors
+    /// [`RenderError::Parameter`] for other names.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "isd" => Ok(Self::Isd),
+            "sh" => Ok(Self::Sh),
+            "quadrature" => Ok(Self::Quadrature),
+            _ => Err(RenderError::Parameter {
+                name: "--method",
+                value: s.into(),
+                reason: "use isd, sh or quadrature (isd-maps and mc are not implemented yet)"
+                    .into(),
+            }),
+        }
+    }
+}
+
+/// What to render.
+#[derive(Debug)]
+pub struct Job<'a> {
+    /// The scene.
+    pub scene: Scene,
+    /// The camera.
+    pub camera: Camera,
+    /// The environment every method integrates (already downsampled).
+    pub env: &'a EnvMap,
+    /// The map shown behind the object (`None`: black).
+    pub background: Option<&'a EnvMap>,
+    /// The BRDF (the oracle evaluates it directly).
+    pub brdf: &'a Brdf,
+    /// The material for `isd` and `sh` (same BRDF, degree `L`).
+    pub material: Option<&'a Material>,
+    /// The method.
+    pub method: Method,
+}
+
+/// A rendered image with what a caller needs to measure it.
+#[derive(Debug)]
+pub struct Rendered {
+    /// Linear radiance, one value per environment channel.
+    pub image: Image,
+    /// Whether each pixel (row-major) sees the object.
+    pub mask: Vec<bool>,
+    /// Object pixels.
+    pub object_pixels: usize,
+    /// Largest `k` the oracle used (quadrature only).
+    pub max_k: usize,
+    /// Pixels whose quadrature did not converge to the tolerance.
+    pub not_converged: usize,
+    /// The largest residual estimate of the quadrature, relative to the pixel.
+    pub max_residual: f64,
+}
+
+/// One rendered row: pixels, mask, largest oracle `k`, unconverged pixels, largest residual.
+type Row = (Vec<f32>, Vec<bool>, usize, usize, f64);
+
+/// Renders `job`; `progress(done_rows, rows)` after each row.
+///
+/// # Errors
+/// [`RenderError::NothingVisible`] when no pixel sees the object; shading
+/// errors (a material of another degree than the environment, channels).
+pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<Rendered> {
+    let (w, h) = (job.camera.width(), job.camera.height());
+    let ch = job.env.channels();
+    let env_sh = match (job.method, job.material) {
+        (Method::Quadrature, _) => None,
+        (_, Some(m)) => {
+            let l = m.l_max();
+            Some(Environment::new(job.env.sh(l)?)?)
+        }
+        (_, None) => {
+            return Err(RenderError::Parameter {
+                name: "--method",
+                value: format!("{:?}", job.method),
+                reason: "needs a material".into(),
+            });
+        }
+    };
+    let oracle = (job.method == Method::Quadrature).then(|| Oracle::new(job.env));
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let rows: Vec<Result<Row>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut px = vec![0.0f32; w * ch];
+            let mut mask = vec![false; w];
+            let (mut max_k, mut bad, mut resid) = (0, 0, 0.0f64);
+            let mut out = vec![0.0; ch.max(3)];
+            let mut scratch = job.material.map(|m| m.scratch(ch));
+            for x in 0..w {
+                let (o, d) = job.camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                out.fill(0.0);
+                if let Some(hit) = job.scene.intersect(o, d) {
+                    mask[x] = true;
+                    let n = hit.n.to_array();
+                    let frame = Frame::new(n, hit.dpdu.to_array());
+                    let wo = (-d).to_array();
+                    match (job.method, job.material, &env_sh, &oracle, scratch.as_mut()) {
+                        (Method::Isd, Some(m), Some(e), _, Some(s)) => {
+                            m.shade_isd(e, &frame, wo, s, &mut out)?;
+                        }
+                        (Method::Sh, Some(m), Some(e), _, _) => {
+                            m.shade_sh(e, &frame, wo, &mut out)?;
+                        }
+                        (_, _, _, Some(or), _) => {
+                            let (k, ok, r) = or.shade(job.env, job.brdf, &frame, wo, &mut out);
+                            max_k = max_k.max(k);
+                            bad += usize::from(!ok);
+                            resid = resid.max(r);
+                        }
+                        _ => unreachable!("methods and their inputs are checked above"),
+                    }
+                } else if let Some(bg) = job.background {
+                    bg.lookup(d.to_array(), &mut out);
+                }
+                for c in 0..ch {
+                    px[x * ch + c] = out[c] as f32;
+                }
+            }
+            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            progress(n, h);
+            Ok((px, mask, max_k, bad, resid))
+        })
+        .collect();
+    let mut data = Vec::with_capacity(w * h * ch);
+    let mut mask = Vec::with_capacity(w * h);
+    let (mut max_k, mut not_converged, mut max_residual) = (0, 0, 0.0f64);
+    for r in rows {
+        let (p, m, k, b, res) = r?;
+        max_residual = max_residual.max(res);
+        data.extend(p);
+        mask.extend(m);
+        max_k = max_k.max(k);
+        not_converged += b;
+    }
+    let object_pixels = mask.iter().filter(|m| **m).count();
+    if object_pixels == 0 {
+        return Err(RenderError::NothingVisible(format!(
+            "no ray of the {w}x{h} image hits the {:?} (check --eye, --target, --fov)",
+            job.scene
+        )));
+    }
+    Ok(Rendered {
+        image: Image::from_vec(w, h, ch, data)?,
+        mask,
+        object_pixels,
+        max_k,
+        not_converged,
+        max_residual,
+    })
+}
+
+/// Relative RMS error of `a` against `b` over the masked pixels:
+/// `sqrt(sum (a - b)^2 / sum b^2)` over all channels.
+#[must_use]
+pub fn relative_rms(a: &Image, b: &Image, mask: &[bool]) -> f64 {
+    let ch = a.channels();
+    let (mut num, mut den) = (0.0, 0.0);
+    for (i, m) in mask.iter().enumerate() {
+        if !m {
+            continue;
+        }
+        for c in 0..ch {
+            let (x, y) = (
+                f64::from(a.data()[i * ch + c]),
+                f64::from(b.data()[i * ch + c]),
+            );
+            num += (x - y) * (x - y);
+            den += y * y;
+        }
+    }
+    (num / den.max(f64::MIN_POSITIVE)).sqrt()
+}

@@ -1,0 +1,152 @@
+//! Analytic scenes, ray cast exactly: a unit sphere, a torus and a ground
+//! square, all centred at the origin, `z` up.
+
+use glam::DVec3;
+
+use crate::error::{RenderError, Result};
+
+/// What a ray hits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Distance along the ray.
+    pub t: f64,
+    /// The point.
+    pub p: DVec3,
+    /// The unit outward normal.
+    pub n: DVec3,
+    /// `dP/du` of the surface's parameterisation (the tangent anisotropic
+    /// BRDFs align `ax` with); may be zero at a singular point.
+    pub dpdu: DVec3,
+}
+
+/// An analytic scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scene {
+    /// The unit sphere; `u = phi` (azimuth), so `dP/du = (-y, x, 0)`.
+    Sphere,
+    /// The torus of radii 1 (ring) and 0.4 (tube) around `z`; `u` the angle
+    /// around `z`.
+    Torus,
+    /// The square `[-2, 2]^2` of the plane `z = 0`, facing `+z`; `u = x`.
+    Plane,
+}
+
+/// Torus radii.
+const RING: f64 = 1.0;
+const TUBE: f64 = 0.4;
+
+impl Scene {
+    /// `sphere`, `torus` or `plane`.
+    ///
+    /// # Errors
+    /// [`RenderError::Parameter`] for other names.
+    pub fn parse(name: &str) -> Result<Self> {
+        match name {
+            "sphere" => Ok(Self::Sphere),
+            "torus" => Ok(Self::Torus),
+            "plane" => Ok(Self::Plane),
+            _ => Err(RenderError::Parameter {
+                name: "--scene",
+                value: name.into(),
+                reason: "use sphere, torus or plane (OBJ meshes are not supported yet)".into(),
+            }),
+        }
+    }
+
+    /// The first hit of the ray `o + t d` (`d` unit, `t > 1e-9`).
+    #[must_use]
+    pub fn intersect(&self, o: DVec3, d: DVec3) -> Option<Hit> {
+        match self {
+            Self::Sphere => {
+                let b = o.dot(d);
+                let c = o.length_squared() - 1.0;
+                let disc = b * b - c;
+                if disc < 0.0 {
+                    return None;
+                }
+                let s = disc.sqrt();
+                let t = if -b - s > 1e-9 { -b - s } else { -b + s };
+                if t <= 1e-9 {
+                    return None;
+                }
+                let p = o + t * d;
+                let n = p.normalize();
+                Some(Hit {
+                    t,
+                    p,
+                    n,
+                    dpdu: DVec3::new(-p.y, p.x, 0.0),
+                })
+            }
+            Self::Plane => {
+                if d.z.abs() < 1e-15 {
+                    return None;
+                }
+                let t = -o.z / d.z;
+                let p = o + t * d;
+                if t <= 1e-9 || p.x.abs() > 2.0 || p.y.abs() > 2.0 {
+                    return None;
+                }
+                Some(Hit {
+                    t,
+                    p: DVec3::new(p.x, p.y, 0.0),
+                    n: DVec3::Z,
+                    dpdu: DVec3::X,
+                })
+            }
+            Self::Torus => torus_hit(o, d),
+        }
+    }
+}
+
+/// Signed distance to the torus.
+fn torus_sdf(p: DVec3) -> f64 {
+    let q = (p.x * p.x + p.y * p.y).sqrt() - RING;
+    (q * q + p.z * p.z).sqrt() - TUBE
+}
+
+/// Sphere tracing to the torus surface, then bisection to 1e-12.
+fn torus_hit(o: DVec3, d: DVec3) -> Option<Hit> {
+    // the bounding sphere of radius RING + TUBE
+    let b = o.dot(d);
+    let c = o.length_squared() - (RING + TUBE) * (RING + TUBE);
+    let disc = b * b - c;
+    if disc < 0.0 {
+        return None;
+    }
+    let t_far = -b + disc.sqrt();
+    let mut t = (-b - disc.sqrt()).max(0.0);
+    let mut prev = t;
+    for _ in 0..512 {
+        if t > t_far {
+            return None;
+        }
+        let dist = torus_sdf(o + t * d);
+        if dist < 1e-10 {
+            // bracket [prev, t] contains the crossing: bisect
+            let (mut lo, mut hi) = (prev, t);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if torus_sdf(o + mid * d) > 0.0 {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let t = hi;
+            let p = o + t * d;
+            let rxy = (p.x * p.x + p.y * p.y).sqrt();
+            let centre = DVec3::new(p.x / rxy * RING, p.y / rxy * RING, 0.0);
+            let n = (p - centre).normalize();
+            return Some(Hit {
+                t,
+                p,
+                n,
+                dpdu: DVec3::new(-p.y, p.x, 0.0),
+            });
+        }
+        prev = t;
+        t += dist.max(1e-9);
+    }
+    None
+}

@@ -1,0 +1,189 @@
+//! ISD shading against the exact texel quadrature on the bundled forest map
+//! (the accuracy goals, at a small size for CI: a 40x40 view of the
+//! unit sphere, the map averaged down to 32x16).
+
+use glam::DVec3;
+use ifd_image::Image;
+use ifd_render::camera::Camera;
+use ifd_render::envmap::EnvMap;
+use ifd_render::render::{Job, Method, Rendered, relative_rms, render};
+use ifd_render::scene::Scene;
+use ifd_shade::Brdf;
+use ifd_shade::shade::Material;
+use ifd_shade::table::{LobeTable, default_theta_entries};
+
+fn forest() -> EnvMap {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/forest.hdr");
+    let img = ifd_image::read(path).expect("bundled map");
+    EnvMap::new(img, 30.0)
+        .expect("a 2:1 map")
+        .downsampled(32, 16)
+        .expect("a divisor")
+}
+
+fn camera(size: usize) -> Camera {
+    Camera::new(
+        DVec3::new(3.0, -2.5, 1.2),
+        DVec3::ZERO,
+        DVec3::Z,
+        40.0,
+        size,
+        size,
+    )
+    .expect("camera")
+}
+
+fn shoot(env: &EnvMap, brdf: &Brdf, material: Option<&Material>, method: Method) -> Rendered {
+    let job = Job {
+        scene: Scene::Sphere,
+        camera: camera(40),
+        env,
+        background: None,
+        brdf,
+        material,
+        method,
+    };
+    render(&job, &|_, _| {}).expect("render")
+}
+
+fn material(brdf: &Brdf, l: usize) -> Material {
+    let table = Material::new(brdf, l, None).is_err().then(|| {
+        LobeTable::build(brdf, l, default_theta_entries(brdf), 1, &|_, _| {}).expect("table")
+    });
+    Material::new(brdf, l, table).expect("material")
+}
+
+/// RMS error over object pixels relative to the mean of the reference.
+fn rms_of_mean(a: &Image, b: &Image, mask: &[bool]) -> f64 {
+    let ch = a.channels();
+    let (mut se, mut sum, mut n) = (0.0, 0.0, 0.0);
+    for (i, m) in mask.iter().enumerate() {
+        if *m {
+            for c in 0..ch {
+                let (x, y) = (
+                    f64::from(a.data()[i * ch + c]),
+                    f64::from(b.data()[i * ch + c]),
+                );
+                se += (x - y) * (x - y);
+                sum += y;
+                n += 1.0;
+            }
+        }
+    }
+    (se / n).sqrt() / (sum / n)
+}
+
+#[test]
+fn isd_converges_to_the_quadrature_oracle() {
+    let env = forest();
+    // (spec, L, goal on the relative RMS error)
+    let cases: [(&str, usize, f64); 4] = [
+        ("phong:s=8", 9, 0.01),
+        ("phong:s=32", 18, 0.01),
+        ("ggx:alpha=0.3", 24, 0.01),
+        ("lambert", 6, 0.01),
+    ];
+    for (spec, l, goal) in cases {
+        let brdf = Brdf::parse(spec).unwrap();
+        let oracle = shoot(&env, &brdf, None, Method::Quadrature);
+        // texels across the horizon converge slowly: their remaining changes
+        // must stay far below the goals
+        assert!(
+            oracle.max_residual < 1e-4,
+            "{spec}: oracle residual {}",
+            oracle.max_residual
+        );
+        let m = material(&brdf, l);
+        let isd = shoot(&env, &brdf, Some(&m), Method::Isd);
+        assert_eq!(isd.mask, oracle.mask);
+        assert!(isd.object_pixels > 500, "{}", isd.object_pixels);
+        let err = relative_rms(&isd.image, &oracle.image, &oracle.mask);
+        eprintln!(
+            "{spec} at L = {l}: relative RMS {err:.5} (oracle k <= {}, {} pixels unconverged, residual {:.1e})",
+            oracle.max_k, oracle.not_converged, oracle.max_residual
+        );
+        assert!(err <= goal, "{spec} at L = {l}: relative RMS {err}");
+        // a lower degree is measurably worse: the test can fail
+        let coarse = shoot(&env, &brdf, Some(&material(&brdf, l / 3)), Method::Isd);
+        let err_coarse = relative_rms(&coarse.image, &oracle.image, &oracle.mask);
+        assert!(
+            err_coarse > 2.0 * err,
+            "{spec}: L = {} gives {err_coarse}",
+            l / 3
+        );
+    }
+    // Lambert at L = 2: the Ramamoorthi-Hanrahan bound (< 3% of the mean)
+    let brdf = Brdf::parse("lambert").unwrap();
+    let oracle = shoot(&env, &brdf, None, Method::Quadrature);
+    let isd = shoot(&env, &brdf, Some(&material(&brdf, 2)), Method::Isd);
+    let e = rms_of_mean(&isd.image, &oracle.image, &oracle.mask);
+    eprintln!("lambert at L = 2: RMS error {e:.5} of the mean");
+    assert!(e <= 0.03, "{e}");
+}
+
+#[test]
+fn isd_and_sh_images_agree() {
+    let env = forest();
+    for spec in ["ggx:ax=0.2,ay=0.5", "phong:s=16"] {
+        let brdf = Brdf::parse(spec).unwrap();
+        let l = 6;
+        let table =
+            (!brdf.is_isotropic()).then(|| LobeTable::build(&brdf, l, 8, 16, &|_, _| {}).unwrap());
+        let m = Material::new(&brdf, l, table).unwrap();
+        let a = shoot(&env, &brdf, Some(&m), Method::Isd);
+        let b = shoot(&env, &brdf, Some(&m), Method::Sh);
+        let max = b.image.data().iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        let diff = a
+            .image
+            .data()
+            .iter()
+            .zip(b.image.data())
+            .fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
+        // f32 images: the f64 agreement (1e-9, ifd-shade's tests) rounded
+        assert!(diff <= 2e-6 * max, "{spec}: {diff} vs max {max}");
+    }
+}
+
+#[test]
+fn white_furnace_and_bad_cameras() {
+    let one = EnvMap::new(Image::from_vec(16, 8, 3, vec![1.0; 384]).unwrap(), 0.0).unwrap();
+    let brdf = Brdf::parse("lambert").unwrap();
+    let m = Material::new(&brdf, 4, None).unwrap();
+    let r = shoot(&one, &brdf, Some(&m), Method::Isd);
+    for (i, on) in r.mask.iter().enumerate() {
+        if *on {
+            for c in 0..3 {
+                let v = r.image.data()[i * 3 + c];
+                assert!((v - 1.0).abs() < 1e-4, "pixel {i}: {v}");
+            }
+        }
+    }
+    let away = Camera::new(
+        DVec3::new(0.0, -4.0, 0.0),
+        DVec3::new(0.0, -8.0, 0.0),
+        DVec3::Z,
+        40.0,
+        8,
+        8,
+    )
+    .unwrap();
+    let job = Job {
+        scene: Scene::Sphere,
+        camera: away,
+        env: &one,
+        background: Some(&one),
+        brdf: &brdf,
+        material: Some(&m),
+        method: Method::Isd,
+    };
+    let e = render(&job, &|_, _| {}).unwrap_err().to_string();
+    assert!(e.contains("sees no object"), "{e}");
+    let e = Camera::new(DVec3::ZERO, DVec3::Z, DVec3::Z, 40.0, 8, 8)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--up"), "{e}");
+    let e = Camera::new(DVec3::ZERO, DVec3::X, DVec3::Z, 190.0, 8, 8)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--fov"), "{e}");
+}
