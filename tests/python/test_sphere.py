@@ -453,7 +453,9 @@ def test_render_matches_numpy_brute_force(run_ifd, tmp_path):
     (("--brdf", "lambert", "--lmax", 4, "--scene", "teapot"), "--scene"),
     (("--brdf", "lambert", "--lmax", 4, "--fov", "0"), "--fov"),
     (("--brdf", "velvet", "--lmax", 4), "unknown BRDF"),
-    (("--brdf", "lambert", "--lmax", 4, "--method", "mc"), "--method"),
+    (("--brdf", "lambert", "--lmax", 4, "--method", "isd-maps"), "--method"),
+    (("--brdf", "lambert", "--method", "mc", "--spp", 0), "--spp"),
+    (("--brdf", "lambert", "--lmax", 4, "--stderr", "x.exr"), "--stderr"),
 ])
 def test_render_refuses_bad_input(run_ifd, tmp_path, args, needle):
     np.save(tmp_path / "env.npy", np.ones((8, 16, 3), np.float32))

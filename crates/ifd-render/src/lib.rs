@@ -1,7 +1,7 @@
 //! A CPU renderer for objects lit by an environment map, the testbed of ISD
 //! shading (ISD Sec. 6.1, Eq. 20-22): analytic scenes ray cast through a
 //! pinhole camera (world `z` up), shaded per pixel centre by ISD, by its SH
-//! reference, or by an exact texel quadrature of the same (downsampled,
+//! reference, by Monte Carlo, or by an exact texel quadrature of the same (downsampled,
 //! piecewise-constant) environment. Unshadowed (no visibility, no
 //! interreflection).
 //!
@@ -14,7 +14,7 @@
 //! let material = Material::new(&brdf, 4, None)?;
 //! let camera = Camera::new(DVec3::new(0.0, -4.0, 0.0), DVec3::ZERO, DVec3::Z, 40.0, 16, 16)?;
 //! let job = Job { scene: Scene::Sphere, camera, env: &env, background: None, brdf: &brdf,
-//!                 material: Some(&material), method: Method::Isd };
+//!                 material: Some(&material), method: Method::Isd, spp: 0, seed: 0 };
 //! let r = render(&job, &|_, _| {})?;
 //! // the white furnace: a white Lambertian sphere in a uniform unit light is 1
 //! let centre = r.image.get(8, 8, 0);
@@ -27,6 +27,7 @@
 //! - [`scene`]: sphere, torus, plane.
 //! - [`envmap`]: environment maps (rotation, downsampling, lookups, exact SH, texel samples).
 //! - [`oracle`]: the exact texel quadrature.
+//! - [`mc`]: the Monte Carlo reference (environment and BRDF sampling, MIS).
 //! - [`render`]: the render loop and error measures.
 //! - [`tonemap`]: exposure, tone curves, sRGB.
 
@@ -34,6 +35,7 @@ mod error;
 
 pub mod camera;
 pub mod envmap;
+pub mod mc;
 pub mod oracle;
 pub mod render;
 pub mod scene;

@@ -11,6 +11,7 @@ use rayon::prelude::*;
 use crate::camera::Camera;
 use crate::envmap::EnvMap;
 use crate::error::{RenderError, Result};
+use crate::mc::{EnvSampler, estimate, pixel_seed};
 use crate::oracle::Oracle;
 use crate::scene::Scene;
 
@@ -23,6 +24,8 @@ pub enum Method {
     Sh,
     /// The exact texel quadrature ([`crate::oracle`]).
     Quadrature,
+    /// Monte Carlo with environment and BRDF sampling and MIS ([`crate::mc`]).
+    Mc,
 }
 
 impl Method {
@@ -35,11 +38,11 @@ impl Method {
             "isd" => Ok(Self::Isd),
             "sh" => Ok(Self::Sh),
             "quadrature" => Ok(Self::Quadrature),
+            "mc" => Ok(Self::Mc),
             _ => Err(RenderError::Parameter {
                 name: "--method",
                 value: s.into(),
-                reason: "use isd, sh or quadrature (isd-maps and mc are not implemented yet)"
-                    .into(),
+                reason: "use isd, sh, quadrature or mc (isd-maps is not implemented yet)".into(),
             }),
         }
     }
@@ -62,6 +65,10 @@ pub struct Job<'a> {
     pub material: Option<&'a Material>,
     /// The method.
     pub method: Method,
+    /// Samples per pixel of each strategy (Monte Carlo).
+    pub spp: usize,
+    /// Seed of the Monte Carlo sequence.
+    pub seed: u64,
 }
 
 /// A rendered image with what a caller needs to measure it.
@@ -79,10 +86,13 @@ pub struct Rendered {
     pub not_converged: usize,
     /// The largest residual estimate of the quadrature, relative to the pixel.
     pub max_residual: f64,
+    /// The per-pixel standard error (Monte Carlo only).
+    pub stderr: Option<Image>,
 }
 
-/// One rendered row: pixels, mask, largest oracle `k`, unconverged pixels, largest residual.
-type Row = (Vec<f32>, Vec<bool>, usize, usize, f64);
+/// One rendered row: pixels, mask, largest oracle `k`, unconverged pixels,
+/// largest residual, standard errors.
+type Row = (Vec<f32>, Vec<bool>, usize, usize, f64, Vec<f32>);
 
 /// Renders `job`; `progress(done_rows, rows)` after each row.
 ///
@@ -93,7 +103,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
     let (w, h) = (job.camera.width(), job.camera.height());
     let ch = job.env.channels();
     let env_sh = match (job.method, job.material) {
-        (Method::Quadrature, _) => None,
+        (Method::Quadrature | Method::Mc, _) => None,
         (_, Some(m)) => {
             let l = m.l_max();
             Some(Environment::new(job.env.sh(l)?)?)
@@ -107,12 +117,15 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
         }
     };
     let oracle = (job.method == Method::Quadrature).then(|| Oracle::new(job.env));
+    let sampler = (job.method == Method::Mc).then(|| EnvSampler::new(job.env));
     let done = std::sync::atomic::AtomicUsize::new(0);
     let rows: Vec<Result<Row>> = (0..h)
         .into_par_iter()
         .map(|y| {
             let mut px = vec![0.0f32; w * ch];
             let mut mask = vec![false; w];
+            let mut se = vec![0.0f32; if sampler.is_some() { w * ch } else { 0 }];
+            let mut err = vec![0.0; ch.max(3)];
             let (mut max_k, mut bad, mut resid) = (0, 0, 0.0f64);
             let mut out = vec![0.0; ch.max(3)];
             let mut scratch = job.material.map(|m| m.scratch(ch));
@@ -131,6 +144,19 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                         (Method::Sh, Some(m), Some(e), _, _) => {
                             m.shade_sh(e, &frame, wo, &mut out)?;
                         }
+                        (Method::Mc, ..) => {
+                            let Some(smp) = &sampler else {
+                                unreachable!("the sampler exists for mc")
+                            };
+                            let seed = pixel_seed(job.seed, x, y);
+                            estimate(
+                                job.env, smp, job.brdf, &frame, wo, job.spp, seed, &mut out,
+                                &mut err,
+                            );
+                            for c in 0..ch {
+                                se[x * ch + c] = err[c] as f32;
+                            }
+                        }
                         (_, _, _, Some(or), _) => {
                             let (k, ok, r) = or.shade(job.env, job.brdf, &frame, wo, &mut out);
                             max_k = max_k.max(k);
@@ -148,14 +174,16 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             }
             let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress(n, h);
-            Ok((px, mask, max_k, bad, resid))
+            Ok((px, mask, max_k, bad, resid, se))
         })
         .collect();
     let mut data = Vec::with_capacity(w * h * ch);
     let mut mask = Vec::with_capacity(w * h);
     let (mut max_k, mut not_converged, mut max_residual) = (0, 0, 0.0f64);
+    let mut se = Vec::new();
     for r in rows {
-        let (p, m, k, b, res) = r?;
+        let (p, m, k, b, res, e) = r?;
+        se.extend(e);
         max_residual = max_residual.max(res);
         data.extend(p);
         mask.extend(m);
@@ -176,6 +204,11 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
         max_k,
         not_converged,
         max_residual,
+        stderr: if sampler.is_some() {
+            Some(Image::from_vec(w, h, ch, se)?)
+        } else {
+            None
+        },
     })
 }
 

@@ -42,6 +42,8 @@ fn shoot(env: &EnvMap, brdf: &Brdf, material: Option<&Material>, method: Method)
         brdf,
         material,
         method,
+        spp: 64,
+        seed: 1,
     };
     render(&job, &|_, _| {}).expect("render")
 }
@@ -175,6 +177,8 @@ fn white_furnace_and_bad_cameras() {
         brdf: &brdf,
         material: Some(&m),
         method: Method::Isd,
+        spp: 0,
+        seed: 0,
     };
     let e = render(&job, &|_, _| {}).unwrap_err().to_string();
     assert!(e.contains("sees no object"), "{e}");
@@ -186,4 +190,58 @@ fn white_furnace_and_bad_cameras() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("--fov"), "{e}");
+}
+
+#[test]
+fn monte_carlo_converges_to_the_oracle() {
+    let env = forest();
+    for spec in [
+        "ggx:alpha=0.3",
+        "phong:s=32",
+        "ward:ax=0.2,ay=0.4",
+        "lambert",
+    ] {
+        let brdf = Brdf::parse(spec).unwrap();
+        let oracle = shoot(&env, &brdf, None, Method::Quadrature);
+        let mc = |spp: usize| {
+            let job = Job {
+                scene: Scene::Sphere,
+                camera: camera(40),
+                env: &env,
+                background: None,
+                brdf: &brdf,
+                material: None,
+                method: Method::Mc,
+                spp,
+                seed: 7,
+            };
+            render(&job, &|_, _| {}).unwrap()
+        };
+        let (a, b) = (mc(16), mc(256));
+        let (ea, eb) = (
+            relative_rms(&a.image, &oracle.image, &oracle.mask),
+            relative_rms(&b.image, &oracle.image, &oracle.mask),
+        );
+        eprintln!("{spec}: Monte Carlo relative RMS {ea:.4} at 16 spp, {eb:.4} at 256");
+        assert!(eb <= 0.35 * ea, "{spec}: {eb} vs {ea}");
+        // the reported standard error (an iid estimate: the low-discrepancy
+        // points do better) bounds the actual error and is of its order
+        let se = b.stderr.as_ref().unwrap();
+        let (mut s2, mut r2) = (0.0f64, 0.0f64);
+        for (i, m) in b.mask.iter().enumerate() {
+            if *m {
+                for c in 0..3 {
+                    s2 += f64::from(se.data()[i * 3 + c]).powi(2);
+                    r2 += f64::from(oracle.image.data()[i * 3 + c]).powi(2);
+                }
+            }
+        }
+        let rel_se = (s2 / r2).sqrt();
+        eprintln!("{spec}: reported standard error {rel_se:.4} (relative RMS)");
+        assert!(se.data().iter().all(|v| v.is_finite() && *v >= 0.0));
+        assert!(
+            rel_se >= eb && rel_se <= 20.0 * eb,
+            "{spec}: {rel_se} vs {eb}"
+        );
+    }
 }

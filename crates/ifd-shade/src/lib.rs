@@ -25,11 +25,13 @@
 //! - [`slice`]: SH projection of slices.
 //! - [`table`]: view-dependent lobe-weight tables and their file format.
 //! - [`shade`]: shading by Eq. 22 (ISD and the SH reference).
+//! - [`sample`]: importance sampling of slices (Monte Carlo references).
 
 mod error;
 
 pub mod brdf;
 pub mod merl;
+pub mod sample;
 pub mod shade;
 pub mod slice;
 pub mod table;

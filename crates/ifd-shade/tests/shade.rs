@@ -459,3 +459,45 @@ fn white_furnace_through_shading() {
         }
     }
 }
+
+#[test]
+fn samplers_are_consistent_with_their_densities() {
+    use ifd_sphere::zhf::SplitMix64;
+    // E[k(wi) / pdf(wi)] over the sampler's draws is the slice's integral
+    let dir = tempfile::tempdir().unwrap();
+    let merl_path = dir.path().join("m.binary");
+    Merl::tabulate(ggx_rgb).write(&merl_path).unwrap();
+    let merl = format!("merl:{}", merl_path.display());
+    for spec in [
+        "lambert",
+        "phong:s=20",
+        "blinn:s=40",
+        "ggx:alpha=0.3",
+        "ggx:ax=0.15,ay=0.5",
+        "ward:ax=0.2,ay=0.35",
+        merl.as_str(),
+    ] {
+        let b = Brdf::parse(spec).unwrap();
+        let mut rng = SplitMix64::new(9);
+        for t in [0.4, 1.1] {
+            let wo = view(t, 0.8);
+            let n = 200_000;
+            let mut k = [0.0; 3];
+            let mut sum = 0.0;
+            for _ in 0..n {
+                if let Some(wi) = b.sample(wo, [rng.uniform(), rng.uniform()]) {
+                    let p = b.pdf(wi, wo);
+                    assert!(p > 0.0, "{spec}: a drawn direction has density 0");
+                    b.slice(wi, wo, &mut k);
+                    sum += k[0] / p;
+                }
+            }
+            let mc = sum / n as f64;
+            let want = project_slice(&b, wo, 2, None).unwrap().get(0, 0, 0) * (4.0 * PI).sqrt();
+            assert!(
+                (mc - want).abs() < 0.01 * want,
+                "{spec} at {t}: {mc} vs {want}"
+            );
+        }
+    }
+}

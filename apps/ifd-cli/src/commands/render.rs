@@ -94,9 +94,19 @@ pub struct Render {
     /// default 128x64 when it divides the map, else the map's own size.
     #[arg(long, value_name = "WxH")]
     env_size: Option<String>,
-    /// Shading: isd (Eq. 22), sh (rotated slice SH, same weights) or quadrature (exact oracle).
+    /// Shading: isd (Eq. 22), sh (rotated slice SH, same weights), quadrature (exact oracle) or
+    /// mc (Monte Carlo: environment and BRDF importance sampling, MIS, low-discrepancy points).
     #[arg(long, default_value = "isd")]
     method: String,
+    /// Monte Carlo samples per pixel (each: one environment and one BRDF sample).
+    #[arg(long, value_name = "N", default_value_t = 64)]
+    spp: usize,
+    /// Monte Carlo seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Monte Carlo: also write the per-pixel standard error (linear; .exr or .npy).
+    #[arg(long, value_name = "FILE")]
+    stderr: Option<PathBuf>,
     /// Black background instead of the environment.
     #[arg(long)]
     no_background: bool,
@@ -178,8 +188,17 @@ impl Render {
             h,
         )?;
         let brdf = Brdf::parse(&self.brdf)?;
+        if method == Method::Mc && !(1..=1 << 24).contains(&self.spp) {
+            bail!("--spp {}: use 1..=16777216 samples per pixel", self.spp);
+        }
+        if self.stderr.is_some() && method != Method::Mc {
+            bail!("--stderr is written by --method mc only");
+        }
+        if let Some(p) = &self.stderr {
+            is_display(p)?;
+        }
         let l_max = match (method, self.lmax) {
-            (Method::Quadrature, l) => l,
+            (Method::Quadrature | Method::Mc, l) => l,
             (_, Some(l)) => Some(l),
             (_, None) => bail!("--lmax L is needed for --method {}", self.method),
         };
@@ -200,7 +219,7 @@ impl Render {
         let env = full.downsampled(ew, eh)?;
         let start = std::time::Instant::now();
         let material = match (method, l_max) {
-            (Method::Quadrature, _) | (_, None) => None,
+            (Method::Quadrature | Method::Mc, _) | (_, None) => None,
             (_, Some(l)) => {
                 let table = match &self.table {
                     Some(p) => Some(LobeTable::read(p)?),
@@ -237,6 +256,8 @@ impl Render {
             brdf: &brdf,
             material: material.as_ref(),
             method,
+            spp: self.spp,
+            seed: self.seed,
         };
         let bar = progress_bar("render");
         let r = render(&job, &|d, n| {
@@ -256,6 +277,9 @@ impl Render {
             let mask = ifd_image::Image::from_vec(w, h, 1, data)?;
             crate::input::write_output(m, &mask, &ifd_image::WriteOptions::default())?;
         }
+        if let (Some(p), Some(se)) = (&self.stderr, &r.stderr) {
+            crate::input::write_output(p, se, &ifd_image::WriteOptions::default())?;
+        }
         crate::input::write_output(&self.output, &img, &ifd_image::WriteOptions::default())?;
         println!(
             "{}",
@@ -267,6 +291,7 @@ impl Render {
                 "quadrature_max_k": (method == Method::Quadrature).then_some(r.max_k),
                 "quadrature_unconverged_pixels": (method == Method::Quadrature).then_some(r.not_converged),
                 "quadrature_max_residual": (method == Method::Quadrature).then_some(r.max_residual),
+                "spp": (method == Method::Mc).then_some(self.spp),
                 "seconds": secs,
             })
         );
