@@ -144,7 +144,7 @@ impl EnvSampler {
     }
 }
 
-/// SplitMix64 of a value: the per-pixel rotation of the sequence.
+/// The `SplitMix64` finaliser of a value: the per-pixel rotation of the sequence.
 fn hash(mut x: u64) -> u64 {
     x = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
     x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
