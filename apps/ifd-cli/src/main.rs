@@ -46,7 +46,7 @@ enum Command {
     /// Spherical harmonics, SH rotation and isotropic spherical decompositions.
     Sphere(commands::sphere::Sphere),
     /// Render an object lit by an environment map: ISD shading (Eq. 22), its SH reference or the exact quadrature.
-    Render(commands::render::Render),
+    Render(Box<commands::render::Render>),
 }
 
 fn main() -> ExitCode {
