@@ -9,7 +9,8 @@
 //! - [`planar`] (`ifd-planar`): decompositions, scale stacks, filtering;
 //! - [`smooth`] (`ifd-smooth`): the Hessian and anisotropic smoothing;
 //! - [`sphere`] (`ifd-sphere`): spherical harmonics, rotation, ISD;
-//! - [`shade`] (`ifd-shade`): BRDFs as spherical filters, lobe-weight tables.
+//! - [`shade`] (`ifd-shade`): BRDFs as spherical filters, lobe-weight tables, Eq. 22;
+//! - [`render`] (`ifd-render`): the CPU renderer, its oracle and Monte Carlo.
 //!
 //! GPU evaluation lives in the `ifd-gpu` crate, which is not re-exported
 //! here, so that depending on `ifd` does not pull in wgpu.
@@ -35,6 +36,7 @@
 
 pub use ifd_image as image;
 pub use ifd_planar as planar;
+pub use ifd_render as render;
 pub use ifd_shade as shade;
 pub use ifd_smooth as smooth;
 pub use ifd_sphere as sphere;

@@ -453,7 +453,7 @@ def test_render_matches_numpy_brute_force(run_ifd, tmp_path):
     (("--brdf", "lambert", "--lmax", 4, "--scene", "teapot"), "--scene"),
     (("--brdf", "lambert", "--lmax", 4, "--fov", "0"), "--fov"),
     (("--brdf", "velvet", "--lmax", 4), "unknown BRDF"),
-    (("--brdf", "lambert", "--lmax", 4, "--method", "isd-maps"), "--method"),
+    (("--brdf", "lambert", "--lmax", 4, "--method", "path-tracing"), "--method"),
     (("--brdf", "lambert", "--method", "mc", "--spp", 0), "--spp"),
     (("--brdf", "lambert", "--lmax", 4, "--stderr", "x.exr"), "--stderr"),
 ])

@@ -24,6 +24,7 @@
 //!
 //! # Modules
 //! - [`camera`]: the pinhole camera.
+//! - [`convergence`]: error against the oracle as `L` grows (ISD Fig. 4), CSV and plot.
 //! - [`scene`]: sphere, torus, plane.
 //! - [`envmap`]: environment maps (rotation, downsampling, lookups, exact SH, texel samples).
 //! - [`oracle`]: the exact texel quadrature.
@@ -34,6 +35,7 @@
 mod error;
 
 pub mod camera;
+pub mod convergence;
 pub mod envmap;
 pub mod mc;
 pub mod oracle;

@@ -5,7 +5,7 @@
 
 use ifd_image::Image;
 use ifd_shade::Brdf;
-use ifd_shade::shade::{Environment, Frame, Material};
+use ifd_shade::shade::{BandMaps, Environment, Frame, Material};
 use rayon::prelude::*;
 
 use crate::camera::Camera;
@@ -18,8 +18,11 @@ use crate::scene::Scene;
 /// How object pixels are shaded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
-    /// ISD, Eq. 22: rotated lobes looked up in the per-band environment.
+    /// ISD, Eq. 22: rotated lobes, the per-band environment reconstructed from SH.
     Isd,
+    /// ISD with the per-band environment looked up in prefiltered maps
+    /// ([`ifd_shade::shade::BandMaps`], bicubic).
+    IsdMaps,
     /// The rotated slice's SH dotted with the environment's (same weights).
     Sh,
     /// The exact texel quadrature ([`crate::oracle`]).
@@ -36,13 +39,14 @@ impl Method {
     pub fn parse(s: &str) -> Result<Self> {
         match s {
             "isd" => Ok(Self::Isd),
+            "isd-maps" => Ok(Self::IsdMaps),
             "sh" => Ok(Self::Sh),
             "quadrature" => Ok(Self::Quadrature),
             "mc" => Ok(Self::Mc),
             _ => Err(RenderError::Parameter {
                 name: "--method",
                 value: s.into(),
-                reason: "use isd, sh, quadrature or mc (isd-maps is not implemented yet)".into(),
+                reason: "use isd, isd-maps, sh, quadrature or mc".into(),
             }),
         }
     }
@@ -116,6 +120,10 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             });
         }
     };
+    let maps = match (&env_sh, job.method) {
+        (Some(e), Method::IsdMaps) => Some(BandMaps::new(e)?),
+        _ => None,
+    };
     let oracle = (job.method == Method::Quadrature).then(|| Oracle::new(job.env));
     let sampler = (job.method == Method::Mc).then(|| EnvSampler::new(job.env));
     let done = std::sync::atomic::AtomicUsize::new(0);
@@ -140,6 +148,12 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                     match (job.method, job.material, &env_sh, &oracle, scratch.as_mut()) {
                         (Method::Isd, Some(m), Some(e), _, Some(s)) => {
                             m.shade_isd(e, &frame, wo, s, &mut out)?;
+                        }
+                        (Method::IsdMaps, Some(m), _, _, Some(s)) => {
+                            let Some(bm) = &maps else {
+                                unreachable!("maps exist for isd-maps")
+                            };
+                            m.shade_isd(bm, &frame, wo, s, &mut out)?;
                         }
                         (Method::Sh, Some(m), Some(e), _, _) => {
                             m.shade_sh(e, &frame, wo, &mut out)?;

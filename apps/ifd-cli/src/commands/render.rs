@@ -40,9 +40,10 @@ pub struct Render {
     /// Environment map, 2:1 equirectangular (EXR, HDR, ...).
     #[arg(long, value_name = "FILE")]
     env: PathBuf,
-    /// BRDF spec: lambert, phong:s=.., blinn:s=.., ggx:alpha=.. or ggx:ax=..,ay=.., ward:.., merl:FILE.
-    #[arg(long, value_name = "SPEC")]
-    brdf: String,
+    /// BRDF spec: lambert, phong:s=.., blinn:s=.., ggx:alpha=.. or ggx:ax=..,ay=.., ward:.., merl:FILE
+    /// (repeat it with --convergence).
+    #[arg(long, value_name = "SPEC", required = true)]
+    brdf: Vec<String>,
     /// Maximum SH degree L (isd, sh).
     #[arg(long, value_name = "L")]
     lmax: Option<usize>,
@@ -124,9 +125,26 @@ pub struct Render {
     /// Also write the object mask (1 on the object, 0 elsewhere).
     #[arg(long, value_name = "FILE")]
     mask: Option<PathBuf>,
+    /// Convergence study instead of one image: degrees A..B (e.g. 2..24, step with A..B:S);
+    /// renders the oracle once per --brdf, then ISD and SH at every degree, and writes --csv,
+    /// --plot and --grid.
+    #[arg(long, value_name = "A..B[:S]")]
+    convergence: Option<String>,
+    /// Convergence: the CSV of errors (brdf, L, method, rel_rms, psnr_db).
+    #[arg(long, value_name = "FILE", requires = "convergence")]
+    csv: Option<PathBuf>,
+    /// Convergence: the plot of the relative RMS error against L (PNG).
+    #[arg(long, value_name = "FILE", requires = "convergence")]
+    plot: Option<PathBuf>,
+    /// Convergence: an image grid, one row per BRDF, ISD at a few degrees then the oracle (PNG).
+    #[arg(long, value_name = "FILE", requires = "convergence")]
+    grid: Option<PathBuf>,
+    /// Convergence: skip the SH reference (slow at high L; it equals ISD to rounding).
+    #[arg(long, requires = "convergence")]
+    no_sh: bool,
     /// Output image.
-    #[arg(short, long)]
-    output: PathBuf,
+    #[arg(short, long, required_unless_present = "convergence")]
+    output: Option<PathBuf>,
     #[command(flatten)]
     input: InputOptions,
 }
@@ -168,26 +186,28 @@ fn is_display(path: &std::path::Path) -> Result<bool> {
 impl Render {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
+        if self.convergence.is_some() {
+            return self.run_convergence();
+        }
+        if self.brdf.len() != 1 {
+            bail!("--brdf: give one BRDF (several only with --convergence)");
+        }
+        let Some(output) = self.output.clone() else {
+            bail!("-o OUTPUT is required");
+        };
         let method = Method::parse(&self.method)?;
         let scene = Scene::parse(&self.scene)?;
         let tonemap = Tonemap::parse(&self.tonemap)?;
         if !self.exposure.is_finite() {
             bail!("--exposure {}: not finite", self.exposure);
         }
-        let display = is_display(&self.output)?;
+        let display = is_display(&output)?;
         if let Some(m) = &self.mask {
             is_display(m)?;
         }
-        let (w, h) = parse_size(&self.size, "--size")?;
-        let camera = Camera::new(
-            parse_vec(&self.eye, "--eye")?,
-            parse_vec(&self.target, "--target")?,
-            parse_vec(&self.up, "--up")?,
-            self.fov,
-            w,
-            h,
-        )?;
-        let brdf = Brdf::parse(&self.brdf)?;
+        let camera = self.camera()?;
+        let (w, h) = (camera.width(), camera.height());
+        let brdf = Brdf::parse(&self.brdf[0])?;
         if method == Method::Mc && !(1..=1 << 24).contains(&self.spp) {
             bail!("--spp {}: use 1..=16777216 samples per pixel", self.spp);
         }
@@ -208,15 +228,8 @@ impl Render {
                 ifd_shade::table::MAX_TABLE_DEGREE
             );
         }
-        let full = EnvMap::new(self.input.read(&self.env)?.image, self.env_rotate)
-            .with_context(|| format!("{}", self.env.display()))?;
-        let (mw, mh) = (full.image().width(), full.image().height());
-        let (ew, eh) = match &self.env_size {
-            Some(s) => parse_size(s, "--env-size")?,
-            None if mw % 128 == 0 && mh % 64 == 0 => (128, 64),
-            None => (mw, mh),
-        };
-        let env = full.downsampled(ew, eh)?;
+        let (full, env) = self.environments()?;
+        let (ew, eh) = (env.image().width(), env.image().height());
         let start = std::time::Instant::now();
         let material = match (method, l_max) {
             (Method::Quadrature | Method::Mc, _) | (_, None) => None,
@@ -260,11 +273,13 @@ impl Render {
             seed: self.seed,
         };
         let bar = progress_bar("render");
+        let t_render = std::time::Instant::now();
         let r = render(&job, &|d, n| {
             bar.set_length(n as u64);
             bar.set_position(d as u64);
         })?;
         bar.finish_and_clear();
+        let render_secs = t_render.elapsed().as_secs_f64();
         let secs = start.elapsed().as_secs_f64();
         let mut img = r.image;
         if display {
@@ -280,7 +295,7 @@ impl Render {
         if let (Some(p), Some(se)) = (&self.stderr, &r.stderr) {
             crate::input::write_output(p, se, &ifd_image::WriteOptions::default())?;
         }
-        crate::input::write_output(&self.output, &img, &ifd_image::WriteOptions::default())?;
+        crate::input::write_output(&output, &img, &ifd_image::WriteOptions::default())?;
         println!(
             "{}",
             json!({
@@ -292,9 +307,139 @@ impl Render {
                 "quadrature_unconverged_pixels": (method == Method::Quadrature).then_some(r.not_converged),
                 "quadrature_max_residual": (method == Method::Quadrature).then_some(r.max_residual),
                 "spp": (method == Method::Mc).then_some(self.spp),
-                "seconds": secs,
+                "seconds": secs, "render_seconds": render_secs,
             })
         );
+        Ok(())
+    }
+}
+
+impl Render {
+    /// The full-resolution map (background) and the one every method integrates.
+    fn environments(&self) -> Result<(EnvMap, EnvMap)> {
+        let full = EnvMap::new(self.input.read(&self.env)?.image, self.env_rotate)
+            .with_context(|| format!("{}", self.env.display()))?;
+        let (mw, mh) = (full.image().width(), full.image().height());
+        let (ew, eh) = match &self.env_size {
+            Some(s) => parse_size(s, "--env-size")?,
+            None if mw % 128 == 0 && mh % 64 == 0 => (128, 64),
+            None => (mw, mh),
+        };
+        let env = full.downsampled(ew, eh)?;
+        Ok((full, env))
+    }
+
+    fn camera(&self) -> Result<Camera> {
+        let (w, h) = parse_size(&self.size, "--size")?;
+        Ok(Camera::new(
+            parse_vec(&self.eye, "--eye")?,
+            parse_vec(&self.target, "--target")?,
+            parse_vec(&self.up, "--up")?,
+            self.fov,
+            w,
+            h,
+        )?)
+    }
+
+    fn run_convergence(self) -> Result<()> {
+        use ifd_render::convergence::{Study, csv, plot, run};
+        let text = self.convergence.as_deref().unwrap_or_default();
+        let bad = || {
+            anyhow::anyhow!(
+                "--convergence {text:?}: expected A..B or A..B:STEP with 0 <= A <= B <= 100"
+            )
+        };
+        let (range, step) = text.split_once(':').unwrap_or((text, "1"));
+        let (a, b) = range.split_once("..").ok_or_else(bad)?;
+        let (a, b, step): (usize, usize, usize) = (
+            a.trim().parse().map_err(|_| bad())?,
+            b.trim().parse().map_err(|_| bad())?,
+            step.trim().parse().map_err(|_| bad())?,
+        );
+        if a > b || b > ifd_shade::table::MAX_TABLE_DEGREE || step == 0 {
+            return Err(bad());
+        }
+        for p in [&self.plot, &self.grid].into_iter().flatten() {
+            is_display(p)?;
+        }
+        let degrees: Vec<usize> = (a..=b).step_by(step).collect();
+        let brdfs = self
+            .brdf
+            .iter()
+            .map(|s| Brdf::parse(s))
+            .collect::<std::result::Result<Vec<_>, _>>()?;
+        let scene = Scene::parse(&self.scene)?;
+        let camera = self.camera()?;
+        let tonemap = Tonemap::parse(&self.tonemap)?;
+        let (_, env) = self.environments()?;
+        let study = Study {
+            scene,
+            camera,
+            env: &env,
+            brdfs: &brdfs,
+            degrees: &degrees,
+            with_sh: !self.no_sh,
+        };
+        let start = std::time::Instant::now();
+        let outcome = run(&study, &|m| eprintln!("{m}"))?;
+        let table = csv(&outcome.rows);
+        if let Some(p) = &self.csv {
+            ifd_image::atomic_write(p, |w| {
+                use std::io::Write;
+                w.write_all(table.as_bytes()).map_err(|e| e.to_string())
+            })?;
+        }
+        if let Some(p) = &self.plot {
+            crate::input::write_output(
+                p,
+                &plot(&outcome.rows)?,
+                &ifd_image::WriteOptions::default(),
+            )?;
+        }
+        if let Some(p) = &self.grid {
+            // a few degrees across the range, then the oracle
+            let n = degrees.len();
+            let pick: Vec<usize> = if n <= 4 {
+                (0..n).collect()
+            } else {
+                (0..4).map(|i| i * (n - 1) / 3).collect()
+            };
+            let (w, h) = (camera.width(), camera.height());
+            let cols = pick.len() + 1;
+            let rows = outcome.images.len();
+            let mut grid = ifd_image::Image::new(cols * w, rows * h, 3)?;
+            for (r, (oracle, isd)) in outcome.images.iter().enumerate() {
+                let tiles: Vec<&ifd_image::Image> = pick
+                    .iter()
+                    .map(|&i| &isd[i])
+                    .chain([&oracle.image])
+                    .collect();
+                for (c, tile) in tiles.into_iter().enumerate() {
+                    let ch = tile.channels();
+                    for y in 0..h {
+                        for x in 0..w {
+                            for k in 0..3 {
+                                let v = tile.get(x, y, k.min(ch - 1));
+                                grid.set(
+                                    c * w + x,
+                                    r * h + y,
+                                    k,
+                                    tonemap.display(v, self.exposure),
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+            crate::input::write_output(p, &grid, &ifd_image::WriteOptions::default())?;
+            eprintln!(
+                "grid: rows {:?}; columns L = {:?}, then the oracle",
+                self.brdf,
+                pick.iter().map(|&i| degrees[i]).collect::<Vec<_>>()
+            );
+        }
+        print!("{table}");
+        eprintln!("took {:.1} s", start.elapsed().as_secs_f64());
         Ok(())
     }
 }
