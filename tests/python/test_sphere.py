@@ -463,3 +463,24 @@ def test_render_refuses_bad_input(run_ifd, tmp_path, args, needle):
                 check=False)
     assert p.returncode == 2 and needle in p.stderr and "panicked" not in p.stderr, p.stderr
     assert not (tmp_path / "o.exr").exists()
+
+
+def test_render_obj_meshes_and_their_bad_input(run_ifd, tmp_path):
+    np.save(tmp_path / "env.npy", np.ones((8, 16, 3), np.float32))
+    # a tetrahedron without normals or texture coordinates, y-up
+    (tmp_path / "tet.obj").write_text("v 0 1 0\nv -1 -1 1\nv 1 -1 1\nv 0 -1 -1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n")
+    out = json.loads(run_ifd("render", "--env", tmp_path / "env.npy", "--scene", tmp_path / "tet.obj",
+                             "--brdf", "lambert", "--lmax", 4, "--size", "32x32", "-o", tmp_path / "t.npy").stdout)
+    assert out["object_pixels"] > 50
+    img = np.load(tmp_path / "t.npy")
+    # a white Lambertian object in a uniform unit light is 1 wherever it is seen
+    lit = img[img.sum(-1) > 0]
+    np.testing.assert_allclose(lit, 1.0, atol=1e-3)
+    for args, needle in [
+        (("--scene", tmp_path / "tet.obj", "--brdf", "ggx:ax=0.1,ay=0.4", "--lmax", 4), "texture coordinates"),
+        (("--scene", tmp_path / "missing.obj", "--brdf", "lambert", "--lmax", 4), "missing.obj"),
+        (("--scene", tmp_path / "tet.obj", "--obj-up", "x", "--brdf", "lambert", "--lmax", 4), "--obj-up"),
+    ]:
+        p = run_ifd("render", "--env", tmp_path / "env.npy", "--size", "8x8", *args, "-o", tmp_path / "o.exr",
+                    check=False)
+        assert p.returncode == 2 and needle in p.stderr and "panicked" not in p.stderr, p.stderr

@@ -138,7 +138,7 @@ fn job<'b>(
     material: Option<&'b Material>,
 ) -> Job<'b> {
     Job {
-        scene: study.scene,
+        scene: study.scene.clone(),
         camera: study.camera,
         env: study.env,
         background: None,

@@ -25,7 +25,8 @@
 //! # Modules
 //! - [`camera`]: the pinhole camera.
 //! - [`convergence`]: error against the oracle as `L` grows (ISD Fig. 4), CSV and plot.
-//! - [`scene`]: sphere, torus, plane.
+//! - [`scene`]: sphere, torus, plane, meshes.
+//! - [`mesh`]: OBJ meshes and their BVH.
 //! - [`envmap`]: environment maps (rotation, downsampling, lookups, exact SH, texel samples).
 //! - [`oracle`]: the exact texel quadrature.
 //! - [`mc`]: the Monte Carlo reference (environment and BRDF sampling, MIS).
@@ -38,6 +39,7 @@ pub mod camera;
 pub mod convergence;
 pub mod envmap;
 pub mod mc;
+pub mod mesh;
 pub mod oracle;
 pub mod render;
 pub mod scene;

@@ -1,5 +1,6 @@
-//! Analytic scenes, ray cast exactly: a unit sphere, a torus and a ground
-//! square, all centred at the origin, `z` up.
+//! Scenes: analytic ones ray cast exactly (a unit sphere, a torus and a
+//! ground square, all centred at the origin, `z` up) and triangle meshes from
+//! OBJ files ([`crate::mesh`]).
 
 use glam::DVec3;
 
@@ -19,8 +20,8 @@ pub struct Hit {
     pub dpdu: DVec3,
 }
 
-/// An analytic scene.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A scene.
+#[derive(Clone, Debug)]
 pub enum Scene {
     /// The unit sphere; `u = phi` (azimuth), so `dP/du = (-y, x, 0)`.
     Sphere,
@@ -29,6 +30,8 @@ pub enum Scene {
     Torus,
     /// The square `[-2, 2]^2` of the plane `z = 0`, facing `+z`; `u = x`.
     Plane,
+    /// A triangle mesh.
+    Mesh(std::sync::Arc<crate::mesh::Mesh>),
 }
 
 /// Torus radii.
@@ -36,20 +39,34 @@ const RING: f64 = 1.0;
 const TUBE: f64 = 0.4;
 
 impl Scene {
-    /// `sphere`, `torus` or `plane`.
+    /// `sphere`, `torus`, `plane` or an `.obj` file (`obj_z_up`: the file is
+    /// z-up already; OBJ files are y-up by convention).
     ///
     /// # Errors
-    /// [`RenderError::Parameter`] for other names.
-    pub fn parse(name: &str) -> Result<Self> {
+    /// [`RenderError::Parameter`] for other names and bad OBJ files.
+    pub fn parse(name: &str, obj_z_up: bool) -> Result<Self> {
         match name {
             "sphere" => Ok(Self::Sphere),
             "torus" => Ok(Self::Torus),
             "plane" => Ok(Self::Plane),
+            _ if name.to_lowercase().ends_with(".obj") => Ok(Self::Mesh(std::sync::Arc::new(
+                crate::mesh::Mesh::load(std::path::Path::new(name), obj_z_up)?,
+            ))),
             _ => Err(RenderError::Parameter {
                 name: "--scene",
                 value: name.into(),
-                reason: "use sphere, torus or plane (OBJ meshes are not supported yet)".into(),
+                reason: "use sphere, torus, plane or an .obj file".into(),
             }),
+        }
+    }
+
+    /// Whether the surface has tangents everywhere (anisotropic BRDFs need
+    /// them): the analytic scenes do, meshes only with texture coordinates.
+    #[must_use]
+    pub fn has_tangents(&self) -> bool {
+        match self {
+            Self::Mesh(m) => m.has_uv(),
+            _ => true,
         }
     }
 
@@ -95,6 +112,7 @@ impl Scene {
                 })
             }
             Self::Torus => torus_hit(o, d),
+            Self::Mesh(m) => m.intersect(o, d),
         }
     }
 }

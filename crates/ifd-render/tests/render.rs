@@ -259,3 +259,122 @@ fn monte_carlo_converges_to_the_oracle() {
         );
     }
 }
+
+/// A UV sphere of radius `r` as OBJ text (y-up, as OBJ files are), with exact
+/// normals and texture coordinates when asked.
+fn uv_sphere_obj(r: f64, seg: usize, with_n: bool, with_uv: bool) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::from("# uv sphere\n");
+    let rings = seg / 2;
+    for i in 0..=rings {
+        let t = std::f64::consts::PI * i as f64 / rings as f64;
+        for j in 0..=seg {
+            let p = 2.0 * std::f64::consts::PI * j as f64 / seg as f64;
+            // z-up direction, written y-up: (x, y, z) -> (x, z, -y)
+            let (x, y, z) = (t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+            let _ = writeln!(s, "v {} {} {}", r * x, r * z, -r * y);
+            if with_n {
+                let _ = writeln!(s, "vn {x} {z} {}", -y);
+            }
+            if with_uv {
+                let _ = writeln!(
+                    s,
+                    "vt {} {}",
+                    j as f64 / seg as f64,
+                    1.0 - i as f64 / rings as f64
+                );
+            }
+        }
+    }
+    let idx = |i: usize, j: usize| i * (seg + 1) + j + 1;
+    for i in 0..rings {
+        for j in 0..seg {
+            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+            let f = |k: usize| match (with_n, with_uv) {
+                (true, true) => format!("{k}/{k}/{k}"),
+                (true, false) => format!("{k}//{k}"),
+                (false, true) => format!("{k}/{k}"),
+                (false, false) => format!("{k}"),
+            };
+            let _ = writeln!(s, "f {} {} {} {}", f(a), f(b), f(c), f(d));
+        }
+    }
+    s
+}
+
+#[test]
+fn obj_meshes_render_like_the_analytic_surface() {
+    use ifd_render::scene::Scene;
+    let dir = tempfile::tempdir().unwrap();
+    let env = forest();
+    let brdf = Brdf::parse("phong:s=16").unwrap();
+    let m = Material::new(&brdf, 10, None).unwrap();
+    let render_scene = |scene: Scene| {
+        let job = Job {
+            scene,
+            camera: camera(48),
+            env: &env,
+            background: None,
+            brdf: &brdf,
+            material: Some(&m),
+            method: Method::Isd,
+            spp: 0,
+            seed: 0,
+        };
+        render(&job, &|_, _| {}).unwrap()
+    };
+    let analytic = render_scene(Scene::Sphere);
+    for (with_n, with_uv) in [(true, true), (false, false)] {
+        // radius 3: the loader rescales to the unit bounding sphere
+        let path = dir.path().join(format!("s{with_n}{with_uv}.obj"));
+        std::fs::write(&path, uv_sphere_obj(3.0, 96, with_n, with_uv)).unwrap();
+        let scene = Scene::parse(path.to_str().unwrap(), false).unwrap();
+        assert_eq!(scene.has_tangents(), with_uv);
+        let mesh = render_scene(scene);
+        let both: Vec<bool> = mesh
+            .mask
+            .iter()
+            .zip(&analytic.mask)
+            .map(|(a, b)| *a && *b)
+            .collect();
+        let differ = mesh
+            .mask
+            .iter()
+            .zip(&analytic.mask)
+            .filter(|(a, b)| a != b)
+            .count();
+        assert!(differ < 60, "{differ} silhouette pixels differ");
+        let err = relative_rms(&mesh.image, &analytic.image, &both);
+        eprintln!("mesh (normals {with_n}, uv {with_uv}) vs analytic sphere: {err:.4}");
+        assert!(err < 0.01, "{err}");
+    }
+    // axes: a ground square of a y-up file (y = 0) lies in ifd's z = 0 plane
+    let p = dir.path().join("ground.obj");
+    std::fs::write(&p, "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3 4\n").unwrap();
+    let ground = Scene::parse(p.to_str().unwrap(), false).unwrap();
+    let hit = ground
+        .intersect(DVec3::new(0.1, 0.2, 5.0), DVec3::new(0.0, 0.0, -1.0))
+        .unwrap();
+    assert!(
+        hit.p.z.abs() < 1e-12 && (hit.n - DVec3::Z).length() < 1e-12,
+        "{hit:?}"
+    );
+    // declared z-up, the same file is a wall (x-z plane): the ray misses it
+    let wall = Scene::parse(p.to_str().unwrap(), true).unwrap();
+    assert!(
+        wall.intersect(DVec3::new(0.1, 0.2, 5.0), DVec3::new(0.0, 0.0, -1.0))
+            .is_none()
+    );
+    // bad files
+    for (name, text, needle) in [
+        ("empty.obj", "# nothing\nv 0 0 0\n", "no triangles"),
+        ("bad.obj", "f 1 2 3\n", "cannot read the OBJ file"),
+    ] {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        let e = Scene::parse(p.to_str().unwrap(), false)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(name) && e.contains(needle), "{e}");
+    }
+}

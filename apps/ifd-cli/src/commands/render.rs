@@ -50,9 +50,14 @@ pub struct Render {
     /// Lobe table from `ifd sphere brdf` (built on the fly when needed and absent).
     #[arg(long, value_name = "FILE")]
     table: Option<PathBuf>,
-    /// Scene: sphere (unit), torus (radii 1 and 0.4 around z) or plane (z = 0, [-2, 2]^2).
+    /// Scene: sphere (unit), torus (radii 1 and 0.4 around z), plane (z = 0, [-2, 2]^2) or an
+    /// OBJ file (centred and scaled to a unit bounding sphere; smooth normals computed when it
+    /// has none; anisotropic BRDFs need its texture coordinates).
     #[arg(long, default_value = "sphere")]
     scene: String,
+    /// The up axis of an OBJ file: y (the OBJ convention; rotated to ifd's z up) or z.
+    #[arg(long, default_value = "y")]
+    obj_up: String,
     /// Image size WxH.
     #[arg(long, value_name = "WxH", default_value = "256x256")]
     size: String,
@@ -196,7 +201,7 @@ impl Render {
             bail!("-o OUTPUT is required");
         };
         let method = Method::parse(&self.method)?;
-        let scene = Scene::parse(&self.scene)?;
+        let scene = self.scene()?;
         let tonemap = Tonemap::parse(&self.tonemap)?;
         if !self.exposure.is_finite() {
             bail!("--exposure {}: not finite", self.exposure);
@@ -208,6 +213,13 @@ impl Render {
         let camera = self.camera()?;
         let (w, h) = (camera.width(), camera.height());
         let brdf = Brdf::parse(&self.brdf[0])?;
+        if !brdf.is_isotropic() && !scene.has_tangents() {
+            bail!(
+                "--brdf {}: an anisotropic BRDF needs tangents, and {} has no texture coordinates",
+                brdf.spec(),
+                self.scene
+            );
+        }
         if method == Method::Mc && !(1..=1 << 24).contains(&self.spp) {
             bail!("--spp {}: use 1..=16777216 samples per pixel", self.spp);
         }
@@ -329,6 +341,15 @@ impl Render {
         Ok((full, env))
     }
 
+    fn scene(&self) -> Result<Scene> {
+        let z_up = match self.obj_up.as_str() {
+            "y" => false,
+            "z" => true,
+            other => bail!("--obj-up {other:?}: use y or z"),
+        };
+        Ok(Scene::parse(&self.scene, z_up)?)
+    }
+
     fn camera(&self) -> Result<Camera> {
         let (w, h) = parse_size(&self.size, "--size")?;
         Ok(Camera::new(
@@ -368,7 +389,7 @@ impl Render {
             .iter()
             .map(|s| Brdf::parse(s))
             .collect::<std::result::Result<Vec<_>, _>>()?;
-        let scene = Scene::parse(&self.scene)?;
+        let scene = self.scene()?;
         let camera = self.camera()?;
         let tonemap = Tonemap::parse(&self.tonemap)?;
         let (_, env) = self.environments()?;

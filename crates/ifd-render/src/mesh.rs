@@ -1,0 +1,375 @@
+//! Triangle meshes from OBJ files (read by `tobj`), ray cast through a
+//! bounding volume hierarchy.
+//!
+//! - Axes: OBJ files are y-up by convention; they are rotated to ifd's z-up
+//!   (`(x, y, z) -> (x, -z, y)`) unless the file is declared z-up.
+//! - Placement: the mesh is centred on its bounding box and scaled so that its
+//!   bounding sphere has radius 1, like the analytic scenes (documented; the
+//!   camera defaults frame it).
+//! - Normals: the file's, interpolated (smooth shading); when the file has
+//!   none, area-weighted averages of the face normals at each position.
+//! - Tangents: `dP/du` of each triangle from its texture coordinates, for
+//!   anisotropic BRDFs; a mesh without texture coordinates has none (such a
+//!   BRDF on it is refused by the renderer).
+//! - BVH: binary, median split of the centroids along the widest axis, at most
+//!   4 triangles per leaf; slab tests for boxes, Moller-Trumbore for triangles.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::DVec3;
+
+use crate::error::{RenderError, Result};
+use crate::scene::Hit;
+
+/// A triangle mesh ready for ray casting.
+#[derive(Debug)]
+pub struct Mesh {
+    pos: Vec<DVec3>,
+    nrm: Vec<DVec3>,
+    /// Per-triangle `dP/du` (zero without texture coordinates).
+    dpdu: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
+    has_uv: bool,
+    nodes: Vec<Node>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    lo: DVec3,
+    hi: DVec3,
+    /// Leaf: first triangle and count; inner: `count == 0`, children at
+    /// `start` and `start + 1`.
+    start: u32,
+    count: u32,
+}
+
+impl Mesh {
+    /// Reads an OBJ file (polygons triangulated as fans; materials ignored).
+    ///
+    /// # Errors
+    /// [`RenderError::Parameter`] naming the file for unreadable or malformed
+    /// files, files without triangles, and non-finite coordinates.
+    pub fn load(path: &Path, z_up: bool) -> Result<Self> {
+        let bad = |reason: String| RenderError::Parameter {
+            name: "--scene",
+            value: path.display().to_string(),
+            reason,
+        };
+        let opts = tobj::LoadOptions {
+            triangulate: true,
+            single_index: true,
+            ..Default::default()
+        };
+        let (models, _materials) = tobj::load_obj(path, &opts)
+            .map_err(|e| bad(format!("cannot read the OBJ file: {e}")))?;
+        let mut pos = Vec::new();
+        let mut nrm = Vec::new();
+        let mut uv = Vec::new();
+        let mut tris = Vec::new();
+        let (mut with_n, mut with_uv, mut total) = (true, true, 0usize);
+        for m in &models {
+            let mesh = &m.mesh;
+            let base = pos.len() as u32;
+            let nv = mesh.positions.len() / 3;
+            total += nv;
+            with_n &= mesh.normals.len() == 3 * nv;
+            with_uv &= mesh.texcoords.len() == 2 * nv;
+            for i in 0..nv {
+                let p = DVec3::new(
+                    f64::from(mesh.positions[3 * i]),
+                    f64::from(mesh.positions[3 * i + 1]),
+                    f64::from(mesh.positions[3 * i + 2]),
+                );
+                pos.push(p);
+                if mesh.normals.len() == 3 * nv {
+                    nrm.push(DVec3::new(
+                        f64::from(mesh.normals[3 * i]),
+                        f64::from(mesh.normals[3 * i + 1]),
+                        f64::from(mesh.normals[3 * i + 2]),
+                    ));
+                }
+                if mesh.texcoords.len() == 2 * nv {
+                    uv.push([
+                        f64::from(mesh.texcoords[2 * i]),
+                        f64::from(mesh.texcoords[2 * i + 1]),
+                    ]);
+                }
+            }
+            for t in mesh.indices.chunks_exact(3) {
+                if t.iter().any(|&i| i as usize >= nv) {
+                    return Err(bad(format!("a face refers to vertex {} of {nv}", t[0])));
+                }
+                tris.push([base + t[0], base + t[1], base + t[2]]);
+            }
+        }
+        if tris.is_empty() {
+            return Err(bad("no triangles (an OBJ mesh needs `f` faces)".into()));
+        }
+        if let Some(i) = pos.iter().position(|p| !p.is_finite()) {
+            return Err(bad(format!("vertex {i} has non-finite coordinates")));
+        }
+        let fix = |v: DVec3| if z_up { v } else { DVec3::new(v.x, -v.z, v.y) };
+        let pos: Vec<DVec3> = pos.into_iter().map(fix).collect();
+        let nrm = if with_n && nrm.len() == total {
+            nrm.into_iter().map(fix).collect()
+        } else {
+            smooth_normals(&pos, &tris)
+        };
+        let uv = (with_uv && uv.len() == total).then_some(uv);
+        Self::build(pos, nrm, uv.as_deref(), tris)
+    }
+
+    /// A mesh from positions (z-up), vertex normals (computed when `None`),
+    /// optional texture coordinates and triangles; placed as [`Self::load`] does.
+    ///
+    /// # Errors
+    /// [`RenderError::Parameter`] without triangles or for out-of-range indices.
+    pub fn from_triangles(
+        pos: Vec<DVec3>,
+        normals: Option<Vec<DVec3>>,
+        uv: Option<&[[f64; 2]]>,
+        tris: Vec<[u32; 3]>,
+    ) -> Result<Self> {
+        if tris.is_empty() || tris.iter().flatten().any(|&i| i as usize >= pos.len()) {
+            return Err(RenderError::Parameter {
+                name: "mesh",
+                value: format!("{} vertices, {} triangles", pos.len(), tris.len()),
+                reason: "needs triangles whose indices are in range".into(),
+            });
+        }
+        let nrm = normals.unwrap_or_else(|| smooth_normals(&pos, &tris));
+        Self::build(pos, nrm, uv, tris)
+    }
+
+    fn build(
+        mut pos: Vec<DVec3>,
+        nrm: Vec<DVec3>,
+        uv: Option<&[[f64; 2]]>,
+        mut tris: Vec<[u32; 3]>,
+    ) -> Result<Self> {
+        // centre and scale to the unit bounding sphere
+        let (lo, hi) = pos.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(a, b), p| (a.min(*p), b.max(*p)),
+        );
+        let c = 0.5 * (lo + hi);
+        let r = pos.iter().map(|p| (*p - c).length()).fold(0.0, f64::max);
+        if r.is_nan() || r <= 0.0 {
+            return Err(RenderError::Parameter {
+                name: "mesh",
+                value: format!("{} vertices", pos.len()),
+                reason: "all vertices coincide".into(),
+            });
+        }
+        for p in &mut pos {
+            *p = (*p - c) / r;
+        }
+        let nrm: Vec<DVec3> = nrm.into_iter().map(DVec3::normalize_or_zero).collect();
+        // BVH over triangle centroids; triangles reordered into leaves
+        let cent: Vec<DVec3> = tris
+            .iter()
+            .map(|t| (pos[t[0] as usize] + pos[t[1] as usize] + pos[t[2] as usize]) / 3.0)
+            .collect();
+        let mut order: Vec<usize> = (0..tris.len()).collect();
+        let mut nodes = vec![Node {
+            lo: DVec3::ZERO,
+            hi: DVec3::ZERO,
+            start: 0,
+            count: 0,
+        }];
+        build_node(&pos, &tris, &cent, &mut order, 0, 0, &mut nodes);
+        tris = order.iter().map(|&i| tris[i]).collect();
+        let has_uv = uv.is_some();
+        let dpdu = tris
+            .iter()
+            .map(|t| {
+                let Some(uv) = uv else { return DVec3::ZERO };
+                let [a, b, c] = t.map(|i| i as usize);
+                let (e1, e2) = (pos[b] - pos[a], pos[c] - pos[a]);
+                let (du1, dv1) = (uv[b][0] - uv[a][0], uv[b][1] - uv[a][1]);
+                let (du2, dv2) = (uv[c][0] - uv[a][0], uv[c][1] - uv[a][1]);
+                let det = du1 * dv2 - du2 * dv1;
+                if det.abs() < 1e-20 {
+                    DVec3::ZERO
+                } else {
+                    (dv2 * e1 - dv1 * e2) / det
+                }
+            })
+            .collect();
+        Ok(Self {
+            pos,
+            nrm,
+            dpdu,
+            tris,
+            has_uv,
+            nodes,
+        })
+    }
+
+    /// Whether the mesh has texture coordinates (tangents).
+    #[must_use]
+    pub fn has_uv(&self) -> bool {
+        self.has_uv
+    }
+
+    /// Triangles.
+    #[must_use]
+    pub fn triangles(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// The first hit of the ray `o + t d`, `t > 1e-9`.
+    #[must_use]
+    pub fn intersect(&self, o: DVec3, d: DVec3) -> Option<Hit> {
+        let inv = DVec3::ONE / d;
+        let mut best: Option<(f64, usize, f64, f64)> = None;
+        let mut stack = [0u32; 64];
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let node = self.nodes[stack[sp] as usize];
+            let tmax = best.map_or(f64::INFINITY, |b| b.0);
+            if !slab(node.lo, node.hi, o, inv, tmax) {
+                continue;
+            }
+            if node.count > 0 {
+                for i in node.start as usize..(node.start + node.count) as usize {
+                    if let Some((t, u, v)) = self.hit_triangle(i, o, d)
+                        && best.is_none_or(|b| t < b.0)
+                    {
+                        best = Some((t, i, u, v));
+                    }
+                }
+            } else if sp + 2 <= stack.len() {
+                stack[sp] = node.start;
+                stack[sp + 1] = node.start + 1;
+                sp += 2;
+            }
+        }
+        let (t, i, u, v) = best?;
+        let [a, b, c] = self.tris[i].map(|k| k as usize);
+        let mut n =
+            ((1.0 - u - v) * self.nrm[a] + u * self.nrm[b] + v * self.nrm[c]).normalize_or_zero();
+        let geo = (self.pos[b] - self.pos[a])
+            .cross(self.pos[c] - self.pos[a])
+            .normalize_or_zero();
+        if n == DVec3::ZERO {
+            n = geo;
+        }
+        // shade the side the ray sees
+        if n.dot(d) > 0.0 && geo.dot(d) > 0.0 {
+            n = -n;
+        }
+        Some(Hit {
+            t,
+            p: o + t * d,
+            n,
+            dpdu: self.dpdu[i],
+        })
+    }
+
+    fn hit_triangle(&self, i: usize, o: DVec3, d: DVec3) -> Option<(f64, f64, f64)> {
+        let [a, b, c] = self.tris[i].map(|k| self.pos[k as usize]);
+        let (e1, e2) = (b - a, c - a);
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-14 {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let s = o - a;
+        let u = s.dot(p) * inv;
+        if !(0.0..=1.0).contains(&u) {
+            return None;
+        }
+        let q = s.cross(e1);
+        let v = d.dot(q) * inv;
+        if v < 0.0 || u + v > 1.0 {
+            return None;
+        }
+        let t = e2.dot(q) * inv;
+        (t > 1e-9).then_some((t, u, v))
+    }
+}
+
+fn slab(lo: DVec3, hi: DVec3, o: DVec3, inv: DVec3, tmax: f64) -> bool {
+    let t0 = (lo - o) * inv;
+    let t1 = (hi - o) * inv;
+    let tn = t0.min(t1).max_element().max(0.0);
+    let tf = t0.max(t1).min_element().min(tmax);
+    tn <= tf
+}
+
+fn build_node(
+    pos: &[DVec3],
+    tris: &[[u32; 3]],
+    cent: &[DVec3],
+    order: &mut [usize],
+    offset: usize,
+    node: usize,
+    nodes: &mut Vec<Node>,
+) {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    let (mut clo, mut chi) = (lo, hi);
+    for &i in order.iter() {
+        for &k in &tris[i] {
+            lo = lo.min(pos[k as usize]);
+            hi = hi.max(pos[k as usize]);
+        }
+        clo = clo.min(cent[i]);
+        chi = chi.max(cent[i]);
+    }
+    nodes[node].lo = lo;
+    nodes[node].hi = hi;
+    if order.len() <= 4 {
+        nodes[node].start = offset as u32;
+        nodes[node].count = order.len() as u32;
+        return;
+    }
+    let ext = chi - clo;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    let mid = order.len() / 2;
+    order.select_nth_unstable_by(mid, |&a, &b| cent[a][axis].total_cmp(&cent[b][axis]));
+    let first = nodes.len();
+    nodes[node].start = first as u32;
+    nodes[node].count = 0;
+    let empty = Node {
+        lo: DVec3::ZERO,
+        hi: DVec3::ZERO,
+        start: 0,
+        count: 0,
+    };
+    nodes.push(empty);
+    nodes.push(empty);
+    let (left, right) = order.split_at_mut(mid);
+    build_node(pos, tris, cent, left, offset, first, nodes);
+    build_node(pos, tris, cent, right, offset + mid, first + 1, nodes);
+}
+
+/// Area-weighted vertex normals, shared by vertices at the same position.
+fn smooth_normals(pos: &[DVec3], tris: &[[u32; 3]]) -> Vec<DVec3> {
+    let key = |p: DVec3| (p.x.to_bits(), p.y.to_bits(), p.z.to_bits());
+    let mut acc: HashMap<(u64, u64, u64), DVec3> = HashMap::new();
+    for t in tris {
+        let [a, b, c] = t.map(|i| pos[i as usize]);
+        let n = (b - a).cross(c - a); // length = twice the area
+        for p in [a, b, c] {
+            *acc.entry(key(p)).or_insert(DVec3::ZERO) += n;
+        }
+    }
+    pos.iter()
+        .map(|p| {
+            acc.get(&key(*p))
+                .copied()
+                .unwrap_or(DVec3::Z)
+                .normalize_or_zero()
+        })
+        .collect()
+}
