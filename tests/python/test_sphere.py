@@ -484,3 +484,30 @@ def test_render_obj_meshes_and_their_bad_input(run_ifd, tmp_path):
         p = run_ifd("render", "--env", tmp_path / "env.npy", "--size", "8x8", *args, "-o", tmp_path / "o.exr",
                     check=False)
         assert p.returncode == 2 and needle in p.stderr and "panicked" not in p.stderr, p.stderr
+
+
+def test_render_texture_maps(run_ifd, tmp_path):
+    import cv2
+    np.save(tmp_path / "env.npy", np.ones((8, 16, 3), np.float32))
+    # an 8-bit albedo map (sRGB-encoded: 128 -> 0.2158 linear), constant
+    cv2.imwrite(str(tmp_path / "albedo.png"), np.full((4, 8, 3), 128, np.uint8))
+    np.save(tmp_path / "rough.npy", np.linspace(0.5, 0.9, 32, dtype=np.float32).reshape(4, 8))
+    common = ["render", "--env", tmp_path / "env.npy", "--size", "24x24", "--no-background"]
+    run_ifd(*common, "--brdf", "lambert", "--lmax", 4, "--albedo-map", tmp_path / "albedo.png",
+            "-o", tmp_path / "a.npy")
+    a = np.load(tmp_path / "a.npy")
+    lit = a[a.sum(-1) > 0]
+    srgb = 128 / 255
+    want = ((srgb + 0.055) / 1.055) ** 2.4  # white furnace times the decoded albedo
+    np.testing.assert_allclose(lit, want, rtol=1e-3)
+    out = json.loads(run_ifd(*common, "--brdf", "ggx:alpha=0.5", "--lmax", 8, "--roughness-map",
+                             tmp_path / "rough.npy", "--roughness-tables", 3, "-o", tmp_path / "r.npy").stdout)
+    assert out["object_pixels"] > 100
+    p = run_ifd(*common, "--brdf", "phong:s=8", "--lmax", 4, "--roughness-map", tmp_path / "rough.npy",
+                "-o", tmp_path / "x.npy", check=False)
+    assert p.returncode == 2 and "roughness" in p.stderr and "GGX or Ward" in p.stderr, p.stderr
+    bad = np.full((4, 8), np.nan, np.float32)
+    np.save(tmp_path / "nan.npy", bad)
+    p = run_ifd(*common, "--brdf", "ggx:alpha=0.5", "--lmax", 4, "--roughness-map", tmp_path / "nan.npy",
+                "-o", tmp_path / "x.npy", check=False)
+    assert p.returncode == 2 and "nan.npy" in p.stderr, p.stderr

@@ -147,6 +147,8 @@ fn job<'b>(
         method,
         spp: 0,
         seed: 0,
+        maps: None,
+        family: None,
     }
 }
 

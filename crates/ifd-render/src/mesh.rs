@@ -29,6 +29,8 @@ pub struct Mesh {
     nrm: Vec<DVec3>,
     /// Per-triangle `dP/du` (zero without texture coordinates).
     dpdu: Vec<DVec3>,
+    /// Per-vertex texture coordinates (`v` flipped: 0 at the top of an image).
+    uv: Option<Vec<[f64; 2]>>,
     tris: Vec<[u32; 3]>,
     has_uv: bool,
     nodes: Vec<Node>,
@@ -201,6 +203,7 @@ impl Mesh {
             pos,
             nrm,
             dpdu,
+            uv: uv.map(|u| u.iter().map(|t| [t[0], 1.0 - t[1]]).collect()),
             tris,
             has_uv,
             nodes,
@@ -261,11 +264,19 @@ impl Mesh {
         if n.dot(d) > 0.0 && geo.dot(d) > 0.0 {
             n = -n;
         }
+        let uv = self.uv.as_ref().map(|uv| {
+            let w = 1.0 - u - v;
+            [
+                w * uv[a][0] + u * uv[b][0] + v * uv[c][0],
+                w * uv[a][1] + u * uv[b][1] + v * uv[c][1],
+            ]
+        });
         Some(Hit {
             t,
             p: o + t * d,
             n,
             dpdu: self.dpdu[i],
+            uv,
         })
     }
 

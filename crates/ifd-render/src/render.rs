@@ -5,7 +5,7 @@
 
 use ifd_image::Image;
 use ifd_shade::Brdf;
-use ifd_shade::shade::{BandMaps, Environment, Frame, Material};
+use ifd_shade::shade::{BandMaps, Environment, Frame, Material, Scratch};
 use rayon::prelude::*;
 
 use crate::camera::Camera;
@@ -14,6 +14,7 @@ use crate::error::{RenderError, Result};
 use crate::mc::{EnvSampler, estimate, pixel_seed};
 use crate::oracle::Oracle;
 use crate::scene::Scene;
+use crate::textures::{RoughnessFamily, SurfaceMaps, alpha_of};
 
 /// How object pixels are shaded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -73,6 +74,10 @@ pub struct Job<'a> {
     pub spp: usize,
     /// Seed of the Monte Carlo sequence.
     pub seed: u64,
+    /// Albedo and roughness maps (spatially varying BRDF), if any.
+    pub maps: Option<&'a SurfaceMaps>,
+    /// ISD materials over roughness, for a roughness map.
+    pub family: Option<&'a RoughnessFamily>,
 }
 
 /// A rendered image with what a caller needs to measure it.
@@ -106,17 +111,28 @@ type Row = (Vec<f32>, Vec<bool>, usize, usize, f64, Vec<f32>);
 pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<Rendered> {
     let (w, h) = (job.camera.width(), job.camera.height());
     let ch = job.env.channels();
-    let env_sh = match (job.method, job.material) {
+    let rough_map = job.maps.and_then(|m| m.roughness.as_ref());
+    let albedo_map = job.maps.and_then(|m| m.albedo.as_ref());
+    if (rough_map.is_some() || albedo_map.is_some()) && !job.scene.has_tangents() {
+        return Err(RenderError::Parameter {
+            name: "--scene",
+            value: "mesh".into(),
+            reason: "texture maps need texture coordinates, and the mesh has none".into(),
+        });
+    }
+    let degree = match (job.material, job.family) {
+        (_, Some(f)) if rough_map.is_some() => Some(f.l_max()),
+        (Some(m), _) => Some(m.l_max()),
+        _ => None,
+    };
+    let env_sh = match (job.method, degree) {
         (Method::Quadrature | Method::Mc, _) => None,
-        (_, Some(m)) => {
-            let l = m.l_max();
-            Some(Environment::new(job.env.sh(l)?)?)
-        }
+        (_, Some(l)) => Some(Environment::new(job.env.sh(l)?)?),
         (_, None) => {
             return Err(RenderError::Parameter {
                 name: "--method",
                 value: format!("{:?}", job.method),
-                reason: "needs a material".into(),
+                reason: "needs a material (or, with a roughness map, a roughness family)".into(),
             });
         }
     };
@@ -126,6 +142,15 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
     };
     let oracle = (job.method == Method::Quadrature).then(|| Oracle::new(job.env));
     let sampler = (job.method == Method::Mc).then(|| EnvSampler::new(job.env));
+    // one ISD-side shading of a material into `out`
+    let shade = |m: &Material, frame: &Frame, wo: [f64; 3], s: &mut Scratch, out: &mut [f64]| match (
+        job.method, &env_sh, &maps,
+    ) {
+        (Method::Isd, Some(e), _) => m.shade_isd(e, frame, wo, s, out),
+        (Method::IsdMaps, _, Some(bm)) => m.shade_isd(bm, frame, wo, s, out),
+        (Method::Sh, Some(e), _) => m.shade_sh(e, frame, wo, out),
+        _ => unreachable!("ISD-side methods have their environment"),
+    };
     let done = std::sync::atomic::AtomicUsize::new(0);
     let rows: Vec<Result<Row>> = (0..h)
         .into_par_iter()
@@ -136,7 +161,9 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             let mut err = vec![0.0; ch.max(3)];
             let (mut max_k, mut bad, mut resid) = (0, 0, 0.0f64);
             let mut out = vec![0.0; ch.max(3)];
-            let mut scratch = job.material.map(|m| m.scratch(ch));
+            let mut out2 = vec![0.0; ch.max(3)];
+            let l = degree.unwrap_or(0);
+            let mut scratch = Scratch::new(l, ch);
             for x in 0..w {
                 let (o, d) = job.camera.ray(x as f64 + 0.5, y as f64 + 0.5);
                 out.fill(0.0);
@@ -145,39 +172,59 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                     let n = hit.n.to_array();
                     let frame = Frame::new(n, hit.dpdu.to_array());
                     let wo = (-d).to_array();
-                    match (job.method, job.material, &env_sh, &oracle, scratch.as_mut()) {
-                        (Method::Isd, Some(m), Some(e), _, Some(s)) => {
-                            m.shade_isd(e, &frame, wo, s, &mut out)?;
+                    let uv = hit.uv.unwrap_or([0.0, 0.0]);
+                    let rough = rough_map.map(|t| t.sample(uv, 0));
+                    // the exact BRDF of this point (oracle, Monte Carlo)
+                    let local = match rough {
+                        Some(r) if matches!(job.method, Method::Quadrature | Method::Mc) => {
+                            Some(job.brdf.with_roughness(alpha_of(r))?)
                         }
-                        (Method::IsdMaps, Some(m), _, _, Some(s)) => {
-                            let Some(bm) = &maps else {
-                                unreachable!("maps exist for isd-maps")
-                            };
-                            m.shade_isd(bm, &frame, wo, s, &mut out)?;
+                        _ => None,
+                    };
+                    let brdf = local.as_ref().unwrap_or(job.brdf);
+                    match job.method {
+                        Method::Isd | Method::IsdMaps | Method::Sh => {
+                            if let (Some(r), Some(f)) = (rough, job.family) {
+                                let (m0, m1, t) = f.locate(r);
+                                shade(m0, &frame, wo, &mut scratch, &mut out)?;
+                                shade(m1, &frame, wo, &mut scratch, &mut out2)?;
+                                for c in 0..ch {
+                                    out[c] = (1.0 - t) * out[c] + t * out2[c];
+                                }
+                            } else if let Some(m) = job.material {
+                                shade(m, &frame, wo, &mut scratch, &mut out)?;
+                            }
                         }
-                        (Method::Sh, Some(m), Some(e), _, _) => {
-                            m.shade_sh(e, &frame, wo, &mut out)?;
-                        }
-                        (Method::Mc, ..) => {
+                        Method::Mc => {
                             let Some(smp) = &sampler else {
                                 unreachable!("the sampler exists for mc")
                             };
                             let seed = pixel_seed(job.seed, x, y);
                             estimate(
-                                job.env, smp, job.brdf, &frame, wo, job.spp, seed, &mut out,
-                                &mut err,
+                                job.env, smp, brdf, &frame, wo, job.spp, seed, &mut out, &mut err,
                             );
                             for c in 0..ch {
                                 se[x * ch + c] = err[c] as f32;
                             }
                         }
-                        (_, _, _, Some(or), _) => {
-                            let (k, ok, r) = or.shade(job.env, job.brdf, &frame, wo, &mut out);
+                        Method::Quadrature => {
+                            let Some(or) = &oracle else {
+                                unreachable!("the oracle exists for quadrature")
+                            };
+                            let (k, ok, r) = or.shade(job.env, brdf, &frame, wo, &mut out);
                             max_k = max_k.max(k);
                             bad += usize::from(!ok);
                             resid = resid.max(r);
                         }
-                        _ => unreachable!("methods and their inputs are checked above"),
+                    }
+                    if let Some(a) = albedo_map {
+                        for c in 0..ch {
+                            let k = a.sample(uv, c);
+                            out[c] *= k;
+                            if !se.is_empty() {
+                                se[x * ch + c] *= k as f32;
+                            }
+                        }
                     }
                 } else if let Some(bg) = job.background {
                     bg.lookup(d.to_array(), &mut out);

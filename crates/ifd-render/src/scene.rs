@@ -18,9 +18,15 @@ pub struct Hit {
     /// `dP/du` of the surface's parameterisation (the tangent anisotropic
     /// BRDFs align `ax` with); may be zero at a singular point.
     pub dpdu: DVec3,
+    /// Texture coordinates `(u, v)` in `[0, 1]` (`v = 0` at the top of an
+    /// image), `None` for meshes without them.
+    pub uv: Option<[f64; 2]>,
 }
 
-/// A scene.
+/// A scene. Texture coordinates: the sphere's are equirectangular (`u =
+/// phi / 2 pi`, `v = theta / pi`), the torus' `u` around `z` and `v` around
+/// the tube, the plane's `u = (x + 2) / 4`, `v = (2 - y) / 4`, a mesh's from
+/// its file.
 #[derive(Clone, Debug)]
 pub enum Scene {
     /// The unit sphere; `u = phi` (azimuth), so `dP/du = (-y, x, 0)`.
@@ -93,6 +99,11 @@ impl Scene {
                     p,
                     n,
                     dpdu: DVec3::new(-p.y, p.x, 0.0),
+                    // u = phi / 2 pi, v = theta / pi (an equirect texture)
+                    uv: Some([
+                        p.y.atan2(p.x).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU,
+                        n.z.clamp(-1.0, 1.0).acos() / std::f64::consts::PI,
+                    ]),
                 })
             }
             Self::Plane => {
@@ -109,6 +120,7 @@ impl Scene {
                     p: DVec3::new(p.x, p.y, 0.0),
                     n: DVec3::Z,
                     dpdu: DVec3::X,
+                    uv: Some([(p.x + 2.0) / 4.0, (2.0 - p.y) / 4.0]),
                 })
             }
             Self::Torus => torus_hit(o, d),
@@ -156,11 +168,17 @@ fn torus_hit(o: DVec3, d: DVec3) -> Option<Hit> {
             let rxy = (p.x * p.x + p.y * p.y).sqrt();
             let centre = DVec3::new(p.x / rxy * RING, p.y / rxy * RING, 0.0);
             let n = (p - centre).normalize();
+            // u around z, v around the tube (from the outer equator, upwards)
+            let tube = p.z.atan2(rxy - RING).rem_euclid(std::f64::consts::TAU);
             return Some(Hit {
                 t,
                 p,
                 n,
                 dpdu: DVec3::new(-p.y, p.x, 0.0),
+                uv: Some([
+                    p.y.atan2(p.x).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU,
+                    tube / std::f64::consts::TAU,
+                ]),
             });
         }
         prev = t;

@@ -237,6 +237,59 @@ impl Brdf {
         self.albedo
     }
 
+    /// The same isotropic GGX or Ward BRDF with roughness `alpha` (spatially
+    /// varying roughness): the spec is rewritten to match.
+    ///
+    /// # Errors
+    /// [`ShadeError::Spec`] for other models, anisotropic ones, or `alpha`
+    /// outside `[1e-3, 1]`.
+    pub fn with_roughness(&self, alpha: f64) -> Result<Self> {
+        let err = |reason: String| ShadeError::Spec {
+            spec: self.spec.clone(),
+            reason,
+        };
+        if !(1e-3..=1.0).contains(&alpha) {
+            return Err(err(format!(
+                "roughness alpha = {alpha} is outside [0.001, 1]"
+            )));
+        }
+        let albedo = if self.albedo == 1.0 {
+            String::new()
+        } else {
+            format!(",albedo={}", self.albedo)
+        };
+        let (model, spec) = match self.model {
+            Model::Ggx { ax, ay, f0 } if ax == ay => (
+                Model::Ggx {
+                    ax: alpha,
+                    ay: alpha,
+                    f0,
+                },
+                format!(
+                    "ggx:alpha={alpha}{}{albedo}",
+                    f0.map_or(String::new(), |f| format!(",f0={f}"))
+                ),
+            ),
+            Model::Ward { ax, ay } if ax == ay => (
+                Model::Ward {
+                    ax: alpha,
+                    ay: alpha,
+                },
+                format!("ward:alpha={alpha}{albedo}"),
+            ),
+            _ => {
+                return Err(err(
+                    "a roughness map needs an isotropic GGX or Ward BRDF".into()
+                ));
+            }
+        };
+        Ok(Self {
+            model,
+            albedo: self.albedo,
+            spec,
+        })
+    }
+
     /// Channels of the slice: 3 for MERL, 1 for the analytic models.
     #[must_use]
     pub fn channels(&self) -> usize {

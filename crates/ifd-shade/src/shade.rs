@@ -341,6 +341,20 @@ pub struct Scratch {
     weights: Vec<f64>,
 }
 
+impl Scratch {
+    /// Buffers for materials of degree `l_max` under an environment of
+    /// `channels` channels.
+    #[must_use]
+    pub fn new(l_max: usize, channels: usize) -> Self {
+        let n = (l_max + 1) * (l_max + 1);
+        Self {
+            y: vec![0.0; n],
+            bands: vec![0.0; (l_max + 1) * channels.max(3)],
+            weights: vec![0.0; n * 3],
+        }
+    }
+}
+
 impl Material {
     /// A material at degree `l_max`: closed form for Lambert and Phong,
     /// otherwise the given table (checked against the BRDF and degree).
@@ -396,12 +410,7 @@ impl Material {
     /// Scratch buffers for [`Self::shade_isd`].
     #[must_use]
     pub fn scratch(&self, channels: usize) -> Scratch {
-        let n = (self.l_max + 1) * (self.l_max + 1);
-        Scratch {
-            y: vec![0.0; n],
-            bands: vec![0.0; (self.l_max + 1) * channels.max(3)],
-            weights: vec![0.0; n * 3],
-        }
+        Scratch::new(self.l_max, channels)
     }
 
     /// The rotation of the slice and the local view: `R` (local -> world,

@@ -10,6 +10,7 @@ use ifd_render::camera::Camera;
 use ifd_render::envmap::EnvMap;
 use ifd_render::render::{Job, Method, render};
 use ifd_render::scene::Scene;
+use ifd_render::textures::{RoughnessFamily, SurfaceMaps, Texture};
 use ifd_render::tonemap::Tonemap;
 use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
@@ -127,6 +128,17 @@ pub struct Render {
         allow_hyphen_values = true
     )]
     exposure: f32,
+    /// Albedo map over the surface's texture coordinates (multiplies the BRDF; 8/16-bit files
+    /// are sRGB-encoded as glTF's base colour, float files linear).
+    #[arg(long, value_name = "IMAGE")]
+    albedo_map: Option<PathBuf>,
+    /// Roughness map (first channel, linear, alpha = roughness^2 as glTF) for an isotropic GGX
+    /// or Ward BRDF; ISD blends lobe tables at --roughness-tables values over the map's range.
+    #[arg(long, value_name = "IMAGE")]
+    roughness_map: Option<PathBuf>,
+    /// Lobe tables across the roughness map's range (ISD methods).
+    #[arg(long, value_name = "K", default_value_t = 8)]
+    roughness_tables: usize,
     /// Also write the object mask (1 on the object, 0 elsewhere).
     #[arg(long, value_name = "FILE")]
     mask: Option<PathBuf>,
@@ -273,6 +285,28 @@ impl Render {
                 })?)
             }
         };
+        let surface = self.surface_maps()?;
+        let family = match (&surface.roughness, method, l_max) {
+            (Some(t), Method::Isd | Method::IsdMaps | Method::Sh, Some(l)) => {
+                if !(2..=64).contains(&self.roughness_tables) {
+                    bail!("--roughness-tables {}: use 2..=64", self.roughness_tables);
+                }
+                brdf.with_roughness(0.5).context("--roughness-map")?;
+                let bar = progress_bar("roughness tables");
+                let f =
+                    RoughnessFamily::build(&brdf, l, t.range(), self.roughness_tables, &|d, n| {
+                        bar.set_length(n as u64);
+                        bar.set_position(d as u64);
+                    })?;
+                bar.finish_and_clear();
+                Some(f)
+            }
+            (Some(_), _, _) => {
+                brdf.with_roughness(0.5).context("--roughness-map")?;
+                None
+            }
+            _ => None,
+        };
         let job = Job {
             scene,
             camera,
@@ -283,6 +317,8 @@ impl Render {
             method,
             spp: self.spp,
             seed: self.seed,
+            maps: Some(&surface),
+            family: family.as_ref(),
         };
         let bar = progress_bar("render");
         let t_render = std::time::Instant::now();
@@ -339,6 +375,30 @@ impl Render {
         };
         let env = full.downsampled(ew, eh)?;
         Ok((full, env))
+    }
+
+    /// The albedo and roughness maps.
+    fn surface_maps(&self) -> Result<SurfaceMaps> {
+        let read = |p: &PathBuf, srgb: bool, what: &'static str| -> Result<Texture> {
+            let opts = ifd_image::ReadOptions {
+                srgb_decode: srgb,
+                ..Default::default()
+            };
+            let img = ifd_image::read_image(p, &opts)?.image;
+            Texture::new(img, what).with_context(|| format!("{}", p.display()))
+        };
+        Ok(SurfaceMaps {
+            albedo: self
+                .albedo_map
+                .as_ref()
+                .map(|p| read(p, true, "--albedo-map"))
+                .transpose()?,
+            roughness: self
+                .roughness_map
+                .as_ref()
+                .map(|p| read(p, false, "--roughness-map"))
+                .transpose()?,
+        })
     }
 
     fn scene(&self) -> Result<Scene> {
