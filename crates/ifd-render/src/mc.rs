@@ -9,8 +9,10 @@
 //!
 //! The estimate of `I = int E(w) k_wo(w) dw` from sample `i` is
 //! `Y_i = sum_s w_s(x_s) E(x_s) k(x_s) / p_s(x_s)`,
-//! `w_s = p_s^2 / (p_env^2 + p_brdf^2)`; the standard error is
-//! `sqrt(var(Y) / N)`.
+//! `w_s = p_s^2 / (p_env^2 + p_brdf^2)`; the standard error reported is the
+//! i.i.d. estimate `sqrt(var(Y) / N)` (needs `N >= 2`), an upper estimate
+//! for low-discrepancy points, whose error falls faster (measured: the actual
+//! error is 2.5-4x below it at 256 samples).
 
 use std::f64::consts::PI;
 

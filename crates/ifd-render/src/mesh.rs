@@ -100,7 +100,12 @@ impl Mesh {
             }
             for t in mesh.indices.chunks_exact(3) {
                 if t.iter().any(|&i| i as usize >= nv) {
-                    return Err(bad(format!("a face refers to vertex {} of {nv}", t[0])));
+                    let i = t
+                        .iter()
+                        .copied()
+                        .find(|&i| i as usize >= nv)
+                        .unwrap_or(t[0]);
+                    return Err(bad(format!("a face refers to vertex {i} of {nv}")));
                 }
                 tris.push([base + t[0], base + t[1], base + t[2]]);
             }
@@ -133,11 +138,17 @@ impl Mesh {
         uv: Option<&[[f64; 2]]>,
         tris: Vec<[u32; 3]>,
     ) -> Result<Self> {
-        if tris.is_empty() || tris.iter().flatten().any(|&i| i as usize >= pos.len()) {
+        let lengths_ok = normals.as_ref().is_none_or(|n| n.len() == pos.len())
+            && uv.is_none_or(|u| u.len() == pos.len())
+            && pos.iter().all(|p| p.is_finite());
+        if !lengths_ok || tris.is_empty() || tris.iter().flatten().any(|&i| i as usize >= pos.len())
+        {
             return Err(RenderError::Parameter {
                 name: "mesh",
                 value: format!("{} vertices, {} triangles", pos.len(), tris.len()),
-                reason: "needs triangles whose indices are in range".into(),
+                reason: "needs finite positions, one normal and one texture coordinate per \
+                         vertex when given, and triangles whose indices are in range"
+                    .into(),
             });
         }
         let nrm = normals.unwrap_or_else(|| smooth_normals(&pos, &tris));
@@ -225,7 +236,12 @@ impl Mesh {
     /// The first hit of the ray `o + t d`, `t > 1e-9`.
     #[must_use]
     pub fn intersect(&self, o: DVec3, d: DVec3) -> Option<Hit> {
-        let inv = DVec3::ONE / d;
+        // zero components: a huge finite inverse keeps the slab test free of 0 * inf
+        let inv = DVec3::new(
+            if d.x == 0.0 { 1e300 } else { 1.0 / d.x },
+            if d.y == 0.0 { 1e300 } else { 1.0 / d.y },
+            if d.z == 0.0 { 1e300 } else { 1.0 / d.z },
+        );
         let mut best: Option<(f64, usize, f64, f64)> = None;
         let mut stack = [0u32; 64];
         let mut sp = 1;

@@ -120,6 +120,24 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             reason: "texture maps need texture coordinates, and the mesh has none".into(),
         });
     }
+    let kc = job.brdf.channels();
+    if kc != 1 && kc != ch {
+        return Err(RenderError::Parameter {
+            name: "--brdf",
+            value: job.brdf.spec().to_string(),
+            reason: format!("a {kc}-channel BRDF needs a {kc}-channel environment, not {ch}"),
+        });
+    }
+    if rough_map.is_some()
+        && job.family.is_none()
+        && matches!(job.method, Method::Isd | Method::IsdMaps | Method::Sh)
+    {
+        return Err(RenderError::Parameter {
+            name: "--roughness-map",
+            value: format!("{:?}", job.method),
+            reason: "ISD methods need a RoughnessFamily for a roughness map".into(),
+        });
+    }
     let degree = match (job.material, job.family) {
         (_, Some(f)) if rough_map.is_some() => Some(f.l_max()),
         (Some(m), _) => Some(m.l_max()),

@@ -29,7 +29,7 @@ pub struct Hit {
 /// its file.
 #[derive(Clone, Debug)]
 pub enum Scene {
-    /// The unit sphere; `u = phi` (azimuth), so `dP/du = (-y, x, 0)`.
+    /// The unit sphere; `u = phi / 2 pi` (azimuth), so `dP/du` is along `(-y, x, 0)`.
     Sphere,
     /// The torus of radii 1 (ring) and 0.4 (tube) around `z`; `u` the angle
     /// around `z`.
@@ -147,12 +147,12 @@ fn torus_hit(o: DVec3, d: DVec3) -> Option<Hit> {
     let t_far = -b + disc.sqrt();
     let mut t = (-b - disc.sqrt()).max(0.0);
     let mut prev = t;
-    for _ in 0..512 {
+    for _ in 0..4096 {
         if t > t_far {
             return None;
         }
         let dist = torus_sdf(o + t * d);
-        if dist < 1e-10 {
+        if dist < 1e-10 * t.max(1.0) {
             // bracket [prev, t] contains the crossing: bisect
             let (mut lo, mut hi) = (prev, t);
             for _ in 0..60 {

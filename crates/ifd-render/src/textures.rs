@@ -4,8 +4,10 @@
 //! - **Albedo** (RGB, an 8-bit PNG is sRGB-encoded, as glTF's base colour;
 //!   float formats are linear): multiplies the BRDF. The slice is linear in
 //!   its albedo, so every method multiplies its result per channel, exactly.
-//! - **Roughness** (first channel, linear, as glTF's roughness): `alpha =
-//!   roughness^2` of an isotropic GGX or Ward BRDF, clamped to `[0.001, 1]`.
+//! - **Roughness** (the image's first channel, linear; `alpha = roughness^2`
+//!   as glTF defines it) of an isotropic GGX or Ward BRDF, clamped to
+//!   `[0.001, 1]`. glTF packs roughness into the green channel of its
+//!   metallic-roughness texture: extract that channel first.
 //!   The oracle and Monte Carlo evaluate the BRDF of each point's `alpha`;
 //!   ISD shades with a family of lobe tables at `K` roughness values spread
 //!   evenly over the map's range and blends the two nearest linearly in

@@ -1,5 +1,6 @@
-//! `ifd render`: objects lit by an environment map, shaded by ISD (Eq. 22),
-//! its SH reference or the exact texel quadrature.
+//! `ifd render`: objects lit by an environment map, shaded by ISD (Eq. 22,
+//! from SH or from prefiltered maps), its SH reference, Monte Carlo or the
+//! exact texel quadrature.
 
 use std::path::PathBuf;
 
@@ -27,8 +28,8 @@ use crate::input::InputOptions;
 /// Every method integrates the same environment, averaged down to --env-size
 /// by solid angle and read as constant over each texel: `isd` and `sh` use its
 /// exact SH projection up to L, `quadrature` integrates each texel against the
-/// exact BRDF (Gauss-Legendre per texel, refined until it changes by less
-/// than 1e-6 of the pixel). Anisotropic BRDFs align `ax` with dP/du of the
+/// exact BRDF (Gauss-Legendre per texel, each texel refined until its value
+/// changes by less than 1e-6 of the pixel). Anisotropic BRDFs align `ax` with dP/du of the
 /// surface (the sphere's and torus' azimuth, the plane's x). Lambert and Phong
 /// shade with closed-form weights; other BRDFs need a lobe table (--table, or
 /// one is built at the default resolution). The background shows the full
@@ -224,6 +225,14 @@ impl Render {
         }
         let camera = self.camera()?;
         let (w, h) = (camera.width(), camera.height());
+        // the image, its row buffers and the mask, before any work
+        let bytes = (w as u64)
+            .saturating_mul(h as u64)
+            .saturating_mul(3 * 4 * 2 + 1);
+        self.input
+            .budget()
+            .check(bytes)
+            .with_context(|| format!("--size {w}x{h}"))?;
         let brdf = Brdf::parse(&self.brdf[0])?;
         if !brdf.is_isotropic() && !scene.has_tangents() {
             bail!(
@@ -237,6 +246,9 @@ impl Render {
         }
         if self.stderr.is_some() && method != Method::Mc {
             bail!("--stderr is written by --method mc only");
+        }
+        if self.stderr.is_some() && self.spp < 2 {
+            bail!("--stderr needs --spp 2 or more (a variance from one sample is undefined)");
         }
         if let Some(p) = &self.stderr {
             is_display(p)?;
