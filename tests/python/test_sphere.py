@@ -456,8 +456,15 @@ def test_render_matches_numpy_brute_force(run_ifd, tmp_path):
     (("--brdf", "lambert", "--lmax", 4, "--method", "path-tracing"), "--method"),
     (("--brdf", "lambert", "--method", "mc", "--spp", 0), "--spp"),
     (("--brdf", "lambert", "--lmax", 4, "--stderr", "x.exr"), "--stderr"),
+    (("--brdf", "lambert", "--lmax", 500), "L <= 100"),
+    (("--brdf", "lambert", "--lmax", 4, "--size", "0x8"), "--size"),
+    (("--brdf", "lambert", "--lmax", 4, "--eye", "1,nan,2"), "--eye"),
 ])
 def test_render_refuses_bad_input(run_ifd, tmp_path, args, needle):
+    np.save(tmp_path / "square.npy", np.ones((8, 8, 3), np.float32))
+    p = run_ifd("render", "--env", tmp_path / "square.npy", "--brdf", "lambert", "--lmax", 2, "--size", "8x8",
+                "-o", tmp_path / "o.exr", check=False)
+    assert p.returncode == 2 and "2:1" in p.stderr, p.stderr
     np.save(tmp_path / "env.npy", np.ones((8, 16, 3), np.float32))
     p = run_ifd("render", "--env", tmp_path / "env.npy", "--size", "8x8", *args, "-o", tmp_path / "o.exr",
                 check=False)
@@ -511,3 +518,17 @@ def test_render_texture_maps(run_ifd, tmp_path):
     p = run_ifd(*common, "--brdf", "ggx:alpha=0.5", "--lmax", 4, "--roughness-map", tmp_path / "nan.npy",
                 "-o", tmp_path / "x.npy", check=False)
     assert p.returncode == 2 and "nan.npy" in p.stderr, p.stderr
+
+
+def test_render_refuses_a_table_of_another_degree_or_brdf(run_ifd, tmp_path):
+    np.save(tmp_path / "env.npy", np.ones((8, 16, 3), np.float32))
+    run_ifd("sphere", "brdf", "ggx:alpha=0.4", "--lmax", 6, "--theta-entries", 4, "-o", tmp_path / "t.lobes")
+    common = ["render", "--env", tmp_path / "env.npy", "--size", "8x8", "--table", tmp_path / "t.lobes"]
+    p = run_ifd(*common, "--brdf", "ggx:alpha=0.4", "--lmax", 8, "-o", tmp_path / "o.exr", check=False)
+    assert p.returncode == 2 and "L = 6, not L = 8" in p.stderr and "t.lobes" in p.stderr, p.stderr
+    p = run_ifd(*common, "--brdf", "ggx:alpha=0.2", "--lmax", 6, "-o", tmp_path / "o.exr", check=False)
+    assert p.returncode == 2 and "ggx:alpha=0.4" in p.stderr, p.stderr
+    (tmp_path / "junk.lobes").write_bytes(b"IFDLOBES\xff\xff\xff\x7f{")
+    p = run_ifd("render", "--env", tmp_path / "env.npy", "--size", "8x8", "--table", tmp_path / "junk.lobes",
+                "--brdf", "ggx:alpha=0.4", "--lmax", 6, "-o", tmp_path / "o.exr", check=False)
+    assert p.returncode == 2 and "junk.lobes" in p.stderr and "truncated" in p.stderr, p.stderr

@@ -75,3 +75,21 @@ pub fn write_output(
     }
     Ok(())
 }
+
+/// Parses an image size `WxH` given to `option`: positive integers up to
+/// 16384 each (larger images are also checked against the memory budget by
+/// the commands).
+pub fn parse_size(text: &str, option: &str) -> Result<(usize, usize)> {
+    let parsed = text.split_once(['x', 'X']).and_then(|(w, h)| {
+        Some((
+            w.trim().parse::<usize>().ok()?,
+            h.trim().parse::<usize>().ok()?,
+        ))
+    });
+    match parsed {
+        Some((w, h)) if (1..=16384).contains(&w) && (1..=16384).contains(&h) => Ok((w, h)),
+        _ => anyhow::bail!(
+            "{option} {text:?}: expected WxH with integers in 1..=16384, e.g. 512x256"
+        ),
+    }
+}

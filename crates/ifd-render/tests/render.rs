@@ -442,3 +442,40 @@ fn textured_sphere_matches_the_oracle() {
     let flat = render(&j, &|_, _| {}).unwrap();
     assert!(relative_rms(&flat.image, &oracle.image, &oracle.mask) > 10.0 * err);
 }
+
+#[test]
+fn images_do_not_depend_on_the_thread_count() {
+    let env = forest();
+    let brdf = Brdf::parse("ggx:alpha=0.4").unwrap();
+    let m = material(&brdf, 8);
+    let run = |threads: usize, method: Method| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let material = (method == Method::Isd).then_some(&m);
+            let job = Job {
+                scene: Scene::Sphere,
+                camera: camera(24),
+                env: &env,
+                background: Some(&env),
+                brdf: &brdf,
+                material,
+                method,
+                spp: 32,
+                seed: 3,
+                maps: None,
+                family: None,
+            };
+            render(&job, &|_, _| {}).unwrap().image
+        })
+    };
+    for method in [Method::Isd, Method::Mc, Method::Quadrature] {
+        let (a, b) = (run(1, method), run(3, method));
+        assert!(
+            a.data() == b.data(),
+            "{method:?} differs between 1 and 3 threads"
+        );
+    }
+}

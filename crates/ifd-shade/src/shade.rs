@@ -44,6 +44,19 @@ pub trait Bands: Sync {
     /// are left as they are): a shared lobe `j` serves the bands
     /// `l >= ceil(j / 2)`.
     fn bands_from(&self, l0: usize, d: [f64; 3], y: &mut [f64], out: &mut [f64]);
+    /// [`Self::bands_from`] at four directions at once, lane `k` (bands
+    /// `l >= l0[k]`) into `out[k (L + 1) C..]`.
+    fn bands4(&self, l0: [usize; 4], d: [[f64; 3]; 4], y: &mut [f64], out: &mut [f64]) {
+        let n = (self.l_max() + 1) * self.channels();
+        for k in 0..4 {
+            self.bands_from(
+                l0[k].min(self.l_max() + 1),
+                d[k],
+                y,
+                &mut out[k * n..(k + 1) * n],
+            );
+        }
+    }
 }
 
 /// An environment's SH coefficients, ready for per-band lookups `Ehat_l(d)`.
@@ -114,6 +127,22 @@ impl Bands for Environment {
     }
     fn bands_from(&self, l0: usize, d: [f64; 3], y: &mut [f64], out: &mut [f64]) {
         Environment::bands_from(self, l0, d, y, out);
+    }
+    fn bands4(&self, l0: [usize; 4], d: [[f64; 3]; 4], _y: &mut [f64], out: &mut [f64]) {
+        // one lane-wise pass fusing the SH recurrences with the coefficients
+        let ch = self.channels();
+        let nb = self.l_max() + 1;
+        let lo = l0.iter().copied().min().unwrap_or(0).min(nb);
+        self.sh
+            .band_sums(lo, &d, self.coeffs.data(), ch, &mut out[..4 * nb * ch]);
+        for k in 0..4 {
+            for l in lo..nb {
+                let p = pi_l(l);
+                for v in &mut out[(k * nb + l) * ch..(k * nb + l + 1) * ch] {
+                    *v *= p;
+                }
+            }
+        }
     }
 }
 
@@ -349,7 +378,7 @@ impl Scratch {
         let n = (l_max + 1) * (l_max + 1);
         Self {
             y: vec![0.0; n],
-            bands: vec![0.0; (l_max + 1) * channels.max(3)],
+            bands: vec![0.0; 4 * (l_max + 1) * channels.max(3)],
             weights: vec![0.0; n * 3],
         }
     }
@@ -480,13 +509,21 @@ impl Material {
                 }
                 let n = t.entry_len();
                 t.weights_into(theta, phi, &mut s.weights[..n]);
-                for (j, z) in t.directions().all().iter().enumerate() {
-                    env.bands_from(j.div_ceil(2), r.apply(*z), &mut s.y, &mut s.bands);
-                    for l in j.div_ceil(2)..=self.l_max {
-                        let base = (l * l + j) * kc;
-                        for (c, o) in out[..ch].iter_mut().enumerate() {
-                            let lam = s.weights[base + if kc == 1 { 0 } else { c }];
-                            *o += lam * s.bands[l * ch + c];
+                let dirs = t.directions().all();
+                let nb = self.l_max + 1;
+                // four lobes at a time; lobe j serves the bands l >= ceil(j / 2)
+                for j0 in (0..dirs.len()).step_by(4) {
+                    let js: [usize; 4] = std::array::from_fn(|k| j0 + k);
+                    let d = js.map(|j| r.apply(dirs[j.min(dirs.len() - 1)]));
+                    let l0 = js.map(|j| if j < dirs.len() { j.div_ceil(2) } else { nb });
+                    env.bands4(l0, d, &mut s.y, &mut s.bands);
+                    for (k, &j) in js.iter().enumerate() {
+                        for l in l0[k]..nb {
+                            let base = (l * l + j) * kc;
+                            for (c, o) in out[..ch].iter_mut().enumerate() {
+                                let lam = s.weights[base + if kc == 1 { 0 } else { c }];
+                                *o += lam * s.bands[(k * nb + l) * ch + c];
+                            }
                         }
                     }
                 }

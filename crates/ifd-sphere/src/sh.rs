@@ -284,6 +284,119 @@ impl ShEvaluator {
         );
     }
 
+    /// Per-band sums of an SH expansion at `N` directions at once:
+    /// `out[(k (L + 1) + l) C + c] = sum_m f_l^m y_l^m(d_k)` for `l >= l0`
+    /// (entries of lower bands are left as they are), with `coeffs` flat
+    /// `((L + 1)^2, C)` row-major. The recurrences of [`Self::eval_into`] run
+    /// lane-wise across the directions and meet the coefficients as they go,
+    /// without storing the `(L + 1)^2` values, so the loops vectorise over the
+    /// lanes. Directions are normalised first.
+    ///
+    /// ```
+    /// use ifd_sphere::ShEvaluator;
+    /// let sh = ShEvaluator::new(3)?;
+    /// let f: Vec<f64> = (0..16).map(|i| (i as f64 * 0.3).sin()).collect();
+    /// let d = [[0.3, -0.2, 0.9], [0.0, 1.0, 0.0]];
+    /// let mut out = vec![0.0; 2 * 4];
+    /// sh.band_sums(0, &d, &f, 1, &mut out);
+    /// let y = sh.eval(d[1]);
+    /// let band2: f64 = (4..9).map(|i| f[i] * y[i]).sum();
+    /// assert!((out[4 + 2] - band2).abs() < 1e-14);
+    /// # Ok::<(), ifd_sphere::SphereError>(())
+    /// ```
+    ///
+    /// # Panics
+    /// If `coeffs` holds fewer than `(L + 1)^2 C` values or `out` fewer than
+    /// `N (L + 1) C`.
+    pub fn band_sums<const N: usize>(
+        &self,
+        l0: usize,
+        dirs: &[[f64; 3]; N],
+        coeffs: &[f64],
+        channels: usize,
+        out: &mut [f64],
+    ) {
+        let t = &self.table;
+        let l_max = t.l_max;
+        let ch = channels;
+        let nb = l_max + 1;
+        assert!(coeffs.len() >= nb * nb * ch && out.len() >= N * nb * ch);
+        let mut x = [0.0; N];
+        let mut y = [0.0; N];
+        let mut z = [0.0; N];
+        for k in 0..N {
+            let d = dirs[k];
+            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let inv = if n > 0.0 { 1.0 / n } else { f64::NAN };
+            (x[k], y[k], z[k]) = (d[0] * inv, d[1] * inv, d[2] * inv);
+        }
+        // accumulators [l][c] of lanes, contiguous over the lanes
+        let mut acc = vec![[0.0f64; N]; nb * ch];
+        let sqrt2 = std::f64::consts::SQRT_2;
+        let mut c = [1.0; N];
+        let mut s = [0.0; N];
+        for m in 0..=l_max {
+            if m > 0 {
+                for k in 0..N {
+                    let cn = c[k] * x[k] - s[k] * y[k];
+                    s[k] = c[k] * y[k] + s[k] * x[k];
+                    c[k] = cn;
+                }
+            }
+            let (fc, fs): ([f64; N], [f64; N]) = if m == 0 {
+                ([1.0; N], [0.0; N])
+            } else {
+                (
+                    std::array::from_fn(|k| sqrt2 * c[k]),
+                    std::array::from_fn(|k| sqrt2 * s[k]),
+                )
+            };
+            let mut p2 = [t.qmm[m]; N];
+            let mut p1 = [0.0; N];
+            for l in m..=l_max {
+                // p_l^m lane-wise (sin^m theta is carried by (c, s) = (x + i y)^m)
+                let p: [f64; N] = if l == m {
+                    p2
+                } else if l == m + 1 {
+                    p1 = std::array::from_fn(|k| t.c1[m] * z[k] * p2[k]);
+                    p1
+                } else {
+                    let ti = l * (l + 1) / 2 + m;
+                    let (a, b) = (t.a[ti], t.b[ti]);
+                    let p = std::array::from_fn(|k| a * (z[k] * p1[k] - b * p2[k]));
+                    p2 = p1;
+                    p1 = p;
+                    p
+                };
+                if l < l0 {
+                    continue;
+                }
+                let base = l * (l + 1);
+                let pc: [f64; N] = std::array::from_fn(|k| p[k] * fc[k]);
+                let ps: [f64; N] = std::array::from_fn(|k| p[k] * fs[k]);
+                for cc in 0..ch {
+                    let a = coeffs[(base + m) * ch + cc];
+                    let b = if m > 0 {
+                        coeffs[(base - m) * ch + cc]
+                    } else {
+                        0.0
+                    };
+                    let slot = &mut acc[l * ch + cc];
+                    for k in 0..N {
+                        slot[k] += pc[k] * a + ps[k] * b;
+                    }
+                }
+            }
+        }
+        for k in 0..N {
+            for l in l0.min(nb)..nb {
+                for cc in 0..ch {
+                    out[(k * nb + l) * ch + cc] = acc[l * ch + cc][k];
+                }
+            }
+        }
+    }
+
     /// Values of the band-`l` functions only, `y_l^{-l..=l}(d)`, into `out[..2l+1]`.
     /// Costs as much as a full evaluation up to `l`.
     ///

@@ -19,7 +19,7 @@ use ifd_shade::table::{LobeTable, default_theta_entries};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
-use crate::input::InputOptions;
+use crate::input::{InputOptions, parse_size};
 
 /// Render an analytic object lit by an environment map (unshadowed, one ray
 /// per pixel centre).
@@ -177,19 +177,6 @@ fn parse_vec(text: &str, option: &str) -> Result<DVec3> {
         bail!("{option} {text:?}: expected three finite numbers X,Y,Z");
     }
     Ok(DVec3::new(v[0], v[1], v[2]))
-}
-
-fn parse_size(text: &str, option: &str) -> Result<(usize, usize)> {
-    let parsed = text.split_once(['x', 'X']).and_then(|(w, h)| {
-        Some((
-            w.trim().parse::<usize>().ok()?,
-            h.trim().parse::<usize>().ok()?,
-        ))
-    });
-    match parsed {
-        Some((w, h)) if w > 0 && h > 0 && w <= 16384 && h <= 16384 => Ok((w, h)),
-        _ => bail!("{option} {text:?}: expected WxH with integers in 1..=16384, e.g. 256x256"),
-    }
 }
 
 /// Whether the output gets the display transform (8-bit formats).

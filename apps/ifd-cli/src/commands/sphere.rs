@@ -14,7 +14,7 @@ use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, Sharing};
 use ifd_sphere::{EquirectTransform, Rotation, ShCoeffs, ShEvaluator, ShRotation};
 use serde_json::json;
 
-use crate::input::InputOptions;
+use crate::input::{InputOptions, parse_size};
 
 /// Spherical harmonics (graphics/Sloan convention, flat index l(l+1)+m), rotations
 /// (`--zyz a,b,c` = Rz(a) Ry(b) Rz(c), g(w) = f(R^T w)) and isotropic spherical
@@ -577,20 +577,6 @@ struct FilterCmd {
     output: PathBuf,
     #[command(flatten)]
     input: InputOptions,
-}
-
-/// Parses `WxH`.
-fn parse_size(text: &str, option: &str) -> Result<(usize, usize)> {
-    let parsed = text.split_once(['x', 'X']).and_then(|(w, h)| {
-        Some((
-            w.trim().parse::<usize>().ok()?,
-            h.trim().parse::<usize>().ok()?,
-        ))
-    });
-    match parsed {
-        Some((w, h)) if w > 0 && h > 0 => Ok((w, h)),
-        _ => bail!("{option} {text:?}: expected WxH with positive integers, e.g. 512x256"),
-    }
 }
 
 /// Reads a decomposition file, naming the file in every error.
