@@ -3,7 +3,8 @@
 # apply it to a bundled photo with an angle that follows circles around the
 # centre (a swirl blur) and a scale that grows towards the corners -- a
 # spatially varying anisotropic filter up to ~400 px across, at the cost of one
-# lookup per term and pixel. Results land in out/demo/.
+# lookup per term and pixel; then shade a glossy sphere lit by the bundled
+# environment map with ISD. Results land in out/demo/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-out/demo}
@@ -29,5 +30,10 @@ echo "==> filtering testdata/astronaut.png (spatially varying angle and scale)"
 echo "==> how far the result is from the input"
 "$IFD" compare testdata/astronaut.png "$OUT/astronaut-swirl.png"
 
+echo "==> the spherical half: a GGX sphere lit by the bundled forest map (ISD, Eq. 22)"
+"$IFD" render --env testdata/forest.hdr --brdf ggx:alpha=0.3 --lmax 16 --size 384x384 \
+  -o "$OUT/forest-ggx.png"
+
 echo
-echo "done: $OUT/astronaut-swirl.png (filtered), $OUT/gauss8-decomposition.png (the fit)"
+echo "done: $OUT/astronaut-swirl.png (filtered), $OUT/gauss8-decomposition.png (the fit),"
+echo "      $OUT/forest-ggx.png (shading with isotropic spherical decomposition)"
