@@ -137,18 +137,23 @@ impl EnvMap {
         })
     }
 
-    /// The texel value seen in direction `d` (unit), nearest texel.
-    pub fn lookup(&self, d: [f64; 3], out: &mut [f64]) {
-        let (w, h, ch) = (self.img.width(), self.img.height(), self.img.channels());
-        let (s, c) = (-self.rotation).sin_cos();
-        let x = c * d[0] - s * d[1];
-        let y = s * d[0] + c * d[1];
+    /// The index `v W + u` of the texel seen in direction `d` (unit), after
+    /// the rotation.
+    #[must_use]
+    pub fn texel(&self, d: [f64; 3]) -> usize {
+        let (w, h) = (self.img.width(), self.img.height());
         let t = d[2].clamp(-1.0, 1.0).acos();
-        let p = y.atan2(x).rem_euclid(2.0 * PI);
+        let p = (d[1].atan2(d[0]) - self.rotation).rem_euclid(2.0 * PI);
         let u = ((p / (2.0 * PI) * w as f64) as usize).min(w - 1);
         let v = ((t / PI * h as f64) as usize).min(h - 1);
-        let px = &self.img.data()[(v * w + u) * ch..(v * w + u + 1) * ch];
-        for (o, x) in out.iter_mut().zip(px) {
+        v * w + u
+    }
+
+    /// The texel value seen in direction `d` (unit), nearest texel.
+    pub fn lookup(&self, d: [f64; 3], out: &mut [f64]) {
+        let ch = self.img.channels();
+        let t = self.texel(d);
+        for (o, x) in out.iter_mut().zip(&self.img.data()[t * ch..(t + 1) * ch]) {
             *o = f64::from(*x);
         }
     }

@@ -105,9 +105,9 @@ impl EnvSampler {
         (i, f.clamp(0.0, 1.0 - 1e-12))
     }
 
-    /// A direction (world) from uniforms `u` and its density.
+    /// A direction (world) from uniforms `u`, its density and its texel.
     #[must_use]
-    pub fn sample(&self, u: [f64; 2]) -> ([f64; 3], f64) {
+    pub fn sample(&self, u: [f64; 2]) -> ([f64; 3], f64, usize) {
         let (v, fv) = Self::invert(&self.rows, u[0]);
         let row = &self.cols[v * (self.width + 1)..(v + 1) * (self.width + 1)];
         let (col, fu) = Self::invert(row, u[1]);
@@ -118,25 +118,14 @@ impl EnvSampler {
         let p = 2.0 * PI * (col as f64 + fu) / self.width as f64 + self.rotation;
         let s = (1.0 - z * z).max(0.0).sqrt();
         let d = [s * p.cos(), s * p.sin(), z];
-        (d, self.prob[v * self.width + col] / self.row_sa[v])
+        let t = v * self.width + col;
+        (d, self.prob[t] / self.row_sa[v], t)
     }
 
-    /// The density of direction `d` (world).
+    /// The density of the directions in texel `t` ([`EnvMap::texel`]).
     #[must_use]
-    pub fn pdf(&self, d: [f64; 3]) -> f64 {
-        let t = self.texel(d);
+    pub fn texel_pdf(&self, t: usize) -> f64 {
         self.prob[t] / self.row_sa[t / self.width]
-    }
-
-    /// The texel index of direction `d`.
-    #[must_use]
-    pub fn texel(&self, d: [f64; 3]) -> usize {
-        let (w, h) = (self.width, self.height);
-        let t = d[2].clamp(-1.0, 1.0).acos();
-        let p = (d[1].atan2(d[0]) - self.rotation).rem_euclid(2.0 * PI);
-        let u = ((p / (2.0 * PI) * w as f64) as usize).min(w - 1);
-        let v = ((t / PI * h as f64) as usize).min(h - 1);
-        v * w + u
     }
 
     /// Channels of the map.
@@ -199,12 +188,12 @@ pub fn estimate(
     let to_world = |l: [f64; 3]| -> [f64; 3] {
         std::array::from_fn(|i| frame.t[i] * l[0] + frame.b[i] * l[1] + frame.n[i] * l[2])
     };
-    let add = |d: [f64; 3], weight: f64, y: &mut [f64], k: &mut [f64; 3]| {
+    // a sample's contribution: local direction `li`, texel `t`
+    let add = |li: [f64; 3], t: usize, weight: f64, y: &mut [f64], k: &mut [f64; 3]| {
         if weight == 0.0 {
             return;
         }
-        brdf.slice(frame.to_local(d), wl, k);
-        let t = sampler.texel(d);
+        brdf.slice(li, wl, k);
         for c in 0..ch {
             y[c] += weight * k[if kc == 1 { 0 } else { c }] * f64::from(data[t * ch + c]);
         }
@@ -213,18 +202,19 @@ pub fn estimate(
         let p = point(i as u64, shift);
         y.fill(0.0);
         // the environment's sample
-        let (d, pe) = sampler.sample([p[0], p[1]]);
+        let (d, pe, t) = sampler.sample([p[0], p[1]]);
         if pe > 0.0 {
-            let pb = brdf.pdf(frame.to_local(d), wl);
-            add(d, pe / (pe * pe + pb * pb), &mut y, &mut k);
+            let li = frame.to_local(d);
+            let pb = brdf.pdf(li, wl);
+            add(li, t, pe / (pe * pe + pb * pb), &mut y, &mut k);
         }
         // the BRDF's sample
         if let Some(li) = brdf.sample(wl, [p[2], p[3]]) {
-            let d = to_world(li);
             let pb = brdf.pdf(li, wl);
             if pb > 0.0 {
-                let pe = sampler.pdf(d);
-                add(d, pb / (pe * pe + pb * pb), &mut y, &mut k);
+                let t = env.texel(to_world(li));
+                let pe = sampler.texel_pdf(t);
+                add(li, t, pb / (pe * pe + pb * pb), &mut y, &mut k);
             }
         }
         for c in 0..ch {

@@ -46,6 +46,7 @@ use std::sync::Arc;
 
 use crate::error::{Result, ShadeError};
 use crate::merl::Merl;
+use crate::vec3::half;
 
 /// A BRDF model with its parameters.
 #[derive(Clone, Debug)]
@@ -381,11 +382,4 @@ impl Brdf {
             Model::Phong { .. } => unreachable!("handled above"),
         }
     }
-}
-
-/// The normalised half vector of two unit vectors in the upper hemisphere.
-fn half(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    let h = [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
-    let n = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
-    [h[0] / n, h[1] / n, h[2] / n]
 }

@@ -13,20 +13,7 @@
 use std::f64::consts::PI;
 
 use crate::brdf::{Brdf, Model};
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn normalize(a: [f64; 3]) -> [f64; 3] {
-    let n = dot(a, a).sqrt();
-    [a[0] / n, a[1] / n, a[2] / n]
-}
-
-fn reflect(wo: [f64; 3], h: [f64; 3]) -> [f64; 3] {
-    let d = 2.0 * dot(wo, h);
-    [d * h[0] - wo[0], d * h[1] - wo[1], d * h[2] - wo[2]]
-}
+use crate::vec3::{dot, half, normalize, reflect};
 
 /// A direction at angle `acos(c)` from `axis`, azimuth `phi` around it.
 fn around(axis: [f64; 3], c: f64, phi: f64) -> [f64; 3] {
@@ -125,10 +112,9 @@ impl Brdf {
     /// The density (per solid angle) with which [`Self::sample`] draws `wi`.
     #[must_use]
     pub fn pdf(&self, wi: [f64; 3], wo: [f64; 3]) -> f64 {
-        let half = || {
-            let h = normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]);
-            let oh = dot(wo, h);
-            (h, oh)
+        let h_and_oh = || {
+            let h = half(wi, wo);
+            (h, dot(wo, h))
         };
         match *self.model() {
             Model::Lambert | Model::Merl(_) => wi[2].max(0.0) / PI,
@@ -137,14 +123,14 @@ impl Brdf {
                 (s + 1.0) / (2.0 * PI) * rw.max(0.0).powf(s)
             }
             Model::BlinnPhong { s } => {
-                let (h, oh) = half();
+                let (h, oh) = h_and_oh();
                 if wi[2] <= 0.0 || h[2] <= 0.0 || oh <= 0.0 {
                     return 0.0;
                 }
                 (s + 1.0) / (2.0 * PI) * h[2].powf(s) / (4.0 * oh)
             }
             Model::Ggx { ax, ay, .. } => {
-                let (h, oh) = half();
+                let (h, oh) = h_and_oh();
                 if wi[2] <= 0.0 || wo[2] <= 0.0 || oh <= 0.0 {
                     return 0.0;
                 }
@@ -152,7 +138,7 @@ impl Brdf {
                 g1 * ggx_d(ax, ay, h) / (4.0 * wo[2])
             }
             Model::Ward { ax, ay } => {
-                let (h, oh) = half();
+                let (h, oh) = h_and_oh();
                 if wi[2] <= 0.0 || h[2] <= 0.0 || oh <= 0.0 {
                     return 0.0;
                 }

@@ -321,14 +321,16 @@ impl LobeTable {
             (theta.clamp(0.0, FRAC_PI_2) / FRAC_PI_2 * nt as f64 - 0.5).clamp(0.0, (nt - 1) as f64);
         let i0 = (x.floor() as usize).min(nt - 2);
         let ft = x - i0 as f64;
-        let corners: Vec<(usize, f64)> = if h.isotropic {
-            vec![(i0, 1.0 - ft), (i0 + 1, ft)]
+        // (entry, weight); isotropic tables use the first two (no allocation:
+        // this runs once per shaded pixel)
+        let corners: [(usize, f64); 4] = if h.isotropic {
+            [(i0, 1.0 - ft), (i0 + 1, ft), (0, 0.0), (0, 0.0)]
         } else {
             let y = phi.rem_euclid(2.0 * PI) / (2.0 * PI) * np as f64;
             let j0 = (y.floor() as usize) % np;
             let fp = y - y.floor();
             let j1 = (j0 + 1) % np;
-            vec![
+            [
                 (i0 * np + j0, (1.0 - ft) * (1.0 - fp)),
                 (i0 * np + j1, (1.0 - ft) * fp),
                 ((i0 + 1) * np + j0, ft * (1.0 - fp)),

@@ -254,8 +254,11 @@ impl Render {
         let (full, env) = self.environments()?;
         let (ew, eh) = (env.image().width(), env.image().height());
         let start = std::time::Instant::now();
+        // with a roughness map the ISD methods shade with the roughness family
+        // built below, not with one material
         let material = match (method, l_max) {
             (Method::Quadrature | Method::Mc, _) | (_, None) => None,
+            _ if self.roughness_map.is_some() => None,
             (_, Some(l)) => {
                 let table = match &self.table {
                     Some(p) => Some(LobeTable::read(p)?),
