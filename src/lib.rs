@@ -10,7 +10,9 @@
 //! - [`smooth`] (`ifd-smooth`): the Hessian and anisotropic smoothing;
 //! - [`sphere`] (`ifd-sphere`): spherical harmonics, rotation, ISD;
 //! - [`shade`] (`ifd-shade`): BRDFs as spherical filters, lobe-weight tables, Eq. 22;
-//! - [`render`] (`ifd-render`): the CPU renderer, its oracle and Monte Carlo.
+//! - [`render`] (`ifd-render`): the CPU renderer, its oracle and Monte Carlo;
+//! - [`ibl`] (`ifd-ibl`): the IBL baker (prefiltered GGX mips, irradiance,
+//!   SH, KTX2, the DFG table).
 //!
 //! GPU evaluation lives in the `ifd-gpu` crate, which is not re-exported
 //! here, so that depending on `ifd` does not pull in wgpu.
@@ -34,6 +36,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub use ifd_ibl as ibl;
 pub use ifd_image as image;
 pub use ifd_planar as planar;
 pub use ifd_render as render;

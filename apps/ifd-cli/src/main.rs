@@ -47,6 +47,8 @@ enum Command {
     Sphere(commands::sphere::Sphere),
     /// Render an object lit by an environment map: ISD shading (Eq. 22), its SH reference or the exact quadrature.
     Render(Box<commands::render::Render>),
+    /// Image-based lighting for engines: prefiltered GGX radiance mips, irradiance, SH (KTX2), the DFG table.
+    Envmap(commands::envmap::Envmap),
 }
 
 fn main() -> ExitCode {
@@ -58,6 +60,7 @@ fn main() -> ExitCode {
         Command::Field(c) => c.run(),
         Command::Sphere(c) => c.run(),
         Command::Render(c) => c.run(),
+        Command::Envmap(c) => c.run(),
         Command::Convert(c) => c.run(),
         Command::Info(c) => c.run(),
         Command::GpuInfo(c) => c.run(),

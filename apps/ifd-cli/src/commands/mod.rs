@@ -3,6 +3,7 @@
 pub mod compare;
 pub mod convert;
 pub mod decompose;
+pub mod envmap;
 pub mod field;
 pub mod filter;
 pub mod gpu_info;

@@ -1,0 +1,588 @@
+//! Prefiltering an environment map with zonal lobes, in frequency space
+//! with the brightest texels summed exactly.
+//!
+//! # Method
+//! The source is read, as the accuracy oracle reads it, as **piecewise
+//! constant** over its equirectangular texels. It is split into
+//!
+//! - a **residual**, every channel clamped at a threshold `T`, and
+//! - the **excess** `E - min(E, T)` of the few texels brighter than `T`
+//!   (the sun: `T = bright_factor x` the map's mean, raised so that at most
+//!   `max_bright` texels exceed it).
+//!
+//! The residual is projected on SH exactly for piecewise-constant texels
+//! ([`EquirectTransform::analyze_texels`], `O(H W log W + n H L^2)`), each
+//! lobe's bands are scaled by `lambda_l` ([`Lobe::zonal`]) up to a degree
+//! `L` chosen per lobe from the residual's own band powers `P_l`: the
+//! smallest `L` with `sum_{l > L} lambda_l^2 P_l <= eps^2 sum_l lambda_l^2
+//! P_l`, the sums over every band the analysis holds (by Parseval a
+//! relative RMS truncation error of at most `eps`; the analysis runs to the
+//! highest degree with `|lambda_l| >= eps` of any lobe), and the result is
+//! synthesised on an equirectangular grid (`H_s = max(2 N, 2 L + 2)` rows
+//! for `N`-texel faces, at least two rows per output texel and per half
+//! wavelength of the top band) and read at every cube texel with
+//! Catmull-Rom interpolation. Because the fast transforms make the frequency side cost
+//! `O(H L^2)` rather than the `O(pixels L^2)` of the SHRM paper's direct
+//! sums, it is cheaper than an angular sum for every lobe with `alpha > 0`
+//! at the sizes engines use (see `docs/ibl.md` for the cost model).
+//!
+//! The excess is summed directly: `sum_b e_b int_texel k(r . l) dl / K`, each
+//! bright texel split into `n x n` sub-texels when the lobe is narrower than a
+//! few texels. Bright texels are grouped in cells of `4 x 4` texels; a cell
+//! seen from further than `16` cell radii (and beyond twice the lobe width)
+//! contributes through its total at its weighted centroid (the dipole term
+//! vanishes there; the relative error of that far tail is below about
+//! `(k''/k) rho^2 / 2`, a few percent of a contribution that is itself a
+//! small part of the texel). This keeps a truncated SH expansion of a sun
+//! from ringing: the residual is bounded by `T`, so its ringing is bounded by
+//! `eps`-sized multiples of `T`. Texels still negative after that are set to
+//! 0 and counted.
+//!
+//! [`Lobe::Mirror`] (roughness 0) is the source itself: the texel hit by
+//! each output texel's centre direction (the exact delta-lobe answer for a
+//! piecewise-constant source) while the output texels are at least as large
+//! as about half a source texel (`H <= 2 N`); for a source much denser than
+//! the faces, a box filter over each output texel instead (`k x k`
+//! nearest-texel samples weighted by the cube's solid-angle density,
+//! `k = ceil(2 H / N)` up to 16), so that mip 0 does not alias.
+
+use std::f64::consts::PI;
+
+use ifd_image::Image;
+use ifd_sphere::{EquirectTransform, Negatives, ShCoeffs};
+use rayon::prelude::*;
+
+use crate::cube::{CubeLevel, equirect_coords, sample_bicubic, texel, world_to_ifd};
+use crate::error::{Result, param};
+use crate::lobe::Lobe;
+
+/// Tuning of [`Baker`]; the defaults are what `ifd envmap prefilter` uses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BakeOptions {
+    /// Band truncation: each lobe keeps the fewest bands whose dropped part
+    /// carries at most `eps^2` of its filtered residual's energy (a relative
+    /// RMS truncation error of `eps`, measured on the map's own spectrum);
+    /// the map is projected to the highest degree with `|lambda_l| >= eps`
+    /// of any lobe.
+    pub eps: f64,
+    /// Texels brighter than `bright_factor x` the map's mean (max channel,
+    /// solid-angle weighted) are summed directly.
+    pub bright_factor: f64,
+    /// At most this many texels are summed directly (the threshold rises).
+    pub max_bright: usize,
+    /// The highest SH degree any lobe may use.
+    pub max_degree: usize,
+}
+
+impl Default for BakeOptions {
+    fn default() -> Self {
+        Self {
+            eps: 1e-3,
+            bright_factor: 16.0,
+            max_bright: 2048,
+            max_degree: 512,
+        }
+    }
+}
+
+/// What one prefiltered level took.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LevelStats {
+    /// The lobe.
+    pub lobe: Lobe,
+    /// SH degree of the frequency part (0 for the mirror).
+    pub l_max: usize,
+    /// Whether the band limit hit [`BakeOptions::max_degree`].
+    pub capped: bool,
+    /// Directly summed sub-texel samples of the bright texels.
+    pub bright_samples: usize,
+    /// Output values below zero, set to zero.
+    pub negatives_clamped: usize,
+}
+
+/// One bright sub-texel: direction (ifd frame) and `excess x solid angle`.
+#[derive(Clone, Copy, Debug)]
+struct Sample {
+    d: [f64; 3],
+    w: [f64; 3],
+}
+
+/// A group of bright samples with its bounding cone and total.
+#[derive(Clone, Debug)]
+struct Cell {
+    centre: [f64; 3],
+    total: [f64; 3],
+    samples: std::ops::Range<usize>,
+    /// `d . centre` below this: the whole cell is behind the lobe
+    /// (angle - radius >= pi/2).
+    cos_behind: f64,
+    /// `d . centre` below this: far enough for the cell's total (angle >
+    /// max(16 radius, near)).
+    cos_far: f64,
+}
+
+/// A bright texel: position and excess.
+#[derive(Clone, Copy, Debug)]
+struct Bright {
+    u: usize,
+    v: usize,
+    excess: [f64; 3],
+}
+
+/// An environment map ready to be prefiltered with any number of lobes.
+///
+/// ```
+/// use ifd_ibl::{Baker, BakeOptions, lobe::Lobe};
+/// // a constant map stays constant under every normalised lobe (white furnace)
+/// let env = ifd_image::Image::from_vec(32, 16, 3, vec![0.5; 32 * 16 * 3])?;
+/// let lobes = [Lobe::Ggx { alpha: 0.3 }, Lobe::Lambert];
+/// let baker = Baker::new(&env, &BakeOptions::default(), &lobes)?;
+/// let (level, _) = baker.level(&lobes[0], 8)?;
+/// assert!(level.data.iter().all(|v| (v - 0.5).abs() < 1e-5));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Debug)]
+pub struct Baker {
+    source: Image,
+    coeffs: ShCoeffs,
+    /// Band powers `sum_m,c R_lm,c^2` of the residual.
+    power: Vec<f64>,
+    bright: Vec<Bright>,
+    threshold: f64,
+    mean: f64,
+    opts: BakeOptions,
+    input_negatives: usize,
+}
+
+impl Baker {
+    /// Validates and splits the map (2:1 equirectangular, RGB or more
+    /// channels; the first three are used) and projects its residual to the
+    /// highest band limit any of `lobes` needs.
+    ///
+    /// # Errors
+    /// A map that is not 2:1, has fewer than 3 channels, or holds NaN/Inf
+    /// samples; options out of range.
+    pub fn new(env: &Image, opts: &BakeOptions, lobes: &[Lobe]) -> Result<Self> {
+        let (w, h) = (env.width(), env.height());
+        if h < 2 || w != 2 * h {
+            return Err(param(
+                "environment map",
+                format!("must be 2:1 equirectangular (W = 2H); got {w}x{h}"),
+            ));
+        }
+        if env.channels() < 3 {
+            return Err(param(
+                "environment map",
+                format!("needs RGB; got {} channel(s)", env.channels()),
+            ));
+        }
+        if !(opts.eps > 0.0 && opts.eps < 1.0) {
+            return Err(param("--eps", format!("{} is outside (0, 1)", opts.eps)));
+        }
+        if !(opts.bright_factor.is_finite() && opts.bright_factor >= 1.0) {
+            return Err(param(
+                "bright factor",
+                format!("{} must be a finite number >= 1", opts.bright_factor),
+            ));
+        }
+        let ch = env.channels();
+        // RGB, negatives clamped (radiance is never negative), NaN rejected
+        let mut rgb = Vec::with_capacity(w * h * 3);
+        let mut input_negatives = 0;
+        for (k, px) in env.data().chunks_exact(ch).enumerate() {
+            for &v in &px[..3] {
+                if !v.is_finite() {
+                    return Err(param(
+                        "environment map",
+                        format!("sample {v} at texel ({}, {}) is not finite", k % w, k / w),
+                    ));
+                }
+                if v < 0.0 {
+                    input_negatives += 1;
+                }
+                rgb.push(v.max(0.0));
+            }
+        }
+        let source = Image::from_vec(w, h, 3, rgb)?;
+        let t = EquirectTransform::new(0, w, h)?;
+        // solid-angle-weighted mean of the max channel
+        let data = source.data();
+        let mut mean = 0.0;
+        for v in 0..h {
+            let da = t.pixel_solid_angle(v);
+            for px in data[v * w * 3..(v + 1) * w * 3].chunks_exact(3) {
+                mean += da * f64::from(px[0].max(px[1]).max(px[2]));
+            }
+        }
+        mean /= 4.0 * PI;
+        // the threshold: bright_factor x mean, raised to keep max_bright texels
+        let maxc: Vec<f32> = data
+            .chunks_exact(3)
+            .map(|p| p[0].max(p[1]).max(p[2]))
+            .collect();
+        let mut threshold = opts.bright_factor * mean;
+        let above = maxc.iter().filter(|&&m| f64::from(m) > threshold).count();
+        if above > opts.max_bright {
+            let mut sorted = maxc.clone();
+            let k = sorted.len() - 1 - opts.max_bright;
+            let (_, kth, _) = sorted.select_nth_unstable_by(k, f32::total_cmp);
+            threshold = f64::from(*kth);
+        }
+        let mut residual = source.clone();
+        let mut bright = Vec::new();
+        if mean > 0.0 {
+            let tf = threshold as f32;
+            for (k, px) in residual.data_mut().chunks_exact_mut(3).enumerate() {
+                if maxc[k] > tf {
+                    let mut excess = [0.0; 3];
+                    for c in 0..3 {
+                        excess[c] = f64::from((px[c] - tf).max(0.0));
+                        px[c] = px[c].min(tf);
+                    }
+                    bright.push(Bright {
+                        u: k % w,
+                        v: k / w,
+                        excess,
+                    });
+                }
+            }
+        }
+        let cap = opts.max_degree.min(ifd_sphere::MAX_DEGREE);
+        let l_max = lobes
+            .iter()
+            .filter(|l| **l != Lobe::Mirror)
+            .map(|l| l.band_limit(opts.eps, cap).0)
+            .max()
+            .unwrap_or(0);
+        let coeffs = EquirectTransform::new(l_max, w, h)?
+            .analyze_texels(&residual, Negatives::Keep)?
+            .coeffs;
+        let power = (0..=l_max)
+            .map(|l| {
+                coeffs.data()[l * l * 3..(l + 1) * (l + 1) * 3]
+                    .iter()
+                    .map(|v| v * v)
+                    .sum()
+            })
+            .collect();
+        Ok(Self {
+            source,
+            coeffs,
+            power,
+            bright,
+            threshold,
+            mean,
+            opts: *opts,
+            input_negatives,
+        })
+    }
+
+    /// Negative input samples (clamped to zero).
+    #[must_use]
+    pub fn input_negatives(&self) -> usize {
+        self.input_negatives
+    }
+
+    /// How many texels are summed directly, and the threshold.
+    #[must_use]
+    pub fn bright_texels(&self) -> (usize, f64) {
+        (self.bright.len(), self.threshold)
+    }
+
+    /// The source (RGB, negatives clamped).
+    #[must_use]
+    pub fn source(&self) -> &Image {
+        &self.source
+    }
+
+    /// SH coefficients of the whole source (not just the residual) up to
+    /// `l_max`, exact for piecewise-constant texels, in ifd's frame.
+    ///
+    /// # Errors
+    /// As [`EquirectTransform::analyze_texels`].
+    pub fn source_sh(&self, l_max: usize) -> Result<ShCoeffs> {
+        let (w, h) = (self.source.width(), self.source.height());
+        Ok(EquirectTransform::new(l_max, w, h)?
+            .analyze_texels(&self.source, Negatives::Keep)?
+            .coeffs)
+    }
+
+    /// The map prefiltered with `lobe` on an `n`-texel cube.
+    ///
+    /// # Errors
+    /// A lobe needing more bands than [`Baker::new`] projected; allocation.
+    pub fn level(&self, lobe: &Lobe, n: usize) -> Result<(CubeLevel, LevelStats)> {
+        if n == 0 {
+            return Err(param("face size", "must be at least 1"));
+        }
+        if *lobe == Lobe::Mirror {
+            return Ok((
+                self.mirror(n),
+                LevelStats {
+                    lobe: *lobe,
+                    l_max: 0,
+                    capped: false,
+                    bright_samples: 0,
+                    negatives_clamped: 0,
+                },
+            ));
+        }
+        let cap = self.opts.max_degree.min(ifd_sphere::MAX_DEGREE);
+        let (cand, capped) = lobe.band_limit(self.opts.eps, cap);
+        if cand > self.coeffs.l_max() {
+            return Err(param(
+                "lobe",
+                format!(
+                    "{lobe:?} needs degree {cand}, the map was projected to {}",
+                    self.coeffs.l_max()
+                ),
+            ));
+        }
+        // every band the analysis holds is a candidate (the tail of a broad
+        // lobe's lambda_l, from the kink at 90 degrees, decays slowly)
+        let l = truncation_degree(&lobe.zonal(self.coeffs.l_max()), &self.power, self.opts.eps);
+        // frequency part: scaled bands, synthesised on a fine equirect grid
+        let lam = lobe.zonal(l);
+        let mut scaled = self.coeffs.resized(l)?;
+        for (li, lam_l) in lam.iter().enumerate() {
+            let base = li * li;
+            for v in &mut scaled.data_mut()[base * 3..(li + 1) * (li + 1) * 3] {
+                *v *= lam_l;
+            }
+        }
+        let hs = (2 * n).max(2 * l + 2).next_multiple_of(4);
+        let grid = EquirectTransform::new(l, 2 * hs, hs)?.synthesize(&scaled)?;
+        // direct part
+        let (samples, cells) = self.bright_samples(lobe);
+        let k_int = lobe.integral();
+        let mut level = CubeLevel::zeros(n);
+        let negatives: usize = level
+            .data
+            .par_chunks_mut(n * 3)
+            .enumerate()
+            .map(|(row, out)| {
+                let (face, j) = (row / n, row % n);
+                let mut neg = 0;
+                for i in 0..n {
+                    let d = world_to_ifd(texel(face, i, j, n).0);
+                    let f = sample_bicubic(&grid, d);
+                    let b = direct_sum(lobe, &samples, &cells, d);
+                    for c in 0..3 {
+                        let v = f64::from(f[c]) + b[c] / k_int;
+                        if v < 0.0 {
+                            neg += 1;
+                        }
+                        out[i * 3 + c] = v.max(0.0) as f32;
+                    }
+                }
+                neg
+            })
+            .sum();
+        Ok((
+            level,
+            LevelStats {
+                lobe: *lobe,
+                l_max: l,
+                capped,
+                bright_samples: samples.len(),
+                negatives_clamped: negatives,
+            },
+        ))
+    }
+
+    /// The bright texels as sub-texel samples for `lobe`, grouped in cells.
+    fn bright_samples(&self, lobe: &Lobe) -> (Vec<Sample>, Vec<Cell>) {
+        const CELL: usize = 4;
+        let (w, h) = (self.source.width(), self.source.height());
+        let (dp, dt) = (2.0 * PI / w as f64, PI / h as f64);
+        let sub = ((4.0 * dt / lobe.width()).ceil() as usize).clamp(1, 8);
+        let mut keyed: Vec<((usize, usize), Bright)> = self
+            .bright
+            .iter()
+            .map(|b| ((b.v / CELL, b.u / CELL), *b))
+            .collect();
+        keyed.sort_by_key(|(k, _)| *k);
+        let mut samples = Vec::with_capacity(keyed.len() * sub * sub);
+        let mut cells = Vec::new();
+        let mut start = 0;
+        while start < keyed.len() {
+            let key = keyed[start].0;
+            let end = start + keyed[start..].iter().take_while(|(k, _)| *k == key).count();
+            let first = samples.len();
+            for (_, b) in &keyed[start..end] {
+                for a in 0..sub {
+                    let t0 = dt * (b.v as f64 + a as f64 / sub as f64);
+                    let t1 = t0 + dt / sub as f64;
+                    let tm = 0.5 * (t0 + t1);
+                    let sa = (t0.cos() - t1.cos()) * dp / sub as f64;
+                    for q in 0..sub {
+                        let p = dp * (b.u as f64 + (q as f64 + 0.5) / sub as f64);
+                        let d = [tm.sin() * p.cos(), tm.sin() * p.sin(), tm.cos()];
+                        samples.push(Sample {
+                            d,
+                            w: [b.excess[0] * sa, b.excess[1] * sa, b.excess[2] * sa],
+                        });
+                    }
+                }
+            }
+            // the cell: weighted centroid, bounding radius, total
+            let cs = &samples[first..];
+            let mut centre = [0.0; 3];
+            let mut total = [0.0; 3];
+            for s in cs {
+                let wt = s.w[0] + s.w[1] + s.w[2];
+                for k in 0..3 {
+                    centre[k] += wt * s.d[k];
+                    total[k] += s.w[k];
+                }
+            }
+            let r = (centre[0] * centre[0] + centre[1] * centre[1] + centre[2] * centre[2]).sqrt();
+            let centre = if r > 0.0 {
+                [centre[0] / r, centre[1] / r, centre[2] / r]
+            } else {
+                cs[0].d
+            };
+            let radius = cs
+                .iter()
+                .map(|s| angle(dot(s.d, centre)))
+                .fold(0.0, f64::max)
+                + 0.5 * dp.max(dt);
+            let far = (16.0 * radius).max(2.0 * lobe.width());
+            cells.push(Cell {
+                centre,
+                total,
+                samples: first..samples.len(),
+                cos_behind: if radius < 0.5 * PI {
+                    -radius.sin()
+                } else {
+                    -2.0
+                },
+                cos_far: if far < PI { far.cos() } else { -2.0 },
+            });
+            start = end;
+        }
+        (samples, cells)
+    }
+
+    /// Roughness 0: the source point-sampled, or box-filtered when much denser.
+    fn mirror(&self, n: usize) -> CubeLevel {
+        let (w, h) = (self.source.width(), self.source.height());
+        let k = if h <= 2 * n {
+            1
+        } else {
+            (2 * h).div_ceil(n).min(16)
+        };
+        let data = self.source.data();
+        let mut level = CubeLevel::zeros(n);
+        level
+            .data
+            .par_chunks_mut(n * 3)
+            .enumerate()
+            .for_each(|(row, out)| {
+                let (face, j) = (row / n, row % n);
+                for i in 0..n {
+                    let mut acc = [0.0f64; 3];
+                    let mut wsum = 0.0;
+                    for a in 0..k {
+                        for b in 0..k {
+                            // sub-texel centre in face coordinates
+                            let fi = i as f64 + (b as f64 + 0.5) / k as f64 - 0.5;
+                            let fj = j as f64 + (a as f64 + 0.5) / k as f64 - 0.5;
+                            let d = face_direction(face, fi, fj, n);
+                            // solid angle density of the cube parametrisation
+                            let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                            let wt = 1.0 / (r2 * r2.sqrt());
+                            let (u, v) = equirect_coords(world_to_ifd(d), w, h);
+                            let uu = (u as usize).min(w - 1);
+                            let vv = (v as usize).min(h - 1);
+                            let px = &data[(vv * w + uu) * 3..][..3];
+                            for c in 0..3 {
+                                acc[c] += wt * f64::from(px[c]);
+                            }
+                            wsum += wt;
+                        }
+                    }
+                    for c in 0..3 {
+                        out[i * 3 + c] = (acc[c] / wsum) as f32;
+                    }
+                }
+            });
+        level
+    }
+
+    /// Mean radiance (max channel, solid-angle weighted).
+    #[must_use]
+    pub fn mean(&self) -> f64 {
+        self.mean
+    }
+}
+
+/// Unnormalised direction of continuous texel position `(fi, fj)` (texel
+/// centres at integers) of a face: the OpenGL table of [`crate::cube`].
+fn face_direction(face: usize, fi: f64, fj: f64, n: usize) -> [f64; 3] {
+    let nf = n as f64;
+    let sc = 2.0 * (fi + 0.5) / nf - 1.0;
+    let tc = 2.0 * (fj + 0.5) / nf - 1.0;
+    match face {
+        0 => [1.0, -tc, -sc],
+        1 => [-1.0, -tc, sc],
+        2 => [sc, 1.0, tc],
+        3 => [sc, -1.0, -tc],
+        4 => [sc, -tc, 1.0],
+        _ => [-sc, -tc, -1.0],
+    }
+}
+
+/// The smallest `L` whose dropped bands carry at most `tol^2` of the
+/// filtered residual's energy: `sum_{l > L} lambda_l^2 P_l <= tol^2 sum_l
+/// lambda_l^2 P_l` (Parseval: the relative RMS error over the sphere of the
+/// truncated expansion is at most `tol`), over the bands the analysis holds.
+fn truncation_degree(lam: &[f64], power: &[f64], tol: f64) -> usize {
+    let n = lam.len().min(power.len());
+    let e: Vec<f64> = (0..n).map(|l| lam[l] * lam[l] * power[l]).collect();
+    let total: f64 = e.iter().sum();
+    let budget = tol * tol * total;
+    let mut tail = 0.0;
+    for l in (0..n).rev() {
+        tail += e[l];
+        if tail > budget {
+            return l;
+        }
+    }
+    0
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn angle(c: f64) -> f64 {
+    c.clamp(-1.0, 1.0).acos()
+}
+
+/// `sum_b w_b k(d . l_b)` over the bright samples, cells far from `d`
+/// through their totals (the thresholds are precomputed cosines: one dot
+/// product decides per cell).
+fn direct_sum(lobe: &Lobe, samples: &[Sample], cells: &[Cell], d: [f64; 3]) -> [f64; 3] {
+    let mut acc = [0.0; 3];
+    for cell in cells {
+        let c = dot(d, cell.centre);
+        if c <= cell.cos_behind {
+            continue;
+        }
+        if c < cell.cos_far {
+            let k = lobe.eval(c);
+            for (a, t) in acc.iter_mut().zip(cell.total) {
+                *a += k * t;
+            }
+        } else {
+            for s in &samples[cell.samples.clone()] {
+                let k = lobe.eval(dot(d, s.d));
+                for (a, w) in acc.iter_mut().zip(s.w) {
+                    *a += k * w;
+                }
+            }
+        }
+    }
+    acc
+}
