@@ -34,6 +34,10 @@ echo "==> the spherical half: a GGX sphere lit by the bundled forest map (ISD, E
 "$IFD" render --env testdata/forest.hdr --brdf ggx:alpha=0.3 --lmax 16 --size 384x384 \
   -o "$OUT/forest-ggx.png"
 
+echo "==> IBL for engines: GGX-prefiltered mips, irradiance and SH of the forest map (KTX2)"
+"$IFD" envmap prefilter testdata/forest.hdr -o "$OUT/ibl"
+
 echo
 echo "done: $OUT/astronaut-swirl.png (filtered), $OUT/gauss8-decomposition.png (the fit),"
-echo "      $OUT/forest-ggx.png (shading with isotropic spherical decomposition)"
+echo "      $OUT/forest-ggx.png (shading with isotropic spherical decomposition),"
+echo "      $OUT/ibl/ (radiance.ktx2, irradiance.ktx2, sh.json, sh.npy)"

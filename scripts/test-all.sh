@@ -6,7 +6,9 @@
 #      and GUI tests need, python3-venv), when missing and when running as root.
 #      XDG_RUNTIME_DIR is set to a fresh private folder when unset.
 #   2. A Python virtual environment in .venv with the reference libraries
-#      (reused when tests/python/requirements.txt has not changed).
+#      (reused when tests/python/requirements.txt has not changed), and the
+#      Node packages of tests/js (ktx-parse, an independent KTX2 reader; Node
+#      and npm from Debian when missing).
 #   3. rustfmt and clippy (rustup component add, when missing), then
 #      cargo fmt --check, cargo clippy --all-targets -D warnings, cargo test.
 #   4. The reference comparisons in tests/python (pytest; scikit-image, OpenCV,
@@ -75,6 +77,28 @@ if [ ! -x .venv/bin/python ] || [ "$(cat "$STAMP" 2>/dev/null)" != "$want" ]; th
   fi
 else
   echo "up to date"
+fi
+
+step "Node packages (tests/js: ktx-parse)"
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  if [ "$(id -u)" -eq 0 ] &&
+    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends nodejs npm) >"$LOG_DIR/apt-node.log" 2>&1; then
+    ok "apt nodejs npm"
+  else
+    tail -5 "$LOG_DIR/apt-node.log" 2>/dev/null
+    fail "node and npm missing (apt-get install nodejs npm)"
+  fi
+fi
+NODE_STAMP=tests/js/node_modules/.lock.sha256
+want_node=$(sha256sum tests/js/package-lock.json | cut -d' ' -f1)
+if [ "$(cat "$NODE_STAMP" 2>/dev/null)" = "$want_node" ]; then
+  echo "up to date"
+elif npm ci --prefix tests/js --no-audit --no-fund >"$LOG_DIR/npm.log" 2>&1; then
+  echo "$want_node" >"$NODE_STAMP"
+  ok "npm ci tests/js"
+else
+  tail -10 "$LOG_DIR/npm.log"
+  fail "npm ci tests/js (see $LOG_DIR/npm.log)"
 fi
 
 step "Rust components (rustfmt, clippy)"

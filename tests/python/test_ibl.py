@@ -206,6 +206,34 @@ def test_radiance_mips_match_texel_quadrature(baked):
     print("\n".join(lines))
 
 
+def test_ktx2_files_pass_ktx_parse(baked):
+    """An independent parser (npm's ktx-parse, installed in tests/js by
+    scripts/test-all.sh) reads both cubes: format, faces, every level with the
+    right size, the data format descriptor, and the same first texel."""
+    import pathlib
+    import subprocess
+
+    script = pathlib.Path(__file__).resolve().parents[1] / "js" / "check_ktx2.mjs"
+    out, _, _ = baked
+    for name, n, count in [("radiance.ktx2", 64, 6), ("irradiance.ktx2", 32, 1)]:
+        p = subprocess.run(["node", str(script), str(out / name)], capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+        k = json.loads(p.stdout)
+        assert (k["vkFormat"], k["typeSize"], k["faceCount"], k["levelCount"]) == (97, 2, 6, count)
+        assert (k["pixelWidth"], k["pixelHeight"], k["pixelDepth"], k["layerCount"]) == (n, n, 0, 0)
+        assert k["supercompressionScheme"] == 0
+        d = k["dfd"]
+        assert (d["colorModel"], d["colorPrimaries"], d["transferFunction"], d["bytesPlane0"]) == (1, 1, 1, 8)
+        assert [s["channelType"] for s in d["samples"]] == [0xC0, 0xC1, 0xC2, 0xCF]
+        assert [s["bitLength"] for s in d["samples"]] == [15] * 4
+        assert k["keyValue"]["KTXwriter"].startswith("ifd ")
+        _, levels = read_ktx2(out / name)
+        for m, lev in enumerate(k["levels"]):
+            size = max(1, n >> m)
+            assert lev["byteLength"] == lev["uncompressedByteLength"] == 6 * size * size * 8
+            assert lev["firstTexel"] == list(levels[m][0, 0, 0])
+
+
 def sh9_irradiance_over_pi(coeffs, d):
     """E/pi from the sh.json 'irradiance_over_pi' rows (ifd's basis, l <= 2)."""
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
