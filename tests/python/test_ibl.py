@@ -452,3 +452,24 @@ def test_cube_strip_input_round_trips(run_ifd, tmp_path, forest_small):
         b = read_exr(run_ifd, tmp_path / "b" / f"irradiance_{n}.exr")
         # irradiance of the resampled strip equals the original's to the resampling
         assert rel_rms(b, a) < 0.02, n
+
+
+def test_shrm_table4_runs_and_checks_its_input(run_ifd, tmp_path):
+    p = run_ifd("envmap", "shrm", TESTDATA / "forest.hdr", "--size", "64x32", "--exponents", "8,32",
+                "--runs", 1, "--min-seconds", 0, "--csv", tmp_path / "t4.csv")
+    rows = [l for l in p.stdout.splitlines() if l.startswith("| 8 ") or l.startswith("| 32 ")]
+    assert len(rows) == 2
+    import csv
+
+    with open(tmp_path / "t4.csv") as f:
+        t = list(csv.DictReader(f))
+    assert [float(r["s"]) for r in t] == [8.0, 32.0]
+    # the two sides compute the same map up to their truncations (angular eps 0.05)
+    assert all(float(r["rel_diff"]) < 0.06 for r in t)
+    # the angular support shrinks as the lobe sharpens
+    assert float(t[1]["support_texels"]) < float(t[0]["support_texels"])
+    for args, needle in [(["--table", 5], "Table 4"), (["--exponents", "0.5"], "--exponents"),
+                         (["--size", "64x32", "--exponents", "2000"], "rows"),
+                         (["--eps-angular", "1"], "--eps-angular")]:
+        q = run_ifd("envmap", "shrm", TESTDATA / "forest.hdr", *args, check=False)
+        assert q.returncode == 2 and needle in q.stderr, (args, q.stderr)

@@ -36,6 +36,7 @@ mod error;
 pub mod ktx2;
 pub mod lobe;
 mod prefilter;
+pub mod shrm;
 
 pub use crate::error::{IblError, Result};
 pub use crate::prefilter::{BakeOptions, Baker, LevelStats};

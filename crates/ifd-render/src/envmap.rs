@@ -97,7 +97,7 @@ impl EnvMap {
     /// [`RenderError::Parameter`] for sizes that are not 2:1 or do not divide
     /// the map's.
     pub fn downsampled(&self, width: usize, height: usize) -> Result<Self> {
-        let (w, h, ch) = (self.img.width(), self.img.height(), self.img.channels());
+        let (w, h) = (self.img.width(), self.img.height());
         if width == w && height == h {
             return Ok(self.clone());
         }
@@ -108,31 +108,8 @@ impl EnvMap {
                 reason: format!("must be 2:1 and divide the map's size {w}x{h}"),
             });
         }
-        let f = h / height;
-        let row_sa =
-            |v: usize| (PI * v as f64 / h as f64).cos() - (PI * (v + 1) as f64 / h as f64).cos();
-        let src = self.img.data();
-        let mut out = vec![0.0f32; width * height * ch];
-        for vv in 0..height {
-            for uu in 0..width {
-                let mut acc = vec![0.0f64; ch];
-                let mut wsum = 0.0;
-                for v in vv * f..(vv + 1) * f {
-                    let wv = row_sa(v);
-                    for u in uu * f..(uu + 1) * f {
-                        for (c, a) in acc.iter_mut().enumerate() {
-                            *a += wv * f64::from(src[(v * w + u) * ch + c]);
-                        }
-                        wsum += wv;
-                    }
-                }
-                for (c, a) in acc.iter().enumerate() {
-                    out[(vv * width + uu) * ch + c] = (a / wsum) as f32;
-                }
-            }
-        }
         Ok(Self {
-            img: Image::from_vec(width, height, ch, out)?,
+            img: ifd_sphere::transform::downsample_equirect(&self.img, width, height)?,
             rotation: self.rotation,
         })
     }

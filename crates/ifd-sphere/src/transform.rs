@@ -637,6 +637,60 @@ pub fn analyze_equirect_box(img: &Image, l_max: usize, negatives: Negatives) -> 
     EquirectTransform::new(l_max, w, h)?.analyze_texels(img, negatives)
 }
 
+/// An equirectangular map averaged down by an integer factor to
+/// `width x height` (2:1, dividing the map's size): each new texel is the
+/// solid-angle-weighted mean of the texels it covers, so the map read as
+/// piecewise constant keeps its integral over every new texel.
+///
+/// ```
+/// use ifd_sphere::transform::downsample_equirect;
+/// let img = ifd_image::Image::from_vec(8, 4, 1, (0..32).map(|i| i as f32).collect())?;
+/// let small = downsample_equirect(&img, 4, 2)?;
+/// assert_eq!((small.width(), small.height()), (4, 2));
+/// # Ok::<(), ifd_sphere::SphereError>(())
+/// ```
+///
+/// # Errors
+/// [`SphereError::NotEquirect`] for a source or target that is not 2:1, or a
+/// target that does not divide the source.
+pub fn downsample_equirect(img: &Image, width: usize, height: usize) -> Result<Image> {
+    let (w, h, ch) = (img.width(), img.height(), img.channels());
+    if h < 2 || w != 2 * h {
+        return Err(SphereError::NotEquirect {
+            width: w,
+            height: h,
+        });
+    }
+    if height < 1 || width != 2 * height || w % width != 0 || h % height != 0 {
+        return Err(SphereError::NotEquirect { width, height });
+    }
+    let f = h / height;
+    let row_sa =
+        |v: usize| (PI * v as f64 / h as f64).cos() - (PI * (v + 1) as f64 / h as f64).cos();
+    let src = img.data();
+    let mut out = vec![0.0f32; width * height * ch];
+    let mut acc = vec![0.0f64; ch];
+    for vv in 0..height {
+        for uu in 0..width {
+            acc.fill(0.0);
+            let mut wsum = 0.0;
+            for v in vv * f..(vv + 1) * f {
+                let wv = row_sa(v);
+                for u in uu * f..(uu + 1) * f {
+                    for (c, a) in acc.iter_mut().enumerate() {
+                        *a += wv * f64::from(src[(v * w + u) * ch + c]);
+                    }
+                    wsum += wv;
+                }
+            }
+            for (c, a) in acc.iter().enumerate() {
+                out[(vv * width + uu) * ch + c] = (a / wsum) as f32;
+            }
+        }
+    }
+    Ok(Image::from_vec(width, height, ch, out)?)
+}
+
 /// Projects weighted samples: `c_l^m = sum_i w_i f_i y_l^m(d_i)` (any quadrature
 /// rule; `values` is `n x C` row-major).
 ///

@@ -26,6 +26,8 @@ enum EnvmapCommand {
     Prefilter(Box<PrefilterCmd>),
     /// Write the split-sum DFG table (x = N.V, y = roughness; R = scale, G = bias).
     Dfg(DfgCmd),
+    /// Reproduce the SHRM paper's Table 4: Phong prefiltering, angular against frequency space.
+    Shrm(ShrmCmd),
 }
 
 impl Envmap {
@@ -33,6 +35,7 @@ impl Envmap {
         match self.command {
             EnvmapCommand::Prefilter(c) => c.run(),
             EnvmapCommand::Dfg(c) => c.run(),
+            EnvmapCommand::Shrm(c) => c.run(),
         }
     }
 }
@@ -422,6 +425,202 @@ impl DfgCmd {
             json!({"size": self.size, "output": self.output.display().to_string(),
                    "seconds": t.elapsed().as_secs_f64()})
         );
+        Ok(())
+    }
+}
+
+/// Reproduces Table 4 of Ramamoorthi and Hanrahan (2002): a normalised Phong
+/// reflection map prefiltered in frequency space (lighting SH to the paper's
+/// order F_B = 1 + sqrt(6 s), zonal scaling, synthesis) and in angular space
+/// (per output texel, a sum over the input texels of the lobe's eps-support,
+/// App. D), on the same equirectangular grid with the same threads; medians of
+/// --runs measurements. Prints a markdown table with the paper's numbers beside ours,
+/// the log-log slopes (theory: +1/2 and -1) and the crossover exponent
+/// extrapolated from the fits.
+#[derive(Debug, Args)]
+struct ShrmCmd {
+    /// Environment map (2:1), averaged down to --size by solid angle.
+    envmap: PathBuf,
+    /// Which table (only 4 so far).
+    #[arg(long, default_value_t = 4)]
+    table: u32,
+    /// Working size WxH (2:1; the paper's S_L = S_B = 128 is 128 rows here).
+    #[arg(long, default_value = "256x128")]
+    size: String,
+    /// Phong exponents.
+    #[arg(long, value_delimiter = ',', default_value = "8,16,32,64,128,256,512")]
+    exponents: Vec<f64>,
+    /// The angular side's support tolerance (the paper: 0.05).
+    #[arg(long, default_value_t = 0.05)]
+    eps_angular: f64,
+    /// Measurements per side and exponent (medians); each repeats the work for at least
+    /// --min-seconds and takes the mean per run.
+    #[arg(long, default_value_t = 5)]
+    runs: usize,
+    /// Minimum time of one measurement.
+    #[arg(long, default_value_t = 0.2)]
+    min_seconds: f64,
+    /// Also write the rows as CSV.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// Also write a log-log plot of both times against s (PNG).
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    #[command(flatten)]
+    input: InputOptions,
+}
+
+/// SHRM Table 4 (1.4 GHz Pentium IV): (s, angular, frequency).
+const PAPER_TABLE4: [(f64, f64, f64); 7] = [
+    (8.0, 67.28, 0.081),
+    (16.0, 38.03, 0.114),
+    (32.0, 21.80, 0.159),
+    (64.0, 11.94, 0.227),
+    (128.0, 7.17, 0.328),
+    (256.0, 3.55, 0.461),
+    (512.0, 2.28, 0.686),
+];
+
+impl ShrmCmd {
+    fn run(self) -> Result<()> {
+        use ifd_ibl::shrm::{loglog_fit, paper_order, time_phong};
+        use std::fmt::Write as _;
+        if self.table != 4 {
+            bail!(
+                "--table {}: only Table 4 (Phong) is reproduced so far",
+                self.table
+            );
+        }
+        if self.exponents.is_empty()
+            || self
+                .exponents
+                .iter()
+                .any(|s| !(s.is_finite() && *s >= 1.0 && *s <= 1e5))
+        {
+            bail!("--exponents: each must lie in 1..=100000");
+        }
+        if !(self.eps_angular > 0.0 && self.eps_angular < 1.0) {
+            bail!("--eps-angular {}: must lie in (0, 1)", self.eps_angular);
+        }
+        if !(1..=50).contains(&self.runs) {
+            bail!("--runs {}: must lie in 1..=50", self.runs);
+        }
+        if !(self.min_seconds >= 0.0 && self.min_seconds <= 60.0) {
+            bail!("--min-seconds {}: must lie in 0..=60", self.min_seconds);
+        }
+        let (w, h) = crate::input::parse_size(&self.size, "--size")?;
+        let img = self.input.read(&self.envmap)?.image;
+        let src = ifd_sphere::transform::downsample_equirect(&img, w, h).with_context(|| {
+            format!(
+                "{}: averaging down to --size {w}x{h}",
+                self.envmap.display()
+            )
+        })?;
+        let max_order = self
+            .exponents
+            .iter()
+            .map(|s| paper_order(*s))
+            .max()
+            .unwrap_or(0);
+        if max_order >= h {
+            bail!("--size {w}x{h}: F_B = {max_order} needs more than {h} rows");
+        }
+        let threads = rayon::current_num_threads();
+        let mut rows = Vec::new();
+        for &s in &self.exponents {
+            eprintln!("s = {s}: timing ...");
+            rows.push(time_phong(
+                &src,
+                s,
+                self.eps_angular,
+                self.runs,
+                self.min_seconds,
+            )?);
+        }
+        println!(
+            "SHRM Table 4 on this machine: {w}x{h} in and out, {threads} threads, medians of {} measurements of at least {} s each, angular eps {}",
+            self.runs, self.min_seconds, self.eps_angular
+        );
+        println!();
+        println!(
+            "| s | F_B | angular (s) | frequency (s) | ratio | support texels | rel. diff | paper ratio |"
+        );
+        println!("|---|---|---|---|---|---|---|---|");
+        for r in &rows {
+            let paper = PAPER_TABLE4
+                .iter()
+                .find(|p| (p.0 - r.s).abs() < 1e-9)
+                .map_or_else(|| "-".to_string(), |p| format!("{:.1}", p.1 / p.2));
+            println!(
+                "| {} | {} | {:.4} | {:.4} | {:.1} | {:.0} | {:.2e} | {} |",
+                r.s,
+                r.order,
+                r.angular,
+                r.frequency,
+                r.angular / r.frequency,
+                r.support,
+                r.rel_diff,
+                paper
+            );
+        }
+        let xs: Vec<f64> = rows.iter().map(|r| r.s).collect();
+        let (fa, ia) = loglog_fit(&xs, &rows.iter().map(|r| r.angular).collect::<Vec<_>>());
+        let (ff, iff) = loglog_fit(&xs, &rows.iter().map(|r| r.frequency).collect::<Vec<_>>());
+        // crossover: ia + fa ln s = iff + ff ln s
+        let crossover = ((iff - ia) / (fa - ff)).exp();
+        println!();
+        println!(
+            "log-log slopes: angular {fa:.2} (theory -1), frequency {ff:.2} (theory +0.5); crossover s* = {crossover:.0} (extrapolated; the paper predicts s* ~ S_L^(4/3) = {:.0} up to constants)",
+            (h as f64).powf(4.0 / 3.0)
+        );
+        if let Some(path) = &self.csv {
+            let mut text =
+                String::from("s,order,angular_s,frequency_s,ratio,support_texels,rel_diff\n");
+            for r in &rows {
+                let ratio = r.angular / r.frequency;
+                let _ = writeln!(
+                    text,
+                    "{},{},{},{},{ratio},{},{}",
+                    r.s, r.order, r.angular, r.frequency, r.support, r.rel_diff
+                );
+            }
+            std::fs::write(path, text)
+                .with_context(|| format!("{}: cannot write", path.display()))?;
+        }
+        if let Some(path) = &self.plot {
+            use ifd_sphere::plot::{Series, log_line_plot};
+            let pts = |f: &dyn Fn(&ifd_ibl::shrm::PhongTiming) -> f64| -> Vec<(f64, f64)> {
+                rows.iter().map(|r| (r.s.log2(), f(r))).collect()
+            };
+            let series = vec![
+                Series {
+                    name: "angular, ifd".into(),
+                    colour: [0.8, 0.2, 0.1],
+                    dotted: false,
+                    points: pts(&|r| r.angular),
+                },
+                Series {
+                    name: "frequency, ifd".into(),
+                    colour: [0.1, 0.3, 0.8],
+                    dotted: false,
+                    points: pts(&|r| r.frequency),
+                },
+                Series {
+                    name: "angular, paper".into(),
+                    colour: [0.8, 0.2, 0.1],
+                    dotted: true,
+                    points: PAPER_TABLE4.iter().map(|p| (p.0.log2(), p.1)).collect(),
+                },
+                Series {
+                    name: "frequency, paper".into(),
+                    colour: [0.1, 0.3, 0.8],
+                    dotted: true,
+                    points: PAPER_TABLE4.iter().map(|p| (p.0.log2(), p.2)).collect(),
+                },
+            ];
+            let img = log_line_plot(&series, "log2 s (Phong exponent)", "seconds")?;
+            crate::input::write_output(path, &img, &ifd_image::WriteOptions::default())?;
+        }
         Ok(())
     }
 }

@@ -1,0 +1,339 @@
+//! The SHRM paper's prefiltering comparison (Ramamoorthi and Hanrahan 2002,
+//! Sec. 6.3 and 7.4, Table 4, App. D): a normalised Phong reflection map
+//! `B(r) = int L(l) (s + 1) / (2 pi) max(r . l, 0)^s dl` computed in the
+//! frequency domain and in the angular domain, on the same equirectangular
+//! grid, with the same threads.
+//!
+//! - **Frequency** ([`phong_frequency`]): the lighting coefficients `L_lm` to
+//!   `F_B` (the pixel-centre projection of [`EquirectTransform::analyze`], the
+//!   same quadrature the angular side uses), the zonal factors `lambda_l`
+//!   ([`Lobe::zonal`], part of the timing), `B_lm = lambda_l L_lm` (Eq. 5) and
+//!   the synthesis on the output grid. The paper's order: `F_B = 1 + sqrt(6 s)`
+//!   (its `eps = 0.01`, conservatively).
+//! - **Angular** ([`phong_angular`]): for every output texel, the sum over the
+//!   input texels inside the lobe's eps-support `r . l >= eps^(1 / (s + 1))`
+//!   (App. D: `1 - eps` of the lobe's energy; the paper's angular side used
+//!   `eps = 0.05`), each row visited only over the azimuth interval the cap
+//!   covers (computed in closed form), the kernel `t^s` by repeated squaring
+//!   for integer `s`, rows of the output in parallel; the lobe is normalised
+//!   over its support (divided by `1 - eps`, its captured energy). Its cost is
+//!   `W S_L^2` per output texel with `W = (1 - eps^(1/(s+1))) / 2`.
+//!
+//! Both compute the same convolution of the same texel-centre quadrature: they
+//! differ by the frequency side's truncation at `F_B` and the angular side's
+//! truncation of the support, which [`PhongTiming::rel_diff`] reports.
+
+use std::f64::consts::PI;
+use std::time::Instant;
+
+use ifd_image::Image;
+use ifd_sphere::{EquirectTransform, Negatives};
+use rayon::prelude::*;
+
+use crate::error::{Result, param};
+use crate::lobe::Lobe;
+
+/// The paper's frequency-space order for Phong exponent `s`: `1 + sqrt(6 s)`.
+#[must_use]
+pub fn paper_order(s: f64) -> usize {
+    (1.0 + (6.0 * s).sqrt()).floor() as usize
+}
+
+/// The Phong reflection map by SH convolution to degree `f_b`, on the input's
+/// grid.
+///
+/// # Errors
+/// A map that is not 2:1; degrees beyond [`ifd_sphere::MAX_DEGREE`].
+pub fn phong_frequency(env: &Image, s: f64, f_b: usize) -> Result<Image> {
+    let (w, h) = (env.width(), env.height());
+    let t = EquirectTransform::new(f_b, w, h)?;
+    let mut c = t.analyze(env, Negatives::Keep)?.coeffs;
+    let ch = c.channels();
+    let lam = Lobe::Phong { s }.zonal(f_b);
+    for (l, lam_l) in lam.iter().enumerate() {
+        for v in &mut c.data_mut()[l * l * ch..(l + 1) * (l + 1) * ch] {
+            *v *= lam_l;
+        }
+    }
+    Ok(t.synthesize(&c)?)
+}
+
+/// The Phong reflection map by direct summation over the eps-support of the
+/// lobe; returns the map and the mean number of input texels summed per
+/// output texel.
+///
+/// # Errors
+/// A map that is not 2:1, or `eps` outside `(0, 1)`.
+pub fn phong_angular(env: &Image, s: f64, eps: f64) -> Result<(Image, f64)> {
+    let (w, h, ch) = (env.width(), env.height(), env.channels());
+    if h < 2 || w != 2 * h {
+        return Err(param(
+            "environment map",
+            format!("must be 2:1; got {w}x{h}"),
+        ));
+    }
+    if !(eps > 0.0 && eps < 1.0) {
+        return Err(param("--eps", format!("{eps} is outside (0, 1)")));
+    }
+    let cos_star = eps.powf(1.0 / (s + 1.0));
+    let theta_star = cos_star.acos();
+    // the lobe normalised over its support: int_cap (s+1)/(2 pi) t^s = 1 - eps
+    let norm = (s + 1.0) / (2.0 * PI) / (1.0 - eps);
+    let dphi = 2.0 * PI / w as f64;
+    let rows: Vec<(f64, f64, f64)> = (0..h)
+        .map(|v| {
+            let t0 = PI * v as f64 / h as f64;
+            let t1 = PI * (v + 1) as f64 / h as f64;
+            let t = 0.5 * (t0 + t1);
+            (t.cos(), t.sin(), (t0.cos() - t1.cos()) * dphi)
+        })
+        .collect();
+    let (cu, su): (Vec<f64>, Vec<f64>) = (0..w)
+        .map(|u| {
+            let p = dphi * (u as f64 + 0.5);
+            (p.cos(), p.sin())
+        })
+        .unzip();
+    let integer = s.fract() == 0.0 && s <= f64::from(i32::MAX);
+    let data = env.data();
+    let mut out = Image::new(w, h, ch)?;
+    let counted: u64 = out
+        .data_mut()
+        .par_chunks_mut(w * ch)
+        .enumerate()
+        .map(|(vr, orow)| {
+            let (zr, sr, _) = rows[vr];
+            let tr = PI * (vr as f64 + 0.5) / h as f64;
+            let mut n = 0u64;
+            let mut acc = vec![0.0f64; ch];
+            let mut k = vec![0.0f64; w];
+            // input rows whose polar band meets the cap
+            let v_lo = (((tr - theta_star) / PI * h as f64).floor().max(0.0)) as usize;
+            let v_hi = (((tr + theta_star) / PI * h as f64).ceil() as usize).min(h);
+            for ur in 0..w {
+                let pr = dphi * (ur as f64 + 0.5);
+                let (cr, sr_) = (pr.cos(), pr.sin());
+                acc.fill(0.0);
+                for v in v_lo..v_hi {
+                    let (z, st, sa) = rows[v];
+                    let a = z * zr;
+                    let b = st * sr;
+                    // cos(dphi) >= (c* - a) / b: the azimuth interval of the cap
+                    let (u0, len) = if b <= 1e-300 {
+                        if a >= cos_star { (0, w) } else { continue }
+                    } else {
+                        let q = (cos_star - a) / b;
+                        if q > 1.0 {
+                            continue;
+                        } else if q <= -1.0 {
+                            (0, w)
+                        } else {
+                            let half = q.acos();
+                            let span = ((half / dphi).ceil() as usize + 1).min(w / 2);
+                            ((ur + w - span) % w, (2 * span + 1).min(w))
+                        }
+                    };
+                    n += len as u64;
+                    // kernel values over the interval (contiguous, wrapping)
+                    let kk = &mut k[..len];
+                    for (j, kv) in kk.iter_mut().enumerate() {
+                        let u = (u0 + j) % w;
+                        let t = a + b * (cu[u] * cr + su[u] * sr_);
+                        // exactly the eps-support: the interval is rounded out
+                        // to whole texels
+                        *kv = if t < cos_star {
+                            0.0
+                        } else if integer {
+                            t.powi(s as i32)
+                        } else {
+                            t.powf(s)
+                        };
+                    }
+                    let row = &data[v * w * ch..(v + 1) * w * ch];
+                    for (j, kv) in kk.iter().enumerate() {
+                        let u = (u0 + j) % w;
+                        let wgt = kv * sa;
+                        for (c, a) in acc.iter_mut().enumerate() {
+                            *a += wgt * f64::from(row[u * ch + c]);
+                        }
+                    }
+                }
+                for (c, a) in acc.iter().enumerate() {
+                    orow[ur * ch + c] = (a * norm) as f32;
+                }
+            }
+            n
+        })
+        .sum();
+    Ok((out, counted as f64 / (w * h) as f64))
+}
+
+/// One row of Table 4.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PhongTiming {
+    /// Phong exponent.
+    pub s: f64,
+    /// Frequency-space order `F_B`.
+    pub order: usize,
+    /// Angular-space seconds (median of the runs).
+    pub angular: f64,
+    /// Frequency-space seconds (median of the runs).
+    pub frequency: f64,
+    /// Mean input texels summed per output texel on the angular side.
+    pub support: f64,
+    /// Relative RMS difference between the two maps.
+    pub rel_diff: f64,
+}
+
+/// Times both sides for exponent `s`: each measurement repeats the
+/// computation until at least `min_seconds` have passed and takes the mean
+/// per run (sub-millisecond runs are below the timer's and the thread pool's
+/// noise otherwise); `runs` measurements, medians. One untimed warm-up run of
+/// each side comes first.
+///
+/// # Errors
+/// As [`phong_frequency`] and [`phong_angular`].
+pub fn time_phong(
+    env: &Image,
+    s: f64,
+    eps_angular: f64,
+    runs: usize,
+    min_seconds: f64,
+) -> Result<PhongTiming> {
+    let order = paper_order(s);
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let freq = phong_frequency(env, s, order)?;
+    let (ang, support) = phong_angular(env, s, eps_angular)?;
+    let measure = |f: &dyn Fn() -> Result<()>| -> Result<f64> {
+        let start = Instant::now();
+        let mut n = 0u32;
+        loop {
+            f()?;
+            n += 1;
+            let t = start.elapsed().as_secs_f64();
+            if t >= min_seconds {
+                return Ok(t / f64::from(n));
+            }
+        }
+    };
+    let mut tf = Vec::new();
+    let mut ta = Vec::new();
+    for _ in 0..runs.max(1) {
+        tf.push(measure(&|| phong_frequency(env, s, order).map(|_| ()))?);
+        ta.push(measure(&|| phong_angular(env, s, eps_angular).map(|_| ()))?);
+    }
+    let (mut num, mut den) = (0.0, 0.0);
+    for (a, b) in freq.data().iter().zip(ang.data()) {
+        let (a, b) = (f64::from(*a), f64::from(*b));
+        num += (a - b) * (a - b);
+        den += b * b;
+    }
+    Ok(PhongTiming {
+        s,
+        order,
+        angular: median(ta),
+        frequency: median(tf),
+        support,
+        rel_diff: (num / den.max(f64::MIN_POSITIVE)).sqrt(),
+    })
+}
+
+/// Least-squares slope of `log y` against `log x` and its intercept.
+#[must_use]
+pub fn loglog_fit(x: &[f64], y: &[f64]) -> (f64, f64) {
+    let n = x.len().min(y.len()) as f64;
+    let lx: Vec<f64> = x.iter().map(|v| v.ln()).collect();
+    let ly: Vec<f64> = y.iter().map(|v| v.ln()).collect();
+    let mx = lx.iter().sum::<f64>() / n;
+    let my = ly.iter().sum::<f64>() / n;
+    let sxy: f64 = lx.iter().zip(&ly).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let sxx: f64 = lx.iter().map(|a| (a - mx) * (a - mx)).sum();
+    let slope = sxy / sxx;
+    (slope, my - slope * mx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn test_map() -> Image {
+        let (w, h) = (64, 32);
+        let data: Vec<f32> = (0..w * h)
+            .flat_map(|k| {
+                let (u, v) = (k % w, k / w);
+                let x = 1.0 + ((u * 7 + v * 3) % 11) as f32 * 0.2;
+                [x, 0.5 * x, if v < 6 && u < 8 { 20.0 } else { 0.3 }]
+            })
+            .collect();
+        Image::from_vec(w, h, 3, data).expect("map")
+    }
+
+    #[test]
+    fn angular_and_frequency_sides_compute_the_same_map() {
+        let env = test_map();
+        for s in [4.0, 16.0] {
+            let f = phong_frequency(&env, s, 30).expect("frequency");
+            // a tiny eps: the angular side sums (nearly) the whole hemisphere
+            let (a, _) = phong_angular(&env, s, 1e-9).expect("angular");
+            let (mut num, mut den) = (0.0, 0.0);
+            for (x, y) in f.data().iter().zip(a.data()) {
+                num += f64::from(x - y).powi(2);
+                den += f64::from(*y).powi(2);
+            }
+            let rel = (num / den).sqrt();
+            assert!(rel < 2e-3, "s = {s}: {rel}");
+        }
+    }
+
+    #[test]
+    fn the_cap_intervals_miss_no_texel_of_the_support() {
+        // brute force: every input texel, the kernel masked to the eps-support
+        let env = test_map();
+        let (w, h) = (env.width(), env.height());
+        let (s, eps) = (12.0, 0.01);
+        let (got, support) = phong_angular(&env, s, eps).expect("angular");
+        let cos_star = f64::powf(eps, 1.0 / (s + 1.0));
+        let dir = |u: usize, v: usize| {
+            let t = PI * (v as f64 + 0.5) / h as f64;
+            let p = 2.0 * PI * (u as f64 + 0.5) / w as f64;
+            [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()]
+        };
+        let sa = |v: usize| {
+            (2.0 * PI / w as f64)
+                * ((PI * v as f64 / h as f64).cos() - (PI * (v + 1) as f64 / h as f64).cos())
+        };
+        let mut inside = 0usize;
+        for (vr, ur) in [(0, 0), (3, 17), (16, 40), (31, 63), (20, 5)] {
+            let r = dir(ur, vr);
+            let mut want = [0.0f64; 3];
+            for v in 0..h {
+                for u in 0..w {
+                    let l = dir(u, v);
+                    let t = r[0] * l[0] + r[1] * l[1] + r[2] * l[2];
+                    if t >= cos_star {
+                        inside += 1;
+                        let k = t.powf(s) * sa(v) * (s + 1.0) / (2.0 * PI) / (1.0 - eps);
+                        for (c, wv) in want.iter_mut().enumerate() {
+                            *wv += k * f64::from(env.data()[(v * w + u) * 3 + c]);
+                        }
+                    }
+                }
+            }
+            for (c, wv) in want.iter().enumerate() {
+                let g = f64::from(got.data()[(vr * w + ur) * 3 + c]);
+                assert!(
+                    (g - wv).abs() <= 1e-5 * wv.abs().max(1e-3),
+                    "({vr},{ur}) {g} vs {wv}"
+                );
+            }
+        }
+        // the intervals visited cover the cap with a little slack
+        assert!(
+            support >= inside as f64 / 5.0 * 0.9,
+            "{support} vs {inside}"
+        );
+    }
+}
