@@ -397,6 +397,7 @@ def test_dfg_table_matches_brute_force(run_ifd, tmp_path):
     (["--roughness", "quadratic"], "--roughness"),
     (["--eps", "2"], "--eps"),
     (["--irradiance-size", 33], "--irradiance-size"),
+    (["--face-size", 16384, "--memory-budget", 64], "--face-size 16384"),
 ])
 def test_bad_options_fail_cleanly(forest_small, run_ifd, tmp_path, args, needle):
     path, _ = forest_small

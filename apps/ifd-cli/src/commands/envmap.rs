@@ -154,6 +154,16 @@ impl PrefilterCmd {
             bail!("--eps {}: must lie in (0, 1)", self.eps);
         }
         let lobes = chain_lobes(&self.brdf, mapping, levels)?;
+        // the outputs against the memory budget, before any work: f32 RGB
+        // levels plus their 8-byte RGBA16F encoding
+        let texels: u64 = (0..levels)
+            .map(|m| 6 * ((n >> m).max(1) as u64).pow(2))
+            .sum::<u64>()
+            + 6 * (self.irradiance_size as u64).pow(2);
+        self.input
+            .budget()
+            .check(texels.saturating_mul(12 + 8))
+            .with_context(|| format!("--face-size {n} with {levels} levels"))?;
         let start = Instant::now();
         let img = self.input.read(&self.envmap)?.image;
         let (w, h) = (img.width(), img.height());
