@@ -474,3 +474,23 @@ def test_shrm_table4_runs_and_checks_its_input(run_ifd, tmp_path):
                          (["--eps-angular", "1"], "--eps-angular")]:
         q = run_ifd("envmap", "shrm", TESTDATA / "forest.hdr", *args, check=False)
         assert q.returncode == 2 and needle in q.stderr, (args, q.stderr)
+
+
+def test_shrm_table5_orders_match_the_paper(run_ifd, tmp_path):
+    """Table 5's F_B, P_B (the BRDF energy criterion of Sec. 5.1 on the
+    microfacet BRDF of Eq. 11) against the paper's, and the SHRM's maps against
+    angular integration on a small map."""
+    p = run_ifd("envmap", "shrm", TESTDATA / "forest.hdr", "--table", 5, "--size", "32x16",
+                "--sigmas", "0.2,0.4", "--maps", 1, "--csv", tmp_path / "t5.csv")
+    import csv
+
+    with open(tmp_path / "t5.csv") as f:
+        t = list(csv.DictReader(f))
+    got = {float(r["sigma"]): (int(r["f"]), int(r["p"])) for r in t}
+    # the paper: (12, 2) and (5, 2)
+    assert abs(got[0.2][0] - 12) <= 1 and got[0.2][1] == 2, got
+    assert abs(got[0.4][0] - 5) <= 1 and got[0.4][1] == 2, got
+    # the two sides differ by the angular side's support cut (5% of the peak)
+    # and the frequency side's 3% energy truncation
+    assert all(float(r["rel_diff"]) < 0.1 for r in t), t
+    assert "| 0.2 |" in p.stdout

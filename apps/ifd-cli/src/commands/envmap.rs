@@ -451,12 +451,23 @@ impl DfgCmd {
 struct ShrmCmd {
     /// Environment map (2:1), averaged down to --size by solid angle.
     envmap: PathBuf,
-    /// Which table (only 4 so far).
+    /// Which table: 4 (Phong) or 5 (the microfacet BRDF of Eq. 11, SHRM against angular maps).
     #[arg(long, default_value_t = 4)]
     table: u32,
-    /// Working size WxH (2:1; the paper's S_L = S_B = 128 is 128 rows here).
-    #[arg(long, default_value = "256x128")]
-    size: String,
+    /// Working size WxH (2:1; default 256x128 for Table 4, whose S_L = S_B = 128 is the
+    /// number of rows here, and 128x64 for Table 5, whose angular side is slow).
+    #[arg(long)]
+    size: Option<String>,
+    /// Table 5: roughness values sigma.
+    #[arg(long, value_delimiter = ',', default_value = "0.1,0.2,0.3,0.4,0.5")]
+    sigmas: Vec<f64>,
+    /// Table 5: the angular side computes T x T of the paper's T_B x T_B = 10 x 10 maps
+    /// and its time is extrapolated to 100 (the frequency side makes all 100).
+    #[arg(long, default_value_t = 3)]
+    maps: usize,
+    /// Table 5: the BRDF energy tolerance choosing F_B, P_B (the paper: 0.03).
+    #[arg(long, default_value_t = 0.03)]
+    eps: f64,
     /// Phong exponents.
     #[arg(long, value_delimiter = ',', default_value = "8,16,32,64,128,256,512")]
     exponents: Vec<f64>,
@@ -495,9 +506,12 @@ impl ShrmCmd {
     fn run(self) -> Result<()> {
         use ifd_ibl::shrm::{loglog_fit, paper_order, time_phong};
         use std::fmt::Write as _;
+        if self.table == 5 {
+            return self.run_table5();
+        }
         if self.table != 4 {
             bail!(
-                "--table {}: only Table 4 (Phong) is reproduced so far",
+                "--table {}: Tables 4 (Phong) and 5 (microfacet) are reproduced",
                 self.table
             );
         }
@@ -518,7 +532,7 @@ impl ShrmCmd {
         if !(self.min_seconds >= 0.0 && self.min_seconds <= 60.0) {
             bail!("--min-seconds {}: must lie in 0..=60", self.min_seconds);
         }
-        let (w, h) = crate::input::parse_size(&self.size, "--size")?;
+        let (w, h) = crate::input::parse_size(self.size.as_deref().unwrap_or("256x128"), "--size")?;
         let img = self.input.read(&self.envmap)?.image;
         let src = ifd_sphere::transform::downsample_equirect(&img, w, h).with_context(|| {
             format!(
@@ -630,6 +644,126 @@ impl ShrmCmd {
             ];
             let img = log_line_plot(&series, "log2 s (Phong exponent)", "seconds")?;
             crate::input::write_output(path, &img, &ifd_image::WriteOptions::default())?;
+        }
+        Ok(())
+    }
+}
+
+/// SHRM Table 5 (1.4 GHz Pentium IV): (sigma, F_B, P_B, angular total for 100
+/// maps, frequency total, SHRM alone).
+const PAPER_TABLE5: [(f64, usize, usize, f64, f64, f64); 5] = [
+    (0.1, 24, 3, 923.0, 2.70, 1.55),
+    (0.2, 12, 2, 2744.0, 1.55, 0.72),
+    (0.3, 7, 2, 5731.0, 1.49, 0.67),
+    (0.4, 5, 2, 9034.0, 1.47, 0.65),
+    (0.5, 5, 2, 12580.0, 1.45, 0.64),
+];
+
+impl ShrmCmd {
+    fn run_table5(&self) -> Result<()> {
+        use ifd_ibl::shrm_general::{time_microfacet, view_grid};
+        if self.sigmas.is_empty()
+            || self
+                .sigmas
+                .iter()
+                .any(|s| !(s.is_finite() && *s >= 0.02 && *s <= 1.5))
+        {
+            bail!("--sigmas: each must lie in 0.02..=1.5");
+        }
+        if !(1..=10).contains(&self.maps) {
+            bail!("--maps {}: must lie in 1..=10", self.maps);
+        }
+        if !(self.eps > 0.0 && self.eps < 1.0) {
+            bail!("--eps {}: must lie in (0, 1)", self.eps);
+        }
+        if !(self.eps_angular > 0.0 && self.eps_angular < 1.0) {
+            bail!("--eps-angular {}: must lie in (0, 1)", self.eps_angular);
+        }
+        let (w, h) = crate::input::parse_size(self.size.as_deref().unwrap_or("128x64"), "--size")?;
+        let img = self.input.read(&self.envmap)?.image;
+        let src = ifd_sphere::transform::downsample_equirect(&img, w, h).with_context(|| {
+            format!(
+                "{}: averaging down to --size {w}x{h}",
+                self.envmap.display()
+            )
+        })?;
+        if src.channels() != 3 {
+            bail!("{}: needs RGB", self.envmap.display());
+        }
+        let views = view_grid(self.maps);
+        let mut rows = Vec::new();
+        for &sigma in &self.sigmas {
+            eprintln!(
+                "sigma = {sigma}: SHRM, 100 maps, {} angular maps ...",
+                views.len()
+            );
+            rows.push(time_microfacet(
+                &src,
+                sigma,
+                self.eps,
+                self.eps_angular,
+                10,
+                &views,
+            )?);
+        }
+        println!(
+            "SHRM Table 5 on this machine: {w}x{h} in and out, {} threads; F_B, P_B for BRDF energy eps {}; angular support eps {}; \
+             angular time measured on {} of the 10 x 10 maps and extrapolated to 100",
+            rayon::current_num_threads(),
+            self.eps,
+            self.eps_angular,
+            views.len()
+        );
+        println!();
+        println!(
+            "| sigma | F_B, P_B | paper | angular per map (s) | angular, 100 maps (s) | SHRM (s) | SHRM + 100 maps (s) | ratio | paper ratio | rel. diff | support texels |"
+        );
+        println!("|---|---|---|---|---|---|---|---|---|---|---|");
+        let mut csv = String::from(
+            "sigma,f,p,angular_per_map_s,angular_100_s,shrm_s,frequency_100_s,ratio,rel_diff,support_texels\n",
+        );
+        for r in &rows {
+            let ang100 = 100.0 * r.angular_per_map;
+            let freq100 = r.shrm + 100.0 * r.per_map;
+            let paper = PAPER_TABLE5.iter().find(|p| (p.0 - r.sigma).abs() < 1e-9);
+            println!(
+                "| {} | {}, {} | {} | {:.3} | {:.1} | {:.3} | {:.3} | {:.0} | {} | {:.2e} | {:.0} |",
+                r.sigma,
+                r.f,
+                r.p,
+                paper.map_or_else(|| "-".into(), |p| format!("{}, {}", p.1, p.2)),
+                r.angular_per_map,
+                ang100,
+                r.shrm,
+                freq100,
+                ang100 / freq100,
+                paper.map_or_else(|| "-".into(), |p| format!("{:.0}", p.3 / p.4)),
+                r.rel_diff,
+                r.support
+            );
+            let _ = std::fmt::Write::write_fmt(
+                &mut csv,
+                format_args!(
+                    "{},{},{},{},{},{},{},{},{},{}\n",
+                    r.sigma,
+                    r.f,
+                    r.p,
+                    r.angular_per_map,
+                    ang100,
+                    r.shrm,
+                    freq100,
+                    ang100 / freq100,
+                    r.rel_diff,
+                    r.support
+                ),
+            );
+        }
+        if let Some(path) = &self.csv {
+            std::fs::write(path, csv)
+                .with_context(|| format!("{}: cannot write", path.display()))?;
+        }
+        if self.plot.is_some() {
+            eprintln!("note: --plot draws Table 4 only");
         }
         Ok(())
     }
