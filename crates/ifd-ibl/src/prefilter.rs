@@ -521,16 +521,11 @@ impl Baker {
 /// centres at integers) of a face: the OpenGL table of [`crate::cube`].
 fn face_direction(face: usize, fi: f64, fj: f64, n: usize) -> [f64; 3] {
     let nf = n as f64;
-    let sc = 2.0 * (fi + 0.5) / nf - 1.0;
-    let tc = 2.0 * (fj + 0.5) / nf - 1.0;
-    match face {
-        0 => [1.0, -tc, -sc],
-        1 => [-1.0, -tc, sc],
-        2 => [sc, 1.0, tc],
-        3 => [sc, -1.0, -tc],
-        4 => [sc, -tc, 1.0],
-        _ => [-sc, -tc, -1.0],
-    }
+    ifd_sphere::transform::cube_face_direction(
+        face,
+        2.0 * (fi + 0.5) / nf - 1.0,
+        2.0 * (fj + 0.5) / nf - 1.0,
+    )
 }
 
 /// The smallest `L` whose dropped bands carry at most `tol^2` of the

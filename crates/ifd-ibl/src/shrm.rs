@@ -80,14 +80,7 @@ pub fn phong_angular(env: &Image, s: f64, eps: f64) -> Result<(Image, f64)> {
     // the lobe normalised over its support: int_cap (s+1)/(2 pi) t^s = 1 - eps
     let norm = (s + 1.0) / (2.0 * PI) / (1.0 - eps);
     let dphi = 2.0 * PI / w as f64;
-    let rows: Vec<(f64, f64, f64)> = (0..h)
-        .map(|v| {
-            let t0 = PI * v as f64 / h as f64;
-            let t1 = PI * (v + 1) as f64 / h as f64;
-            let t = 0.5 * (t0 + t1);
-            (t.cos(), t.sin(), (t0.cos() - t1.cos()) * dphi)
-        })
-        .collect();
+    let rows = grid_rows(w, h);
     let (cu, su): (Vec<f64>, Vec<f64>) = (0..w)
         .map(|u| {
             let p = dphi * (u as f64 + 0.5);
@@ -114,25 +107,13 @@ pub fn phong_angular(env: &Image, s: f64, eps: f64) -> Result<(Image, f64)> {
                 let pr = dphi * (ur as f64 + 0.5);
                 let (cr, sr_) = (pr.cos(), pr.sin());
                 acc.fill(0.0);
-                for v in v_lo..v_hi {
-                    let (z, st, sa) = rows[v];
+                for (v, &(z, st, sa)) in rows.iter().enumerate().take(v_hi).skip(v_lo) {
+                    let Some((u0, len)) = cap_interval(z, st, zr, sr, cos_star, ur as i64, w)
+                    else {
+                        continue;
+                    };
                     let a = z * zr;
                     let b = st * sr;
-                    // cos(dphi) >= (c* - a) / b: the azimuth interval of the cap
-                    let (u0, len) = if b <= 1e-300 {
-                        if a >= cos_star { (0, w) } else { continue }
-                    } else {
-                        let q = (cos_star - a) / b;
-                        if q > 1.0 {
-                            continue;
-                        } else if q <= -1.0 {
-                            (0, w)
-                        } else {
-                            let half = q.acos();
-                            let span = ((half / dphi).ceil() as usize + 1).min(w / 2);
-                            ((ur + w - span) % w, (2 * span + 1).min(w))
-                        }
-                    };
                     n += len as u64;
                     // kernel values over the interval (contiguous, wrapping)
                     let kk = &mut k[..len];
@@ -166,6 +147,54 @@ pub fn phong_angular(env: &Image, s: f64, eps: f64) -> Result<(Image, f64)> {
         })
         .sum();
     Ok((out, counted as f64 / (w * h) as f64))
+}
+
+/// `(cos t, sin t, solid angle)` of every row of a `w x h` equirect grid
+/// (texel centres, exact row areas).
+pub(crate) fn grid_rows(w: usize, h: usize) -> Vec<(f64, f64, f64)> {
+    let dphi = 2.0 * PI / w as f64;
+    (0..h)
+        .map(|v| {
+            let t0 = PI * v as f64 / h as f64;
+            let t1 = PI * (v + 1) as f64 / h as f64;
+            let t = 0.5 * (t0 + t1);
+            (t.cos(), t.sin(), (t0.cos() - t1.cos()) * dphi)
+        })
+        .collect()
+}
+
+/// The columns of a grid row (polar `cos t = z`, `sin t = st`) inside the
+/// cap `d . r >= cos_star` about a direction with polar `cos = zr`,
+/// `sin = sr` whose azimuth falls in column `centre`: the first column and
+/// the count (wrapping), rounded out to whole texels, or `None` when the row
+/// misses the cap. From `z zr + st sr cos(dphi) >= cos_star`.
+pub(crate) fn cap_interval(
+    z: f64,
+    st: f64,
+    zr: f64,
+    sr: f64,
+    cos_star: f64,
+    centre: i64,
+    w: usize,
+) -> Option<(usize, usize)> {
+    let dphi = 2.0 * PI / w as f64;
+    let a = z * zr;
+    let b = st * sr;
+    if b <= 1e-300 {
+        return (a >= cos_star).then_some((0, w));
+    }
+    let q = (cos_star - a) / b;
+    if q > 1.0 {
+        None
+    } else if q <= -1.0 {
+        Some((0, w))
+    } else {
+        let span = ((q.acos() / dphi).ceil() as usize + 1).min(w / 2);
+        Some((
+            (centre - span as i64).rem_euclid(w as i64) as usize,
+            (2 * span + 1).min(w),
+        ))
+    }
 }
 
 /// One row of Table 4.

@@ -437,14 +437,7 @@ pub fn microfacet_angular(
         cap[k].max(cap[(k + 1).min(n_tab)])
     };
     let dphi = 2.0 * PI / w as f64;
-    let rows: Vec<(f64, f64, f64)> = (0..h)
-        .map(|v| {
-            let t0 = PI * v as f64 / h as f64;
-            let t1 = PI * (v + 1) as f64 / h as f64;
-            let t = 0.5 * (t0 + t1);
-            (t.cos(), t.sin(), (t0.cos() - t1.cos()) * dphi)
-        })
-        .collect();
+    let rows = crate::shrm::grid_rows(w, h);
     let data = env.data();
     let mut out = Image::new(w, h, 3)?;
     let counted: u64 = out
@@ -466,27 +459,12 @@ pub fn microfacet_angular(
                 let mut acc = [0.0f64; 3];
                 let v_lo = (((alpha - theta_star) / PI * h as f64).floor().max(0.0)) as usize;
                 let v_hi = (((alpha + theta_star) / PI * h as f64).ceil() as usize).min(h);
-                for v in v_lo..v_hi {
-                    let (z, st, sa) = rows[v];
-                    let a = z * zr;
-                    let b = st * sr;
-                    let (u0, len) = if b <= 1e-300 {
-                        if a >= cos_star { (0, w) } else { continue }
-                    } else {
-                        let q = (cos_star - a) / b;
-                        if q > 1.0 {
-                            continue;
-                        } else if q <= -1.0 {
-                            (0, w)
-                        } else {
-                            let half = q.acos();
-                            let centre = (pr / dphi - 0.5).round() as i64;
-                            let span = ((half / dphi).ceil() as usize + 1).min(w / 2);
-                            (
-                                (centre - span as i64).rem_euclid(w as i64) as usize,
-                                (2 * span + 1).min(w),
-                            )
-                        }
+                let centre = (pr / dphi - 0.5).round() as i64;
+                for (v, &(z, st, sa)) in rows.iter().enumerate().take(v_hi).skip(v_lo) {
+                    let Some((u0, len)) =
+                        crate::shrm::cap_interval(z, st, zr, sr, cos_star, centre, w)
+                    else {
+                        continue;
                     };
                     n += len as u64;
                     let row = &data[v * w * 3..(v + 1) * w * 3];

@@ -42,6 +42,10 @@ use crate::coeffs::ShCoeffs;
 use crate::error::{Result, SphereError, check_degree};
 use crate::sh::{LegendreTable, ShEvaluator, gauss_legendre, sh_count};
 
+/// Rows processed together by the analyses (their Legendre recurrences
+/// vectorise across rows).
+const ANALYSIS_LANES: usize = 4;
+
 /// What to do with negative samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Negatives {
@@ -164,13 +168,60 @@ impl EquirectTransform {
         self.rows[vn].2
     }
 
+    /// Adds the Legendre sums of one block of `LANES` (virtual) rows to the
+    /// coefficients `out`: `P_l^m(z)` of the northern rows (`zs`, `sin t` in
+    /// `ss`) met with the even (`l + m` even) or odd combination of each row
+    /// pair's Fourier sums, `even`/`odd[(m C + c) LANES + lane]`.
+    #[expect(clippy::too_many_arguments, reason = "one block's inputs and scratch")]
+    fn legendre_sums(
+        &self,
+        zs: &[f64; ANALYSIS_LANES],
+        ss: &[f64; ANALYSIS_LANES],
+        even: &[Complex64],
+        odd: &[Complex64],
+        ch: usize,
+        col: &mut [[f64; ANALYSIS_LANES]],
+        out: &mut [f64],
+    ) {
+        const LANES: usize = ANALYSIS_LANES;
+        let l_max = self.l_max;
+        let mut sm = [1.0; LANES];
+        for m in 0..=l_max {
+            if m > 0 {
+                for (a, b) in sm.iter_mut().zip(ss) {
+                    *a *= b;
+                }
+            }
+            self.table.column(m, zs, &sm, col);
+            for l in m..=l_max {
+                let p = &col[l - m];
+                let src = if (l + m) % 2 == 0 { even } else { odd };
+                let base = l * (l + 1);
+                for c in 0..ch {
+                    let x = &src[(m * ch + c) * LANES..][..LANES];
+                    let (mut re, mut im) = (0.0, 0.0);
+                    for (p, x) in p.iter().zip(x) {
+                        re += p * x.re;
+                        im += p * x.im;
+                    }
+                    if m == 0 {
+                        out[base * ch + c] += re;
+                    } else {
+                        out[(base + m) * ch + c] += std::f64::consts::SQRT_2 * re;
+                        out[(base - m) * ch + c] -= std::f64::consts::SQRT_2 * im;
+                    }
+                }
+            }
+        }
+    }
+
     /// Projects an equirectangular map (any channel count) onto SH up to `L`.
     ///
     /// # Errors
     /// [`SphereError::NotEquirect`] when the image size differs from the plan;
     /// [`SphereError::NonFinite`] for NaN/infinite samples.
     pub fn analyze(&self, img: &Image, negatives: Negatives) -> Result<Analysis> {
-        const LANES: usize = 4;
+        const LANES: usize = ANALYSIS_LANES;
         if img.width() != self.width || img.height() != self.height {
             return Err(SphereError::NotEquirect {
                 width: img.width(),
@@ -247,34 +298,7 @@ impl EquirectTransform {
             }
             // Legendre sums: P_l^m(z) of the northern rows, with the even
             // (l + m even) or odd combination of each row pair.
-            let mut sm = [1.0; LANES];
-            for m in 0..=l_max {
-                if m > 0 {
-                    for (a, b) in sm.iter_mut().zip(&ss) {
-                        *a *= b;
-                    }
-                }
-                self.table.column(m, &zs, &sm, &mut col);
-                for l in m..=l_max {
-                    let p = &col[l - m];
-                    let src = if (l + m) % 2 == 0 { &even } else { &odd };
-                    let base = l * (l + 1);
-                    for c in 0..ch {
-                        let x = &src[(m * ch + c) * LANES..][..LANES];
-                        let (mut re, mut im) = (0.0, 0.0);
-                        for (p, x) in p.iter().zip(x) {
-                            re += p * x.re;
-                            im += p * x.im;
-                        }
-                        if m == 0 {
-                            out[base * ch + c] += re;
-                        } else {
-                            out[(base + m) * ch + c] += std::f64::consts::SQRT_2 * re;
-                            out[(base - m) * ch + c] -= std::f64::consts::SQRT_2 * im;
-                        }
-                    }
-                }
-            }
+            self.legendre_sums(&zs, &ss, &even, &odd, ch, &mut col, out);
         }
         Ok(Analysis {
             coeffs,
@@ -311,7 +335,7 @@ impl EquirectTransform {
     /// As [`Self::analyze`].
     pub fn analyze_texels(&self, img: &Image, negatives: Negatives) -> Result<Analysis> {
         use rayon::prelude::*;
-        const LANES: usize = 4;
+        const LANES: usize = ANALYSIS_LANES;
         if img.width() != self.width || img.height() != self.height {
             return Err(SphereError::NotEquirect {
                 width: img.width(),
@@ -408,34 +432,7 @@ impl EquirectTransform {
                                 odd[i * LANES + lane] = (fn_ - fs) * wt;
                             }
                         }
-                        let mut sm = [1.0; LANES];
-                        for m in 0..=l_max {
-                            if m > 0 {
-                                for (a, b) in sm.iter_mut().zip(&ss) {
-                                    *a *= b;
-                                }
-                            }
-                            self.table.column(m, &zs, &sm, &mut col);
-                            for l in m..=l_max {
-                                let p = &col[l - m];
-                                let src = if (l + m) % 2 == 0 { &even } else { &odd };
-                                let base = l * (l + 1);
-                                for c in 0..ch {
-                                    let x = &src[(m * ch + c) * LANES..][..LANES];
-                                    let (mut re, mut im) = (0.0, 0.0);
-                                    for (p, x) in p.iter().zip(x) {
-                                        re += p * x.re;
-                                        im += p * x.im;
-                                    }
-                                    if m == 0 {
-                                        out[base * ch + c] += re;
-                                    } else {
-                                        out[(base + m) * ch + c] += std::f64::consts::SQRT_2 * re;
-                                        out[(base - m) * ch + c] -= std::f64::consts::SQRT_2 * im;
-                                    }
-                                }
-                            }
-                        }
+                        self.legendre_sums(&zs, &ss, &even, &odd, ch, &mut col, &mut out);
                     }
                     out
                 },
@@ -739,6 +736,22 @@ pub fn project_samples(
     Ok(out)
 }
 
+/// The (unnormalised) direction at face coordinates `sc, tc` in `[-1, 1]`
+/// (`tc` growing downwards in the image) of cube face `face` (`0..6` =
+/// `+X, -X, +Y, -Y, +Z, -Z`): the OpenGL cube-map table,
+/// `direction = major + sc s_axis + tc t_axis`.
+#[must_use]
+pub fn cube_face_direction(face: usize, sc: f64, tc: f64) -> [f64; 3] {
+    match face {
+        0 => [1.0, -tc, -sc],
+        1 => [-1.0, -tc, sc],
+        2 => [sc, 1.0, tc],
+        3 => [sc, -1.0, -tc],
+        4 => [sc, -tc, 1.0],
+        _ => [-sc, -tc, -1.0],
+    }
+}
+
 /// Direction of texel `(i, j)` (column, row from the top) of cube face `face`
 /// (`0..6` = `+X, -X, +Y, -Y, +Z, -Z`) of size `n`, and its exact solid angle.
 #[must_use]
@@ -746,15 +759,7 @@ pub fn cube_texel(face: usize, i: usize, j: usize, n: usize) -> ([f64; 3], f64) 
     let nf = n as f64;
     let sc = 2.0 * (i as f64 + 0.5) / nf - 1.0;
     let tc = 2.0 * (j as f64 + 0.5) / nf - 1.0;
-    // OpenGL table: direction = ma * major + sc * s_axis + tc * t_axis
-    let d = match face {
-        0 => [1.0, -tc, -sc],
-        1 => [-1.0, -tc, sc],
-        2 => [sc, 1.0, tc],
-        3 => [sc, -1.0, -tc],
-        4 => [sc, -tc, 1.0],
-        _ => [-sc, -tc, -1.0],
-    };
+    let d = cube_face_direction(face, sc, tc);
     let f = |a: f64, b: f64| (a * b).atan2((a * a + b * b + 1.0).sqrt());
     let (a0, a1) = (2.0 * i as f64 / nf - 1.0, 2.0 * (i as f64 + 1.0) / nf - 1.0);
     let (b0, b1) = (2.0 * j as f64 / nf - 1.0, 2.0 * (j as f64 + 1.0) / nf - 1.0);

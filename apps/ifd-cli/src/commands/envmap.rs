@@ -503,6 +503,26 @@ const PAPER_TABLE4: [(f64, f64, f64); 7] = [
 ];
 
 impl ShrmCmd {
+    /// The map averaged down to `--size` (else `default`) by solid angle.
+    fn load(&self, default: &str) -> Result<(ifd_image::Image, usize, usize)> {
+        let (w, h) = crate::input::parse_size(self.size.as_deref().unwrap_or(default), "--size")?;
+        let img = self.input.read(&self.envmap)?.image;
+        if img.channels() != 3 {
+            bail!(
+                "{}: needs RGB; got {} channel(s)",
+                self.envmap.display(),
+                img.channels()
+            );
+        }
+        let src = ifd_sphere::transform::downsample_equirect(&img, w, h).with_context(|| {
+            format!(
+                "{}: averaging down to --size {w}x{h}",
+                self.envmap.display()
+            )
+        })?;
+        Ok((src, w, h))
+    }
+
     fn run(self) -> Result<()> {
         use ifd_ibl::shrm::{loglog_fit, paper_order, time_phong};
         use std::fmt::Write as _;
@@ -532,14 +552,7 @@ impl ShrmCmd {
         if !(self.min_seconds >= 0.0 && self.min_seconds <= 60.0) {
             bail!("--min-seconds {}: must lie in 0..=60", self.min_seconds);
         }
-        let (w, h) = crate::input::parse_size(self.size.as_deref().unwrap_or("256x128"), "--size")?;
-        let img = self.input.read(&self.envmap)?.image;
-        let src = ifd_sphere::transform::downsample_equirect(&img, w, h).with_context(|| {
-            format!(
-                "{}: averaging down to --size {w}x{h}",
-                self.envmap.display()
-            )
-        })?;
+        let (src, w, h) = self.load("256x128")?;
         let max_order = self
             .exponents
             .iter()
@@ -679,17 +692,7 @@ impl ShrmCmd {
         if !(self.eps_angular > 0.0 && self.eps_angular < 1.0) {
             bail!("--eps-angular {}: must lie in (0, 1)", self.eps_angular);
         }
-        let (w, h) = crate::input::parse_size(self.size.as_deref().unwrap_or("128x64"), "--size")?;
-        let img = self.input.read(&self.envmap)?.image;
-        let src = ifd_sphere::transform::downsample_equirect(&img, w, h).with_context(|| {
-            format!(
-                "{}: averaging down to --size {w}x{h}",
-                self.envmap.display()
-            )
-        })?;
-        if src.channels() != 3 {
-            bail!("{}: needs RGB", self.envmap.display());
-        }
+        let (src, w, h) = self.load("128x64")?;
         let views = view_grid(self.maps);
         let mut rows = Vec::new();
         for &sigma in &self.sigmas {
