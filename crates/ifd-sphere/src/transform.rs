@@ -168,6 +168,18 @@ impl EquirectTransform {
         self.rows[vn].2
     }
 
+    /// Checks that `img` has the plan's size and finite samples; returns how
+    /// many are negative.
+    fn check_map(&self, img: &Image) -> Result<usize> {
+        if img.width() != self.width || img.height() != self.height {
+            return Err(SphereError::NotEquirect {
+                width: img.width(),
+                height: img.height(),
+            });
+        }
+        count_negatives_of_finite_map(img.data(), "environment map")
+    }
+
     /// Adds the Legendre sums of one block of `LANES` (virtual) rows to the
     /// coefficients `out`: `P_l^m(z)` of the northern rows (`zs`, `sin t` in
     /// `ss`) met with the even (`l + m` even) or odd combination of each row
@@ -222,14 +234,8 @@ impl EquirectTransform {
     /// [`SphereError::NonFinite`] for NaN/infinite samples.
     pub fn analyze(&self, img: &Image, negatives: Negatives) -> Result<Analysis> {
         const LANES: usize = ANALYSIS_LANES;
-        if img.width() != self.width || img.height() != self.height {
-            return Err(SphereError::NotEquirect {
-                width: img.width(),
-                height: img.height(),
-            });
-        }
+        let negatives_clamped = self.check_map(img)?;
         let data = img.data();
-        let negatives_clamped = count_negatives_of_finite_map(data, "environment map")?;
         let clamp = negatives == Negatives::Clamp;
         let (w, h, ch) = (self.width, self.height, img.channels());
         let l_max = self.l_max;
@@ -336,14 +342,8 @@ impl EquirectTransform {
     pub fn analyze_texels(&self, img: &Image, negatives: Negatives) -> Result<Analysis> {
         use rayon::prelude::*;
         const LANES: usize = ANALYSIS_LANES;
-        if img.width() != self.width || img.height() != self.height {
-            return Err(SphereError::NotEquirect {
-                width: img.width(),
-                height: img.height(),
-            });
-        }
+        let negatives_clamped = self.check_map(img)?;
         let data = img.data();
-        let negatives_clamped = count_negatives_of_finite_map(data, "environment map")?;
         let clamp = negatives == Negatives::Clamp;
         let (w, h, ch) = (self.width, self.height, img.channels());
         let l_max = self.l_max;
