@@ -39,6 +39,52 @@ pub fn paper_order(s: f64) -> usize {
     (1.0 + (6.0 * s).sqrt()).floor() as usize
 }
 
+/// App. D's order for Phong exponent `s` and BRDF energy tolerance `eps`:
+/// with `rho_l ~ exp(-l^2 / 2s)`, `sum_{l <= F} l exp(-l^2/s) = (1 - eps)
+/// sum_l ...` gives `F = sqrt(-s ln eps)` (rounded up).
+///
+/// ```
+/// // s = 64, eps = 0.01: sqrt(64 ln 100) = 17.2
+/// assert_eq!(ifd_ibl::shrm::phong_order(64.0, 0.01), 18);
+/// ```
+#[must_use]
+pub fn phong_order(s: f64, eps: f64) -> usize {
+    (-s * eps.ln()).max(0.0).sqrt().ceil() as usize
+}
+
+/// SHRM App. B's conservative error estimate for a radially symmetric lobe
+/// truncated at `F`, from the lighting's band powers `light[l] = sum_m
+/// L_lm^2` (up to some degree above `F`) and its total energy `light_total =
+/// int L^2` (which the bands below it may not exhaust), and the lobe's zonal
+/// factors `lambda` (up to a degree where it has decayed). With the lobe's
+/// own SH energy per band `rho_l^2 = lambda_l^2 (2l + 1) / 4 pi` (its zonal
+/// coefficients, `lambda_l = Lambda_l rho_l`), the missing fractions
+/// `eps_L`, `eps_rho` beyond `F`, and the worst case of all residual energy
+/// in mode `F + 1`:
+///
+/// ```text
+/// B_res = Lambda_{F+1}^2 (eps_L L_tot)(eps_rho rho_tot),
+/// eps_B <= B_res / (sum_{l <= F} lambda_l^2 light_l + B_res)
+/// ```
+///
+/// (the paper writes `Lambda_{F+1}` where energies need its square).
+#[must_use]
+pub fn residual_bound(light: &[f64], light_total: f64, lambda: &[f64], f: usize) -> f64 {
+    let f = f
+        .min(light.len().saturating_sub(1))
+        .min(lambda.len().saturating_sub(1));
+    let kept_light: f64 = light[..=f].iter().sum();
+    let eps_l = ((light_total - kept_light) / light_total).max(0.0);
+    let rho2 = |l: usize| lambda[l] * lambda[l] * (2 * l + 1) as f64 / (4.0 * PI);
+    let rho_tot: f64 = (0..lambda.len()).map(rho2).sum();
+    let kept_rho: f64 = (0..=f).map(rho2).sum();
+    let eps_rho = ((rho_tot - kept_rho) / rho_tot).max(0.0);
+    let lam2 = 4.0 * PI / (2 * f + 3) as f64;
+    let b_res = lam2 * (eps_l * light_total) * (eps_rho * rho_tot);
+    let kept_b: f64 = (0..=f).map(|l| lambda[l] * lambda[l] * light[l]).sum();
+    b_res / (kept_b + b_res)
+}
+
 /// The Phong reflection map by SH convolution to degree `f_b`, on the input's
 /// grid.
 ///
@@ -212,6 +258,8 @@ pub struct PhongTiming {
     pub support: f64,
     /// Relative RMS difference between the two maps.
     pub rel_diff: f64,
+    /// App. B's bound on the frequency side's relative error energy.
+    pub residual_bound: f64,
 }
 
 /// Times both sides for exponent `s`: each measurement repeats the
@@ -230,6 +278,31 @@ pub fn time_phong(
     min_seconds: f64,
 ) -> Result<PhongTiming> {
     let order = paper_order(s);
+    let residual = {
+        // the lighting's band powers to well beyond F_B, and its total energy
+        let (w, h) = (env.width(), env.height());
+        let lb = (4 * order).min(h - 1);
+        let c = EquirectTransform::new(lb, w, h)?
+            .analyze(env, Negatives::Keep)?
+            .coeffs;
+        let ch = c.channels();
+        let light: Vec<f64> = (0..=lb)
+            .map(|l| {
+                c.data()[l * l * ch..(l + 1) * (l + 1) * ch]
+                    .iter()
+                    .map(|v| v * v)
+                    .sum()
+            })
+            .collect();
+        let rows = grid_rows(w, h);
+        let total: f64 = env
+            .data()
+            .chunks_exact(w * ch)
+            .zip(&rows)
+            .map(|(row, r)| r.2 * row.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>())
+            .sum();
+        residual_bound(&light, total, &Lobe::Phong { s }.zonal(8 * order), order)
+    };
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
@@ -267,6 +340,7 @@ pub fn time_phong(
         frequency: median(tf),
         support,
         rel_diff: (num / den.max(f64::MIN_POSITIVE)).sqrt(),
+        residual_bound: residual,
     })
 }
 
