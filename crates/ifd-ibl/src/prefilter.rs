@@ -7,7 +7,9 @@
 //!
 //! - a **residual**, every channel clamped at a threshold `T`, and
 //! - the **excess** `E - min(E, T)` of the few texels brighter than `T`
-//!   (the sun: `T = bright_factor x` the map's mean, raised so that at most
+//!   (the sun: `T = bright_factor x` the mean of the map clamped at `T`, the
+//!   fixed point reached from `bright_factor x` the plain mean, so that a
+//!   texel dominating the mean cannot hide itself; raised so that at most
 //!   `max_bright` texels exceed it).
 //!
 //! The residual is projected on SH exactly for piecewise-constant texels
@@ -65,8 +67,8 @@ pub struct BakeOptions {
     /// the map is projected to the highest degree with `|lambda_l| >= eps`
     /// of any lobe.
     pub eps: f64,
-    /// Texels brighter than `bright_factor x` the map's mean (max channel,
-    /// solid-angle weighted) are summed directly.
+    /// Texels brighter than `T = bright_factor x` the mean of the map clamped
+    /// at `T` (max channel, solid-angle weighted) are summed directly.
     pub bright_factor: f64,
     /// At most this many texels are summed directly (the threshold rises).
     pub max_bright: usize,
@@ -205,22 +207,36 @@ impl Baker {
         }
         let source = Image::from_vec(w, h, 3, rgb)?;
         let t = EquirectTransform::new(0, w, h)?;
-        // solid-angle-weighted mean of the max channel
+        // the threshold: bright_factor x the mean of the map clamped at the
+        // threshold itself (a fixed point, reached from above: a single
+        // texel that dominates the plain mean must not hide itself), then
+        // raised to keep at most max_bright texels
         let data = source.data();
-        let mut mean = 0.0;
-        for v in 0..h {
-            let da = t.pixel_solid_angle(v);
-            for px in data[v * w * 3..(v + 1) * w * 3].chunks_exact(3) {
-                mean += da * f64::from(px[0].max(px[1]).max(px[2]));
-            }
-        }
-        mean /= 4.0 * PI;
-        // the threshold: bright_factor x mean, raised to keep max_bright texels
         let maxc: Vec<f32> = data
             .chunks_exact(3)
             .map(|p| p[0].max(p[1]).max(p[2]))
             .collect();
+        let clamped_mean = |cap: f64| {
+            let mut m = 0.0;
+            for v in 0..h {
+                let da = t.pixel_solid_angle(v);
+                let row: f64 = maxc[v * w..(v + 1) * w]
+                    .iter()
+                    .map(|x| f64::from(*x).min(cap))
+                    .sum();
+                m += da * row;
+            }
+            m / (4.0 * PI)
+        };
+        let mean = clamped_mean(f64::INFINITY);
         let mut threshold = opts.bright_factor * mean;
+        for _ in 0..32 {
+            let next = opts.bright_factor * clamped_mean(threshold);
+            if next >= threshold * (1.0 - 1e-6) {
+                break;
+            }
+            threshold = next;
+        }
         let above = maxc.iter().filter(|&&m| f64::from(m) > threshold).count();
         if above > opts.max_bright {
             let mut sorted = maxc.clone();
@@ -580,4 +596,30 @@ fn direct_sum(lobe: &Lobe, samples: &[Sample], cells: &[Cell], d: [f64; 3]) -> [
         }
     }
     acc
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_dominating_texel_is_summed_directly_and_nothing_rings() {
+        // a texel so bright that it dominates the map's plain mean: the
+        // threshold must still fall to the level of the rest of the map
+        let (w, h) = (64, 32);
+        let mut data = vec![1.0f32; w * h * 3];
+        for c in 0..3 {
+            data[(5 * w + 7) * 3 + c] = 1e30;
+        }
+        let env = Image::from_vec(w, h, 3, data).expect("map");
+        let lobes = [Lobe::Ggx { alpha: 0.1 }, Lobe::Lambert];
+        let baker = Baker::new(&env, &BakeOptions::default(), &lobes).expect("baker");
+        let (n, t) = baker.bright_texels();
+        assert_eq!(n, 1);
+        assert!(t < 20.0, "threshold {t}");
+        for lobe in &lobes {
+            let (_, stats) = baker.level(lobe, 8).expect("level");
+            assert_eq!(stats.negatives_clamped, 0, "{lobe:?}");
+        }
+    }
 }
