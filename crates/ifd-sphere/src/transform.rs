@@ -318,9 +318,10 @@ impl EquirectTransform {
     ///
     /// The azimuthal texel integral is exact: the row's FFT sums times
     /// `d sinc(m d / 2)` (`d = 2 pi / W`). The polar integral of each row runs
-    /// on `n = 3 + ceil((L + 1) pi / (2 H))` Gauss-Legendre nodes (the Gauss
-    /// error bound for a degree-`L + 1` trigonometric integrand over a row
-    /// of width `pi / H` stays below about `1e-7` relative), each node a
+    /// on `n = max(3, 2 + ceil(x / 2))` Gauss-Legendre nodes, `x = (L + 1) pi /
+    /// H` the top band's phase across a row (the Gauss error bound
+    /// `x^(2n) (n!)^4 / ((2n + 1) ((2n)!)^3)` stays below about `5e-6` of the
+    /// row integral at the top band, and falls fast below it), each node a
     /// "virtual row" of the pixel-centre algorithm of [`Self::analyze`]
     /// (mirrored nodes of rows `v` and `H - 1 - v` still pair up). Rows run in
     /// parallel. Cost `O(H W log W + n H L^2)` per channel.
@@ -328,12 +329,12 @@ impl EquirectTransform {
     /// ```
     /// use ifd_sphere::{EquirectTransform, Negatives};
     /// // a constant map projects to c_00 = sqrt(4 pi), nothing else (to the
-    /// // polar quadrature's ~1e-9 relative)
+    /// // polar quadrature's few 1e-6 at the top band of so small a map)
     /// let img = ifd_image::Image::from_vec(16, 8, 1, vec![1.0; 128])?;
     /// let t = EquirectTransform::new(6, 16, 8)?;
     /// let c = t.analyze_texels(&img, Negatives::Keep)?.coeffs;
-    /// assert!((c.get(0, 0, 0) - (4.0 * std::f64::consts::PI).sqrt()).abs() < 1e-13);
-    /// assert!(c.data()[1..].iter().all(|v| v.abs() < 1e-8));
+    /// assert!((c.get(0, 0, 0) - (4.0 * std::f64::consts::PI).sqrt()).abs() < 1e-8);
+    /// assert!(c.data()[1..].iter().all(|v| v.abs() < 2e-5));
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     ///
@@ -396,7 +397,7 @@ impl EquirectTransform {
             )
             .collect();
         // 2. Polar integrals: Gauss-Legendre nodes of each northern row.
-        let n_g = (3 + ((l_max + 1) as f64 * PI / (2.0 * h as f64)).ceil() as usize).min(64);
+        let n_g = (2 + ((l_max + 1) as f64 * PI / (2.0 * h as f64)).ceil() as usize).clamp(3, 64);
         let (gx, gw) = gauss_legendre(n_g);
         let dt = PI / h as f64;
         let mut nodes = Vec::with_capacity(n_pairs * n_g);
@@ -603,19 +604,19 @@ pub fn analyze_equirect(img: &Image, l_max: usize, negatives: Negatives) -> Resu
 /// so each row's pixel-centre Fourier sums are scaled by `d sinc(m d / 2)`
 /// and met with the row integral of `Y_l^|m|`; `Y_l^|m|(theta) sin(theta)` is
 /// a trigonometric polynomial of degree `l + 1`, which
-/// `3 + ceil((L + 1) pi / (2 H))` Gauss nodes per row integrate to about
-/// `1e-7` relative. It runs as
+/// `max(3, 2 + ceil((L + 1) pi / (2 H)))` Gauss nodes per row integrate to
+/// about `5e-6` relative at the top band (far better below). It runs as
 /// [`EquirectTransform::analyze_texels`] (FFT rows, cost
 /// `O(H W log W + n H L^2)` per channel).
 ///
 /// ```
 /// use ifd_sphere::transform::{Negatives, analyze_equirect_box};
 /// // a constant map projects to c_00 = sqrt(4 pi), nothing else (to the
-/// // polar quadrature's ~1e-9 relative)
+/// // polar quadrature's few 1e-6 at the top band of so small a map)
 /// let img = ifd_image::Image::from_vec(16, 8, 1, vec![1.0; 128])?;
 /// let c = analyze_equirect_box(&img, 6, Negatives::Keep)?.coeffs;
-/// assert!((c.get(0, 0, 0) - (4.0 * std::f64::consts::PI).sqrt()).abs() < 1e-13);
-/// assert!(c.data()[1..].iter().all(|v| v.abs() < 1e-8));
+/// assert!((c.get(0, 0, 0) - (4.0 * std::f64::consts::PI).sqrt()).abs() < 1e-8);
+/// assert!(c.data()[1..].iter().all(|v| v.abs() < 2e-5));
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 ///
