@@ -494,3 +494,20 @@ def test_shrm_table5_orders_match_the_paper(run_ifd, tmp_path):
     # and the frequency side's 3% energy truncation
     assert all(float(r["rel_diff"]) < 0.1 for r in t), t
     assert "| 0.2 |" in p.stdout
+
+
+def test_render_reads_the_baked_sh(forest_small, run_ifd, tmp_path):
+    """sh.npy is usable by `ifd render --env`: the SH methods then shade with
+    exactly those coefficients, the same as rendering the source map itself."""
+    path, _ = forest_small
+    run_ifd("envmap", "prefilter", path, "--face-size", 8, "--sh-lmax", 6, "-o", tmp_path / "b")
+    common = ["--brdf", "phong:s=8", "--lmax", 6, "--method", "sh", "--size", "24x24", "--no-background"]
+    run_ifd("render", "--env", tmp_path / "b" / "sh.npy", *common, "-o", tmp_path / "a.npy")
+    run_ifd("render", "--env", path, "--env-size", "256x128", *common, "-o", tmp_path / "m.npy")
+    a, m = np.load(tmp_path / "a.npy"), np.load(tmp_path / "m.npy")
+    assert np.abs(m).max() > 0.1
+    assert np.allclose(a, m, rtol=1e-5, atol=1e-6)
+    p = run_ifd("render", "--env", tmp_path / "b" / "sh.npy", "--brdf", "phong:s=8", "--lmax", 9,
+                "--method", "sh", "--size", "8x8", "-o", tmp_path / "x.npy", check=False)
+    assert p.returncode == 2 and "--lmax" in p.stderr and "degrees up to 6" in p.stderr
+    assert not (tmp_path / "x.npy").exists()

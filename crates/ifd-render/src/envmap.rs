@@ -17,6 +17,8 @@ use crate::error::{RenderError, Result};
 pub struct EnvMap {
     img: Image,
     rotation: f64,
+    /// Exact SH coefficients when the environment was given as SH.
+    sh: Option<ShCoeffs>,
 }
 
 impl EnvMap {
@@ -67,7 +69,54 @@ impl EnvMap {
         Ok(Self {
             img,
             rotation: rotation_deg.to_radians(),
+            sh: None,
         })
+    }
+
+    /// An environment given by SH coefficients (the `sh.npy` of
+    /// `ifd envmap prefilter` or `ifd sphere sh`, 1 or 3 channels): [`Self::sh`]
+    /// returns the coefficients themselves (up to their degree), and the map
+    /// that the oracle, Monte Carlo and the background read is their
+    /// synthesis on a `width x height` grid with negative values (ringing of
+    /// the truncated expansion) set to 0; returns the environment and how
+    /// many samples were clamped.
+    ///
+    /// # Errors
+    /// [`RenderError::Parameter`] for other channel counts, a grid that is not
+    /// 2:1 or a rotation that is not finite.
+    pub fn from_sh(
+        coeffs: ShCoeffs,
+        width: usize,
+        height: usize,
+        rotation_deg: f64,
+    ) -> Result<(Self, usize)> {
+        let ch = coeffs.channels();
+        if ch != 1 && ch != 3 {
+            return Err(RenderError::Parameter {
+                name: "--env",
+                value: format!("{ch} channels"),
+                reason: "SH coefficients need 1 or 3 columns".into(),
+            });
+        }
+        if height < 2 || width != 2 * height {
+            return Err(RenderError::Parameter {
+                name: "--env-size",
+                value: format!("{width}x{height}"),
+                reason: "must be 2:1 (W = 2H, H >= 2)".into(),
+            });
+        }
+        let mut img = ifd_sphere::EquirectTransform::new(coeffs.l_max(), width, height)?
+            .synthesize(&coeffs)?;
+        let mut clamped = 0;
+        for v in img.data_mut() {
+            if *v < 0.0 {
+                *v = 0.0;
+                clamped += 1;
+            }
+        }
+        let mut env = Self::new(img, rotation_deg)?;
+        env.sh = Some(coeffs);
+        Ok((env, clamped))
     }
 
     /// The image.
@@ -111,6 +160,7 @@ impl EnvMap {
         Ok(Self {
             img: ifd_sphere::transform::downsample_equirect(&self.img, width, height)?,
             rotation: self.rotation,
+            sh: self.sh.clone(),
         })
     }
 
@@ -135,12 +185,27 @@ impl EnvMap {
         }
     }
 
-    /// The exact SH coefficients of the (rotated) piecewise-constant map up to `l_max`.
+    /// The exact SH coefficients of the (rotated) piecewise-constant map up to
+    /// `l_max`, or the given ones for an environment made by [`Self::from_sh`].
     ///
     /// # Errors
-    /// Degrees beyond [`ifd_sphere::MAX_DEGREE`].
+    /// Degrees beyond [`ifd_sphere::MAX_DEGREE`] or beyond those given.
     pub fn sh(&self, l_max: usize) -> Result<ShCoeffs> {
-        let c = analyze_equirect_box(&self.img, l_max, Negatives::Keep)?.coeffs;
+        let c = match &self.sh {
+            Some(c) if l_max > c.l_max() => {
+                return Err(RenderError::Parameter {
+                    name: "--lmax",
+                    value: l_max.to_string(),
+                    reason: format!(
+                        "the SH environment holds degrees up to {} (bake it with a higher \
+                         --sh-lmax)",
+                        c.l_max()
+                    ),
+                });
+            }
+            Some(c) => c.resized(l_max)?,
+            None => analyze_equirect_box(&self.img, l_max, Negatives::Keep)?.coeffs,
+        };
         if self.rotation == 0.0 {
             return Ok(c);
         }

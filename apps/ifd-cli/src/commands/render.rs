@@ -39,7 +39,11 @@ use crate::input::{InputOptions, parse_size};
 /// --exposure and --tonemap.
 #[derive(Debug, Args)]
 pub struct Render {
-    /// Environment map, 2:1 equirectangular (EXR, HDR, ...).
+    /// Environment map, 2:1 equirectangular (EXR, HDR, ...), or SH coefficients
+    /// (.npy of shape ((L+1)^2, 1 or 3): the sh.npy of `ifd envmap prefilter` or
+    /// `ifd sphere sh`), which isd and sh use as they are (L up to theirs), and
+    /// the oracle, Monte Carlo and the background read synthesised on --env-size
+    /// (default 128x64), negatives set to 0.
     #[arg(long, value_name = "FILE")]
     env: PathBuf,
     /// BRDF spec: lambert, phong:s=.., blinn:s=.., ggx:alpha=.. or ggx:ax=..,ay=.., ward:.., merl:FILE
@@ -367,6 +371,35 @@ impl Render {
 impl Render {
     /// The full-resolution map (background) and the one every method integrates.
     fn environments(&self) -> Result<(EnvMap, EnvMap)> {
+        // SH coefficients ((L+1)^2 x 1 or 3 .npy, from `ifd envmap prefilter`
+        // or `ifd sphere sh`): the ISD and SH methods use them as they are
+        if self
+            .env
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
+        {
+            if let Ok(c) = ifd_sphere::ShCoeffs::read_npy(&self.env) {
+                if matches!(c.channels(), 1 | 3) {
+                    let l = c.l_max();
+                    let (ew, eh) = match &self.env_size {
+                        Some(s) => parse_size(s, "--env-size")?,
+                        None if l < 64 => (128, 64),
+                        None => (4 * (l + 1), 2 * (l + 1)),
+                    };
+                    let (env, clamped) = EnvMap::from_sh(c, ew, eh, self.env_rotate)
+                        .with_context(|| format!("{}", self.env.display()))?;
+                    if clamped > 0 {
+                        eprintln!(
+                            "note: {}: the SH environment synthesised on {ew}x{eh} (for the \
+                             oracle, Monte Carlo and the background) rings below 0 at {clamped} \
+                             samples, set to 0 there",
+                            self.env.display()
+                        );
+                    }
+                    return Ok((env.clone(), env));
+                }
+            }
+        }
         let full = EnvMap::new(self.input.read(&self.env)?.image, self.env_rotate)
             .with_context(|| format!("{}", self.env.display()))?;
         let (mw, mh) = (full.image().width(), full.image().height());
