@@ -377,28 +377,26 @@ impl Render {
             .env
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
+            && let Ok(c) = ifd_sphere::ShCoeffs::read_npy(&self.env)
+            && matches!(c.channels(), 1 | 3)
         {
-            if let Ok(c) = ifd_sphere::ShCoeffs::read_npy(&self.env) {
-                if matches!(c.channels(), 1 | 3) {
-                    let l = c.l_max();
-                    let (ew, eh) = match &self.env_size {
-                        Some(s) => parse_size(s, "--env-size")?,
-                        None if l < 64 => (128, 64),
-                        None => (4 * (l + 1), 2 * (l + 1)),
-                    };
-                    let (env, clamped) = EnvMap::from_sh(c, ew, eh, self.env_rotate)
-                        .with_context(|| format!("{}", self.env.display()))?;
-                    if clamped > 0 {
-                        eprintln!(
-                            "note: {}: the SH environment synthesised on {ew}x{eh} (for the \
-                             oracle, Monte Carlo and the background) rings below 0 at {clamped} \
-                             samples, set to 0 there",
-                            self.env.display()
-                        );
-                    }
-                    return Ok((env.clone(), env));
-                }
+            let l = c.l_max();
+            let (ew, eh) = match &self.env_size {
+                Some(s) => parse_size(s, "--env-size")?,
+                None if l < 64 => (128, 64),
+                None => (4 * (l + 1), 2 * (l + 1)),
+            };
+            let (env, clamped) = EnvMap::from_sh(c, ew, eh, self.env_rotate)
+                .with_context(|| format!("{}", self.env.display()))?;
+            if clamped > 0 {
+                eprintln!(
+                    "note: {}: the SH environment synthesised on {ew}x{eh} (for the \
+                     oracle, Monte Carlo and the background) rings below 0 at {clamped} \
+                     samples, set to 0 there",
+                    self.env.display()
+                );
             }
+            return Ok((env.clone(), env));
         }
         let full = EnvMap::new(self.input.read(&self.env)?.image, self.env_rotate)
             .with_context(|| format!("{}", self.env.display()))?;
