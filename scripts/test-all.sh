@@ -13,7 +13,8 @@
 #      cargo fmt --check, cargo clippy --all-targets -D warnings, cargo test.
 #   4. The reference comparisons in tests/python (pytest; scikit-image, OpenCV,
 #      SciPy, pyshtools, ducc0 against the `ifd` binary).
-# It ends with one line `N passed, M failed` and exits non-zero on any failure.
+# It ends with one line `N passed, M failed, K skipped` (skips are never
+# counted as passes) and exits non-zero on any failure.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
@@ -21,6 +22,7 @@ LOG_DIR=${IFD_TEST_LOG_DIR:-$ROOT/tests/artifacts}
 mkdir -p "$LOG_DIR"
 passed=0
 failed=0
+skipped=0
 failures=()
 start=$(date +%s)
 
@@ -127,9 +129,10 @@ fi
 step "cargo test"
 cargo test --workspace --no-fail-fast 2>&1 | tee "$LOG_DIR/cargo-test.log" | grep -E '^(test result|error|failures:|    [a-z_:]+$)|FAILED|panicked' || true
 cargo_status=${PIPESTATUS[0]}
-read -r cp cf < <(awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } } END { print p + 0, f + 0 }' "$LOG_DIR/cargo-test.log")
+read -r cp cf ci < <(awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i; if ($(i+1) ~ /^ignored/) g += $i } } END { print p + 0, f + 0, g + 0 }' "$LOG_DIR/cargo-test.log")
 passed=$((passed + cp))
 failed=$((failed + cf))
+skipped=$((skipped + ci))
 if [ "$cargo_status" -ne 0 ] && [ "$cf" -eq 0 ]; then fail "cargo test (build or harness failure, see $LOG_DIR/cargo-test.log)"; fi
 [ "$cf" -gt 0 ] && failures+=("$cf cargo tests")
 
@@ -144,9 +147,10 @@ export IFD_BIN
 if { [ -x "$IFD_BIN" ] && ! grep -q '^error: could not compile' "$LOG_DIR/cargo-test.log"; } ||
   cargo build --quiet -p ifd-cli >"$LOG_DIR/build-cli.log" 2>&1; then
   .venv/bin/python -m pytest -q -p no:cacheprovider tests/python 2>&1 | tee "$LOG_DIR/pytest.log" | tail -25
-  read -r pp pf < <(awk '/ passed| failed| error/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p = $i; if ($(i+1) ~ /^(failed|errors?)/) f += $i } } END { print p + 0, f + 0 }' <(tail -1 "$LOG_DIR/pytest.log"))
+  read -r pp pf ps < <(awk '/ passed| failed| error| skipped/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p = $i; if ($(i+1) ~ /^(failed|errors?)/) f += $i; if ($(i+1) ~ /^skipped/) s = $i } } END { print p + 0, f + 0, s + 0 }' <(tail -1 "$LOG_DIR/pytest.log"))
   passed=$((passed + pp))
   failed=$((failed + pf))
+  skipped=$((skipped + ps))
   [ "$pf" -gt 0 ] && failures+=("$pf python reference tests")
   [ "$pp" -eq 0 ] && [ "$pf" -eq 0 ] && fail "pytest ran no test"
 else
@@ -157,5 +161,5 @@ fi
 echo
 echo "took $(( $(date +%s) - start )) s"
 for f in "${failures[@]}"; do echo "failed: $f"; done
-echo "$passed passed, $failed failed"
+echo "$passed passed, $failed failed, $skipped skipped"
 [ "$failed" -eq 0 ]
