@@ -192,12 +192,7 @@ impl Lobe {
         if *self == Self::Mirror {
             return (cap, true);
         }
-        let lam = self.zonal(cap);
-        match lam.iter().rposition(|x| x.abs() >= eps) {
-            Some(l) if l == cap => (cap, true),
-            Some(l) => (l, false),
-            None => (0, false),
-        }
+        band_limit_of(&self.zonal(cap), eps)
     }
 
     /// Composite Gauss-Legendre nodes and weights in `theta` on `[0, pi/2]`.
@@ -227,6 +222,19 @@ impl Lobe {
             }
         }
         (nodes, weights)
+    }
+}
+
+/// [`Lobe::band_limit`] of zonal factors already at hand (`lam[l]` for
+/// `l = 0..=cap`): the last `l` with `|lambda_l| >= eps`, and whether it is
+/// the last one given.
+#[must_use]
+pub fn band_limit_of(lam: &[f64], eps: f64) -> (usize, bool) {
+    let cap = lam.len().saturating_sub(1);
+    match lam.iter().rposition(|x| x.abs() >= eps) {
+        Some(l) if l == cap => (cap, true),
+        Some(l) => (l, false),
+        None => (0, false),
     }
 }
 

@@ -56,7 +56,7 @@ use rayon::prelude::*;
 
 use crate::cube::{CubeLevel, equirect_coords, sample_bicubic, texel, world_to_ifd};
 use crate::error::{Result, param};
-use crate::lobe::Lobe;
+use crate::lobe::{Lobe, band_limit_of};
 
 /// Tuning of [`Baker`]; the defaults are what `ifd envmap prefilter` uses.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -343,8 +343,12 @@ impl Baker {
                 },
             ));
         }
+        // one quadrature of the lobe serves the band limit, the degree, the
+        // band factors and the normalisation
         let cap = self.opts.max_degree.min(ifd_sphere::MAX_DEGREE);
-        let (cand, capped) = lobe.band_limit(self.opts.eps, cap);
+        let moments = lobe.legendre_moments(cap);
+        let lam: Vec<f64> = moments.iter().map(|c| c / moments[0]).collect();
+        let (cand, capped) = band_limit_of(&lam, self.opts.eps);
         if cand > self.coeffs.l_max() {
             return Err(param(
                 "lobe",
@@ -356,11 +360,10 @@ impl Baker {
         }
         // every band the analysis holds is a candidate (the tail of a broad
         // lobe's lambda_l, from the kink at 90 degrees, decays slowly)
-        let l = truncation_degree(&lobe.zonal(self.coeffs.l_max()), &self.power, self.opts.eps);
+        let l = truncation_degree(&lam, &self.power, self.opts.eps);
         // frequency part: scaled bands, synthesised on a fine equirect grid
-        let lam = lobe.zonal(l);
         let mut scaled = self.coeffs.resized(l)?;
-        for (li, lam_l) in lam.iter().enumerate() {
+        for (li, lam_l) in lam[..=l].iter().enumerate() {
             let base = li * li;
             for v in &mut scaled.data_mut()[base * 3..(li + 1) * (li + 1) * 3] {
                 *v *= lam_l;
@@ -370,7 +373,8 @@ impl Baker {
         let grid = EquirectTransform::new(l, 2 * hs, hs)?.synthesize(&scaled)?;
         // direct part
         let (samples, cells) = self.bright_samples(lobe);
-        let k_int = lobe.integral();
+        // int k = 2 pi c_0
+        let k_int = 2.0 * PI * moments[0];
         let mut level = CubeLevel::zeros(n);
         let negatives: usize = level
             .data
