@@ -118,72 +118,18 @@ impl CubeLevel {
     }
 }
 
-/// Bilinear lookup of an equirectangular map (ifd's layout) in direction
-/// `d` of ifd's frame: wraps in azimuth, clamps at the poles.
-#[must_use]
-pub fn sample_bilinear(img: &Image, d: [f64; 3]) -> [f32; 3] {
-    let (w, h, ch) = (img.width(), img.height(), img.channels());
-    let (u, v) = equirect_coords(d, w, h);
-    let (u, v) = (u - 0.5, v - 0.5);
-    let u0 = u.floor();
-    let v0 = v.floor();
-    let (fu, fv) = ((u - u0) as f32, (v - v0) as f32);
-    let wi = |x: f64| (x as i64).rem_euclid(w as i64) as usize;
-    let vi = |x: f64| (x.max(0.0) as usize).min(h - 1);
-    let (ua, ub, va, vb) = (wi(u0), wi(u0 + 1.0), vi(v0), vi(v0 + 1.0));
-    let data = img.data();
-    let mut out = [0.0f32; 3];
-    for (c, o) in out.iter_mut().enumerate().take(ch.min(3)) {
-        let p = |uu: usize, vv: usize| data[(vv * w + uu) * ch + c];
-        let top = p(ua, va) * (1.0 - fu) + p(ub, va) * fu;
-        let bot = p(ua, vb) * (1.0 - fu) + p(ub, vb) * fu;
-        *o = top * (1.0 - fv) + bot * fv;
-    }
-    out
-}
-
 /// Catmull-Rom (bicubic) lookup of an equirectangular map (ifd's layout) in
-/// direction `d` of ifd's frame: wraps in azimuth and continues across the
-/// poles (row `-1` is row `0` half a turn away), so a smooth field is
-/// interpolated to `O(h^4)`, where [`sample_bilinear`] is `O(h^2)`.
+/// direction `d` of ifd's frame, the first three channels
+/// ([`ifd_sphere::transform::bicubic_taps`]: wraps in azimuth, continues
+/// across the poles, `O(h^4)` for a smooth field).
 #[must_use]
 pub fn sample_bicubic(img: &Image, d: [f64; 3]) -> [f32; 3] {
-    let (w, h, ch) = (img.width(), img.height(), img.channels());
-    let (u, v) = equirect_coords(d, w, h);
-    let (u, v) = (u - 0.5, v - 0.5);
-    let (u0, v0) = (u.floor(), v.floor());
-    let weights = |t: f64| {
-        let t2 = t * t;
-        let t3 = t2 * t;
-        [
-            0.5 * (-t3 + 2.0 * t2 - t),
-            0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
-            0.5 * (-3.0 * t3 + 4.0 * t2 + t),
-            0.5 * (t3 - t2),
-        ]
-    };
-    let (wu, wv) = (weights(u - u0), weights(v - v0));
+    let ch = img.channels();
     let data = img.data();
-    let (wi, hi) = (w as i64, h as i64);
     let mut out = [0.0f64; 3];
-    for (a, wa) in wv.iter().enumerate() {
-        let mut row = v0 as i64 - 1 + a as i64;
-        let mut shift = 0;
-        if row < 0 {
-            row = -row - 1;
-            shift = wi / 2;
-        } else if row >= hi {
-            row = 2 * hi - row - 1;
-            shift = wi / 2;
-        }
-        let row = row.clamp(0, hi - 1) as usize;
-        for (b, wb) in wu.iter().enumerate() {
-            let col = (u0 as i64 - 1 + b as i64 + shift).rem_euclid(wi) as usize;
-            let px = &data[(row * w + col) * ch..];
-            let wt = wa * wb;
-            for (c, o) in out.iter_mut().enumerate().take(ch.min(3)) {
-                *o += wt * f64::from(px[c]);
-            }
+    for (t, wt) in ifd_sphere::transform::bicubic_taps(d, img.width(), img.height()) {
+        for (c, o) in out.iter_mut().enumerate().take(ch.min(3)) {
+            *o += wt * f64::from(data[t * ch + c]);
         }
     }
     out.map(|x| x as f32)

@@ -216,18 +216,6 @@ impl BandMaps {
     }
 }
 
-/// Catmull-Rom weights for a fractional position `f` in `[0, 1)`.
-fn catmull_rom(f: f64) -> [f64; 4] {
-    let f2 = f * f;
-    let f3 = f2 * f;
-    [
-        0.5 * (-f3 + 2.0 * f2 - f),
-        0.5 * (3.0 * f3 - 5.0 * f2 + 2.0),
-        0.5 * (-3.0 * f3 + 4.0 * f2 + f),
-        0.5 * (f3 - f2),
-    ]
-}
-
 impl Bands for BandMaps {
     fn l_max(&self) -> usize {
         self.l_max
@@ -237,39 +225,14 @@ impl Bands for BandMaps {
     }
     fn bands_from(&self, l0: usize, d: [f64; 3], _y: &mut [f64], out: &mut [f64]) {
         let (w, h, ch) = (self.width, self.height, self.channels);
-        let t = d[2].clamp(-1.0, 1.0).acos();
-        let p = d[1].atan2(d[0]).rem_euclid(2.0 * std::f64::consts::PI);
-        // continuous pixel coordinates of the centres: u + 0.5 = p W / 2 pi
-        let x = p / (2.0 * std::f64::consts::PI) * w as f64 - 0.5;
-        let y = t / std::f64::consts::PI * h as f64 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (wx, wy) = (catmull_rom(x - x0), catmull_rom(y - y0));
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let (wi, hi) = (w as i64, h as i64);
-        // the 16 taps' flat offsets within a band
-        let mut taps = [(0usize, 0.0f64); 16];
-        for (a, wya) in wy.iter().enumerate() {
-            let mut v = y0 - 1 + a as i64;
-            let mut shift = 0;
-            if v < 0 {
-                v = -1 - v;
-                shift = wi / 2;
-            } else if v >= hi {
-                v = 2 * hi - 1 - v;
-                shift = wi / 2;
-            }
-            for (b, wxb) in wx.iter().enumerate() {
-                let u = (x0 - 1 + b as i64 + shift).rem_euclid(wi);
-                taps[a * 4 + b] = (((v * wi + u) as usize) * ch, wya * wxb);
-            }
-        }
+        let taps = ifd_sphere::transform::bicubic_taps(d, w, h);
         let band_len = w * h * ch;
         for l in l0..=self.l_max {
             let base = &self.data[l * band_len..(l + 1) * band_len];
             for c in 0..ch {
                 let mut acc = 0.0;
-                for (o, wt) in &taps {
-                    acc += wt * f64::from(base[o + c]);
+                for (t, wt) in &taps {
+                    acc += wt * f64::from(base[t * ch + c]);
                 }
                 out[l * ch + c] = acc;
             }
