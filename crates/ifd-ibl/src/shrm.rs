@@ -243,6 +243,15 @@ pub(crate) fn cap_interval(
     }
 }
 
+/// `sum (a - b)^2` and `sum b^2` over two sample slices of equal length
+/// (a relative RMS difference is the square root of their ratio).
+pub(crate) fn squared_errors(a: &[f32], b: &[f32]) -> (f64, f64) {
+    a.iter().zip(b).fold((0.0, 0.0), |(num, den), (x, y)| {
+        let (x, y) = (f64::from(*x), f64::from(*y));
+        (num + (x - y) * (x - y), den + y * y)
+    })
+}
+
 /// One row of Table 4.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PhongTiming {
@@ -327,12 +336,7 @@ pub fn time_phong(
         tf.push(measure(&|| phong_frequency(env, s, order).map(|_| ()))?);
         ta.push(measure(&|| phong_angular(env, s, eps_angular).map(|_| ()))?);
     }
-    let (mut num, mut den) = (0.0, 0.0);
-    for (a, b) in freq.data().iter().zip(ang.data()) {
-        let (a, b) = (f64::from(*a), f64::from(*b));
-        num += (a - b) * (a - b);
-        den += b * b;
-    }
+    let (num, den) = squared_errors(freq.data(), ang.data());
     Ok(PhongTiming {
         s,
         order,
@@ -381,11 +385,7 @@ mod tests {
             let f = phong_frequency(&env, s, 30).expect("frequency");
             // a tiny eps: the angular side sums (nearly) the whole hemisphere
             let (a, _) = phong_angular(&env, s, 1e-9).expect("angular");
-            let (mut num, mut den) = (0.0, 0.0);
-            for (x, y) in f.data().iter().zip(a.data()) {
-                num += f64::from(x - y).powi(2);
-                den += f64::from(*y).powi(2);
-            }
+            let (num, den) = squared_errors(f.data(), a.data());
             let rel = (num / den).sqrt();
             assert!(rel < 2e-3, "s = {s}: {rel}");
         }

@@ -109,13 +109,15 @@ impl BrdfCoeffs {
     /// Projects `brdf` (a function of local `w_i`, `w_o`, isotropic about
     /// `z`) to orders `F`, `P`; `width` is the lobe's angular width in
     /// `theta_i` (for the quadrature's grading).
-    #[must_use]
+    ///
+    /// # Errors
+    /// Degrees beyond [`ifd_sphere::MAX_DEGREE`].
     pub fn project(
         brdf: &(dyn Fn([f64; 3], [f64; 3]) -> f64 + Sync),
         width: f64,
         f: usize,
         p: usize,
-    ) -> Self {
+    ) -> Result<Self> {
         // theta_i: panels graded from width / 8, none wider than pi / (F + 1)
         let (gx, gw) = gauss_legendre(16);
         let mut edges = vec![0.0];
@@ -143,7 +145,7 @@ impl BrdfCoeffs {
         let (ox, ow) = gauss_legendre(n_o);
         let n_psi = 64;
         let p1 = p + 1;
-        let sh = ShEvaluator::new(f.max(p)).expect("degree checked by the caller");
+        let sh = ShEvaluator::new(f.max(p))?;
         // Th_lm(theta) = y_lm(theta, 0) / c_m
         let theta_fn = |t: f64| {
             let mut y = vec![0.0; sh_count(f.max(p))];
@@ -214,12 +216,12 @@ impl BrdfCoeffs {
             }
             total_energy += e;
         }
-        Self {
+        Ok(Self {
             f,
             p,
             rho,
             total_energy,
-        }
+        })
     }
 
     /// Energy captured by orders `(F, P)`: `sum rho_{l p |m|}^2` over both
@@ -544,7 +546,7 @@ pub fn time_microfacet(
     let brdf = Microfacet { sigma };
     let t0 = Instant::now();
     let f_max = ((3.0 / sigma).ceil() as usize).clamp(8, 60);
-    let coeffs = BrdfCoeffs::project(&|a, b| brdf.eval(a, b), 2.0 * sigma, f_max, 6);
+    let coeffs = BrdfCoeffs::project(&|a, b| brdf.eval(a, b), 2.0 * sigma, f_max, 6)?;
     let (f, p) = coeffs.orders(eps);
     let shrm = Shrm::build(env, &coeffs, f, p)?;
     let shrm_s = t0.elapsed().as_secs_f64();
@@ -561,11 +563,9 @@ pub fn time_microfacet(
         ta += t.elapsed().as_secs_f64();
         support += n;
         let fr = shrm.view(*v)?;
-        for (a, b) in fr.data().iter().zip(ang.data()) {
-            let (a, b) = (f64::from(*a), f64::from(*b));
-            num += (a - b) * (a - b);
-            den += b * b;
-        }
+        let (n2, d2) = crate::shrm::squared_errors(fr.data(), ang.data());
+        num += n2;
+        den += d2;
     }
     let nv = angular_views.len().max(1) as f64;
     Ok(MicrofacetTiming {
@@ -616,16 +616,13 @@ mod tests {
             .collect();
         let env = Image::from_vec(w, h, 3, data).expect("map");
         let brdf = Microfacet { sigma: 0.5 };
-        let coeffs = BrdfCoeffs::project(&|a, b| brdf.eval(a, b), 1.0, 16, 6);
+        let coeffs =
+            BrdfCoeffs::project(&|a, b| brdf.eval(a, b), 1.0, 16, 6).expect("coefficients");
         let shrm = Shrm::build(&env, &coeffs, 16, 6).expect("shrm");
         for view in [[0.0, 0.0, 1.0], dir(1.1, 2.0)] {
             let fr = shrm.view(view).expect("view");
             let (ang, _) = microfacet_angular(&env, &brdf, view, 1e-9).expect("angular");
-            let (mut num, mut den) = (0.0, 0.0);
-            for (a, b) in fr.data().iter().zip(ang.data()) {
-                num += f64::from(a - b).powi(2);
-                den += f64::from(*b).powi(2);
-            }
+            let (num, den) = crate::shrm::squared_errors(fr.data(), ang.data());
             let rel = (num / den).sqrt();
             // measured 0.63% and 0.38% (0.38% and 0.29% at F = 22, P = 10:
             // the cut at the horizon converges slowly in p)
@@ -637,8 +634,8 @@ mod tests {
     fn energy_orders_grow_as_the_lobe_sharpens() {
         let sharp = Microfacet { sigma: 0.15 };
         let broad = Microfacet { sigma: 0.4 };
-        let cs = BrdfCoeffs::project(&|a, b| sharp.eval(a, b), 0.3, 40, 6);
-        let cb = BrdfCoeffs::project(&|a, b| broad.eval(a, b), 0.8, 40, 6);
+        let cs = BrdfCoeffs::project(&|a, b| sharp.eval(a, b), 0.3, 40, 6).expect("coefficients");
+        let cb = BrdfCoeffs::project(&|a, b| broad.eval(a, b), 0.8, 40, 6).expect("coefficients");
         let (fs, _) = cs.orders(0.03);
         let (fb, _) = cb.orders(0.03);
         assert!(fs > fb, "{fs} vs {fb}");
