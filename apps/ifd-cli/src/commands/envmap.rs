@@ -177,13 +177,6 @@ impl PrefilterCmd {
                 self.envmap.display()
             );
         };
-        if env.channels() < 3 {
-            bail!(
-                "{}: needs RGB; got {} channel(s)",
-                self.envmap.display(),
-                env.channels()
-            );
-        }
         let read_s = start.elapsed().as_secs_f64();
         let mut all: Vec<Lobe> = lobes.iter().map(|(_, l)| *l).collect();
         if self.irradiance_size > 0 {
@@ -533,6 +526,9 @@ impl ShrmCmd {
     fn run(self) -> Result<()> {
         use ifd_ibl::shrm::{loglog_fit, paper_order, time_phong};
         use std::fmt::Write as _;
+        if !(self.eps_angular > 0.0 && self.eps_angular < 1.0) {
+            bail!("--eps-angular {}: must lie in (0, 1)", self.eps_angular);
+        }
         if self.table == 5 {
             return self.run_table5();
         }
@@ -549,9 +545,6 @@ impl ShrmCmd {
                 .any(|s| !(s.is_finite() && *s >= 1.0 && *s <= 1e5))
         {
             bail!("--exponents: each must lie in 1..=100000");
-        }
-        if !(self.eps_angular > 0.0 && self.eps_angular < 1.0) {
-            bail!("--eps-angular {}: must lie in (0, 1)", self.eps_angular);
         }
         if !(1..=50).contains(&self.runs) {
             bail!("--runs {}: must lie in 1..=50", self.runs);
@@ -698,9 +691,6 @@ impl ShrmCmd {
         }
         if !(self.eps > 0.0 && self.eps < 1.0) {
             bail!("--eps {}: must lie in (0, 1)", self.eps);
-        }
-        if !(self.eps_angular > 0.0 && self.eps_angular < 1.0) {
-            bail!("--eps-angular {}: must lie in (0, 1)", self.eps_angular);
         }
         let (src, w, h) = self.load("128x64")?;
         let views = view_grid(self.maps);
