@@ -80,6 +80,7 @@ import time
 
 import cv2
 import numpy as np
+from ifd_paths import ifd_binary
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "python"))
@@ -92,16 +93,6 @@ MIP0_K = 4  # mip 0 reference: the source averaged over each texel, k x k sample
 
 
 # ---------------------------------------------------------------------------- tools
-
-
-def ifd_binary(arg):
-    if arg:
-        return pathlib.Path(arg)
-    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
-    for p in (target / "release" / "ifd", target / "debug" / "ifd"):
-        if p.exists():
-            return p
-    raise SystemExit("build ifd first (cargo build --release -p ifd-cli)")
 
 
 def find_gltf():

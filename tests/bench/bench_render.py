@@ -16,26 +16,16 @@ Run from the repository root after building:  .venv/bin/python tests/bench/bench
 
 import argparse
 import json
-import os
 import pathlib
 import statistics
 import subprocess
 import tempfile
 
 import numpy as np
+from ifd_paths import ifd_binary
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 ENV = ROOT / "testdata" / "forest.hdr"
-
-
-def ifd_binary(arg):
-    if arg:
-        return pathlib.Path(arg)
-    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
-    for p in (target / "release" / "ifd", target / "debug" / "ifd"):
-        if p.exists():
-            return p
-    raise SystemExit("build ifd first (cargo build --release -p ifd-cli)")
 
 
 def run(ifd, *args):
