@@ -3,7 +3,8 @@
 //
 //   out(p) = sum_e b_e sum_{t in entry e} w_t fhat_{s sigma_t}(p + s R_theta c_t)
 //
-// with one trilinear lookup (bilinear in space, linear in ln sigma) per term.
+// with one lookup per term: bilinear (or cubic B-spline, by the stack's
+// interpolation) in space, linear in ln sigma.
 // A plain filter is one entry with b = 1; anisotropic smoothing blends two
 // entries of the aspect-ratio bank, b = (1 - t, t). Every step mirrors the
 // CPU path `ifd_planar::Filter` (crates/ifd-planar/src/filter.rs, stack.rs):
@@ -49,7 +50,9 @@ struct Params {
     scale_off: u32,
     entry_off: u32,
     n_entries: u32,
-    _pad: u32,
+    // INTERP_LINEAR: levels hold samples, read bilinearly; INTERP_CUBIC:
+    // levels hold cubic B-spline coefficients, read 4x4.
+    interpolation: u32,
 }
 
 struct Level {
@@ -91,6 +94,9 @@ const BORDER_REFLECT101: u32 = 0u;
 const BORDER_CONSTANT: u32 = 1u;
 const BORDER_REPLICATE: u32 = 2u;
 const BORDER_WRAP: u32 = 3u;
+
+const INTERP_LINEAR: u32 = 0u;
+const INTERP_CUBIC: u32 = 1u;
 
 // Rust's f32::rem_euclid: truncated remainder, shifted into [0, |m|).
 fn rem_euclid(x: f32, m: f32) -> f32 {
@@ -230,6 +236,89 @@ fn bilinear(li: u32, x: f32, y: f32) -> vec4<f32> {
     return acc;
 }
 
+// Cubic B-spline weights of the samples at -1, 0, 1, 2 for fraction t
+// (bspline_weights of ifd-planar's stack.rs).
+fn bspline(t: f32) -> vec4<f32> {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    let s = 1.0 - t;
+    return vec4<f32>(
+        s * s * s * (1.0 / 6.0),
+        (3.0 * t3 - 6.0 * t2 + 4.0) * (1.0 / 6.0),
+        (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) * (1.0 / 6.0),
+        t3 * (1.0 / 6.0),
+    );
+}
+
+// Cubic B-spline lookup of level li at full-resolution (x, y)
+// (ScaleStack::accumulate_cubic and accumulate_outside).
+fn cubic(li: u32, x: f32, y: f32) -> vec4<f32> {
+    let lv = levels[li];
+    let nc = params.chunk_nc;
+    let u = (x - lv.origin) * lv.inv_step;
+    let v = (y - lv.origin) * lv.inv_step;
+    var acc = vec4<f32>(0.0);
+    // Fast path: the 4x4 footprint is stored.
+    if u >= 1.0 && v >= 1.0 && u < f32(lv.nx - 2u) && v < f32(lv.ny - 2u) {
+        let iu = u32(u);
+        let iv = u32(v);
+        let wx = bspline(u - f32(iu));
+        let wy = bspline(v - f32(iv));
+        for (var j = 0u; j < 4u; j++) {
+            let base = lv.offset + (iv + j - 1u) * lv.nx + iu - 1u;
+            let r = wx.x * texel(base, lv.plane, nc) + wx.y * texel(base + 1u, lv.plane, nc)
+                + wx.z * texel(base + 2u, lv.plane, nc) + wx.w * texel(base + 3u, lv.plane, nc);
+            acc += wy[j] * r;
+        }
+        return acc;
+    }
+    // Slow path: resolve the coordinates by the border mode so that the
+    // footprint is stored, then clamp or replace by the constant.
+    let lo = lv.origin;
+    let first = lo + lv.step;
+    let hi_x = lo + f32(lv.nx - 2u) * lv.step;
+    let hi_y = lo + f32(lv.ny - 2u) * lv.step;
+    let mx = map_coord(x, params.width, first, hi_x);
+    let my = map_coord(y, params.height, first, hi_y);
+    let mu = (mx - lo) * lv.inv_step;
+    let mv = (my - lo) * lv.inv_step;
+    let fiu = floor(mu);
+    let fiv = floor(mv);
+    let wx = bspline(mu - fiu);
+    let wy = bspline(mv - fiv);
+    let is_constant = params.border_mode == BORDER_CONSTANT;
+    let nxi = i32(lv.nx);
+    let nyi = i32(lv.ny);
+    for (var j = 0; j < 4; j++) {
+        for (var i = 0; i < 4; i++) {
+            let w = wx[i] * wy[j];
+            if w == 0.0 {
+                continue;
+            }
+            var ix = i32(fiu) + i - 1;
+            var iy = i32(fiv) + j - 1;
+            let inside = ix >= 0 && ix < nxi && iy >= 0 && iy < nyi;
+            if !inside && is_constant {
+                acc += vec4<f32>(w * params.border_value);
+                continue;
+            }
+            ix = clamp(ix, 0, nxi - 1);
+            iy = clamp(iy, 0, nyi - 1);
+            let base = lv.offset + u32(iy) * lv.nx + u32(ix);
+            acc += w * texel(base, lv.plane, nc);
+        }
+    }
+    return acc;
+}
+
+// One lookup of level li, by the stack's interpolation.
+fn lookup(li: u32, x: f32, y: f32) -> vec4<f32> {
+    if params.interpolation == INTERP_CUBIC {
+        return cubic(li, x, y);
+    }
+    return bilinear(li, x, y);
+}
+
 // One bank entry at pixel (x, y) for pose (cs, ss, u_offset).
 fn eval_entry(e: u32, x: f32, y: f32, cs: f32, ss: f32, u_offset: f32) -> vec4<f32> {
     let entry = entries[e];
@@ -240,15 +329,15 @@ fn eval_entry(e: u32, x: f32, y: f32, cs: f32, ss: f32, u_offset: f32) -> vec4<f
         let px = x + cs * t.cx + ss * t.cy;
         let py = y - ss * t.cx + cs * t.cy;
         if last == 0u {
-            acc += t.weight * bilinear(0u, px, py);
+            acc += t.weight * lookup(0u, px, py);
             continue;
         }
         let u = clamp(t.ln_sigma * params.inv_ln_ratio + u_offset, 0.0, f32(last));
         let a = min(u32(u), last - 1u);
         let f = u - f32(a);
-        acc += (t.weight * (1.0 - f)) * bilinear(a, px, py);
+        acc += (t.weight * (1.0 - f)) * lookup(a, px, py);
         if f != 0.0 {
-            acc += (t.weight * f) * bilinear(a + 1u, px, py);
+            acc += (t.weight * f) * lookup(a + 1u, px, py);
         }
     }
     return acc;

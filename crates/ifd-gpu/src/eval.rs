@@ -67,7 +67,8 @@ struct Params {
     scale_off: u32,
     entry_off: u32,
     n_entries: u32,
-    pad: u32,
+    /// 0 bilinear, 1 cubic B-spline (`INTERP_*` in the shader).
+    interpolation: u32,
 }
 
 /// The shader's `struct Term`.
@@ -963,7 +964,10 @@ impl GpuContext {
                         scale_off: pose.scale_off,
                         entry_off: pose.entry_off,
                         n_entries: decomposition.n_entries,
-                        pad: 0,
+                        interpolation: match stack.interpolation {
+                            ifd_planar::Interpolation::Linear => 0,
+                            ifd_planar::Interpolation::Cubic => 1,
+                        },
                     };
                     let pb = buffer_init(
                         device,

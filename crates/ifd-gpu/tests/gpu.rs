@@ -174,6 +174,35 @@ fn constant_filter_matches_cpu_every_border() {
     }
 }
 
+/// Cubic B-spline levels: the shader's 4x4 lookup (fast path and every
+/// border's slow path) agrees with the CPU, for a constant pose and per
+/// pixel angles and scales.
+#[test]
+fn cubic_levels_match_cpu() {
+    let Some(ctx) = ctx() else { return };
+    let img = read("camera.png");
+    let (w, h) = (img.width(), img.height());
+    let d = decomposition(32, 30.0, 5);
+    let options = StackOptions {
+        interpolation: ifd_planar::Interpolation::Cubic,
+        ..StackOptions::default()
+    };
+    let angles: Vec<f32> = (0..w * h)
+        .map(|i| ((i % w) as f32 * 0.7 - (i / w) as f32 * 0.3) % 360.0)
+        .collect();
+    for border in [Border::Reflect101, Border::Constant(0.3)] {
+        let stack = stack_for_decomposition(&img, &d, 1.3, 1.3, border, options).expect("stack");
+        for angle in [Field::Constant(30.0), Field::Map(&angles)] {
+            let cpu = Filter::new(&stack, &d)
+                .expect("filter")
+                .apply(angle, Field::Constant(1.3))
+                .expect("cpu");
+            let gpu = filter_image(ctx, &stack, &d, angle, Field::Constant(1.3)).expect("gpu");
+            assert_close(&gpu, &cpu, &format!("camera, cubic levels, {border}"));
+        }
+    }
+}
+
 #[test]
 fn rgb_constant_filter_matches_cpu() {
     let Some(ctx) = ctx() else { return };

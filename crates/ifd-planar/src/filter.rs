@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use crate::border::Border;
 use crate::decomposition::Decomposition;
-use crate::stack::{ScaleStack, StackLayout, StackOptions};
+use crate::stack::{Interpolation, ScaleStack, StackLayout, StackOptions, bspline_weights};
 
 /// Errors of prefiltering, filtering and the brute-force references.
 #[derive(Debug, thiserror::Error)]
@@ -813,15 +813,37 @@ fn row_constant(
         // Stored column of pixel x is x + di, stored row is y + dj.
         let di = fx as i64 - lay.origin;
         let iv = y as i64 + fy as i64 - lay.origin;
-        if iv < 0 || iv + 1 >= lay.ny as i64 {
+        // Samples the stencil reads before and after the one below the point.
+        let (before, after) = stack.interpolation().reach();
+        let (before, after) = (before as i64, after as i64);
+        if iv < before || iv + after >= lay.ny as i64 {
             general(out, xa..xb);
             continue;
         }
-        let x0 = (-di).clamp(xa as i64, xb as i64) as usize;
-        let x1 = (lay.nx as i64 - 1 - di).clamp(x0 as i64, xb as i64) as usize;
+        let x0 = (before - di).clamp(xa as i64, xb as i64) as usize;
+        let x1 = (lay.nx as i64 - after - di).clamp(x0 as i64, xb as i64) as usize;
         general(out, xa..x0);
         general(out, x1..xb);
-        if x1 > x0 {
+        if x1 > x0 && stack.interpolation() == Interpolation::Cubic {
+            // 4x4 coefficients with weights fixed for the whole row.
+            let wx = bspline_weights(ax);
+            let wy = bspline_weights(ay);
+            let nxc = lay.nx * c;
+            let start = ((x0 as i64 + di - 1) as usize) * c;
+            let len = (x1 - x0) * c;
+            let dst = &mut out[(x0 - xa) * c..(x1 - xa) * c];
+            for (j, wyj) in wy.iter().enumerate() {
+                let r = (iv as usize + j - 1) * nxc;
+                let row = &level.data[r + start..r + start + len + 3 * c];
+                let w = wx.map(|v| v * wyj * tap.weight);
+                for (i, o) in dst.iter_mut().enumerate() {
+                    *o += w[0] * row[i]
+                        + w[1] * row[i + c]
+                        + w[2] * row[i + 2 * c]
+                        + w[3] * row[i + 3 * c];
+                }
+            }
+        } else if x1 > x0 {
             let nxc = lay.nx * c;
             let r0 = &level.data[iv as usize * nxc..(iv as usize + 1) * nxc];
             let r1 = &level.data[(iv as usize + 1) * nxc..(iv as usize + 2) * nxc];

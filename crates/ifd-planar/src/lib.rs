@@ -25,6 +25,7 @@
 //! - Default border: reflect-101 (OpenCV's `BORDER_DEFAULT`, scipy's
 //!   `'mirror'`); also constant, replicate and wrap.
 
+pub mod accuracy;
 pub mod decomposition;
 pub mod dictionary;
 pub mod fit;
@@ -38,6 +39,7 @@ pub mod reference;
 pub mod stack;
 pub mod stack_refresh;
 
+pub use accuracy::EvalPlan;
 pub use decomposition::{Decomposition, Term};
 pub use fit::{DecomposeError, DecomposeOptions, FitReport, decompose};
 pub use kernel::{Kernel, KernelError, KernelSpec};
@@ -48,5 +50,5 @@ pub use filter::{
     Field, Filter, FilterError, Rotation, ScaledFilter, Taps, stack_for_decomposition,
     stack_plan_for_decomposition,
 };
-pub use stack::{LevelLayout, ScaleStack, StackLayout, StackOptions};
+pub use stack::{Interpolation, LevelLayout, ScaleStack, StackLayout, StackOptions};
 pub use stack_refresh::{FixedTap, PixelRect, RefreshReport};

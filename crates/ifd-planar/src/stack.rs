@@ -72,6 +72,9 @@ pub struct StackOptions {
     /// the image (needed for exact lookups outside the image with replicate
     /// and constant borders). Default 0.
     pub margin: usize,
+    /// How levels are read between their samples. Default
+    /// [`Interpolation::Linear`].
+    pub interpolation: Interpolation,
 }
 
 impl Default for StackOptions {
@@ -80,8 +83,87 @@ impl Default for StackOptions {
             samples_per_octave: 4,
             pyramid_factor: 2.0,
             margin: 0,
+            interpolation: Interpolation::Linear,
         }
     }
+}
+
+/// How a level is read at a position between its samples.
+///
+/// A level is the image correlated with a Gaussian of standard deviation
+/// `r` samples (`r = sigma / step`, at least [`StackOptions::pyramid_factor`]
+/// on subsampled levels). Reading it at a fractional position is a filter
+/// whose transfer differs from the ideal shift `exp(2 pi i nu phi)`; for
+/// white-noise input the relative RMS error of one lookup, averaged over the
+/// phase `phi` (1D; `docs/planar-accuracy.md` derives and measures it), is
+///
+/// | `r` | 1 | 1.4 | 2 | 2.8 | 4 | 8 |
+/// |---|---|---|---|---|---|---|
+/// | linear | 7.5% | 3.9% | 1.95% | 1.0% | 0.49% | 0.12% |
+/// | cubic B-spline | 1.3% | 0.21% | 0.037% | 0.008% | 0.002% | 3e-6 |
+///
+/// Decompositions whose weights cancel (derivative filters, band-pass
+/// filters) amplify these errors by the ratio of `sum |w_t| ||g_t||` to the
+/// kernel's norm, 10-100 for them, which is why the choice is made per
+/// decomposition ([`crate::EvalPlan`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Interpolation {
+    /// Bilinear: 2x2 samples per lookup, error `O(r^-2)`.
+    #[default]
+    Linear,
+    /// Interpolating cubic B-spline: the level stores B-spline coefficients
+    /// (the prefilter `1 / (2/3 + cos(2 pi nu) / 3)` per axis is folded into
+    /// the FFT build at no cost) and a lookup reads 4x4 of them, error
+    /// `O(r^-4)`. Four times the arithmetic of a bilinear lookup.
+    Cubic,
+}
+
+impl Interpolation {
+    /// Stored samples a lookup reads before and after the one below it
+    /// (`(1, 2)` for cubic, `(0, 1)` for linear).
+    pub(crate) fn reach(self) -> (usize, usize) {
+        match self {
+            Self::Linear => (0, 1),
+            Self::Cubic => (1, 2),
+        }
+    }
+
+    /// The name used in CLI options and reports (`linear`, `cubic`).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Linear => "linear",
+            Self::Cubic => "cubic",
+        }
+    }
+}
+
+impl std::str::FromStr for Interpolation {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "linear" => Ok(Self::Linear),
+            "cubic" => Ok(Self::Cubic),
+            other => Err(format!(
+                "unknown interpolation {other:?} (expected linear or cubic)"
+            )),
+        }
+    }
+}
+
+/// The cubic B-spline weights of the four samples at `-1, 0, 1, 2` for a
+/// fractional position `t` in `[0, 1)`.
+#[inline]
+pub(crate) fn bspline_weights(t: f32) -> [f32; 4] {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    let s = 1.0 - t;
+    [
+        s * s * s * (1.0 / 6.0),
+        (3.0 * t3 - 6.0 * t2 + 4.0) * (1.0 / 6.0),
+        (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) * (1.0 / 6.0),
+        t3 * (1.0 / 6.0),
+    ]
 }
 
 /// Geometry of one stored level.
@@ -119,6 +201,7 @@ pub struct StackLayout {
     pad: usize,
     fft_width: usize,
     fft_height: usize,
+    interpolation: Interpolation,
 }
 
 impl StackLayout {
@@ -258,10 +341,12 @@ impl StackLayout {
                 };
                 let step = 1usize << j;
                 // Samples before pixel 0 and after pixel w-1 so that the
-                // coverage includes [-margin-1, w+margin] on each axis.
-                let before = (margin + 1).div_ceil(step);
-                let nx = before + (width + margin).div_ceil(step) + 1;
-                let ny = before + (height + margin).div_ceil(step) + 1;
+                // coverage includes [-margin-1, w+margin] on each axis, plus
+                // the extra samples a cubic lookup reads on each side.
+                let (extra, _) = options.interpolation.reach();
+                let before = (margin + 1).div_ceil(step) + extra;
+                let nx = before + (width + margin).div_ceil(step) + 1 + extra;
+                let ny = before + (height + margin).div_ceil(step) + 1 + extra;
                 LevelLayout {
                     sigma,
                     step,
@@ -312,7 +397,14 @@ impl StackLayout {
             pad,
             fft_width,
             fft_height,
+            interpolation: options.interpolation,
         })
+    }
+
+    /// How the levels are read.
+    #[must_use]
+    pub fn interpolation(&self) -> Interpolation {
+        self.interpolation
     }
 
     /// The levels, by increasing sigma.
@@ -389,6 +481,7 @@ pub struct ScaleStack {
     ln_sigma0: f64,
     /// `1 / ln(r)`, 0 for a single level.
     inv_ln_ratio: f64,
+    interpolation: Interpolation,
     pub(crate) levels: Vec<Level>,
 }
 
@@ -474,6 +567,7 @@ impl ScaleStack {
             sigmas,
             ln_sigma0,
             inv_ln_ratio,
+            interpolation: layout.interpolation,
             levels,
         })
     }
@@ -526,6 +620,14 @@ impl ScaleStack {
             .iter()
             .map(|l| (l.data.len() * std::mem::size_of::<f32>()) as u64)
             .sum()
+    }
+
+    /// How the levels are read between their samples (what they store:
+    /// samples for [`Interpolation::Linear`], B-spline coefficients for
+    /// [`Interpolation::Cubic`]).
+    #[must_use]
+    pub fn interpolation(&self) -> Interpolation {
+        self.interpolation
     }
 
     /// Whether `sigma` lies in the covered range (with a relative tolerance of 1e-6).
@@ -603,11 +705,15 @@ impl ScaleStack {
         Ok(())
     }
 
-    /// Adds `weight *` bilinear sample of level `li` at full-resolution
-    /// `(x, y)` to `acc` (one value per channel).
+    /// Adds `weight *` the interpolated value of level `li` at
+    /// full-resolution `(x, y)` to `acc` (one value per channel).
     #[expect(clippy::inline_always, reason = "the hot path of filtering; measured")]
     #[inline(always)]
     pub(crate) fn accumulate(&self, li: usize, x: f32, y: f32, weight: f32, acc: &mut [f32]) {
+        if self.interpolation == Interpolation::Cubic {
+            self.accumulate_cubic(li, x, y, weight, acc);
+            return;
+        }
         let level = &self.levels[li];
         let u = (x - level.origin) * level.inv_step;
         let v = (y - level.origin) * level.inv_step;
@@ -657,6 +763,10 @@ impl ScaleStack {
         weight: f32,
         acc: &mut [f32; C],
     ) {
+        if self.interpolation == Interpolation::Cubic {
+            self.accumulate_cubic(li, x, y, weight, acc.as_mut_slice());
+            return;
+        }
         let level = &self.levels[li];
         let u = (x - level.origin) * level.inv_step;
         let v = (y - level.origin) * level.inv_step;
@@ -681,61 +791,117 @@ impl ScaleStack {
         self.accumulate_outside(level, x, y, weight, acc.as_mut_slice());
     }
 
-    /// Slow path of [`Self::accumulate`]: the 2x2 footprint leaves the stored region.
+    /// The cubic B-spline lookup: 4x4 coefficients around `(x, y)`.
+    #[expect(clippy::inline_always, reason = "the hot path of filtering; measured")]
+    #[inline(always)]
+    fn accumulate_cubic(&self, li: usize, x: f32, y: f32, weight: f32, acc: &mut [f32]) {
+        let level = &self.levels[li];
+        let u = (x - level.origin) * level.inv_step;
+        let v = (y - level.origin) * level.inv_step;
+        if u >= 1.0 && v >= 1.0 {
+            let (iu, iv) = (u as i32 as usize, v as i32 as usize);
+            let (nx, ny) = (level.layout.nx, level.layout.ny);
+            if iu + 2 < nx && iv + 2 < ny {
+                let wx = bspline_weights(u - iu as f32);
+                let wy = bspline_weights(v - iv as f32);
+                let c = self.channels;
+                let d = &level.data;
+                let row = nx * c;
+                let base = ((iv - 1) * nx + iu - 1) * c;
+                if c == 1 {
+                    let mut sum = 0.0;
+                    for (j, wyj) in wy.iter().enumerate() {
+                        let r = &d[base + j * row..base + j * row + 4];
+                        sum += wyj * (wx[0] * r[0] + wx[1] * r[1] + wx[2] * r[2] + wx[3] * r[3]);
+                    }
+                    acc[0] += weight * sum;
+                    return;
+                }
+                for (j, wyj) in wy.iter().enumerate() {
+                    let r = &d[base + j * row..base + j * row + 4 * c];
+                    let wj = weight * wyj;
+                    for (k, a) in acc.iter_mut().enumerate() {
+                        *a += wj
+                            * (wx[0] * r[k]
+                                + wx[1] * r[c + k]
+                                + wx[2] * r[2 * c + k]
+                                + wx[3] * r[3 * c + k]);
+                    }
+                }
+                return;
+            }
+        }
+        self.accumulate_outside(level, x, y, weight, acc);
+    }
+
+    /// Slow path of [`Self::accumulate`]: the footprint leaves the stored
+    /// region. The position is resolved by the border mode (exact for
+    /// reflect-101 and wrap, whose blurred extension, and that of its
+    /// B-spline coefficients, is the same extension of the blurred image),
+    /// then every sample of the footprint is read, clamped to the stored
+    /// region (replicate) or replaced by the constant.
     #[cold]
     #[inline(never)]
     fn accumulate_outside(&self, level: &Level, x: f32, y: f32, weight: f32, acc: &mut [f32]) {
         let step = level.layout.step as f32;
         let lo = level.origin;
-        let hi_x = lo + (level.layout.nx - 1) as f32 * step;
-        let hi_y = lo + (level.layout.ny - 1) as f32 * step;
+        // Positions whose whole footprint is stored: [lo + before step,
+        // last - (after - 1) step].
+        let (before, after) = self.interpolation.reach();
+        let first = lo + before as f32 * step;
+        let last_x = lo + (level.layout.nx - after) as f32 * step;
+        let last_y = lo + (level.layout.ny - after) as f32 * step;
         let map = |p: f32, n: usize, hi: f32| -> f32 {
-            if p >= lo && p <= hi {
+            if p >= first && p <= hi {
                 return p;
             }
             match self.border {
                 Border::Constant(_) => p,
-                Border::Replicate => p.clamp(lo, hi),
+                Border::Replicate => p.clamp(first, hi),
                 Border::Reflect101 | Border::Wrap => self.border.map_continuous(p, n),
             }
         };
+        let (hi_x, hi_y) = (last_x, last_y);
         let x = map(x, self.width, hi_x);
         let y = map(y, self.height, hi_y);
         let u = (x - lo) * level.inv_step;
         let v = (y - lo) * level.inv_step;
         let iu = u.floor();
         let iv = v.floor();
-        let fu = u - iu;
-        let fv = v - iv;
+        let axis = |f: f32| -> ([f32; 4], i64, usize) {
+            match self.interpolation {
+                Interpolation::Linear => ([1.0 - f, f, 0.0, 0.0], 0, 2),
+                Interpolation::Cubic => (bspline_weights(f), -1, 4),
+            }
+        };
+        let (wx, ox, n) = axis(u - iu);
+        let (wy, oy, _) = axis(v - iv);
         let constant = self.border.constant();
         let c = self.channels;
         let nx = level.layout.nx as i64;
         let ny = level.layout.ny as i64;
         let is_constant = matches!(self.border, Border::Constant(_));
-        let corners = [
-            (0i64, 0i64, (1.0 - fu) * (1.0 - fv)),
-            (1, 0, fu * (1.0 - fv)),
-            (0, 1, (1.0 - fu) * fv),
-            (1, 1, fu * fv),
-        ];
-        for (dx, dy, w) in corners {
-            if w == 0.0 {
-                continue;
-            }
-            let mut ix = iu as i64 + dx;
-            let mut iy = iv as i64 + dy;
-            let inside = (0..nx).contains(&ix) && (0..ny).contains(&iy);
-            if !inside && is_constant {
-                for a in acc.iter_mut() {
-                    *a += weight * w * constant;
+        for (j, &wyj) in wy[..n].iter().enumerate() {
+            for (i, &wxi) in wx[..n].iter().enumerate() {
+                let w = wxi * wyj;
+                if w == 0.0 {
+                    continue;
                 }
-                continue;
-            }
-            ix = ix.clamp(0, nx - 1);
-            iy = iy.clamp(0, ny - 1);
-            let i = ((iy as usize) * level.layout.nx + ix as usize) * c;
-            for (k, a) in acc.iter_mut().enumerate() {
-                *a += weight * w * level.data[i + k];
+                let mut ix = iu as i64 + ox + i as i64;
+                let mut iy = iv as i64 + oy + j as i64;
+                let inside = (0..nx).contains(&ix) && (0..ny).contains(&iy);
+                if !inside && is_constant {
+                    for a in acc.iter_mut() {
+                        *a += weight * w * constant;
+                    }
+                    continue;
+                }
+                ix = ix.clamp(0, nx - 1);
+                iy = iy.clamp(0, ny - 1);
+                let k0 = ((iy as usize) * level.layout.nx + ix as usize) * c;
+                for (k, a) in acc.iter_mut().enumerate() {
+                    *a += weight * w * level.data[k0 + k];
+                }
             }
         }
     }
@@ -797,6 +963,60 @@ fn gaussian_transfer(sigma: f64, n: usize, planner: &mut FftPlanner<f64>) -> Vec
 type FftPlan = Arc<dyn Fft<f32>>;
 
 /// In-place FFT of every consecutive `len`-long row of `data`, in parallel.
+/// Row `kx` of a level's coarse spectrum: the image spectrum times the
+/// Gaussian's transfer, alias-summed over the `step x step` fine frequencies
+/// that fold onto each coarse one (a plain product when `step == 1`).
+fn blurred_coarse_row(
+    kx: usize,
+    row: &mut [Complex32],
+    step: usize,
+    spec_ref: &[Complex32],
+    gx: &[f32],
+    gy: &[f32],
+) {
+    let zero = Complex32::new(0.0, 0.0);
+    let my = row.len();
+    let nyp = my * step;
+    let mx = gx.len() / step;
+    if step == 1 {
+        let g = gx[kx];
+        let srow = &spec_ref[kx * nyp..(kx + 1) * nyp];
+        for ((o, s), gyv) in row.iter_mut().zip(srow).zip(gy) {
+            *o = s * (g * gyv);
+        }
+        return;
+    }
+    row.fill(zero);
+    for ax in 0..step {
+        let fx = kx + ax * mx;
+        let g = gx[fx];
+        if g.abs() < 1e-12 {
+            continue;
+        }
+        let srow = &spec_ref[fx * nyp..(fx + 1) * nyp];
+        for ay in 0..step {
+            let base = ay * my;
+            for (ky, o) in row.iter_mut().enumerate() {
+                let fy = base + ky;
+                *o += srow[fy] * (g * gy[fy]);
+            }
+        }
+    }
+}
+
+/// The cubic B-spline prefilter on a periodic grid of `n` samples: the
+/// inverse of the sampled B-spline's transfer `2/3 + cos(2 pi k / n) / 3`
+/// (never below `1/3`), so that the spline through the stored coefficients
+/// interpolates the level's samples.
+fn bspline_prefilter(n: usize) -> Vec<f32> {
+    (0..n)
+        .map(|k| {
+            let c = (std::f64::consts::TAU * k as f64 / n as f64).cos();
+            (1.0 / (2.0 / 3.0 + c / 3.0)) as f32
+        })
+        .collect()
+}
+
 fn fft_rows(data: &mut [Complex32], len: usize, fft: &Arc<dyn Fft<f32>>) {
     let rows_per_task = (1usize << 15).div_ceil(len).max(1);
     let scratch_len = fft.get_inplace_scratch_len();
@@ -895,29 +1115,14 @@ fn build_levels(layout: &StackLayout, data: &[f32], border: Border, levels: &mut
             let (gx, gy) = (&transfers[li].0, &transfers[li].1);
             let cbuf = &mut coarse[..mx * my];
             let spec_ref = &spec;
+            let pre = (layout.interpolation == Interpolation::Cubic)
+                .then(|| (bspline_prefilter(mx), bspline_prefilter(my)));
             cbuf.par_chunks_mut(my).enumerate().for_each(|(kx, row)| {
-                if step == 1 {
-                    let g = gx[kx];
-                    let srow = &spec_ref[kx * nyp..(kx + 1) * nyp];
-                    for ((o, s), gyv) in row.iter_mut().zip(srow).zip(gy) {
-                        *o = s * (g * gyv);
-                    }
-                    return;
-                }
-                row.fill(zero);
-                for ax in 0..step {
-                    let fx = kx + ax * mx;
-                    let g = gx[fx];
-                    if g.abs() < 1e-12 {
-                        continue;
-                    }
-                    let srow = &spec_ref[fx * nyp..(fx + 1) * nyp];
-                    for ay in 0..step {
-                        let base = ay * my;
-                        for (ky, o) in row.iter_mut().enumerate() {
-                            let fy = base + ky;
-                            *o += srow[fy] * (g * gy[fy]);
-                        }
+                blurred_coarse_row(kx, row, step, spec_ref, gx, gy);
+                if let Some((px, py)) = &pre {
+                    let p = px[kx];
+                    for (o, q) in row.iter_mut().zip(py) {
+                        *o *= p * q;
                     }
                 }
             });

@@ -325,12 +325,21 @@ impl ScaleStack {
     /// # Errors
     /// [`FilterError::Shape`] when `image` is not the stack's shape or `rect`
     /// leaves it, [`FilterError::NonFinite`] for NaN or infinite pixels in
-    /// `rect`.
+    /// `rect`, [`FilterError::InvalidParameter`] for a stack of cubic
+    /// B-spline coefficients (the prefilter that makes them is not local:
+    /// rebuild such a stack instead).
     pub fn refresh_region(
         &mut self,
         image: &Image,
         rect: PixelRect,
     ) -> Result<RefreshReport, FilterError> {
+        if self.interpolation() != crate::stack::Interpolation::Linear {
+            return Err(FilterError::InvalidParameter(
+                "refreshing a region needs a stack of samples (linear interpolation); \
+                 a stack of cubic B-spline coefficients must be rebuilt"
+                    .into(),
+            ));
+        }
         let (w, h, c) = (self.width(), self.height(), self.channels());
         if (image.width(), image.height(), image.channels()) != (w, h, c) {
             return Err(FilterError::Shape(format!(

@@ -6,8 +6,8 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use ifd_planar::{
-    Border, Decomposition, Field, Filter as IfdFilter, ScaleStack, StackOptions,
-    stack_plan_for_decomposition,
+    Border, Decomposition, EvalPlan, Field, Filter as IfdFilter, Interpolation, ScaleStack,
+    StackOptions, stack_plan_for_decomposition,
 };
 
 use crate::input::{InputOptions, write_output};
@@ -60,8 +60,27 @@ pub struct Filter {
     /// 1e-4 relative.
     #[arg(long)]
     gpu: bool,
+    /// How the prefiltered levels are read between samples: `auto` chooses,
+    /// per decomposition, the cheapest of bilinear and the cubic B-spline
+    /// (and how finely levels are stored) whose evaluation error bound is
+    /// within `--eval-budget`; `linear` or `cubic` fix the interpolation.
+    /// See docs/planar-accuracy.md.
+    #[arg(long, value_name = "MODE", default_value = "auto")]
+    interp: InterpChoice,
+    /// Budget on the evaluation error bound (relative RMS on white noise)
+    /// that `--interp` plans for.
+    #[arg(long, value_name = "E", default_value_t = EvalPlan::DEFAULT_BUDGET)]
+    eval_budget: f64,
     #[command(flatten)]
     input: InputOptions,
+}
+
+/// `--interp`.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum InterpChoice {
+    Auto,
+    Linear,
+    Cubic,
 }
 
 fn load_map(input: &InputOptions, path: &Path, what: &str, w: usize, h: usize) -> Result<Vec<f32>> {
@@ -198,13 +217,31 @@ impl Filter {
             None => Field::Constant(smin),
         };
         let c = image.channels();
+        let plan = match self.interp {
+            InterpChoice::Auto => EvalPlan::choose(&decomposition, smin, smax, self.eval_budget),
+            InterpChoice::Linear => EvalPlan::choose_for(
+                &decomposition,
+                smin,
+                smax,
+                self.eval_budget,
+                Interpolation::Linear,
+            ),
+            InterpChoice::Cubic => EvalPlan::choose_for(
+                &decomposition,
+                smin,
+                smax,
+                self.eval_budget,
+                Interpolation::Cubic,
+            ),
+        }
+        .context("--eval-budget")?;
         let ((lo, hi), stack_options) = stack_plan_for_decomposition(
             (w, h, c),
             &decomposition,
             smin,
             smax,
             border,
-            StackOptions::default(),
+            plan.apply(StackOptions::default()),
         )
         .context("prefiltering")?;
         // With --gpu, a stack the device cannot hold is refused before the
@@ -239,6 +276,14 @@ impl Filter {
         };
         let t2 = Instant::now();
         if self.verbose {
+            eprintln!(
+                "evaluation: {} interpolation, pyramid factor {}; bound on its error \
+                 {:.3}% (amplification {:.1}; measured errors are lower)",
+                plan.interpolation.name(),
+                plan.pyramid_factor,
+                100.0 * plan.error_bound,
+                plan.amplification
+            );
             eprintln!(
                 "{} terms; prefiltering {:.1} ms ({} levels, {}), filtering {:.1} ms",
                 decomposition.terms.len(),
