@@ -53,6 +53,12 @@ struct Params {
     // INTERP_LINEAR: levels hold samples, read bilinearly; INTERP_CUBIC:
     // levels hold cubic B-spline coefficients, read 4x4.
     interpolation: u32,
+    // SAMPLING_*: how the decomposition's kernel was sampled, which sets the
+    // atoms' effective sigma at each scale (Sampling::effective_sigma).
+    sampling: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct Level {
@@ -97,6 +103,26 @@ const BORDER_WRAP: u32 = 3u;
 
 const INTERP_LINEAR: u32 = 0u;
 const INTERP_CUBIC: u32 = 1u;
+
+const SAMPLING_CONTINUOUS: u32 = 0u;
+const SAMPLING_POINT: u32 = 1u;
+const SAMPLING_AREA: u32 = 2u;
+
+// The variance (px^2) a pixel's footprint adds to every atom at scale s
+// (Sampling::footprint_variance).
+fn footprint_variance(s: f32) -> f32 {
+    switch params.sampling {
+        case SAMPLING_POINT: {
+            return select(0.0, 1.0 / 12.0, s < 1.0);
+        }
+        case SAMPLING_AREA: {
+            return (1.0 - s * s) / 12.0;
+        }
+        default: {
+            return 0.0;
+        }
+    }
+}
 
 // Rust's f32::rem_euclid: truncated remainder, shifted into [0, |m|).
 fn rem_euclid(x: f32, m: f32) -> f32 {
@@ -319,10 +345,12 @@ fn lookup(li: u32, x: f32, y: f32) -> vec4<f32> {
     return bilinear(li, x, y);
 }
 
-// One bank entry at pixel (x, y) for pose (cs, ss, u_offset).
-fn eval_entry(e: u32, x: f32, y: f32, cs: f32, ss: f32, u_offset: f32) -> vec4<f32> {
+// One bank entry at pixel (x, y) for pose (cs, ss, u_offset) at scale s.
+fn eval_entry(e: u32, x: f32, y: f32, cs: f32, ss: f32, u_offset: f32, s: f32) -> vec4<f32> {
     let entry = entries[e];
     let last = params.n_levels - 1u;
+    let var_s = footprint_variance(s);
+    let ln_s = log(s);
     var acc = vec4<f32>(0.0);
     for (var i = entry.start; i < entry.start + entry.count; i++) {
         let t = terms[i];
@@ -332,7 +360,14 @@ fn eval_entry(e: u32, x: f32, y: f32, cs: f32, ss: f32, u_offset: f32) -> vec4<f
             acc += t.weight * lookup(0u, px, py);
             continue;
         }
-        let u = clamp(t.ln_sigma * params.inv_ln_ratio + u_offset, 0.0, f32(last));
+        // ln(sigma_eff / s), sigma_eff^2 = (s sigma)^2 + var_s, kept at
+        // least s sigma / 2.
+        var ln_sigma = t.ln_sigma;
+        if var_s != 0.0 {
+            let q = var_s * exp(-2.0 * (ln_s + t.ln_sigma));
+            ln_sigma += 0.5 * log(max(1.0 + q, 0.25));
+        }
+        let u = clamp(ln_sigma * params.inv_ln_ratio + u_offset, 0.0, f32(last));
         let a = min(u32(u), last - 1u);
         let f = u - f32(a);
         acc += (t.weight * (1.0 - f)) * lookup(a, px, py);
@@ -375,9 +410,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let yf = f32(y);
     let e0 = min(u32(max(entry, 0.0)), params.n_entries - 1u);
     let t = clamp(entry - f32(e0), 0.0, 1.0);
-    var acc = eval_entry(e0, xf, yf, cs, ss, u_offset);
+    var acc = eval_entry(e0, xf, yf, cs, ss, u_offset, scale);
     if t > 0.0 && e0 + 1u < params.n_entries {
-        let b = eval_entry(e0 + 1u, xf, yf, cs, ss, u_offset);
+        let b = eval_entry(e0 + 1u, xf, yf, cs, ss, u_offset, scale);
         acc = (1.0 - t) * acc + t * b;
     }
     let o = ((gid.y * params.region_w + gid.x) * params.channels) + params.chunk_c0;

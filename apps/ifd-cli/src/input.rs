@@ -54,6 +54,39 @@ impl InputOptions {
     }
 }
 
+impl InputOptions {
+    /// Reads a parameter map (angles, scales): values as stored, with no
+    /// range mapping or sRGB decoding. `.npy` (float or integer dtypes, read
+    /// as their values) and floating-point EXR/TIFF/HDR are accepted; integer
+    /// image formats (PNG, JPEG, 8/16-bit TIFF), which images map to
+    /// `[0, 1]`, are refused with a message saying how to write a map.
+    pub fn read_map(&self, path: &Path, what: &str) -> Result<ifd_image::Image> {
+        let opts = ReadOptions {
+            srgb_decode: false,
+            ..self.read_options()
+        };
+        let loaded = ifd_image::read_image(path, &opts)?;
+        if let Some(bits) = loaded.integer_bits {
+            anyhow::bail!(
+                "{what} {}: a {bits}-bit {} stores integers that are read as image values in \
+                 [0, 1] (45 would become {:.4}), not as data; write the map as .npy \
+                 (numpy.save('map.npy', a.astype('float32'))) or as a float EXR/TIFF",
+                path.display(),
+                loaded.format.name(),
+                45.0 / f64::from((1u32 << bits) - 1)
+            );
+        }
+        if loaded.replaced_non_finite > 0 {
+            eprintln!(
+                "note: {}: replaced {} non-finite values",
+                path.display(),
+                loaded.replaced_non_finite
+            );
+        }
+        Ok(loaded.image)
+    }
+}
+
 /// Writes an image atomically, reporting clipped samples on stderr.
 #[expect(
     clippy::trivially_copy_pass_by_ref,

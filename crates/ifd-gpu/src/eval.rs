@@ -4,6 +4,7 @@ use std::time::Duration;
 
 use bytemuck::{Pod, Zeroable};
 use ifd_image::Image;
+use ifd_planar::kernel::Sampling;
 use ifd_planar::{Border, Decomposition, Field, FilterError, Term};
 use wgpu::util::DeviceExt as _;
 
@@ -69,6 +70,10 @@ struct Params {
     n_entries: u32,
     /// 0 bilinear, 1 cubic B-spline (`INTERP_*` in the shader).
     interpolation: u32,
+    /// How the decomposition's kernel was sampled (`SAMPLING_*` in the
+    /// shader): the atoms' effective sigma at each scale.
+    sampling: u32,
+    pad: [u32; 3],
 }
 
 /// The shader's `struct Term`.
@@ -93,6 +98,7 @@ pub struct GpuDecomposition {
     n_entries: u32,
     n_terms: usize,
     sigma_range: (f64, f64),
+    sampling: Sampling,
 }
 
 impl GpuDecomposition {
@@ -101,7 +107,9 @@ impl GpuDecomposition {
     /// # Errors
     /// As [`GpuDecomposition::from_entries`].
     pub fn new(ctx: &GpuContext, decomposition: &Decomposition) -> Result<Self, GpuError> {
-        Self::from_entries(ctx, &[decomposition.terms.as_slice()])
+        let mut d = Self::from_entries(ctx, &[decomposition.terms.as_slice()])?;
+        d.sampling = decomposition.sampling;
+        Ok(d)
     }
 
     /// Uploads several decompositions, concatenated with their offsets.
@@ -183,6 +191,7 @@ impl GpuDecomposition {
             n_entries: offsets.len() as u32,
             n_terms: terms.len(),
             sigma_range: (lo, hi),
+            sampling: Sampling::Continuous,
         })
     }
 
@@ -890,8 +899,18 @@ impl GpuContext {
         // Coverage, as the CPU's Filter::check_scales.
         let (min, max) = stack.sigma_range;
         let (slo, shi) = decomposition.sigma_range;
-        for ((scale, at), term_sigma) in pose.scale_where.iter().zip([slo, shi]) {
-            let needed = f64::from(*scale) * term_sigma;
+        let scales = (
+            f64::from(pose.scale_where[0].0),
+            f64::from(pose.scale_where[1].0),
+        );
+        let (need_lo, need_hi) =
+            ifd_planar::filter::sigma_bounds(decomposition.sampling, (slo, shi), scales);
+        for (((scale, at), term_sigma), needed) in pose
+            .scale_where
+            .iter()
+            .zip([slo, shi])
+            .zip([need_lo, need_hi])
+        {
             if !stack.covers(needed) {
                 return Err(FilterError::ScaleOutOfRange {
                     scale: f64::from(*scale),
@@ -968,6 +987,12 @@ impl GpuContext {
                             ifd_planar::Interpolation::Linear => 0,
                             ifd_planar::Interpolation::Cubic => 1,
                         },
+                        sampling: match decomposition.sampling {
+                            Sampling::Continuous => 0,
+                            Sampling::Point => 1,
+                            Sampling::Area => 2,
+                        },
+                        pad: [0; 3],
                     };
                     let pb = buffer_init(
                         device,

@@ -64,6 +64,14 @@ impl GpuStack {
     /// `max_storage_buffer_binding_size` or `max_buffer_size` or the image is
     /// too large to index, [`GpuError::Device`] if wgpu fails to allocate.
     pub fn upload(ctx: &GpuContext, stack: &ScaleStack) -> Result<Self, GpuError> {
+        if !stack.is_uniform() {
+            return Err(ifd_planar::FilterError::InvalidParameter(
+                "the GPU path reads stacks with log-uniformly spaced levels \
+                 (ScaleStack::new), not levels at given sigmas"
+                    .into(),
+            )
+            .into());
+        }
         let channels = stack.channels();
         let layouts: Vec<_> = stack.level_layouts().copied().collect();
         let plane_bytes = plane_bytes(&layouts);

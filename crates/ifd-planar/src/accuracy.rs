@@ -108,11 +108,11 @@ pub fn lookup_error(interpolation: Interpolation, r: f64) -> f64 {
 /// expected to add (see the module docs for the rule and the bound).
 ///
 /// ```
-/// use ifd_planar::{Decomposition, EvalPlan, Interpolation, Term};
+/// use ifd_planar::{Decomposition, EvalPlan, Interpolation, PlanOptions, Term};
 /// // A second-derivative-like kernel: a centre and two side lobes that cancel.
 /// let t = |weight, x, sigma| Term { weight, x, y: 0.0, sigma };
 /// let d = Decomposition::from_terms(vec![t(-1.0, 0.0, 6.0), t(0.5, -9.0, 6.0), t(0.5, 9.0, 6.0)]);
-/// let plan = EvalPlan::choose(&d, 1.0, 1.0, EvalPlan::DEFAULT_BUDGET)?;
+/// let plan = EvalPlan::choose(&d, 1.0, 1.0, PlanOptions::default())?;
 /// assert_eq!(plan.interpolation, Interpolation::Cubic);
 /// assert!(plan.error_bound <= EvalPlan::DEFAULT_BUDGET);
 /// # Ok::<(), ifd_planar::FilterError>(())
@@ -128,6 +128,33 @@ pub struct EvalPlan {
     pub error_bound: f64,
     /// `sum |w_t| ||g_t|| / ||k||` (scale-invariant).
     pub amplification: f64,
+    /// Terms whose scaled sigma is below this are evaluated directly (0:
+    /// none); they add no interpolation error.
+    pub direct_sigma: f64,
+}
+
+/// What [`EvalPlan::choose`] plans for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlanOptions {
+    /// Budget on [`EvalPlan::error_bound`]. Default [`EvalPlan::DEFAULT_BUDGET`].
+    pub budget: f64,
+    /// Fix the interpolation (only the pyramid factor is chosen). Default
+    /// `None`: either.
+    pub interpolation: Option<Interpolation>,
+    /// Terms whose scaled sigma is below this will be evaluated directly
+    /// (pass [`crate::DIRECT_SIGMA`] for a constant pose filtered with
+    /// [`crate::Filter::with_direct`]). Default 0: none.
+    pub direct_sigma: f64,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        Self {
+            budget: EvalPlan::DEFAULT_BUDGET,
+            interpolation: None,
+            direct_sigma: 0.0,
+        }
+    }
 }
 
 impl EvalPlan {
@@ -135,8 +162,8 @@ impl EvalPlan {
     /// errors are then below about 0.1%).
     pub const DEFAULT_BUDGET: f64 = 0.002;
 
-    /// The cheapest plan whose bound is within `budget` for every scale in
-    /// `[scale_min, scale_max]`, else the most accurate one.
+    /// The cheapest plan whose bound is within `options.budget` for every
+    /// scale in `[scale_min, scale_max]`, else the most accurate one.
     ///
     /// # Errors
     /// [`FilterError::InvalidParameter`] for a decomposition without terms,
@@ -145,39 +172,13 @@ impl EvalPlan {
         decomposition: &Decomposition,
         scale_min: f32,
         scale_max: f32,
-        budget: f64,
+        options: PlanOptions,
     ) -> Result<Self, FilterError> {
-        Self::choose_among(decomposition, scale_min, scale_max, budget, None)
-    }
-
-    /// As [`EvalPlan::choose`] with the interpolation fixed (only the
-    /// pyramid factor is chosen).
-    ///
-    /// # Errors
-    /// As [`EvalPlan::choose`].
-    pub fn choose_for(
-        decomposition: &Decomposition,
-        scale_min: f32,
-        scale_max: f32,
-        budget: f64,
-        interpolation: Interpolation,
-    ) -> Result<Self, FilterError> {
-        Self::choose_among(
-            decomposition,
-            scale_min,
-            scale_max,
+        let PlanOptions {
             budget,
-            Some(interpolation),
-        )
-    }
-
-    fn choose_among(
-        decomposition: &Decomposition,
-        scale_min: f32,
-        scale_max: f32,
-        budget: f64,
-        only: Option<Interpolation>,
-    ) -> Result<Self, FilterError> {
+            interpolation: only,
+            direct_sigma,
+        } = options;
         if !(budget.is_finite() && budget > 0.0) {
             return Err(FilterError::InvalidParameter(format!(
                 "error budget {budget} must be finite and positive"
@@ -198,7 +199,13 @@ impl EvalPlan {
         };
         let mut best: Option<Self> = None;
         for (interpolation, factor) in fixed {
-            let plan = Self::with(decomposition, scale_min, scale_max, interpolation, factor)?;
+            let plan = Self::with(
+                decomposition,
+                (scale_min, scale_max),
+                interpolation,
+                factor,
+                direct_sigma,
+            )?;
             if plan.error_bound <= budget {
                 return Ok(plan);
             }
@@ -209,16 +216,18 @@ impl EvalPlan {
         Ok(best.expect("at least one candidate"))
     }
 
-    /// The bound of a given interpolation and pyramid factor.
+    /// The bound of a given interpolation and pyramid factor, for scales in
+    /// `[scale_min, scale_max]`, terms whose scaled sigma is below
+    /// `direct_sigma` being evaluated exactly ([`crate::Filter::with_direct`]).
     ///
     /// # Errors
     /// As [`EvalPlan::choose`].
     pub fn with(
         decomposition: &Decomposition,
-        scale_min: f32,
-        scale_max: f32,
+        (scale_min, scale_max): (f32, f32),
         interpolation: Interpolation,
         pyramid_factor: f64,
+        direct_sigma: f64,
     ) -> Result<Self, FilterError> {
         let terms = &decomposition.terms;
         if terms.is_empty() {
@@ -261,7 +270,10 @@ impl EvalPlan {
             };
             let mut sum = 0.0;
             for t in terms {
-                let sigma = s * t.sigma;
+                let sigma = decomposition.sampling.effective_sigma(t.sigma, s);
+                if sigma < direct_sigma {
+                    continue;
+                }
                 let ratio = sigma / pyramid_factor;
                 let step = if ratio >= 1.0 {
                     ratio.log2().floor().exp2()
@@ -277,8 +289,8 @@ impl EvalPlan {
                     cache.push((key, e));
                     e
                 };
-                // ||g_{s sigma}|| / ||k_s|| = ||g_sigma|| / ||k||.
-                sum += t.weight.abs() * g_norm(t.sigma) * std::f64::consts::SQRT_2 * e;
+                // ||g_sigma_eff|| / ||k_s|| = ||g_{sigma_eff / s}|| / ||k||.
+                sum += t.weight.abs() * g_norm(sigma / s) * std::f64::consts::SQRT_2 * e;
             }
             error_bound = error_bound.max(sum / norm);
         }
@@ -287,6 +299,7 @@ impl EvalPlan {
             pyramid_factor,
             error_bound,
             amplification,
+            direct_sigma,
         })
     }
 
@@ -350,14 +363,14 @@ mod tests {
             y: 0.0,
             sigma: 40.0,
         }]);
-        let plan = EvalPlan::choose(&d, 1.0, 1.0, EvalPlan::DEFAULT_BUDGET).unwrap();
+        let plan = EvalPlan::choose(&d, 1.0, 1.0, PlanOptions::default()).unwrap();
         assert_eq!(
             (plan.interpolation, plan.pyramid_factor),
             (Interpolation::Cubic, 2.0)
         );
         assert!((plan.amplification - 1.0).abs() < 1e-9);
         // Bilinear at factor 2 reads it at r in [2, 4): about 1% per axis.
-        let lin = EvalPlan::with(&d, 1.0, 1.0, Interpolation::Linear, 2.0).unwrap();
+        let lin = EvalPlan::with(&d, (1.0, 1.0), Interpolation::Linear, 2.0, 0.0).unwrap();
         assert!(lin.error_bound > 0.01 && lin.error_bound < 0.03, "{lin:?}");
     }
 }

@@ -49,6 +49,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::dictionary::DictionaryParams;
 use crate::fit::FitReport;
+use crate::kernel::{KernelSpec, Sampling};
 
 /// The `format` field of decomposition files.
 pub const FORMAT: &str = "ifd-decomposition";
@@ -84,6 +85,11 @@ pub struct Decomposition {
     pub dictionary: Option<DictionaryParams>,
     /// What the fit achieved, if known.
     pub report: Option<FitReport>,
+    /// How the fitted kernel sampled its filter, which decides how the
+    /// decomposition is applied at other scales. Files written before this
+    /// field existed infer it from the spec (hard-edged specs `Area`, other
+    /// specs and kernel files `Point`).
+    pub sampling: Sampling,
 }
 
 /// Everything that can be wrong reading or writing a decomposition file.
@@ -140,6 +146,8 @@ struct KernelInfo {
     width: usize,
     height: usize,
     spec: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    sampling: Option<Sampling>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -162,6 +170,7 @@ impl Decomposition {
             spec: None,
             dictionary: None,
             report: None,
+            sampling: Sampling::Continuous,
         }
     }
 
@@ -184,6 +193,7 @@ impl Decomposition {
                 width,
                 height,
                 spec: self.spec.clone(),
+                sampling: Some(self.sampling),
             }),
             dictionary: self.dictionary.clone(),
             report: self.report.clone(),
@@ -272,12 +282,25 @@ impl Decomposition {
                 format!("out-of-range parameters {p:?}"),
             ));
         }
+        // Version-1 files before `sampling`: a fitted kernel was sampled as
+        // its spec samples (hard-edged specs by area), a kernel file by point.
+        let sampling = match &repr.kernel {
+            None => Sampling::Continuous,
+            Some(KernelInfo {
+                sampling: Some(s), ..
+            }) => *s,
+            Some(KernelInfo { spec, .. }) => spec
+                .as_deref()
+                .and_then(|s| s.parse::<KernelSpec>().ok())
+                .map_or(Sampling::Point, |s| s.sampling()),
+        };
         Ok(Self {
             terms: repr.terms,
             kernel_size: repr.kernel.as_ref().map(|k| (k.width, k.height)),
             spec: repr.kernel.and_then(|k| k.spec),
             dictionary: repr.dictionary,
             report: repr.report,
+            sampling,
         })
     }
 

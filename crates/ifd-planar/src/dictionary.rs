@@ -63,6 +63,17 @@ pub struct DictionaryOptions {
     /// The automatic level choice wants the finest width at or below this
     /// fraction of the kernel's feature width (see [`feature_width`]).
     pub feature_factor: f64,
+    /// When set, the automatic level choice also goes down to this width,
+    /// px, whatever the feature width (a pixel-averaged filter's finest
+    /// feature is the pixel's own blur, `1 / sqrt(12)` px, which its
+    /// gradient energy does not show).
+    #[serde(default)]
+    pub finest_at_most: Option<f64>,
+    /// Widths below this (px) are left out of the dictionary (0: none):
+    /// a fit on a grid of spacing `h` constrains no atom narrower than
+    /// about `h`.
+    #[serde(default)]
+    pub min_width: f64,
 }
 
 impl Default for DictionaryOptions {
@@ -75,6 +86,8 @@ impl Default for DictionaryOptions {
             oversampling: 1,
             min_sigma: 0.7,
             feature_factor: 0.7,
+            finest_at_most: None,
+            min_width: 0.0,
         }
     }
 }
@@ -92,6 +105,14 @@ pub struct DictionaryParams {
     pub oversampling: usize,
     /// `D`: the nominal spacing of level 1, px.
     pub half_width: f64,
+    /// Widths below this (px) are left out of the finest level (0: none).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub min_width: f64,
+}
+
+#[expect(clippy::trivially_copy_pass_by_ref, reason = "serde's skip_serializing_if signature")]
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// Invalid dictionary parameters.
@@ -215,7 +236,10 @@ impl DictionaryParams {
             )?;
             b
         } else {
-            let target = (opts.feature_factor * feature_width(kernel)).max(opts.min_sigma);
+            let mut target = (opts.feature_factor * feature_width(kernel)).max(opts.min_sigma);
+            if let Some(f) = opts.finest_at_most {
+                target = target.min(f);
+            }
             let mut b = 1;
             while b < MAX_LEVELS && opts.ratio * half_width / f64::powi(2.0, b as i32 - 1) > target
             {
@@ -229,6 +253,7 @@ impl DictionaryParams {
             sigmas_per_octave: opts.sigmas_per_octave,
             oversampling: opts.oversampling,
             half_width,
+            min_width: opts.min_width,
         };
         let atoms = p.atom_count(kernel.width(), kernel.height());
         if atoms > MAX_ATOMS {
@@ -262,7 +287,10 @@ impl DictionaryParams {
         let mut out = Vec::new();
         for l in 1..=self.levels {
             for j in (0..n).rev() {
-                out.push((l, self.sigma(l) * f64::powf(2.0, j as f64 / n as f64)));
+                let sigma = self.sigma(l) * f64::powf(2.0, j as f64 / n as f64);
+                if sigma >= self.min_width * (1.0 - 1e-9) || l == 1 {
+                    out.push((l, sigma));
+                }
             }
         }
         out
@@ -388,18 +416,33 @@ impl Dictionary {
     ///
     /// ```
     /// use ifd_planar::dictionary::{Dictionary, DictionaryParams};
-    /// let p = DictionaryParams { levels: 2, ratio: 0.5, sigmas_per_octave: 1, oversampling: 1, half_width: 8.0 };
+    /// let p = DictionaryParams { levels: 2, ratio: 0.5, sigmas_per_octave: 1, oversampling: 1, half_width: 8.0, min_width: 0.0 };
     /// let d = Dictionary::new(&p, 17, 17);
     /// assert_eq!(d.len(), 9 + 25); // 3x3 then 5x5 centred grids
     /// ```
     #[must_use]
     pub fn new(params: &DictionaryParams, width: usize, height: usize) -> Self {
+        Self::with_margin(params, width, height, 0)
+    }
+
+    /// As [`Dictionary::new`] for a `width x height` grid whose outer
+    /// `margin` pixels lie outside the kernel's window: the atoms sit on the
+    /// window's grid only, and are sampled over the whole grid (so that a
+    /// fit sees, and suppresses, what they add outside the window).
+    ///
+    /// ```
+    /// use ifd_planar::dictionary::{Dictionary, DictionaryParams};
+    /// let p = DictionaryParams { levels: 2, ratio: 0.5, sigmas_per_octave: 1, oversampling: 1, half_width: 8.0, min_width: 0.0 };
+    /// assert_eq!(Dictionary::with_margin(&p, 21, 21, 2).len(), Dictionary::new(&p, 17, 17).len());
+    /// ```
+    #[must_use]
+    pub fn with_margin(params: &DictionaryParams, width: usize, height: usize, margin: usize) -> Self {
         let (rx, ry) = (width / 2, height / 2);
         let mut groups = Vec::new();
         let mut offset = 0;
         for (level, sigma) in params.sigmas() {
-            let xs = params.grid(level, rx);
-            let ys = params.grid(level, ry);
+            let xs = params.grid(level, rx.saturating_sub(margin));
+            let ys = params.grid(level, ry.saturating_sub(margin));
             let px = xs
                 .iter()
                 .map(|&c| Profile::new(c + rx as f64, sigma, width))
@@ -679,6 +722,7 @@ mod tests {
             sigmas_per_octave: 2,
             oversampling: 1,
             half_width: 10.0,
+            min_width: 0.0,
         };
         Dictionary::new(&p, 21, 15)
     }

@@ -26,7 +26,10 @@ use rayon::prelude::*;
 
 use crate::border::Border;
 use crate::decomposition::Decomposition;
-use crate::stack::{Interpolation, ScaleStack, StackLayout, StackOptions, bspline_weights};
+use crate::kernel::Sampling;
+use crate::stack::{
+    Interpolation, MIN_SIGMA, ScaleStack, StackLayout, StackOptions, bspline_weights,
+};
 
 /// Errors of prefiltering, filtering and the brute-force references.
 #[derive(Debug, thiserror::Error)]
@@ -280,7 +283,26 @@ pub struct Filter<'a> {
     terms: Vec<Prepared>,
     sigma_lo: f64,
     sigma_hi: f64,
+    /// The stack's source image and the sigma below which (after scaling)
+    /// terms of a constant pose are evaluated directly on it.
+    direct: Option<(&'a Image, f64)>,
+    /// How the decomposition's kernel was sampled (the atoms' effective
+    /// sigma at each scale, [`Sampling::effective_sigma`]).
+    sampling: Sampling,
 }
+
+/// Below this many pixels (after scaling), [`Filter::with_direct`] evaluates
+/// a term of a constant pose directly: no interpolation of integer-sampled
+/// levels reproduces so narrow a Gaussian at a fractional position (the
+/// cubic B-spline is off by 0.15% per axis at 1.5 px, 1.3% at 1 px, 16% at
+/// 0.5 px), while its sampled kernel has at most `(2 ceil(5 sigma) + 3)^2`
+/// taps.
+pub const DIRECT_SIGMA: f64 = 1.5;
+
+/// Terms farther than this (px, after scaling) from the centre are read from
+/// the stack however narrow (the direct kernel would border-extend the image
+/// by as much).
+const MAX_DIRECT_REACH: f64 = 1024.0;
 
 impl<'a> Filter<'a> {
     /// Prepares `decomposition` for lookups into `stack`.
@@ -297,7 +319,60 @@ impl<'a> Filter<'a> {
             terms,
             sigma_lo,
             sigma_hi,
+            direct: None,
+            sampling: decomposition.sampling,
         })
+    }
+
+    /// Evaluates the terms of a constant pose whose scaled sigma is below
+    /// `below` px (normally [`DIRECT_SIGMA`]) directly on `source`, the image
+    /// the stack was built from: their sum of sampled Gaussians is
+    /// correlated with it as one small kernel, exactly, instead of being
+    /// interpolated from the stack. Per-pixel poses still read every term
+    /// from the stack.
+    ///
+    /// ```
+    /// use ifd_image::Image;
+    /// use ifd_planar::{Border, Decomposition, DIRECT_SIGMA, Field, Filter, StackOptions, Term};
+    /// use ifd_planar::{reference, stack_for_decomposition};
+    /// // A narrow atom at a fractional offset: interpolating the stack misses it.
+    /// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 0.5, y: 0.25, sigma: 0.7 }]);
+    /// let img = Image::from_vec(32, 32, 1, (0..1024).map(|i| ((i * 7919) % 101) as f32).collect())?;
+    /// let stack = stack_for_decomposition(&img, &d, 1.0, 1.0, Border::Reflect101, StackOptions::default())?;
+    /// let filter = Filter::new(&stack, &d)?.with_direct(&img, DIRECT_SIGMA)?;
+    /// let out = filter.apply(Field::Constant(0.0), Field::Constant(1.0))?;
+    /// let k = reference::sample_kernel(|u, v| d.eval(u, v), 0.0, 1.0, 6);
+    /// let want = reference::correlate(&img, &k, 13, 13, Border::Reflect101)?;
+    /// let err = out.data().iter().zip(want.data()).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+    /// assert!(err < 1e-3);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`FilterError::Shape`] when `source` is not the stack's shape,
+    /// [`FilterError::InvalidParameter`] for a negative or non-finite `below`.
+    pub fn with_direct(mut self, source: &'a Image, below: f64) -> Result<Self, FilterError> {
+        let s = self.stack;
+        if (source.width(), source.height(), source.channels())
+            != (s.width(), s.height(), s.channels())
+        {
+            return Err(FilterError::Shape(format!(
+                "source image is {}x{}x{}, the stack's {}x{}x{}",
+                source.width(),
+                source.height(),
+                source.channels(),
+                s.width(),
+                s.height(),
+                s.channels()
+            )));
+        }
+        if !(below.is_finite() && below >= 0.0) {
+            return Err(FilterError::InvalidParameter(format!(
+                "direct-evaluation threshold {below} px must be finite and non-negative"
+            )));
+        }
+        self.direct = Some((source, below));
+        Ok(self)
     }
 
     /// The stack the filter reads.
@@ -318,11 +393,31 @@ impl<'a> Filter<'a> {
         self.terms.is_empty()
     }
 
-    /// Checks that every `scale * sigma_t` is covered by the stack.
+    /// Checks that every effective sigma at scales in `[lo, hi]` is covered
+    /// by the stack.
     fn check_scales(&self, lo: f32, hi: f32, field: &Field<'_>) -> Result<(), FilterError> {
         let (min, max) = self.stack.sigma_range();
-        for (scale, term_sigma) in [(lo, self.sigma_lo), (hi, self.sigma_hi)] {
-            let needed = f64::from(scale) * term_sigma;
+        let (mut need_lo, mut need_hi) = sigma_bounds(
+            self.sampling,
+            (self.sigma_lo, self.sigma_hi),
+            (f64::from(lo), f64::from(hi)),
+        );
+        if let (Some((_, below)), true) = (self.direct, lo == hi) {
+            // At one scale, the terms evaluated directly need no level.
+            let read: Vec<f64> = self
+                .terms
+                .iter()
+                .map(|t| self.sampling.effective_sigma(t.sigma, f64::from(lo)))
+                .filter(|&s| s >= below)
+                .collect();
+            if read.is_empty() {
+                return Ok(());
+            }
+            need_lo = read.iter().copied().fold(f64::INFINITY, f64::min);
+            need_hi = read.iter().copied().fold(0.0, f64::max);
+        }
+        for (scale, term_sigma, needed) in [(lo, self.sigma_lo, need_lo), (hi, self.sigma_hi, need_hi)]
+        {
             if !self.stack.covers(needed) {
                 return Err(FilterError::ScaleOutOfRange {
                     scale: f64::from(scale),
@@ -356,10 +451,34 @@ impl<'a> Filter<'a> {
         let (lo, hi) = scale.validate("scale", w, h, true)?;
         self.check_scales(lo, hi, &scale)?;
         let out = match (angle, scale) {
-            (Field::Constant(theta), Field::Constant(s)) => Taps {
-                taps: self.taps(theta, s),
+            (Field::Constant(theta), Field::Constant(s)) => {
+                let below = self.direct.map_or(0.0, |(_, b)| b);
+                // Narrow terms, as long as their kernel stays small.
+                let narrow = |t: &Prepared| {
+                    let reach = f64::from(s) * f64::from(t.cx.hypot(t.cy));
+                    self.sampling.effective_sigma(t.sigma, f64::from(s)) < below
+                        && reach <= MAX_DIRECT_REACH
+                };
+                let taps = self.taps_where(theta, s, |t| !narrow(t));
+                let mut out = Taps { taps }.apply_region(self.stack, 0, 0, w, h)?;
+                if let Some((source, _)) = self.direct {
+                    let direct: Vec<Prepared> =
+                        self.terms.iter().copied().filter(|t| narrow(t)).collect();
+                    if !direct.is_empty() {
+                        let d = direct_correlation(
+                            source,
+                            &direct,
+                            (theta, s),
+                            self.sampling,
+                            self.stack.border(),
+                        )?;
+                        for (o, v) in out.iter_mut().zip(d.data()) {
+                            *o += v;
+                        }
+                    }
+                }
+                out
             }
-            .apply_region(self.stack, 0, 0, w, h)?,
             (angle, scale) => {
                 let mut out = vec![0.0f32; w * h * c];
                 match c {
@@ -429,45 +548,40 @@ impl<'a> Filter<'a> {
 
     /// Per term: `(level a, level b, weight a, weight b)` for scale `s`.
     fn term_levels(&self, s: f32) -> Vec<(usize, usize, f32, f32)> {
-        let ln_s = f64::from(s).ln();
+        let s = f64::from(s);
         self.terms
             .iter()
             .map(|t| {
-                let (a, b, wa, wb) = self.stack.locate_ln(ln_s + t.ln_sigma);
+                let sigma = self.sampling.effective_sigma(t.sigma, s);
+                let (a, b, wa, wb) = self.stack.locate_ln(sigma.ln());
                 (a, b, wa * t.weight, wb * t.weight)
             })
             .collect()
     }
 
-    /// All lookups for a constant angle and scale, zero weights dropped.
-    fn taps(&self, theta: f32, s: f32) -> Vec<Tap> {
-        self.taps_with_levels(theta, s, &self.term_levels(s))
+    /// The lookups for a constant angle and scale of the terms that `keep`,
+    /// zero weights dropped.
+    fn taps_where(&self, theta: f32, s: f32, keep: impl Fn(&Prepared) -> bool) -> Vec<Tap> {
+        let levels = self.term_levels(s);
+        let (terms, levels): (Vec<Prepared>, Vec<_>) = self
+            .terms
+            .iter()
+            .zip(levels)
+            .filter(|(t, _)| keep(t))
+            .map(|(t, l)| (*t, l))
+            .unzip();
+        taps_of(&terms, theta, s, &levels)
     }
 
-    /// As [`Self::taps`] with the term levels of `s` given.
+    /// The lookups of every term for a constant pose, with the term levels
+    /// of `s` given.
     fn taps_with_levels(
         &self,
         theta: f32,
         s: f32,
         levels: &[(usize, usize, f32, f32)],
     ) -> Vec<Tap> {
-        let (sin, cos) = theta.to_radians().sin_cos();
-        let mut taps = Vec::with_capacity(2 * self.terms.len());
-        for (t, &(a, b, wa, wb)) in self.terms.iter().zip(levels) {
-            let ox = s * (cos * t.cx + sin * t.cy);
-            let oy = s * (-sin * t.cx + cos * t.cy);
-            for (level, weight) in [(a, wa), (b, wb)] {
-                if weight != 0.0 {
-                    taps.push(Tap {
-                        level,
-                        ox,
-                        oy,
-                        weight,
-                    });
-                }
-            }
-        }
-        taps
+        taps_of(&self.terms, theta, s, levels)
     }
 
     /// Per-pixel angle and/or scale over the whole image. `C` is the channel
@@ -562,6 +676,9 @@ impl<'a> Filter<'a> {
         let (ln0, inv) = self.stack.ln_params();
         let last = self.stack.sigmas().len() - 1;
         let t_s = (f64::from(s).ln() - ln0) * inv;
+        // The pixel footprint's variance at this scale (usually 0).
+        let var = self.sampling.footprint_variance(f64::from(s));
+        let uniform = self.stack.is_uniform();
         let cs = cos * s;
         let ss = sin * s;
         let mut acc = [0.0f32; C];
@@ -572,7 +689,22 @@ impl<'a> Filter<'a> {
                 self.add::<C>(0, px, py, t.weight, &mut acc, out);
                 continue;
             }
-            let u = (t_s + t.ln_sigma * inv).clamp(0.0, last as f64);
+            if !uniform {
+                // Levels at given sigmas: bisection.
+                let sigma = self.sampling.effective_sigma(t.sigma, f64::from(s));
+                let (a, b, wa, wb) = self.stack.locate_ln(sigma.ln());
+                self.add::<C>(a, px, py, t.weight * wa, &mut acc, out);
+                if wb != 0.0 {
+                    self.add::<C>(b, px, py, t.weight * wb, &mut acc, out);
+                }
+                continue;
+            }
+            let ln_sigma = if var == 0.0 {
+                t_s + t.ln_sigma * inv
+            } else {
+                (self.sampling.effective_sigma(t.sigma, f64::from(s)).ln() - ln0) * inv
+            };
+            let u = ln_sigma.clamp(0.0, last as f64);
             let a = (u as usize).min(last - 1);
             let f = (u - a as f64) as f32;
             self.add::<C>(a, px, py, t.weight * (1.0 - f), &mut acc, out);
@@ -586,6 +718,100 @@ impl<'a> Filter<'a> {
             }
         }
     }
+}
+
+/// The lookups of `terms` (with their levels) for a constant pose, zero
+/// weights dropped.
+fn taps_of(
+    terms: &[Prepared],
+    theta: f32,
+    s: f32,
+    levels: &[(usize, usize, f32, f32)],
+) -> Vec<Tap> {
+    let (sin, cos) = theta.to_radians().sin_cos();
+    let mut taps = Vec::with_capacity(2 * terms.len());
+    for (t, &(a, b, wa, wb)) in terms.iter().zip(levels) {
+        let ox = s * (cos * t.cx + sin * t.cy);
+        let oy = s * (-sin * t.cx + cos * t.cy);
+        for (level, weight) in [(a, wa), (b, wb)] {
+            if weight != 0.0 {
+                taps.push(Tap {
+                    level,
+                    ox,
+                    oy,
+                    weight,
+                });
+            }
+        }
+    }
+    taps
+}
+
+/// The correlation of `source` with the sampled sum of the `terms`' Gaussians
+/// for a constant pose: `sum_t w_t g_{sigma_eff}(d - s R_theta c_t)` at
+/// integer offsets `d`, each term within `ceil(5 s sigma_t) + 1` px of its
+/// centre (its tail beyond is below `4e-6` of its peak), one row `axpy` per
+/// non-zero offset.
+fn direct_correlation(
+    source: &Image,
+    terms: &[Prepared],
+    (theta, s): (f32, f32),
+    sampling: Sampling,
+    border: Border,
+) -> Result<Image, FilterError> {
+    let (sin, cos) = f64::from(theta).to_radians().sin_cos();
+    let s = f64::from(s);
+    let centres: Vec<(f64, f64, f64, f64)> = terms
+        .iter()
+        .map(|t| {
+            let (cx, cy) = (f64::from(t.cx), f64::from(t.cy));
+            let ox = s * (cos * cx + sin * cy);
+            let oy = s * (-sin * cx + cos * cy);
+            let sigma = sampling.effective_sigma(t.sigma, s);
+            (ox, oy, sigma, f64::from(t.weight))
+        })
+        .collect();
+    let reach = |(ox, oy, sigma, _): (f64, f64, f64, f64)| {
+        let r = (5.0 * sigma).ceil() + 1.0;
+        (ox.abs().max(oy.abs()) + r).ceil() as usize
+    };
+    let radius = centres.iter().map(|&c| reach(c)).max().unwrap_or(0);
+    // The sampled kernel, sparse: (dx, dy) -> value.
+    let mut kernel = std::collections::BTreeMap::<(i64, i64), f64>::new();
+    for &(ox, oy, sigma, w) in &centres {
+        let r = (5.0 * sigma).ceil() + 1.0;
+        let norm = w / (std::f64::consts::TAU * sigma * sigma);
+        for dy in (oy - r).floor() as i64..=(oy + r).ceil() as i64 {
+            for dx in (ox - r).floor() as i64..=(ox + r).ceil() as i64 {
+                let (ex, ey) = (dx as f64 - ox, dy as f64 - oy);
+                let d2 = ex * ex + ey * ey;
+                if d2 <= r * r {
+                    *kernel.entry((dx, dy)).or_default() +=
+                        norm * (-d2 / (2.0 * sigma * sigma)).exp();
+                }
+            }
+        }
+    }
+    let (w, h, c) = (source.width(), source.height(), source.channels());
+    let (ext, ew) = crate::reference::extend(source, radius, radius, border);
+    let taps: Vec<(usize, usize, f32)> = kernel
+        .into_iter()
+        .map(|((dx, dy), v)| {
+            let i = (dx + radius as i64) as usize;
+            let j = (dy + radius as i64) as usize;
+            (i, j, v as f32)
+        })
+        .collect();
+    let mut out = vec![0.0f32; w * h * c];
+    out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+        for &(i, j, k) in &taps {
+            let src = &ext[((y + j) * ew + i) * c..((y + j) * ew + i + w) * c];
+            for (o, &v) in row.iter_mut().zip(src) {
+                *o += k * v;
+            }
+        }
+    });
+    Image::from_vec(w, h, c, out).map_err(|e| FilterError::Shape(e.to_string()))
 }
 
 /// A [`Filter`] at one fixed scale: the stack levels of every term are
@@ -966,6 +1192,11 @@ pub fn stack_plan_for_decomposition(
     }
     let sigma_lo = terms.iter().map(|t| t.sigma).fold(f64::INFINITY, f64::min);
     let sigma_hi = terms.iter().map(|t| t.sigma).fold(0.0, f64::max);
+    let (need_lo, need_hi) = sigma_bounds(
+        decomposition.sampling,
+        (sigma_lo, sigma_hi),
+        (f64::from(scale_min), f64::from(scale_max)),
+    );
     let reach = terms
         .iter()
         .map(|t| f64::from(t.cx).hypot(f64::from(t.cy)))
@@ -984,20 +1215,65 @@ pub fn stack_plan_for_decomposition(
         // slower than an extent-31 one). Store a margin covering the reach
         // as far as memory allows (`StackLayout::affordable_margin`).
         options.margin = StackLayout::affordable_margin(
-            width,
-            height,
-            channels,
-            f64::from(scale_min) * sigma_lo,
-            f64::from(scale_max) * sigma_hi,
-            options,
-            need,
+            width, height, channels, need_lo, need_hi, options, need,
         )?;
     }
-    Ok((
-        (
-            f64::from(scale_min) * sigma_lo,
-            f64::from(scale_max) * sigma_hi,
-        ),
-        options,
-    ))
+    Ok(((need_lo, need_hi), options))
+}
+
+/// The sigmas of the levels that filtering with `decomposition` at the
+/// constant scale `scale` reads, terms narrower than `direct_below` (after
+/// scaling) being evaluated directly ([`Filter::with_direct`]): the distinct
+/// effective sigmas of the others, increasing, for [`ScaleStack::with_sigmas`]
+/// (at least one level).
+///
+/// ```
+/// use ifd_planar::{Decomposition, Term, filter::level_sigmas};
+/// let t = |sigma| Term { weight: 1.0, x: 0.0, y: 0.0, sigma };
+/// let d = Decomposition::from_terms(vec![t(2.0), t(3.0), t(2.0), t(0.5)]);
+/// assert_eq!(level_sigmas(&d, 2.0, 1.5), vec![4.0, 6.0]);
+/// ```
+#[must_use]
+pub fn level_sigmas(decomposition: &Decomposition, scale: f32, direct_below: f64) -> Vec<f64> {
+    let s = f64::from(scale);
+    let all: Vec<f64> = decomposition
+        .terms
+        .iter()
+        .map(|t| decomposition.sampling.effective_sigma(t.sigma, s))
+        .collect();
+    let mut sigmas: Vec<f64> = all.iter().copied().filter(|&v| v >= direct_below).collect();
+    if sigmas.is_empty() {
+        // Every term is direct: one level, never read.
+        sigmas.push(all.iter().copied().fold(0.0, f64::max).max(MIN_SIGMA));
+    }
+    sigmas.sort_by(f64::total_cmp);
+    sigmas.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * *b);
+    sigmas
+}
+
+/// The smallest and largest effective sigma ([`Sampling::effective_sigma`])
+/// of atoms with sigmas in `[sigma_lo, sigma_hi]` at scales in `[s_lo,
+/// s_hi]`: the range a stack must cover.
+///
+/// ```
+/// use ifd_planar::{filter::sigma_bounds, kernel::Sampling};
+/// assert_eq!(sigma_bounds(Sampling::Continuous, (1.0, 4.0), (0.5, 2.0)), (0.5, 8.0));
+/// // Below scale 1 a point-sampled kernel is averaged over the pixel.
+/// let (lo, hi) = sigma_bounds(Sampling::Point, (1.0, 4.0), (0.5, 0.5));
+/// assert!((lo - (0.25f64 + 1.0 / 12.0).sqrt()).abs() < 1e-12);
+/// ```
+#[must_use]
+pub fn sigma_bounds(
+    sampling: Sampling,
+    (sigma_lo, sigma_hi): (f64, f64),
+    (s_lo, s_hi): (f64, f64),
+) -> (f64, f64) {
+    // The effective sigma grows with sigma and with the scale, except that
+    // a point-sampled kernel drops its pixel average at scale 1.
+    let lo = sampling.effective_sigma(sigma_lo, s_lo);
+    let mut hi = sampling.effective_sigma(sigma_hi, s_hi);
+    if sampling == Sampling::Point && s_lo < 1.0 && s_hi >= 1.0 {
+        hi = hi.max((sigma_hi * sigma_hi + Sampling::Point.footprint_variance(0.5)).sqrt());
+    }
+    (lo, hi)
 }

@@ -488,6 +488,16 @@ impl KernelSpec {
         Ok(())
     }
 
+    /// How [`KernelSpec::to_kernel`] samples the filter: pixel averages for
+    /// the hard-edged `box`, `line` and `disk`, pixel-centre values otherwise.
+    #[must_use]
+    pub fn sampling(&self) -> Sampling {
+        match self {
+            Self::Box { .. } | Self::Line { .. } | Self::Disk { .. } => Sampling::Area,
+            _ => Sampling::Point,
+        }
+    }
+
     /// The grid half-size `R`: the kernel is `(2R+1) x (2R+1)`.
     #[must_use]
     pub fn radius(&self) -> usize {
@@ -500,15 +510,64 @@ impl KernelSpec {
     /// [`KernelError::AllZero`] when the sampled filter vanishes (e.g. a tiny
     /// grid for a Gabor filter), [`KernelError::TooLarge`] for `R > MAX_RADIUS`.
     pub fn to_kernel(&self) -> Result<Kernel, KernelError> {
+        let (k, _) = self.sample(1)?;
+        Ok(k)
+    }
+
+    /// The same filter over the same extent, sampled `q` times more finely
+    /// (spacing `1/q` px: a `(2 R q + 1)^2` grid), each fine sample taken as
+    /// [`KernelSpec::to_kernel`] takes a pixel's (the value at the point, or
+    /// for hard-edged specs the average over the unit pixel centred there),
+    /// with the pixel grid's normalisation: a fit to it constrains the
+    /// continuous filter between pixel centres too (`decompose_oversampled`).
+    ///
+    /// ```
+    /// use ifd_planar::KernelSpec;
+    /// let spec: KernelSpec = "gauss:sx=3,sy=1".parse()?;
+    /// let (coarse, fine) = (spec.to_kernel()?, spec.to_kernel_fine(2)?);
+    /// assert_eq!((coarse.width(), fine.width()), (25, 49));
+    /// // Every other fine sample is a pixel-grid sample.
+    /// assert!((fine.get(4, 2) - coarse.get(2, 1)).abs() < 1e-15);
+    /// # Ok::<(), ifd_planar::KernelError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`KernelSpec::to_kernel`], and [`KernelError::TooLarge`] for `q`
+    /// outside `1..=8` or a fine grid past `MAX_RADIUS`.
+    pub fn to_kernel_fine(&self, q: usize) -> Result<Kernel, KernelError> {
+        if !(1..=8).contains(&q) {
+            return Err(KernelError::TooLarge {
+                radius: self.radius_f() * q as f64,
+            });
+        }
+        let (_, norm) = self.sample(1)?;
+        let (mut k, _) = self.sample_scaled(q, Some(norm))?;
+        k.spec = Some(self.to_string());
+        Ok(k)
+    }
+
+    /// [`Self::sample_scaled`] at `q` with its own normalisation.
+    fn sample(&self, q: usize) -> Result<(Kernel, f64), KernelError> {
+        self.sample_scaled(q, None)
+    }
+
+    /// Samples on the grid of spacing `1/q` px; normalises by `norm` when
+    /// given, else (for normalised specs) by the grid's own sum. Returns the
+    /// kernel and the factor applied.
+    fn sample_scaled(&self, q: usize, norm: Option<f64>) -> Result<(Kernel, f64), KernelError> {
         self.check_size()?;
-        let r = self.radius();
+        let r = self.radius() * q;
+        if r > MAX_RADIUS * 2 {
+            return Err(KernelError::TooLarge { radius: r as f64 });
+        }
         let n = 2 * r + 1;
         let rf = r as f64;
+        let qf = q as f64;
         let mut data = vec![0.0; n * n];
         let pixel = |f: &dyn Fn(f64, f64) -> f64, data: &mut Vec<f64>| {
             for row in 0..n {
                 for col in 0..n {
-                    data[row * n + col] = f(col as f64 - rf, row as f64 - rf);
+                    data[row * n + col] = f((col as f64 - rf) / qf, (row as f64 - rf) / qf);
                 }
             }
         };
@@ -516,11 +575,12 @@ impl KernelSpec {
             let ss = SUPERSAMPLE as f64;
             for row in 0..n {
                 for col in 0..n {
+                    let (cx, cy) = ((col as f64 - rf) / qf, (row as f64 - rf) / qf);
                     let mut count = 0usize;
                     for sy in 0..SUPERSAMPLE {
                         for sx in 0..SUPERSAMPLE {
-                            let x = col as f64 - rf - 0.5 + (sx as f64 + 0.5) / ss;
-                            let y = row as f64 - rf - 0.5 + (sy as f64 + 0.5) / ss;
+                            let x = cx - 0.5 + (sx as f64 + 0.5) / ss;
+                            let y = cy - 0.5 + (sy as f64 + 0.5) / ss;
                             if inside(x, y) {
                                 count += 1;
                             }
@@ -613,17 +673,18 @@ impl KernelSpec {
                 normalise = true;
             }
         }
+        let mut factor = 1.0;
         if normalise {
             let sum: f64 = data.iter().sum();
-            if sum > 0.0 {
-                for v in &mut data {
-                    *v /= sum;
-                }
+            factor = norm.unwrap_or(if sum > 0.0 { 1.0 / sum } else { 1.0 });
+            for v in &mut data {
+                *v *= factor;
             }
         }
         let mut k = Kernel::new(n, n, data)?;
         k.spec = Some(self.to_string());
-        Ok(k)
+        k.sampling = self.sampling();
+        Ok((k, factor))
     }
 }
 
@@ -691,6 +752,71 @@ pub struct Kernel {
     height: usize,
     data: Vec<f64>,
     spec: Option<String>,
+    sampling: Sampling,
+}
+
+/// How a kernel's values relate to the continuous filter they sample, which
+/// decides how its decomposition is applied at other scales
+/// ([`Sampling::footprint_variance`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Sampling {
+    /// The decomposition is a continuous filter in its own right (terms
+    /// given directly, the smoother's and the Hessian's Gaussians): applied
+    /// at any scale as its scaled sum of Gaussians sampled at pixel centres.
+    #[default]
+    Continuous,
+    /// Values of the continuous filter at pixel centres (smooth built-in
+    /// specs, kernels read from files).
+    Point,
+    /// Averages of the continuous filter over each pixel (hard-edged specs:
+    /// `box`, `line`, `disk`).
+    Area,
+}
+
+impl Sampling {
+    /// The variance (px^2) added to every atom at scale `s`:
+    /// `sigma_eff^2 = (s sigma)^2 + footprint_variance(s)`.
+    ///
+    /// `ifd filter` applies at scale `s` the continuous filter scaled by `s`,
+    /// averaged over each output pixel where the kernel was fitted that way
+    /// (`Area`) or where `s < 1` (a kernel shrunk below its sampling would
+    /// alias), and sampled at pixel centres otherwise. Averaging over a pixel
+    /// is, to second order, a Gaussian blur of variance `1/12` px^2 per axis;
+    /// a decomposition fitted to pixel averages already carries that blur,
+    /// scaled by `s` (variance `s^2 / 12`). Hence
+    /// `target - s^2 fitted`, with `target` and `fitted` each `1/12` or `0`:
+    /// `(1 - s^2) / 12` for `Area`, `1/12` below scale 1 for `Point`, and `0`
+    /// otherwise.
+    ///
+    /// ```
+    /// use ifd_planar::kernel::Sampling;
+    /// assert_eq!(Sampling::Point.footprint_variance(2.0), 0.0);
+    /// assert_eq!(Sampling::Point.footprint_variance(0.5), 1.0 / 12.0);
+    /// assert_eq!(Sampling::Area.footprint_variance(1.0), 0.0);
+    /// assert!((Sampling::Area.footprint_variance(2.0) + 0.25).abs() < 1e-12);
+    /// assert_eq!(Sampling::Continuous.footprint_variance(0.5), 0.0);
+    /// ```
+    #[must_use]
+    pub fn footprint_variance(self, s: f64) -> f64 {
+        const BOX: f64 = 1.0 / 12.0;
+        match self {
+            Self::Continuous => 0.0,
+            Self::Point if s < 1.0 => BOX,
+            Self::Point => 0.0,
+            Self::Area => BOX * (1.0 - s * s),
+        }
+    }
+
+    /// The effective standard deviation of an atom of `sigma` at scale `s`:
+    /// `sqrt((s sigma)^2 + footprint_variance(s))`, kept at least `s sigma / 2`.
+    #[must_use]
+    pub fn effective_sigma(self, sigma: f64, s: f64) -> f64 {
+        let ss = s * sigma;
+        (ss * ss + self.footprint_variance(s))
+            .max(0.25 * ss * ss)
+            .sqrt()
+    }
 }
 
 impl Kernel {
@@ -741,6 +867,7 @@ impl Kernel {
             height,
             data,
             spec: None,
+            sampling: Sampling::Point,
         })
     }
 
@@ -760,6 +887,33 @@ impl Kernel {
             image.height(),
             image.data().iter().map(|&v| f64::from(v)).collect(),
         )
+    }
+
+    /// The kernel with `m` rows and columns of zeros added on every side (the
+    /// same spec and sampling).
+    ///
+    /// ```
+    /// use ifd_planar::Kernel;
+    /// let k = Kernel::new(3, 1, vec![1.0, 2.0, 3.0])?.padded(2);
+    /// assert_eq!((k.width(), k.height()), (7, 5));
+    /// assert_eq!((k.get(1, 0), k.get(3, 0), k.get(0, 2)), (3.0, 0.0, 0.0));
+    /// # Ok::<(), ifd_planar::KernelError>(())
+    /// ```
+    #[must_use]
+    pub fn padded(&self, m: usize) -> Self {
+        let (w, h) = (self.width + 2 * m, self.height + 2 * m);
+        let mut data = vec![0.0; w * h];
+        for (row, src) in self.data.chunks_exact(self.width).enumerate() {
+            let start = (row + m) * w + m;
+            data[start..start + self.width].copy_from_slice(src);
+        }
+        Self {
+            width: w,
+            height: h,
+            data,
+            spec: self.spec.clone(),
+            sampling: self.sampling,
+        }
     }
 
     /// Width in pixels (odd).
@@ -801,6 +955,13 @@ impl Kernel {
     /// Sets or clears the spec string recorded with the kernel.
     pub fn set_spec(&mut self, spec: Option<String>) {
         self.spec = spec;
+    }
+
+    /// How the values sample the continuous filter: [`Sampling::Area`] for
+    /// the hard-edged built-in specs, [`Sampling::Point`] otherwise.
+    #[must_use]
+    pub fn sampling(&self) -> Sampling {
+        self.sampling
     }
 
     /// The sample at offset `(dx, dy)` from the centre; zero outside the kernel.

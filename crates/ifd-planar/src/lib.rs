@@ -39,7 +39,7 @@ pub mod reference;
 pub mod stack;
 pub mod stack_refresh;
 
-pub use accuracy::EvalPlan;
+pub use accuracy::{EvalPlan, PlanOptions};
 pub use decomposition::{Decomposition, Term};
 pub use fit::{DecomposeError, DecomposeOptions, FitReport, decompose};
 pub use kernel::{Kernel, KernelError, KernelSpec};
@@ -47,7 +47,7 @@ pub use plot::render_plot;
 
 pub use border::Border;
 pub use filter::{
-    Field, Filter, FilterError, Rotation, ScaledFilter, Taps, stack_for_decomposition,
+    DIRECT_SIGMA, Field, Filter, FilterError, Rotation, ScaledFilter, Taps, stack_for_decomposition,
     stack_plan_for_decomposition,
 };
 pub use stack::{Interpolation, LevelLayout, ScaleStack, StackLayout, StackOptions};

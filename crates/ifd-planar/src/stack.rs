@@ -202,6 +202,8 @@ pub struct StackLayout {
     fft_width: usize,
     fft_height: usize,
     interpolation: Interpolation,
+    /// Levels log-uniformly spaced (else at given sigmas).
+    uniform: bool,
 }
 
 impl StackLayout {
@@ -329,6 +331,57 @@ impl StackLayout {
                 }
             })
             .collect();
+        Self::from_sigmas(width, height, channels, &sigmas, options, true)
+    }
+
+    /// The layout of a stack whose levels are exactly `sigmas` (increasing,
+    /// at most 256): for a filter applied at one constant scale, levels at
+    /// the sigmas its terms need make every lookup hit a level, with no
+    /// interpolation in `ln sigma`. Such a stack serves constant scales
+    /// only ([`ScaleStack::is_uniform`]).
+    ///
+    /// ```
+    /// use ifd_planar::{StackLayout, StackOptions};
+    /// let l = StackLayout::with_sigmas(64, 64, 1, &[1.3, 2.0, 2.1, 7.5], StackOptions::default())?;
+    /// assert_eq!(l.levels().len(), 4);
+    /// assert!(StackLayout::with_sigmas(64, 64, 1, &[2.0, 1.0], StackOptions::default()).is_err());
+    /// # Ok::<(), ifd_planar::FilterError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`StackLayout::new`], and [`FilterError::InvalidRange`] for sigmas
+    /// that are not strictly increasing or too many.
+    pub fn with_sigmas(
+        width: usize,
+        height: usize,
+        channels: usize,
+        sigmas: &[f64],
+        options: StackOptions,
+    ) -> Result<Self, FilterError> {
+        let (lo, hi) = match (sigmas.first(), sigmas.last()) {
+            (Some(&lo), Some(&hi)) => (lo, hi),
+            _ => return Err(FilterError::InvalidRange("no sigmas given".into())),
+        };
+        // The checks of `new` (sizes, range, options).
+        Self::new(width, height, channels, lo, hi, options)?;
+        if sigmas.len() > 256 || sigmas.windows(2).any(|p| p[1] <= p[0]) {
+            return Err(FilterError::InvalidRange(format!(
+                "{} level sigmas must be strictly increasing and at most 256",
+                sigmas.len()
+            )));
+        }
+        Self::from_sigmas(width, height, channels, sigmas, options, false)
+    }
+
+    fn from_sigmas(
+        width: usize,
+        height: usize,
+        channels: usize,
+        sigmas: &[f64],
+        options: StackOptions,
+        uniform: bool,
+    ) -> Result<Self, FilterError> {
+        let sigma_max = sigmas[sigmas.len() - 1];
         let margin = options.margin;
         let levels: Vec<LevelLayout> = sigmas
             .iter()
@@ -398,6 +451,7 @@ impl StackLayout {
             fft_width,
             fft_height,
             interpolation: options.interpolation,
+            uniform,
         })
     }
 
@@ -479,8 +533,10 @@ pub struct ScaleStack {
     border: Border,
     sigmas: Vec<f64>,
     ln_sigma0: f64,
-    /// `1 / ln(r)`, 0 for a single level.
+    /// `1 / ln(r)`, 0 for a single level; NaN for levels at given sigmas.
     inv_ln_ratio: f64,
+    /// `ln sigma` of every level (for stacks with levels at given sigmas).
+    ln_sigmas: Vec<f64>,
     interpolation: Interpolation,
     pub(crate) levels: Vec<Level>,
 }
@@ -530,6 +586,29 @@ impl ScaleStack {
         options: StackOptions,
     ) -> Result<Self, FilterError> {
         let layout = StackLayout::new(width, height, channels, sigma_min, sigma_max, options)?;
+        Self::build(&layout, data, border)
+    }
+
+    /// Prefilters `image` (every channel) with exactly the Gaussians
+    /// `sigmas` (strictly increasing, px): see [`StackLayout::with_sigmas`].
+    /// A lookup at a level's sigma reads that level alone.
+    ///
+    /// # Errors
+    /// As [`ScaleStack::from_interleaved`] and [`StackLayout::with_sigmas`].
+    pub fn with_sigmas(
+        image: &Image,
+        sigmas: &[f64],
+        border: Border,
+        options: StackOptions,
+    ) -> Result<Self, FilterError> {
+        let (w, h, c) = (image.width(), image.height(), image.channels());
+        let layout = StackLayout::with_sigmas(w, h, c, sigmas, options)?;
+        Self::build(&layout, image.data(), border)
+    }
+
+    /// Prefilters interleaved samples into the levels of `layout`.
+    fn build(layout: &StackLayout, data: &[f32], border: Border) -> Result<Self, FilterError> {
+        let (width, height, channels) = (layout.width, layout.height, layout.channels);
         let expected = width * height * channels;
         if data.len() != expected {
             return Err(FilterError::Shape(format!(
@@ -551,14 +630,17 @@ impl ScaleStack {
                 data: vec![0.0; l.nx * l.ny * channels],
             })
             .collect();
-        build_levels(&layout, data, border, &mut levels);
+        build_levels(layout, data, border, &mut levels);
         let sigmas: Vec<f64> = layout.levels.iter().map(|l| l.sigma).collect();
         let ln_sigma0 = sigmas[0].ln();
-        let inv_ln_ratio = if sigmas.len() > 1 {
+        let inv_ln_ratio = if !layout.uniform {
+            f64::NAN
+        } else if sigmas.len() > 1 {
             (sigmas.len() - 1) as f64 / (sigmas[sigmas.len() - 1].ln() - ln_sigma0)
         } else {
             0.0
         };
+        let ln_sigmas = sigmas.iter().map(|s| s.ln()).collect();
         Ok(Self {
             width,
             height,
@@ -567,6 +649,7 @@ impl ScaleStack {
             sigmas,
             ln_sigma0,
             inv_ln_ratio,
+            ln_sigmas,
             interpolation: layout.interpolation,
             levels,
         })
@@ -622,6 +705,14 @@ impl ScaleStack {
             .sum()
     }
 
+    /// Whether the levels are log-uniformly spaced ([`ScaleStack::new`]),
+    /// which per-pixel scales and the GPU path need, rather than at given
+    /// sigmas ([`ScaleStack::with_sigmas`]).
+    #[must_use]
+    pub fn is_uniform(&self) -> bool {
+        !self.inv_ln_ratio.is_nan()
+    }
+
     /// How the levels are read between their samples (what they store:
     /// samples for [`Interpolation::Linear`], B-spline coefficients for
     /// [`Interpolation::Cubic`]).
@@ -643,6 +734,20 @@ impl ScaleStack {
         let n = self.sigmas.len() - 1;
         if n == 0 {
             return (0, 0, 1.0, 0.0);
+        }
+        if !self.is_uniform() {
+            // Levels at given sigmas: the bracketing pair by bisection, linear
+            // in ln sigma between them (exact on a level, to 1e-9).
+            let l = &self.ln_sigmas;
+            let i = l.partition_point(|&v| v <= ln_sigma).clamp(1, n) - 1;
+            let f = ((ln_sigma - l[i]) / (l[i + 1] - l[i])).clamp(0.0, 1.0);
+            if f < 1e-9 {
+                return (i, i + 1, 1.0, 0.0);
+            }
+            if f > 1.0 - 1e-9 {
+                return (i, i + 1, 0.0, 1.0);
+            }
+            return (i, i + 1, (1.0 - f) as f32, f as f32);
         }
         let t = ((ln_sigma - self.ln_sigma0) * self.inv_ln_ratio).clamp(0.0, n as f64);
         let i = (t.floor() as usize).min(n - 1);
@@ -920,7 +1025,8 @@ impl ScaleStack {
 
     /// `(ln sigma_0, 1 / ln r)`: sigma lies at fractional level
     /// `(ln sigma - ln sigma_0) / ln r`, clamped to the levels (`1 / ln r` is
-    /// 0 for a one-level stack).
+    /// 0 for a one-level stack, NaN for levels at given sigmas, which have no
+    /// such formula: see [`ScaleStack::is_uniform`]).
     #[must_use]
     pub fn ln_sigma_params(&self) -> (f64, f64) {
         self.ln_params()

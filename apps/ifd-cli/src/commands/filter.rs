@@ -6,8 +6,8 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use ifd_planar::{
-    Border, Decomposition, EvalPlan, Field, Filter as IfdFilter, Interpolation, ScaleStack,
-    StackOptions, stack_plan_for_decomposition,
+    Border, DIRECT_SIGMA, Decomposition, EvalPlan, Field, Filter as IfdFilter, Interpolation,
+    PlanOptions, ScaleStack, StackOptions, stack_plan_for_decomposition,
 };
 
 use crate::input::{InputOptions, write_output};
@@ -32,13 +32,16 @@ pub struct Filter {
         allow_hyphen_values = true
     )]
     angle: Option<f32>,
-    /// Per-pixel rotation in degrees: an HxW .npy (or any single-channel image) of the image's size.
+    /// Per-pixel rotation in degrees: an HxW .npy (or float EXR/TIFF) of the
+    /// image's size, read as data (integer PNG/JPEG/TIFF are refused: they
+    /// store image values in [0, 1]).
     #[arg(long, value_name = "NPY")]
     angle_map: Option<PathBuf>,
     /// Scale factor for every pixel.
     #[arg(long, value_name = "S", conflicts_with = "scale_map")]
     scale: Option<f32>,
-    /// Per-pixel scale factors: an HxW .npy of the image's size.
+    /// Per-pixel scale factors: an HxW .npy (or float EXR/TIFF) of the
+    /// image's size, read as data.
     #[arg(long, value_name = "NPY")]
     scale_map: Option<PathBuf>,
     /// Border handling: reflect101 (OpenCV's default), constant[:VALUE], replicate, wrap.
@@ -84,7 +87,7 @@ enum InterpChoice {
 }
 
 fn load_map(input: &InputOptions, path: &Path, what: &str, w: usize, h: usize) -> Result<Vec<f32>> {
-    let img = input.read(path)?.image;
+    let img = input.read_map(path, what)?;
     if img.channels() != 1 {
         bail!(
             "{what} {} has {} channels, expected 1",
@@ -217,23 +220,23 @@ impl Filter {
             None => Field::Constant(smin),
         };
         let c = image.channels();
-        let plan = match self.interp {
-            InterpChoice::Auto => EvalPlan::choose(&decomposition, smin, smax, self.eval_budget),
-            InterpChoice::Linear => EvalPlan::choose_for(
-                &decomposition,
-                smin,
-                smax,
-                self.eval_budget,
-                Interpolation::Linear,
-            ),
-            InterpChoice::Cubic => EvalPlan::choose_for(
-                &decomposition,
-                smin,
-                smax,
-                self.eval_budget,
-                Interpolation::Cubic,
-            ),
-        }
+        // A constant pose evaluates terms narrower than DIRECT_SIGMA directly
+        // (on the CPU).
+        let constant_pose = angle_map.is_none() && scale_map.is_none() && !self.gpu;
+        let plan = EvalPlan::choose(
+            &decomposition,
+            smin,
+            smax,
+            PlanOptions {
+                budget: self.eval_budget,
+                interpolation: match self.interp {
+                    InterpChoice::Auto => None,
+                    InterpChoice::Linear => Some(Interpolation::Linear),
+                    InterpChoice::Cubic => Some(Interpolation::Cubic),
+                },
+                direct_sigma: if constant_pose { DIRECT_SIGMA } else { 0.0 },
+            },
+        )
         .context("--eval-budget")?;
         let ((lo, hi), stack_options) = stack_plan_for_decomposition(
             (w, h, c),
@@ -257,8 +260,15 @@ impl Filter {
             None
         };
         let t0 = Instant::now();
-        let stack =
-            ScaleStack::new(&image, lo, hi, border, stack_options).context("prefiltering")?;
+        // At one constant pose (on the CPU), levels at exactly the sigmas the
+        // terms read: no interpolation in ln sigma.
+        let stack = if constant_pose {
+            let sigmas = ifd_planar::filter::level_sigmas(&decomposition, smin, plan.direct_sigma);
+            ScaleStack::with_sigmas(&image, &sigmas, border, stack_options)
+        } else {
+            ScaleStack::new(&image, lo, hi, border, stack_options)
+        }
+        .context("prefiltering")?;
         let t1 = Instant::now();
         let out = if let Some((ctx, device)) = &gpu {
             filter_gpu(
@@ -271,16 +281,25 @@ impl Filter {
             )?
         } else {
             IfdFilter::new(&stack, &decomposition)?
+                .with_direct(&image, plan.direct_sigma)?
                 .apply(angle, scale)
                 .context("filtering")?
         };
         let t2 = Instant::now();
         if self.verbose {
             eprintln!(
-                "evaluation: {} interpolation, pyramid factor {}; bound on its error \
-                 {:.3}% (amplification {:.1}; measured errors are lower)",
+                "evaluation: {} interpolation, pyramid factor {}, {} terms direct; bound on its \
+                 error {:.3}% (amplification {:.1}; measured errors are lower)",
                 plan.interpolation.name(),
                 plan.pyramid_factor,
+                decomposition
+                    .terms
+                    .iter()
+                    .filter(|t| {
+                        decomposition.sampling.effective_sigma(t.sigma, f64::from(smin))
+                            < plan.direct_sigma
+                    })
+                    .count(),
                 100.0 * plan.error_bound,
                 plan.amplification
             );
