@@ -416,7 +416,8 @@ impl<'a> Filter<'a> {
             need_lo = read.iter().copied().fold(f64::INFINITY, f64::min);
             need_hi = read.iter().copied().fold(0.0, f64::max);
         }
-        for (scale, term_sigma, needed) in [(lo, self.sigma_lo, need_lo), (hi, self.sigma_hi, need_hi)]
+        for (scale, term_sigma, needed) in
+            [(lo, self.sigma_lo, need_lo), (hi, self.sigma_hi, need_hi)]
         {
             if !self.stack.covers(needed) {
                 return Err(FilterError::ScaleOutOfRange {

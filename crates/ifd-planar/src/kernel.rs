@@ -801,9 +801,8 @@ impl Sampling {
     pub fn footprint_variance(self, s: f64) -> f64 {
         const BOX: f64 = 1.0 / 12.0;
         match self {
-            Self::Continuous => 0.0,
             Self::Point if s < 1.0 => BOX,
-            Self::Point => 0.0,
+            Self::Continuous | Self::Point => 0.0,
             Self::Area => BOX * (1.0 - s * s),
         }
     }

@@ -47,8 +47,8 @@ pub use plot::render_plot;
 
 pub use border::Border;
 pub use filter::{
-    DIRECT_SIGMA, Field, Filter, FilterError, Rotation, ScaledFilter, Taps, stack_for_decomposition,
-    stack_plan_for_decomposition,
+    DIRECT_SIGMA, Field, Filter, FilterError, Rotation, ScaledFilter, Taps,
+    stack_for_decomposition, stack_plan_for_decomposition,
 };
 pub use stack::{Interpolation, LevelLayout, ScaleStack, StackLayout, StackOptions};
 pub use stack_refresh::{FixedTap, PixelRect, RefreshReport};

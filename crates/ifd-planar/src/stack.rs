@@ -358,9 +358,8 @@ impl StackLayout {
         sigmas: &[f64],
         options: StackOptions,
     ) -> Result<Self, FilterError> {
-        let (lo, hi) = match (sigmas.first(), sigmas.last()) {
-            (Some(&lo), Some(&hi)) => (lo, hi),
-            _ => return Err(FilterError::InvalidRange("no sigmas given".into())),
+        let (Some(&lo), Some(&hi)) = (sigmas.first(), sigmas.last()) else {
+            return Err(FilterError::InvalidRange("no sigmas given".into()));
         };
         // The checks of `new` (sizes, range, options).
         Self::new(width, height, channels, lo, hi, options)?;

@@ -115,7 +115,7 @@ impl Decompose {
                 .unwrap_or_else(|_| ProgressStyle::default_spinner()),
         );
         let tick = |iter: usize, objective: f64, nnz: usize| {
-            if iter % 10 == 0 {
+            if iter.is_multiple_of(10) {
                 bar.set_message(format!(
                     "iteration {iter}, objective {objective:.3e}, {nnz} non-zero"
                 ));
@@ -170,8 +170,8 @@ fn report(d: &Decomposition, as_json: bool) -> Result<()> {
             "dictionary_atoms": r.dictionary_atoms,
             "oversample": r.oversample,
             "kernel_sum": r.kernel_sum,
-            "dc_gain": d.terms.iter().map(|t| t.weight).sum::<f64>(),
-            "full_plane_dc_error": r.full_plane_dc_error(d),
+            "dc_gain": r.dc_gain,
+            "full_plane_dc_error": r.full_plane_dc_error(),
             "fine_rel_l2_error": r.fine_rel_l2_error,
             "kernel_size": d.kernel_size,
             "spec": d.spec,
@@ -201,10 +201,9 @@ fn report(d: &Decomposition, as_json: bool) -> Result<()> {
         }
         println!("max error     {:.3}% of max |k|", 100.0 * r.max_error);
         println!("DC error      {:.3e} (in the window)", r.dc_error);
-        if let (Some(e), Some(k)) = (r.full_plane_dc_error(d), r.kernel_sum) {
+        if let (Some(e), Some(k), Some(g)) = (r.full_plane_dc_error(), r.kernel_sum, r.dc_gain) {
             println!(
-                "DC gain       {:.6} (kernel {k:.6}): a constant image changes by {e:.3e} of its value",
-                d.terms.iter().map(|t| t.weight).sum::<f64>()
+                "DC gain       {g:.6} (kernel {k:.6}): a constant image changes by {e:.3e} of its value"
             );
         }
         println!("iterations    {}", r.iterations);
