@@ -224,42 +224,7 @@ fn bilinear(li: u32, x: f32, y: f32) -> vec4<f32> {
         let r1 = b0 + fu * (b1 - b0);
         return r0 + fv * (r1 - r0);
     }
-    // Slow path: resolve the coordinates by the border mode.
-    let lo = lv.origin;
-    let hi_x = lo + f32(lv.nx - 1u) * lv.step;
-    let hi_y = lo + f32(lv.ny - 1u) * lv.step;
-    let mx = map_coord(x, params.width, lo, hi_x);
-    let my = map_coord(y, params.height, lo, hi_y);
-    let mu = (mx - lo) * lv.inv_step;
-    let mv = (my - lo) * lv.inv_step;
-    let fiu = floor(mu);
-    let fiv = floor(mv);
-    let fu = mu - fiu;
-    let fv = mv - fiv;
-    let is_constant = params.border_mode == BORDER_CONSTANT;
-    let nxi = i32(lv.nx);
-    let nyi = i32(lv.ny);
-    var acc = vec4<f32>(0.0);
-    for (var corner = 0u; corner < 4u; corner++) {
-        let dx = i32(corner & 1u);
-        let dy = i32(corner >> 1u);
-        var w = select(1.0 - fu, fu, dx == 1) * select(1.0 - fv, fv, dy == 1);
-        if w == 0.0 {
-            continue;
-        }
-        var ix = i32(fiu) + dx;
-        var iy = i32(fiv) + dy;
-        let inside = ix >= 0 && ix < nxi && iy >= 0 && iy < nyi;
-        if !inside && is_constant {
-            acc += vec4<f32>(w * params.border_value);
-            continue;
-        }
-        ix = clamp(ix, 0, nxi - 1);
-        iy = clamp(iy, 0, nyi - 1);
-        let base = lv.offset + u32(iy) * lv.nx + u32(ix);
-        acc += w * texel(base, lv.plane, nc);
-    }
-    return acc;
+    return lookup_outside(li, x, y, false);
 }
 
 // Cubic B-spline weights of the samples at -1, 0, 1, 2 for fraction t
@@ -298,31 +263,48 @@ fn cubic(li: u32, x: f32, y: f32) -> vec4<f32> {
         }
         return acc;
     }
-    // Slow path: resolve the coordinates by the border mode so that the
-    // footprint is stored, then clamp or replace by the constant.
+    return lookup_outside(li, x, y, true);
+}
+
+// Slow path of both lookups (ScaleStack::accumulate_outside): resolve (x, y)
+// by the border mode so that the footprint (2x2 bilinear, 4x4 cubic) is
+// stored, then read each of its samples, clamped to the stored region or
+// replaced by the constant.
+fn lookup_outside(li: u32, x: f32, y: f32, is_cubic: bool) -> vec4<f32> {
+    let lv = levels[li];
+    let nc = params.chunk_nc;
     let lo = lv.origin;
-    let first = lo + lv.step;
-    let hi_x = lo + f32(lv.nx - 2u) * lv.step;
-    let hi_y = lo + f32(lv.ny - 2u) * lv.step;
+    // Stored samples the footprint reads before and after the one below.
+    let before = select(0u, 1u, is_cubic);
+    let after = select(1u, 2u, is_cubic);
+    let first = lo + f32(before) * lv.step;
+    let hi_x = lo + f32(lv.nx - after) * lv.step;
+    let hi_y = lo + f32(lv.ny - after) * lv.step;
     let mx = map_coord(x, params.width, first, hi_x);
     let my = map_coord(y, params.height, first, hi_y);
     let mu = (mx - lo) * lv.inv_step;
     let mv = (my - lo) * lv.inv_step;
     let fiu = floor(mu);
     let fiv = floor(mv);
-    let wx = bspline(mu - fiu);
-    let wy = bspline(mv - fiv);
+    var wx = vec4<f32>(1.0 - (mu - fiu), mu - fiu, 0.0, 0.0);
+    var wy = vec4<f32>(1.0 - (mv - fiv), mv - fiv, 0.0, 0.0);
+    if is_cubic {
+        wx = bspline(mu - fiu);
+        wy = bspline(mv - fiv);
+    }
+    let n = i32(before + after + 1u);
     let is_constant = params.border_mode == BORDER_CONSTANT;
     let nxi = i32(lv.nx);
     let nyi = i32(lv.ny);
-    for (var j = 0; j < 4; j++) {
-        for (var i = 0; i < 4; i++) {
+    var acc = vec4<f32>(0.0);
+    for (var j = 0; j < n; j++) {
+        for (var i = 0; i < n; i++) {
             let w = wx[i] * wy[j];
             if w == 0.0 {
                 continue;
             }
-            var ix = i32(fiu) + i - 1;
-            var iy = i32(fiv) + j - 1;
+            var ix = i32(fiu) + i - i32(before);
+            var iy = i32(fiv) + j - i32(before);
             let inside = ix >= 0 && ix < nxi && iy >= 0 && iy < nyi;
             if !inside && is_constant {
                 acc += vec4<f32>(w * params.border_value);

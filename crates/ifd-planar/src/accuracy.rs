@@ -235,15 +235,7 @@ impl EvalPlan {
                 "the decomposition has no terms".into(),
             ));
         }
-        if !(scale_min.is_finite()
-            && scale_max.is_finite()
-            && scale_min > 0.0
-            && scale_min <= scale_max)
-        {
-            return Err(FilterError::InvalidParameter(format!(
-                "scale range [{scale_min}, {scale_max}] must be finite, positive and increasing"
-            )));
-        }
+        crate::filter::check_scale_range(scale_min, scale_max)?;
         let norm = kernel_norm(decomposition);
         if !(norm.is_finite() && norm > 0.0) {
             return Err(FilterError::InvalidParameter(format!(

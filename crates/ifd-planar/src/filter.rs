@@ -1182,15 +1182,7 @@ pub fn stack_plan_for_decomposition(
     options: StackOptions,
 ) -> Result<((f64, f64), StackOptions), FilterError> {
     let terms = prepare_terms(decomposition)?;
-    if !(scale_min.is_finite()
-        && scale_max.is_finite()
-        && scale_min > 0.0
-        && scale_min <= scale_max)
-    {
-        return Err(FilterError::InvalidParameter(format!(
-            "scale range [{scale_min}, {scale_max}] must be finite, positive and increasing"
-        )));
-    }
+    check_scale_range(scale_min, scale_max)?;
     let sigma_lo = terms.iter().map(|t| t.sigma).fold(f64::INFINITY, f64::min);
     let sigma_hi = terms.iter().map(|t| t.sigma).fold(0.0, f64::max);
     let (need_lo, need_hi) = sigma_bounds(
@@ -1220,6 +1212,18 @@ pub fn stack_plan_for_decomposition(
         )?;
     }
     Ok(((need_lo, need_hi), options))
+}
+
+/// [`FilterError::InvalidParameter`] unless `[scale_min, scale_max]` is a
+/// finite, positive, non-empty range.
+pub(crate) fn check_scale_range(scale_min: f32, scale_max: f32) -> Result<(), FilterError> {
+    if scale_min.is_finite() && scale_max.is_finite() && scale_min > 0.0 && scale_min <= scale_max {
+        Ok(())
+    } else {
+        Err(FilterError::InvalidParameter(format!(
+            "scale range [{scale_min}, {scale_max}] must be finite, positive and increasing"
+        )))
+    }
 }
 
 /// The sigmas of the levels that filtering with `decomposition` at the

@@ -165,10 +165,10 @@ pub fn sampled_dc_gain(decomposition: &Decomposition) -> f64 {
 /// The default margin of zeros fitted around a kernel of half-size `r`
 /// ([`DecomposeOptions::margin`]): `r` itself, at least 2 px. The widest
 /// atoms have a standard deviation of `r / 2`, so an atom at the window's
-/// edge is matched over two of its standard deviations outside; with a
+/// edge is matched over two of its standard deviations outside. With a
 /// quarter of that, wide atoms whose tails cancel inside the margin but not
-/// beyond it scaled a constant image by 4 (`box:w=31,h=31`) to 40
-/// (`disk:r=10`), measured.
+/// beyond it still scaled a constant image by 17 (`box:w=31,h=31`) and 40
+/// (`disk:r=10`), measured; with no margin, by 3.96 and -2887.
 #[must_use]
 pub fn default_margin(r: usize) -> usize {
     r.max(2)
