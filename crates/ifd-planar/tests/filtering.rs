@@ -145,25 +145,9 @@ fn kernel_radius(d: &Decomposition, s: f64) -> usize {
         .ceil() as usize
 }
 
-/// Direct sum of the sampled Gaussian against the border-extended image at one point.
+/// Direct sum of the sampled Gaussian against the border-extended image at one pixel.
 fn brute_gauss_at(img: &Image, border: Border, sigma: f64, px: i64, py: i64, ch: usize) -> f64 {
-    let r = (7.0 * sigma).ceil() as i64;
-    let mut acc = 0.0;
-    for dy in -r..=r {
-        for dx in -r..=r {
-            let g = (-((dx * dx + dy * dy) as f64) / (2.0 * sigma * sigma)).exp()
-                / (2.0 * std::f64::consts::PI * sigma * sigma);
-            let v = match (
-                border.resolve(px + dx, img.width()),
-                border.resolve(py + dy, img.height()),
-            ) {
-                (Some(x), Some(y)) => img.get(x, y, ch),
-                _ => border.constant(),
-            };
-            acc += g * f64::from(v);
-        }
-    }
-    acc
+    brute_gauss_at_f(img, border, sigma, px as f32, py as f32, ch)
 }
 
 #[test]
@@ -735,7 +719,7 @@ fn cubic_levels_match_brute_force_gaussian_off_grid() {
     }
 }
 
-/// Direct sum of the continuous Gaussian centred at a real position.
+/// Direct sum of the continuous Gaussian centred at a real position, to 7 sigma.
 fn brute_gauss_at_f(img: &Image, border: Border, sigma: f64, x: f32, y: f32, ch: usize) -> f64 {
     let r = (7.0 * sigma).ceil() as i64;
     let (cx, cy) = (x.floor() as i64, y.floor() as i64);
