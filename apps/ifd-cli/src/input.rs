@@ -41,8 +41,13 @@ impl InputOptions {
 
     /// Reads an image, reporting replaced non-finite values on stderr.
     pub fn read(&self, path: &Path) -> Result<LoadedImage> {
+        Self::read_with(path, &self.read_options())
+    }
+
+    /// Reads with `opts`, reporting replaced non-finite values on stderr.
+    fn read_with(path: &Path, opts: &ReadOptions) -> Result<LoadedImage> {
         // The error already names the file.
-        let loaded = ifd_image::read_image(path, &self.read_options())?;
+        let loaded = ifd_image::read_image(path, opts)?;
         if loaded.replaced_non_finite > 0 {
             eprintln!(
                 "note: {}: replaced {} non-finite values",
@@ -52,9 +57,7 @@ impl InputOptions {
         }
         Ok(loaded)
     }
-}
 
-impl InputOptions {
     /// Reads a parameter map (angles, scales): values as stored, with no
     /// range mapping or sRGB decoding. `.npy` (float or integer dtypes, read
     /// as their values) and floating-point EXR/TIFF/HDR are accepted; integer
@@ -65,7 +68,7 @@ impl InputOptions {
             srgb_decode: false,
             ..self.read_options()
         };
-        let loaded = ifd_image::read_image(path, &opts)?;
+        let loaded = Self::read_with(path, &opts)?;
         if let Some(bits) = loaded.integer_bits {
             anyhow::bail!(
                 "{what} {}: a {bits}-bit {} stores integers that are read as image values in \
@@ -74,13 +77,6 @@ impl InputOptions {
                 path.display(),
                 loaded.format.name(),
                 45.0 / f64::from((1u32 << bits) - 1)
-            );
-        }
-        if loaded.replaced_non_finite > 0 {
-            eprintln!(
-                "note: {}: replaced {} non-finite values",
-                path.display(),
-                loaded.replaced_non_finite
             );
         }
         Ok(loaded.image)

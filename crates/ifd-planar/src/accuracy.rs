@@ -50,8 +50,8 @@
 //! that narrow at a fractional position, and the bound says so.
 
 use crate::decomposition::Decomposition;
-use crate::filter::FilterError;
-use crate::stack::{Interpolation, StackOptions};
+use crate::filter::{FilterError, evaluated_directly};
+use crate::stack::{Interpolation, StackOptions, pyramid_step};
 
 /// Relative RMS error of one lookup along one axis (see the module docs) for
 /// a level whose Gaussian has `r` stored samples of standard deviation,
@@ -217,8 +217,9 @@ impl EvalPlan {
     }
 
     /// The bound of a given interpolation and pyramid factor, for scales in
-    /// `[scale_min, scale_max]`, terms whose scaled sigma is below
-    /// `direct_sigma` being evaluated exactly ([`crate::Filter::with_direct`]).
+    /// `[scale_min, scale_max]`, terms that
+    /// [`crate::filter::evaluated_directly`] with `direct_sigma` being
+    /// evaluated exactly ([`crate::Filter::with_direct`]).
     ///
     /// # Errors
     /// As [`EvalPlan::choose`].
@@ -262,17 +263,11 @@ impl EvalPlan {
             };
             let mut sum = 0.0;
             for t in terms {
-                let sigma = decomposition.sampling.effective_sigma(t.sigma, s);
-                if sigma < direct_sigma {
+                if evaluated_directly(decomposition.sampling, t, s, direct_sigma) {
                     continue;
                 }
-                let ratio = sigma / pyramid_factor;
-                let step = if ratio >= 1.0 {
-                    ratio.log2().floor().exp2()
-                } else {
-                    1.0
-                };
-                let r = sigma / step;
+                let sigma = decomposition.sampling.effective_sigma(t.sigma, s);
+                let r = sigma / pyramid_step(sigma, pyramid_factor) as f64;
                 let key = (r * 1e6).round() / 1e6;
                 let e = if let Some(&(_, e)) = cache.iter().find(|(k, _)| *k == key) {
                     e

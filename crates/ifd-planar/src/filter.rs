@@ -25,7 +25,7 @@ use ifd_image::Image;
 use rayon::prelude::*;
 
 use crate::border::Border;
-use crate::decomposition::Decomposition;
+use crate::decomposition::{Decomposition, Term};
 use crate::kernel::Sampling;
 use crate::stack::{
     Interpolation, MIN_SIGMA, ScaleStack, StackLayout, StackOptions, bspline_weights,
@@ -304,6 +304,22 @@ pub const DIRECT_SIGMA: f64 = 1.5;
 /// by as much).
 const MAX_DIRECT_REACH: f64 = 1024.0;
 
+/// Whether [`Filter::with_direct`] with threshold `below` evaluates term `t`
+/// of a decomposition sampled as `sampling` directly at the constant scale
+/// `s`: its effective sigma is below `below` and it lies within 1024 px of
+/// the centre (after scaling). The one rule for the filter, the levels it
+/// reads ([`level_sigmas`]) and the error bound ([`crate::EvalPlan`]).
+#[must_use]
+pub fn evaluated_directly(sampling: Sampling, t: &Term, s: f64, below: f64) -> bool {
+    is_direct(sampling, t.sigma, t.x.hypot(t.y), s, below)
+}
+
+/// [`evaluated_directly`] for a term of width `sigma` at `reach` px from the
+/// centre (before scaling).
+fn is_direct(sampling: Sampling, sigma: f64, reach: f64, s: f64, below: f64) -> bool {
+    sampling.effective_sigma(sigma, s) < below && s * reach <= MAX_DIRECT_REACH
+}
+
 impl<'a> Filter<'a> {
     /// Prepares `decomposition` for lookups into `stack`.
     ///
@@ -393,22 +409,37 @@ impl<'a> Filter<'a> {
         self.terms.is_empty()
     }
 
+    /// Whether this filter evaluates `t` directly at the constant pose of
+    /// scale `s` ([`evaluated_directly`]).
+    fn direct_at(&self, t: &Prepared, s: f32) -> bool {
+        self.direct.is_some_and(|(_, below)| {
+            let reach = f64::from(t.cx).hypot(f64::from(t.cy));
+            is_direct(self.sampling, t.sigma, reach, f64::from(s), below)
+        })
+    }
+
     /// Checks that every effective sigma at scales in `[lo, hi]` is covered
-    /// by the stack.
-    fn check_scales(&self, lo: f32, hi: f32, field: &Field<'_>) -> Result<(), FilterError> {
+    /// by the stack; at a constant pose (`constant_pose`, `lo == hi`), the
+    /// terms evaluated directly read no level and are left out.
+    fn check_scales(
+        &self,
+        lo: f32,
+        hi: f32,
+        field: &Field<'_>,
+        constant_pose: bool,
+    ) -> Result<(), FilterError> {
         let (min, max) = self.stack.sigma_range();
         let (mut need_lo, mut need_hi) = sigma_bounds(
             self.sampling,
             (self.sigma_lo, self.sigma_hi),
             (f64::from(lo), f64::from(hi)),
         );
-        if let (Some((_, below)), true) = (self.direct, lo == hi) {
-            // At one scale, the terms evaluated directly need no level.
+        if constant_pose && self.direct.is_some() {
             let read: Vec<f64> = self
                 .terms
                 .iter()
+                .filter(|t| !self.direct_at(t, lo))
                 .map(|t| self.sampling.effective_sigma(t.sigma, f64::from(lo)))
-                .filter(|&s| s >= below)
                 .collect();
             if read.is_empty() {
                 return Ok(());
@@ -450,21 +481,19 @@ impl<'a> Filter<'a> {
         );
         angle.validate("angle", w, h, false)?;
         let (lo, hi) = scale.validate("scale", w, h, true)?;
-        self.check_scales(lo, hi, &scale)?;
+        let constant_pose = matches!((angle, scale), (Field::Constant(_), Field::Constant(_)));
+        self.check_scales(lo, hi, &scale, constant_pose)?;
         let out = match (angle, scale) {
             (Field::Constant(theta), Field::Constant(s)) => {
-                let below = self.direct.map_or(0.0, |(_, b)| b);
-                // Narrow terms, as long as their kernel stays small.
-                let narrow = |t: &Prepared| {
-                    let reach = f64::from(s) * f64::from(t.cx.hypot(t.cy));
-                    self.sampling.effective_sigma(t.sigma, f64::from(s)) < below
-                        && reach <= MAX_DIRECT_REACH
-                };
-                let taps = self.taps_where(theta, s, |t| !narrow(t));
+                let taps = self.taps_where(theta, s, |t| !self.direct_at(t, s));
                 let mut out = Taps { taps }.apply_region(self.stack, 0, 0, w, h)?;
                 if let Some((source, _)) = self.direct {
-                    let direct: Vec<Prepared> =
-                        self.terms.iter().copied().filter(|t| narrow(t)).collect();
+                    let direct: Vec<Prepared> = self
+                        .terms
+                        .iter()
+                        .copied()
+                        .filter(|t| self.direct_at(t, s))
+                        .collect();
                     if !direct.is_empty() {
                         let d = direct_correlation(
                             source,
@@ -540,7 +569,8 @@ impl<'a> Filter<'a> {
         }
         Field::Constant(theta).validate("angle", 1, 1, false)?;
         Field::Constant(s).validate("scale", 1, 1, true)?;
-        self.check_scales(s, s, &Field::Constant(s))?;
+        // A point lookup reads every term from the stack.
+        self.check_scales(s, s, &Field::Constant(s), false)?;
         out.fill(0.0);
         let (sin, cos) = theta.to_radians().sin_cos();
         self.pixel_general::<0>(x, y, cos, sin, s, out);
@@ -762,25 +792,26 @@ fn direct_correlation(
 ) -> Result<Image, FilterError> {
     let (sin, cos) = f64::from(theta).to_radians().sin_cos();
     let s = f64::from(s);
-    let centres: Vec<(f64, f64, f64, f64)> = terms
+    let centres: Vec<(f64, f64, f64, f64, f64)> = terms
         .iter()
         .map(|t| {
             let (cx, cy) = (f64::from(t.cx), f64::from(t.cy));
             let ox = s * (cos * cx + sin * cy);
             let oy = s * (-sin * cx + cos * cy);
             let sigma = sampling.effective_sigma(t.sigma, s);
-            (ox, oy, sigma, f64::from(t.weight))
+            // The term's support radius.
+            let r = (5.0 * sigma).ceil() + 1.0;
+            (ox, oy, sigma, r, f64::from(t.weight))
         })
         .collect();
-    let reach = |(ox, oy, sigma, _): (f64, f64, f64, f64)| {
-        let r = (5.0 * sigma).ceil() + 1.0;
-        (ox.abs().max(oy.abs()) + r).ceil() as usize
-    };
-    let radius = centres.iter().map(|&c| reach(c)).max().unwrap_or(0);
+    let radius = centres
+        .iter()
+        .map(|&(ox, oy, _, r, _)| (ox.abs().max(oy.abs()) + r).ceil() as usize)
+        .max()
+        .unwrap_or(0);
     // The sampled kernel, sparse: (dx, dy) -> value.
     let mut kernel = std::collections::BTreeMap::<(i64, i64), f64>::new();
-    for &(ox, oy, sigma, w) in &centres {
-        let r = (5.0 * sigma).ceil() + 1.0;
+    for &(ox, oy, sigma, r, w) in &centres {
         let norm = w / (std::f64::consts::TAU * sigma * sigma);
         for dy in (oy - r).floor() as i64..=(oy + r).ceil() as i64 {
             for dx in (ox - r).floor() as i64..=(ox + r).ceil() as i64 {
@@ -878,7 +909,8 @@ impl<'a> Filter<'a> {
     /// [`FilterError::ScaleOutOfRange`] when some `scale * sigma_t` is not covered.
     pub fn at_scale(&self, scale: f32) -> Result<ScaledFilter<'_, 'a>, FilterError> {
         Field::Constant(scale).validate("scale", 1, 1, true)?;
-        self.check_scales(scale, scale, &Field::Constant(scale))?;
+        // Its lookups read every term from the stack.
+        self.check_scales(scale, scale, &Field::Constant(scale), false)?;
         Ok(ScaledFilter {
             filter: self,
             scale,
@@ -1227,8 +1259,8 @@ pub(crate) fn check_scale_range(scale_min: f32, scale_max: f32) -> Result<(), Fi
 }
 
 /// The sigmas of the levels that filtering with `decomposition` at the
-/// constant scale `scale` reads, terms narrower than `direct_below` (after
-/// scaling) being evaluated directly ([`Filter::with_direct`]): the distinct
+/// constant scale `scale` reads, the terms that [`evaluated_directly`] with
+/// `direct_below` being evaluated directly ([`Filter::with_direct`]): the distinct
 /// effective sigmas of the others, increasing, for [`ScaleStack::with_sigmas`]
 /// (at least one level).
 ///
@@ -1241,15 +1273,17 @@ pub(crate) fn check_scale_range(scale_min: f32, scale_max: f32) -> Result<(), Fi
 #[must_use]
 pub fn level_sigmas(decomposition: &Decomposition, scale: f32, direct_below: f64) -> Vec<f64> {
     let s = f64::from(scale);
-    let all: Vec<f64> = decomposition
-        .terms
+    let sampling = decomposition.sampling;
+    let terms = &decomposition.terms;
+    let mut sigmas: Vec<f64> = terms
         .iter()
-        .map(|t| decomposition.sampling.effective_sigma(t.sigma, s))
+        .filter(|t| !evaluated_directly(sampling, t, s, direct_below))
+        .map(|t| sampling.effective_sigma(t.sigma, s))
         .collect();
-    let mut sigmas: Vec<f64> = all.iter().copied().filter(|&v| v >= direct_below).collect();
     if sigmas.is_empty() {
         // Every term is direct: one level, never read.
-        sigmas.push(all.iter().copied().fold(0.0, f64::max).max(MIN_SIGMA));
+        let widest = terms.iter().map(|t| sampling.effective_sigma(t.sigma, s));
+        sigmas.push(widest.fold(0.0, f64::max).max(MIN_SIGMA));
     }
     sigmas.sort_by(f64::total_cmp);
     sigmas.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * *b);

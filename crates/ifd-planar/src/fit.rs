@@ -664,6 +664,7 @@ pub fn decompose(
     d.spec = kernel.spec().map(str::to_string);
     d.sampling = kernel.sampling();
     d.dictionary = Some(params);
+    let dc_gain = Some(sampled_dc_gain(&d));
     d.report = Some(FitReport {
         terms: d.terms.len(),
         rel_l2_error,
@@ -677,12 +678,8 @@ pub fn decompose(
         fine_rel_l2_error: None,
         margin,
         kernel_sum: Some(unpadded.data().iter().sum()),
-        dc_gain: None,
+        dc_gain,
     });
-    let gain = sampled_dc_gain(&d);
-    if let Some(r) = &mut d.report {
-        r.dc_gain = Some(gain);
-    }
     Ok(d)
 }
 

@@ -541,8 +541,7 @@ impl KernelSpec {
             });
         }
         let (_, norm) = self.sample(1)?;
-        let (mut k, _) = self.sample_scaled(q, Some(norm))?;
-        k.spec = Some(self.to_string());
+        let (k, _) = self.sample_scaled(q, Some(norm))?;
         Ok(k)
     }
 

@@ -28,9 +28,8 @@ use crate::stack::check_finite;
 /// Largest kernel radius the references accept.
 const MAX_RADIUS: usize = 4096;
 
-/// The image extended by `rx` columns and `ry` rows on each side, interleaved.
-/// `image` extended by `rx`/`ry` pixels on each side by `border` (row-major,
-/// interleaved), and the extended width.
+/// `image` extended by `rx` columns and `ry` rows on each side by `border`
+/// (row-major, interleaved), and the extended width.
 pub(crate) fn extend(image: &Image, rx: usize, ry: usize, border: Border) -> (Vec<f32>, usize) {
     let (w, h, c) = (image.width(), image.height(), image.channels());
     let ew = w + 2 * rx;

@@ -138,17 +138,17 @@ impl Interpolation {
     }
 }
 
-impl std::str::FromStr for Interpolation {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "linear" => Ok(Self::Linear),
-            "cubic" => Ok(Self::Cubic),
-            other => Err(format!(
-                "unknown interpolation {other:?} (expected linear or cubic)"
-            )),
-        }
-    }
+/// The subsampling `2^j` of the level of `sigma` px: the largest with
+/// `sigma >= pyramid_factor * 2^j` (1 below `pyramid_factor`), at most
+/// `2^MAX_PYRAMID_LEVEL` (see [`StackOptions::pyramid_factor`]).
+pub(crate) fn pyramid_step(sigma: f64, pyramid_factor: f64) -> usize {
+    let ratio = sigma / pyramid_factor;
+    let j = if ratio >= 1.0 {
+        (ratio.log2().floor() as u32).min(MAX_PYRAMID_LEVEL)
+    } else {
+        0
+    };
+    1usize << j
 }
 
 /// The cubic B-spline weights of the four samples at `-1, 0, 1, 2` for a
@@ -385,13 +385,7 @@ impl StackLayout {
         let levels: Vec<LevelLayout> = sigmas
             .iter()
             .map(|&sigma| {
-                let ratio = sigma / options.pyramid_factor;
-                let j = if ratio >= 1.0 {
-                    (ratio.log2().floor() as u32).min(MAX_PYRAMID_LEVEL)
-                } else {
-                    0
-                };
-                let step = 1usize << j;
+                let step = pyramid_step(sigma, options.pyramid_factor);
                 // Samples before pixel 0 and after pixel w-1 so that the
                 // coverage includes [-margin-1, w+margin] on each axis, plus
                 // the extra samples a cubic lookup reads on each side.
@@ -953,8 +947,8 @@ impl ScaleStack {
         // last - (after - 1) step].
         let (before, after) = self.interpolation.reach();
         let first = lo + before as f32 * step;
-        let last_x = lo + (level.layout.nx - after) as f32 * step;
-        let last_y = lo + (level.layout.ny - after) as f32 * step;
+        let hi_x = lo + (level.layout.nx - after) as f32 * step;
+        let hi_y = lo + (level.layout.ny - after) as f32 * step;
         let map = |p: f32, n: usize, hi: f32| -> f32 {
             if p >= first && p <= hi {
                 return p;
@@ -965,7 +959,6 @@ impl ScaleStack {
                 Border::Reflect101 | Border::Wrap => self.border.map_continuous(p, n),
             }
         };
-        let (hi_x, hi_y) = (last_x, last_y);
         let x = map(x, self.width, hi_x);
         let y = map(y, self.height, hi_y);
         let u = (x - lo) * level.inv_step;
@@ -1067,7 +1060,6 @@ fn gaussian_transfer(sigma: f64, n: usize, planner: &mut FftPlanner<f64>) -> Vec
 /// A planned FFT.
 type FftPlan = Arc<dyn Fft<f32>>;
 
-/// In-place FFT of every consecutive `len`-long row of `data`, in parallel.
 /// Row `kx` of a level's coarse spectrum: the image spectrum times the
 /// Gaussian's transfer, alias-summed over the `step x step` fine frequencies
 /// that fold onto each coarse one (a plain product when `step == 1`).
@@ -1122,6 +1114,7 @@ fn bspline_prefilter(n: usize) -> Vec<f32> {
         .collect()
 }
 
+/// In-place FFT of every consecutive `len`-long row of `data`, in parallel.
 fn fft_rows(data: &mut [Complex32], len: usize, fft: &Arc<dyn Fft<f32>>) {
     let rows_per_task = (1usize << 15).div_ceil(len).max(1);
     let scratch_len = fft.get_inplace_scratch_len();

@@ -778,3 +778,43 @@ fn cubic_filter_matches_brute_force_much_closer_than_bilinear() {
         assert!(p[1] >= 77.0 && p[1] >= p[0] + 6.0, "{border}: {p:?}");
     }
 }
+
+/// A stack with levels only for the terms a constant pose reads from it
+/// (`level_sigmas`): the constant pose evaluates the narrow term directly;
+/// a per-pixel angle, which reads every term from the stack, is refused as
+/// out of range rather than reading a level it does not have.
+#[test]
+fn direct_terms_need_no_level_at_a_constant_pose_only() {
+    let img = test_image(40, 32, 1, 5);
+    let t = |weight, x, sigma| Term {
+        weight,
+        x,
+        y: 0.0,
+        sigma,
+    };
+    let d = Decomposition::from_terms(vec![t(0.6, 0.0, 3.0), t(0.4, 2.5, 0.6)]);
+    let sigmas = ifd_planar::filter::level_sigmas(&d, 1.0, ifd_planar::DIRECT_SIGMA);
+    assert_eq!(sigmas, vec![3.0]);
+    let stack = ScaleStack::with_sigmas(&img, &sigmas, Border::Reflect101, StackOptions::default())
+        .expect("stack");
+    let filter = Filter::new(&stack, &d)
+        .expect("filter")
+        .with_direct(&img, ifd_planar::DIRECT_SIGMA)
+        .expect("direct");
+    let out = filter
+        .apply(Field::Constant(20.0), Field::Constant(1.0))
+        .expect("constant pose");
+    let r = kernel_radius(&d, 1.0);
+    let k = sample_kernel(|u, v| d.eval(u, v), 20.0, 1.0, r);
+    let want = correlate(&img, &k, 2 * r + 1, 2 * r + 1, Border::Reflect101).expect("reference");
+    assert!(max_abs_diff(&out, &want) < 1e-4);
+    let angles = vec![20.0; 40 * 32];
+    assert!(matches!(
+        filter.apply(Field::Map(&angles), Field::Constant(1.0)),
+        Err(FilterError::ScaleOutOfRange { .. })
+    ));
+    assert!(matches!(
+        filter.at_scale(1.0),
+        Err(FilterError::ScaleOutOfRange { .. })
+    ));
+}

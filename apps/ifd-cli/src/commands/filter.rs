@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use ifd_planar::filter::evaluated_directly;
 use ifd_planar::{
     Border, DIRECT_SIGMA, Decomposition, EvalPlan, Field, Filter as IfdFilter, Interpolation,
     PlanOptions, ScaleStack, StackOptions, stack_plan_for_decomposition,
@@ -297,12 +298,12 @@ impl Filter {
                 decomposition
                     .terms
                     .iter()
-                    .filter(|t| {
-                        decomposition
-                            .sampling
-                            .effective_sigma(t.sigma, f64::from(smin))
-                            < plan.direct_sigma
-                    })
+                    .filter(|t| evaluated_directly(
+                        decomposition.sampling,
+                        t,
+                        f64::from(smin),
+                        plan.direct_sigma
+                    ))
                     .count(),
                 100.0 * plan.error_bound,
                 plan.amplification
