@@ -162,6 +162,9 @@ pub fn sampled_dc_gain(decomposition: &Decomposition) -> f64 {
         .sum()
 }
 
+/// The most samples (kernel window and margin) a fit runs over.
+const MAX_FIT_SAMPLES: usize = 1 << 26;
+
 /// The default margin of zeros fitted around a kernel of half-size `r`
 /// ([`DecomposeOptions::margin`]): `r` itself, at least 2 px. The widest
 /// atoms have a standard deviation of `r / 2`, so an atom at the window's
@@ -565,6 +568,15 @@ pub fn decompose(
     let margin = opts
         .margin
         .unwrap_or_else(|| default_margin(unpadded.radius_x().max(unpadded.radius_y())));
+    let samples = (unpadded.width() as u128 + 2 * margin as u128)
+        * (unpadded.height() as u128 + 2 * margin as u128);
+    if samples > MAX_FIT_SAMPLES as u128 {
+        return Err(DecomposeError::Invalid {
+            name: "margin",
+            value: margin as f64,
+            reason: "the kernel and its margin exceed 2^26 samples",
+        });
+    }
     let params = DictionaryParams::for_kernel(unpadded, &opts.dictionary)?;
     let padded = unpadded.padded(margin);
     let kernel = &padded;
@@ -867,6 +879,10 @@ mod tests {
     fn bad_options() {
         let k: Kernel = "gauss:sx=3".parse().unwrap();
         let bad = |o: DecomposeOptions| decompose(&k, &o, |_, _, _| {}).is_err();
+        assert!(bad(DecomposeOptions {
+            margin: Some(1 << 20),
+            ..DecomposeOptions::default()
+        }));
         assert!(bad(DecomposeOptions {
             tol: 0.0,
             ..DecomposeOptions::default()
