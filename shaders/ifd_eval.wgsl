@@ -107,6 +107,7 @@ const INTERP_CUBIC: u32 = 1u;
 const SAMPLING_CONTINUOUS: u32 = 0u;
 const SAMPLING_POINT: u32 = 1u;
 const SAMPLING_AREA: u32 = 2u;
+const SAMPLING_AVERAGED: u32 = 3u;
 
 // The variance (px^2) a pixel's footprint adds to every atom at scale s
 // (Sampling::footprint_variance).
@@ -117,6 +118,9 @@ fn footprint_variance(s: f32) -> f32 {
         }
         case SAMPLING_AREA: {
             return (1.0 - s * s) / 12.0;
+        }
+        case SAMPLING_AVERAGED: {
+            return 1.0 / 12.0;
         }
         default: {
             return 0.0;

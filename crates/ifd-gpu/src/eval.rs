@@ -112,6 +112,14 @@ impl GpuDecomposition {
         Ok(d)
     }
 
+    /// The same upload applied with another [`Sampling`] (the smoother's
+    /// bank: [`Sampling::Averaged`]).
+    #[must_use]
+    pub fn with_sampling(mut self, sampling: Sampling) -> Self {
+        self.sampling = sampling;
+        self
+    }
+
     /// Uploads several decompositions, concatenated with their offsets.
     ///
     /// # Errors
@@ -991,6 +999,7 @@ impl GpuContext {
                             Sampling::Continuous => 0,
                             Sampling::Point => 1,
                             Sampling::Area => 2,
+                            Sampling::Averaged => 3,
                         },
                         pad: [0; 3],
                     };

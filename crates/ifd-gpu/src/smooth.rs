@@ -92,11 +92,19 @@ impl GpuSmoother {
     /// [`GpuError::Limit`] when something exceeds the device's limits, and
     /// the errors of [`GpuDecomposition::from_entries`].
     pub fn new(ctx: &GpuContext, smoother: &Smoother) -> Result<Self, GpuError> {
+        if smoother.direct_kernels().is_some() {
+            return Err(GpuError::Unsupported(format!(
+                "footprint scale {} px: scales below {} px are evaluated directly, on the CPU only",
+                smoother.options().scale,
+                ifd_smooth::direct::DIRECT_BELOW
+            )));
+        }
         let stack = GpuStack::upload(ctx, smoother.stack())?;
         let bank = smoother.bank();
         let entries_terms: Vec<&[ifd_planar::Term]> =
             bank.terms.iter().map(Vec::as_slice).collect();
-        let gbank = GpuDecomposition::from_entries(ctx, &entries_terms)?;
+        let gbank = GpuDecomposition::from_entries(ctx, &entries_terms)?
+            .with_sampling(ifd_smooth::bank::BANK_SAMPLING);
         let scale = (smoother.options().scale / bank.options.sigma_ref) as f32;
         let field = smoother.orientation_field();
         let thetas: Vec<f32> = field.iter().map(|o| o.theta).collect();

@@ -771,6 +771,10 @@ pub enum Sampling {
     /// Averages of the continuous filter over each pixel (hard-edged specs:
     /// `box`, `line`, `disk`).
     Area,
+    /// A continuous filter (terms given directly) applied as its averages
+    /// over each output pixel at every scale: the smoother's Gaussians,
+    /// which must stay meaningful below a pixel's width.
+    Averaged,
 }
 
 impl Sampling {
@@ -785,8 +789,8 @@ impl Sampling {
     /// a decomposition fitted to pixel averages already carries that blur,
     /// scaled by `s` (variance `s^2 / 12`). Hence
     /// `target - s^2 fitted`, with `target` and `fitted` each `1/12` or `0`:
-    /// `(1 - s^2) / 12` for `Area`, `1/12` below scale 1 for `Point`, and `0`
-    /// otherwise.
+    /// `(1 - s^2) / 12` for `Area`, `1/12` below scale 1 for `Point`, `1/12`
+    /// at every scale for `Averaged`, and `0` otherwise.
     ///
     /// ```
     /// use ifd_planar::kernel::Sampling;
@@ -795,6 +799,7 @@ impl Sampling {
     /// assert_eq!(Sampling::Area.footprint_variance(1.0), 0.0);
     /// assert!((Sampling::Area.footprint_variance(2.0) + 0.25).abs() < 1e-12);
     /// assert_eq!(Sampling::Continuous.footprint_variance(0.5), 0.0);
+    /// assert_eq!(Sampling::Averaged.footprint_variance(3.0), 1.0 / 12.0);
     /// ```
     #[must_use]
     pub fn footprint_variance(self, s: f64) -> f64 {
@@ -803,6 +808,7 @@ impl Sampling {
             Self::Point if s < 1.0 => BOX,
             Self::Continuous | Self::Point => 0.0,
             Self::Area => BOX * (1.0 - s * s),
+            Self::Averaged => BOX,
         }
     }
 

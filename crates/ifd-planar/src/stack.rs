@@ -409,7 +409,15 @@ impl StackLayout {
             .map(|l| (-l.origin) as usize)
             .max()
             .unwrap_or(1);
-        let pad = (before + reach).div_ceil(max_step) * max_step;
+        // Cubic levels: a region refresh reconstructs coefficients from the
+        // samples `CUBIC_TAPS` further out, so those must not see the FFT's
+        // periodic wrap either.
+        let extra = if options.interpolation == Interpolation::Cubic {
+            crate::stack_refresh::CUBIC_TAPS * max_step
+        } else {
+            0
+        };
+        let pad = (before + reach + extra).div_ceil(max_step) * max_step;
         // Last stored full-resolution coordinate on each axis, plus one.
         let end_x = levels
             .iter()

@@ -10,6 +10,12 @@
 //! mass is below `6e-7` per axis; the tests check agreement with a full
 //! rebuild to `1e-5` relative to the image range.
 //!
+//! Levels of cubic B-spline coefficients ([`Interpolation::Cubic`]) are
+//! refreshed the same way, then prefiltered: a coefficient is
+//! `sum_k sqrt 3 z^|k| s(i + k)` (`z = sqrt 3 - 2`, the inverse of the
+//! sampled B-spline `(1, 4, 1) / 6`), kept for `|k| <= 12` ([`CUBIC_TAPS`]),
+//! so a change rewrites 12 more samples on each side of the affected ones.
+//!
 //! Cost per level: `(rows + 2R) * cols / step * (2R + 1)` plus
 //! `rows / step * cols / step * (2R + 1)` multiply-adds per channel, with
 //! `R = 5 sigma` and `rows x cols` the changed rectangle dilated by `R`
@@ -20,7 +26,7 @@ use rayon::prelude::*;
 
 use crate::border::Border;
 use crate::filter::FilterError;
-use crate::stack::{LevelLayout, ScaleStack, check_finite};
+use crate::stack::{Interpolation, LevelLayout, ScaleStack, check_finite};
 
 /// A rectangle of pixels: columns `x0..x0 + width`, rows `y0..y0 + height`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -212,6 +218,155 @@ fn dot(a: &[f32], b: &[f32]) -> f32 {
     acc.iter().sum::<f32>() + tail
 }
 
+/// Terms of the cubic B-spline prefilter kept by [`ScaleStack::refresh_region`]
+/// on each side: the prefilter is `sqrt 3 z^|k|`, `z = sqrt 3 - 2`, so the
+/// neglected tail is `2 sqrt 3 z^(K + 1) / (1 - z) < 2e-7` of the samples'
+/// range, and a change moves coefficients at most `K` samples away by more
+/// than that.
+pub(crate) const CUBIC_TAPS: usize = 12;
+
+/// Stored samples `((i0, i1), (j0, j1))` of level `l` that
+/// [`ScaleStack::refresh_region`] rewrites for a change in `rect`: those
+/// depending on it ([`affected_window`]), and for B-spline coefficients
+/// ([`CUBIC_TAPS`]) `K` more on each side.
+fn written_window(
+    l: &LevelLayout,
+    cubic: bool,
+    rect: PixelRect,
+    w: usize,
+    h: usize,
+    border: Border,
+) -> Option<((usize, usize), (usize, usize))> {
+    let ((i0, i1), (j0, j1)) = affected_window(l, rect, w, h, border)?;
+    if !cubic {
+        return Some(((i0, i1), (j0, j1)));
+    }
+    let k = CUBIC_TAPS;
+    Some((
+        (i0.saturating_sub(k), (i1 + k).min(l.nx - 1)),
+        (j0.saturating_sub(k), (j1 + k).min(l.ny - 1)),
+    ))
+}
+
+/// The samples of level `l` at stored indices `i0..=i1` by `j0..=j1`
+/// (which may lie beyond the stored ones), by direct separable correlation
+/// of the border-extended `image` with the level's sampled Gaussian;
+/// interleaved, row-major.
+fn level_samples(
+    image: &Image,
+    border: Border,
+    l: &LevelLayout,
+    (i0, i1): (i64, i64),
+    (j0, j1): (i64, i64),
+) -> Vec<f32> {
+    let (w, h, c) = (image.width(), image.height(), image.channels());
+    let data = image.data();
+    let cval = border.constant();
+    let sigma = l.sigma;
+    let r = reach(sigma);
+    let step = l.step as i64;
+    let norm = 1.0 / ((2.0 * std::f64::consts::PI).sqrt() * sigma);
+    let g: Vec<f32> = (-r..=r)
+        .map(|d| (norm * (-(d * d) as f64 / (2.0 * sigma * sigma)).exp()) as f32)
+        .collect();
+    let ni = (i1 - i0 + 1) as usize;
+    let nj = (j1 - j0 + 1) as usize;
+    // Full-resolution coordinates of the first and last samples.
+    let x_first = l.origin + i0 * step;
+    let y_first = l.origin + j0 * step;
+    let y_last = l.origin + j1 * step;
+    // Column map for the horizontal pass: coordinates
+    // [x_first - r, x_last + r].
+    let cols: Vec<Option<usize>> = (x_first - r..=l.origin + i1 * step + r)
+        .map(|x| border.resolve(x, w))
+        .collect();
+    let row_lo = y_first - r;
+    let n_rows = (y_last + r - row_lo + 1) as usize;
+    // Horizontal pass: hp[row][i][channel].
+    let mut hp = vec![0.0f32; n_rows * ni * c];
+    hp.par_chunks_mut(ni * c).enumerate().for_each_init(
+        || Vec::with_capacity(cols.len() * c),
+        |ext: &mut Vec<f32>, (k, out)| {
+            // The border-extended row, contiguous, then plain dot products.
+            ext.clear();
+            let src_row = border.resolve(row_lo + k as i64, h);
+            for &col in &cols {
+                match (src_row, col) {
+                    (Some(y), Some(x)) => {
+                        ext.extend_from_slice(&data[(y * w + x) * c..(y * w + x + 1) * c]);
+                    }
+                    _ => ext.extend(std::iter::repeat_n(cval, c)),
+                }
+            }
+            let taps = g.len();
+            for (ii, px) in out.chunks_exact_mut(c).enumerate() {
+                let base = ii * l.step;
+                if c == 1 {
+                    px[0] = dot(&g, &ext[base..base + taps]);
+                } else {
+                    px.fill(0.0);
+                    for (dx, &gv) in g.iter().enumerate() {
+                        let s = &ext[(base + dx) * c..(base + dx + 1) * c];
+                        for (p, v) in px.iter_mut().zip(s) {
+                            *p += gv * v;
+                        }
+                    }
+                }
+            }
+        },
+    );
+    // Vertical pass.
+    let mut out = vec![0.0f32; ni * nj * c];
+    out.par_chunks_mut(ni * c).enumerate().for_each(|(j, row)| {
+        // Row index in hp of coordinate (y_j - r).
+        let k0 = j * l.step;
+        for (dy, &gv) in g.iter().enumerate() {
+            let src = &hp[(k0 + dy) * ni * c..(k0 + dy + 1) * ni * c];
+            for (p, v) in row.iter_mut().zip(src) {
+                *p += gv * v;
+            }
+        }
+    });
+    out
+}
+
+/// Cubic B-spline coefficients of the inner `(nx - 2K) x (ny - 2K)` samples
+/// of an `nx x ny x c` block ([`CUBIC_TAPS`] `= K`): the separable
+/// prefilter `sqrt 3 z^|k|`, `|k| <= K`, along rows then columns.
+fn bspline_coefficients(samples: &[f32], nx: usize, ny: usize, c: usize) -> Vec<f32> {
+    let k = CUBIC_TAPS;
+    let z = 3f64.sqrt() - 2.0;
+    let h: Vec<f32> = (0..=2 * k)
+        .map(|i| (3f64.sqrt() * z.powi((i as i32 - k as i32).abs())) as f32)
+        .collect();
+    let (mx, my) = (nx - 2 * k, ny - 2 * k);
+    // Along rows: every row, inner columns.
+    let mut rows = vec![0.0f32; ny * mx * c];
+    rows.par_chunks_mut(mx * c)
+        .zip(samples.par_chunks(nx * c))
+        .for_each(|(out, src)| {
+            for (i, px) in out.chunks_exact_mut(c).enumerate() {
+                for (d, &hv) in h.iter().enumerate() {
+                    let s = &src[(i + d) * c..(i + d + 1) * c];
+                    for (p, v) in px.iter_mut().zip(s) {
+                        *p += hv * v;
+                    }
+                }
+            }
+        });
+    // Along columns: inner rows.
+    let mut out = vec![0.0f32; my * mx * c];
+    out.par_chunks_mut(mx * c).enumerate().for_each(|(j, row)| {
+        for (d, &hv) in h.iter().enumerate() {
+            let src = &rows[(j + d) * mx * c..(j + d + 1) * mx * c];
+            for (p, v) in row.iter_mut().zip(src) {
+                *p += hv * v;
+            }
+        }
+    });
+    out
+}
+
 impl ScaleStack {
     /// Evaluates a fixed filter, `sum_t weight_t fhat_{sigma_t}(p + d_t)`, at
     /// every pixel `p` of `rect`; returns `rect.area() * channels` values,
@@ -313,7 +468,9 @@ impl ScaleStack {
                 if !inside {
                     return None;
                 }
-                affected_window(&level.layout, rect, w, h, self.border()).map(|(_, rows)| rows)
+                let cubic = self.interpolation() == Interpolation::Cubic;
+                written_window(&level.layout, cubic, rect, w, h, self.border())
+                    .map(|(_, rows)| rows)
             })
             .collect()
     }
@@ -325,21 +482,12 @@ impl ScaleStack {
     /// # Errors
     /// [`FilterError::Shape`] when `image` is not the stack's shape or `rect`
     /// leaves it, [`FilterError::NonFinite`] for NaN or infinite pixels in
-    /// `rect`, [`FilterError::InvalidParameter`] for a stack of cubic
-    /// B-spline coefficients (the prefilter that makes them is not local:
-    /// rebuild such a stack instead).
+    /// `rect`.
     pub fn refresh_region(
         &mut self,
         image: &Image,
         rect: PixelRect,
     ) -> Result<RefreshReport, FilterError> {
-        if self.interpolation() != crate::stack::Interpolation::Linear {
-            return Err(FilterError::InvalidParameter(
-                "refreshing a region needs a stack of samples (linear interpolation); \
-                 a stack of cubic B-spline coefficients must be rebuilt"
-                    .into(),
-            ));
-        }
         let (w, h, c) = (self.width(), self.height(), self.channels());
         if (image.width(), image.height(), image.channels()) != (w, h, c) {
             return Err(FilterError::Shape(format!(
@@ -370,88 +518,46 @@ impl ScaleStack {
             }
         }
         let border = self.border();
-        let cval = border.constant();
+        let cubic = self.interpolation() == Interpolation::Cubic;
         let mut report = RefreshReport::default();
         for level in &mut self.levels {
             let l = level.layout;
             report.total_samples += l.nx * l.ny;
-            let sigma = l.sigma;
-            let r = reach(sigma);
-            let step = l.step as i64;
-            let Some(((i0, i1), (j0, j1))) = affected_window(&l, rect, w, h, border) else {
+            let Some(((i0, i1), (j0, j1))) = written_window(&l, cubic, rect, w, h, border) else {
                 continue;
             };
-            let norm = 1.0 / ((2.0 * std::f64::consts::PI).sqrt() * sigma);
-            let g: Vec<f32> = (-r..=r)
-                .map(|d| (norm * (-(d * d) as f64 / (2.0 * sigma * sigma)).exp()) as f32)
-                .collect();
-            let ni = i1 - i0 + 1;
-            let nj = j1 - j0 + 1;
+            let (ni, nj) = (i1 - i0 + 1, j1 - j0 + 1);
             report.samples += ni * nj;
-            // Full-resolution coordinates of the first sample in each axis.
-            let x_first = l.origin + i0 as i64 * step;
-            let y_first = l.origin + j0 as i64 * step;
-            let y_last = l.origin + j1 as i64 * step;
-            // Column map for the horizontal pass: coordinates
-            // [x_first - r, x_last + r].
-            let cols: Vec<Option<usize>> = (x_first - r..=l.origin + i1 as i64 * step + r)
-                .map(|x| border.resolve(x, w))
-                .collect();
-            let row_lo = y_first - r;
-            let n_rows = (y_last + r - row_lo + 1) as usize;
-            // Horizontal pass: hp[row][i][channel].
-            let mut hp = vec![0.0f32; n_rows * ni * c];
-            hp.par_chunks_mut(ni * c).enumerate().for_each_init(
-                || Vec::with_capacity(cols.len() * c),
-                |ext: &mut Vec<f32>, (k, out)| {
-                    // The border-extended row, contiguous, then plain dot products.
-                    ext.clear();
-                    let src_row = border.resolve(row_lo + k as i64, h);
-                    for &col in &cols {
-                        match (src_row, col) {
-                            (Some(y), Some(x)) => {
-                                ext.extend_from_slice(&data[(y * w + x) * c..(y * w + x + 1) * c]);
-                            }
-                            _ => ext.extend(std::iter::repeat_n(cval, c)),
-                        }
-                    }
-                    let taps = g.len();
-                    for (ii, px) in out.chunks_exact_mut(c).enumerate() {
-                        let base = ii * l.step;
-                        if c == 1 {
-                            px[0] = dot(&g, &ext[base..base + taps]);
-                        } else {
-                            px.fill(0.0);
-                            for (dx, &gv) in g.iter().enumerate() {
-                                let s = &ext[(base + dx) * c..(base + dx + 1) * c];
-                                for (p, v) in px.iter_mut().zip(s) {
-                                    *p += gv * v;
-                                }
-                            }
-                        }
-                    }
-                },
-            );
-            // Vertical pass into the level.
+            let values = if cubic {
+                // B-spline coefficients: the prefilter (truncated, see
+                // `CUBIC_TAPS`) of the samples K further out on each side.
+                let k = CUBIC_TAPS as i64;
+                let (si0, sj0) = (i0 as i64 - k, j0 as i64 - k);
+                let samples = level_samples(
+                    image,
+                    border,
+                    &l,
+                    (si0, i1 as i64 + k),
+                    (sj0, j1 as i64 + k),
+                );
+                bspline_coefficients(&samples, ni + 2 * CUBIC_TAPS, nj + 2 * CUBIC_TAPS, c)
+            } else {
+                level_samples(
+                    image,
+                    border,
+                    &l,
+                    (i0 as i64, i1 as i64),
+                    (j0 as i64, j1 as i64),
+                )
+            };
             let nx = l.nx;
-            let stored = &mut level.data;
-            stored
+            level
+                .data
                 .par_chunks_mut(nx * c)
-                .enumerate()
                 .skip(j0)
                 .take(nj)
-                .for_each(|(j, row)| {
-                    let out = &mut row[i0 * c..(i1 + 1) * c];
-                    out.fill(0.0);
-                    // Row index in hp of coordinate (y_j - r).
-                    let k0 = (j - j0) * l.step;
-                    for (dy, &gv) in g.iter().enumerate() {
-                        let src = &hp[(k0 + dy) * ni * c..(k0 + dy + 1) * ni * c];
-                        for (p, v) in out.iter_mut().zip(src) {
-                            *p += gv * v;
-                        }
-                    }
-                });
+                .zip(values.par_chunks(ni * c))
+                .for_each(|(row, src)| row[i0 * c..(i1 + 1) * c].copy_from_slice(src));
         }
         Ok(report)
     }
@@ -486,6 +592,12 @@ mod tests {
     /// extension) and in the middle.
     #[test]
     fn refresh_matches_rebuild() {
+        for interpolation in [Interpolation::Linear, Interpolation::Cubic] {
+            refresh_matches_rebuild_with(interpolation);
+        }
+    }
+
+    fn refresh_matches_rebuild_with(interpolation: Interpolation) {
         for border in [
             Border::Reflect101,
             Border::Replicate,
@@ -514,6 +626,7 @@ mod tests {
             ] {
                 let opts = StackOptions {
                     margin: 3,
+                    interpolation,
                     ..StackOptions::default()
                 };
                 let mut img = test_image(97, 71, c, 7);
@@ -563,7 +676,7 @@ mod tests {
                 assert!(before > 1e-2, "{border}: the change must show ({before})");
                 assert!(
                     after < 1e-5,
-                    "{border} {rect:?}: refresh differs by {after}"
+                    "{border} {rect:?} {interpolation:?}: refresh differs by {after}"
                 );
                 assert!(report.samples > 0 && report.samples <= report.total_samples);
             }

@@ -16,10 +16,17 @@
 
 use std::path::Path;
 
+use ifd_planar::kernel::Sampling;
 use ifd_planar::{DecomposeOptions, Decomposition, KernelSpec, Term, decompose};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SmoothError, check_range};
+
+/// How the bank's Gaussians are applied: as their averages over each output
+/// pixel ([`Sampling::Averaged`], atom variance plus `1/12` px^2), so that
+/// the smoothing filter is the pixel-integrated Gaussian at every footprint
+/// scale, as the directly evaluated small footprints ([`crate::direct`]) are.
+pub const BANK_SAMPLING: Sampling = Sampling::Averaged;
 
 /// How to build an [`AspectBank`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -101,7 +108,19 @@ impl AspectBank {
                     source,
                 }
             })?;
-            terms.push(d.terms);
+            // Unit DC gain: the fit leaves the sum of weights (the
+            // full-plane integral of the sum of unit Gaussians) off by up
+            // to a few 1e-3, which would brighten or darken flat areas.
+            let sum: f64 = d.terms.iter().map(|t| t.weight).sum();
+            let terms_i: Vec<Term> = d
+                .terms
+                .into_iter()
+                .map(|t| Term {
+                    weight: t.weight / sum,
+                    ..t
+                })
+                .collect();
+            terms.push(terms_i);
             progress(i + 1, n);
         }
         Ok(Self {

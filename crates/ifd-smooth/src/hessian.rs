@@ -40,6 +40,7 @@ pub const HESSIAN_SIGMA_RANGE: (f64, f64) = (1.0, 256.0);
 pub fn hessian_stack_options() -> StackOptions {
     StackOptions {
         pyramid_factor: 8.0,
+        interpolation: ifd_planar::Interpolation::Cubic,
         ..StackOptions::default()
     }
 }

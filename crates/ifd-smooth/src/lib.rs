@@ -10,6 +10,8 @@
 //!   aspect ratio (the mapping and its parameters).
 //! - [`bank`]: decompositions of anisotropic Gaussians tabulated over aspect
 //!   ratio; between entries the weights are blended linearly.
+//! - [`direct`]: footprints below the stack's finest levels (`S < 2` px), as
+//!   tables of pixel-integrated anisotropic Gaussians applied tap by tap.
 //! - [`smooth`]: the [`Smoother`], which owns one prefiltered scale stack and
 //!   smooths a whole image or a dab, in the paper's mode (one filter per dab,
 //!   from the Hessian at the dab's centre) or per pixel.
@@ -27,6 +29,7 @@
 //! ```
 
 pub mod bank;
+pub mod direct;
 pub mod error;
 pub mod hessian;
 pub mod orientation;

@@ -9,13 +9,15 @@ use ifd_planar::{
 };
 use rayon::prelude::*;
 
-use crate::bank::{AspectBank, BankOptions};
+use crate::bank::{AspectBank, BANK_SAMPLING, BankOptions};
+use crate::direct::{DIRECT_BELOW, DirectKernels};
 use crate::error::{SmoothError, check_range};
 use crate::hessian::{HESSIAN_SIGMA_RANGE, HessianBank, hessian_stack_options};
 use crate::orientation::{AnisoParams, Orientation, tensor};
 
-/// Smallest and largest footprint scale `S` (pixels) supported.
-pub const SCALE_RANGE: (f64, f64) = (2.0, 128.0);
+/// Smallest and largest footprint scale `S` (pixels) supported. Below
+/// [`DIRECT_BELOW`] the filters are evaluated directly ([`crate::direct`]).
+pub const SCALE_RANGE: (f64, f64) = (0.5, 128.0);
 
 /// Where the filter of a pixel comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -195,6 +197,9 @@ pub use ifd_planar::PixelRect as DabRegion;
 #[derive(Debug)]
 pub struct Smoother {
     stack: ScaleStack,
+    /// Below [`DIRECT_BELOW`]: the tabulated pixel-integrated kernels and
+    /// the image they read.
+    direct: Option<(DirectKernels, Image)>,
     bank: Arc<AspectBank>,
     opts: SmoothOptions,
     field: Vec<Orientation>,
@@ -227,9 +232,15 @@ impl Smoother {
     ) -> ((f64, f64), StackOptions) {
         let hs = opts.hessian_sigma();
         let (hlo, hhi) = hbank.stack_sigmas(hs, hs);
-        let (blo, bhi) = bank.sigma_range();
-        let s = opts.scale / bank.options.sigma_ref;
-        let (lo, hi) = (hlo.min(blo * s), hhi.max(bhi * s));
+        let (lo, hi) = if opts.scale < DIRECT_BELOW {
+            // The smoothing filters do not read the stack.
+            (hlo, hhi)
+        } else {
+            let s = opts.scale / bank.options.sigma_ref;
+            let (blo, bhi) =
+                ifd_planar::filter::sigma_bounds(BANK_SAMPLING, bank.sigma_range(), (s, s));
+            (hlo.min(blo), hhi.max(bhi))
+        };
         let o = smoother_stack_options(bank, opts.scale, (width, height, channels), (lo, hi));
         ((lo, hi), o)
     }
@@ -293,8 +304,15 @@ impl Smoother {
                 })
                 .collect()
         };
+        let direct = (opts.scale < DIRECT_BELOW).then(|| {
+            (
+                DirectKernels::new(opts.scale, opts.aniso.max_aspect),
+                image.clone(),
+            )
+        });
         Ok(Self {
             stack,
+            direct,
             bank,
             opts: *opts,
             field,
@@ -328,6 +346,22 @@ impl Smoother {
         &self.field
     }
 
+    /// The standard deviations `(sx, sy)` of the Gaussian of filter `o`:
+    /// `sx = S sqrt(a)` along `o.theta`, `sy = S / sqrt(a)` across.
+    #[must_use]
+    pub fn footprint(&self, o: Orientation) -> (f64, f64) {
+        let a = f64::from(o.aspect).sqrt();
+        (self.opts.scale * a, self.opts.scale / a)
+    }
+
+    /// The tabulated kernels when the footprint is below [`DIRECT_BELOW`]
+    /// and the smoothing filters are evaluated directly (the GPU path
+    /// supports only the stack-based filters).
+    #[must_use]
+    pub fn direct_kernels(&self) -> Option<&DirectKernels> {
+        self.direct.as_ref().map(|(k, _)| k)
+    }
+
     /// The filter at pixel `(x, y)` (clamped into the image).
     #[must_use]
     pub fn orientation_at(&self, x: f32, y: f32) -> Orientation {
@@ -342,15 +376,16 @@ impl Smoother {
     }
 
     fn filters(&self) -> Result<Vec<Filter<'_>>, SmoothError> {
+        if self.direct.is_some() {
+            return Ok(Vec::new());
+        }
         self.bank
             .terms
             .iter()
             .map(|t| {
-                Filter::new(
-                    &self.stack,
-                    &ifd_planar::Decomposition::from_terms(t.clone()),
-                )
-                .map_err(SmoothError::from)
+                let mut d = ifd_planar::Decomposition::from_terms(t.clone());
+                d.sampling = BANK_SAMPLING;
+                Filter::new(&self.stack, &d).map_err(SmoothError::from)
             })
             .collect()
     }
@@ -385,6 +420,13 @@ impl Smoother {
         weight: f32,
         out: &mut [f32],
     ) {
+        if let Some((k, img)) = &self.direct {
+            // Pixel centres: `x`, `y` are integers on this path (whole
+            // images and dabs evaluate at pixels).
+            let p = (x as usize, y as usize);
+            k.accumulate(img, self.opts.border, p, (o.theta, o.aspect), weight, out);
+            return;
+        }
         let rot = Rotation::degrees(o.theta);
         for (i, wi) in self.blend(o) {
             scaled[i].accumulate(x, y, weight * wi, rot, out);
@@ -477,6 +519,20 @@ impl Smoother {
         // the centre's orientation) over the dab's bounding box, evaluated as
         // vectorised 2x2 stencils per tap; per pixel: `s` lookups per pixel.
         let constant = match mode {
+            Mode::Dab if self.direct.is_some() => {
+                let o = self.orientation_at(dab.x, dab.y);
+                let mut region = vec![0.0f32; rw * rh * c];
+                region
+                    .par_chunks_mut(rw * c)
+                    .enumerate()
+                    .for_each(|(j, row)| {
+                        for (i, px) in row.chunks_exact_mut(c).enumerate() {
+                            let (x, y) = ((x0 + i) as f32, (y0 + j) as f32);
+                            self.add_smoothed(&scaled, x, y, o, 1.0, px);
+                        }
+                    });
+                Some(region)
+            }
             Mode::Dab => {
                 let o = self.orientation_at(dab.x, dab.y);
                 let mut taps = Taps::default();

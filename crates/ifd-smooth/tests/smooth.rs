@@ -81,10 +81,7 @@ fn point_hessian_equals_whole_image() {
         hbank.stack_sigmas(3.0, 3.0).0,
         hbank.stack_sigmas(3.0, 3.0).1,
         Border::Reflect101,
-        ifd_planar::StackOptions {
-            pyramid_factor: 8.0,
-            ..ifd_planar::StackOptions::default()
-        },
+        ifd_smooth::hessian::hessian_stack_options(),
     )
     .unwrap();
     let f = hbank.bind(&stack).unwrap();
@@ -224,4 +221,77 @@ fn bad_input_is_refused() {
     };
     assert!(s.apply_dab(&bad, Mode::Dab, &mut ok).is_err());
     assert!(hessian_image(&img, 0.1, hbank, Border::Reflect101).is_err());
+}
+
+#[test]
+fn small_footprints_are_evaluated_directly() {
+    // Below 2 px the pixel-integrated Gaussians are applied tap by tap.
+    let img = test_image(64, 56);
+    let s = smoother(&img, 0.5);
+    assert!(s.direct_kernels().is_some());
+    assert!(smoother(&img, 2.0).direct_kernels().is_none());
+    // The whole image, a dab and a constant image agree with each other.
+    let whole = s.smooth_image(Mode::PerPixel).unwrap();
+    let mut target = img.clone();
+    let dab = Dab {
+        x: 30.0,
+        y: 28.0,
+        radius: 12.0,
+        falloff: 0.0,
+        strength: 1.0,
+    };
+    s.apply_dab(&dab, Mode::PerPixel, &mut target).unwrap();
+    for (x, y) in [(30, 28), (36, 33), (22, 24)] {
+        assert!((target.get(x, y, 0) - whole.get(x, y, 0)).abs() < 1e-6);
+    }
+    // At S = 0.5 the filter keeps about half of each pixel (the step of
+    // the test image is 0.6).
+    let change = whole
+        .data()
+        .iter()
+        .zip(img.data())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(change > 1e-3 && change < 0.45, "{change}");
+    let flat = Image::from_vec(40, 30, 1, vec![0.75; 1200]).unwrap();
+    for scale in [0.5, 1.3] {
+        let out = smoother(&flat, scale).smooth_image(Mode::Dab).unwrap();
+        assert!(out.data().iter().all(|v| (v - 0.75).abs() < 1e-5));
+    }
+}
+
+#[test]
+fn direct_refresh_follows_the_edited_image() {
+    let (bank, hbank) = banks();
+    let img = test_image(48, 48);
+    let mut s = smoother(&img, 1.0);
+    let mut edited = img.clone();
+    for y in 10..20 {
+        for x in 12..30 {
+            edited.set(x, y, 0, 0.9);
+        }
+    }
+    let rect = ifd_planar::PixelRect {
+        x0: 12,
+        y0: 10,
+        width: 18,
+        height: 10,
+    };
+    s.refresh_region(&edited, rect, hbank).unwrap();
+    let opts = SmoothOptions {
+        scale: 1.0,
+        ..SmoothOptions::default()
+    };
+    let fresh = Smoother::with_banks(&edited, &opts, bank.clone(), hbank).unwrap();
+    let (a, b) = (
+        s.smooth_image(Mode::PerPixel).unwrap(),
+        fresh.smooth_image(Mode::PerPixel).unwrap(),
+    );
+    let worst = a
+        .data()
+        .iter()
+        .zip(b.data())
+        .map(|(p, q)| (p - q).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-4, "{worst}");
 }

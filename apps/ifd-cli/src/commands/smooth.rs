@@ -35,7 +35,8 @@ enum ModeArg {
 pub struct Smooth {
     /// The image.
     image: PathBuf,
-    /// Footprint scale S in pixels (2 to 128).
+    /// Footprint scale S in pixels (0.5 to 128). Below 2 the pixel-integrated
+    /// Gaussians are applied directly (a few taps per pixel, CPU only).
     #[arg(long)]
     scale: f64,
     /// Largest aspect ratio K of the Gaussian (1 to 16).
@@ -62,6 +63,11 @@ pub struct Smooth {
     /// Output image.
     #[arg(short, long)]
     output: PathBuf,
+    /// Also write the filter each pixel used, as an HxWx3 float32 `.npy`:
+    /// angle of the long axis (degrees counter-clockwise on screen), sx
+    /// (along it) and sy (across), in pixels.
+    #[arg(long, value_name = "FIELD.npy")]
+    field: Option<PathBuf>,
     /// Print timings.
     #[arg(short, long)]
     verbose: bool,
@@ -84,6 +90,21 @@ impl Smooth {
             .with_context(|| format!("--border {}", self.border))?;
         if !(0.0..=1.0).contains(&self.strength) {
             anyhow::bail!("--strength {} is outside [0, 1]", self.strength);
+        }
+        if let Some(f) = &self.field
+            && f.extension().and_then(|e| e.to_str()) != Some("npy")
+        {
+            anyhow::bail!(
+                "--field {}: the filter field is data, written as .npy only",
+                f.display()
+            );
+        }
+        if self.gpu && self.scale < ifd_smooth::direct::DIRECT_BELOW {
+            anyhow::bail!(
+                "--gpu: footprint scales below {} px (here {}) are evaluated directly, on the CPU only; drop --gpu",
+                ifd_smooth::direct::DIRECT_BELOW,
+                self.scale
+            );
         }
         let img = self.input.read(&self.image)?.image;
         let opts = SmoothOptions {
@@ -150,6 +171,18 @@ impl Smooth {
                 (t2 - t1).as_secs_f64() * 1e3,
                 (t3 - t2).as_secs_f64() * 1e3
             );
+        }
+        if let Some(path) = &self.field {
+            let field: Vec<f32> = smoother
+                .orientation_field()
+                .iter()
+                .flat_map(|&o| {
+                    let (sx, sy) = smoother.footprint(o);
+                    [o.theta, sx as f32, sy as f32]
+                })
+                .collect();
+            let field = ifd_image::Image::from_vec(img.width(), img.height(), 3, field)?;
+            write_output(path, &field, &ifd_image::WriteOptions::default())?;
         }
         write_output(&self.output, &out, &ifd_image::WriteOptions::default())
     }

@@ -74,6 +74,16 @@ impl Smoother {
             )));
         }
         let stack = self.stack.refresh_region(image, rect)?;
+        if let Some((_, copy)) = &mut self.direct {
+            // The directly evaluated filters read the image itself.
+            let c = self.channels;
+            let (src, dst) = (image.data(), copy.data_mut());
+            for y in rect.y0..(rect.y0 + rect.height).min(h) {
+                let o = (y * w + rect.x0) * c;
+                let n = rect.width.min(w.saturating_sub(rect.x0)) * c;
+                dst[o..o + n].copy_from_slice(&src[o..o + n]);
+            }
+        }
         if rect.width == 0 || rect.height == 0 {
             return Ok(RegionRefresh {
                 stack,
