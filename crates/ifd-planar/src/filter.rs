@@ -269,11 +269,11 @@ struct Prepared {
 
 /// One resolved lookup: level, displacement from the pixel and weight.
 #[derive(Clone, Copy, Debug)]
-struct Tap {
-    level: usize,
-    ox: f32,
-    oy: f32,
-    weight: f32,
+pub(crate) struct Tap {
+    pub(crate) level: usize,
+    pub(crate) ox: f32,
+    pub(crate) oy: f32,
+    pub(crate) weight: f32,
 }
 
 /// A decomposition bound to a scale stack, ready to filter.
@@ -1036,7 +1036,7 @@ impl Taps {
 /// xs.start) * c..]`): full-resolution levels are applied as a 2x2 stencil
 /// over the stored interior (contiguous, vectorisable), everything else
 /// through the general lookup with border handling.
-fn row_constant(
+pub(crate) fn row_constant(
     stack: &ScaleStack,
     taps: &[Tap],
     y: usize,

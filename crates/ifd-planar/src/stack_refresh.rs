@@ -420,16 +420,22 @@ impl ScaleStack {
         if rect.area() == 0 {
             return Ok(out);
         }
+        // The taps are constant over the rectangle: each is applied to a
+        // whole row with its interpolation weights computed once.
+        let taps: Vec<crate::filter::Tap> = lookups
+            .iter()
+            .map(|&(level, ox, oy, weight)| crate::filter::Tap {
+                level,
+                ox,
+                oy,
+                weight,
+            })
+            .collect();
+        let xs = rect.x0..rect.x0 + rect.width;
         out.par_chunks_mut(rect.width * c)
             .enumerate()
             .for_each(|(j, row)| {
-                let y = (rect.y0 + j) as f32;
-                for (i, px) in row.chunks_exact_mut(c).enumerate() {
-                    let x = (rect.x0 + i) as f32;
-                    for &(level, dx, dy, w) in &lookups {
-                        self.accumulate(level, x + dx, y + dy, w, px);
-                    }
-                }
+                crate::filter::row_constant(self, &taps, rect.y0 + j, xs.clone(), row);
             });
         Ok(out)
     }
