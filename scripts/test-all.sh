@@ -10,7 +10,10 @@
 #      Node packages of tests/js (ktx-parse, an independent KTX2 reader; Node
 #      and npm from Debian when missing).
 #   3. rustfmt and clippy (rustup component add, when missing), then
-#      cargo fmt --check, cargo clippy --all-targets -D warnings, cargo test.
+#      cargo fmt --check, cargo clippy --all-targets -D warnings, cargo doc
+#      with warnings denied, cargo machete (unused dependencies; installed
+#      with cargo install when missing), the module-cycle check
+#      (scripts/module_cycles.py), cargo test.
 #   4. The reference comparisons in tests/python (pytest; scikit-image, OpenCV,
 #      SciPy, pyshtools, ducc0 against the `ifd` binary).
 # It ends with one line `N passed, M failed, K skipped, X known failures`
@@ -128,6 +131,36 @@ if cargo clippy --workspace --all-targets --quiet -- -D warnings >"$LOG_DIR/clip
 else
   grep -E '^(error|warning)' -A5 "$LOG_DIR/clippy.log" | head -60
   fail "cargo clippy"
+fi
+
+step "cargo doc --no-deps (warnings denied: broken and private links)"
+if RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet >"$LOG_DIR/doc.log" 2>&1; then
+  ok "cargo doc"
+else
+  grep -E '^(error|warning)' -A7 "$LOG_DIR/doc.log" | head -40
+  fail "cargo doc (see $LOG_DIR/doc.log)"
+fi
+
+step "unused dependencies (cargo-machete)"
+if ! command -v cargo-machete >/dev/null 2>&1; then
+  cargo install cargo-machete --locked --quiet >"$LOG_DIR/machete-install.log" 2>&1 ||
+    { tail -5 "$LOG_DIR/machete-install.log"; }
+fi
+if ! command -v cargo-machete >/dev/null 2>&1; then
+  fail "cargo-machete could not be installed (see $LOG_DIR/machete-install.log)"
+elif cargo machete >"$LOG_DIR/machete.log" 2>&1; then
+  ok "no unused dependencies"
+else
+  cat "$LOG_DIR/machete.log"
+  fail "unused dependencies (cargo machete)"
+fi
+
+step "module import cycles inside crates (scripts/module_cycles.py)"
+if python3 scripts/module_cycles.py >"$LOG_DIR/module-cycles.log" 2>&1; then
+  ok "no module cycles"
+else
+  cat "$LOG_DIR/module-cycles.log"
+  fail "module cycles"
 fi
 
 step "cargo test"

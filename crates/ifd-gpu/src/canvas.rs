@@ -8,11 +8,12 @@ use ifd_smooth::{Dab, Mode};
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::eval::{
-    Region, Rgba8Params, buffer_init, check_region, entry, read_buffer_range, rgba8_texture,
-    submit_pass, submit_rgba8,
-};
+use crate::eval::Region;
 use crate::smooth::GpuSmoother;
+use crate::wgpu_helpers::{
+    Rgba8Params, buffer_init, check_region, entry, read_buffer_range, rgba8_texture, submit_pass,
+    submit_rgba8,
+};
 
 /// One display texture of a [`GpuCanvas`]: `rgba8unorm`, the pixels of
 /// `region` of the image.

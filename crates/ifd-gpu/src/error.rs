@@ -61,15 +61,12 @@ pub enum GpuError {
     },
 }
 
-/// Bytes in words: `1.5 GiB`, `12.0 MiB`, `512 B`.
+/// Bytes in words with the exact count, for device limits: `1.5 GiB
+/// (1610612736 bytes)` (the unit formatting is [`ifd_image::fmt_bytes`]).
 pub(crate) fn fmt_bytes(n: u64) -> String {
-    const KIB: f64 = 1024.0;
-    let f = n as f64;
-    if f >= KIB * KIB * KIB {
-        format!("{:.2} GiB ({n} bytes)", f / (KIB * KIB * KIB))
-    } else if f >= KIB * KIB {
-        format!("{:.1} MiB ({n} bytes)", f / (KIB * KIB))
+    if n < 1024 {
+        ifd_image::fmt_bytes(n)
     } else {
-        format!("{n} bytes")
+        format!("{} ({n} bytes)", ifd_image::fmt_bytes(n))
     }
 }

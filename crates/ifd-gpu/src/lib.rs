@@ -97,6 +97,7 @@ mod eval;
 pub mod shaders;
 mod smooth;
 mod stack;
+mod wgpu_helpers;
 
 pub use canvas::{DisplayTile, GpuCanvas};
 pub use context::{AdapterChoice, GpuContext, list_adapters};

@@ -326,7 +326,7 @@ fn upload_chunk(
         true,
     )?;
     let device = ctx.device();
-    let levels = crate::eval::buffer_init(
+    let levels = crate::wgpu_helpers::buffer_init(
         device,
         "ifd stack levels",
         bytemuck::cast_slice(&metas),

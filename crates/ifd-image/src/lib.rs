@@ -17,6 +17,7 @@
 
 mod budget;
 mod error;
+mod files;
 mod image;
 mod io;
 pub mod metrics;
@@ -24,8 +25,10 @@ mod npy;
 
 pub use crate::budget::{MemoryBudget, physical_memory};
 pub use crate::error::{ImageError, fmt_bytes};
+pub use crate::files::atomic_write;
 pub use crate::image::Image;
 pub use crate::io::{
     BitDepth, FileFormat, LoadedImage, NonFinitePolicy, ReadOptions, WriteOptions, WriteReport,
-    atomic_write, linear_to_srgb, read, read_image, srgb_to_linear, write, write_image,
+    linear_to_srgb, read, read_image, srgb_to_linear, write, write_image,
 };
+pub use crate::npy::{NpyArray, read_npy_array, write_npy_f64};

@@ -29,16 +29,18 @@ impl Dtype {
     }
 }
 
-pub(crate) fn read_npy(
-    path: &Path,
-    mut file: std::fs::File,
-    budget: MemoryBudget,
-) -> Result<Image, ImageError> {
-    let bad = |reason: String| ImageError::Decode {
-        path: path.to_path_buf(),
-        format: "NumPy",
-        reason,
-    };
+/// A parsed `.npy` header: element type, byte order, memory order, shape.
+struct Header {
+    dtype: Dtype,
+    big_endian: bool,
+    fortran: bool,
+    shape: Vec<usize>,
+}
+
+fn read_header(
+    file: &mut std::fs::File,
+    bad: &dyn Fn(String) -> ImageError,
+) -> Result<Header, ImageError> {
     let io = |e: std::io::Error| bad(format!("truncated or unreadable: {e}"));
     let mut head = [0u8; 8];
     file.read_exact(&mut head).map_err(io)?;
@@ -84,6 +86,185 @@ pub(crate) fn read_npy(
         .map(str::parse)
         .collect::<Result<_, _>>()
         .map_err(|_| bad(format!("cannot parse shape {shape_s}")))?;
+    Ok(Header {
+        dtype,
+        big_endian,
+        fortran,
+        shape,
+    })
+}
+
+/// Reads `n` elements of `header`'s type, decoded by `decode`, checking the
+/// memory budget first (`extra` bytes per element for the decoded copy).
+fn read_values<T>(
+    file: &mut std::fs::File,
+    header: &Header,
+    n: usize,
+    budget: MemoryBudget,
+    extra: u64,
+    bad: &dyn Fn(String) -> ImageError,
+    decode: impl Fn(&[u8], Dtype, bool) -> T,
+) -> Result<Vec<T>, ImageError> {
+    let size = header.dtype.size();
+    budget.check((n as u64).saturating_mul(extra + size as u64))?;
+    let mut raw = vec![0u8; n * size];
+    file.read_exact(&mut raw).map_err(|_| {
+        bad(format!(
+            "truncated: shape {:?} needs {} data bytes",
+            header.shape,
+            n * size
+        ))
+    })?;
+    Ok(raw
+        .chunks_exact(size)
+        .map(|b| decode(b, header.dtype, header.big_endian))
+        .collect())
+}
+
+/// Row-major (C-order) index of the element at Fortran-order position `i`.
+fn c_index(i: usize, shape: &[usize]) -> usize {
+    let mut rest = i;
+    let mut out = 0;
+    let mut stride = 1;
+    let strides: Vec<usize> = {
+        let mut v = vec![0; shape.len()];
+        for k in (0..shape.len()).rev() {
+            v[k] = stride;
+            stride *= shape[k];
+        }
+        v
+    };
+    for (k, &d) in shape.iter().enumerate() {
+        out += (rest % d) * strides[k];
+        rest /= d;
+    }
+    out
+}
+
+/// An n-dimensional array read from a `.npy` file, as `f64` in row-major
+/// (C) order whatever the file's order and byte order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NpyArray {
+    /// The shape, outermost axis first.
+    pub shape: Vec<usize>,
+    /// The values, row-major.
+    pub data: Vec<f64>,
+}
+
+/// Reads any `.npy` array of float32, float64, uint8 or uint16 (format
+/// versions 1.0-3.0, either byte order, C or Fortran order) as `f64`, with
+/// the same checks and messages as images (`ifd_sphere` reads its SH
+/// coefficients and direction lists through it).
+///
+/// ```
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("a.npy");
+/// ifd_image::write_npy_f64(&path, &[2, 3], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0])?;
+/// let a = ifd_image::read_npy_array(&path, ifd_image::MemoryBudget::default_for_machine())?;
+/// assert_eq!(a.shape, vec![2, 3]);
+/// assert_eq!(a.data[4], 5.0);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// [`ImageError::NotFound`] and [`ImageError::Io`] for missing and
+/// unreadable files, [`ImageError::Decode`] naming
+/// the file for malformed or truncated ones, [`ImageError::TooLarge`] when the
+/// array exceeds `budget`.
+pub fn read_npy_array(path: &Path, budget: MemoryBudget) -> Result<NpyArray, ImageError> {
+    let mut file = crate::files::open(path)?;
+    let bad = |reason: String| ImageError::Decode {
+        path: path.to_path_buf(),
+        format: "NumPy",
+        reason,
+    };
+    let header = read_header(&mut file, &bad)?;
+    let n = header
+        .shape
+        .iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .ok_or_else(|| bad(format!("shape {:?} overflows", header.shape)))?;
+    let values = read_values(&mut file, &header, n, budget, 8, &bad, |b, d, big| {
+        decode_f64(b, d, big)
+    })?;
+    let data = if header.fortran && header.shape.len() > 1 {
+        let mut out = vec![0.0; n];
+        for (i, v) in values.into_iter().enumerate() {
+            out[c_index(i, &header.shape)] = v;
+        }
+        out
+    } else {
+        values
+    };
+    Ok(NpyArray {
+        shape: header.shape,
+        data,
+    })
+}
+
+/// Writes a C-order little-endian float64 `.npy` file of shape `shape`
+/// atomically (a temporary file, then a rename: never half written).
+///
+/// # Errors
+/// [`ImageError::Write`] naming the file, also when `data`'s length does
+/// not match `shape`.
+pub fn write_npy_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<(), ImageError> {
+    if shape.iter().product::<usize>() != data.len() {
+        return Err(ImageError::Write {
+            path: path.to_path_buf(),
+            reason: format!("{} values for shape {shape:?}", data.len()),
+        });
+    }
+    let dims: Vec<String> = shape.iter().map(ToString::to_string).collect();
+    let shape_txt = if dims.len() == 1 {
+        format!("({},)", dims[0])
+    } else {
+        format!("({})", dims.join(", "))
+    };
+    let header = padded_header("<f8", &shape_txt);
+    crate::files::atomic_write(path, |w| {
+        let e = |e: std::io::Error| e.to_string();
+        write_preamble(w, &header)?;
+        for v in data {
+            w.write_all(&v.to_le_bytes()).map_err(e)?;
+        }
+        Ok(())
+    })
+}
+
+/// The header dict padded so that magic, version, length and header make a
+/// multiple of 64 bytes, newline-terminated.
+fn padded_header(descr: &str, shape: &str) -> String {
+    let mut header = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
+    let unpadded = MAGIC.len() + 2 + 2 + header.len() + 1;
+    header.push_str(&" ".repeat((64 - unpadded % 64) % 64));
+    header.push('\n');
+    header
+}
+
+fn write_preamble<W: Write>(out: &mut W, header: &str) -> Result<(), String> {
+    let len = u16::try_from(header.len()).map_err(|_| "npy header too long".to_string())?;
+    let e = |e: std::io::Error| e.to_string();
+    out.write_all(MAGIC).map_err(e)?;
+    out.write_all(&[1, 0]).map_err(e)?;
+    out.write_all(&len.to_le_bytes()).map_err(e)?;
+    out.write_all(header.as_bytes()).map_err(e)
+}
+
+pub(crate) fn read_npy(
+    path: &Path,
+    mut file: std::fs::File,
+    budget: MemoryBudget,
+) -> Result<Image, ImageError> {
+    let bad = |reason: String| ImageError::Decode {
+        path: path.to_path_buf(),
+        format: "NumPy",
+        reason,
+    };
+    let header = read_header(&mut file, &bad)?;
+    let Header {
+        fortran, ref shape, ..
+    } = header;
     let (h, w, c) = match shape.as_slice() {
         [h, w] => (*h, *w, 1),
         [h, w, c] => (*h, *w, *c),
@@ -105,18 +286,7 @@ pub(crate) fn read_npy(
         .checked_mul(w)
         .and_then(|v| v.checked_mul(c))
         .ok_or_else(|| bad(format!("shape {shape:?} overflows")))?;
-    budget.check((n as u64).saturating_mul(4 + dtype.size() as u64))?;
-    let mut raw = vec![0u8; n * dtype.size()];
-    file.read_exact(&mut raw).map_err(|_| {
-        bad(format!(
-            "truncated: shape {shape:?} needs {} data bytes",
-            n * dtype.size()
-        ))
-    })?;
-    let values: Vec<f32> = raw
-        .chunks_exact(dtype.size())
-        .map(|b| decode_value(b, dtype, big_endian))
-        .collect();
+    let values = read_values(&mut file, &header, n, budget, 4, &bad, decode_value)?;
     let data = if fortran {
         // Fortran order: the first index varies fastest.
         let mut out = vec![0.0; n];
@@ -131,6 +301,20 @@ pub(crate) fn read_npy(
         values
     };
     Image::from_vec(w, h, c, data)
+}
+
+fn decode_f64(b: &[u8], dtype: Dtype, big: bool) -> f64 {
+    match dtype {
+        Dtype::F64 => {
+            let a = [b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]];
+            if big {
+                f64::from_be_bytes(a)
+            } else {
+                f64::from_le_bytes(a)
+            }
+        }
+        _ => f64::from(decode_value(b, dtype, big)),
+    }
 }
 
 fn decode_value(b: &[u8], dtype: Dtype, big: bool) -> f32 {
@@ -208,17 +392,8 @@ pub(crate) fn write_npy<W: Write>(out: &mut W, image: &Image) -> Result<(), Stri
             image.channels()
         )
     };
-    let mut header = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': {shape}, }}");
-    // Pad so that magic + version + length + header is a multiple of 64.
-    let unpadded = MAGIC.len() + 2 + 2 + header.len() + 1;
-    header.push_str(&" ".repeat((64 - unpadded % 64) % 64));
-    header.push('\n');
-    let len = u16::try_from(header.len()).map_err(|_| "npy header too long".to_string())?;
+    write_preamble(out, &padded_header("<f4", &shape))?;
     let e = |e: std::io::Error| e.to_string();
-    out.write_all(MAGIC).map_err(e)?;
-    out.write_all(&[1, 0]).map_err(e)?;
-    out.write_all(&len.to_le_bytes()).map_err(e)?;
-    out.write_all(header.as_bytes()).map_err(e)?;
     for v in image.data() {
         out.write_all(&v.to_le_bytes()).map_err(e)?;
     }
@@ -228,6 +403,38 @@ pub(crate) fn write_npy<W: Write>(out: &mut W, image: &Image) -> Result<(), Stri
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn arrays_of_any_shape_and_order() {
+        let dir = tempfile::tempdir().expect("dir");
+        let path = dir.path().join("c.npy");
+        let data: Vec<f64> = (0..12).map(f64::from).collect();
+        write_npy_f64(&path, &[2, 3, 2], &data).expect("write");
+        let a = read_npy_array(&path, MemoryBudget::default_for_machine()).expect("read");
+        assert_eq!(
+            (a.shape.clone(), a.data.clone()),
+            (vec![2, 3, 2], data.clone())
+        );
+        // The same array in Fortran order, big-endian float32: element
+        // (i, j, k) is stored at i + 2 j + 6 k.
+        let mut body = Vec::new();
+        for k in 0..2 {
+            for j in 0..3 {
+                for i in 0..2 {
+                    body.extend_from_slice(&(data[i * 6 + j * 2 + k] as f32).to_be_bytes());
+                }
+            }
+        }
+        let header = "{'descr': '>f4', 'fortran_order': True, 'shape': (2, 3, 2), }\n";
+        let fpath = dir.path().join("f.npy");
+        let mut bytes = Vec::new();
+        write_preamble(&mut bytes, header).expect("preamble");
+        bytes.extend_from_slice(&body);
+        std::fs::write(&fpath, bytes).expect("write");
+        let b = read_npy_array(&fpath, MemoryBudget::default_for_machine()).expect("read");
+        assert_eq!((b.shape, b.data), (vec![2, 3, 2], data));
+        assert!(write_npy_f64(&path, &[5], &[1.0]).is_err());
+    }
 
     #[test]
     fn header_values() {

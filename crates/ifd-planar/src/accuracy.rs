@@ -50,7 +50,8 @@
 //! that narrow at a fractional position, and the bound says so.
 
 use crate::decomposition::Decomposition;
-use crate::filter::{FilterError, evaluated_directly};
+use crate::error::FilterError;
+use crate::filter::evaluated_directly;
 use crate::stack::{Interpolation, StackOptions, pyramid_step};
 
 /// Relative RMS error of one lookup along one axis (see the module docs) for

@@ -17,7 +17,10 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::filter::FilterError;
+use ifd_image::Image;
+use rayon::prelude::*;
+
+use crate::error::FilterError;
 
 /// How pixels outside the image are defined.
 ///
@@ -173,6 +176,34 @@ impl FromStr for Border {
             }
         }
     }
+}
+
+/// `image` extended by `rx` columns and `ry` rows on each side by `border`
+/// (row-major, interleaved), and the extended width.
+pub(crate) fn extend(image: &Image, rx: usize, ry: usize, border: Border) -> (Vec<f32>, usize) {
+    let (w, h, c) = (image.width(), image.height(), image.channels());
+    let ew = w + 2 * rx;
+    let eh = h + 2 * ry;
+    let data = image.data();
+    let cval = border.constant();
+    let xmap: Vec<Option<usize>> = (0..ew)
+        .map(|i| border.resolve(i as i64 - rx as i64, w))
+        .collect();
+    let mut ext = vec![0.0f32; ew * eh * c];
+    ext.par_chunks_mut(ew * c)
+        .enumerate()
+        .for_each(|(ey, row)| {
+            let sy = border.resolve(ey as i64 - ry as i64, h);
+            for (ex, px) in row.chunks_exact_mut(c).enumerate() {
+                match (sy, xmap[ex]) {
+                    (Some(y), Some(x)) => {
+                        px.copy_from_slice(&data[(y * w + x) * c..(y * w + x + 1) * c]);
+                    }
+                    _ => px.fill(cval),
+                }
+            }
+        });
+    (ext, ew)
 }
 
 #[cfg(test)]

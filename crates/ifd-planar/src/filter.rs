@@ -26,120 +26,10 @@ use rayon::prelude::*;
 
 use crate::border::Border;
 use crate::decomposition::{Decomposition, Term};
+use crate::error::FilterError;
 use crate::kernel::Sampling;
-use crate::stack::{
-    Interpolation, MIN_SIGMA, ScaleStack, StackLayout, StackOptions, bspline_weights,
-};
-
-/// Errors of prefiltering, filtering and the brute-force references.
-#[derive(Debug, thiserror::Error)]
-pub enum FilterError {
-    /// A zero-sized image.
-    #[error("image is empty ({width}x{height} with {channels} channels)")]
-    EmptyImage {
-        /// Width.
-        width: usize,
-        /// Height.
-        height: usize,
-        /// Channels.
-        channels: usize,
-    },
-    /// NaN or infinite values in an image or map.
-    #[error(
-        "{what} has {count} non-finite (NaN or infinite) values, first at x={x}, y={y}, channel {channel}"
-    )]
-    NonFinite {
-        /// What holds them ("image", "angle map", ...).
-        what: &'static str,
-        /// How many.
-        count: usize,
-        /// Column of the first.
-        x: usize,
-        /// Row of the first.
-        y: usize,
-        /// Channel of the first.
-        channel: usize,
-    },
-    /// A sigma range or stack option that makes no sense.
-    #[error("invalid scale-stack range: {0}")]
-    InvalidRange(String),
-    /// A lookup at a sigma the stack does not cover.
-    #[error("sigma {sigma} px is outside the scale stack's range [{min}, {max}] px")]
-    SigmaOutOfRange {
-        /// The sigma asked for.
-        sigma: f64,
-        /// Smallest sigma of the stack.
-        min: f64,
-        /// Largest sigma of the stack.
-        max: f64,
-    },
-    /// A filter scale whose `s * sigma_t` falls outside the stack.
-    #[error(
-        "scale {scale}{location} needs sigma {needed} px (term sigma {term_sigma} px), outside the scale stack's range [{min}, {max}] px"
-    )]
-    ScaleOutOfRange {
-        /// The offending scale.
-        scale: f64,
-        /// `" at pixel (x, y)"` for a map value, empty for a constant.
-        location: String,
-        /// The term's sigma.
-        term_sigma: f64,
-        /// `scale * term_sigma`.
-        needed: f64,
-        /// Smallest sigma of the stack.
-        min: f64,
-        /// Largest sigma of the stack.
-        max: f64,
-    },
-    /// A per-pixel map of the wrong size.
-    #[error("{name} map has {len} values, expected {width}x{height} = {expected}")]
-    MapSize {
-        /// "angle" or "scale".
-        name: &'static str,
-        /// Values given.
-        len: usize,
-        /// Image width.
-        width: usize,
-        /// Image height.
-        height: usize,
-        /// `width * height`.
-        expected: usize,
-    },
-    /// An invalid angle or scale value.
-    #[error("invalid {name} {value}{location}: {why}")]
-    InvalidValue {
-        /// "angle" or "scale".
-        name: &'static str,
-        /// The value.
-        value: f32,
-        /// `" at pixel (x, y)"` for a map value, empty for a constant.
-        location: String,
-        /// Why it is invalid.
-        why: &'static str,
-    },
-    /// An unknown border mode name.
-    #[error(
-        "unknown border mode {0:?} (expected reflect101, constant, constant:VALUE, replicate or wrap)"
-    )]
-    InvalidBorder(String),
-    /// A decomposition term that cannot be evaluated.
-    #[error("decomposition term {index} is invalid: {why}")]
-    InvalidTerm {
-        /// Index of the term.
-        index: usize,
-        /// Why.
-        why: String,
-    },
-    /// Mismatched shapes or lengths (kernels, buffers).
-    #[error("{0}")]
-    Shape(String),
-    /// Another parameter outside its valid range.
-    #[error("{0}")]
-    InvalidParameter(String),
-    /// The computation would need too much memory.
-    #[error("too large: {0}")]
-    TooLarge(String),
-}
+use crate::stack::lookup::{Tap, row_constant};
+use crate::stack::{MIN_SIGMA, ScaleStack, StackLayout, StackOptions};
 
 /// A per-pixel parameter (angle in degrees, or scale): a constant or a
 /// row-major map of `width * height` values.
@@ -265,15 +155,6 @@ struct Prepared {
     cy: f32,
     sigma: f64,
     ln_sigma: f64,
-}
-
-/// One resolved lookup: level, displacement from the pixel and weight.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Tap {
-    pub(crate) level: usize,
-    pub(crate) ox: f32,
-    pub(crate) oy: f32,
-    pub(crate) weight: f32,
 }
 
 /// A decomposition bound to a scale stack, ready to filter.
@@ -825,7 +706,7 @@ fn direct_correlation(
         }
     }
     let (w, h, c) = (source.width(), source.height(), source.channels());
-    let (ext, ew) = crate::reference::extend(source, radius, radius, border);
+    let (ext, ew) = crate::border::extend(source, radius, radius, border);
     let taps: Vec<(usize, usize, f32)> = kernel
         .into_iter()
         .map(|((dx, dy), v)| {
@@ -1029,100 +910,6 @@ impl Taps {
             .enumerate()
             .for_each(|(j, row)| row_constant(stack, &self.taps, y0 + j, x0..x0 + width, row));
         Ok(out)
-    }
-}
-
-/// Adds constant taps into `out`, the pixels `xs` of row `y` (`out[(x -
-/// xs.start) * c..]`): full-resolution levels are applied as a 2x2 stencil
-/// over the stored interior (contiguous, vectorisable), everything else
-/// through the general lookup with border handling.
-pub(crate) fn row_constant(
-    stack: &ScaleStack,
-    taps: &[Tap],
-    y: usize,
-    xs: std::ops::Range<usize>,
-    out: &mut [f32],
-) {
-    let c = stack.channels();
-    let (xa, xb) = (xs.start, xs.end);
-    let yf = y as f32;
-    for tap in taps {
-        let level = &stack.levels[tap.level];
-        let lay = &level.layout;
-        let general = |out: &mut [f32], xs: std::ops::Range<usize>| {
-            for x in xs {
-                let o = (x - xa) * c;
-                stack.accumulate(
-                    tap.level,
-                    x as f32 + tap.ox,
-                    yf + tap.oy,
-                    tap.weight,
-                    &mut out[o..o + c],
-                );
-            }
-        };
-        if lay.step != 1 {
-            general(out, xa..xb);
-            continue;
-        }
-        let fx = tap.ox.floor();
-        let fy = tap.oy.floor();
-        let ax = tap.ox - fx;
-        let ay = tap.oy - fy;
-        // Stored column of pixel x is x + di, stored row is y + dj.
-        let di = fx as i64 - lay.origin;
-        let iv = y as i64 + fy as i64 - lay.origin;
-        // Samples the stencil reads before and after the one below the point.
-        let (before, after) = stack.interpolation().reach();
-        let (before, after) = (before as i64, after as i64);
-        if iv < before || iv + after >= lay.ny as i64 {
-            general(out, xa..xb);
-            continue;
-        }
-        let x0 = (before - di).clamp(xa as i64, xb as i64) as usize;
-        let x1 = (lay.nx as i64 - after - di).clamp(x0 as i64, xb as i64) as usize;
-        general(out, xa..x0);
-        general(out, x1..xb);
-        if x1 > x0 && stack.interpolation() == Interpolation::Cubic {
-            // 4x4 coefficients with weights fixed for the whole row.
-            let wx = bspline_weights(ax);
-            let wy = bspline_weights(ay);
-            let nxc = lay.nx * c;
-            let start = ((x0 as i64 + di - 1) as usize) * c;
-            let len = (x1 - x0) * c;
-            let dst = &mut out[(x0 - xa) * c..(x1 - xa) * c];
-            for (j, wyj) in wy.iter().enumerate() {
-                let r = (iv as usize + j - 1) * nxc;
-                let row = &level.data[r + start..r + start + len + 3 * c];
-                let w = wx.map(|v| v * wyj * tap.weight);
-                for (i, o) in dst.iter_mut().enumerate() {
-                    *o += w[0] * row[i]
-                        + w[1] * row[i + c]
-                        + w[2] * row[i + 2 * c]
-                        + w[3] * row[i + 3 * c];
-                }
-            }
-        } else if x1 > x0 {
-            let nxc = lay.nx * c;
-            let r0 = &level.data[iv as usize * nxc..(iv as usize + 1) * nxc];
-            let r1 = &level.data[(iv as usize + 1) * nxc..(iv as usize + 2) * nxc];
-            let start = ((x0 as i64 + di) as usize) * c;
-            let len = (x1 - x0) * c;
-            let a00 = tap.weight * (1.0 - ax) * (1.0 - ay);
-            let a01 = tap.weight * ax * (1.0 - ay);
-            let a10 = tap.weight * (1.0 - ax) * ay;
-            let a11 = tap.weight * ax * ay;
-            let dst = &mut out[(x0 - xa) * c..(x1 - xa) * c];
-            let p00 = &r0[start..start + len];
-            let p01 = &r0[start + c..start + c + len];
-            let p10 = &r1[start..start + len];
-            let p11 = &r1[start + c..start + c + len];
-            for ((((o, &v00), &v01), &v10), &v11) in
-                dst.iter_mut().zip(p00).zip(p01).zip(p10).zip(p11)
-            {
-                *o += a00 * v00 + a01 * v01 + a10 * v10 + a11 * v11;
-            }
-        }
     }
 }
 

@@ -31,7 +31,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::decomposition::Decomposition;
+use crate::decomposition::{Decomposition, FitReport};
 use crate::dictionary::{Dictionary, DictionaryError, DictionaryOptions, DictionaryParams};
 use crate::kernel::Kernel;
 use crate::sparsa::{LinearOperator, Sparsa, StopCriterion, debias};
@@ -79,60 +79,6 @@ impl Default for DecomposeOptions {
     }
 }
 
-/// What a fit achieved.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct FitReport {
-    /// Number of terms `s`.
-    pub terms: usize,
-    /// `||recon - k||_2 / ||k||_2` over the kernel's samples.
-    pub rel_l2_error: f64,
-    /// `max |recon - k| / max |k|`.
-    pub max_error: f64,
-    /// `|sum recon - sum k| / sum |k|` (the relative DC error for non-negative kernels).
-    pub dc_error: f64,
-    /// `SpaRSA` iterations, all stages.
-    pub iterations: usize,
-    /// Wall-clock seconds of the fit.
-    pub seconds: f64,
-    /// Atoms in the dictionary.
-    pub dictionary_atoms: usize,
-    /// The final absolute `tau`.
-    pub tau: f64,
-    /// The fit's grid was this many times finer than the pixels
-    /// ([`decompose_oversampled`]); 1 for the pixel grid.
-    #[serde(default = "one")]
-    pub oversample: usize,
-    /// With `oversample > 1`, the relative L2 error on the fine grid (the
-    /// continuous filter between pixel centres).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub fine_rel_l2_error: Option<f64>,
-    /// Pixels of zeros around the kernel's window over which the fit was
-    /// made and the errors are measured (0 in files written before it
-    /// existed: errors inside the window only).
-    #[serde(default)]
-    pub margin: usize,
-    /// The sum of the kernel's samples (1 for normalised kernels, 0 for
-    /// zero-mean ones); `None` in files written before it existed.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub kernel_sum: Option<f64>,
-    /// The DC gain of the filter as applied at the fitted pose: the sum over
-    /// the whole plane of the sum of Gaussians sampled at pixel centres
-    /// ([`sampled_dc_gain`]), what a constant image is multiplied by;
-    /// `None` in files written before it existed.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub dc_gain: Option<f64>,
-}
-
-impl FitReport {
-    /// The full-plane DC error `|dc_gain - sum k|`: how much the filter
-    /// changes a constant image relative to the kernel, next to the windowed
-    /// [`FitReport::dc_error`]. `None` in older files.
-    #[must_use]
-    pub fn full_plane_dc_error(&self) -> Option<f64> {
-        Some((self.dc_gain? - self.kernel_sum?).abs())
-    }
-}
-
 /// The sum over the whole pixel grid of the decomposition's Gaussians
 /// sampled at pixel centres, `sum_t w_t Sx_t Sy_t` with the 1D sums
 /// `S = sum_i exp(-(i - c)^2 / (2 sigma^2)) / (sqrt(2 pi) sigma)` (1 for
@@ -175,10 +121,6 @@ const MAX_FIT_SAMPLES: usize = 1 << 26;
 #[must_use]
 pub fn default_margin(r: usize) -> usize {
     r.max(2)
-}
-
-fn one() -> usize {
-    1
 }
 
 /// Why a decomposition failed.

@@ -34,21 +34,22 @@ pub mod plot;
 pub mod sparsa;
 
 pub mod border;
+pub mod error;
 pub mod filter;
 pub mod reference;
 pub mod stack;
-pub mod stack_refresh;
 
 pub use accuracy::{EvalPlan, PlanOptions};
-pub use decomposition::{Decomposition, Term};
-pub use fit::{DecomposeError, DecomposeOptions, FitReport, decompose};
+pub use decomposition::{Decomposition, FitReport, Term};
+pub use fit::{DecomposeError, DecomposeOptions, decompose};
 pub use kernel::{Kernel, KernelError, KernelSpec};
 pub use plot::render_plot;
 
 pub use border::Border;
+pub use error::FilterError;
 pub use filter::{
-    DIRECT_SIGMA, Field, Filter, FilterError, Rotation, ScaledFilter, Taps,
-    stack_for_decomposition, stack_plan_for_decomposition,
+    DIRECT_SIGMA, Field, Filter, Rotation, ScaledFilter, Taps, stack_for_decomposition,
+    stack_plan_for_decomposition,
 };
+pub use stack::refresh::{FixedTap, PixelRect, RefreshReport};
 pub use stack::{Interpolation, LevelLayout, ScaleStack, StackLayout, StackOptions};
-pub use stack_refresh::{FixedTap, PixelRect, RefreshReport};

@@ -39,6 +39,7 @@ mod error;
 pub mod camera;
 pub mod convergence;
 pub mod envmap;
+pub mod hit;
 pub mod mc;
 pub mod mesh;
 pub mod oracle;

@@ -20,7 +20,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use crate::error::{RenderError, Result};
-use crate::scene::Hit;
+use crate::hit::Hit;
 
 /// A triangle mesh ready for ray casting.
 #[derive(Debug)]

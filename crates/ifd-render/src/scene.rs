@@ -6,22 +6,7 @@ use glam::DVec3;
 
 use crate::error::{RenderError, Result};
 
-/// What a ray hits.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    /// Distance along the ray.
-    pub t: f64,
-    /// The point.
-    pub p: DVec3,
-    /// The unit outward normal.
-    pub n: DVec3,
-    /// `dP/du` of the surface's parameterisation (the tangent anisotropic
-    /// BRDFs align `ax` with); may be zero at a singular point.
-    pub dpdu: DVec3,
-    /// Texture coordinates `(u, v)` in `[0, 1]` (`v = 0` at the top of an
-    /// image), `None` for meshes without them.
-    pub uv: Option<[f64; 2]>,
-}
+pub use crate::hit::Hit;
 
 /// A scene. Texture coordinates: the sphere's are equirectangular (`u =
 /// phi / 2 pi`, `v = theta / pi`), the torus' `u` around `z` and `v` around

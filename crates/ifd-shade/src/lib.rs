@@ -22,7 +22,7 @@
 //! - [`brdf`]: models, specs, slices.
 //! - [`merl`]: the MERL measured-BRDF format.
 //! - [`zonal`]: closed-form zonal coefficients (Lambert, Phong).
-//! - [`slice`]: SH projection of slices.
+//! - [`slice`](mod@slice): SH projection of slices.
 //! - [`table`]: view-dependent lobe-weight tables and their file format.
 //! - [`shade`]: shading by Eq. 22 (ISD and the SH reference).
 //! - [`sample`]: importance sampling of slices (Monte Carlo references).

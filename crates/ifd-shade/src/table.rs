@@ -16,7 +16,7 @@
 //!   Interpolating `lambda` linearly is interpolating the slice's SH
 //!   coefficients linearly (`c_l = M_l lambda_l` is linear), so the error is the
 //!   slice's own interpolation error, measured at the midpoints between entries
-//!   when a table is built ([`LobeTable::interpolation_error`]).
+//!   when a table is built ([`TableHeader::interpolation_error`]).
 //! - Stored as `f32` (the paper's memory counts, Table I): `N_theta N_phi
 //!   (L + 1)^2 C` values.
 //!

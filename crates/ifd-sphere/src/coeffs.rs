@@ -1,7 +1,6 @@
 //! [`ShCoeffs`]: real SH coefficients of a (multi-channel) spherical function,
 //! and their `.npy` file format.
 
-use std::io::Write;
 use std::path::Path;
 
 use crate::error::{Result, SphereError, check_degree};
@@ -209,103 +208,22 @@ impl ShCoeffs {
     }
 }
 
-/// Writes a C-order float64 `.npy` file (atomic: temporary file, then rename).
+/// Writes a C-order float64 `.npy` file atomically
+/// ([`ifd_image::write_npy_f64`], the project's one `.npy` implementation).
 ///
 /// # Errors
-/// [`SphereError::Image`] wrapping the I/O error.
+/// [`SphereError::Image`] wrapping the I/O error, naming the file.
 pub fn write_npy_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<()> {
-    let dims: Vec<String> = shape.iter().map(ToString::to_string).collect();
-    let shape_txt = if dims.len() == 1 {
-        format!("({},)", dims[0])
-    } else {
-        format!("({})", dims.join(", "))
-    };
-    let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape_txt}, }}");
-    let unpadded = 10 + header.len() + 1;
-    header.push_str(&" ".repeat((64 - unpadded % 64) % 64));
-    header.push('\n');
-    ifd_image::atomic_write(path, |w| {
-        let mut buf = Vec::with_capacity(16 + header.len() + data.len() * 8);
-        buf.extend_from_slice(b"\x93NUMPY\x01\x00");
-        buf.extend_from_slice(&(header.len() as u16).to_le_bytes());
-        buf.extend_from_slice(header.as_bytes());
-        for v in data {
-            buf.extend_from_slice(&v.to_le_bytes());
-        }
-        w.write_all(&buf).map_err(|e| e.to_string())
-    })?;
-    Ok(())
+    Ok(ifd_image::write_npy_f64(path, shape, data)?)
 }
 
-/// Reads a C-order little-endian float64 or float32 `.npy` file as `f64`.
+/// Reads a float64 or float32 (or uint8/uint16) `.npy` array of any shape
+/// as `f64`, row-major ([`ifd_image::read_npy_array`]: either byte order,
+/// C or Fortran order, the machine's default memory budget).
 ///
 /// # Errors
-/// [`SphereError::File`] for unreadable or malformed files.
+/// [`SphereError::Image`] naming the file for unreadable or malformed files.
 pub fn read_npy_f64(path: &Path) -> Result<(Vec<usize>, Vec<f64>)> {
-    let err = |reason: String| SphereError::File {
-        path: path.to_path_buf(),
-        reason,
-    };
-    let bytes = std::fs::read(path).map_err(|e| err(e.to_string()))?;
-    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
-        return Err(err("not a .npy file".into()));
-    }
-    let (hlen, start) = match bytes[6] {
-        1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
-        2 | 3 if bytes.len() >= 12 => (
-            u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
-            12,
-        ),
-        v => return Err(err(format!("unsupported .npy version {v}"))),
-    };
-    let header = std::str::from_utf8(
-        bytes
-            .get(start..start + hlen)
-            .ok_or_else(|| err("truncated header".into()))?,
-    )
-    .map_err(|_| err("header is not UTF-8".into()))?;
-    let size = if header.contains("'<f8'") {
-        8
-    } else if header.contains("'<f4'") {
-        4
-    } else {
-        return Err(err(format!(
-            "only little-endian float64/float32 arrays are read; header {header:?}"
-        )));
-    };
-    if header.contains("'fortran_order': True") {
-        return Err(err("Fortran-order arrays are not supported".into()));
-    }
-    let shape_txt = header
-        .split("'shape':")
-        .nth(1)
-        .and_then(|s| s.split('(').nth(1))
-        .and_then(|s| s.split(')').next())
-        .ok_or_else(|| err(format!("no shape in header {header:?}")))?;
-    let shape: Vec<usize> = shape_txt
-        .split(',')
-        .map(str::trim)
-        .filter(|s| !s.is_empty())
-        .map(str::parse)
-        .collect::<std::result::Result<_, _>>()
-        .map_err(|e| err(format!("bad shape {shape_txt:?}: {e}")))?;
-    let n: usize = shape.iter().product();
-    let body = &bytes[start + hlen..];
-    if body.len() != n * size {
-        return Err(err(format!(
-            "{} data bytes for shape {shape:?} ({} expected)",
-            body.len(),
-            n * size
-        )));
-    }
-    let data = if size == 8 {
-        body.chunks_exact(8)
-            .map(|c| f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]))
-            .collect()
-    } else {
-        body.chunks_exact(4)
-            .map(|c| f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]])))
-            .collect()
-    };
-    Ok((shape, data))
+    let a = ifd_image::read_npy_array(path, ifd_image::MemoryBudget::default_for_machine())?;
+    Ok((a.shape, a.data))
 }

@@ -45,9 +45,9 @@ pub struct Filter {
     /// image's size, read as data.
     #[arg(long, value_name = "NPY")]
     scale_map: Option<PathBuf>,
-    /// Border handling: reflect101 (OpenCV's default), constant[:VALUE], replicate, wrap.
+    /// Border handling: reflect101 (OpenCV's default), constant or constant:VALUE, replicate, wrap.
     #[arg(long, default_value = "reflect101")]
-    border: String,
+    border: Border,
     /// Write 16-bit PNG/TIFF instead of 8-bit.
     #[arg(long)]
     sixteen_bit: bool,
@@ -182,10 +182,7 @@ fn filter_gpu(
 impl Filter {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
-        let border: Border = self
-            .border
-            .parse()
-            .with_context(|| format!("--border {}", self.border))?;
+        let border = self.border;
         let decomposition = Decomposition::load(&self.decomp)?;
         let image = self.input.read(&self.image)?.image;
         let (w, h) = (image.width(), image.height());

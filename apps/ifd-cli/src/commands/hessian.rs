@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use ifd_planar::Border;
 use ifd_smooth::{HessianBank, hessian_image};
@@ -23,9 +23,9 @@ pub struct Hessian {
     /// Scale (standard deviation of the Gaussian), in pixels.
     #[arg(long)]
     sigma: f64,
-    /// Border handling: reflect101, constant[:VALUE], replicate, wrap.
+    /// Border handling: reflect101, constant or constant:VALUE, replicate, wrap.
     #[arg(long, default_value = "reflect101")]
-    border: String,
+    border: Border,
     /// Output (.npy keeps the signed float values).
     #[arg(short, long)]
     output: PathBuf,
@@ -36,10 +36,7 @@ pub struct Hessian {
 impl Hessian {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
-        let border: Border = self
-            .border
-            .parse()
-            .with_context(|| format!("--border {}", self.border))?;
+        let border = self.border;
         let img = self.input.read(&self.image)?.image;
         let bank = HessianBank::new(0.01)?;
         let h = hessian_image(&img, self.sigma, &bank, border)?;

@@ -57,9 +57,9 @@ pub struct Smooth {
     /// Where each pixel's filter comes from.
     #[arg(long, value_enum, default_value = "per-pixel")]
     mode: ModeArg,
-    /// Border handling: reflect101, constant[:VALUE], replicate, wrap.
+    /// Border handling: reflect101, constant or constant:VALUE, replicate, wrap.
     #[arg(long, default_value = "reflect101")]
-    border: String,
+    border: Border,
     /// Output image.
     #[arg(short, long)]
     output: PathBuf,
@@ -84,10 +84,7 @@ pub struct Smooth {
 impl Smooth {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
-        let border: Border = self
-            .border
-            .parse()
-            .with_context(|| format!("--border {}", self.border))?;
+        let border = self.border;
         if !(0.0..=1.0).contains(&self.strength) {
             anyhow::bail!("--strength {} is outside [0, 1]", self.strength);
         }

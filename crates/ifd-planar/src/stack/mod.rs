@@ -5,7 +5,7 @@
 //! Each level is the correlation of the border-extended image with the
 //! **sampled** normalised Gaussian
 //! `g_sigma(d) = exp(-|d|^2 / (2 sigma^2)) / (2 pi sigma^2)` at integer
-//! offsets `d` — exactly the atom that [`Decomposition::eval`] evaluates, so a
+//! offsets `d` — exactly the atom that [`crate::Decomposition::eval`] evaluates, so a
 //! decomposition applied through the stack and the brute-force correlation
 //! with the kernel `Decomposition::eval` samples agree to interpolation error
 //! only. The transfer function used in the FFT is the exact DFT of that
@@ -48,7 +48,7 @@ use rustfft::num_complex::{Complex32, Complex64};
 use rustfft::{Fft, FftPlanner};
 
 use crate::border::Border;
-use crate::filter::FilterError;
+use crate::error::FilterError;
 
 /// Smallest accepted standard deviation, in pixels.
 pub const MIN_SIGMA: f64 = 0.05;
@@ -413,7 +413,7 @@ impl StackLayout {
         // samples `CUBIC_TAPS` further out, so those must not see the FFT's
         // periodic wrap either.
         let extra = if options.interpolation == Interpolation::Cubic {
-            crate::stack_refresh::CUBIC_TAPS * max_step
+            refresh::CUBIC_TAPS * max_step
         } else {
             0
         };
@@ -1259,6 +1259,9 @@ fn build_levels(layout: &StackLayout, data: &[f32], border: Border, levels: &mut
         }
     }
 }
+
+pub(crate) mod lookup;
+pub mod refresh;
 
 #[cfg(test)]
 mod tests {

@@ -24,9 +24,9 @@
 use ifd_image::Image;
 use rayon::prelude::*;
 
+use super::{Interpolation, LevelLayout, ScaleStack, check_finite};
 use crate::border::Border;
-use crate::filter::FilterError;
-use crate::stack::{Interpolation, LevelLayout, ScaleStack, check_finite};
+use crate::error::FilterError;
 
 /// A rectangle of pixels: columns `x0..x0 + width`, rows `y0..y0 + height`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -223,7 +223,7 @@ fn dot(a: &[f32], b: &[f32]) -> f32 {
 /// neglected tail is `2 sqrt 3 z^(K + 1) / (1 - z) < 2e-7` of the samples'
 /// range, and a change moves coefficients at most `K` samples away by more
 /// than that.
-pub(crate) const CUBIC_TAPS: usize = 12;
+pub const CUBIC_TAPS: usize = 12;
 
 /// Stored samples `((i0, i1), (j0, j1))` of level `l` that
 /// [`ScaleStack::refresh_region`] rewrites for a change in `rect`: those
@@ -422,9 +422,9 @@ impl ScaleStack {
         }
         // The taps are constant over the rectangle: each is applied to a
         // whole row with its interpolation weights computed once.
-        let taps: Vec<crate::filter::Tap> = lookups
+        let taps: Vec<super::lookup::Tap> = lookups
             .iter()
-            .map(|&(level, ox, oy, weight)| crate::filter::Tap {
+            .map(|&(level, ox, oy, weight)| super::lookup::Tap {
                 level,
                 ox,
                 oy,
@@ -435,7 +435,7 @@ impl ScaleStack {
         out.par_chunks_mut(rect.width * c)
             .enumerate()
             .for_each(|(j, row)| {
-                crate::filter::row_constant(self, &taps, rect.y0 + j, xs.clone(), row);
+                super::lookup::row_constant(self, &taps, rect.y0 + j, xs.clone(), row);
             });
         Ok(out)
     }

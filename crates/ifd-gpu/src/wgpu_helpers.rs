@@ -1,0 +1,214 @@
+//! Small wgpu helpers shared by the evaluation, the stack upload, the
+//! smoother and the canvas: buffers and bind-group entries, the `rgba8`
+//! conversion pass, one-pass submission, region checks and readback.
+
+use bytemuck::{Pod, Zeroable};
+use ifd_planar::{FilterError, PixelRect as Region};
+use wgpu::util::DeviceExt as _;
+
+use crate::context::GpuContext;
+use crate::error::GpuError;
+
+/// A buffer holding `contents` (at least 16 bytes: empty bindings are invalid).
+pub(crate) fn buffer_init(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    let mut padded;
+    let contents = if contents.len() < 16 || !contents.len().is_multiple_of(4) {
+        padded = contents.to_vec();
+        padded.resize(contents.len().next_multiple_of(4).max(16), 0);
+        &padded[..]
+    } else {
+        contents
+    };
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage,
+    })
+}
+
+pub(crate) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
+/// A `w x h` `rgba8unorm` texture that `shaders/to_rgba8.wgsl` writes and a
+/// renderer samples (usages `STORAGE_BINDING | TEXTURE_BINDING | COPY_SRC`).
+pub(crate) fn rgba8_texture(device: &wgpu::Device, label: &str, w: u32, h: u32) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8Unorm,
+        usage: wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
+/// The `struct Params` of `shaders/to_rgba8.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub(crate) struct Rgba8Params {
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) channels: u32,
+    pub(crate) srgb: u32,
+    pub(crate) src_x0: u32,
+    pub(crate) src_y0: u32,
+    pub(crate) src_stride: u32,
+    pub(crate) opaque: u32,
+    pub(crate) dst_x0: u32,
+    pub(crate) dst_y0: u32,
+    pub(crate) pad: [u32; 2],
+}
+
+/// Submits the conversion of a rectangle of `src` into `view` (an
+/// `rgba8unorm` storage texture view); see `shaders/to_rgba8.wgsl`.
+pub(crate) fn submit_rgba8(
+    ctx: &GpuContext,
+    src: &wgpu::Buffer,
+    params: &Rgba8Params,
+    view: &wgpu::TextureView,
+) {
+    let device = ctx.device();
+    let pb = buffer_init(
+        device,
+        "to_rgba8 params",
+        bytemuck::bytes_of(params),
+        wgpu::BufferUsages::UNIFORM,
+    );
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("to_rgba8"),
+        layout: &ctx.rgba8_layout,
+        entries: &[
+            entry(0, &pb),
+            entry(1, src),
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::TextureView(view),
+            },
+        ],
+    });
+    submit_pass(
+        ctx,
+        "to_rgba8",
+        &ctx.rgba8_pipeline,
+        &bind,
+        (params.width, params.height),
+    );
+}
+
+/// Submits one compute pass of `pipeline` with `bind` over `w x h`
+/// invocations in 8x8 workgroups (the shaders' workgroup size).
+pub(crate) fn submit_pass(
+    ctx: &GpuContext,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind: &wgpu::BindGroup,
+    (w, h): (u32, u32),
+) {
+    let mut enc = ctx
+        .device()
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(label),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, bind, &[]);
+        pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    }
+    ctx.queue().submit([enc.finish()]);
+}
+
+/// [`FilterError::InvalidParameter`] unless `r` is a non-empty rectangle
+/// inside a `w x h` `what` (image, canvas).
+pub(crate) fn check_region(r: Region, w: usize, h: usize, what: &str) -> Result<(), GpuError> {
+    if r.width == 0 || r.height == 0 || r.x0 + r.width > w || r.y0 + r.height > h {
+        return Err(FilterError::InvalidParameter(format!(
+            "region {}x{} at ({}, {}) is empty or not inside the {w}x{h} {what}",
+            r.width, r.height, r.x0, r.y0
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// Copies `buffer` into a mappable one and reads it.
+pub(crate) fn read_buffer(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    what: &'static str,
+) -> Result<Vec<u8>, GpuError> {
+    read_buffer_range(ctx, buffer, 0, buffer.size(), what)
+}
+
+/// Copies `size` bytes of `buffer` from `offset` (both multiples of 4) into
+/// a mappable buffer and reads them.
+pub(crate) fn read_buffer_range(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    offset: u64,
+    size: u64,
+    what: &'static str,
+) -> Result<Vec<u8>, GpuError> {
+    let device = ctx.device();
+    let staging = ctx.scoped("copying the result for readback", || {
+        let staging = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("ifd readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("ifd readback"),
+        });
+        enc.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
+        ctx.queue().submit([enc.finish()]);
+        Ok(staging)
+    })?;
+    let (tx, rx) = std::sync::mpsc::channel();
+    staging.map_async(wgpu::MapMode::Read, .., move |r| {
+        // The receiver outlives the poll below; a send error cannot happen.
+        tx.send(r).ok();
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| GpuError::Readback {
+            what,
+            reason: e.to_string(),
+        })?;
+    rx.recv()
+        .map_err(|e| GpuError::Readback {
+            what,
+            reason: e.to_string(),
+        })?
+        .map_err(|e| GpuError::Readback {
+            what,
+            reason: e.to_string(),
+        })?;
+    let bytes = staging
+        .get_mapped_range(..)
+        .map_err(|e| GpuError::Readback {
+            what,
+            reason: e.to_string(),
+        })?
+        .to_vec();
+    staging.unmap();
+    Ok(bytes)
+}
