@@ -29,7 +29,7 @@ use crate::decomposition::{Decomposition, Term};
 use crate::error::FilterError;
 use crate::kernel::Sampling;
 use crate::stack::lookup::{Tap, row_constant};
-use crate::stack::{MIN_SIGMA, ScaleStack, StackLayout, StackOptions};
+use crate::stack::{MIN_SIGMA, ScaleStack, StackLayout, StackOptions, StackPlan};
 
 /// A per-pixel parameter (angle in degrees, or scale): a constant or a
 /// row-major map of `width * height` values.
@@ -964,29 +964,28 @@ pub fn stack_for_decomposition(
     border: Border,
     options: StackOptions,
 ) -> Result<ScaleStack, FilterError> {
-    let ((lo, hi), options) = stack_plan_for_decomposition(
+    stack_plan_for_decomposition(
         (image.width(), image.height(), image.channels()),
         decomposition,
         scale_min,
         scale_max,
         border,
         options,
-    )?;
-    ScaleStack::new(image, lo, hi, border, options)
+    )?
+    .build(image)
 }
 
-/// The sigma range and options of the stack [`stack_for_decomposition`]
-/// builds for a `(width, height, channels)` image, without building it (for
-/// memory budgets and device limits: `StackLayout::new(w, h, c, lo, hi,
-/// options)` is its layout).
+/// The plan of the stack [`stack_for_decomposition`] builds for a `(width,
+/// height, channels)` image, without building it (for memory budgets and
+/// device limits: [`StackPlan::layout`]).
 ///
 /// ```
-/// use ifd_planar::{Border, Decomposition, StackLayout, StackOptions, Term};
+/// use ifd_planar::{Border, Decomposition, StackOptions, Term};
 /// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 3.0, y: 0.0, sigma: 2.0 }]);
-/// let ((lo, hi), o) = ifd_planar::stack_plan_for_decomposition(
+/// let plan = ifd_planar::stack_plan_for_decomposition(
 ///     (640, 480, 3), &d, 1.0, 4.0, Border::Reflect101, StackOptions::default())?;
-/// assert_eq!((lo, hi), (2.0, 8.0));
-/// let bytes = StackLayout::new(640, 480, 3, lo, hi, o)?.bytes();
+/// assert_eq!(plan.sigmas, (2.0, 8.0));
+/// let bytes = plan.layout()?.bytes();
 /// # Ok::<(), ifd_planar::FilterError>(())
 /// ```
 ///
@@ -999,7 +998,7 @@ pub fn stack_plan_for_decomposition(
     scale_max: f32,
     border: Border,
     options: StackOptions,
-) -> Result<((f64, f64), StackOptions), FilterError> {
+) -> Result<StackPlan, FilterError> {
     let terms = prepare_terms(decomposition)?;
     check_scale_range(scale_min, scale_max)?;
     let sigma_lo = terms.iter().map(|t| t.sigma).fold(f64::INFINITY, f64::min);
@@ -1030,7 +1029,12 @@ pub fn stack_plan_for_decomposition(
             width, height, channels, need_lo, need_hi, options, need,
         )?;
     }
-    Ok(((need_lo, need_hi), options))
+    Ok(StackPlan {
+        dims: (width, height, channels),
+        sigmas: (need_lo, need_hi),
+        border,
+        options,
+    })
 }
 
 /// [`FilterError::InvalidParameter`] unless `[scale_min, scale_max]` is a

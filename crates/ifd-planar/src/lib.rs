@@ -30,7 +30,6 @@ pub mod decomposition;
 pub mod dictionary;
 pub mod fit;
 pub mod kernel;
-pub mod plot;
 pub mod sparsa;
 
 pub mod border;
@@ -43,7 +42,6 @@ pub use accuracy::{EvalPlan, PlanOptions};
 pub use decomposition::{Decomposition, FitReport, Term};
 pub use fit::{DecomposeError, DecomposeOptions, decompose};
 pub use kernel::{Kernel, KernelError, KernelSpec};
-pub use plot::render_plot;
 
 pub use border::Border;
 pub use error::FilterError;
@@ -52,4 +50,4 @@ pub use filter::{
     stack_plan_for_decomposition,
 };
 pub use stack::refresh::{FixedTap, PixelRect, RefreshReport};
-pub use stack::{Interpolation, LevelLayout, ScaleStack, StackLayout, StackOptions};
+pub use stack::{Interpolation, LevelLayout, ScaleStack, StackLayout, StackOptions, StackPlan};

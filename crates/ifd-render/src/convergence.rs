@@ -5,10 +5,10 @@
 use std::fmt::Write as _;
 
 use ifd_image::Image;
+use ifd_plot::{Series, log_line_plot};
 use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
 use ifd_shade::table::{LobeTable, default_theta_entries};
-use ifd_sphere::plot::{Series, log_line_plot};
 
 use crate::camera::Camera;
 use crate::envmap::EnvMap;

@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use ifd_image::Image;
 use ifd_planar::{
-    Border, Filter, Rotation, ScaleStack, ScaledFilter, StackLayout, StackOptions, Taps,
+    Border, Filter, Rotation, ScaleStack, ScaledFilter, StackLayout, StackPlan, Taps,
 };
 use rayon::prelude::*;
 
@@ -220,16 +220,17 @@ impl Smoother {
         Self::with_banks(image, opts, Arc::new(bank), &hbank)
     }
 
-    /// The sigma range and options of the scale stack a smoother of a
-    /// `(width, height, channels)` image builds: the Hessian filters' range
-    /// and the aspect bank's at the footprint scale.
+    /// The scale stack a smoother of a `(width, height, channels)` image
+    /// builds: the Hessian filters' sigma range and the aspect bank's at the
+    /// footprint scale, Hessian-grade options and a margin for the bank's
+    /// reach.
     #[must_use]
     pub fn stack_plan(
         (width, height, channels): (usize, usize, usize),
         opts: &SmoothOptions,
         bank: &AspectBank,
         hbank: &HessianBank,
-    ) -> ((f64, f64), StackOptions) {
+    ) -> StackPlan {
         let hs = opts.hessian_sigma();
         let (hlo, hhi) = hbank.stack_sigmas(hs, hs);
         let (lo, hi) = if opts.scale < DIRECT_BELOW {
@@ -241,8 +242,12 @@ impl Smoother {
                 ifd_planar::filter::sigma_bounds(BANK_SAMPLING, bank.sigma_range(), (s, s));
             (hlo.min(blo), hhi.max(bhi))
         };
-        let o = smoother_stack_options(bank, opts.scale, (width, height, channels), (lo, hi));
-        ((lo, hi), o)
+        StackPlan {
+            dims: (width, height, channels),
+            sigmas: (lo, hi),
+            border: opts.border,
+            options: smoother_stack_options(bank, opts.scale, (width, height, channels), (lo, hi)),
+        }
     }
 
     /// The layout of the scale stack a smoother of a `(width, height,
@@ -257,8 +262,7 @@ impl Smoother {
         bank: &AspectBank,
         hbank: &HessianBank,
     ) -> Result<StackLayout, SmoothError> {
-        let ((lo, hi), o) = Self::stack_plan(dims, opts, bank, hbank);
-        Ok(StackLayout::new(dims.0, dims.1, dims.2, lo, hi, o)?)
+        Ok(Self::stack_plan(dims, opts, bank, hbank).layout()?)
     }
 
     /// As [`Smoother::new`] with decompositions fitted (or loaded) beforehand.
@@ -280,8 +284,7 @@ impl Smoother {
         }
         let hs = opts.hessian_sigma();
         let (w, h) = (image.width(), image.height());
-        let ((lo, hi), stack_opts) = Self::stack_plan((w, h, image.channels()), opts, &bank, hbank);
-        let stack = ScaleStack::new(image, lo, hi, opts.border, stack_opts)?;
+        let stack = Self::stack_plan((w, h, image.channels()), opts, &bank, hbank).build(image)?;
         let field = {
             let [hxx, hxy, hyy] = hbank.bind(&stack)?.planes(hs)?;
             let mut t: [Vec<f32>; 3] = [vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h]];

@@ -46,15 +46,16 @@
 //! - [`profile`]: mother functions, `beta_{l l'}`, the general `M` (Eq. 15-19).
 //! - [`kernel`]: closed-form spherical filters and their projection.
 //! - [`filter`]: prefiltering (Eq. 13) and evaluation of `fhat(R)` (Eq. 6, 14).
-//! - [`plot`]: the condition-number study of Fig. 13 and its plot.
+//! - [`condition`]: the condition-number study of Fig. 13 (its plot is
+//!   `ifd_plot::condition_plot`).
 //! - [`coeffs`]: [`ShCoeffs`] and their `.npy` format.
 
 mod error;
 
 pub mod coeffs;
+pub mod condition;
 pub mod filter;
 pub mod kernel;
-pub mod plot;
 pub mod profile;
 pub mod rotation;
 pub mod sh;

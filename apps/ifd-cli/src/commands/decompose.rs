@@ -148,7 +148,7 @@ impl Decompose {
             .save(&self.output)
             .with_context(|| format!("writing {}", self.output.display()))?;
         if let Some(plot) = &self.plot {
-            let img = ifd_planar::plot::render_plot(&kernel, &decomposition);
+            let img = ifd_plot::decomposition_plot(&kernel, &decomposition)?;
             write_output(plot, &img, &ifd_image::WriteOptions::default())?;
         }
         report(&decomposition, self.json)

@@ -628,7 +628,7 @@ impl ShrmCmd {
                 .with_context(|| format!("{}: cannot write", path.display()))?;
         }
         if let Some(path) = &self.plot {
-            use ifd_sphere::plot::{Series, log_line_plot};
+            use ifd_plot::{Series, log_line_plot};
             let pts = |f: &dyn Fn(&ifd_ibl::shrm::PhongTiming) -> f64| -> Vec<(f64, f64)> {
                 rows.iter().map(|r| (r.s.log2(), f(r))).collect()
             };

@@ -238,7 +238,7 @@ impl Filter {
             },
         )
         .context("--eval-budget")?;
-        let ((lo, hi), stack_options) = stack_plan_for_decomposition(
+        let stack_plan = stack_plan_for_decomposition(
             (w, h, c),
             &decomposition,
             smin,
@@ -253,7 +253,7 @@ impl Filter {
             let t = Instant::now();
             let ctx = ifd_gpu::GpuContext::new().context("--gpu")?;
             let device = t.elapsed();
-            let layout = ifd_planar::StackLayout::new(w, h, c, lo, hi, stack_options)?;
+            let layout = stack_plan.layout()?;
             ifd_gpu::GpuStack::check_fits(&ctx, (w, h), &layout)?;
             Some((ctx, device))
         } else {
@@ -264,9 +264,9 @@ impl Filter {
         // terms read: no interpolation in ln sigma.
         let stack = if constant_pose {
             let sigmas = ifd_planar::filter::level_sigmas(&decomposition, smin, plan.direct_sigma);
-            ScaleStack::with_sigmas(&image, &sigmas, border, stack_options)
+            ScaleStack::with_sigmas(&image, &sigmas, border, stack_plan.options)
         } else {
-            ScaleStack::new(&image, lo, hi, border, stack_options)
+            stack_plan.build(&image)
         }
         .context("prefiltering")?;
         let t1 = Instant::now();

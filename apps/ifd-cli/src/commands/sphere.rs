@@ -4,10 +4,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
+use ifd_plot::condition_plot;
 use ifd_sphere::coeffs::{read_npy_f64, write_npy_f64};
+use ifd_sphere::condition::{condition_study, is_singular};
 use ifd_sphere::filter::{Decomposition, MapLayout, Prefiltered};
 use ifd_sphere::kernel::{Kernel, project_function};
-use ifd_sphere::plot::{condition_plot, condition_study, is_singular};
 use ifd_sphere::profile::{IsdBasis, MAX_ISD_DEGREE, Profile, check_isd_degree};
 use ifd_sphere::transform::{Negatives, analyze_cubemap, analyze_equirect, project_samples};
 use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, Sharing};

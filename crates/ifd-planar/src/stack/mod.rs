@@ -182,6 +182,73 @@ pub struct LevelLayout {
     pub ny: usize,
 }
 
+/// A scale stack to be built for an image: its size, sigma range, border
+/// and options, as a filter or smoother plans it
+/// ([`crate::stack_plan_for_decomposition`], `Smoother::stack_plan`) before
+/// checking its memory ([`StackPlan::layout`]) and building it
+/// ([`StackPlan::build`]).
+///
+/// ```
+/// use ifd_planar::{Border, StackOptions, StackPlan};
+/// let plan = StackPlan {
+///     dims: (64, 48, 1),
+///     sigmas: (1.0, 8.0),
+///     border: Border::Reflect101,
+///     options: StackOptions::default(),
+/// };
+/// let bytes = plan.layout()?.bytes();
+/// let img = ifd_image::Image::from_vec(64, 48, 1, vec![0.5; 64 * 48])?;
+/// let stack = plan.build(&img)?;
+/// assert_eq!(stack.sigma_range(), (1.0, 8.0));
+/// # let _ = bytes;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StackPlan {
+    /// The image's `(width, height, channels)`.
+    pub dims: (usize, usize, usize),
+    /// The smallest and largest level sigma, pixels.
+    pub sigmas: (f64, f64),
+    /// Border handling.
+    pub border: Border,
+    /// Levels per octave, pyramid, margin, interpolation.
+    pub options: StackOptions,
+}
+
+impl StackPlan {
+    /// The stack's layout, without building it (memory budgets, device
+    /// limits).
+    ///
+    /// # Errors
+    /// As [`StackLayout::new`].
+    pub fn layout(&self) -> Result<StackLayout, FilterError> {
+        let (w, h, c) = self.dims;
+        StackLayout::new(w, h, c, self.sigmas.0, self.sigmas.1, self.options)
+    }
+
+    /// Builds the stack of `image`.
+    ///
+    /// # Errors
+    /// [`FilterError::Shape`] when `image` is not of the planned size, and
+    /// the errors of [`ScaleStack::new`].
+    pub fn build(&self, image: &Image) -> Result<ScaleStack, FilterError> {
+        let dims = (image.width(), image.height(), image.channels());
+        if dims != self.dims {
+            return Err(FilterError::Shape(format!(
+                "image is {}x{}x{}, the stack was planned for {}x{}x{}",
+                dims.0, dims.1, dims.2, self.dims.0, self.dims.1, self.dims.2
+            )));
+        }
+        ScaleStack::new(
+            image,
+            self.sigmas.0,
+            self.sigmas.1,
+            self.border,
+            self.options,
+        )
+    }
+}
+
 /// Where every level of a scale stack lives, computed without allocating the
 /// stack (for memory budgeting).
 ///

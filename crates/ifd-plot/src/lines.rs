@@ -1,69 +1,25 @@
-//! The condition-number study of ISD Fig. 13 and its plot (`ifd sphere condition`).
+//! Line plots with a logarithmic `y` axis: [`log_line_plot`] (convergence
+//! and timing studies) and [`condition_plot`] (ISD Fig. 13).
 //!
-//! [`condition_study`] computes the 2-norm condition number of the full ISD
-//! matrix `M` (Eq. 17) for every [`Profile`], degrees `1..=L`, with per-band
-//! and with shared Fibonacci directions. [`condition_plot`] draws it: `x` = `L`,
-//! `y` = `cond(M)` on a log scale with a tick and a label every decade,
-//! one colour per profile (legend on the right), solid lines for per-band and
-//! dotted lines for shared directions. Condition numbers above
-//! [`SINGULAR_COND`] (`1 / eps` of `f64`: the smallest singular value is lost
-//! in rounding) or infinite ones are not meaningful numbers: they are drawn on
-//! a separate row above the decades, labelled `> 1e16 (singular)`.
-//!
-//! Text is drawn with a small built-in 5x7 bitmap font (digits, letters and
-//! the punctuation the plot needs), scaled by two.
+//! [`condition_plot`]: `x` = `L`, `y` = `cond(M)` on a log scale with a tick
+//! and a label every decade, one colour per profile (legend on the right),
+//! solid lines for per-band and dotted lines for shared directions.
+//! Condition numbers above [`SINGULAR_COND`] (`1 / eps` of `f64`: the
+//! smallest singular value is lost in rounding) or infinite ones are not
+//! meaningful numbers: they are drawn on a separate row above the decades,
+//! labelled `> 1e16 (singular)`.
 
 use ifd_image::Image;
+use ifd_sphere::condition::{ConditionSeries, SINGULAR_COND, is_singular};
+use ifd_sphere::profile::Profile;
+use ifd_sphere::zhf::Sharing;
 
-use crate::error::Result;
-use crate::profile::{Profile, isd_matrix};
-use crate::zhf::{Chooser, DirectionSet, Sharing, condition_number};
+use crate::draw::{
+    BLACK, GREY, TEXT_HEIGHT, draw_text, hline, put, put_f, segment, text_width, vline,
+};
 
-/// Condition numbers at or above this (about `1 / f64::EPSILON`) count as singular.
-pub const SINGULAR_COND: f64 = 1e16;
-
-/// One curve of Fig. 13: `cond[i]` is the condition number of `M` at `L = i + 1`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ConditionSeries {
-    /// The mother functions.
-    pub profile: Profile,
-    /// Per-band or shared directions.
-    pub sharing: Sharing,
-    /// Condition numbers for `L = 1, 2, ...` (infinite when singular).
-    pub cond: Vec<f64>,
-}
-
-/// Whether a condition number is beyond what `f64` can resolve.
-#[must_use]
-pub fn is_singular(cond: f64) -> bool {
-    !cond.is_finite() || cond >= SINGULAR_COND
-}
-
-/// Computes Fig. 13: every profile, per-band and shared Fibonacci directions,
-/// `L = 1..=l_max`.
-///
-/// # Errors
-/// [`crate::SphereError::IsdTooLarge`] above [`crate::profile::MAX_ISD_DEGREE`].
-pub fn condition_study(l_max: usize) -> Result<Vec<ConditionSeries>> {
-    crate::profile::check_isd_degree(l_max)?;
-    let mut out = Vec::new();
-    for profile in Profile::ALL {
-        for sharing in [Sharing::PerBand, Sharing::Shared] {
-            let mut cond = Vec::with_capacity(l_max);
-            for l in 1..=l_max {
-                let dirs = DirectionSet::new(l, sharing, Chooser::Fibonacci)?;
-                let (m, _) = isd_matrix(profile, &dirs)?;
-                cond.push(condition_number(&m));
-            }
-            out.push(ConditionSeries {
-                profile,
-                sharing,
-                cond,
-            });
-        }
-    }
-    Ok(out)
-}
+/// The plots' errors: only allocation can fail.
+pub type Result<T> = std::result::Result<T, ifd_image::ImageError>;
 
 /// Colour of a profile's curves.
 #[must_use]
@@ -86,19 +42,18 @@ const TOP: usize = 60;
 const BOTTOM: usize = 70;
 /// Gap between the top decade and the singular row, in pixels.
 const SINGULAR_GAP: usize = 34;
-const GREY: [f32; 3] = [0.85, 0.85, 0.85];
-const BLACK: [f32; 3] = [0.0, 0.0, 0.0];
 
 /// Draws Fig. 13 (see the module docs) as a white RGB image of [`PLOT_SIZE`].
 ///
 /// ```
-/// use ifd_sphere::plot::{ConditionSeries, condition_plot};
+/// use ifd_sphere::condition::ConditionSeries;
+/// use ifd_plot::condition_plot;
 /// use ifd_sphere::{profile::Profile, zhf::Sharing};
 /// let s = ConditionSeries { profile: Profile::Gauss, sharing: Sharing::Shared,
 ///                           cond: vec![2.0, 40.0, 1e9, f64::INFINITY] };
 /// let img = condition_plot(&[s])?;
 /// assert_eq!((img.width(), img.height(), img.channels()), (1000, 640, 3));
-/// # Ok::<(), ifd_sphere::SphereError>(())
+/// # Ok::<(), ifd_image::ImageError>(())
 /// ```
 ///
 /// # Errors
@@ -267,12 +222,12 @@ pub struct Series {
 /// in the style of [`condition_plot`].
 ///
 /// ```
-/// use ifd_sphere::plot::{Series, log_line_plot};
+/// use ifd_plot::{Series, log_line_plot};
 /// let s = Series { name: "a".into(), colour: [1.0, 0.0, 0.0], dotted: false,
 ///                  points: vec![(1.0, 1.0), (2.0, 0.1), (3.0, 0.01)] };
 /// let img = log_line_plot(&[s], "L", "error")?;
 /// assert_eq!(img.channels(), 3);
-/// # Ok::<(), ifd_sphere::SphereError>(())
+/// # Ok::<(), ifd_image::ImageError>(())
 /// ```
 ///
 /// # Errors
@@ -400,191 +355,11 @@ pub fn log_line_plot(series: &[Series], x_label: &str, y_label: &str) -> Result<
     Ok(img)
 }
 
-fn put(img: &mut Image, x: usize, y: usize, rgb: [f32; 3]) {
-    if x < img.width() && y < img.height() {
-        for (c, v) in rgb.into_iter().enumerate() {
-            img.set(x, y, c, v);
-        }
-    }
-}
-
-fn put_f(img: &mut Image, x: f64, y: f64, rgb: [f32; 3]) {
-    if x >= 0.0 && y >= 0.0 {
-        put(img, x.round() as usize, y.round() as usize, rgb);
-    }
-}
-
-fn hline(img: &mut Image, x0: usize, x1: usize, y: usize, rgb: [f32; 3]) {
-    (x0..=x1).for_each(|x| put(img, x, y, rgb));
-}
-
-fn vline(img: &mut Image, x: usize, y0: usize, y1: usize, rgb: [f32; 3]) {
-    (y0..=y1).for_each(|y| put(img, x, y, rgb));
-}
-
-/// A 2-pixel-wide line; dotted (4 on, 4 off) when `dotted`.
-fn segment(img: &mut Image, a: (f64, f64), b: (f64, f64), rgb: [f32; 3], dotted: bool) {
-    let steps = ((b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil() as usize).max(1);
-    for k in 0..=steps {
-        if dotted && (k / 4) % 2 == 1 {
-            continue;
-        }
-        let t = k as f64 / steps as f64;
-        let (x, y) = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
-        for (dx, dy) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
-            put_f(img, x + dx, y + dy, rgb);
-        }
-    }
-}
-
-/// Pixel scale of the font.
-const SCALE: usize = 2;
-/// Height of a text line in pixels (7 rows above the baseline, scaled).
-pub const TEXT_HEIGHT: usize = 7 * SCALE;
-/// Horizontal advance of one character in pixels.
-const ADVANCE: usize = 6 * SCALE;
-
-/// Width in pixels of `text` drawn by [`draw_text`].
-#[must_use]
-pub fn text_width(text: &str) -> usize {
-    (text.chars().count() * ADVANCE).saturating_sub(SCALE)
-}
-
-/// Draws `text` with its top-left corner at `(x, y)` (descenders go below
-/// [`TEXT_HEIGHT`]). Characters without a glyph are drawn as a box.
-pub fn draw_text(img: &mut Image, x: usize, y: usize, text: &str, rgb: [f32; 3]) {
-    for (i, ch) in text.chars().enumerate() {
-        let g = glyph(ch).unwrap_or(BOX);
-        for (row, bits) in g.split(' ').enumerate() {
-            for (col, b) in bits.bytes().enumerate() {
-                if b != b'#' {
-                    continue;
-                }
-                for sy in 0..SCALE {
-                    for sx in 0..SCALE {
-                        put(
-                            img,
-                            x + i * ADVANCE + col * SCALE + sx,
-                            y + row * SCALE + sy,
-                            rgb,
-                        );
-                    }
-                }
-            }
-        }
-    }
-}
-
-const BOX: &str = "##### #...# #...# #...# #...# #...# #####";
-
-/// 5-wide glyphs, rows top to bottom separated by spaces; 7 rows, plus 2
-/// descender rows for `g j p q y`.
-#[must_use]
-pub fn glyph(c: char) -> Option<&'static str> {
-    Some(match c {
-        ' ' => "..... ..... ..... ..... ..... ..... .....",
-        '0' => ".###. #...# #..## #.#.# ##..# #...# .###.",
-        '1' => "..#.. .##.. ..#.. ..#.. ..#.. ..#.. .###.",
-        '2' => ".###. #...# ....# ...#. ..#.. .#... #####",
-        '3' => "##### ...#. ..#.. ...#. ....# #...# .###.",
-        '4' => "...#. ..##. .#.#. #..#. ##### ...#. ...#.",
-        '5' => "##### #.... ####. ....# ....# #...# .###.",
-        '6' => "..##. .#... #.... ####. #...# #...# .###.",
-        '7' => "##### ....# ...#. ..#.. .#... .#... .#...",
-        '8' => ".###. #...# #...# .###. #...# #...# .###.",
-        '9' => ".###. #...# #...# .#### ....# ...#. .##..",
-        'a' => "..... ..... .###. ....# .#### #...# .####",
-        'b' => "#.... #.... #.##. ##..# #...# #...# ####.",
-        'c' => "..... ..... .###. #.... #.... #...# .###.",
-        'd' => "....# ....# .##.# #..## #...# #...# .####",
-        'e' => "..... ..... .###. #...# ##### #.... .###.",
-        'f' => "..##. .#..# .#... ###.. .#... .#... .#...",
-        'g' => "..... ..... .#### #...# #...# .#### ....# #...# .###.",
-        'h' => "#.... #.... #.##. ##..# #...# #...# #...#",
-        'i' => "..#.. ..... .##.. ..#.. ..#.. ..#.. .###.",
-        'j' => "...#. ..... ..##. ...#. ...#. ...#. ...#. #..#. .##..",
-        'k' => "#.... #.... #..#. #.#.. ##... #.#.. #..#.",
-        'l' => ".##.. ..#.. ..#.. ..#.. ..#.. ..#.. .###.",
-        'm' => "..... ..... ##.#. #.#.# #.#.# #...# #...#",
-        'n' => "..... ..... #.##. ##..# #...# #...# #...#",
-        'o' => "..... ..... .###. #...# #...# #...# .###.",
-        'p' => "..... ..... ####. #...# #...# ####. #.... #.... #....",
-        'q' => "..... ..... .#### #...# #...# .#### ....# ....# ....#",
-        'r' => "..... ..... #.##. ##..# #.... #.... #....",
-        's' => "..... ..... .###. #.... .###. ....# ####.",
-        't' => ".#... .#... ###.. .#... .#... .#..# ..##.",
-        'u' => "..... ..... #...# #...# #...# #..## .##.#",
-        'v' => "..... ..... #...# #...# #...# .#.#. ..#..",
-        'w' => "..... ..... #...# #...# #.#.# #.#.# .#.#.",
-        'x' => "..... ..... #...# .#.#. ..#.. .#.#. #...#",
-        'y' => "..... ..... #...# #...# #...# .#### ....# #...# .###.",
-        'z' => "..... ..... ##### ...#. ..#.. .#... #####",
-        'A' => ".###. #...# #...# ##### #...# #...# #...#",
-        'B' => "####. #...# #...# ####. #...# #...# ####.",
-        'C' => ".###. #...# #.... #.... #.... #...# .###.",
-        'D' => "###.. #..#. #...# #...# #...# #..#. ###..",
-        'E' => "##### #.... #.... ####. #.... #.... #####",
-        'F' => "##### #.... #.... ####. #.... #.... #....",
-        'G' => ".###. #...# #.... #.### #...# #...# .####",
-        'H' => "#...# #...# #...# ##### #...# #...# #...#",
-        'I' => ".###. ..#.. ..#.. ..#.. ..#.. ..#.. .###.",
-        'L' => "#.... #.... #.... #.... #.... #.... #####",
-        'M' => "#...# ##.## #.#.# #.#.# #...# #...# #...#",
-        'N' => "#...# #...# ##..# #.#.# #..## #...# #...#",
-        'O' => ".###. #...# #...# #...# #...# #...# .###.",
-        'P' => "####. #...# #...# ####. #.... #.... #....",
-        'R' => "####. #...# #...# ####. #.#.. #..#. #...#",
-        'S' => ".#### #.... #.... .###. ....# ....# ####.",
-        'T' => "##### ..#.. ..#.. ..#.. ..#.. ..#.. ..#..",
-        'Z' => "##### ....# ...#. ..#.. .#... #.... #####",
-        '(' => "...#. ..#.. .#... .#... .#... ..#.. ...#.",
-        ')' => ".#... ..#.. ...#. ...#. ...#. ..#.. .#...",
-        '-' => "..... ..... ..... ##### ..... ..... .....",
-        '+' => "..... ..#.. ..#.. ##### ..#.. ..#.. .....",
-        '=' => "..... ..... ##### ..... ##### ..... .....",
-        '>' => ".#... ..#.. ...#. ....# ...#. ..#.. .#...",
-        '<' => "...#. ..#.. .#... #.... .#... ..#.. ...#.",
-        '.' => "..... ..... ..... ..... ..... .##.. .##..",
-        ',' => "..... ..... ..... ..... .##.. ..#.. .#...",
-        ':' => "..... .##.. .##.. ..... .##.. .##.. .....",
-        '/' => "....# ....# ...#. ..#.. .#... #.... #....",
-        '^' => "..#.. .#.#. #...# ..... ..... ..... .....",
-        '_' => "..... ..... ..... ..... ..... ..... #####",
-        _ => return None,
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn dark_pixels(img: &Image, x0: usize, x1: usize, y0: usize, y1: usize) -> usize {
-        let mut n = 0;
-        for y in y0..y1 {
-            for x in x0..x1 {
-                if img.get(x, y, 0) < 0.5 {
-                    n += 1;
-                }
-            }
-        }
-        n
-    }
-
-    #[test]
-    fn glyphs_are_well_formed() {
-        for c in (' '..='~').filter_map(|c| glyph(c).map(|g| (c, g))) {
-            let rows: Vec<&str> = c.1.split(' ').collect();
-            assert!(rows.len() == 7 || rows.len() == 9, "{:?}", c.0);
-            assert!(
-                rows.iter()
-                    .all(|r| r.len() == 5 && r.bytes().all(|b| b == b'#' || b == b'.')),
-                "{:?}",
-                c.0
-            );
-            // descenders only where the glyph has one
-            assert_eq!(rows.len() == 9, "gjpqy".contains(c.0), "{:?}", c.0);
-        }
-    }
+    use crate::draw::glyph;
+    use crate::draw::tests::dark_pixels;
 
     #[test]
     fn every_label_of_the_plot_has_glyphs() {
@@ -607,21 +382,6 @@ mod tests {
                 assert!(glyph(c).is_some(), "no glyph for {c:?} in {s:?}");
             }
         }
-    }
-
-    #[test]
-    fn text_is_drawn_where_asked() {
-        let mut img = Image::from_vec(100, 40, 3, vec![1.0; 100 * 40 * 3]).unwrap();
-        draw_text(&mut img, 10, 5, "1e16", BLACK);
-        let w = text_width("1e16");
-        assert_eq!(w, 4 * ADVANCE - SCALE);
-        let inside = dark_pixels(&img, 10, 10 + w, 5, 5 + TEXT_HEIGHT);
-        let all = dark_pixels(&img, 0, 100, 0, 40);
-        assert!(inside > 40 && inside == all, "{inside} of {all}");
-        // '1' has 2 * 2 scaled pixels per lit font pixel: 10 lit pixels
-        let mut one = Image::from_vec(20, 20, 3, vec![1.0; 20 * 20 * 3]).unwrap();
-        draw_text(&mut one, 0, 0, "1", BLACK);
-        assert_eq!(dark_pixels(&one, 0, 20, 0, 20), 10 * SCALE * SCALE);
     }
 
     #[test]
