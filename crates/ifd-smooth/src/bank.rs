@@ -52,6 +52,47 @@ impl Default for BankOptions {
     }
 }
 
+/// Aspect ratios from 1 to `max_aspect`, log-spaced with at least
+/// `per_octave` per doubling, both ends included (`[1]` when `max_aspect`
+/// is 1).
+///
+/// ```
+/// let a = ifd_smooth::bank::log_spaced_aspects(16.0, 2.0);
+/// assert_eq!(a.len(), 9);
+/// assert!((a[1] - 2f64.sqrt()).abs() < 1e-12 && (a[8] - 16.0).abs() < 1e-12);
+/// ```
+#[must_use]
+pub fn log_spaced_aspects(max_aspect: f64, per_octave: f64) -> Vec<f64> {
+    let octaves = max_aspect.max(1.0).log2();
+    let n = (octaves * per_octave).ceil() as usize + 1;
+    (0..n)
+        .map(|i| {
+            if n == 1 {
+                1.0
+            } else {
+                2f64.powf(octaves * i as f64 / (n - 1) as f64)
+            }
+        })
+        .collect()
+}
+
+/// The entry `i` below aspect ratio `a` in log-spaced `aspects` and the
+/// blend weight `t` of entry `i + 1` (linear in `log a`, clamped to the
+/// table; `(0, 0)` for one entry, `a <= 1` or NaN).
+#[must_use]
+pub fn locate_aspect(aspects: &[f64], a: f64) -> (usize, f64) {
+    let n = aspects.len();
+    if n < 2 || !a.is_finite() || a <= 1.0 {
+        return (0, 0.0);
+    }
+    let top = aspects[n - 1];
+    let la = a.min(top).ln();
+    let step = top.ln() / (n - 1) as f64;
+    let f = (la / step).clamp(0.0, (n - 1) as f64);
+    let i = (f.floor() as usize).min(n - 2);
+    (i, f - i as f64)
+}
+
 /// Decompositions of `gauss:sx=sigma_ref sqrt(a),sy=sigma_ref/sqrt(a)` for
 /// log-spaced aspect ratios `a`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -83,17 +124,8 @@ impl AspectBank {
             1.0,
             8.0,
         )?;
-        let octaves = options.max_aspect.log2();
-        let n = (octaves * options.steps_per_octave as f64).ceil() as usize + 1;
-        let aspects: Vec<f64> = (0..n)
-            .map(|i| {
-                if n == 1 {
-                    1.0
-                } else {
-                    2f64.powf(octaves * i as f64 / (n - 1) as f64)
-                }
-            })
-            .collect();
+        let aspects = log_spaced_aspects(options.max_aspect, options.steps_per_octave as f64);
+        let n = aspects.len();
         let mut terms = Vec::with_capacity(n);
         for (i, &a) in aspects.iter().enumerate() {
             let spec_s = Self::spec(options.sigma_ref, a);
@@ -144,16 +176,7 @@ impl AspectBank {
     /// table): the filter is `(1 - t) D_i + t D_{i+1}`.
     #[must_use]
     pub fn locate(&self, a: f64) -> (usize, f64) {
-        let n = self.aspects.len();
-        if n < 2 || !a.is_finite() || a <= 1.0 {
-            return (0, 0.0);
-        }
-        let top = self.aspects[n - 1];
-        let la = a.min(top).ln();
-        let step = top.ln() / (n - 1) as f64;
-        let f = (la / step).clamp(0.0, (n - 1) as f64);
-        let i = (f.floor() as usize).min(n - 2);
-        (i, f - i as f64)
+        locate_aspect(&self.aspects, a)
     }
 
     /// The blended decomposition for aspect ratio `a`.

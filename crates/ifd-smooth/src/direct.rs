@@ -221,17 +221,7 @@ impl DirectKernels {
     /// `1..=max_aspect`.
     #[must_use]
     pub fn new(scale: f64, max_aspect: f64) -> Self {
-        let octaves = max_aspect.max(1.0).log2();
-        let n = (octaves * ASPECTS_PER_OCTAVE).ceil() as usize + 1;
-        let aspects: Vec<f64> = (0..n)
-            .map(|i| {
-                if n == 1 {
-                    1.0
-                } else {
-                    2f64.powf(octaves * i as f64 / (n - 1) as f64)
-                }
-            })
-            .collect();
+        let aspects = crate::bank::log_spaced_aspects(max_aspect, ASPECTS_PER_OCTAVE);
         let entries: Vec<AspectEntry> = aspects
             .par_iter()
             .map(|&a| {
@@ -295,18 +285,8 @@ impl DirectKernels {
     /// The (up to four) tabulated kernels of filter `(theta, aspect)` and
     /// their blend weights.
     fn blend(&self, theta: f32, aspect: f32) -> impl Iterator<Item = (&[Tap], f32)> {
-        let la = f64::from(aspect)
-            .clamp(1.0, *self.aspects.last().unwrap_or(&1.0))
-            .ln();
         let n = self.aspects.len();
-        let (i, t) = if n == 1 {
-            (0, 0.0)
-        } else {
-            let step = self.aspects[n - 1].ln() / (n - 1) as f64;
-            let u = la / step;
-            let i = (u.floor() as usize).min(n - 2);
-            (i, (u - i as f64).clamp(0.0, 1.0))
-        };
+        let (i, t) = crate::bank::locate_aspect(&self.aspects, f64::from(aspect));
         let th = f64::from(theta).rem_euclid(180.0);
         [(i, 1.0 - t), (i + 1, t)]
             .into_iter()
