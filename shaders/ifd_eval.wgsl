@@ -96,18 +96,9 @@ struct Entry {
 @group(0) @binding(5) var<storage, read> maps: array<f32>;
 @group(0) @binding(6) var<storage, read_write> out: array<f32>;
 
-const BORDER_REFLECT101: u32 = 0u;
-const BORDER_CONSTANT: u32 = 1u;
-const BORDER_REPLICATE: u32 = 2u;
-const BORDER_WRAP: u32 = 3u;
-
-const INTERP_LINEAR: u32 = 0u;
-const INTERP_CUBIC: u32 = 1u;
-
-const SAMPLING_CONTINUOUS: u32 = 0u;
-const SAMPLING_POINT: u32 = 1u;
-const SAMPLING_AREA: u32 = 2u;
-const SAMPLING_AVERAGED: u32 = 3u;
+// The codes the host writes into Params (BORDER_*, INTERP_*, SAMPLING_*,
+// FLAG_*) are defined once, in Rust (`ifd_gpu::shaders::codes`), and
+// prepended to this file as WGSL constants (`ifd_gpu::shaders::ifd_eval_source`).
 
 // The variance (px^2) a pixel's footprint adds to every atom at scale s
 // (Sampling::footprint_variance).
@@ -377,17 +368,17 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var scale = params.scale;
     var u_offset = params.u_offset;
     var entry = params.entry;
-    if (params.flags & 1u) != 0u {
+    if (params.flags & FLAG_ANGLE_MAP) != 0u {
         // (cos, sin) of the pixel's angle, computed on the CPU exactly as
         // the CPU path does (WGSL's sin/cos may be as coarse as 2^-11).
         cos_t = maps[params.rot_off + 2u * pixel];
         sin_t = maps[params.rot_off + 2u * pixel + 1u];
     }
-    if (params.flags & 2u) != 0u {
+    if (params.flags & FLAG_SCALE_MAP) != 0u {
         scale = maps[params.scale_off + 2u * pixel];
         u_offset = maps[params.scale_off + 2u * pixel + 1u];
     }
-    if (params.flags & 4u) != 0u {
+    if (params.flags & FLAG_ENTRY_MAP) != 0u {
         entry = maps[params.entry_off + pixel];
     }
     let cs = cos_t * scale;

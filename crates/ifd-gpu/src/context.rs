@@ -250,7 +250,8 @@ impl GpuContext {
                 cache: None,
             })
         };
-        let eval_pipeline = pipeline("ifd_eval", shaders::IFD_EVAL, &eval_layout);
+        let eval_source = shaders::ifd_eval_source();
+        let eval_pipeline = pipeline("ifd_eval", &eval_source, &eval_layout);
         let rgba8_pipeline = pipeline("to_rgba8", shaders::TO_RGBA8, &rgba8_layout);
         let blend_pipeline = pipeline("dab_blend", shaders::DAB_BLEND, &blend_layout);
         if let Some(e) = pollster::block_on(scope.pop()) {

@@ -9,6 +9,7 @@ use ifd_planar::{Border, Decomposition, Field, FilterError, Term};
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
+use crate::shaders::codes;
 use crate::stack::GpuStack;
 use crate::wgpu_helpers::{
     Rgba8Params, buffer_init, check_region, entry, read_buffer, rgba8_texture, submit_rgba8,
@@ -334,7 +335,7 @@ impl GpuPose {
         match angle {
             Field::Constant(a) => [cos_t, sin_t] = cos_sin(a),
             Field::Map(m) => {
-                flags |= 1;
+                flags |= codes::FLAG_ANGLE_MAP;
                 rot_off = maps.len();
                 maps.reserve(2 * m.len());
                 maps.extend(m.iter().flat_map(|&a| cos_sin(a)));
@@ -346,7 +347,7 @@ impl GpuPose {
                 u_c = level_offset(s);
             }
             Field::Map(m) => {
-                flags |= 2;
+                flags |= codes::FLAG_SCALE_MAP;
                 scale_off = maps.len();
                 maps.reserve(2 * m.len());
                 for &s in m {
@@ -357,7 +358,7 @@ impl GpuPose {
         match entry {
             Field::Constant(e) => e_c = e,
             Field::Map(m) => {
-                flags |= 4;
+                flags |= codes::FLAG_ENTRY_MAP;
                 entry_off = maps.len();
                 maps.extend_from_slice(m);
             }
@@ -426,8 +427,8 @@ impl GpuPose {
         }
         let n = rows * w;
         for (name, m, flag, min) in [
-            ("angle", angle, 1, f32::NEG_INFINITY),
-            ("bank entry", entry, 4, 0.0),
+            ("angle", angle, codes::FLAG_ANGLE_MAP, f32::NEG_INFINITY),
+            ("bank entry", entry, codes::FLAG_ENTRY_MAP, 0.0),
         ] {
             let Some(m) = m else { continue };
             if self.flags & flag == 0 || m.len() != n {
@@ -694,7 +695,9 @@ impl GpuContext {
         }
         let region = region.unwrap_or(Region::full(w, h));
         check_region(region, w, h, "image")?;
-        if pose.flags & 4 == 0 && pose.entry > (decomposition.n_entries - 1) as f32 {
+        if pose.flags & codes::FLAG_ENTRY_MAP == 0
+            && pose.entry > (decomposition.n_entries - 1) as f32
+        {
             return Err(FilterError::InvalidParameter(format!(
                 "bank entry {} is past the last entry {}",
                 pose.entry,
@@ -748,10 +751,10 @@ impl GpuContext {
             true,
         )?;
         let (border_mode, border_value) = match stack.border {
-            Border::Reflect101 => (0, 0.0),
-            Border::Constant(v) => (1, v),
-            Border::Replicate => (2, 0.0),
-            Border::Wrap => (3, 0.0),
+            Border::Reflect101 => (codes::BORDER_REFLECT101, 0.0),
+            Border::Constant(v) => (codes::BORDER_CONSTANT, v),
+            Border::Replicate => (codes::BORDER_REPLICATE, 0.0),
+            Border::Wrap => (codes::BORDER_WRAP, 0.0),
         };
         let device = self.device();
         self.scoped("evaluating the decomposition", || {
@@ -790,14 +793,14 @@ impl GpuContext {
                         entry_off: pose.entry_off,
                         n_entries: decomposition.n_entries,
                         interpolation: match stack.interpolation {
-                            ifd_planar::Interpolation::Linear => 0,
-                            ifd_planar::Interpolation::Cubic => 1,
+                            ifd_planar::Interpolation::Linear => codes::INTERP_LINEAR,
+                            ifd_planar::Interpolation::Cubic => codes::INTERP_CUBIC,
                         },
                         sampling: match decomposition.sampling {
-                            Sampling::Continuous => 0,
-                            Sampling::Point => 1,
-                            Sampling::Area => 2,
-                            Sampling::Averaged => 3,
+                            Sampling::Continuous => codes::SAMPLING_CONTINUOUS,
+                            Sampling::Point => codes::SAMPLING_POINT,
+                            Sampling::Area => codes::SAMPLING_AREA,
+                            Sampling::Averaged => codes::SAMPLING_AVERAGED,
                         },
                         pad: [0; 3],
                     };

@@ -2,8 +2,77 @@
 //! into the library. A test parses and validates every `.wgsl` file there
 //! with naga.
 
-/// The IFD evaluation kernel (`shaders/ifd_eval.wgsl`).
+/// The IFD evaluation kernel (`shaders/ifd_eval.wgsl`) as written: it uses
+/// the constants of [`codes`], which [`ifd_eval_source`] prepends.
 pub const IFD_EVAL: &str = include_str!("../../../shaders/ifd_eval.wgsl");
+
+/// The numbers the evaluation shader and the host agree on (fields of its
+/// `Params`), defined once: the host writes them, and [`ifd_eval_source`]
+/// gives them to the shader as WGSL constants of the same names.
+pub mod codes {
+    /// `flags`: the angle is a per-pixel map.
+    pub const FLAG_ANGLE_MAP: u32 = 1;
+    /// `flags`: the scale is a per-pixel map.
+    pub const FLAG_SCALE_MAP: u32 = 2;
+    /// `flags`: the bank entry is a per-pixel map.
+    pub const FLAG_ENTRY_MAP: u32 = 4;
+    /// `border_mode`: `Border::Reflect101`.
+    pub const BORDER_REFLECT101: u32 = 0;
+    /// `border_mode`: `Border::Constant`.
+    pub const BORDER_CONSTANT: u32 = 1;
+    /// `border_mode`: `Border::Replicate`.
+    pub const BORDER_REPLICATE: u32 = 2;
+    /// `border_mode`: `Border::Wrap`.
+    pub const BORDER_WRAP: u32 = 3;
+    /// `interpolation`: bilinear samples.
+    pub const INTERP_LINEAR: u32 = 0;
+    /// `interpolation`: cubic B-spline coefficients.
+    pub const INTERP_CUBIC: u32 = 1;
+    /// `sampling`: `Sampling::Continuous`.
+    pub const SAMPLING_CONTINUOUS: u32 = 0;
+    /// `sampling`: `Sampling::Point`.
+    pub const SAMPLING_POINT: u32 = 1;
+    /// `sampling`: `Sampling::Area`.
+    pub const SAMPLING_AREA: u32 = 2;
+    /// `sampling`: `Sampling::Averaged`.
+    pub const SAMPLING_AVERAGED: u32 = 3;
+
+    /// Every code with its name, as [`super::ifd_eval_source`] declares them.
+    pub const ALL: [(&str, u32); 13] = [
+        ("FLAG_ANGLE_MAP", FLAG_ANGLE_MAP),
+        ("FLAG_SCALE_MAP", FLAG_SCALE_MAP),
+        ("FLAG_ENTRY_MAP", FLAG_ENTRY_MAP),
+        ("BORDER_REFLECT101", BORDER_REFLECT101),
+        ("BORDER_CONSTANT", BORDER_CONSTANT),
+        ("BORDER_REPLICATE", BORDER_REPLICATE),
+        ("BORDER_WRAP", BORDER_WRAP),
+        ("INTERP_LINEAR", INTERP_LINEAR),
+        ("INTERP_CUBIC", INTERP_CUBIC),
+        ("SAMPLING_CONTINUOUS", SAMPLING_CONTINUOUS),
+        ("SAMPLING_POINT", SAMPLING_POINT),
+        ("SAMPLING_AREA", SAMPLING_AREA),
+        ("SAMPLING_AVERAGED", SAMPLING_AVERAGED),
+    ];
+}
+
+/// The evaluation kernel as compiled: the [`codes`] as WGSL `const`s, then
+/// [`IFD_EVAL`].
+///
+/// ```
+/// let src = ifd_gpu::shaders::ifd_eval_source();
+/// assert!(src.starts_with("const FLAG_ANGLE_MAP: u32 = 1u;"));
+/// assert!(src.ends_with(ifd_gpu::shaders::IFD_EVAL));
+/// ```
+#[must_use]
+pub fn ifd_eval_source() -> String {
+    let mut s: String = codes::ALL
+        .iter()
+        .map(|(name, v)| format!("const {name}: u32 = {v}u;\n"))
+        .collect();
+    s.push('\n');
+    s.push_str(IFD_EVAL);
+    s
+}
 
 /// Result to `rgba8unorm` texture (`shaders/to_rgba8.wgsl`).
 pub const TO_RGBA8: &str = include_str!("../../../shaders/to_rgba8.wgsl");
