@@ -65,10 +65,12 @@ pub mod codes {
 /// ```
 #[must_use]
 pub fn ifd_eval_source() -> String {
-    let mut s: String = codes::ALL
-        .iter()
-        .map(|(name, v)| format!("const {name}: u32 = {v}u;\n"))
-        .collect();
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    for (name, v) in codes::ALL {
+        // Writing into a String cannot fail.
+        let _ = writeln!(s, "const {name}: u32 = {v}u;");
+    }
     s.push('\n');
     s.push_str(IFD_EVAL);
     s
