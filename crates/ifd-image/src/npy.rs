@@ -121,22 +121,26 @@ fn read_values<T>(
         .collect())
 }
 
-/// Row-major (C-order) index of the element at Fortran-order position `i`.
-fn c_index(i: usize, shape: &[usize]) -> usize {
-    let mut rest = i;
-    let mut out = 0;
-    let mut stride = 1;
-    let strides: Vec<usize> = {
-        let mut v = vec![0; shape.len()];
-        for k in (0..shape.len()).rev() {
-            v[k] = stride;
-            stride *= shape[k];
+/// `values` stored in Fortran order (first index fastest) for `shape`,
+/// reordered row-major (C order); `values` as they are when `fortran` is
+/// false or the array has fewer than two axes.
+fn to_c_order<T: Copy + Default>(values: Vec<T>, shape: &[usize], fortran: bool) -> Vec<T> {
+    if !fortran || shape.len() < 2 {
+        return values;
+    }
+    // C-order stride of each axis.
+    let mut strides = vec![1; shape.len()];
+    for k in (0..shape.len() - 1).rev() {
+        strides[k] = strides[k + 1] * shape[k + 1];
+    }
+    let mut out = vec![T::default(); values.len()];
+    for (i, v) in values.into_iter().enumerate() {
+        let (mut rest, mut at) = (i, 0);
+        for (&d, &stride) in shape.iter().zip(&strides) {
+            at += (rest % d) * stride;
+            rest /= d;
         }
-        v
-    };
-    for (k, &d) in shape.iter().enumerate() {
-        out += (rest % d) * strides[k];
-        rest /= d;
+        out[at] = v;
     }
     out
 }
@@ -187,15 +191,7 @@ pub fn read_npy_array(path: &Path, budget: MemoryBudget) -> Result<NpyArray, Ima
     let values = read_values(&mut file, &header, n, budget, 8, &bad, |b, d, big| {
         decode_f64(b, d, big)
     })?;
-    let data = if header.fortran && header.shape.len() > 1 {
-        let mut out = vec![0.0; n];
-        for (i, v) in values.into_iter().enumerate() {
-            out[c_index(i, &header.shape)] = v;
-        }
-        out
-    } else {
-        values
-    };
+    let data = to_c_order(values, &header.shape, header.fortran);
     Ok(NpyArray {
         shape: header.shape,
         data,
@@ -287,19 +283,8 @@ pub(crate) fn read_npy(
         .and_then(|v| v.checked_mul(c))
         .ok_or_else(|| bad(format!("shape {shape:?} overflows")))?;
     let values = read_values(&mut file, &header, n, budget, 4, &bad, decode_value)?;
-    let data = if fortran {
-        // Fortran order: the first index varies fastest.
-        let mut out = vec![0.0; n];
-        for (i, v) in values.into_iter().enumerate() {
-            let y = i % h;
-            let x = (i / h) % w;
-            let ch = i / (h * w);
-            out[(y * w + x) * c + ch] = v;
-        }
-        out
-    } else {
-        values
-    };
+    // An HxW image is an HxWx1 array: the same reorder.
+    let data = to_c_order(values, &[h, w, c], fortran);
     Image::from_vec(w, h, c, data)
 }
 
