@@ -73,6 +73,14 @@ impl SmoothOptions {
         self.hessian_sigma.unwrap_or((self.scale / 2.0).max(1.5))
     }
 
+    /// Whether the smoothing filters are evaluated directly (footprint
+    /// below [`DIRECT_BELOW`], [`crate::direct`]) rather than from the
+    /// scale stack; the GPU path supports only the latter.
+    #[must_use]
+    pub fn evaluated_directly(&self) -> bool {
+        self.scale < DIRECT_BELOW
+    }
+
     /// The tensor averaging sigma in use.
     #[must_use]
     pub fn tensor_sigma(&self) -> f64 {
@@ -233,7 +241,7 @@ impl Smoother {
     ) -> StackPlan {
         let hs = opts.hessian_sigma();
         let (hlo, hhi) = hbank.stack_sigmas(hs, hs);
-        let (lo, hi) = if opts.scale < DIRECT_BELOW {
+        let (lo, hi) = if opts.evaluated_directly() {
             // The smoothing filters do not read the stack.
             (hlo, hhi)
         } else {
@@ -307,7 +315,7 @@ impl Smoother {
                 })
                 .collect()
         };
-        let direct = (opts.scale < DIRECT_BELOW).then(|| {
+        let direct = opts.evaluated_directly().then(|| {
             (
                 DirectKernels::new(opts.scale, opts.aniso.max_aspect),
                 image.clone(),

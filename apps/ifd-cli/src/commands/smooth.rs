@@ -96,14 +96,6 @@ impl Smooth {
                 f.display()
             );
         }
-        if self.gpu && self.scale < ifd_smooth::direct::DIRECT_BELOW {
-            anyhow::bail!(
-                "--gpu: footprint scales below {} px (here {}) are evaluated directly, on the CPU only; drop --gpu",
-                ifd_smooth::direct::DIRECT_BELOW,
-                self.scale
-            );
-        }
-        let img = self.input.read(&self.image)?.image;
         let opts = SmoothOptions {
             scale: self.scale,
             hessian_sigma: self.hessian_sigma,
@@ -115,6 +107,14 @@ impl Smooth {
             border,
             ..SmoothOptions::default()
         };
+        if self.gpu && opts.evaluated_directly() {
+            anyhow::bail!(
+                "--gpu: footprint scales below {} px (here {}) are evaluated directly, on the CPU only; drop --gpu",
+                ifd_smooth::direct::DIRECT_BELOW,
+                self.scale
+            );
+        }
+        let img = self.input.read(&self.image)?.image;
         opts.aniso.validate()?;
         let t0 = Instant::now();
         let bar = ProgressBar::new(0);
