@@ -13,7 +13,9 @@
 use ifd_image::Image;
 use ifd_planar::{Decomposition, Kernel};
 
-use crate::draw::{BLACK, TEXT_HEIGHT, canvas, draw_text, hline, put, text_width, vline};
+use crate::draw::{
+    BLACK, TEXT_HEIGHT, canvas, draw_text, draw_text_centred, hline, put, text_width, vline,
+};
 
 /// Side of each panel, px.
 const PANEL: usize = 256;
@@ -68,11 +70,6 @@ fn label(v: f64) -> String {
     }
 }
 
-/// Text centred on `x`.
-fn centred(img: &mut Image, x: usize, y: usize, text: &str) {
-    draw_text(img, x.saturating_sub(text_width(text) / 2), y, text, BLACK);
-}
-
 /// A frame around panel `i`.
 fn frame(img: &mut Image, i: usize) {
     let x0 = panel_x(i) - 1;
@@ -92,7 +89,7 @@ fn offset_axes(img: &mut Image, i: usize, (rx, ry): (f64, f64), side: f64) {
         let px = x0 + (PANEL as f64 / 2.0 + d * per) as usize;
         let px = px.min(x0 + PANEL - 1);
         vline(img, px, TOP + PANEL, TOP + PANEL + 4, BLACK);
-        centred(img, px, TOP + PANEL + 7, &label(d));
+        draw_text_centred(img, px, TOP + PANEL + 7, &label(d), BLACK);
     }
     for d in ticks(ry) {
         let py = TOP + ((PANEL as f64 / 2.0 + d * per) as usize).min(PANEL - 1);
@@ -106,7 +103,13 @@ fn offset_axes(img: &mut Image, i: usize, (rx, ry): (f64, f64), side: f64) {
             BLACK,
         );
     }
-    centred(img, x0 + PANEL / 2, TOP + PANEL + 26, "x, y offset (px)");
+    draw_text_centred(
+        img,
+        x0 + PANEL / 2,
+        TOP + PANEL + 26,
+        "x, y offset (px)",
+        BLACK,
+    );
 }
 
 /// A horizontal colour bar under panel `i` for `map` on `[lo, hi]`,
@@ -133,10 +136,10 @@ fn colour_bar(
     vline(img, x0 + PANEL, y0 - 1, y0 + BAR, BLACK);
     let ly = y0 + BAR + 4;
     draw_text(img, x0, ly, &label(lo), BLACK);
-    centred(img, x0 + PANEL / 2, ly, &label(0.5 * (lo + hi)));
+    draw_text_centred(img, x0 + PANEL / 2, ly, &label(0.5 * (lo + hi)), BLACK);
     let t = label(hi);
     draw_text(img, x0 + PANEL - text_width(&t), ly, &t, BLACK);
-    centred(img, x0 + PANEL / 2, ly + TEXT_HEIGHT + 6, what);
+    draw_text_centred(img, x0 + PANEL / 2, ly + TEXT_HEIGHT + 6, what, BLACK);
 }
 
 /// Renders the four panels (see the module documentation) as an RGB image,
@@ -216,7 +219,7 @@ pub fn decomposition_plot(
         "abs(w) per level".to_string(),
     ];
     for (i, t) in titles.iter().enumerate() {
-        centred(&mut img, panel_x(i) + PANEL / 2, 10, t);
+        draw_text_centred(&mut img, panel_x(i) + PANEL / 2, 10, t, BLACK);
         frame(&mut img, i);
     }
     for i in 0..3 {
@@ -240,7 +243,7 @@ fn weights_panel(img: &mut Image, decomposition: &Decomposition) {
         .collect();
     let x0 = panel_x(3);
     if terms.is_empty() {
-        centred(img, x0 + PANEL / 2, TOP + PANEL / 2, "no terms");
+        draw_text_centred(img, x0 + PANEL / 2, TOP + PANEL / 2, "no terms", BLACK);
         return;
     }
     let smax = terms.iter().fold(0.0_f64, |m, t| m.max(t.sigma));
@@ -297,13 +300,14 @@ fn weights_panel(img: &mut Image, decomposition: &Decomposition) {
     for l in (0..levels).step_by(step) {
         let px = x0 + ((l as f64 + 0.5) * PANEL as f64 / levels as f64) as usize;
         vline(img, px, TOP + PANEL, TOP + PANEL + 4, BLACK);
-        centred(img, px, TOP + PANEL + 7, &(l + 1).to_string());
+        draw_text_centred(img, px, TOP + PANEL + 7, &(l + 1).to_string(), BLACK);
     }
-    centred(
+    draw_text_centred(
         img,
         x0 + PANEL / 2,
         TOP + PANEL + 26,
         "level, coarse to fine",
+        BLACK,
     );
     // y: decades of abs(w).
     let decades = (hi - lo) as usize;
@@ -320,11 +324,10 @@ fn weights_panel(img: &mut Image, decomposition: &Decomposition) {
             BLACK,
         );
     }
-    let cm = cmax;
     colour_bar(
         img,
         3,
-        |t| sequential(shade(t * cm)),
+        |t| sequential(shade(t * cmax)),
         (0.0, cmax),
         "terms per bin",
     );

@@ -97,6 +97,12 @@ pub fn draw_text(img: &mut Image, x: usize, y: usize, text: &str, rgb: [f32; 3])
     }
 }
 
+/// Draws `text` centred on column `x`, top at `y` (clipped at the left
+/// edge).
+pub fn draw_text_centred(img: &mut Image, x: usize, y: usize, text: &str, rgb: [f32; 3]) {
+    draw_text(img, x.saturating_sub(text_width(text) / 2), y, text, rgb);
+}
+
 const BOX: &str = "##### #...# #...# #...# #...# #...# #####";
 
 /// 5-wide glyphs, rows top to bottom separated by spaces; 7 rows, plus 2

@@ -15,7 +15,8 @@ use ifd_sphere::profile::Profile;
 use ifd_sphere::zhf::Sharing;
 
 use crate::draw::{
-    BLACK, GREY, TEXT_HEIGHT, draw_text, hline, put, put_f, segment, text_width, vline,
+    BLACK, GREY, TEXT_HEIGHT, draw_text, draw_text_centred, hline, put, put_f, segment, text_width,
+    vline,
 };
 
 /// The plots' errors: only allocation can fail.
@@ -134,13 +135,7 @@ pub fn condition_plot(series: &[ConditionSeries]) -> Result<Image> {
         vline(&mut img, x, h - BOTTOM, h - BOTTOM + 5, BLACK);
         if l == 1 || l % step == 0 {
             let label = l.to_string();
-            draw_text(
-                &mut img,
-                x - text_width(&label) / 2,
-                h - BOTTOM + 10,
-                &label,
-                BLACK,
-            );
+            draw_text_centred(&mut img, x, h - BOTTOM + 10, &label, BLACK);
         }
     }
     let xl = "L (maximum SH degree)";
@@ -296,13 +291,7 @@ pub fn log_line_plot(series: &[Series], x_label: &str, y_label: &str) -> Result<
         let x = px(t).round() as usize;
         vline(&mut img, x, h - BOTTOM, h - BOTTOM + 5, BLACK);
         let label = format!("{t}");
-        draw_text(
-            &mut img,
-            x - text_width(&label) / 2,
-            h - BOTTOM + 10,
-            &label,
-            BLACK,
-        );
+        draw_text_centred(&mut img, x, h - BOTTOM + 10, &label, BLACK);
         t += step;
     }
     draw_text(
