@@ -5,7 +5,9 @@ use std::time::Duration;
 use bytemuck::{Pod, Zeroable};
 use ifd_image::Image;
 use ifd_planar::kernel::Sampling;
-use ifd_planar::{Border, Decomposition, Field, FilterError, Term};
+use ifd_planar::{
+    Border, CheckField, Field, FieldKind, FilterError, Prepare, PreparedDecomposition,
+};
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
@@ -76,77 +78,56 @@ pub struct GpuDecomposition {
 }
 
 impl GpuDecomposition {
-    /// Uploads one decomposition.
+    /// Uploads one decomposition (an [`ifd_planar::Decomposition`], checked here, or an
+    /// [`ifd_planar::PreparedDecomposition`], checked once for every path).
     ///
     /// # Errors
     /// As [`GpuDecomposition::from_entries`].
-    pub fn new(ctx: &GpuContext, decomposition: &Decomposition) -> Result<Self, GpuError> {
-        let mut d = Self::from_entries(ctx, &[decomposition.terms.as_slice()])?;
-        d.sampling = decomposition.sampling;
-        Ok(d)
-    }
-
-    /// The same upload applied with another [`Sampling`] (the smoother's
-    /// bank: [`Sampling::Averaged`]).
-    #[must_use]
-    pub fn with_sampling(mut self, sampling: Sampling) -> Self {
-        self.sampling = sampling;
-        self
+    pub fn new(
+        ctx: &GpuContext,
+        decomposition: &(impl Prepare + ?Sized),
+    ) -> Result<Self, GpuError> {
+        Self::from_entries(ctx, &[decomposition.prepare()?.into_owned()])
     }
 
     /// Uploads several decompositions, concatenated with their offsets.
     ///
     /// # Errors
-    /// [`FilterError::InvalidParameter`] for no entries or an entry without
-    /// terms, [`FilterError::InvalidTerm`] for non-finite values or a sigma
-    /// `<= 0` (as the CPU [`ifd_planar::Filter::new`]), [`GpuError::Limit`]
-    /// when the terms exceed a device limit.
-    pub fn from_entries(ctx: &GpuContext, entries: &[&[Term]]) -> Result<Self, GpuError> {
-        if entries.is_empty() {
+    /// [`FilterError::InvalidParameter`] for no entries or entries applied
+    /// with different [`Sampling`]s, [`GpuError::Limit`] when the terms
+    /// exceed a device limit. The terms were checked when the entries were
+    /// prepared ([`PreparedDecomposition::new`]), as for the CPU path.
+    pub fn from_entries(
+        ctx: &GpuContext,
+        entries: &[PreparedDecomposition],
+    ) -> Result<Self, GpuError> {
+        let Some(first) = entries.first() else {
             return Err(FilterError::InvalidParameter("no decompositions given".into()).into());
+        };
+        let sampling = first.sampling();
+        if let Some(e) = entries.iter().position(|e| e.sampling() != sampling) {
+            return Err(FilterError::InvalidParameter(format!(
+                "decomposition {e} is applied as {:?}, decomposition 0 as {sampling:?}: \
+                 entries of one upload share their sampling",
+                entries[e].sampling()
+            ))
+            .into());
         }
         let mut terms = Vec::new();
         let mut offsets: Vec<[u32; 2]> = Vec::with_capacity(entries.len());
         let mut lo = f64::INFINITY;
         let mut hi = 0.0f64;
-        for (e, list) in entries.iter().enumerate() {
-            if list.is_empty() {
-                return Err(FilterError::InvalidParameter(if entries.len() == 1 {
-                    "the decomposition has no terms".into()
-                } else {
-                    format!("decomposition {e} has no terms")
-                })
-                .into());
-            }
-            offsets.push([terms.len() as u32, list.len() as u32]);
-            for (index, t) in list.iter().enumerate() {
-                if !(t.weight.is_finite()
-                    && t.x.is_finite()
-                    && t.y.is_finite()
-                    && t.sigma.is_finite())
-                {
-                    return Err(FilterError::InvalidTerm {
-                        index,
-                        why: format!("non-finite value in {t:?}"),
-                    }
-                    .into());
-                }
-                if t.sigma <= 0.0 {
-                    return Err(FilterError::InvalidTerm {
-                        index,
-                        why: format!("sigma {} is not positive", t.sigma),
-                    }
-                    .into());
-                }
-                lo = lo.min(t.sigma);
-                hi = hi.max(t.sigma);
-                terms.push(GpuTerm {
-                    weight: t.weight as f32,
-                    cx: t.x as f32,
-                    cy: t.y as f32,
-                    ln_sigma: t.sigma.ln() as f32,
-                });
-            }
+        for entry in entries {
+            offsets.push([terms.len() as u32, entry.len() as u32]);
+            let (a, b) = entry.sigma_range();
+            lo = lo.min(a);
+            hi = hi.max(b);
+            terms.extend(entry.terms().iter().map(|t| GpuTerm {
+                weight: t.weight as f32,
+                cx: t.x as f32,
+                cy: t.y as f32,
+                ln_sigma: t.sigma.ln() as f32,
+            }));
         }
         let bytes = (terms.len() * std::mem::size_of::<GpuTerm>()) as u64;
         ctx.check_buffer(&format!("{} decomposition terms", terms.len()), bytes, true)?;
@@ -173,7 +154,7 @@ impl GpuDecomposition {
             n_entries: offsets.len() as u32,
             n_terms: terms.len(),
             sigma_range: (lo, hi),
-            sampling: Sampling::Continuous,
+            sampling,
         })
     }
 
@@ -217,68 +198,11 @@ pub struct GpuPose {
     scale: f32,
     u_offset: f32,
     entry: f32,
+    /// The smallest and largest scale.
     scale_range: (f32, f32),
-    scale_field_is_map: bool,
-    /// `(value, pixel index)` of the smallest and largest scale, for messages.
-    scale_where: [(f32, usize); 2],
-}
-
-/// Checks a field like the CPU's `Field::validate`; returns
-/// `((min, index), (max, index))`.
-fn validate_field(
-    field: &Field<'_>,
-    name: &'static str,
-    width: usize,
-    height: usize,
-    positive: bool,
-) -> Result<[(f32, usize); 2], FilterError> {
-    let check = |v: f32, i: Option<usize>| -> Result<(), FilterError> {
-        let why = if !v.is_finite() {
-            "not finite"
-        } else if positive && v <= 0.0 {
-            "must be positive"
-        } else if v.abs() > 1e6 {
-            "absurdly large"
-        } else {
-            return Ok(());
-        };
-        Err(FilterError::InvalidValue {
-            name,
-            value: v,
-            location: i.map(|i| location(i, width)).unwrap_or_default(),
-            why,
-        })
-    };
-    match field {
-        Field::Constant(v) => {
-            check(*v, None)?;
-            Ok([(*v, 0), (*v, 0)])
-        }
-        Field::Map(m) => {
-            let expected = width * height;
-            if m.len() != expected {
-                return Err(FilterError::MapSize {
-                    name,
-                    len: m.len(),
-                    width,
-                    height,
-                    expected,
-                });
-            }
-            let mut lo = (f32::INFINITY, 0);
-            let mut hi = (f32::NEG_INFINITY, 0);
-            for (i, &v) in m.iter().enumerate() {
-                check(v, Some(i))?;
-                if v < lo.0 {
-                    lo = (v, i);
-                }
-                if v > hi.0 {
-                    hi = (v, i);
-                }
-            }
-            Ok([lo, hi])
-        }
-    }
+    /// Where they are (`" at pixel (x, y)"`, empty for a constant), for
+    /// messages.
+    scale_where: [String; 2],
 }
 
 /// `[cos, sin]` of an angle in degrees, as the pose maps hold rotations
@@ -288,44 +212,30 @@ fn cos_sin(degrees: f32) -> [f32; 2] {
     [c, s]
 }
 
-fn location(i: usize, width: usize) -> String {
-    format!(" at pixel ({}, {})", i % width, i / width)
-}
-
 impl GpuPose {
     /// Uploads the per-pixel maps among `angle` (degrees, counter-clockwise
     /// on screen), `scale` and `entry` (bank entry `i + t`: entries `i` and
     /// `i + 1` blended with weight `t`; 0 for a single decomposition) for
-    /// evaluations on `stack`.
+    /// evaluations on `stack`: raw [`Field`]s, checked here as the CPU path
+    /// checks them, or [`ifd_planar::CheckedField`]s, checked once for both paths.
     ///
     /// # Errors
     /// As the CPU path: [`FilterError::MapSize`] for maps of the wrong size,
     /// [`FilterError::InvalidValue`] for non-finite angles, non-positive
     /// scales or negative entries; [`GpuError::Limit`] when the maps exceed
     /// a buffer limit.
-    pub fn new(
+    pub fn new<'f>(
         ctx: &GpuContext,
         stack: &GpuStack,
-        angle: Field<'_>,
-        scale: Field<'_>,
-        entry: Field<'_>,
+        angle: impl CheckField<'f>,
+        scale: impl CheckField<'f>,
+        entry: impl CheckField<'f>,
     ) -> Result<Self, GpuError> {
         let (w, h) = (stack.width(), stack.height());
-        validate_field(&angle, "angle", w, h, false)?;
-        let scale_where = validate_field(&scale, "scale", w, h, true)?;
-        let [(elo, ei), _] = validate_field(&entry, "bank entry", w, h, false)?;
-        if elo < 0.0 {
-            return Err(FilterError::InvalidValue {
-                name: "bank entry",
-                value: elo,
-                location: match entry {
-                    Field::Map(_) => location(ei, w),
-                    Field::Constant(_) => String::new(),
-                },
-                why: "must not be negative",
-            }
-            .into());
-        }
+        let checked_scale = scale.check(FieldKind::Scale, w, h)?;
+        let angle = angle.check(FieldKind::Angle, w, h)?.field();
+        let entry = entry.check(FieldKind::Entry, w, h)?.field();
+        let scale = checked_scale.field();
         let (ln0, inv) = stack.ln_params;
         let level_offset = |s: f32| ((f64::from(s).ln() - ln0) * inv) as f32;
         let mut maps: Vec<f32> = Vec::new();
@@ -398,9 +308,11 @@ impl GpuPose {
             scale: s_c,
             u_offset: u_c,
             entry: e_c,
-            scale_range: (scale_where[0].0, scale_where[1].0),
-            scale_field_is_map: matches!(scale, Field::Map(_)),
-            scale_where,
+            scale_range: checked_scale.range(),
+            scale_where: [
+                checked_scale.location_of_min(),
+                checked_scale.location_of_max(),
+            ],
         })
     }
 
@@ -708,26 +620,22 @@ impl GpuContext {
         // Coverage, as the CPU's Filter::check_scales.
         let (min, max) = stack.sigma_range;
         let (slo, shi) = decomposition.sigma_range;
-        let scales = (
-            f64::from(pose.scale_where[0].0),
-            f64::from(pose.scale_where[1].0),
+        let (s_lo, s_hi) = pose.scale_range;
+        let (need_lo, need_hi) = ifd_planar::filter::sigma_bounds(
+            decomposition.sampling,
+            (slo, shi),
+            (f64::from(s_lo), f64::from(s_hi)),
         );
-        let (need_lo, need_hi) =
-            ifd_planar::filter::sigma_bounds(decomposition.sampling, (slo, shi), scales);
-        for (((scale, at), term_sigma), needed) in pose
-            .scale_where
-            .iter()
+        for (((scale, location), term_sigma), needed) in [s_lo, s_hi]
+            .into_iter()
+            .zip(&pose.scale_where)
             .zip([slo, shi])
             .zip([need_lo, need_hi])
         {
             if !stack.covers(needed) {
                 return Err(FilterError::ScaleOutOfRange {
-                    scale: f64::from(*scale),
-                    location: if pose.scale_field_is_map {
-                        location(*at, w)
-                    } else {
-                        String::new()
-                    },
+                    scale: f64::from(scale),
+                    location: location.clone(),
                     term_sigma,
                     needed,
                     min,

@@ -101,10 +101,8 @@ impl GpuSmoother {
         }
         let stack = GpuStack::upload(ctx, smoother.stack())?;
         let bank = smoother.bank();
-        let entries_terms: Vec<&[ifd_planar::Term]> =
-            bank.terms.iter().map(Vec::as_slice).collect();
-        let gbank = GpuDecomposition::from_entries(ctx, &entries_terms)?
-            .with_sampling(ifd_smooth::bank::BANK_SAMPLING);
+        // The entries the CPU path reads, checked once when the smoother was built.
+        let gbank = GpuDecomposition::from_entries(ctx, smoother.prepared_bank())?;
         let scale = (smoother.options().scale / bank.options.sigma_ref) as f32;
         let field = smoother.orientation_field();
         let thetas: Vec<f32> = field.iter().map(|o| o.theta).collect();

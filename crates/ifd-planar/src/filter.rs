@@ -27,125 +27,11 @@ use rayon::prelude::*;
 use crate::border::Border;
 use crate::decomposition::{Decomposition, Term};
 use crate::error::FilterError;
+use crate::field::{CheckField, CheckedField, Field, FieldKind};
 use crate::kernel::Sampling;
+use crate::prepared::Prepare;
 use crate::stack::lookup::{Tap, row_constant};
 use crate::stack::{MIN_SIGMA, ScaleStack, StackLayout, StackOptions, StackPlan};
-
-/// A per-pixel parameter (angle in degrees, or scale): a constant or a
-/// row-major map of `width * height` values.
-#[derive(Clone, Copy, Debug)]
-pub enum Field<'a> {
-    /// The same value at every pixel.
-    Constant(f32),
-    /// One value per pixel, row-major.
-    Map(&'a [f32]),
-}
-
-impl Field<'_> {
-    /// The value at pixel index `i` (`y * width + x`).
-    #[inline]
-    #[must_use]
-    pub fn at(&self, i: usize) -> f32 {
-        match self {
-            Field::Constant(v) => *v,
-            Field::Map(m) => m[i],
-        }
-    }
-
-    /// `(min, max)` of the finite values (for sizing a stack from a scale
-    /// map); `None` when there are none.
-    ///
-    /// ```
-    /// use ifd_planar::Field;
-    /// assert_eq!(Field::Map(&[1.5, 0.5, 2.0]).range(), Some((0.5, 2.0)));
-    /// assert_eq!(Field::Constant(3.0).range(), Some((3.0, 3.0)));
-    /// ```
-    #[must_use]
-    pub fn range(&self) -> Option<(f32, f32)> {
-        let values: &[f32] = match self {
-            Field::Constant(v) => std::slice::from_ref(v),
-            Field::Map(m) => m,
-        };
-        values
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold(None, |acc, &v| match acc {
-                None => Some((v, v)),
-                Some((lo, hi)) => Some((v.min(lo), v.max(hi))),
-            })
-    }
-
-    /// Checks the size and values; returns `(min, max)`.
-    ///
-    /// `positive` additionally requires values `> 0` (scales).
-    pub(crate) fn validate(
-        &self,
-        name: &'static str,
-        width: usize,
-        height: usize,
-        positive: bool,
-    ) -> Result<(f32, f32), FilterError> {
-        let bad = |value: f32, location: String, why| FilterError::InvalidValue {
-            name,
-            value,
-            location,
-            why,
-        };
-        let check = |v: f32, location: &dyn Fn() -> String| -> Result<(), FilterError> {
-            if !v.is_finite() {
-                Err(bad(v, location(), "not finite"))
-            } else if positive && v <= 0.0 {
-                Err(bad(v, location(), "must be positive"))
-            } else if v.abs() > 1e6 {
-                Err(bad(v, location(), "absurdly large"))
-            } else {
-                Ok(())
-            }
-        };
-        match self {
-            Field::Constant(v) => {
-                check(*v, &String::new)?;
-                Ok((*v, *v))
-            }
-            Field::Map(m) => {
-                let expected = width * height;
-                if m.len() != expected {
-                    return Err(FilterError::MapSize {
-                        name,
-                        len: m.len(),
-                        width,
-                        height,
-                        expected,
-                    });
-                }
-                let mut lo = f32::INFINITY;
-                let mut hi = f32::NEG_INFINITY;
-                for (i, &v) in m.iter().enumerate() {
-                    check(v, &|| pixel_location(i, width))?;
-                    lo = lo.min(v);
-                    hi = hi.max(v);
-                }
-                Ok((lo, hi))
-            }
-        }
-    }
-
-    /// Where a value occurs: `" at pixel (x, y)"` for a map, empty for a constant.
-    fn location_of(&self, value: f32, width: usize) -> String {
-        match self {
-            Field::Constant(_) => String::new(),
-            Field::Map(m) => m
-                .iter()
-                .position(|&v| v == value)
-                .map(|i| pixel_location(i, width))
-                .unwrap_or_default(),
-        }
-    }
-}
-
-fn pixel_location(i: usize, width: usize) -> String {
-    format!(" at pixel ({}, {})", i % width, i / width)
-}
 
 /// One decomposition term, prepared for lookups.
 #[derive(Clone, Copy, Debug)]
@@ -202,22 +88,37 @@ fn is_direct(sampling: Sampling, sigma: f64, reach: f64, s: f64, below: f64) -> 
 }
 
 impl<'a> Filter<'a> {
-    /// Prepares `decomposition` for lookups into `stack`.
+    /// Prepares `decomposition` (a [`Decomposition`], checked here, or a
+    /// [`crate::PreparedDecomposition`]) for lookups into `stack`.
     ///
     /// # Errors
-    /// [`FilterError::InvalidTerm`] for non-finite values or a sigma `<= 0`,
-    /// [`FilterError::InvalidParameter`] for a decomposition without terms.
-    pub fn new(stack: &'a ScaleStack, decomposition: &Decomposition) -> Result<Self, FilterError> {
-        let terms = prepare_terms(decomposition)?;
-        let sigma_lo = terms.iter().map(|t| t.sigma).fold(f64::INFINITY, f64::min);
-        let sigma_hi = terms.iter().map(|t| t.sigma).fold(0.0, f64::max);
+    /// As [`crate::PreparedDecomposition::new`]: [`FilterError::InvalidTerm`] for
+    /// non-finite values or a sigma `<= 0`, [`FilterError::InvalidParameter`]
+    /// for a decomposition without terms.
+    pub fn new(
+        stack: &'a ScaleStack,
+        decomposition: &(impl Prepare + ?Sized),
+    ) -> Result<Self, FilterError> {
+        let d = decomposition.prepare()?;
+        let terms = d
+            .terms()
+            .iter()
+            .map(|t| Prepared {
+                weight: t.weight as f32,
+                cx: t.x as f32,
+                cy: t.y as f32,
+                sigma: t.sigma,
+                ln_sigma: t.sigma.ln(),
+            })
+            .collect();
+        let (sigma_lo, sigma_hi) = d.sigma_range();
         Ok(Self {
             stack,
             terms,
             sigma_lo,
             sigma_hi,
             direct: None,
-            sampling: decomposition.sampling,
+            sampling: d.sampling(),
         })
     }
 
@@ -304,11 +205,10 @@ impl<'a> Filter<'a> {
     /// terms evaluated directly read no level and are left out.
     fn check_scales(
         &self,
-        lo: f32,
-        hi: f32,
-        field: &Field<'_>,
+        scale: &CheckedField<'_>,
         constant_pose: bool,
     ) -> Result<(), FilterError> {
+        let (lo, hi) = scale.range();
         let (min, max) = self.stack.sigma_range();
         let (mut need_lo, mut need_hi) = sigma_bounds(
             self.sampling,
@@ -328,13 +228,14 @@ impl<'a> Filter<'a> {
             need_lo = read.iter().copied().fold(f64::INFINITY, f64::min);
             need_hi = read.iter().copied().fold(0.0, f64::max);
         }
-        for (scale, term_sigma, needed) in
-            [(lo, self.sigma_lo, need_lo), (hi, self.sigma_hi, need_hi)]
-        {
+        for (s, term_sigma, needed, location) in [
+            (lo, self.sigma_lo, need_lo, scale.location_of_min()),
+            (hi, self.sigma_hi, need_hi, scale.location_of_max()),
+        ] {
             if !self.stack.covers(needed) {
                 return Err(FilterError::ScaleOutOfRange {
-                    scale: f64::from(scale),
-                    location: field.location_of(scale, self.stack.width()),
+                    scale: f64::from(s),
+                    location,
                     term_sigma,
                     needed,
                     min,
@@ -347,24 +248,29 @@ impl<'a> Filter<'a> {
 
     /// Filters the whole image with the decomposed kernel rotated by `angle`
     /// (degrees, counter-clockwise on screen) and scaled by `scale`, each a
-    /// constant or a per-pixel map.
+    /// constant or a per-pixel map: a raw [`Field`], checked here, or a
+    /// [`CheckedField`].
     ///
     /// # Errors
     /// [`FilterError::MapSize`] for maps of the wrong size,
     /// [`FilterError::InvalidValue`] for non-finite angles or non-positive
     /// scales, [`FilterError::ScaleOutOfRange`] when some `scale * sigma_t`
     /// is not covered by the stack.
-    pub fn apply(&self, angle: Field<'_>, scale: Field<'_>) -> Result<Image, FilterError> {
+    pub fn apply<'f>(
+        &self,
+        angle: impl CheckField<'f>,
+        scale: impl CheckField<'f>,
+    ) -> Result<Image, FilterError> {
         let (w, h, c) = (
             self.stack.width(),
             self.stack.height(),
             self.stack.channels(),
         );
-        angle.validate("angle", w, h, false)?;
-        let (lo, hi) = scale.validate("scale", w, h, true)?;
-        let constant_pose = matches!((angle, scale), (Field::Constant(_), Field::Constant(_)));
-        self.check_scales(lo, hi, &scale, constant_pose)?;
-        let out = match (angle, scale) {
+        let angle = angle.check(FieldKind::Angle, w, h)?;
+        let scale = scale.check(FieldKind::Scale, w, h)?;
+        let constant_pose = !angle.is_map() && !scale.is_map();
+        self.check_scales(&scale, constant_pose)?;
+        let out = match (angle.field(), scale.field()) {
             (Field::Constant(theta), Field::Constant(s)) => {
                 let taps = self.taps_where(theta, s, |t| !self.direct_at(t, s));
                 let mut out = Taps { taps }.apply_region(self.stack, 0, 0, w, h)?;
@@ -448,10 +354,10 @@ impl<'a> Filter<'a> {
                 });
             }
         }
-        Field::Constant(theta).validate("angle", 1, 1, false)?;
-        Field::Constant(s).validate("scale", 1, 1, true)?;
+        Field::Constant(theta).check(FieldKind::Angle, 1, 1)?;
+        let scale = Field::Constant(s).check(FieldKind::Scale, 1, 1)?;
         // A point lookup reads every term from the stack.
-        self.check_scales(s, s, &Field::Constant(s), false)?;
+        self.check_scales(&scale, false)?;
         out.fill(0.0);
         let (sin, cos) = theta.to_radians().sin_cos();
         self.pixel_general::<0>(x, y, cos, sin, s, out);
@@ -789,9 +695,9 @@ impl<'a> Filter<'a> {
     /// [`FilterError::InvalidValue`] for a non-finite or non-positive scale,
     /// [`FilterError::ScaleOutOfRange`] when some `scale * sigma_t` is not covered.
     pub fn at_scale(&self, scale: f32) -> Result<ScaledFilter<'_, 'a>, FilterError> {
-        Field::Constant(scale).validate("scale", 1, 1, true)?;
+        let checked = Field::Constant(scale).check(FieldKind::Scale, 1, 1)?;
         // Its lookups read every term from the stack.
-        self.check_scales(scale, scale, &Field::Constant(scale), false)?;
+        self.check_scales(&checked, false)?;
         Ok(ScaledFilter {
             filter: self,
             scale,
@@ -913,41 +819,6 @@ impl Taps {
     }
 }
 
-fn prepare_terms(decomposition: &Decomposition) -> Result<Vec<Prepared>, FilterError> {
-    if decomposition.terms.is_empty() {
-        return Err(FilterError::InvalidParameter(
-            "the decomposition has no terms".into(),
-        ));
-    }
-    decomposition
-        .terms
-        .iter()
-        .enumerate()
-        .map(|(index, t)| {
-            if !(t.weight.is_finite() && t.x.is_finite() && t.y.is_finite() && t.sigma.is_finite())
-            {
-                return Err(FilterError::InvalidTerm {
-                    index,
-                    why: format!("non-finite value in {t:?}"),
-                });
-            }
-            if t.sigma <= 0.0 {
-                return Err(FilterError::InvalidTerm {
-                    index,
-                    why: format!("sigma {} is not positive", t.sigma),
-                });
-            }
-            Ok(Prepared {
-                weight: t.weight as f32,
-                cx: t.x as f32,
-                cy: t.y as f32,
-                sigma: t.sigma,
-                ln_sigma: t.sigma.ln(),
-            })
-        })
-        .collect()
-}
-
 /// Builds the scale stack a decomposition needs for scales in
 /// `[scale_min, scale_max]`: sigmas `[scale_min * min sigma_t, scale_max *
 /// max sigma_t]`, and for replicate/constant borders a margin covering the
@@ -958,7 +829,7 @@ fn prepare_terms(decomposition: &Decomposition) -> Result<Vec<Prepared>, FilterE
 /// decomposition or scale range, and the errors of [`ScaleStack::new`].
 pub fn stack_for_decomposition(
     image: &Image,
-    decomposition: &Decomposition,
+    decomposition: &(impl Prepare + ?Sized),
     scale_min: f32,
     scale_max: f32,
     border: Border,
@@ -993,25 +864,20 @@ pub fn stack_for_decomposition(
 /// As [`stack_for_decomposition`], except those of the image's samples.
 pub fn stack_plan_for_decomposition(
     (width, height, channels): (usize, usize, usize),
-    decomposition: &Decomposition,
+    decomposition: &(impl Prepare + ?Sized),
     scale_min: f32,
     scale_max: f32,
     border: Border,
     options: StackOptions,
 ) -> Result<StackPlan, FilterError> {
-    let terms = prepare_terms(decomposition)?;
+    let d = decomposition.prepare()?;
     check_scale_range(scale_min, scale_max)?;
-    let sigma_lo = terms.iter().map(|t| t.sigma).fold(f64::INFINITY, f64::min);
-    let sigma_hi = terms.iter().map(|t| t.sigma).fold(0.0, f64::max);
     let (need_lo, need_hi) = sigma_bounds(
-        decomposition.sampling,
-        (sigma_lo, sigma_hi),
+        d.sampling(),
+        d.sigma_range(),
         (f64::from(scale_min), f64::from(scale_max)),
     );
-    let reach = terms
-        .iter()
-        .map(|t| f64::from(t.cx).hypot(f64::from(t.cy)))
-        .fold(0.0, f64::max);
+    let reach = d.reach();
     let mut options = options;
     let need = (f64::from(scale_max) * reach).ceil() as usize + 2;
     if matches!(border, Border::Replicate | Border::Constant(_)) {

@@ -30,10 +30,12 @@ pub mod decomposition;
 pub mod dictionary;
 pub mod fit;
 pub mod kernel;
+pub mod prepared;
 pub mod sparsa;
 
 pub mod border;
 pub mod error;
+pub mod field;
 pub mod filter;
 pub mod reference;
 pub mod stack;
@@ -42,11 +44,13 @@ pub use accuracy::{EvalPlan, PlanOptions};
 pub use decomposition::{Decomposition, FitReport, Term};
 pub use fit::{DecomposeError, DecomposeOptions, decompose};
 pub use kernel::{Kernel, KernelError, KernelSpec};
+pub use prepared::{Prepare, PreparedDecomposition};
 
 pub use border::Border;
 pub use error::FilterError;
+pub use field::{CheckField, CheckedField, Field, FieldKind};
 pub use filter::{
-    DIRECT_SIGMA, Field, Filter, Rotation, ScaledFilter, Taps, stack_for_decomposition,
+    DIRECT_SIGMA, Filter, Rotation, ScaledFilter, Taps, stack_for_decomposition,
     stack_plan_for_decomposition,
 };
 pub use stack::refresh::{FixedTap, PixelRect, RefreshReport};

@@ -23,7 +23,7 @@ use rayon::prelude::*;
 
 use crate::border::{Border, extend};
 use crate::error::FilterError;
-use crate::filter::Field;
+use crate::field::{CheckField, FieldKind};
 use crate::stack::check_finite;
 
 /// Largest kernel radius the references accept.
@@ -132,11 +132,11 @@ pub fn sample_kernel<K: Fn(f64, f64) -> f64>(k: K, theta: f64, s: f64, radius: u
 ///
 /// # Errors
 /// As [`correlate_varying_rows`].
-pub fn correlate_varying<K: Fn(f64, f64) -> f64 + Sync>(
+pub fn correlate_varying<'f, K: Fn(f64, f64) -> f64 + Sync>(
     image: &Image,
     radius: usize,
-    angle: Field<'_>,
-    scale: Field<'_>,
+    angle: impl CheckField<'f>,
+    scale: impl CheckField<'f>,
     border: Border,
     k: K,
 ) -> Result<Image, FilterError> {
@@ -151,11 +151,11 @@ pub fn correlate_varying<K: Fn(f64, f64) -> f64 + Sync>(
 /// scale fields, [`FilterError::NonFinite`] for NaN pixels,
 /// [`FilterError::InvalidParameter`] for a radius over 4096 or rows outside
 /// the image.
-pub fn correlate_varying_rows<K: Fn(f64, f64) -> f64 + Sync>(
+pub fn correlate_varying_rows<'f, K: Fn(f64, f64) -> f64 + Sync>(
     image: &Image,
     radius: usize,
-    angle: Field<'_>,
-    scale: Field<'_>,
+    angle: impl CheckField<'f>,
+    scale: impl CheckField<'f>,
     border: Border,
     k: K,
     rows: Range<usize>,
@@ -171,8 +171,8 @@ pub fn correlate_varying_rows<K: Fn(f64, f64) -> f64 + Sync>(
             "rows {rows:?} are not a non-empty range inside 0..{h}"
         )));
     }
-    angle.validate("angle", w, h, false)?;
-    scale.validate("scale", w, h, true)?;
+    let angle = angle.check(FieldKind::Angle, w, h)?;
+    let scale = scale.check(FieldKind::Scale, w, h)?;
     check_image(image, border)?;
     let (ext, ew) = extend(image, radius, radius, border);
     let n = 2 * radius + 1;
@@ -218,6 +218,7 @@ pub fn correlate_varying_rows<K: Fn(f64, f64) -> f64 + Sync>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::field::Field;
 
     #[test]
     fn correlate_is_correlation_not_convolution() {

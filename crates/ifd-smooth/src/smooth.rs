@@ -5,7 +5,8 @@ use std::sync::Arc;
 
 use ifd_image::Image;
 use ifd_planar::{
-    Border, Filter, Rotation, ScaleStack, ScaledFilter, StackLayout, StackPlan, Taps,
+    Border, Filter, PreparedDecomposition, Rotation, ScaleStack, ScaledFilter, StackLayout,
+    StackPlan, Taps,
 };
 use rayon::prelude::*;
 
@@ -209,6 +210,9 @@ pub struct Smoother {
     /// the image they read.
     direct: Option<(DirectKernels, Image)>,
     bank: Arc<AspectBank>,
+    /// The bank's entries checked once, applied as [`BANK_SAMPLING`]: what
+    /// the CPU filters and the GPU upload (`ifd_gpu::GpuSmoother`) read.
+    prepared: Vec<PreparedDecomposition>,
     opts: SmoothOptions,
     field: Vec<Orientation>,
     width: usize,
@@ -290,6 +294,11 @@ impl Smoother {
                 "image has {n_bad} NaN or infinite values; replace them first"
             )));
         }
+        let prepared = bank
+            .terms
+            .iter()
+            .map(|t| PreparedDecomposition::from_terms(t, BANK_SAMPLING))
+            .collect::<Result<Vec<_>, _>>()?;
         let hs = opts.hessian_sigma();
         let (w, h) = (image.width(), image.height());
         let stack = Self::stack_plan((w, h, image.channels()), opts, &bank, hbank).build(image)?;
@@ -325,6 +334,7 @@ impl Smoother {
             stack,
             direct,
             bank,
+            prepared,
             opts: *opts,
             field,
             width: w,
@@ -343,6 +353,13 @@ impl Smoother {
     #[must_use]
     pub fn bank(&self) -> &AspectBank {
         &self.bank
+    }
+
+    /// The bank's entries, checked when the smoother was built, as they are
+    /// applied (`Sampling::Averaged`).
+    #[must_use]
+    pub fn prepared_bank(&self) -> &[PreparedDecomposition] {
+        &self.prepared
     }
 
     /// The prefiltered stack.
@@ -390,14 +407,9 @@ impl Smoother {
         if self.direct.is_some() {
             return Ok(Vec::new());
         }
-        self.bank
-            .terms
+        self.prepared
             .iter()
-            .map(|t| {
-                let mut d = ifd_planar::Decomposition::from_terms(t.clone());
-                d.sampling = BANK_SAMPLING;
-                Filter::new(&self.stack, &d).map_err(SmoothError::from)
-            })
+            .map(|d| Filter::new(&self.stack, d).map_err(SmoothError::from))
             .collect()
     }
 

@@ -7,8 +7,9 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use ifd_planar::filter::evaluated_directly;
 use ifd_planar::{
-    Border, DIRECT_SIGMA, Decomposition, EvalPlan, Field, Filter as IfdFilter, Interpolation,
-    PlanOptions, ScaleStack, StackOptions, stack_plan_for_decomposition,
+    Border, CheckedField, DIRECT_SIGMA, Decomposition, EvalPlan, Field, FieldKind,
+    Filter as IfdFilter, Interpolation, PlanOptions, PreparedDecomposition, ScaleStack,
+    StackOptions, stack_plan_for_decomposition,
 };
 
 use crate::input::{InputOptions, write_output};
@@ -133,9 +134,9 @@ fn check_kernel_fits(decomposition: &Decomposition, smax: f32, w: usize, h: usiz
 fn filter_gpu(
     (ctx, device): (&ifd_gpu::GpuContext, std::time::Duration),
     stack: &ifd_planar::ScaleStack,
-    decomposition: &Decomposition,
-    angle: Field<'_>,
-    scale: Field<'_>,
+    decomposition: &PreparedDecomposition,
+    angle: CheckedField<'_>,
+    scale: CheckedField<'_>,
     verbose: bool,
 ) -> Result<ifd_image::Image> {
     use ifd_gpu::{GpuDecomposition, GpuPose, GpuStack};
@@ -194,31 +195,36 @@ impl Filter {
             Some(p) => Some(load_map(&self.input, p, "scale map", w, h)?),
             None => None,
         };
-        let angle = match &angle_map {
-            Some(m) => Field::Map(m),
-            None => Field::Constant(self.angle.unwrap_or(0.0)),
+        // Each field is checked once, here, for every path (stack plan, CPU,
+        // GPU); a map names its source in errors.
+        let field_error = |what: &str, path: &Option<PathBuf>, flag: &str| match path {
+            Some(p) => format!("{what} {}", p.display()),
+            None => flag.to_string(),
         };
-        let (smin, smax) = if let Some(m) = &scale_map {
-            m.iter()
-                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
-                    (lo.min(v), hi.max(v))
-                })
-        } else {
-            let s = self.scale.unwrap_or(1.0);
-            (s, s)
-        };
-        if !(smin.is_finite() && smax.is_finite() && smin > 0.0) {
-            let source = match &self.scale_map {
-                Some(p) => format!("the scale map {}", p.display()),
-                None => "--scale".to_string(),
-            };
-            bail!("{source}: scales must be finite and positive (found range [{smin}, {smax}])");
-        }
+        let angle = CheckedField::new(
+            match &angle_map {
+                Some(m) => Field::Map(m),
+                None => Field::Constant(self.angle.unwrap_or(0.0)),
+            },
+            FieldKind::Angle,
+            w,
+            h,
+        )
+        .with_context(|| field_error("the angle map", &self.angle_map, "--angle"))?;
+        let scale = CheckedField::new(
+            match &scale_map {
+                Some(m) => Field::Map(m),
+                None => Field::Constant(self.scale.unwrap_or(1.0)),
+            },
+            FieldKind::Scale,
+            w,
+            h,
+        )
+        .with_context(|| field_error("the scale map", &self.scale_map, "--scale"))?;
+        let (smin, smax) = scale.range();
         check_kernel_fits(&decomposition, smax, w, h)?;
-        let scale = match &scale_map {
-            Some(m) => Field::Map(m),
-            None => Field::Constant(smin),
-        };
+        let prepared = PreparedDecomposition::new(&decomposition)
+            .with_context(|| format!("decomposition {}", self.decomp.display()))?;
         let c = image.channels();
         // A constant pose evaluates terms narrower than DIRECT_SIGMA directly
         // (on the CPU).
@@ -240,7 +246,7 @@ impl Filter {
         .context("--eval-budget")?;
         let stack_plan = stack_plan_for_decomposition(
             (w, h, c),
-            &decomposition,
+            &prepared,
             smin,
             smax,
             border,
@@ -274,13 +280,13 @@ impl Filter {
             filter_gpu(
                 (ctx, *device),
                 &stack,
-                &decomposition,
+                &prepared,
                 angle,
                 scale,
                 self.verbose,
             )?
         } else {
-            IfdFilter::new(&stack, &decomposition)?
+            IfdFilter::new(&stack, &prepared)?
                 .with_direct(&image, plan.direct_sigma)?
                 .apply(angle, scale)
                 .context("filtering")?
