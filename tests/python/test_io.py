@@ -206,3 +206,33 @@ def test_dwab_exr_matches_the_radiance_version_of_the_same_map(run_ifd, tmp_path
     rgbe, _ = _rgbe_round_trip(dwab)
     same_bin = np.isclose(rgbe, ref, rtol=1e-6, atol=0)
     assert same_bin.mean() >= 0.999, same_bin.mean()
+
+
+def _srgb_encode(v):
+    v = np.clip(v, 0.0, 1.0)
+    return np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(v, 1 / 2.4) - 0.055)
+
+
+@pytest.mark.parametrize("command", ["filter", "smooth", "convert"])
+def test_shared_output_options_encode_alike(run_ifd, tmp_path, command):
+    """Every command that writes an image takes the same -o/--sixteen-bit/
+    --srgb-out options with the same meaning: the 16-bit sRGB PNG equals the
+    command's float output, clipped, sRGB-encoded and rounded."""
+    rng = np.random.default_rng(11)
+    src = tmp_path / "src.npy"
+    np.save(src, (rng.random((40, 48)) * 0.9 + 0.05).astype(np.float32))
+    if command == "filter":
+        d = tmp_path / "d.json"
+        run_ifd("decompose", "gauss:sx=3,sy=1.5", "-o", d)
+        args = ["filter", src, "--decomp", d, "--angle", "30"]
+    elif command == "smooth":
+        args = ["smooth", src, "--scale", "1"]
+    else:
+        args = ["convert", src]
+    out_flag = [] if command == "convert" else ["-o"]
+    run_ifd(*args, *out_flag, tmp_path / "f.npy")
+    run_ifd(*args, *out_flag, tmp_path / "f.png", "--sixteen-bit", "--srgb-out")
+    want = np.round(_srgb_encode(np.load(tmp_path / "f.npy").astype(np.float64)) * 65535)
+    got = cv2.imread(str(tmp_path / "f.png"), cv2.IMREAD_UNCHANGED)
+    assert got.dtype == np.uint16 and got.shape == want.shape
+    assert np.abs(got.astype(np.float64) - want).max() <= 1, command

@@ -83,28 +83,6 @@ impl InputOptions {
     }
 }
 
-/// Writes an image atomically, reporting clipped samples on stderr.
-#[expect(
-    clippy::trivially_copy_pass_by_ref,
-    reason = "write options may grow; every command passes a reference"
-)]
-pub fn write_output(
-    path: &Path,
-    image: &ifd_image::Image,
-    opts: &ifd_image::WriteOptions,
-) -> Result<()> {
-    let report = ifd_image::write_image(path, image, opts)?;
-    if report.clipped > 0 {
-        eprintln!(
-            "note: {}: clipped {} of {} values to [0, 1]",
-            path.display(),
-            report.clipped,
-            report.samples
-        );
-    }
-    Ok(())
-}
-
 /// Parses an image size `WxH` given to `option`: positive integers up to
 /// 16384 each (larger images are also checked against the memory budget by
 /// the commands).

@@ -13,6 +13,7 @@ use clap::{Parser, Subcommand};
 
 mod commands;
 mod input;
+mod output;
 
 /// Isotropic filter decomposition: apply huge, anisotropic, rotated, scaled,
 /// spatially varying filters at the cost of a few lookups per pixel.

@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use ifd_image::{BitDepth, WriteOptions};
 
-use crate::input::{InputOptions, write_output};
+use crate::input::InputOptions;
+use crate::output::{Encoding, write_output};
 
 /// Convert an image between formats (PNG, JPEG, TIFF, EXR, HDR, NPY).
 ///
@@ -19,12 +19,8 @@ pub struct Convert {
     input_path: PathBuf,
     /// Output image; the format follows the extension.
     output: PathBuf,
-    /// Write 16-bit PNG/TIFF instead of 8-bit.
-    #[arg(long)]
-    sixteen_bit: bool,
-    /// Encode the output with the sRGB transfer function (8/16-bit formats).
-    #[arg(long)]
-    srgb_out: bool,
+    #[command(flatten)]
+    encoding: Encoding,
     #[command(flatten)]
     input: InputOptions,
 }
@@ -33,15 +29,6 @@ impl Convert {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
         let img = self.input.read(&self.input_path)?.image;
-        let opts = WriteOptions {
-            bit_depth: if self.sixteen_bit {
-                BitDepth::Sixteen
-            } else {
-                BitDepth::Eight
-            },
-            srgb_encode: self.srgb_out,
-            jpeg_quality: None,
-        };
-        write_output(&self.output, &img, &opts)
+        write_output(&self.output, &img, &self.encoding.write_options())
     }
 }

@@ -9,7 +9,8 @@ use ifd_planar::{DecomposeOptions, Decomposition, Kernel, KernelSpec, decompose}
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
-use crate::input::{InputOptions, write_output};
+use crate::input::InputOptions;
+use crate::output::write_output;
 
 /// Decompose a 2D filter into a sparse sum of displaced isotropic Gaussians.
 ///

@@ -422,7 +422,7 @@ impl DfgCmd {
             bit_depth: ifd_image::BitDepth::Sixteen,
             ..ifd_image::WriteOptions::default()
         };
-        crate::input::write_output(&self.output, &img, &opts)?;
+        crate::output::write_output(&self.output, &img, &opts)?;
         println!(
             "{}",
             json!({"size": self.size, "output": self.output.display().to_string(),
@@ -659,7 +659,7 @@ impl ShrmCmd {
                 },
             ];
             let img = log_line_plot(&series, "log2 s (Phong exponent)", "seconds")?;
-            crate::input::write_output(path, &img, &ifd_image::WriteOptions::default())?;
+            crate::output::write_output(path, &img, &ifd_image::WriteOptions::default())?;
         }
         Ok(())
     }

@@ -6,7 +6,7 @@ use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
 use ifd_image::Image;
 
-use crate::input::write_output;
+use crate::output::write_output;
 
 /// The shape of a synthetic field.
 #[derive(Debug, Clone, Copy, ValueEnum)]

@@ -12,7 +12,8 @@ use ifd_planar::{
     StackOptions, stack_plan_for_decomposition,
 };
 
-use crate::input::{InputOptions, write_output};
+use crate::input::InputOptions;
+use crate::output::ImageOutput;
 
 /// Filter an image with a decomposed filter, rotated and scaled per pixel.
 ///
@@ -49,12 +50,8 @@ pub struct Filter {
     /// Border handling: reflect101 (OpenCV's default), constant or constant:VALUE, replicate, wrap.
     #[arg(long, default_value = "reflect101")]
     border: Border,
-    /// Write 16-bit PNG/TIFF instead of 8-bit.
-    #[arg(long)]
-    sixteen_bit: bool,
-    /// Output image (.png, .tif, .exr, .hdr, .npy, .jpg).
-    #[arg(short, long, value_name = "FILE")]
-    output: PathBuf,
+    #[command(flatten)]
+    output: ImageOutput,
     /// Print timings.
     #[arg(short, long)]
     verbose: bool,
@@ -320,14 +317,6 @@ impl Filter {
                 (t2 - t1).as_secs_f64() * 1e3
             );
         }
-        let opts = ifd_image::WriteOptions {
-            bit_depth: if self.sixteen_bit {
-                ifd_image::BitDepth::Sixteen
-            } else {
-                ifd_image::BitDepth::Eight
-            },
-            ..ifd_image::WriteOptions::default()
-        };
-        write_output(&self.output, &out, &opts)
+        self.output.write(&out)
     }
 }

@@ -7,7 +7,8 @@ use clap::Args;
 use ifd_planar::Border;
 use ifd_smooth::{HessianBank, hessian_image};
 
-use crate::input::{InputOptions, write_output};
+use crate::input::InputOptions;
+use crate::output::write_output;
 
 /// Hessian of an image at scale sigma, computed with IFD.
 ///

@@ -344,12 +344,12 @@ impl Render {
         if let Some(m) = &self.mask {
             let data = r.mask.iter().map(|x| f32::from(u8::from(*x))).collect();
             let mask = ifd_image::Image::from_vec(w, h, 1, data)?;
-            crate::input::write_output(m, &mask, &ifd_image::WriteOptions::default())?;
+            crate::output::write_output(m, &mask, &ifd_image::WriteOptions::default())?;
         }
         if let (Some(p), Some(se)) = (&self.stderr, &r.stderr) {
-            crate::input::write_output(p, se, &ifd_image::WriteOptions::default())?;
+            crate::output::write_output(p, se, &ifd_image::WriteOptions::default())?;
         }
-        crate::input::write_output(&output, &img, &ifd_image::WriteOptions::default())?;
+        crate::output::write_output(&output, &img, &ifd_image::WriteOptions::default())?;
         println!(
             "{}",
             json!({
@@ -504,7 +504,7 @@ impl Render {
             })?;
         }
         if let Some(p) = &self.plot {
-            crate::input::write_output(
+            crate::output::write_output(
                 p,
                 &plot(&outcome.rows)?,
                 &ifd_image::WriteOptions::default(),
@@ -545,7 +545,7 @@ impl Render {
                     }
                 }
             }
-            crate::input::write_output(p, &grid, &ifd_image::WriteOptions::default())?;
+            crate::output::write_output(p, &grid, &ifd_image::WriteOptions::default())?;
             eprintln!(
                 "grid: rows {:?}; columns L = {:?}, then the oracle",
                 self.brdf,

@@ -10,7 +10,8 @@ use ifd_planar::Border;
 use ifd_smooth::{AnisoParams, AspectBank, HessianBank, Mode, SmoothOptions, Smoother};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::input::{InputOptions, write_output};
+use crate::input::InputOptions;
+use crate::output::{ImageOutput, write_output};
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum ModeArg {
@@ -60,9 +61,8 @@ pub struct Smooth {
     /// Border handling: reflect101, constant or constant:VALUE, replicate, wrap.
     #[arg(long, default_value = "reflect101")]
     border: Border,
-    /// Output image.
-    #[arg(short, long)]
-    output: PathBuf,
+    #[command(flatten)]
+    output: ImageOutput,
     /// Also write the filter each pixel used, as an HxWx3 float32 `.npy`:
     /// angle of the long axis (degrees counter-clockwise on screen), sx
     /// (along it) and sy (across), in pixels.
@@ -181,6 +181,6 @@ impl Smooth {
             let field = ifd_image::Image::from_vec(img.width(), img.height(), 3, field)?;
             write_output(path, &field, &ifd_image::WriteOptions::default())?;
         }
-        write_output(&self.output, &out, &ifd_image::WriteOptions::default())
+        self.output.write(&out)
     }
 }

@@ -170,7 +170,7 @@ impl ShCmd {
         if let Some(path) = &self.reconstruct {
             let mut rec = t.synthesize(&a.coeffs)?;
             rec_clamped = clamp_output_negatives(path, &mut rec, "reconstruction")?;
-            crate::input::write_output(path, &rec, &ifd_image::WriteOptions::default())?;
+            crate::output::write_output(path, &rec, &ifd_image::WriteOptions::default())?;
         }
         println!(
             "{}",
@@ -472,7 +472,7 @@ impl ConditionCmd {
         }
         if let Some(path) = &self.plot {
             let img = condition_plot(&rows)?;
-            crate::input::write_output(path, &img, &ifd_image::WriteOptions::default())?;
+            crate::output::write_output(path, &img, &ifd_image::WriteOptions::default())?;
         }
         let out: Vec<_> = rows
             .iter()
@@ -657,7 +657,7 @@ impl FilterCmd {
         bar.finish_and_clear();
         let secs = start.elapsed().as_secs_f64();
         let clamped = clamp_output_negatives(&self.output, &mut out, "result")?;
-        crate::input::write_output(&self.output, &out, &ifd_image::WriteOptions::default())?;
+        crate::output::write_output(&self.output, &out, &ifd_image::WriteOptions::default())?;
         println!(
             "{}",
             json!({
