@@ -31,7 +31,7 @@ use crate::field::{CheckField, CheckedField, Field, FieldKind};
 use crate::kernel::Sampling;
 use crate::prepared::Prepare;
 use crate::stack::lookup::{Tap, row_constant};
-use crate::stack::{MIN_SIGMA, ScaleStack, StackLayout, StackOptions, StackPlan};
+use crate::stack::{MIN_SIGMA, ScaleStack, StackLayout, StackOptions, StackPlan, snap_to_level};
 
 /// One decomposition term, prepared for lookups.
 #[derive(Clone, Copy, Debug)]
@@ -523,11 +523,11 @@ impl<'a> Filter<'a> {
                 (self.sampling.effective_sigma(t.sigma, f64::from(s)).ln() - ln0) * inv
             };
             let u = ln_sigma.clamp(0.0, last as f64);
-            let a = (u as usize).min(last - 1);
-            let f = (u - a as f64) as f32;
-            self.add::<C>(a, px, py, t.weight * (1.0 - f), &mut acc, out);
-            if f != 0.0 {
-                self.add::<C>(a + 1, px, py, t.weight * f, &mut acc, out);
+            let i = (u as usize).min(last - 1);
+            let (a, b, wa, wb) = snap_to_level(i, u - i as f64);
+            self.add::<C>(a, px, py, t.weight * wa, &mut acc, out);
+            if wb != 0.0 {
+                self.add::<C>(b, px, py, t.weight * wb, &mut acc, out);
             }
         }
         if C > 0 {

@@ -263,9 +263,12 @@ impl Filter {
             None
         };
         let t0 = Instant::now();
-        // At one constant pose (on the CPU), levels at exactly the sigmas the
-        // terms read: no interpolation in ln sigma.
-        let stack = if constant_pose {
+        // At a constant scale (on the CPU; the GPU reads log-uniform stacks),
+        // levels at exactly the sigmas the terms read: one lookup per term
+        // instead of two, and no interpolation in ln sigma, whether the angle
+        // is constant or per pixel.
+        let constant_scale = scale_map.is_none() && !self.gpu;
+        let stack = if constant_scale {
             let sigmas = ifd_planar::filter::level_sigmas(&decomposition, smin, plan.direct_sigma);
             ScaleStack::with_sigmas(&image, &sigmas, border, stack_plan.options)
         } else {

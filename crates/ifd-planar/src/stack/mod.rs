@@ -809,18 +809,11 @@ impl ScaleStack {
             let l = &self.ln_sigmas;
             let i = l.partition_point(|&v| v <= ln_sigma).clamp(1, n) - 1;
             let f = ((ln_sigma - l[i]) / (l[i + 1] - l[i])).clamp(0.0, 1.0);
-            if f < 1e-9 {
-                return (i, i + 1, 1.0, 0.0);
-            }
-            if f > 1.0 - 1e-9 {
-                return (i, i + 1, 0.0, 1.0);
-            }
-            return (i, i + 1, (1.0 - f) as f32, f as f32);
+            return snap_to_level(i, f);
         }
         let t = ((ln_sigma - self.ln_sigma0) * self.inv_ln_ratio).clamp(0.0, n as f64);
         let i = (t.floor() as usize).min(n - 1);
-        let f = (t - i as f64) as f32;
-        (i, i + 1, 1.0 - f, f)
+        snap_to_level(i, t - i as f64)
     }
 
     /// `ln sigma_0` and `1 / ln r` (for callers that locate many sigmas).
@@ -1330,9 +1323,58 @@ fn build_levels(layout: &StackLayout, data: &[f32], border: Border, levels: &mut
 pub(crate) mod lookup;
 pub mod refresh;
 
+/// Within this fraction of a level's spacing (in ln sigma), a sigma is
+/// read from that level alone: one lookup instead of two, for an error of at
+/// most this fraction of the difference between neighbouring levels. Sigmas
+/// that are levels up to rounding (a decomposition's sigmas on a stack built
+/// for them, or on a log-uniform stack whose ratio they share) then cost one
+/// lookup per term.
+pub(crate) const LEVEL_SNAP: f64 = 1e-6;
+
+/// `(a, b, wa, wb)` for position `i + f` (`0 <= f <= 1`) between levels `i`
+/// and `i + 1`, snapped to a level within [`LEVEL_SNAP`]: then `wb == 0`
+/// (and `b == a`), so callers that skip zero weights do one lookup.
+#[inline]
+pub(crate) fn snap_to_level(i: usize, f: f64) -> (usize, usize, f32, f32) {
+    if f < LEVEL_SNAP {
+        (i, i, 1.0, 0.0)
+    } else if f > 1.0 - LEVEL_SNAP {
+        (i + 1, i + 1, 1.0, 0.0)
+    } else {
+        (i, i + 1, (1.0 - f) as f32, f as f32)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sigmas_on_a_level_up_to_rounding_read_one_level() {
+        let img = Image::from_vec(16, 16, 1, (0..256).map(|i| (i % 7) as f32).collect()).unwrap();
+        let uniform =
+            ScaleStack::new(&img, 1.0, 8.0, Border::Reflect101, StackOptions::default()).unwrap();
+        let given = ScaleStack::with_sigmas(
+            &img,
+            &[1.0, 2.5, 4.0],
+            Border::Reflect101,
+            StackOptions::default(),
+        )
+        .unwrap();
+        for stack in [&uniform, &given] {
+            for (k, &sigma) in stack.sigmas().iter().enumerate() {
+                for nudge in [1.0 - 1e-9, 1.0, 1.0 + 1e-9] {
+                    let (a, _, wa, wb) = stack.locate_ln((sigma * nudge).ln());
+                    assert_eq!((a, wa, wb), (k, 1.0, 0.0), "sigma {sigma} x {nudge}");
+                }
+            }
+            // Between levels: two, weights summing to one.
+            let (s0, s1) = (stack.sigmas()[0], stack.sigmas()[1]);
+            let (a, b, wa, wb) = stack.locate_ln((0.5 * (s0.ln() + s1.ln())).exp().ln());
+            assert_eq!((a, b), (0, 1));
+            assert!((wa - 0.5).abs() < 1e-6 && (wb - 0.5).abs() < 1e-6);
+        }
+    }
 
     #[test]
     fn smooth_sizes() {
