@@ -107,6 +107,24 @@ fn load_map(input: &InputOptions, path: &Path, what: &str, w: usize, h: usize) -
     Ok(img.into_vec())
 }
 
+/// The angle or scale field of a `w x h` image: the map read from `path`,
+/// else the constant given with `flag`, checked as a `kind`; errors name the
+/// map file or the option.
+fn check_field<'a>(
+    (w, h): (usize, usize),
+    map: &'a Option<Vec<f32>>,
+    constant: f32,
+    kind: FieldKind,
+    path: &Option<PathBuf>,
+    flag: &str,
+) -> Result<CheckedField<'a>> {
+    let field = map.as_deref().map_or(Field::Constant(constant), Field::Map);
+    CheckedField::new(field, kind, w, h).with_context(|| match path {
+        Some(p) => format!("the {} map {}", kind.name(), p.display()),
+        None => flag.to_string(),
+    })
+}
+
 /// Refuses a filter whose kernel, at the largest scale used, is larger than
 /// the image: its lookups would reach past the image on both sides and the
 /// border rule would fold the image onto itself more than once, which is
@@ -193,31 +211,23 @@ impl Filter {
             None => None,
         };
         // Each field is checked once, here, for every path (stack plan, CPU,
-        // GPU); a map names its source in errors.
-        let field_error = |what: &str, path: &Option<PathBuf>, flag: &str| match path {
-            Some(p) => format!("{what} {}", p.display()),
-            None => flag.to_string(),
-        };
-        let angle = CheckedField::new(
-            match &angle_map {
-                Some(m) => Field::Map(m),
-                None => Field::Constant(self.angle.unwrap_or(0.0)),
-            },
+        // GPU); errors name the map file or the option.
+        let angle = check_field(
+            (w, h),
+            &angle_map,
+            self.angle.unwrap_or(0.0),
             FieldKind::Angle,
-            w,
-            h,
-        )
-        .with_context(|| field_error("the angle map", &self.angle_map, "--angle"))?;
-        let scale = CheckedField::new(
-            match &scale_map {
-                Some(m) => Field::Map(m),
-                None => Field::Constant(self.scale.unwrap_or(1.0)),
-            },
+            &self.angle_map,
+            "--angle",
+        )?;
+        let scale = check_field(
+            (w, h),
+            &scale_map,
+            self.scale.unwrap_or(1.0),
             FieldKind::Scale,
-            w,
-            h,
-        )
-        .with_context(|| field_error("the scale map", &self.scale_map, "--scale"))?;
+            &self.scale_map,
+            "--scale",
+        )?;
         let (smin, smax) = scale.range();
         check_kernel_fits(&decomposition, smax, w, h)?;
         let prepared = PreparedDecomposition::new(&decomposition)
