@@ -112,13 +112,13 @@ fn load_map(input: &InputOptions, path: &Path, what: &str, w: usize, h: usize) -
 /// map file or the option.
 fn check_field<'a>(
     (w, h): (usize, usize),
-    map: &'a Option<Vec<f32>>,
+    map: Option<&'a [f32]>,
     constant: f32,
     kind: FieldKind,
-    path: &Option<PathBuf>,
+    path: Option<&Path>,
     flag: &str,
 ) -> Result<CheckedField<'a>> {
-    let field = map.as_deref().map_or(Field::Constant(constant), Field::Map);
+    let field = map.map_or(Field::Constant(constant), Field::Map);
     CheckedField::new(field, kind, w, h).with_context(|| match path {
         Some(p) => format!("the {} map {}", kind.name(), p.display()),
         None => flag.to_string(),
@@ -214,18 +214,18 @@ impl Filter {
         // GPU); errors name the map file or the option.
         let angle = check_field(
             (w, h),
-            &angle_map,
+            angle_map.as_deref(),
             self.angle.unwrap_or(0.0),
             FieldKind::Angle,
-            &self.angle_map,
+            self.angle_map.as_deref(),
             "--angle",
         )?;
         let scale = check_field(
             (w, h),
-            &scale_map,
+            scale_map.as_deref(),
             self.scale.unwrap_or(1.0),
             FieldKind::Scale,
-            &self.scale_map,
+            self.scale_map.as_deref(),
             "--scale",
         )?;
         let (smin, smax) = scale.range();
