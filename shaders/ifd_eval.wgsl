@@ -322,6 +322,12 @@ fn lookup(li: u32, x: f32, y: f32) -> vec4<f32> {
     return bilinear(li, x, y);
 }
 
+// Within this fraction of the level spacing a sigma reads one level: f32
+// level positions of up to ~20 levels carry rounding errors near 2e-6, and
+// snapping changes a result by at most 1e-4 of the difference between
+// neighbouring levels.
+const LEVEL_SNAP: f32 = 1e-4;
+
 // One bank entry at pixel (x, y) for pose (cs, ss, u_offset) at scale s.
 fn eval_entry(e: u32, x: f32, y: f32, cs: f32, ss: f32, u_offset: f32, s: f32) -> vec4<f32> {
     let entry = entries[e];
@@ -345,8 +351,16 @@ fn eval_entry(e: u32, x: f32, y: f32, cs: f32, ss: f32, u_offset: f32, s: f32) -
             ln_sigma += 0.5 * log(max(1.0 + q, 0.25));
         }
         let u = clamp(ln_sigma * params.inv_ln_ratio + u_offset, 0.0, f32(last));
-        let a = min(u32(u), last - 1u);
-        let f = u - f32(a);
+        var a = min(u32(u), last - 1u);
+        var f = u - f32(a);
+        // A sigma on a level up to rounding reads that level alone (the CPU's
+        // snap_to_level, with a tolerance for f32 level positions).
+        if f < LEVEL_SNAP {
+            f = 0.0;
+        } else if f > 1.0 - LEVEL_SNAP {
+            a += 1u;
+            f = 0.0;
+        }
         acc += (t.weight * (1.0 - f)) * lookup(a, px, py);
         if f != 0.0 {
             acc += (t.weight * f) * lookup(a + 1u, px, py);
