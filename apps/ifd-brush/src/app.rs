@@ -61,6 +61,11 @@ pub struct Automation {
     pub screenshot: Option<PathBuf>,
     /// Close when done.
     pub exit: bool,
+    /// Where an automated run that must stop (an error under `exit`, a
+    /// screenshot that cannot be written) leaves its message before closing
+    /// the window: `main` reads it once the event loop has returned and
+    /// exits with status 2. The app never exits the process itself.
+    pub failure: Arc<Mutex<Option<String>>>,
 }
 
 /// How the app starts.
@@ -607,9 +612,10 @@ impl BrushApp {
                     self.busy = None;
                     self.quit_after_save = false;
                     if self.stage != Stage::Done {
-                        eprintln!("error: {msg}");
                         if self.automation.exit {
-                            std::process::exit(2);
+                            self.fail(ctx, msg.clone());
+                        } else {
+                            eprintln!("error: {msg}");
                         }
                     }
                     self.errors.push(msg);
@@ -619,6 +625,18 @@ impl BrushApp {
         if budget == 0 {
             ctx.request_repaint();
         }
+    }
+
+    /// Stops an automated run: the message goes to `main` (through
+    /// [`Automation::failure`]), which reports it and exits with status 2
+    /// once the window has closed.
+    fn fail(&mut self, ctx: &egui::Context, msg: String) {
+        if let Ok(mut slot) = self.automation.failure.lock() {
+            slot.get_or_insert(msg);
+        }
+        self.stage = Stage::Done;
+        self.allow_close = true;
+        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
     }
 
     fn automation_step(&mut self, ctx: &egui::Context) {
@@ -662,8 +680,8 @@ impl BrushApp {
                 if let Some(img) = img {
                     if let Some(p) = &self.automation.screenshot {
                         if let Err(e) = write_screenshot(p, &img) {
-                            eprintln!("error: writing the screenshot: {e:#}");
-                            std::process::exit(2);
+                            self.fail(ctx, format!("writing the screenshot: {e:#}"));
+                            return;
                         }
                         eprintln!("screenshot written to {}", p.display());
                     }

@@ -133,6 +133,9 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
         .map(|j| serde_json::from_str(j))
         .transpose()
         .context("parsing --brush")?;
+    // An automated run that fails leaves its message here and closes the
+    // window; it is reported (exit 2) once the event loop has returned.
+    let failure = std::sync::Arc::new(std::sync::Mutex::new(None::<String>));
     let start = StartOptions {
         image: args.image.clone(),
         bank_cache: args.bank.clone().or_else(Banks::default_cache),
@@ -144,6 +147,7 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
             record: args.record.clone(),
             screenshot: args.screenshot.clone(),
             exit: args.exit,
+            failure: std::sync::Arc::clone(&failure),
         },
         render_state: None,
     };
@@ -181,7 +185,12 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
             ))))
         }),
     )
-    .map_err(|e| anyhow::anyhow!("{e}"))
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let failed = failure.lock().ok().and_then(|mut f| f.take());
+    match failed {
+        Some(msg) => Err(anyhow::anyhow!(msg)),
+        None => Ok(()),
+    }
 }
 
 /// eframe's wgpu set-up, with a device the GPU path can also compute on:

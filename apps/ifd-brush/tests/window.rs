@@ -202,3 +202,56 @@ fn window_under_xvfb_shows_image_and_controls() {
         worst * 255.0
     );
 }
+
+/// An automated run that cannot finish (here: a screenshot whose folder is a
+/// regular file) closes its window and exits with status 2 from `main`,
+/// with the message and no panic.
+#[test]
+fn automation_failure_exits_2_with_the_message() {
+    if !have("xvfb-run") || !have("Xvfb") {
+        assert!(
+            std::env::var("IFD_WINDOW_TESTS").is_ok_and(|v| v == "skip"),
+            "Xvfb/xvfb-run not installed for the window test (apt-get install xvfb xauth; \
+             scripts/test-all.sh does) or set IFD_WINDOW_TESTS=skip"
+        );
+        eprintln!("skipping the window test (IFD_WINDOW_TESTS=skip): Xvfb/xvfb-run not installed");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let input = dir.path().join("in.png");
+    ifd_image::write(&input, &common::crop(100, 50, 128, 96)).expect("write");
+    let not_a_folder = dir.path().join("file");
+    std::fs::write(&not_a_folder, b"a regular file").expect("file");
+    let shot = not_a_folder.join("shot.png");
+    let state = dir.path().join("state");
+    std::fs::create_dir(&state).expect("state dir");
+    let runtime = dir.path().join("xdg");
+    std::fs::create_dir(&runtime).expect("xdg dir");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700)).expect("chmod");
+    }
+    let out = Command::new("timeout")
+        .arg("300")
+        .arg("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1280x800x24"])
+        .arg(env!("CARGO_BIN_EXE_ifd-brush"))
+        .args(["--image", input.to_str().expect("utf8")])
+        .args(["--screenshot", shot.to_str().expect("utf8")])
+        .args(["--bank", common::bank_cache().to_str().expect("utf8")])
+        .args(["--gpu", "off"])
+        .arg("--exit")
+        .env("IFD_BRUSH_STATE_DIR", &state)
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .output()
+        .expect("start xvfb-run");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("error: writing the screenshot") && stderr.contains("shot.png"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!shot.exists());
+}
