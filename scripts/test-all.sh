@@ -14,8 +14,10 @@
 #      with warnings denied, cargo machete (unused dependencies; installed
 #      with cargo install when missing), the module-cycle check
 #      (scripts/module_cycles.py), cargo test.
-#   4. The reference comparisons in tests/python (pytest; scikit-image, OpenCV,
-#      SciPy, pyshtools, ducc0 against the `ifd` binary).
+#   4. The Python module `ifd` (crates/ifd-py) built and installed into .venv
+#      (maturin develop, the test profile), then the reference comparisons in
+#      tests/python (pytest; scikit-image, OpenCV, SciPy, pyshtools, ducc0
+#      against the `ifd` binary and the module).
 # It ends with one line `N passed, M failed, K skipped, X known failures`
 # (skips and known failures, pytest's xfails whose reasons are in the docs,
 # are never counted as passes; a strict known failure that passes fails the
@@ -172,6 +174,17 @@ failed=$((failed + cf))
 skipped=$((skipped + ci))
 if [ "$cargo_status" -ne 0 ] && [ "$cf" -eq 0 ]; then fail "cargo test (build or harness failure, see $LOG_DIR/cargo-test.log)"; fi
 [ "$cf" -gt 0 ] && failures+=("$cf cargo tests")
+
+step "Python module (maturin develop into .venv)"
+# The dev profile, as the tests' binary: dependencies already built by cargo
+# test are reused. Users install with `pip install ./crates/ifd-py` (release).
+if (cd crates/ifd-py && VIRTUAL_ENV="$ROOT/.venv" PATH="$ROOT/.venv/bin:$PATH" maturin develop --quiet) >"$LOG_DIR/maturin.log" 2>&1 &&
+  .venv/bin/python -c "import ifd" >>"$LOG_DIR/maturin.log" 2>&1; then
+  ok "python module"
+else
+  tail -20 "$LOG_DIR/maturin.log"
+  fail "building the python module (see $LOG_DIR/maturin.log); its tests will fail"
+fi
 
 step "reference comparisons (pytest tests/python)"
 # `cargo test --workspace` has just built the `ifd` binary (its integration

@@ -192,6 +192,125 @@ impl Image {
     pub fn count_non_finite(&self) -> usize {
         self.data.iter().filter(|v| !v.is_finite()).count()
     }
+
+    /// A borrowed view of the image.
+    #[must_use]
+    pub fn view(&self) -> ImageView<'_> {
+        ImageView {
+            width: self.width,
+            height: self.height,
+            channels: self.channels,
+            data: &self.data,
+        }
+    }
+}
+
+/// A borrowed image: the same layout as [`Image`] (interleaved `f32`,
+/// row-major, `H x W x C`) over samples someone else owns, such as a NumPy
+/// array or a tile of a larger buffer. Filtering entry points take
+/// `impl Into<ImageView>`, so an `&Image` and a view of foreign memory are
+/// filtered alike, without a copy.
+///
+/// ```
+/// use ifd_image::{Image, ImageView};
+/// let samples = vec![0.25_f32; 4 * 3 * 2];
+/// let view = ImageView::new(4, 3, 2, &samples)?;
+/// assert_eq!((view.width(), view.height(), view.channels()), (4, 3, 2));
+/// assert_eq!(view.get(3, 2, 1), 0.25);
+/// let owned: Image = view.to_image();
+/// assert_eq!(ImageView::from(&owned), view);
+/// # Ok::<(), ifd_image::ImageError>(())
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImageView<'a> {
+    width: usize,
+    height: usize,
+    channels: usize,
+    data: &'a [f32],
+}
+
+impl<'a> ImageView<'a> {
+    /// Views interleaved samples (`H x W x C`, row-major).
+    ///
+    /// # Errors
+    /// As [`Image::from_vec`].
+    pub fn new(
+        width: usize,
+        height: usize,
+        channels: usize,
+        data: &'a [f32],
+    ) -> Result<Self, ImageError> {
+        let n = checked_len(width, height, channels)?;
+        if data.len() != n {
+            return Err(ImageError::Shape(format!(
+                "{} samples given for a {width}x{height}x{channels} image ({n} expected)",
+                data.len()
+            )));
+        }
+        Ok(Self {
+            width,
+            height,
+            channels,
+            data,
+        })
+    }
+
+    /// Width in pixels (number of columns).
+    #[must_use]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels (number of rows).
+    #[must_use]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Channels per pixel.
+    #[must_use]
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// The interleaved samples.
+    #[must_use]
+    pub fn data(&self) -> &'a [f32] {
+        self.data
+    }
+
+    /// Sample at column `x`, row `y`, channel `c`.
+    ///
+    /// # Panics
+    /// When the position is outside the image.
+    #[must_use]
+    pub fn get(&self, x: usize, y: usize, c: usize) -> f32 {
+        assert!(x < self.width && y < self.height && c < self.channels);
+        self.data[(y * self.width + x) * self.channels + c]
+    }
+
+    /// Counts the NaN and infinite samples.
+    #[must_use]
+    pub fn count_non_finite(&self) -> usize {
+        self.data.iter().filter(|v| !v.is_finite()).count()
+    }
+
+    /// An owned copy.
+    #[must_use]
+    pub fn to_image(&self) -> Image {
+        Image {
+            width: self.width,
+            height: self.height,
+            channels: self.channels,
+            data: self.data.to_vec(),
+        }
+    }
+}
+
+impl<'a> From<&'a Image> for ImageView<'a> {
+    fn from(image: &'a Image) -> Self {
+        image.view()
+    }
 }
 
 fn checked_len(width: usize, height: usize, channels: usize) -> Result<usize, ImageError> {

@@ -1,6 +1,7 @@
 //! f32 image buffers, file I/O and image-quality metrics for ifd.
 //!
-//! - [`Image`]: interleaved `f32` samples, `H x W x C`, `x` = column, `y` = row.
+//! - [`Image`]: interleaved `f32` samples, `H x W x C`, `x` = column, `y` = row;
+//!   [`ImageView`] borrows samples in the same layout (NumPy arrays, tiles).
 //! - [`read_image`] / [`write_image`]: PNG, JPEG, TIFF (8/16 bit), OpenEXR
 //!   (DWAB included), Radiance HDR and NumPy `.npy`, chosen by extension;
 //!   atomic writes; clear errors naming the file.
@@ -26,7 +27,7 @@ mod npy;
 pub use crate::budget::{MemoryBudget, physical_memory};
 pub use crate::error::{ImageError, fmt_bytes};
 pub use crate::files::atomic_write;
-pub use crate::image::Image;
+pub use crate::image::{Image, ImageView};
 pub use crate::io::{
     BitDepth, FileFormat, LoadedImage, NonFinitePolicy, ReadOptions, WriteOptions, WriteReport,
     linear_to_srgb, read, read_image, srgb_to_linear, write, write_image,

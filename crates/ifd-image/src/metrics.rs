@@ -227,6 +227,29 @@ fn separable_symmetric(p: &[f64], w: usize, h: usize, k: &[f64]) -> Vec<f64> {
     out
 }
 
+/// The data range PSNR and SSIM use when none is given (`ifd compare`, the
+/// Python module): 1 when every value of both images lies in `[0, 1]` (all
+/// 8/16-bit files), else `max - min` of the reference `a`, as scikit-image
+/// does for float images outside `[0, 1]`.
+///
+/// ```
+/// assert_eq!(ifd_image::metrics::default_data_range(&[0.0, 0.5], &[1.0, 0.2]), 1.0);
+/// assert_eq!(ifd_image::metrics::default_data_range(&[-1.0, 3.0], &[0.0, 0.0]), 4.0);
+/// ```
+#[must_use]
+pub fn default_data_range(a: &[f32], b: &[f32]) -> f64 {
+    let in_unit = |d: &[f32]| d.iter().all(|v| (0.0..=1.0).contains(v));
+    if in_unit(a) && in_unit(b) {
+        return 1.0;
+    }
+    let (lo, hi) = a
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    f64::from(hi - lo)
+}
+
 /// Crops `n` pixels from every side.
 ///
 /// # Errors

@@ -17,7 +17,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use ifd_image::Image;
+use ifd_image::ImageView;
 use rayon::prelude::*;
 
 use crate::error::FilterError;
@@ -180,7 +180,13 @@ impl FromStr for Border {
 
 /// `image` extended by `rx` columns and `ry` rows on each side by `border`
 /// (row-major, interleaved), and the extended width.
-pub(crate) fn extend(image: &Image, rx: usize, ry: usize, border: Border) -> (Vec<f32>, usize) {
+pub(crate) fn extend<'a>(
+    image: impl Into<ImageView<'a>>,
+    rx: usize,
+    ry: usize,
+    border: Border,
+) -> (Vec<f32>, usize) {
+    let image = image.into();
     let (w, h, c) = (image.width(), image.height(), image.channels());
     let ew = w + 2 * rx;
     let eh = h + 2 * ry;

@@ -2,7 +2,7 @@
 //! with one trilinear scale-stack lookup per term and pixel.
 //!
 //! ```
-//! use ifd_image::Image;
+//! use ifd_image::{Image, ImageView};
 //! use ifd_planar::{Border, Decomposition, Field, Filter, StackOptions, Term, stack_for_decomposition};
 //! // An anisotropic kernel: two displaced Gaussians along x.
 //! let d = Decomposition::from_terms(vec![
@@ -21,7 +21,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use ifd_image::Image;
+use ifd_image::{Image, ImageView};
 use rayon::prelude::*;
 
 use crate::border::Border;
@@ -52,7 +52,7 @@ pub struct Filter<'a> {
     sigma_hi: f64,
     /// The stack's source image and the sigma below which (after scaling)
     /// terms of a constant pose are evaluated directly on it.
-    direct: Option<(&'a Image, f64)>,
+    direct: Option<(ImageView<'a>, f64)>,
     /// How the decomposition's kernel was sampled (the atoms' effective
     /// sigma at each scale, [`Sampling::effective_sigma`]).
     sampling: Sampling,
@@ -130,7 +130,7 @@ impl<'a> Filter<'a> {
     /// from the stack.
     ///
     /// ```
-    /// use ifd_image::Image;
+    /// use ifd_image::{Image, ImageView};
     /// use ifd_planar::{Border, Decomposition, DIRECT_SIGMA, Field, Filter, StackOptions, Term};
     /// use ifd_planar::{reference, stack_for_decomposition};
     /// // A narrow atom at a fractional offset: interpolating the stack misses it.
@@ -149,7 +149,12 @@ impl<'a> Filter<'a> {
     /// # Errors
     /// [`FilterError::Shape`] when `source` is not the stack's shape,
     /// [`FilterError::InvalidParameter`] for a negative or non-finite `below`.
-    pub fn with_direct(mut self, source: &'a Image, below: f64) -> Result<Self, FilterError> {
+    pub fn with_direct(
+        mut self,
+        source: impl Into<ImageView<'a>>,
+        below: f64,
+    ) -> Result<Self, FilterError> {
+        let source = source.into();
         let s = self.stack;
         if (source.width(), source.height(), source.channels())
             != (s.width(), s.height(), s.channels())
@@ -571,7 +576,7 @@ fn taps_of(
 /// centre (its tail beyond is below `4e-6` of its peak), one row `axpy` per
 /// non-zero offset.
 fn direct_correlation(
-    source: &Image,
+    source: ImageView<'_>,
     terms: &[Prepared],
     (theta, s): (f32, f32),
     sampling: Sampling,
@@ -640,7 +645,7 @@ fn direct_correlation(
 /// varying smoothing, where the scale is fixed and the angle varies.
 ///
 /// ```
-/// use ifd_image::Image;
+/// use ifd_image::{Image, ImageView};
 /// use ifd_planar::{Border, Decomposition, Filter, StackOptions, Term, stack_for_decomposition};
 /// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 3.0, y: 0.0, sigma: 1.0 }]);
 /// let img = Image::from_vec(64, 16, 1, (0..1024).map(|i| (i % 64) as f32).collect())?;
@@ -827,14 +832,15 @@ impl Taps {
 /// # Errors
 /// [`FilterError::InvalidTerm`]/[`FilterError::InvalidParameter`] for a bad
 /// decomposition or scale range, and the errors of [`ScaleStack::new`].
-pub fn stack_for_decomposition(
-    image: &Image,
+pub fn stack_for_decomposition<'a>(
+    image: impl Into<ImageView<'a>>,
     decomposition: &(impl Prepare + ?Sized),
     scale_min: f32,
     scale_max: f32,
     border: Border,
     options: StackOptions,
 ) -> Result<ScaleStack, FilterError> {
+    let image = image.into();
     stack_plan_for_decomposition(
         (image.width(), image.height(), image.channels()),
         decomposition,

@@ -33,7 +33,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::decomposition::{Decomposition, FitReport};
 use crate::dictionary::{Dictionary, DictionaryError, DictionaryOptions, DictionaryParams};
-use crate::kernel::Kernel;
+use crate::kernel::{Kernel, KernelSpec, Sampling};
 use crate::sparsa::{LinearOperator, Sparsa, StopCriterion, debias};
 
 /// Options of [`decompose`].
@@ -129,6 +129,9 @@ pub enum DecomposeError {
     /// Bad dictionary parameters.
     #[error(transparent)]
     Dictionary(#[from] DictionaryError),
+    /// The filter spec cannot be sampled.
+    #[error(transparent)]
+    Kernel(#[from] crate::kernel::KernelError),
     /// An option is out of range.
     #[error("invalid option {name} = {value}: {reason}")]
     Invalid {
@@ -741,6 +744,54 @@ pub fn decompose_oversampled(
         r.oversample = q;
         r.seconds = start.elapsed().as_secs_f64();
     }
+    Ok(d)
+}
+
+/// Decomposes a built-in filter spec, sampled on the pixel grid and, when
+/// `oversample` (the factor `q`, `1..=8`) is above 1, fitted on a grid `q`
+/// times finer ([`decompose_oversampled`]) so that the sum of Gaussians also
+/// matches the filter between pixel centres, which rotated and scaled copies
+/// sample. `None` chooses: 2 for the hard-edged specs (box, line, disk:
+/// [`Sampling::Area`]), 1 otherwise. The spec is recorded in the result.
+///
+/// ```
+/// use ifd_planar::{DecomposeOptions, KernelSpec, fit::decompose_spec};
+/// let spec: KernelSpec = "box:w=9,h=3".parse()?;
+/// let d = decompose_spec(&spec, &DecomposeOptions::default(), None, |_, _, _| {})?;
+/// assert_eq!(d.report.as_ref().map(|r| r.oversample), Some(2));
+/// assert_eq!(d.spec.as_deref(), Some(spec.to_string().as_str()));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// [`DecomposeError::Kernel`] when the spec cannot be sampled, and as
+/// [`decompose_oversampled`].
+pub fn decompose_spec(
+    spec: &KernelSpec,
+    opts: &DecomposeOptions,
+    oversample: Option<usize>,
+    progress: impl FnMut(usize, f64, usize),
+) -> Result<Decomposition, DecomposeError> {
+    let q = oversample.unwrap_or(if spec.sampling() == Sampling::Area {
+        2
+    } else {
+        1
+    });
+    if !(1..=8).contains(&q) {
+        return Err(DecomposeError::Invalid {
+            name: "oversample",
+            value: q as f64,
+            reason: "expected 1..=8",
+        });
+    }
+    let kernel = spec.to_kernel()?;
+    let mut d = if q > 1 {
+        let fine = spec.to_kernel_fine(q)?;
+        decompose_oversampled(&kernel, &fine, q, opts, progress)?
+    } else {
+        decompose(&kernel, opts, progress)?
+    };
+    d.spec = Some(spec.to_string());
     Ok(d)
 }
 

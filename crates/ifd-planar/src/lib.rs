@@ -37,6 +37,7 @@ pub mod border;
 pub mod error;
 pub mod field;
 pub mod filter;
+pub mod pipeline;
 pub mod reference;
 pub mod stack;
 

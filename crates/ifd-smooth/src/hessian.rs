@@ -16,7 +16,7 @@
 //! Both kernels are even (`k(-d) = k(d)`), so correlation equals convolution
 //! and the responses are the derivatives of the Gaussian-smoothed image.
 
-use ifd_image::Image;
+use ifd_image::{Image, ImageView};
 use ifd_planar::{
     Border, DecomposeOptions, Decomposition, Field, Filter, KernelSpec, ScaleStack, StackOptions,
     decompose,
@@ -194,12 +194,13 @@ impl HessianFilters<'_> {
 /// # Errors
 /// [`SmoothError::OutOfRange`] for `sigma` outside [`HESSIAN_SIGMA_RANGE`],
 /// and the errors of prefiltering (NaN pixels, empty images).
-pub fn hessian_image(
-    image: &Image,
+pub fn hessian_image<'a>(
+    image: impl Into<ImageView<'a>>,
     sigma: f64,
     bank: &HessianBank,
     border: Border,
 ) -> Result<Image, SmoothError> {
+    let image = image.into();
     let (lo, hi) = HESSIAN_SIGMA_RANGE;
     check_range("hessian sigma", sigma, lo, hi)?;
     let (slo, shi) = bank.stack_sigmas(sigma, sigma);

@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use ifd_image::Image;
+use ifd_image::{Image, ImageView};
 use ifd_planar::{
     Border, Filter, PreparedDecomposition, Rotation, ScaleStack, ScaledFilter, StackLayout,
     StackPlan, Taps,
@@ -225,7 +225,10 @@ impl Smoother {
     ///
     /// # Errors
     /// Out-of-range options, NaN pixels, empty images, failed fits.
-    pub fn new(image: &Image, opts: &SmoothOptions) -> Result<Self, SmoothError> {
+    pub fn new<'a>(
+        image: impl Into<ImageView<'a>>,
+        opts: &SmoothOptions,
+    ) -> Result<Self, SmoothError> {
         opts.validate()?;
         let hbank = HessianBank::new(opts.hessian_tol)?;
         let bank = AspectBank::build(opts.bank, |_, _| {})?;
@@ -281,12 +284,13 @@ impl Smoother {
     ///
     /// # Errors
     /// Out-of-range options, NaN pixels, empty images.
-    pub fn with_banks(
-        image: &Image,
+    pub fn with_banks<'a>(
+        image: impl Into<ImageView<'a>>,
         opts: &SmoothOptions,
         bank: Arc<AspectBank>,
         hbank: &HessianBank,
     ) -> Result<Self, SmoothError> {
+        let image = image.into();
         opts.validate()?;
         let n_bad = image.count_non_finite();
         if n_bad > 0 {
@@ -327,7 +331,7 @@ impl Smoother {
         let direct = opts.evaluated_directly().then(|| {
             (
                 DirectKernels::new(opts.scale, opts.aniso.max_aspect),
-                image.clone(),
+                image.to_image(),
             )
         });
         Ok(Self {

@@ -237,6 +237,40 @@ impl DirectionSet {
         })
     }
 
+    /// The direction sets by the names `ifd sphere decompose --directions`
+    /// and the Python module use: `fibonacci` (per band), `shared`
+    /// (nested Fibonacci), `optimized` (per band, 300 seeded proposals per
+    /// band), `optimized-shared` (300 in all) and `random` (per band).
+    ///
+    /// ```
+    /// use ifd_sphere::zhf::DirectionSet;
+    /// assert_eq!(DirectionSet::by_name("shared", 4, 1)?.all().len(), 9);
+    /// assert!(DirectionSet::by_name("spiral", 4, 1).is_err());
+    /// # Ok::<(), ifd_sphere::SphereError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`SphereError::Parameter`] for an unknown name, and as
+    /// [`DirectionSet::new`].
+    pub fn by_name(name: &str, l_max: usize, seed: u64) -> Result<Self> {
+        let iterations = 300;
+        let (sharing, chooser) = match name {
+            "fibonacci" => (Sharing::PerBand, Chooser::Fibonacci),
+            "shared" => (Sharing::Shared, Chooser::Fibonacci),
+            "optimized" => (Sharing::PerBand, Chooser::Optimized { seed, iterations }),
+            "optimized-shared" => (Sharing::Shared, Chooser::Optimized { seed, iterations }),
+            "random" => (Sharing::PerBand, Chooser::Random { seed }),
+            other => {
+                return Err(SphereError::Parameter {
+                    name: "directions",
+                    value: other.to_string(),
+                    reason: "expected fibonacci, shared, optimized, optimized-shared or random",
+                });
+            }
+        };
+        Self::new(l_max, sharing, chooser)
+    }
+
     /// Chooses directions.
     ///
     /// ```

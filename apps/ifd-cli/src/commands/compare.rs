@@ -54,22 +54,9 @@ impl Compare {
         }
         let a = metrics::crop_border(&a, self.crop_border)?;
         let b = metrics::crop_border(&b, self.crop_border)?;
-        let range = if let Some(r) = self.data_range {
-            r
-        } else {
-            let in_unit = |d: &[f32]| d.iter().all(|v| (0.0..=1.0).contains(v));
-            if in_unit(a.data()) && in_unit(b.data()) {
-                1.0
-            } else {
-                let (lo, hi) = a
-                    .data()
-                    .iter()
-                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
-                        (lo.min(v), hi.max(v))
-                    });
-                f64::from(hi - lo)
-            }
-        };
+        let range = self
+            .data_range
+            .unwrap_or_else(|| metrics::default_data_range(a.data(), b.data()));
         let cmp = metrics::compare(&a, &b, range).context("comparing images")?;
         if self.json {
             println!("{}", serde_json::to_string_pretty(&to_json(&cmp))?);

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use ifd_planar::fit::decompose_oversampled;
+use ifd_planar::fit::decompose_spec;
 use ifd_planar::{DecomposeOptions, Decomposition, Kernel, KernelSpec, decompose};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
@@ -123,28 +123,21 @@ impl Decompose {
                 bar.tick();
             }
         };
-        let q = match (&spec, self.oversample) {
-            (_, Some(q)) if !(1..=8).contains(&q) => {
-                bail!("--oversample {q}: expected 1 to 8")
-            }
-            (None, Some(q)) if q > 1 => {
-                bail!("--oversample {q}: only built-in specs can be sampled between pixels")
-            }
-            (Some(s), None) if s.sampling() == ifd_planar::kernel::Sampling::Area => 2,
-            (_, q) => q.unwrap_or(1),
-        };
-        let mut decomposition = match &spec {
-            Some(s) if q > 1 => {
-                let fine = s
-                    .to_kernel_fine(q)
-                    .with_context(|| format!("sampling {s} {q} times more finely"))?;
-                decompose_oversampled(&kernel, &fine, q, &opts, tick)
-            }
-            _ => decompose(&kernel, &opts, tick),
+        if let Some(q) = self.oversample
+            && !(1..=8).contains(&q)
+        {
+            bail!("--oversample {q}: expected 1 to 8");
         }
-        .context("decomposition failed")?;
+        let decomposition = if let Some(s) = &spec {
+            decompose_spec(s, &opts, self.oversample, tick)
+                .with_context(|| format!("decomposing {s}"))?
+        } else {
+            if let Some(q) = self.oversample.filter(|&q| q != 1) {
+                bail!("--oversample {q}: only built-in specs can be sampled between pixels");
+            }
+            decompose(&kernel, &opts, tick).context("decomposition failed")?
+        };
         bar.finish_and_clear();
-        decomposition.spec = spec.map(|s| s.to_string());
         decomposition
             .save(&self.output)
             .with_context(|| format!("writing {}", self.output.display()))?;

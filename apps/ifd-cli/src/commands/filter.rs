@@ -5,11 +5,10 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use ifd_planar::filter::evaluated_directly;
+use ifd_planar::pipeline::{FilterOptions, FilterPlan};
 use ifd_planar::{
-    Border, CheckedField, DIRECT_SIGMA, Decomposition, EvalPlan, Field, FieldKind,
-    Filter as IfdFilter, Interpolation, PlanOptions, PreparedDecomposition, ScaleStack,
-    StackOptions, stack_plan_for_decomposition,
+    Border, CheckedField, Decomposition, EvalPlan, Field, FieldKind, Interpolation,
+    PreparedDecomposition,
 };
 
 use crate::input::InputOptions;
@@ -125,25 +124,6 @@ fn check_field<'a>(
     })
 }
 
-/// Refuses a filter whose kernel, at the largest scale used, is larger than
-/// the image: its lookups would reach past the image on both sides and the
-/// border rule would fold the image onto itself more than once, which is
-/// almost always a mistake (a wrong `--scale`, or a crop too small). The
-/// kernel's longer side is compared with the image's longer side, since a
-/// rotation can point it either way.
-fn check_kernel_fits(decomposition: &Decomposition, smax: f32, w: usize, h: usize) -> Result<()> {
-    if let Some((kw, kh)) = decomposition.kernel_size {
-        let extent = kw.max(kh) as f32 * smax;
-        if extent > w.max(h) as f32 {
-            bail!(
-                "the filter's kernel is {kw}x{kh} px; at scale {smax} it spans {extent:.0} px, \
-                 larger than the {w}x{h} image (use a smaller --scale or a larger image)"
-            );
-        }
-    }
-    Ok(())
-}
-
 /// The `--gpu` path: upload the stack and the decomposition, evaluate, read
 /// back (`device` is how long creating `ctx` took).
 fn filter_gpu(
@@ -198,7 +178,6 @@ fn filter_gpu(
 impl Filter {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
-        let border = self.border;
         let decomposition = Decomposition::load(&self.decomp)?;
         let image = self.input.read(&self.image)?.image;
         let (w, h) = (image.width(), image.height());
@@ -228,77 +207,58 @@ impl Filter {
             self.scale_map.as_deref(),
             "--scale",
         )?;
-        let (smin, smax) = scale.range();
-        check_kernel_fits(&decomposition, smax, w, h)?;
-        let prepared = PreparedDecomposition::new(&decomposition)
-            .with_context(|| format!("decomposition {}", self.decomp.display()))?;
-        let c = image.channels();
-        // A constant pose evaluates terms narrower than DIRECT_SIGMA directly
-        // (on the CPU).
-        let constant_pose = angle_map.is_none() && scale_map.is_none() && !self.gpu;
-        let plan = EvalPlan::choose(
-            &decomposition,
-            smin,
-            smax,
-            PlanOptions {
-                budget: self.eval_budget,
-                interpolation: match self.interp {
-                    InterpChoice::Auto => None,
-                    InterpChoice::Linear => Some(Interpolation::Linear),
-                    InterpChoice::Cubic => Some(Interpolation::Cubic),
-                },
-                direct_sigma: if constant_pose { DIRECT_SIGMA } else { 0.0 },
+        if !(self.eval_budget.is_finite() && self.eval_budget > 0.0) {
+            bail!(
+                "--eval-budget {} must be finite and positive",
+                self.eval_budget
+            );
+        }
+        let options = FilterOptions {
+            border: self.border,
+            interpolation: match self.interp {
+                InterpChoice::Auto => None,
+                InterpChoice::Linear => Some(Interpolation::Linear),
+                InterpChoice::Cubic => Some(Interpolation::Cubic),
             },
+            eval_budget: self.eval_budget,
+            // The GPU reads every term from a log-uniform stack.
+            log_uniform: self.gpu,
+            scale_range: None,
+        };
+        let plan = FilterPlan::new(
+            (w, h, image.channels()),
+            &decomposition,
+            &angle,
+            &scale,
+            &options,
         )
-        .context("--eval-budget")?;
-        let stack_plan = stack_plan_for_decomposition(
-            (w, h, c),
-            &prepared,
-            smin,
-            smax,
-            border,
-            plan.apply(StackOptions::default()),
-        )
-        .context("prefiltering")?;
+        .with_context(|| format!("filtering with {}", self.decomp.display()))?;
         // With --gpu, a stack the device cannot hold is refused before the
         // prefiltering, not after.
         let gpu = if self.gpu {
             let t = Instant::now();
             let ctx = ifd_gpu::GpuContext::new().context("--gpu")?;
             let device = t.elapsed();
-            let layout = stack_plan.layout()?;
+            let layout = plan.stack.layout()?;
             ifd_gpu::GpuStack::check_fits(&ctx, (w, h), &layout)?;
             Some((ctx, device))
         } else {
             None
         };
         let t0 = Instant::now();
-        // At a constant scale (on the CPU; the GPU reads log-uniform stacks),
-        // levels at exactly the sigmas the terms read: one lookup per term
-        // instead of two, and no interpolation in ln sigma, whether the angle
-        // is constant or per pixel.
-        let constant_scale = scale_map.is_none() && !self.gpu;
-        let stack = if constant_scale {
-            let sigmas = ifd_planar::filter::level_sigmas(&decomposition, smin, plan.direct_sigma);
-            ScaleStack::with_sigmas(&image, &sigmas, border, stack_plan.options)
-        } else {
-            stack_plan.build(&image)
-        }
-        .context("prefiltering")?;
+        let stack = plan.build_stack(&image).context("prefiltering")?;
         let t1 = Instant::now();
         let out = if let Some((ctx, device)) = &gpu {
             filter_gpu(
                 (ctx, *device),
                 &stack,
-                &prepared,
+                &plan.decomposition,
                 angle,
                 scale,
                 self.verbose,
             )?
         } else {
-            IfdFilter::new(&stack, &prepared)?
-                .with_direct(&image, plan.direct_sigma)?
-                .apply(angle, scale)
+            plan.evaluate(&image, &stack, angle, scale)
                 .context("filtering")?
         };
         let t2 = Instant::now();
@@ -306,20 +266,11 @@ impl Filter {
             eprintln!(
                 "evaluation: {} interpolation, pyramid factor {}, {} terms direct; bound on its \
                  error {:.3}% (amplification {:.1}; measured errors are lower)",
-                plan.interpolation.name(),
-                plan.pyramid_factor,
-                decomposition
-                    .terms
-                    .iter()
-                    .filter(|t| evaluated_directly(
-                        decomposition.sampling,
-                        t,
-                        f64::from(smin),
-                        plan.direct_sigma
-                    ))
-                    .count(),
-                100.0 * plan.error_bound,
-                plan.amplification
+                plan.eval.interpolation.name(),
+                plan.eval.pyramid_factor,
+                plan.direct_terms,
+                100.0 * plan.eval.error_bound,
+                plan.eval.amplification
             );
             eprintln!(
                 "{} terms; prefiltering {:.1} ms ({} levels, {}), filtering {:.1} ms",

@@ -263,22 +263,11 @@ enum Directions {
 
 impl Directions {
     fn build(self, l_max: usize, seed: u64) -> Result<DirectionSet> {
-        let iterations = 300;
-        Ok(match self {
-            Self::Fibonacci => DirectionSet::new(l_max, Sharing::PerBand, Chooser::Fibonacci)?,
-            Self::Shared => DirectionSet::new(l_max, Sharing::Shared, Chooser::Fibonacci)?,
-            Self::Optimized => DirectionSet::new(
-                l_max,
-                Sharing::PerBand,
-                Chooser::Optimized { seed, iterations },
-            )?,
-            Self::OptimizedShared => DirectionSet::new(
-                l_max,
-                Sharing::Shared,
-                Chooser::Optimized { seed, iterations },
-            )?,
-            Self::Random => DirectionSet::new(l_max, Sharing::PerBand, Chooser::Random { seed })?,
-        })
+        let name = self
+            .to_possible_value()
+            .map(|v| v.get_name().to_string())
+            .unwrap_or_default();
+        Ok(DirectionSet::by_name(&name, l_max, seed)?)
     }
 }
 

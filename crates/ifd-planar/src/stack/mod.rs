@@ -42,7 +42,7 @@
 
 use std::sync::Arc;
 
-use ifd_image::Image;
+use ifd_image::ImageView;
 use rayon::prelude::*;
 use rustfft::num_complex::{Complex32, Complex64};
 use rustfft::{Fft, FftPlanner};
@@ -231,7 +231,8 @@ impl StackPlan {
     /// # Errors
     /// [`FilterError::Shape`] when `image` is not of the planned size, and
     /// the errors of [`ScaleStack::new`].
-    pub fn build(&self, image: &Image) -> Result<ScaleStack, FilterError> {
+    pub fn build<'a>(&self, image: impl Into<ImageView<'a>>) -> Result<ScaleStack, FilterError> {
+        let image = image.into();
         let dims = (image.width(), image.height(), image.channels());
         if dims != self.dims {
             return Err(FilterError::Shape(format!(
@@ -614,13 +615,14 @@ impl ScaleStack {
     ///
     /// # Errors
     /// As [`ScaleStack::from_interleaved`].
-    pub fn new(
-        image: &Image,
+    pub fn new<'a>(
+        image: impl Into<ImageView<'a>>,
         sigma_min: f64,
         sigma_max: f64,
         border: Border,
         options: StackOptions,
     ) -> Result<Self, FilterError> {
+        let image = image.into();
         Self::from_interleaved(
             image.width(),
             image.height(),
@@ -663,12 +665,13 @@ impl ScaleStack {
     ///
     /// # Errors
     /// As [`ScaleStack::from_interleaved`] and [`StackLayout::with_sigmas`].
-    pub fn with_sigmas(
-        image: &Image,
+    pub fn with_sigmas<'a>(
+        image: impl Into<ImageView<'a>>,
         sigmas: &[f64],
         border: Border,
         options: StackOptions,
     ) -> Result<Self, FilterError> {
+        let image = image.into();
         let (w, h, c) = (image.width(), image.height(), image.channels());
         let layout = StackLayout::with_sigmas(w, h, c, sigmas, options)?;
         Self::build(&layout, image.data(), border)
@@ -1351,7 +1354,8 @@ mod tests {
 
     #[test]
     fn sigmas_on_a_level_up_to_rounding_read_one_level() {
-        let img = Image::from_vec(16, 16, 1, (0..256).map(|i| (i % 7) as f32).collect()).unwrap();
+        let img = ifd_image::Image::from_vec(16, 16, 1, (0..256).map(|i| (i % 7) as f32).collect())
+            .unwrap();
         let uniform =
             ScaleStack::new(&img, 1.0, 8.0, Border::Reflect101, StackOptions::default()).unwrap();
         let given = ScaleStack::with_sigmas(

@@ -1,0 +1,90 @@
+"""The spherical half of ifd: SH of environment maps, SH rotation, spherical filter decompositions.
+
+One SH convention everywhere: Sloan's graphics convention, orthonormal, flat
+index ``l (l + 1) + m`` (pyshtools' real ``csphase=-1``). Directions have
+``z`` up; row 0 of an equirectangular map is the zenith. Coefficient arrays
+are float64, ``((L+1)^2, C)`` (or ``((L+1)^2,)``).
+
+>>> import numpy as np, ifd
+>>> env = np.ones((32, 64, 3), np.float32)
+>>> c = ifd.sphere.sh(env, 2)
+>>> c.shape
+(9, 3)
+>>> round(float(c[0, 0]), 4)  # int of Y_0^0 = sqrt(4 pi)
+3.5449
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Union
+
+import numpy as np
+
+from . import _ifd
+from ._ifd import SphereDecomposition as Decomposition
+
+__all__ = ["Decomposition", "decompose", "load", "rotate", "sh", "synthesize"]
+
+
+def _coeffs(c, name: str) -> np.ndarray:
+    arr = np.ascontiguousarray(np.asarray(c), dtype=np.float64)
+    if arr.ndim not in (1, 2):
+        raise ValueError(f"{name}: expected a ((L+1)^2,) or ((L+1)^2, C) array, got shape {arr.shape}")
+    return arr
+
+
+def sh(env, lmax: int, *, keep_negatives: bool = False) -> np.ndarray:
+    """SH coefficients ``((L+1)^2, C)`` of an environment map (``ifd sphere sh``).
+
+    ``env`` is equirectangular (``W = 2H``) or a cubemap strip (``W = 6H``,
+    faces +X,-X,+Y,-Y,+Z,-Z), with the planar module's dtype rules. Negative
+    samples are clamped to 0 unless ``keep_negatives``.
+    """
+    from . import _image
+
+    return _ifd.sphere_sh(_image(env, "env"), int(lmax), keep_negatives=keep_negatives)
+
+
+def synthesize(coeffs, width: int, height: int) -> np.ndarray:
+    """The ``height x width`` equirectangular map of SH coefficients (float32)."""
+    return _ifd.sphere_synthesize(_coeffs(coeffs, "coeffs"), int(width), int(height))
+
+
+def rotate(coeffs, zyz, method: str = "zhf") -> np.ndarray:
+    """Rotate SH coefficients: ``g(w) = f(R^T w)`` with ``R = Rz(a) Ry(b) Rz(c)`` (radians).
+
+    ``method``: ``zhf`` (zonal harmonic factorization, ZHF Eq. 10),
+    ``tailored`` (signal-tailored ZHF, Eq. 11) or ``reference``
+    (Ivanic-Ruedenberg recurrences). Same shape as ``coeffs``.
+    """
+    a, b, c = (float(x) for x in zyz)
+    return _ifd.sphere_rotate(_coeffs(coeffs, "coeffs"), (a, b, c), method=method)
+
+
+def decompose(
+    kernel: Union[str, np.ndarray],
+    lmax: int,
+    *,
+    directions: str = "fibonacci",
+    profile: str = "zonal",
+    seed: int = 1,
+    max_cond: float = 1e10,
+) -> Decomposition:
+    """Decompose a spherical filter into rotated lobes (``ifd sphere decompose``).
+
+    ``kernel`` is a spec centred on +z (``phong:s=32``, ``vmf:kappa=50``,
+    ``gauss:s=0.2``, ``aniso-gauss:s1=0.3,s2=0.05``) or SH coefficients.
+    ``directions``: ``fibonacci``, ``shared``, ``optimized``,
+    ``optimized-shared`` or ``random``; ``profile``: ``zonal``, ``legendre``,
+    ``phong``, ``gauss``, ``vmf`` or ``hybrid``. ``lmax`` is at most 40.
+    """
+    k = kernel if isinstance(kernel, str) else _coeffs(kernel, "kernel")
+    return _ifd.sphere_decompose(
+        k, int(lmax), directions=directions, profile=profile, seed=seed, max_cond=max_cond
+    )
+
+
+def load(path: Union[str, os.PathLike]) -> Decomposition:
+    """Read a decomposition written by ``ifd sphere decompose`` or :meth:`Decomposition.save`."""
+    return Decomposition.load(os.fspath(path))
