@@ -46,6 +46,15 @@ fn last_call_seconds() -> f64 {
 #[pymodule]
 fn _ifd(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // Which Cargo profile built the module (benchmarks compare like with like).
+    m.add(
+        "__build_profile__",
+        if cfg!(debug_assertions) {
+            "dev"
+        } else {
+            "release"
+        },
+    )?;
     m.add_function(wrap_pyfunction!(last_call_seconds, m)?)?;
     planar::register(m)?;
     sphere::register(m)?;

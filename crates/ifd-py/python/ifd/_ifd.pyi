@@ -7,6 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
+__build_profile__: str  # 'dev' or 'release'
 
 F32 = npt.NDArray[np.float32]
 F64 = npt.NDArray[np.float64]
