@@ -9,14 +9,14 @@
    (gauss sx=16, sy=2, 52 terms) against the Rust API
    (`ifd_planar::pipeline::filter_image`, the same call, timed inside the
    `filter_timing` example), interleaved: one Python call, then one Rust
-   process, --rounds times; medians. Both use the default thread pool on the
-   same cores.
+   process, --rounds times; medians. Both use --threads=N rayon threads
+   (default 1) on the same cores.
 
 Both sides must be built with the same Cargo profile: the script builds the
 example with --profile (default release) and refuses a module built with
 another (`maturin develop --release` in crates/ifd-py for release).
 
-Usage: .venv/bin/python tests/bench/bench_python.py [--profile release|dev] [--rounds 9]
+Usage: .venv/bin/python tests/bench/bench_python.py [--profile release|dev] [--rounds 9] [--threads=1]
 """
 
 import argparse
@@ -29,7 +29,12 @@ import time
 
 import numpy as np
 
-import ifd
+if __name__ == "__main__":
+    # The thread pool's size is read when it starts: before ifd is imported.
+    _threads = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--threads=")), "1")
+    os.environ["RAYON_NUM_THREADS"] = _threads
+
+import ifd  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -39,6 +44,7 @@ def main() -> None:
     ap.add_argument("--profile", choices=["release", "dev"], default="release")
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--calls", type=int, default=1000)
+    ap.add_argument("--threads", default="1", help="rayon threads of both sides (write --threads=N)")
     args = ap.parse_args()
     built = ifd._ifd.__build_profile__
     if built != args.profile:
@@ -78,7 +84,8 @@ def main() -> None:
         np.save(tmp / "img.npy", big)
         np.save(tmp / "angle.npy", angle)
         d.save(tmp / "d.json")
-        ifd.filter(big, d, angle=angle)  # warm-up (thread pool, page faults)
+        for _ in range(3):  # warm-up (thread pool, allocator, page faults), as the example does
+            ifd.filter(big, d, angle=angle)
         py, rust = [], []
         for _ in range(args.rounds):
             t = time.perf_counter()
@@ -89,7 +96,7 @@ def main() -> None:
             rust.append(float(out.stdout.split()[-1]))
     mp, mr = float(np.median(py)), float(np.median(rust))
     print(f"throughput, {n}x{n}, per-pixel angle, {len(d)} terms, {args.rounds} interleaved rounds "
-          f"({args.profile}): ifd.filter {1e3 * mp:.1f} ms (range {1e3 * min(py):.1f}-{1e3 * max(py):.1f}), "
+          f"({args.profile}, {os.environ['RAYON_NUM_THREADS']} thread(s)): ifd.filter {1e3 * mp:.1f} ms (range {1e3 * min(py):.1f}-{1e3 * max(py):.1f}), "
           f"Rust filter_image {1e3 * mr:.1f} ms (range {1e3 * min(rust):.1f}-{1e3 * max(rust):.1f}); "
           f"Python / Rust = {mp / mr:.3f}")
 

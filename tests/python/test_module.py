@@ -152,6 +152,9 @@ def test_sphere_functions_equal_cli(tmp_path, run_ifd):
     sd = ifd.sphere.decompose("vmf:kappa=20", 8, directions="shared")
     assert json.loads(sd.to_json()) == json.loads((tmp_path / "s.json").read_text())
     assert ifd.sphere.load(tmp_path / "s.json").to_json() == sd.to_json()
+    run_ifd("sphere", "filter", tmp_path / "env.npy", "--decomp", tmp_path / "s.json", "--size", "32x16",
+            "-o", tmp_path / "f.npy")
+    assert np.array_equal(ifd.sphere.filter(env, sd, (32, 16)), np.load(tmp_path / "f.npy"))
     # Synthesis inverts analysis on a band-limited map (to the pixel-centre
     # quadrature of a 256x128 map: 2e-4 here).
     back = ifd.sphere.synthesize(c, 256, 128)
@@ -263,6 +266,8 @@ def test_float32_contiguous_input_is_not_copied(gauss_d):
         (lambda d: ifd.sphere.rotate(np.zeros(9), (0, float("nan"), 0)), ValueError, "finite"),
         (lambda d: ifd.sphere.decompose("vmf:kappa=10", 400), ValueError, "lmax"),
         (lambda d: ifd.sphere.decompose("vmf:kappa=10", 4, directions="spiral"), ValueError, "spiral"),
+        (lambda d: ifd.sphere.filter(np.ones((8, 16), np.float32), ifd.sphere.decompose("vmf:kappa=10", 4),
+                                     (30, 10)), ValueError, "size"),
     ],
 )
 def test_bad_inputs_raise_the_documented_exceptions(gauss_d, call, exc, message):

@@ -272,6 +272,79 @@ fn sphere_decompose(
     Ok(PySphereDecomposition { inner })
 }
 
+/// Filters an environment map with a spherical decomposition (ISD Eq.
+/// 6/13/14): `ifd sphere filter`. The kernel is normalised to unit integral
+/// unless `raw`; `size` is the output's `(width, height)` (2:1 or 6:1;
+/// default the input's).
+#[pyfunction]
+#[pyo3(signature = (env, decomposition, *, size=None, raw=false, keep_negatives=false))]
+fn sphere_filter<'py>(
+    py: Python<'py>,
+    env: PyReadonlyArrayDyn<'py, f32>,
+    decomposition: &PySphereDecomposition,
+    size: Option<(usize, usize)>,
+    raw: bool,
+    keep_negatives: bool,
+) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+    use ifd_sphere::filter::{MapLayout, Prefiltered};
+    let img = arrays::image_view("env", &env)?.to_image();
+    let (w, h) = (img.width(), img.height());
+    let layout = MapLayout::from_size(w, h).map_err(|_| {
+        errors::value(
+            "env",
+            format!(
+                "a map must be 2:1 (equirectangular, W = 2H, H >= 2) or 6:1 (cubemap strip \
+                 +X,-X,+Y,-Y,+Z,-Z); got {w}x{h}"
+            ),
+        )
+    })?;
+    let (ow, oh) = size.unwrap_or((w, h));
+    if MapLayout::from_size(ow, oh).is_err() || ow > 16384 || oh > 16384 {
+        return Err(errors::value(
+            "size",
+            format!(
+                "{ow}x{oh}: the output must be 2:1 (equirectangular, H >= 2) or 6:1 (cubemap \
+                 strip), at most 16384 on a side"
+            ),
+        ));
+    }
+    let dec = &decomposition.inner;
+    let l = dec.l_max();
+    let neg = if keep_negatives {
+        Negatives::Keep
+    } else {
+        Negatives::Clamp
+    };
+    let out = py.detach(|| -> PyResult<ifd_image::Image> {
+        let a = match layout {
+            MapLayout::Equirect => {
+                EquirectTransform::new(l, w, h).and_then(|t| t.analyze(&img, neg))
+            }
+            MapLayout::CubemapStrip => analyze_cubemap(&img, l, neg),
+        }
+        .map_err(|e| errors::value("env", e))?;
+        let integral = dec.kernel_integral().map_err(|e| errors::value("", e))?;
+        let l1: f64 = dec.weights.data.iter().map(|v| v.abs()).sum();
+        let scale = if raw {
+            1.0
+        } else if integral.abs() > 1e-9 * l1.max(f64::MIN_POSITIVE) {
+            1.0 / integral
+        } else {
+            return Err(errors::value(
+                "decomposition",
+                format!(
+                    "the kernel integrates to {integral:.3e} (zero-mean or cancelling): it \
+                     cannot be normalised to unit integral; pass raw=True"
+                ),
+            ));
+        };
+        let pre = Prefiltered::new(&a.coeffs, dec).map_err(|e| errors::value("", e))?;
+        dec.filter_map(&pre, ow, oh, scale, &|_, _| {})
+            .map_err(|e| errors::value("", e))
+    })?;
+    Ok(arrays::image_array(py, out, false))
+}
+
 /// Adds the spherical functions and classes to the module.
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySphereDecomposition>()?;
@@ -279,5 +352,6 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sphere_synthesize, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_rotate, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_decompose, m)?)?;
+    m.add_function(wrap_pyfunction!(sphere_filter, m)?)?;
     Ok(())
 }

@@ -127,3 +127,11 @@ def sphere_decompose(
     seed: int = 1,
     max_cond: float = 1e10,
 ) -> SphereDecomposition: ...
+def sphere_filter(
+    env: F32,
+    decomposition: SphereDecomposition,
+    *,
+    size: Optional[tuple[int, int]] = None,
+    raw: bool = False,
+    keep_negatives: bool = False,
+) -> F32: ...

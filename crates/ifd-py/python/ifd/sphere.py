@@ -24,7 +24,7 @@ import numpy as np
 from . import _ifd
 from ._ifd import SphereDecomposition as Decomposition
 
-__all__ = ["Decomposition", "decompose", "load", "rotate", "sh", "synthesize"]
+__all__ = ["Decomposition", "decompose", "filter", "load", "rotate", "sh", "synthesize"]
 
 
 def _coeffs(c, name: str) -> np.ndarray:
@@ -82,6 +82,27 @@ def decompose(
     k = kernel if isinstance(kernel, str) else _coeffs(kernel, "kernel")
     return _ifd.sphere_decompose(
         k, int(lmax), directions=directions, profile=profile, seed=seed, max_cond=max_cond
+    )
+
+
+def filter(  # noqa: A001
+    env, decomposition: Decomposition, size=None, *, raw: bool = False, keep_negatives: bool = False
+) -> np.ndarray:
+    """Filter an environment map with a spherical decomposition (``ifd sphere filter``).
+
+    Every output texel with direction ``w`` gets the kernel rotated to ``w``
+    (frame ``R(w) = Rz(phi) Ry(theta)``, the kernel's x axis along the
+    meridian; singular at the poles for anisotropic kernels) applied to the
+    map, by the decomposition's rotated lobes (ISD Eq. 6/13/14). The kernel
+    is normalised to unit integral unless ``raw``. ``size`` is the output's
+    ``(width, height)``, 2:1 or 6:1 (default the input's). Returns
+    ``(H, W, C)`` float32; band-limited results may ring below zero.
+    """
+    from . import _image
+
+    sz = None if size is None else (int(size[0]), int(size[1]))
+    return _ifd.sphere_filter(
+        _image(env, "env"), decomposition, size=sz, raw=raw, keep_negatives=keep_negatives
     )
 
 
