@@ -17,6 +17,7 @@
 mod arrays;
 mod errors;
 mod planar;
+mod shade;
 mod sphere;
 
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -58,5 +59,6 @@ fn _ifd(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(last_call_seconds, m)?)?;
     planar::register(m)?;
     sphere::register(m)?;
+    shade::register(m)?;
     Ok(())
 }

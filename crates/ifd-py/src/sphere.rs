@@ -14,7 +14,10 @@ use crate::{arrays, errors};
 
 /// SH coefficients from a `((L+1)^2,)` or `((L+1)^2, C)` float64 array, and
 /// whether it had one dimension.
-fn coeffs_from(what: &str, a: &PyReadonlyArrayDyn<'_, f64>) -> PyResult<(ShCoeffs, bool)> {
+pub(crate) fn coeffs_from(
+    what: &str,
+    a: &PyReadonlyArrayDyn<'_, f64>,
+) -> PyResult<(ShCoeffs, bool)> {
     let (shape, values) = arrays::values_f64(what, a)?;
     let (rows, channels, flat) = match shape[..] {
         [n] => (n, 1, true),

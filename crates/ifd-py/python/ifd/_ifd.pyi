@@ -135,3 +135,13 @@ def sphere_filter(
     raw: bool = False,
     keep_negatives: bool = False,
 ) -> F32: ...
+def sphere_shade(
+    coeffs: F64,
+    brdf: str,
+    normals: F64,
+    views: F64,
+    *,
+    lmax: Optional[int] = None,
+    table: Optional[_Path] = None,
+    tangents: Optional[F64] = None,
+) -> F64: ...

@@ -24,7 +24,7 @@ import numpy as np
 from . import _ifd
 from ._ifd import SphereDecomposition as Decomposition
 
-__all__ = ["Decomposition", "decompose", "filter", "load", "rotate", "sh", "synthesize"]
+__all__ = ["Decomposition", "decompose", "filter", "load", "rotate", "shade", "sh", "synthesize"]
 
 
 def _coeffs(c, name: str) -> np.ndarray:
@@ -104,6 +104,29 @@ def filter(  # noqa: A001
     return _ifd.sphere_filter(
         _image(env, "env"), decomposition, size=sz, raw=raw, keep_negatives=keep_negatives
     )
+
+
+def shade(coeffs, brdf: str, normals, views, *, lmax=None, table=None, tangents=None) -> np.ndarray:
+    """Radiance leaving surface points lit by an environment, by ISD (Eq. 22).
+
+    ``coeffs`` are the environment's SH coefficients (:func:`sh`);
+    ``normals`` and ``views`` are ``(N, 3)`` world-space unit vectors
+    (``views`` from the surface towards the viewer); ``brdf`` is a spec of
+    ``ifd sphere brdf``: ``lambert``, ``phong:s=32`` (normalised, about the
+    mirror direction, cosine folded in), ``blinn:s=64``, ``ggx:alpha=0.3``,
+    ``ggx:ax=0.1,ay=0.4``, ``ward:ax=..,ay=..``, optional ``albedo=``. Lambert
+    and Phong have closed-form lobe weights; the others need the lobe table
+    ``ifd sphere brdf SPEC --lmax L -o t.lobes`` writes (``table``).
+    ``tangents`` orient anisotropic BRDFs. ``lmax`` defaults to the
+    coefficients' degree. Returns ``(N, C)`` float64.
+    """
+    import os
+
+    n = np.ascontiguousarray(np.asarray(normals), dtype=np.float64)
+    v = np.ascontiguousarray(np.asarray(views), dtype=np.float64)
+    t = None if tangents is None else np.ascontiguousarray(np.asarray(tangents), dtype=np.float64)
+    path = None if table is None else os.fspath(table)
+    return _ifd.sphere_shade(_coeffs(coeffs, "coeffs"), brdf, n, v, lmax=lmax, table=path, tangents=t)
 
 
 def load(path: Union[str, os.PathLike]) -> Decomposition:
