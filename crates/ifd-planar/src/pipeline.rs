@@ -282,6 +282,22 @@ mod tests {
     use super::*;
     use crate::{CheckField, Field, FieldKind, Term};
 
+    /// Constant angle and scale fields of a `w x h` image.
+    fn constant_pose(
+        angle: f32,
+        scale: f32,
+        (w, h): (usize, usize),
+    ) -> (CheckedField<'static>, CheckedField<'static>) {
+        (
+            Field::Constant(angle)
+                .check(FieldKind::Angle, w, h)
+                .expect("angle"),
+            Field::Constant(scale)
+                .check(FieldKind::Scale, w, h)
+                .expect("scale"),
+        )
+    }
+
     fn image(w: usize, h: usize) -> Image {
         Image::from_vec(
             w,
@@ -314,12 +330,7 @@ mod tests {
                 sigma: 4.0,
             },
         ]);
-        let angle = Field::Constant(25.0)
-            .check(FieldKind::Angle, 48, 40)
-            .expect("angle");
-        let scale = Field::Constant(1.3)
-            .check(FieldKind::Scale, 48, 40)
-            .expect("scale");
+        let (angle, scale) = constant_pose(25.0, 1.3, (48, 40));
         let out = filter_image(&img, &d, angle, scale, &FilterOptions::default()).expect("filter");
         let k = |x: f64, y: f64| {
             d.terms
@@ -352,12 +363,7 @@ mod tests {
             sigma: 2.0,
         }]);
         d.kernel_size = Some((31, 31));
-        let angle = Field::Constant(0.0)
-            .check(FieldKind::Angle, 20, 20)
-            .expect("angle");
-        let scale = Field::Constant(1.0)
-            .check(FieldKind::Scale, 20, 20)
-            .expect("scale");
+        let (angle, scale) = constant_pose(0.0, 1.0, (20, 20));
         let e = FilterPlan::new((20, 20, 1), &d, &angle, &scale, &FilterOptions::default())
             .expect_err("too large");
         assert!(e.to_string().contains("larger than the 20x20 image"), "{e}");
@@ -371,12 +377,7 @@ mod tests {
             y: 0.0,
             sigma: 2.0,
         }]);
-        let angle = Field::Constant(0.0)
-            .check(FieldKind::Angle, 20, 20)
-            .expect("angle");
-        let scale = Field::Constant(1.0)
-            .check(FieldKind::Scale, 20, 20)
-            .expect("scale");
+        let (angle, scale) = constant_pose(0.0, 1.0, (20, 20));
         let plan = FilterPlan::new((20, 20, 1), &d, &angle, &scale, &FilterOptions::default())
             .expect("plan");
         assert!(matches!(
