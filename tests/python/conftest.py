@@ -58,3 +58,38 @@ def load_gray(name: str) -> np.ndarray:
 def save_npy(path, arr) -> pathlib.Path:
     np.save(path, np.asarray(arr, dtype=np.float32))
     return pathlib.Path(path)
+
+
+# A reference test whose library failed to import is a failure, never a skip:
+# `pytest.importorskip` (in a test or at module level) and `pytest.skip` with
+# an import error both raise a skip whose reason starts "could not import";
+# these hooks turn such skips into failures with the reason.
+_IMPORT_SKIP = ("could not import", "no module named")
+
+
+def _import_skip_reason(rep):
+    if not rep.skipped or not isinstance(rep.longrepr, tuple):
+        return None
+    reason = str(rep.longrepr[-1])
+    low = reason.lower()
+    return reason if any(s in low for s in _IMPORT_SKIP) else None
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    rep = outcome.get_result()
+    reason = _import_skip_reason(rep)
+    if reason is not None:
+        rep.outcome = "failed"
+        rep.longrepr = f"a reference library failed to import (a failure, not a skip): {reason}"
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_make_collect_report(collector):
+    outcome = yield
+    rep = outcome.get_result()
+    reason = _import_skip_reason(rep)
+    if reason is not None:
+        rep.outcome = "failed"
+        rep.longrepr = f"a reference library failed to import (a failure, not a skip): {reason}"

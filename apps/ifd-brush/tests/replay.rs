@@ -1,6 +1,8 @@
 //! Replay and bad input, without a window.
 
 mod common;
+#[path = "../../../tests/support/skip.rs"]
+mod skip;
 
 use std::process::Command;
 
@@ -212,12 +214,12 @@ fn gpu_replay_matches_cpu() {
     let (gpu, label, note) = run(GpuChoice::On);
     if !label.starts_with("GPU") {
         assert!(
-            std::env::var("IFD_GPU_TESTS").is_ok_and(|v| v == "skip"),
+            skip::allowed("IFD_GPU_TESTS"),
             "no GPU device for gpu_replay_matches_cpu ({}); install mesa-vulkan-drivers or set \
              IFD_GPU_TESTS=skip",
             note.as_deref().unwrap_or("no reason given")
         );
-        eprintln!("skipping gpu_replay_matches_cpu (IFD_GPU_TESTS=skip): {note:?}");
+        skip::skip(&format!("no GPU device (IFD_GPU_TESTS=skip): {note:?}"));
         return;
     }
     let (cpu, cpu_label, _) = run(GpuChoice::Off);
@@ -309,9 +311,10 @@ fn gpu_display_paints_on_the_cpu_when_the_smoother_does_not_fit() {
     use ifd_brush::engine::{GpuChoice, SharedDevice};
     let Ok(big) = ifd_gpu::GpuContext::new() else {
         assert!(
-            std::env::var("IFD_GPU_TESTS").is_ok_and(|v| v == "skip"),
+            skip::allowed("IFD_GPU_TESTS"),
             "no GPU device for this test; install mesa-vulkan-drivers or set IFD_GPU_TESTS=skip"
         );
+        skip::skip("no GPU device (IFD_GPU_TESTS=skip)");
         return;
     };
     let shared = pollster::block_on(async {

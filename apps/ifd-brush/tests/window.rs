@@ -7,6 +7,8 @@
 //! `IFD_WINDOW_TESTS=skip` is set (as `IFD_GPU_TESTS=skip` for the GPU tests).
 
 mod common;
+#[path = "../../../tests/support/skip.rs"]
+mod skip;
 
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -24,11 +26,11 @@ fn have(cmd: &str) -> bool {
 fn window_under_xvfb_shows_image_and_controls() {
     if !have("xvfb-run") || !have("Xvfb") {
         assert!(
-            std::env::var("IFD_WINDOW_TESTS").is_ok_and(|v| v == "skip"),
+            skip::allowed("IFD_WINDOW_TESTS"),
             "Xvfb/xvfb-run not installed for the window test (apt-get install xvfb xauth; \
              scripts/test-all.sh does) or set IFD_WINDOW_TESTS=skip"
         );
-        eprintln!("skipping the window test (IFD_WINDOW_TESTS=skip): Xvfb/xvfb-run not installed");
+        skip::skip("Xvfb/xvfb-run not installed (IFD_WINDOW_TESTS=skip)");
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");
@@ -165,11 +167,12 @@ fn window_under_xvfb_shows_image_and_controls() {
     let log = run("on", &gpu_shot, &gpu_out);
     if !log.contains("shown without readback") {
         assert!(
-            std::env::var("IFD_GPU_TESTS").is_ok_and(|v| v == "skip"),
+            skip::allowed("IFD_GPU_TESTS"),
             "the window's GPU path does not show the document from the device (no Vulkan \
              adapter under Xvfb? install mesa-vulkan-drivers or set IFD_GPU_TESTS=skip):\n{log}"
         );
-        eprintln!("skipping the window's GPU display check (IFD_GPU_TESTS=skip):\n{log}");
+        eprintln!("{log}");
+        skip::skip("the GPU display check: no Vulkan adapter under Xvfb (IFD_GPU_TESTS=skip)");
         return;
     }
     let cpu_saved = ifd_image::read(&out).expect("saved");
@@ -210,11 +213,11 @@ fn window_under_xvfb_shows_image_and_controls() {
 fn automation_failure_exits_2_with_the_message() {
     if !have("xvfb-run") || !have("Xvfb") {
         assert!(
-            std::env::var("IFD_WINDOW_TESTS").is_ok_and(|v| v == "skip"),
+            skip::allowed("IFD_WINDOW_TESTS"),
             "Xvfb/xvfb-run not installed for the window test (apt-get install xvfb xauth; \
              scripts/test-all.sh does) or set IFD_WINDOW_TESTS=skip"
         );
-        eprintln!("skipping the window test (IFD_WINDOW_TESTS=skip): Xvfb/xvfb-run not installed");
+        skip::skip("Xvfb/xvfb-run not installed (IFD_WINDOW_TESTS=skip)");
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");

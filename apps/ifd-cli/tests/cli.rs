@@ -3,6 +3,8 @@
 use std::path::{Path, PathBuf};
 
 mod common;
+#[path = "../../../tests/support/skip.rs"]
+mod skip;
 use common::{ifd, testdata};
 
 fn write_file(dir: &Path, name: &str, bytes: &[u8]) -> String {
@@ -159,10 +161,13 @@ fn zero_sized_and_mismatched() {
 
 /// GPU tests need an adapter (lavapipe on machines without a GPU); with
 /// `IFD_GPU_TESTS=skip` a missing adapter is accepted.
+/// The test is then recorded as skipped (`tests/support/skip.rs`).
 fn gpu_missing_ok(code: i32, err: &str) -> bool {
-    code == 2
-        && err.contains("no GPU adapter")
-        && std::env::var("IFD_GPU_TESTS").is_ok_and(|v| v == "skip")
+    let missing = code == 2 && err.contains("no GPU adapter") && skip::allowed("IFD_GPU_TESTS");
+    if missing {
+        skip::skip("no GPU adapter (IFD_GPU_TESTS=skip)");
+    }
+    missing
 }
 
 /// `max |a - b| / max |b|` over two images read back from files.
@@ -523,7 +528,7 @@ mod sphere {
     fn decompose_refuses_large_degrees_naming_the_limit() {
         let dir = tempfile::tempdir().unwrap();
         let out = p(dir.path(), "d.json");
-        let start = std::time::Instant::now();
+        // Refused before any work (a dense L = 5000 fit would not finish).
         let (code, _, err) = ifd(&[
             "sphere",
             "decompose",
@@ -540,8 +545,6 @@ mod sphere {
                 && err.contains("MAX_ISD_DEGREE"),
             "{err}"
         );
-        // refused before any work
-        assert!(start.elapsed().as_secs_f64() < 5.0);
         let (code, _, err) = ifd(&["sphere", "condition", "--lmax", "41"]);
         assert_eq!(code, 2);
         assert!(err.contains("1..=40"), "{err}");

@@ -24,24 +24,34 @@ use ifd_planar::{
 
 const TOL: f32 = 1e-4;
 
+#[path = "../../../tests/support/skip.rs"]
+mod skip;
+
+/// The shared device, or `None` (the calling test recorded as skipped) when
+/// there is no adapter and `IFD_GPU_TESTS=skip` allows that.
 fn ctx() -> Option<&'static GpuContext> {
     static CTX: OnceLock<Option<GpuContext>> = OnceLock::new();
-    CTX.get_or_init(|| match GpuContext::new() {
-        Ok(c) => {
-            eprintln!("{}", c.describe());
-            Some(c)
-        }
-        Err(e) => {
-            assert!(
-                std::env::var("IFD_GPU_TESTS").is_ok_and(|v| v == "skip"),
-                "no GPU device for the GPU tests ({e}); install mesa-vulkan-drivers or set \
+    let ctx = CTX
+        .get_or_init(|| match GpuContext::new() {
+            Ok(c) => {
+                eprintln!("{}", c.describe());
+                Some(c)
+            }
+            Err(e) => {
+                assert!(
+                    skip::allowed("IFD_GPU_TESTS"),
+                    "no GPU device for the GPU tests ({e}); install mesa-vulkan-drivers or set \
                  IFD_GPU_TESTS=skip"
-            );
-            eprintln!("skipping GPU tests: {e}");
-            None
-        }
-    })
-    .as_ref()
+                );
+                eprintln!("no GPU adapter: {e}");
+                None
+            }
+        })
+        .as_ref();
+    if ctx.is_none() {
+        skip::skip("no GPU adapter (IFD_GPU_TESTS=skip)");
+    }
+    ctx
 }
 
 fn testdata(name: &str) -> PathBuf {
