@@ -1,6 +1,8 @@
 //! Replay and bad input, without a window.
 
 mod common;
+#[path = "../../../fuzz/harness_brush.rs"]
+mod harness_brush;
 #[path = "../../../tests/support/skip.rs"]
 mod skip;
 
@@ -387,4 +389,29 @@ fn far_stroke_points_cost_only_the_dabs_near_the_image() {
     engine.end_stroke().expect("end");
     assert!(dabs > 2 && dabs < 200, "{dabs} dabs");
     assert!(common::max_diff(engine.image().expect("image"), &img) > 0.01);
+}
+
+/// The strokes fuzz target's corpus (`fuzz/seeds/strokes/`, and
+/// `fuzz/regressions/strokes/`: inputs that once failed) goes through the
+/// fuzz harness without a panic (`tests/fuzz_corpus.rs` replays the other
+/// targets).
+#[test]
+fn strokes_fuzz_corpus_replays_without_panics() {
+    let fuzz = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz");
+    let mut n = 0;
+    for kind in ["seeds", "regressions"] {
+        let Ok(dir) = std::fs::read_dir(fuzz.join(kind).join("strokes")) else {
+            assert_ne!(kind, "seeds", "fuzz/seeds/strokes/ is missing");
+            continue;
+        };
+        let mut files: Vec<_> = dir.filter_map(|e| e.ok().map(|e| e.path())).collect();
+        files.sort();
+        for path in files {
+            let data = std::fs::read(&path).expect("corpus file");
+            let r = std::panic::catch_unwind(|| harness_brush::strokes(&data));
+            assert!(r.is_ok(), "{} panics the strokes harness", path.display());
+            n += 1;
+        }
+    }
+    assert!(n >= 2, "only {n} strokes corpus inputs");
 }

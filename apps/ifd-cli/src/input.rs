@@ -60,7 +60,9 @@ impl InputOptions {
 
     /// Reads a parameter map (angles, scales): values as stored, with no
     /// range mapping or sRGB decoding. `.npy` (float or integer dtypes, read
-    /// as their values) and floating-point EXR/TIFF/HDR are accepted; integer
+    /// as their values) and floating-point EXR/TIFF/HDR are accepted (the
+    /// image crate reads float files as RGB(A) only, so a single-channel map
+    /// must be `.npy`); integer
     /// image formats (PNG, JPEG, 8/16-bit TIFF), which images map to
     /// `[0, 1]`, are refused with a message saying how to write a map.
     pub fn read_map(&self, path: &Path, what: &str) -> Result<ifd_image::Image> {
@@ -73,7 +75,7 @@ impl InputOptions {
             anyhow::bail!(
                 "{what} {}: a {bits}-bit {} stores integers that are read as image values in \
                  [0, 1] (45 would become {:.4}), not as data; write the map as .npy \
-                 (numpy.save('map.npy', a.astype('float32'))) or as a float EXR/TIFF",
+                 (numpy.save('map.npy', a.astype('float32')))",
                 path.display(),
                 loaded.format.name(),
                 45.0 / f64::from((1u32 << bits) - 1)
@@ -98,5 +100,18 @@ pub fn parse_size(text: &str, option: &str) -> Result<(usize, usize)> {
         _ => anyhow::bail!(
             "{option} {text:?}: expected WxH with integers in 1..=16384, e.g. 512x256"
         ),
+    }
+}
+
+/// A smoothing library error about a parameter's range, said in terms of the
+/// command's option (`hessian sigma` -> `--hessian-sigma`); other errors as
+/// they are.
+pub fn name_option(e: ifd_smooth::SmoothError) -> anyhow::Error {
+    match e {
+        ifd_smooth::SmoothError::OutOfRange { name, value, range } => anyhow::anyhow!(
+            "--{} {value}: outside the supported range {range}",
+            name.replace(' ', "-")
+        ),
+        e => e.into(),
     }
 }

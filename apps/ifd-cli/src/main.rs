@@ -9,7 +9,7 @@
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 mod commands;
 mod input;
@@ -52,8 +52,17 @@ enum Command {
     Envmap(commands::envmap::Envmap),
 }
 
+/// `--scale -1` must reach the command's own check (which names the option
+/// and says what is wrong) rather than be taken for an unknown flag: every
+/// (sub)command accepts negative numbers as values.
+fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
+    cmd.allow_negative_numbers(true)
+        .mut_subcommands(allow_negative_numbers)
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let matches = allow_negative_numbers(Cli::command()).get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
         Command::Compare(c) => c.run(),
         Command::Decompose(c) => c.run(),

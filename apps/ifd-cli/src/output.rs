@@ -70,3 +70,13 @@ pub fn write_output(path: &Path, image: &ifd_image::Image, opts: &WriteOptions) 
     }
     Ok(())
 }
+
+/// Refuses an output image path before any work: an unknown extension, or a
+/// folder that does not exist (or is a file). Writing still checks again.
+pub fn check_output_path(path: &Path) -> Result<()> {
+    ifd_image::FileFormat::from_path(path)?;
+    if let Some(why) = ifd_image::output_folder_problem(path) {
+        anyhow::bail!("{}: {why}", path.display());
+    }
+    Ok(())
+}

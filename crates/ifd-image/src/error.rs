@@ -41,12 +41,14 @@ pub enum ImageError {
         reason: String,
     },
     /// An I/O error other than a missing file.
-    #[error("{}: {source}", path.display())]
+    // `error`, not `source`: the message already says it, and as an error
+    // source it would be printed twice by `{:#}` chains.
+    #[error("{}: {error}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
         /// The underlying error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// A zero-sized image.
     #[error("{}image is empty ({width}x{height} with {channels} channels)", file_prefix(path.as_deref()))]

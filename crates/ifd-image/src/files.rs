@@ -18,7 +18,7 @@ pub(crate) fn open(path: &Path) -> Result<File, ImageError> {
         } else {
             ImageError::Io {
                 path: path.to_path_buf(),
-                source: e,
+                error: e,
             }
         }
     })
@@ -38,13 +38,13 @@ where
         path: path.to_path_buf(),
         reason,
     };
+    if let Some(problem) = output_folder_problem(path) {
+        return Err(werr(problem));
+    }
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    if !dir.is_dir() {
-        return Err(werr(format!("folder {} does not exist", dir.display())));
-    }
     // The file gets the permissions an ordinary `File::create` would give
     // (0666 less the umask; a temporary file alone would be 0600), or those
     // of the file it replaces.
@@ -75,4 +75,45 @@ where
     }
     tmp.persist(path).map_err(|e| werr(e.error.to_string()))?;
     Ok(())
+}
+
+/// Why a file cannot be created at `path` because of its folder, or `None`
+/// when the folder exists: "folder X does not exist", or "X is not a
+/// folder" when some part of the parent path is a regular file. Commands call
+/// it before long work so that an unwritable output is refused up front.
+///
+/// ```
+/// let dir = tempfile::tempdir().unwrap();
+/// let file = dir.path().join("afile");
+/// std::fs::write(&file, b"x").unwrap();
+/// assert!(ifd_image::output_folder_problem(&dir.path().join("out.png")).is_none());
+/// let why = ifd_image::output_folder_problem(&file.join("out.png")).unwrap();
+/// assert!(why.ends_with("afile is not a folder"), "{why}");
+/// let why = ifd_image::output_folder_problem(&dir.path().join("no/out.png")).unwrap();
+/// assert!(why.ends_with("does not exist"), "{why}");
+/// ```
+#[must_use]
+pub fn output_folder_problem(path: &Path) -> Option<String> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if dir.is_dir() {
+        return None;
+    }
+    // The nearest ancestor that exists tells a missing folder from a file.
+    let mut up = Some(dir);
+    while let Some(d) = up {
+        if d.as_os_str().is_empty() {
+            break;
+        }
+        if let Ok(m) = std::fs::metadata(d) {
+            if !m.is_dir() {
+                return Some(format!("{} is not a folder", d.display()));
+            }
+            break;
+        }
+        up = d.parent();
+    }
+    Some(format!("folder {} does not exist", dir.display()))
 }

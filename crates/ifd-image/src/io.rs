@@ -173,6 +173,54 @@ pub fn read_image(path: &Path, opts: &ReadOptions) -> Result<LoadedImage, ImageE
     })
 }
 
+/// The decoder's message, with "truncated" said plainly: decoders that read
+/// past the end of a file report the bare I/O error ("failed to fill whole
+/// buffer").
+fn decode_reason(e: &image::ImageError) -> String {
+    let eof = match e {
+        image::ImageError::IoError(io) => io.kind() == std::io::ErrorKind::UnexpectedEof,
+        _ => false,
+    };
+    let text = e.to_string();
+    if eof || text.contains("failed to fill whole buffer") {
+        format!("truncated: the file ends before its image data does ({text})")
+    } else {
+        text
+    }
+}
+
+/// JPEG decoders fill a truncated scan with grey and succeed; a file whose
+/// last scan (the final `FF DA` marker) is not followed by the end-of-image
+/// marker `FF D9` is refused as truncated instead. Entropy-coded data cannot
+/// contain `FF D9` (a data `FF` is stuffed as `FF 00`), and an embedded EXIF
+/// thumbnail ends before the main image's scans.
+fn check_jpeg_complete(path: &Path, file: &File) -> Result<(), ImageError> {
+    use std::io::{Read as _, Seek as _};
+    let mut bytes = Vec::new();
+    let mut f = file;
+    f.read_to_end(&mut bytes)
+        .and_then(|_| f.rewind())
+        .map_err(|e| ImageError::Io {
+            path: path.to_path_buf(),
+            error: e,
+        })?;
+    let last_scan = bytes.windows(2).rposition(|w| w == [0xFF, 0xDA]);
+    let complete = match last_scan {
+        Some(i) => bytes[i..].windows(2).any(|w| w == [0xFF, 0xD9]),
+        // No scan at all: the decoder says what is wrong.
+        None => true,
+    };
+    if complete {
+        Ok(())
+    } else {
+        Err(ImageError::Decode {
+            path: path.to_path_buf(),
+            format: "JPEG",
+            reason: "truncated: no end-of-image marker (FF D9) after the last scan".into(),
+        })
+    }
+}
+
 fn decode_with_image_crate(
     path: &Path,
     file: File,
@@ -183,8 +231,11 @@ fn decode_with_image_crate(
     let decode_err = |e: image::ImageError| ImageError::Decode {
         path: path.to_path_buf(),
         format: format.name(),
-        reason: e.to_string(),
+        reason: decode_reason(&e),
     };
+    if format == FileFormat::Jpeg {
+        check_jpeg_complete(path, &file)?;
+    }
     let mut reader = ImageReader::with_format(BufReader::new(file), fmt);
     // Our own budget check below replaces the crate's fixed default limits.
     reader.no_limits();

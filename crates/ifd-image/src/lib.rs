@@ -26,7 +26,7 @@ mod npy;
 
 pub use crate::budget::{MemoryBudget, physical_memory};
 pub use crate::error::{ImageError, fmt_bytes};
-pub use crate::files::atomic_write;
+pub use crate::files::{atomic_write, output_folder_problem};
 pub use crate::image::{Image, ImageView};
 pub use crate::io::{
     BitDepth, FileFormat, LoadedImage, NonFinitePolicy, ReadOptions, WriteOptions, WriteReport,

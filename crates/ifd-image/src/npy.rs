@@ -333,7 +333,7 @@ fn decode_value(b: &[u8], dtype: Dtype, big: bool) -> f32 {
 }
 
 fn parse_descr(d: &str) -> Option<(bool, Dtype)> {
-    let (order, ty) = d.split_at(1);
+    let (order, ty) = d.split_at_checked(1)?;
     let big = match order {
         "<" | "|" | "=" => false,
         ">" => true,

@@ -95,12 +95,14 @@ pub struct Decomposition {
 #[derive(Debug, thiserror::Error)]
 pub enum DecompositionFileError {
     /// The file could not be read or written.
-    #[error("{}: {source}", path.display())]
+    // `error`, not `source`: the message already says it, and as an error
+    // source it would be printed twice by `{:#}` chains.
+    #[error("{}: {error}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
         /// The underlying error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// Not JSON, truncated JSON, or a missing/mistyped field (serde's message
     /// names the field and the line).
@@ -112,7 +114,11 @@ pub enum DecompositionFileError {
         reason: String,
     },
     /// The `format` field is missing or not `"ifd-decomposition"`.
-    #[error("{}: not an ifd decomposition file (format {found:?}, expected \"{FORMAT}\")", path.display())]
+    #[error("{}: not an ifd decomposition file (format {}, expected \"{FORMAT}\"{})", path.display(),
+        found.as_deref().map_or_else(|| "missing".to_string(), |f| format!("{f:?}")),
+        if found.as_deref().is_some_and(|f| f.starts_with("ifd-sphere")) {
+            "; this is a spherical decomposition from `ifd sphere decompose`, used by `ifd sphere filter`"
+        } else { "" })]
     Format {
         /// The file.
         path: PathBuf,
@@ -120,7 +126,8 @@ pub enum DecompositionFileError {
         found: Option<String>,
     },
     /// A `version` this build does not read.
-    #[error("{}: decomposition file version {found:?} is not supported (this build reads version {VERSION})", path.display())]
+    #[error("{}: decomposition file version {} is not supported (this build reads version {VERSION})",
+        path.display(), found.as_deref().unwrap_or("missing"))]
     Version {
         /// The file.
         path: PathBuf,
@@ -316,7 +323,7 @@ impl Decomposition {
         })
         .map_err(|e| DecompositionFileError::Io {
             path: path.to_path_buf(),
-            source: std::io::Error::other(match e {
+            error: std::io::Error::other(match e {
                 ifd_image::ImageError::Write { reason, .. } => reason,
                 other => other.to_string(),
             }),
@@ -331,9 +338,9 @@ impl Decomposition {
     /// non-positive widths.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, DecompositionFileError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| DecompositionFileError::Io {
+        let text = std::fs::read_to_string(path).map_err(|error| DecompositionFileError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
         Self::parse(&text, path)
     }

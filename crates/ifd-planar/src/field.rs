@@ -32,6 +32,11 @@ use crate::error::FilterError;
 /// a million degrees, a scale of a million).
 pub const MAX_FIELD_VALUE: f32 = 1e6;
 
+/// Scales below this are refused as absurd: the filter would shrink to a
+/// thousandth of its size, far below a pixel, where its terms' widths are
+/// below the finest prefiltered level and the result is not the filter's.
+pub const MIN_FIELD_SCALE: f32 = 1e-3;
+
 /// A per-pixel parameter (angle in degrees, or scale): a constant or a
 /// row-major map of `width * height` values. Unchecked: see [`CheckedField`].
 #[derive(Clone, Copy, Debug)]
@@ -66,7 +71,7 @@ impl Field<'_> {
 pub enum FieldKind {
     /// rotation angles in degrees: any sign;
     Angle,
-    /// scale factors: positive;
+    /// scale factors: positive, at least [`MIN_FIELD_SCALE`];
     Scale,
     /// bank entries `i + t` (entries `i` and `i + 1` blended with weight
     /// `t`): non-negative.
@@ -90,6 +95,8 @@ impl FieldKind {
             Some("not finite")
         } else if self == FieldKind::Scale && v <= 0.0 {
             Some("must be positive")
+        } else if self == FieldKind::Scale && v < MIN_FIELD_SCALE {
+            Some("absurdly small (below 1e-3)")
         } else if self == FieldKind::Entry && v < 0.0 {
             Some("must not be negative")
         } else if v.abs() > MAX_FIELD_VALUE {

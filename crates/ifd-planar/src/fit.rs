@@ -63,6 +63,47 @@ pub struct DecomposeOptions {
     pub margin: Option<usize>,
 }
 
+impl DecomposeOptions {
+    /// Checks `tol`, `alpha` and `max_terms` (what [`decompose`] checks
+    /// first), so that front ends can refuse them before any work.
+    ///
+    /// ```
+    /// use ifd_planar::DecomposeOptions;
+    /// assert!(DecomposeOptions::default().validate().is_ok());
+    /// let bad = DecomposeOptions { tol: 0.0, ..DecomposeOptions::default() };
+    /// assert!(bad.validate().unwrap_err().to_string().contains("tol = 0"));
+    /// ```
+    ///
+    /// # Errors
+    /// [`DecomposeError::Invalid`] naming the field.
+    pub fn validate(&self) -> Result<(), DecomposeError> {
+        if !(self.tol.is_finite() && self.tol > 0.0 && self.tol < 1.0) {
+            return Err(DecomposeError::Invalid {
+                name: "tol",
+                value: self.tol,
+                reason: "expected 0 < tol < 1",
+            });
+        }
+        if let Some(a) = self.alpha
+            && !(a.is_finite() && a > 0.0 && a < 1.0)
+        {
+            return Err(DecomposeError::Invalid {
+                name: "alpha",
+                value: a,
+                reason: "expected 0 < alpha < 1 (relative to ||A^T y||_inf)",
+            });
+        }
+        if self.max_terms == Some(0) {
+            return Err(DecomposeError::Invalid {
+                name: "max_terms",
+                value: 0.0,
+                reason: "expected at least 1",
+            });
+        }
+        Ok(())
+    }
+}
+
 impl Default for DecomposeOptions {
     fn default() -> Self {
         Self {
@@ -483,29 +524,7 @@ pub fn decompose(
     mut progress: impl FnMut(usize, f64, usize),
 ) -> Result<Decomposition, DecomposeError> {
     let start = Instant::now();
-    if !(opts.tol.is_finite() && opts.tol > 0.0 && opts.tol < 1.0) {
-        return Err(DecomposeError::Invalid {
-            name: "tol",
-            value: opts.tol,
-            reason: "expected 0 < tol < 1",
-        });
-    }
-    if let Some(a) = opts.alpha
-        && !(a.is_finite() && a > 0.0 && a < 1.0)
-    {
-        return Err(DecomposeError::Invalid {
-            name: "alpha",
-            value: a,
-            reason: "expected 0 < alpha < 1 (relative to ||A^T y||_inf)",
-        });
-    }
-    if opts.max_terms == Some(0) {
-        return Err(DecomposeError::Invalid {
-            name: "max_terms",
-            value: 0.0,
-            reason: "expected at least 1",
-        });
-    }
+    opts.validate()?;
     // Fit (and measure) over the window plus a margin where the kernel is
     // zero: the filter applies whole Gaussians, so the sum must vanish
     // outside the window too, not only match inside it.

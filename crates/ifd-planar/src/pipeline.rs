@@ -265,14 +265,27 @@ fn check_kernel_fits(
     w: usize,
     h: usize,
 ) -> Result<(), FilterError> {
-    if let Some((kw, kh)) = decomposition.kernel_size {
-        let extent = kw.max(kh) as f32 * smax;
-        if extent > w.max(h) as f32 {
-            return Err(FilterError::InvalidParameter(format!(
-                "the filter's kernel is {kw}x{kh} px; at scale {smax} it spans {extent:.0} px, \
-                 larger than the {w}x{h} image (use a smaller scale or a larger image)"
-            )));
-        }
+    let (size, extent) = if let Some((kw, kh)) = decomposition.kernel_size {
+        (format!("{kw}x{kh} px"), kw.max(kh) as f32 * smax)
+    } else {
+        // A hand-made decomposition without a kernel block: its support is
+        // where its terms reach, centre distance plus 3 sigma on each side.
+        let reach = decomposition
+            .terms
+            .iter()
+            .map(|t| t.x.abs().max(t.y.abs()) + 3.0 * t.sigma)
+            .fold(0.0f64, f64::max);
+        let side = (2.0 * reach).ceil();
+        (
+            format!("about {side}x{side} px (its terms' reach)"),
+            side as f32 * smax,
+        )
+    };
+    if extent > w.max(h) as f32 {
+        return Err(FilterError::InvalidParameter(format!(
+            "the filter's kernel is {size}; at scale {smax} it spans {extent:.0} px, \
+             larger than the {w}x{h} image (use a smaller scale or a larger image)"
+        )));
     }
     Ok(())
 }

@@ -88,7 +88,13 @@ impl SmoothOptions {
         self.tensor_sigma.unwrap_or_else(|| self.hessian_sigma())
     }
 
-    fn validate(&self) -> Result<(), SmoothError> {
+    /// Checks every parameter's range (what the smoother checks first), so
+    /// that front ends can refuse them before any work.
+    ///
+    /// # Errors
+    /// [`SmoothError::OutOfRange`] naming the parameter (`scale`, `hessian
+    /// sigma`, `tensor sigma`, `max aspect`, `gamma`, `epsilon`).
+    pub fn validate(&self) -> Result<(), SmoothError> {
         check_range("scale", self.scale, SCALE_RANGE.0, SCALE_RANGE.1)?;
         let (lo, hi) = HESSIAN_SIGMA_RANGE;
         check_range("hessian sigma", self.hessian_sigma(), lo, hi)?;

@@ -204,7 +204,10 @@ impl ShCoeffs {
                 ),
             });
         }
-        Self::from_rows(rows, cols, data)
+        Self::from_rows(rows, cols, data).map_err(|e| SphereError::File {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })
     }
 }
 

@@ -104,7 +104,8 @@ pub enum SphereError {
         reason: &'static str,
     },
     /// Malformed text specification (kernel spec, direction spec, ...).
-    #[error("cannot parse {what} {text:?}: {reason}")]
+    #[error("cannot parse {what}{}: {reason}",
+        if text.is_empty() { String::new() } else { format!(" {text:?}") })]
     Parse {
         /// What was being parsed.
         what: &'static str,
@@ -116,8 +117,7 @@ pub enum SphereError {
     /// A dense ISD problem (matrix `M` of Eq. 17 and its SVD) too large to build.
     #[error(
         "L = {l_max} is too large for a dense ISD decomposition: M would be {n}x{n} \
-         ({mib:.0} MiB) and its SVD about {gflop:.0} GFLOP; at most L = {max} is supported \
-         (ifd_sphere::profile::MAX_ISD_DEGREE)"
+         ({mib:.0} MiB) and its SVD about {gflop:.0} GFLOP; at most L = {max} is supported"
     )]
     IsdTooLarge {
         /// The requested degree.

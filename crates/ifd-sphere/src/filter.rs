@@ -166,11 +166,21 @@ impl Decomposition {
     /// Every structural invariant is checked ([`Self::validate`]): a file
     /// that parses but is inconsistent is refused, never evaluated.
     pub fn from_json(text: &str) -> Result<Self> {
-        let dec: Self = serde_json::from_str(text).map_err(|e| SphereError::Parse {
-            what: "decomposition JSON",
-            text: text.chars().take(40).collect(),
-            reason: e.to_string(),
-        })?;
+        let bad = |reason: String| SphereError::Parse {
+            what: "spherical decomposition JSON",
+            text: String::new(),
+            reason,
+        };
+        let value: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
+        if value.get("format").and_then(serde_json::Value::as_str) == Some("ifd-decomposition") {
+            return Err(bad(
+                "this is a planar decomposition (from `ifd decompose`, used by `ifd filter`), \
+                 not a spherical one from `ifd sphere decompose`"
+                    .into(),
+            ));
+        }
+        let dec: Self = serde_json::from_value(value).map_err(|e| bad(e.to_string()))?;
         dec.validate()?;
         Ok(dec)
     }
@@ -183,7 +193,7 @@ impl Decomposition {
     /// [`SphereError::Parse`] naming the inconsistent field.
     pub fn validate(&self) -> Result<()> {
         let bad = |reason: String| SphereError::Parse {
-            what: "decomposition",
+            what: "spherical decomposition",
             text: String::new(),
             reason,
         };

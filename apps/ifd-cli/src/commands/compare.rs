@@ -52,8 +52,13 @@ impl Compare {
                 b.channels()
             );
         }
-        let a = metrics::crop_border(&a, self.crop_border)?;
-        let b = metrics::crop_border(&b, self.crop_border)?;
+        let a = metrics::crop_border(&a, self.crop_border).context("--crop-border")?;
+        let b = metrics::crop_border(&b, self.crop_border).context("--crop-border")?;
+        if let Some(r) = self.data_range
+            && !(r.is_finite() && r > 0.0)
+        {
+            bail!("--data-range {r}: must be finite and positive");
+        }
         let range = self
             .data_range
             .unwrap_or_else(|| metrics::default_data_range(a.data(), b.data()));

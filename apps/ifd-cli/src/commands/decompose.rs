@@ -96,13 +96,26 @@ pub fn load_kernel(filter: &str, input: &InputOptions) -> Result<(Kernel, Option
 impl Decompose {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
-        let (kernel, spec) = load_kernel(&self.filter, &self.input)?;
         let mut opts = DecomposeOptions {
             alpha: self.alpha,
             max_terms: self.max_terms,
             tol: self.tol,
             ..DecomposeOptions::default()
         };
+        // Options first, named as the command line names them.
+        if let Err(ifd_planar::DecomposeError::Invalid {
+            name,
+            value,
+            reason,
+        }) = opts.validate()
+        {
+            bail!("--{} {value}: {reason}", name.replace('_', "-"));
+        }
+        if let Some(plot) = &self.plot {
+            // the plot's format and folder, before the fit writes anything
+            crate::output::check_output_path(plot).context("--plot")?;
+        }
+        let (kernel, spec) = load_kernel(&self.filter, &self.input)?;
         if let Some(b) = self.levels {
             opts.dictionary.levels = Some(b);
         }

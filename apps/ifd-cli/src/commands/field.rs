@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use ifd_image::Image;
 
@@ -43,6 +43,9 @@ pub struct FieldCmd {
     output: PathBuf,
 }
 
+/// The most values a field may have (2 GiB of float32).
+const MAX_FIELD_PIXELS: usize = 1 << 29;
+
 impl FieldCmd {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
@@ -58,6 +61,21 @@ impl FieldCmd {
         };
         if w == 0 || h == 0 || w > 65536 || h > 65536 {
             bail!("--size {w}x{h}: each side must be between 1 and 65536");
+        }
+        // The field is built in memory: at most 2^29 values (2 GiB of
+        // float32, e.g. 20000x20000 or 23170x23170).
+        if w * h > MAX_FIELD_PIXELS {
+            bail!(
+                "--size {w}x{h}: {} values, more than the {MAX_FIELD_PIXELS} (2 GiB of float32) \
+                 a field may have",
+                w * h
+            );
+        }
+        ifd_image::MemoryBudget::default_for_machine()
+            .check((w * h * 4) as u64)
+            .with_context(|| format!("--size {w}x{h}"))?;
+        if let Some(why) = ifd_image::output_folder_problem(&self.output) {
+            bail!("{}: {why}", self.output.display());
         }
         if !(self.min.is_finite() && self.max.is_finite()) {
             bail!("--min and --max must be finite");

@@ -34,16 +34,16 @@ pub struct Filter {
         allow_hyphen_values = true
     )]
     angle: Option<f32>,
-    /// Per-pixel rotation in degrees: an HxW .npy (or float EXR/TIFF) of the
-    /// image's size, read as data (integer PNG/JPEG/TIFF are refused: they
-    /// store image values in [0, 1]).
+    /// Per-pixel rotation in degrees: an HxW .npy of the image's size, read
+    /// as data (integer PNG/JPEG/TIFF are refused: they store image values in
+    /// [0, 1]).
     #[arg(long, value_name = "NPY")]
     angle_map: Option<PathBuf>,
     /// Scale factor for every pixel.
     #[arg(long, value_name = "S", conflicts_with = "scale_map")]
     scale: Option<f32>,
-    /// Per-pixel scale factors: an HxW .npy (or float EXR/TIFF) of the
-    /// image's size, read as data.
+    /// Per-pixel scale factors: an HxW .npy of the image's size, read as
+    /// data.
     #[arg(long, value_name = "NPY")]
     scale_map: Option<PathBuf>,
     /// Border handling: reflect101 (OpenCV's default), constant or constant:VALUE, replicate, wrap.
@@ -178,6 +178,7 @@ fn filter_gpu(
 impl Filter {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
+        crate::output::check_output_path(&self.output.output)?;
         let decomposition = Decomposition::load(&self.decomp)?;
         let image = self.input.read(&self.image)?.image;
         let (w, h) = (image.width(), image.height());

@@ -38,6 +38,14 @@ impl Hessian {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
         let border = self.border;
+        let (lo, hi) = ifd_smooth::hessian::HESSIAN_SIGMA_RANGE;
+        if !(self.sigma.is_finite() && self.sigma >= lo && self.sigma <= hi) {
+            anyhow::bail!(
+                "--sigma {}: outside the supported range [{lo}, {hi}]",
+                self.sigma
+            );
+        }
+        crate::output::check_output_path(&self.output)?;
         let img = self.input.read(&self.image)?.image;
         let bank = HessianBank::new(0.01)?;
         let h = hessian_image(&img, self.sigma, &bank, border)?;

@@ -114,8 +114,9 @@ impl Smooth {
                 self.scale
             );
         }
+        opts.validate().map_err(crate::input::name_option)?;
+        crate::output::check_output_path(&self.output.output)?;
         let img = self.input.read(&self.image)?.image;
-        opts.aniso.validate()?;
         let t0 = Instant::now();
         let bar = ProgressBar::new(0);
         bar.set_style(

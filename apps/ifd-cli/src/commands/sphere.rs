@@ -130,6 +130,21 @@ fn clamp_output_negatives(path: &Path, img: &mut ifd_image::Image, what: &str) -
 
 impl ShCmd {
     fn run(self) -> Result<()> {
+        if self.lmax > ifd_sphere::MAX_DEGREE {
+            bail!(
+                "--lmax {}: at most L = {} is supported",
+                self.lmax,
+                ifd_sphere::MAX_DEGREE
+            );
+        }
+        // unwritable outputs are refused before the work
+        if let Some(why) = ifd_image::output_folder_problem(&self.output) {
+            bail!("{}: {why}", self.output.display());
+        }
+        if let Some(path) = &self.reconstruct {
+            stores_negatives(path)?;
+            crate::output::check_output_path(path).context("--reconstruct")?;
+        }
         let img = self.input.read(&self.envmap)?.image;
         let (w, h) = (img.width(), img.height());
         let cube = w == 6 * h && h > 0;
@@ -147,10 +162,6 @@ impl ShCmd {
             ),
             e => anyhow::Error::new(e).context(format!("{}", self.envmap.display())),
         })?;
-        if let Some(path) = &self.reconstruct {
-            // refuse an unknown output extension before the work
-            stores_negatives(path)?;
-        }
         let neg = if self.keep_negatives {
             Negatives::Keep
         } else {
@@ -372,7 +383,7 @@ impl DecomposeCmd {
     fn run(self) -> Result<()> {
         // size check first: the kernel projection and the direction optimiser
         // would otherwise run for a long time before M is refused
-        check_isd_degree(self.lmax)?;
+        check_isd_degree(self.lmax).with_context(|| format!("--lmax {}", self.lmax))?;
         let profile = Profile::parse(&self.profile)?;
         let kc = self.kernel_coeffs()?;
         let dirs = self.direction_set()?;
@@ -508,13 +519,17 @@ impl EvalCmd {
                 self.dirs.display()
             );
         };
-        let sh = ShEvaluator::new(self.lmax)?;
+        let sh = ShEvaluator::new(self.lmax).with_context(|| format!("--lmax {}", self.lmax))?;
         let k = sh.count();
+        ifd_image::MemoryBudget::default_for_machine()
+            .check((n.saturating_mul(k) as u64).saturating_mul(8))
+            .with_context(|| format!("{} directions at --lmax {}", n, self.lmax))?;
         let mut out = vec![0.0; n * k];
         let mut y32 = vec![0.0f32; k];
         for i in 0..*n {
             let d = [data[3 * i], data[3 * i + 1], data[3 * i + 2]];
-            ifd_sphere::zhf::check_direction(i, d)?;
+            ifd_sphere::zhf::check_direction(i, d)
+                .with_context(|| format!("--dirs {}", self.dirs.display()))?;
             if self.f32 {
                 sh.eval_f32_into([d[0] as f32, d[1] as f32, d[2] as f32], &mut y32);
                 for (o, v) in out[i * k..(i + 1) * k].iter_mut().zip(&y32) {
@@ -712,16 +727,8 @@ impl BrdfCmd {
         }
         let brdf = ifd_shade::Brdf::parse(&self.spec)?;
         // an unwritable output is refused before the work
-        if let Some(dir) = self
-            .output
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty() && !d.is_dir())
-        {
-            bail!(
-                "{}: folder {} does not exist",
-                self.output.display(),
-                dir.display()
-            );
+        if let Some(why) = ifd_image::output_folder_problem(&self.output) {
+            bail!("{}: {why}", self.output.display());
         }
         let nt = self
             .theta_entries
