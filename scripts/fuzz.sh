@@ -52,6 +52,7 @@ fi
 export RUSTC_BOOTSTRAP=1
 echo "building the fuzz targets (release, debug assertions, AddressSanitizer)"
 (cd fuzz && cargo fuzz build) || { echo "fuzz build failed" >&2; exit 2; }
+BIN=$(pwd)/fuzz/target/$(rustc -vV | sed -n 's/^host: //p')/release
 
 fuzz_one() {
   local t=$1 log=fuzz/artifacts/$1.log
@@ -59,7 +60,10 @@ fuzz_one() {
   local before
   before=$(ls "fuzz/artifacts/$t" | wc -l)
   local start=$SECONDS
-  (cd fuzz && cargo fuzz run "$t" "corpus/$t" "seeds/$t" -- \
+  # The binaries built above, run directly (not `cargo fuzz run`, which
+  # would rebuild from a tree that may have changed since).
+  (cd fuzz && ASAN_OPTIONS=detect_odr_violation=0 "$BIN/$t" "corpus/$t" "seeds/$t" \
+    -artifact_prefix="artifacts/$t/" \
     -max_total_time="$TIME" -runs="$RUNS" -rss_limit_mb="$RSS" -malloc_limit_mb="$RSS" \
     -timeout=20 -print_final_stats=1 -close_fd_mask=1) >"$log" 2>&1
   local rc=$?

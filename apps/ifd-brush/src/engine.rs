@@ -11,6 +11,7 @@ use ifd_planar::PixelRect;
 use ifd_smooth::{AspectBank, BankOptions, Dab, HessianBank, Smoother};
 
 use crate::history::{EditRecorder, History};
+use crate::journal::{self, Journal, Recovered};
 use crate::settings::BrushSettings;
 use crate::stroke::StrokeInterpolator;
 use crate::strokes::{Action, StrokesFile};
@@ -184,6 +185,8 @@ pub struct DabBatch {
 
 struct ActiveStroke {
     brush: BrushSettings,
+    /// The pointer positions so far (journaled whole when the stroke ends).
+    points: Vec<[f32; 2]>,
     interp: StrokeInterpolator,
     recorder: EditRecorder,
     rect: Option<PixelRect>,
@@ -200,9 +203,26 @@ pub struct Engine {
     history: History,
     stroke: Option<ActiveStroke>,
     recording: Option<StrokesFile>,
+    journal: JournalState,
     gpu: Option<GpuPath>,
     /// The compute path in words, and why the GPU is not (fully) used.
     compute: (String, Option<String>),
+}
+
+/// The edit journal of the document ([`crate::journal`]).
+#[derive(Debug, Default)]
+struct JournalState {
+    /// Where journals live; `None`: journaling off.
+    dir: Option<PathBuf>,
+    /// Print each saved entry on stderr.
+    announce: bool,
+    /// The open journal of the current document.
+    open: Option<Journal>,
+    /// A journal of an interrupted session on this image, waiting for
+    /// [`Engine::resolve_recovery`] (nothing is journaled until then).
+    pending: Option<Recovered>,
+    /// Why journaling stopped (a failed write), once.
+    failed: Option<String>,
 }
 
 /// Bytes an image of this shape needs in the app with `brush`: the stack and
@@ -238,8 +258,92 @@ impl Engine {
             history: History::default(),
             stroke: None,
             recording: None,
+            journal: JournalState::default(),
             gpu: None,
             compute: ("CPU".into(), None),
+        }
+    }
+
+    /// Journals every stroke, undo and redo of documents opened from a file
+    /// in `dir` ([`crate::journal`]); `announce` prints each saved entry on
+    /// stderr. `None` turns journaling off. Applies from the next
+    /// [`Engine::set_image`].
+    pub fn set_journal_dir(&mut self, dir: Option<PathBuf>, announce: bool) {
+        self.journal.dir = dir;
+        self.journal.announce = announce;
+    }
+
+    /// The journal of an interrupted session on the current image, when the
+    /// last [`Engine::set_image`] found one: offer it, then call
+    /// [`Engine::resolve_recovery`].
+    #[must_use]
+    pub fn recoverable(&self) -> Option<&Recovered> {
+        self.journal.pending.as_ref()
+    }
+
+    /// Applies (`recover`) or discards the journal of an interrupted session
+    /// and starts this session's journal (which then holds the recovered
+    /// edits too). Returns the dabs applied.
+    ///
+    /// # Errors
+    /// As [`Engine::replay`].
+    pub fn resolve_recovery(&mut self, recover: bool) -> anyhow::Result<usize> {
+        let Some(r) = self.journal.pending.take() else {
+            return Ok(0);
+        };
+        self.start_journal();
+        if recover {
+            self.replay(&r.strokes)
+        } else {
+            Ok(0)
+        }
+    }
+
+    /// The journal folder, when journaling is on.
+    #[must_use]
+    pub fn journal_dir(&self) -> Option<&Path> {
+        self.journal.dir.as_deref()
+    }
+
+    /// The journal file in use, and why journaling stopped if it did.
+    #[must_use]
+    pub fn journal_status(&self) -> (Option<&Path>, Option<&str>) {
+        (
+            self.journal.open.as_ref().map(Journal::path),
+            self.journal.failed.as_deref(),
+        )
+    }
+
+    /// Ends journaling cleanly (the app closes normally): the journal is
+    /// deleted, there is nothing to recover. A pending journal is kept.
+    pub fn close_journal(&mut self) {
+        if let Some(j) = self.journal.open.take() {
+            j.remove();
+        }
+    }
+
+    fn start_journal(&mut self) {
+        self.journal.open = None;
+        let (Some(dir), Some(path), Some(image)) = (&self.journal.dir, &self.path, &self.image)
+        else {
+            return;
+        };
+        match Journal::create(dir, path, image) {
+            Ok(mut j) => {
+                j.set_announce(self.journal.announce);
+                self.journal.open = Some(j);
+            }
+            Err(e) => self.journal.failed = Some(format!("{e:#}")),
+        }
+    }
+
+    fn journal_append(&mut self, action: &Action) {
+        if let Some(j) = &mut self.journal.open
+            && let Err(e) = j.append(action)
+        {
+            eprintln!("warning: journaling stopped: {e:#}");
+            self.journal.failed = Some(format!("{e:#}"));
+            self.journal.open = None;
         }
     }
 
@@ -523,6 +627,17 @@ impl Engine {
             g.smoother = None;
         }
         self.make_canvas();
+        // The previous document closed normally; this one's journal starts
+        // now, unless an interrupted session left one to offer first.
+        self.close_journal();
+        self.journal.pending = None;
+        self.journal.failed = None;
+        if let (Some(dir), Some(p), Some(img)) = (&self.journal.dir, &self.path, &self.image) {
+            self.journal.pending = journal::recoverable(dir, p, img);
+        }
+        if self.journal.pending.is_none() {
+            self.start_journal();
+        }
     }
 
     /// Builds the smoother for `brush` unless the current one fits (the
@@ -609,6 +724,7 @@ impl Engine {
         }
         self.stroke = Some(ActiveStroke {
             brush,
+            points: Vec::new(),
             interp: StrokeInterpolator::with_bounds(
                 brush.spacing_px(),
                 [
@@ -637,6 +753,7 @@ impl Engine {
         {
             s.points.push([x, y]);
         }
+        st.points.push([x, y]);
         let guard = self
             .smoother
             .read()
@@ -710,9 +827,14 @@ impl Engine {
         if let Some(r) = self.stroke.as_ref().and_then(|s| s.rect) {
             self.pull_from_canvas(r)?;
         }
-        let Some(st) = self.stroke.take() else {
+        let Some(mut st) = self.stroke.take() else {
             return Ok(None);
         };
+        let points = std::mem::take(&mut st.points);
+        self.journal_append(&Action::Stroke(crate::strokes::Stroke {
+            brush: st.brush,
+            points,
+        }));
         let Some(rect) = st.rect else {
             return Ok(None);
         };
@@ -769,6 +891,7 @@ impl Engine {
         if let Some(rec) = &mut self.recording {
             rec.strokes.push(Action::Undo { undo: true });
         }
+        self.journal_append(&Action::Undo { undo: true });
         if let Some(r) = r {
             self.push_to_canvas(r)?;
             self.refresh(r)?;
@@ -789,6 +912,7 @@ impl Engine {
         if let Some(rec) = &mut self.recording {
             rec.strokes.push(Action::Redo { redo: true });
         }
+        self.journal_append(&Action::Redo { redo: true });
         if let Some(r) = r {
             self.push_to_canvas(r)?;
             self.refresh(r)?;

@@ -12,7 +12,8 @@
 //!   and receives pixels and progress, so the UI thread never blocks.
 //! - [`app`]: the egui UI (canvas, panels, file browser, dialogs).
 //! - [`stroke`], [`history`], [`display`], [`view`], [`settings`],
-//!   [`strokes`] (the recorded-strokes file format), [`browser`].
+//!   [`strokes`] (the recorded-strokes file format), [`journal`] (edits
+//!   saved as you paint, recovered after a crash), [`browser`].
 //!
 //! # Replay without a person
 //! ```text
@@ -21,7 +22,9 @@
 //! replays the strokes headlessly (no window) and saves the result; add
 //! `--screenshot SHOT.png` to do it in a window and capture it.
 //! `--record FILE` writes the strokes painted in a session. The file format
-//! is documented in [`strokes`].
+//! is documented in [`strokes`]. Edits are journaled as they are painted
+//! ([`journal`]): after a crash, the next start on the image offers them back
+//! (`--recover` headless).
 //!
 //! ```no_run
 //! use ifd_brush::engine::{Banks, Engine};
@@ -41,6 +44,7 @@ pub mod browser;
 pub mod display;
 pub mod engine;
 pub mod history;
+pub mod journal;
 pub mod settings;
 pub mod stroke;
 pub mod strokes;

@@ -52,6 +52,23 @@ struct Args {
     /// the window's start settings: JSON like {"radius": 20, "mode": "dab"}.
     #[arg(long, value_name = "JSON")]
     brush: Option<String>,
+    /// Folder of the edit journals, which save every stroke as you paint so
+    /// that a crash loses at most the stroke in progress (default in a
+    /// window: ~/.local/state/ifd-brush/journal; headless runs journal only
+    /// when this is given).
+    #[arg(long, value_name = "DIR", conflicts_with = "no_journal")]
+    journal: Option<PathBuf>,
+    /// Do not journal edits.
+    #[arg(long)]
+    no_journal: bool,
+    /// Headless: apply the journal an interrupted session left for the image
+    /// (before --replay, if given); the window asks instead.
+    #[arg(long)]
+    recover: bool,
+    /// Headless: wait this many milliseconds after each replayed stroke (to
+    /// watch a replay's journal, or to interrupt it on purpose).
+    #[arg(long, value_name = "MS", default_value_t = 0)]
+    replay_pace: u64,
 }
 
 /// `--gpu` values.
@@ -73,13 +90,19 @@ impl From<Gpu> for GpuChoice {
 }
 
 fn headless(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
-    let replay = args.replay.as_ref().context("--replay is needed")?;
-    let file = StrokesFile::load(replay)?;
+    let file = args
+        .replay
+        .as_ref()
+        .map(|p| StrokesFile::load(p))
+        .transpose()?;
     let bank_cache = args.bank.clone().or_else(Banks::default_cache);
     let banks = Banks::load_or_build(bank_cache.as_deref(), |d, n| {
         eprintln!("fitting decompositions {d}/{n}");
     })?;
     let mut engine = Engine::new(banks, budget);
+    if !args.no_journal {
+        engine.set_journal_dir(args.journal.clone(), true);
+    }
     let (label, note) = engine.enable_gpu(args.gpu.into());
     eprintln!(
         "compute: {label}{}",
@@ -96,8 +119,37 @@ fn headless(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
     if args.record.is_some() {
         engine.start_recording();
     }
+    if let Some(r) = engine.recoverable() {
+        let n = r.strokes.strokes.len();
+        if args.recover {
+            let dabs = engine.resolve_recovery(true)?;
+            eprintln!("recovered {n} journal entries ({dabs} dabs)");
+        } else {
+            eprintln!(
+                "note: an interrupted session left {n} edits of this image in the journal; \
+                 pass --recover to apply them (nothing is journaled in this run)"
+            );
+        }
+    } else if args.recover {
+        eprintln!("note: --recover: no journal of this image to recover");
+    }
     let t0 = std::time::Instant::now();
-    let dabs = engine.replay(&file)?;
+    let mut dabs = 0;
+    if let Some(file) = &file {
+        if args.replay_pace == 0 {
+            dabs = engine.replay(file)?;
+        } else {
+            // One entry at a time, pausing after each.
+            for a in &file.strokes {
+                let one = StrokesFile {
+                    strokes: vec![a.clone()],
+                    ..file.clone()
+                };
+                dabs += engine.replay(&one)?;
+                std::thread::sleep(std::time::Duration::from_millis(args.replay_pace));
+            }
+        }
+    }
     // The path can change once the image is prepared (a smoother beyond the
     // device's limits runs on the CPU).
     let (now, why) = engine.compute();
@@ -118,7 +170,27 @@ fn headless(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
     if let (Some(rec), Some(p)) = (engine.recording(), &args.record) {
         rec.save(p)?;
     }
+    // A run that ends normally leaves nothing to recover.
+    engine.close_journal();
     Ok(())
+}
+
+/// The window journals edits in `--journal DIR`, or by default in
+/// [`ifd_brush::journal::default_dir`]; automated runs (`--replay`, `--save`,
+/// `--screenshot`, `--exit`) only with `--journal`, so that a test never
+/// finds a recovery dialog in its way.
+fn window_journal_dir(args: &Args) -> Option<PathBuf> {
+    let automated =
+        args.replay.is_some() || args.save.is_some() || args.screenshot.is_some() || args.exit;
+    if args.no_journal {
+        None
+    } else if args.journal.is_some() {
+        args.journal.clone()
+    } else if automated {
+        None
+    } else {
+        ifd_brush::journal::default_dir()
+    }
 }
 
 fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
@@ -150,6 +222,7 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
             failure: std::sync::Arc::clone(&failure),
         },
         render_state: None,
+        journal_dir: window_journal_dir(args),
     };
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
@@ -241,11 +314,12 @@ fn main() -> ExitCode {
         .map_or_else(MemoryBudget::default_for_machine, |m| {
             MemoryBudget::bytes(m << 20)
         });
-    let result = if args.exit && args.replay.is_some() && args.screenshot.is_none() {
-        headless(&args, budget)
-    } else {
-        window(&args, budget)
-    };
+    let result =
+        if args.exit && (args.replay.is_some() || args.recover) && args.screenshot.is_none() {
+            headless(&args, budget)
+        } else {
+            window(&args, budget)
+        };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -50,6 +50,11 @@ pub enum Command {
     StartRecording,
     /// Write the recording.
     SaveRecording(PathBuf),
+    /// Apply (`true`) or discard the journal an interrupted session left
+    /// ([`Event::Recoverable`]), and start this session's journal.
+    Recover(bool),
+    /// The app closes normally: delete the journal (nothing to recover).
+    CloseJournal,
 }
 
 /// What the worker reports.
@@ -142,6 +147,22 @@ pub enum Event {
     },
     /// The recording was written.
     RecordingSaved(PathBuf),
+    /// The opened image has a journal of an interrupted session: ask whether
+    /// to recover it (answer with [`Command::Recover`]; nothing is journaled
+    /// until then).
+    Recoverable {
+        /// Strokes, undos and redos in the journal.
+        entries: usize,
+        /// The journal file.
+        journal: PathBuf,
+    },
+    /// The journal was recovered or discarded.
+    Recovered {
+        /// Entries applied (0 when discarded).
+        entries: usize,
+    },
+    /// The journal was closed ([`Command::CloseJournal`]).
+    JournalClosed,
     /// Something failed; the document is unchanged.
     Error(String),
 }
@@ -164,6 +185,7 @@ pub struct Worker {
 /// painted and shown there ([`Engine::enable_gpu_on`]).
 pub fn spawn(
     bank_cache: Option<PathBuf>,
+    journal_dir: Option<PathBuf>,
     budget: MemoryBudget,
     gpu: GpuChoice,
     shared: Option<SharedDevice>,
@@ -198,6 +220,7 @@ pub fn spawn(
             };
             send(Event::BanksReady(banks.info.clone()));
             let mut engine = Engine::new(banks, budget);
+            engine.set_journal_dir(journal_dir, false);
             let announce = |(label, note): (String, Option<String>)| {
                 send(Event::Compute { label, note });
             };
@@ -209,6 +232,8 @@ pub fn spawn(
                     Some(c) => c,
                     None => match crx.recv() {
                         Ok(c) => c,
+                        // The UI is gone without closing the journal (it
+                        // crashed): keep it for recovery.
                         Err(_) => return,
                     },
                 };
@@ -317,6 +342,15 @@ fn serve(
                     let float = l.integer_bits.is_none();
                     send(loaded(engine, l.image, Some(path), float));
                     send(history_event(engine));
+                    if let Some(r) = engine.recoverable() {
+                        send(Event::Recoverable {
+                            entries: r.strokes.strokes.len(),
+                            journal: engine
+                                .journal_dir()
+                                .map(|d| crate::journal::path_for(d, &r.header.image))
+                                .unwrap_or_default(),
+                        });
+                    }
                     prepare(engine, &brush, send);
                 }
                 Err(e) => fail(e),
@@ -462,6 +496,39 @@ fn serve(
             }
         }
         Command::StartRecording => engine.start_recording(),
+        Command::Recover(apply) => {
+            let entries = engine.recoverable().map_or(0, |r| r.strokes.strokes.len());
+            let before = engine.history().current_id();
+            match engine.resolve_recovery(apply) {
+                Ok(_) => {
+                    if before != engine.history().current_id()
+                        && let Some(img) = engine.image()
+                    {
+                        let all = PixelRect {
+                            x0: 0,
+                            y0: 0,
+                            width: img.width(),
+                            height: img.height(),
+                        };
+                        if let Some(ev) = patch_event(engine, all, Vec::new()) {
+                            send(ev);
+                        }
+                    }
+                    send(history_event(engine));
+                    send(Event::Recovered {
+                        entries: if apply { entries } else { 0 },
+                    });
+                }
+                Err(e) => fail(e),
+            }
+        }
+        Command::CloseJournal => {
+            if let Err(e) = engine.end_stroke() {
+                fail(e);
+            }
+            engine.close_journal();
+            send(Event::JournalClosed);
+        }
         Command::SaveRecording(path) => {
             if let Err(e) = engine.end_stroke() {
                 fail(e);

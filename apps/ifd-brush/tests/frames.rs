@@ -44,6 +44,7 @@ fn loading_8_megapixels_shows_the_image_and_reports_frame_times() {
             automation: Automation::default(),
             gpu: ifd_brush::engine::GpuChoice::Off,
             render_state: None,
+            journal_dir: None,
         },
     );
     let screen = Rect::from_min_size(pos2(0.0, 0.0), vec2(1280.0, 800.0));

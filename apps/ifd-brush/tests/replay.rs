@@ -415,3 +415,124 @@ fn strokes_fuzz_corpus_replays_without_panics() {
     }
     assert!(n >= 2, "only {n} strokes corpus inputs");
 }
+
+/// Edits are saved as they are painted (`ifd_brush::journal`): a headless
+/// replay killed (SIGKILL) after it reports its third saved journal entry
+/// is recovered by the next start on the same image, and the recovered image
+/// equals the library's replay of the entries the journal kept, which are
+/// at least the three reported and fewer than the whole replay (the kill
+/// interrupted it). A run that ends normally deletes its journal.
+#[test]
+fn killed_replay_is_recovered_from_the_journal() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let dir = tempfile::tempdir().expect("tempdir");
+    let input = dir.path().join("in.png");
+    ifd_image::write(&input, &common::crop(150, 100, 200, 160)).expect("write");
+    let journal_dir = dir.path().join("journal");
+    let brush = BrushSettings {
+        radius: 18.0,
+        strength: 0.8,
+        mode: BrushMode::Dab,
+        ..BrushSettings::default()
+    };
+    let total = 8;
+    let file = StrokesFile {
+        image_size: Some([200, 160]),
+        strokes: (0..total)
+            .map(|k| {
+                let y = 15.0 + 18.0 * k as f32;
+                Action::Stroke(Stroke {
+                    brush,
+                    points: vec![[10.0, y], [190.0, 160.0 - y]],
+                })
+            })
+            .collect(),
+        ..StrokesFile::default()
+    };
+    let sfile = dir.path().join("strokes.json");
+    file.save(&sfile).expect("save strokes");
+    let bank = common::bank_cache();
+    let arg = |p: &std::path::Path| p.to_str().expect("utf8").to_string();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ifd-brush"))
+        .args(["--image", &arg(&input), "--replay", &arg(&sfile)])
+        .args(["--journal", &arg(&journal_dir), "--bank", &arg(&bank)])
+        .args(["--gpu", "off", "--replay-pace", "400", "--exit"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run ifd-brush");
+    let stderr = child.stderr.take().expect("stderr");
+    let mut seen = Vec::new();
+    for line in BufReader::new(stderr).lines() {
+        let line = line.expect("stderr line");
+        let third = line.starts_with("journal: saved entry 3 ");
+        seen.push(line);
+        if third {
+            break;
+        }
+    }
+    child.kill().expect("kill");
+    child.wait().expect("wait");
+    assert!(
+        seen.iter()
+            .any(|l| l.starts_with("journal: saved entry 3 ")),
+        "the replay never reported a third saved entry:\n{}",
+        seen.join("\n")
+    );
+    let journals: Vec<_> = std::fs::read_dir(&journal_dir)
+        .expect("journal folder")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
+    assert_eq!(journals.len(), 1, "{journals:?}");
+    let kept = ifd_brush::journal::read(&journals[0]).expect("journal");
+    let n = kept.strokes.strokes.len();
+    assert!(
+        (3..total).contains(&n),
+        "the journal kept {n} of {total} strokes; the kill came after the 3rd was saved and before the end"
+    );
+    assert_eq!(kept.strokes.strokes[..], file.strokes[..n]);
+
+    // The next start on the image recovers the journal.
+    let out = dir.path().join("recovered.exr");
+    let o = Command::new(env!("CARGO_BIN_EXE_ifd-brush"))
+        .args(["--image", &arg(&input), "--journal", &arg(&journal_dir)])
+        .args(["--bank", &arg(&bank), "--gpu", "off", "--recover"])
+        .args(["--save", &arg(&out), "--exit"])
+        .output()
+        .expect("run ifd-brush --recover");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains(&format!("recovered {n} journal entries")),
+        "{err}"
+    );
+    let got = ifd_image::read(&out).expect("recovered image");
+    let got = Image::from_vec(got.width(), got.height(), 1, got.plane(0)).expect("grey");
+
+    // The library, without a journal: the same entries on the same pixels.
+    let mut engine = Engine::new(common::banks(), MemoryBudget::default_for_machine());
+    let loaded = engine.read(&input, &brush).expect("read");
+    let original = loaded.image.clone();
+    engine.set_image(loaded.image, None, false);
+    engine.replay(&kept.strokes).expect("replay");
+    let want = engine.image().expect("image").clone();
+    let d = common::max_diff(&got, &want);
+    let changed = common::max_diff(&original, &want);
+    eprintln!(
+        "recovered {n} of {total} strokes; max |recovered - replay| {d:.2e} (edit size {changed:.3})"
+    );
+    assert!(
+        changed > 0.05,
+        "the strokes must change the image ({changed})"
+    );
+    assert!(
+        d <= 1e-6,
+        "the recovered image differs from the replay by {d}"
+    );
+    // That run ended normally: its journal is gone.
+    let left: Vec<_> = std::fs::read_dir(&journal_dir)
+        .expect("journal folder")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}

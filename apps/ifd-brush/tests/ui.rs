@@ -1,8 +1,8 @@
 //! The UI's state logic driven through egui input events, without a window:
 //! a stroke painted with the mouse, Ctrl+Z / Ctrl+Shift+Z, the question asked
 //! before quitting or opening another image with unsaved edits, files
-//! dropped on the window, and the error dialog for files that cannot be
-//! opened.
+//! dropped on the window, the error dialog for files that cannot be
+//! opened, and the recovery of a session that did not close.
 
 mod common;
 
@@ -98,6 +98,7 @@ fn start(ctx: &egui::Context, image: PathBuf, budget: MemoryBudget) -> BrushApp 
             automation: Automation::default(),
             gpu: ifd_brush::engine::GpuChoice::Off,
             render_state: None,
+            journal_dir: None,
         },
     );
     until(ctx, &mut app, "the smoother", BrushApp::is_ready);
@@ -288,4 +289,58 @@ fn bad_files_show_the_reason_and_lose_no_edits() {
     until(&ctx, &mut app, "undo", |a| a.undo_redo() == (0, 1));
     assert_eq!(app.image().expect("image").data(), original.data());
     assert!(!app.is_dirty());
+}
+
+/// Strokes are journaled as they are painted: a session that ends without
+/// closing (the app dropped without `finish`, as a crash leaves it) is
+/// offered at the next start on the same image; recovering gives the painted
+/// image back with its undo history, and a normal close deletes the journal.
+#[test]
+fn an_unclosed_session_is_offered_for_recovery() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("in.png");
+    ifd_image::write(&path, &common::crop(150, 100, 240, 200)).expect("write");
+    let journal = dir.path().join("journal");
+    let ctx = egui::Context::default();
+    let open = |ctx: &egui::Context| {
+        BrushApp::new(
+            ctx,
+            Persisted::default(),
+            StartOptions {
+                image: Some(path.clone()),
+                bank_cache: Some(common::bank_cache()),
+                budget: MemoryBudget::default_for_machine(),
+                automation: Automation::default(),
+                gpu: ifd_brush::engine::GpuChoice::Off,
+                render_state: None,
+                journal_dir: Some(journal.clone()),
+            },
+        )
+    };
+    let mut app = open(&ctx);
+    until(&ctx, &mut app, "the smoother", BrushApp::is_ready);
+    assert_eq!(app.asks_to_recover(), None, "nothing to recover yet");
+    let painted = paint_stroke(&ctx, &mut app);
+    drop(app); // no finish(): the journal stays
+
+    let ctx = egui::Context::default();
+    let mut app = open(&ctx);
+    until(&ctx, &mut app, "the recovery question", |a| {
+        a.asks_to_recover().is_some()
+    });
+    assert_eq!(app.asks_to_recover(), Some(1));
+    app.answer_recovery(true);
+    until(&ctx, &mut app, "the recovered stroke", |a| {
+        a.undo_redo() == (1, 0)
+    });
+    let got = app.image().expect("image");
+    let d = common::max_diff(got, &painted);
+    assert!(
+        d <= 1e-6,
+        "the recovered image differs from the painted one by {d}"
+    );
+    assert!(app.is_dirty(), "recovered edits are not saved");
+    app.finish();
+    let left = std::fs::read_dir(&journal).expect("journal folder").count();
+    assert_eq!(left, 0, "a normal close deletes the journal");
 }

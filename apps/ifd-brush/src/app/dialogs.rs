@@ -66,6 +66,30 @@ impl BrushApp {
                 self.dismiss_errors();
             }
         }
+        if let Some((entries, journal)) = self.recovery.clone() {
+            let mut answer = None;
+            egui::Modal::new(egui::Id::unique("recover-dialog")).show(ctx, |ui| {
+                ui.heading("Recover edits?");
+                ui.label(format!(
+                    "An earlier session on this image ended without closing (a crash or a \
+                     kill). Its journal holds {entries} edit{} (strokes, undos and redos), \
+                     saved as they were painted.",
+                    if entries == 1 { "" } else { "s" }
+                ));
+                ui.small(journal.display().to_string());
+                ui.horizontal(|ui| {
+                    if ui.button("Recover").clicked() {
+                        answer = Some(true);
+                    }
+                    if ui.button("Discard").clicked() {
+                        answer = Some(false);
+                    }
+                });
+            });
+            if let Some(a) = answer {
+                self.answer_recovery(a);
+            }
+        }
         if let Some(p) = self.pending.clone() {
             let mut answer = None;
             egui::Modal::new(egui::Id::unique("confirm-dialog")).show(ctx, |ui| {

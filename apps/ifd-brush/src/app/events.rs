@@ -131,6 +131,17 @@ impl BrushApp {
                 Event::RecordingSaved(p) => {
                     self.status = format!("strokes written to {}", p.display());
                 }
+                Event::Recoverable { entries, journal } => {
+                    self.recovery = Some((entries, journal));
+                }
+                Event::Recovered { entries } => {
+                    self.status = if entries > 0 {
+                        format!("recovered {entries} edits from the journal")
+                    } else {
+                        "the interrupted session's edits were discarded".into()
+                    };
+                }
+                Event::JournalClosed => {}
                 Event::Error(msg) => {
                     self.busy = None;
                     self.quit_after_save = false;

@@ -90,6 +90,9 @@ pub struct StartOptions {
     /// The window's wgpu renderer (eframe's), when it has one: on the GPU
     /// path the document is painted on its device and shown from there.
     pub render_state: Option<WindowGpu>,
+    /// Where edits are journaled as they are painted ([`crate::journal`]);
+    /// `None`: not journaled.
+    pub journal_dir: Option<PathBuf>,
 }
 
 /// The window's wgpu renderer (eframe's `RenderState`).
@@ -170,6 +173,9 @@ pub struct BrushApp {
     saved_state: u64,
     errors: Vec<String>,
     pending: Option<Pending>,
+    /// An interrupted session's journal on the open image: (entries, file),
+    /// asked about in a dialog.
+    recovery: Option<(usize, PathBuf)>,
     browser: Option<FileBrowser>,
     show_original: bool,
     stroking: bool,
@@ -252,6 +258,7 @@ impl BrushApp {
             });
         let worker = worker::spawn(
             start.bank_cache.clone(),
+            start.journal_dir.clone(),
             start.budget,
             start.gpu,
             shared,
@@ -298,6 +305,7 @@ impl BrushApp {
             saved_state: 0,
             errors: Vec::new(),
             pending: None,
+            recovery: None,
             browser: None,
             show_original: false,
             stroking: false,
@@ -344,6 +352,21 @@ impl BrushApp {
     #[must_use]
     pub fn undo_redo(&self) -> (usize, usize) {
         (self.undo_len, self.redo_len)
+    }
+
+    /// The entries of an interrupted session's journal, while the "recover
+    /// edits?" question is showing.
+    #[must_use]
+    pub fn asks_to_recover(&self) -> Option<usize> {
+        self.recovery.as_ref().map(|(n, _)| *n)
+    }
+
+    /// Answers the "recover edits?" question (its Recover and Discard
+    /// buttons).
+    pub fn answer_recovery(&mut self, recover: bool) {
+        if self.recovery.take().is_some() {
+            self.send(Command::Recover(recover));
+        }
     }
 
     /// Whether the "unsaved edits" question is showing for quitting.
@@ -458,20 +481,21 @@ impl BrushApp {
 
     /// Call when the app closes: writes the `--record` file (waits up to 5 s
     /// for the worker, which may be finishing a stroke).
+    ///
+    /// A normal close also deletes the edit journal: there is nothing to
+    /// recover (unsaved edits were confirmed away by the quit dialog).
     pub fn finish(&mut self) {
-        let Some(p) = self.automation.record.clone() else {
-            return;
-        };
-        self.send(Command::SaveRecording(p));
+        if let Some(p) = self.automation.record.clone() {
+            self.send(Command::SaveRecording(p));
+        }
+        self.send(Command::CloseJournal);
         let t0 = Instant::now();
         while t0.elapsed() < Duration::from_secs(5) {
             match self.worker.rx.recv_timeout(Duration::from_millis(100)) {
-                Ok(Event::RecordingSaved(_))
-                | Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => break,
-                Ok(Event::Error(e)) => {
-                    eprintln!("error: {e}");
+                Ok(Event::JournalClosed) | Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
                     break;
                 }
+                Ok(Event::Error(e)) => eprintln!("error: {e}"),
                 _ => {}
             }
         }
