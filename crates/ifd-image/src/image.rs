@@ -181,6 +181,63 @@ impl Image {
         (0..self.channels).map(|c| self.plane(c)).collect()
     }
 
+    /// The `width x height` rectangle with its top-left corner at
+    /// `(x0, y0)`, copied.
+    ///
+    /// ```
+    /// let img = ifd_image::Image::from_vec(3, 2, 1, vec![0., 1., 2., 3., 4., 5.]).unwrap();
+    /// assert_eq!(img.crop(1, 1, 2, 1).data(), &[4., 5.]);
+    /// ```
+    ///
+    /// # Panics
+    /// When the rectangle is empty or not inside the image.
+    #[must_use]
+    pub fn crop(&self, x0: usize, y0: usize, width: usize, height: usize) -> Image {
+        assert!(
+            width > 0 && height > 0 && x0 + width <= self.width && y0 + height <= self.height,
+            "crop {width}x{height} at ({x0}, {y0}) of a {}x{} image",
+            self.width,
+            self.height
+        );
+        let c = self.channels;
+        let mut data = Vec::with_capacity(width * height * c);
+        for y in y0..y0 + height {
+            let i = (y * self.width + x0) * c;
+            data.extend_from_slice(&self.data[i..i + width * c]);
+        }
+        Image {
+            width,
+            height,
+            channels: c,
+            data,
+        }
+    }
+
+    /// Copies `tile` into this image with its top-left corner at `(x0, y0)`.
+    ///
+    /// # Panics
+    /// When `tile` does not fit there or has other channels.
+    pub fn paste(&mut self, x0: usize, y0: usize, tile: &Image) {
+        assert!(
+            tile.channels == self.channels
+                && x0 + tile.width <= self.width
+                && y0 + tile.height <= self.height,
+            "paste a {}x{}x{} tile at ({x0}, {y0}) into a {}x{}x{} image",
+            tile.width,
+            tile.height,
+            tile.channels,
+            self.width,
+            self.height,
+            self.channels
+        );
+        let c = self.channels;
+        let row = tile.width * c;
+        for (j, src) in tile.data.chunks_exact(row).enumerate() {
+            let i = ((y0 + j) * self.width + x0) * c;
+            self.data[i..i + row].copy_from_slice(src);
+        }
+    }
+
     /// Whether two images have the same width, height and channel count.
     #[must_use]
     pub fn same_shape(&self, other: &Self) -> bool {

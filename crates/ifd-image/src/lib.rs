@@ -23,6 +23,7 @@ mod image;
 mod io;
 pub mod metrics;
 mod npy;
+mod npy_stream;
 
 pub use crate::budget::{MemoryBudget, physical_memory};
 pub use crate::error::{ImageError, fmt_bytes};
@@ -33,3 +34,4 @@ pub use crate::io::{
     linear_to_srgb, read, read_image, srgb_to_linear, write, write_image,
 };
 pub use crate::npy::{NpyArray, read_npy_array, write_npy_f64};
+pub use crate::npy_stream::{NpyReader, NpyWriter};

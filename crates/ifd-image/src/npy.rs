@@ -2,7 +2,7 @@
 //! convenience, uint8/uint16 read as-is), `HxW` or `HxWxC`, C or Fortran order,
 //! either byte order.
 
-use std::io::{Read, Write};
+use std::io::{Read, Seek, Write};
 use std::path::Path;
 
 use crate::budget::MemoryBudget;
@@ -11,7 +11,7 @@ use crate::{Image, ImageError};
 const MAGIC: &[u8] = b"\x93NUMPY";
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Dtype {
+pub(crate) enum Dtype {
     F32,
     F64,
     U8,
@@ -19,7 +19,7 @@ enum Dtype {
 }
 
 impl Dtype {
-    fn size(self) -> usize {
+    pub(crate) fn size(self) -> usize {
         match self {
             Self::F32 => 4,
             Self::F64 => 8,
@@ -30,14 +30,14 @@ impl Dtype {
 }
 
 /// A parsed `.npy` header: element type, byte order, memory order, shape.
-struct Header {
-    dtype: Dtype,
-    big_endian: bool,
-    fortran: bool,
-    shape: Vec<usize>,
+pub(crate) struct Header {
+    pub(crate) dtype: Dtype,
+    pub(crate) big_endian: bool,
+    pub(crate) fortran: bool,
+    pub(crate) shape: Vec<usize>,
 }
 
-fn read_header(
+pub(crate) fn read_header(
     file: &mut std::fs::File,
     bad: &dyn Fn(String) -> ImageError,
 ) -> Result<Header, ImageError> {
@@ -106,6 +106,20 @@ fn read_values<T>(
     decode: impl Fn(&[u8], Dtype, bool) -> T,
 ) -> Result<Vec<T>, ImageError> {
     let size = header.dtype.size();
+    let need = (n as u64).saturating_mul(size as u64);
+    // A header may declare more data than the file holds: check the file's
+    // length before allocating for it (a 100-byte file must not make us
+    // allocate gigabytes, even within the budget).
+    let held = file
+        .metadata()
+        .and_then(|m| Ok(m.len().saturating_sub(file.stream_position()?)))
+        .map_err(|e| bad(format!("unreadable: {e}")))?;
+    if held < need {
+        return Err(bad(format!(
+            "truncated: shape {:?} needs {need} data bytes, the file holds {held}",
+            header.shape
+        )));
+    }
     budget.check((n as u64).saturating_mul(extra + size as u64))?;
     let mut raw = vec![0u8; n * size];
     file.read_exact(&mut raw).map_err(|_| {
@@ -230,7 +244,7 @@ pub fn write_npy_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<(), I
 
 /// The header dict padded so that magic, version, length and header make a
 /// multiple of 64 bytes, newline-terminated.
-fn padded_header(descr: &str, shape: &str) -> String {
+pub(crate) fn padded_header(descr: &str, shape: &str) -> String {
     let mut header = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
     let unpadded = MAGIC.len() + 2 + 2 + header.len() + 1;
     header.push_str(&" ".repeat((64 - unpadded % 64) % 64));
@@ -238,7 +252,7 @@ fn padded_header(descr: &str, shape: &str) -> String {
     header
 }
 
-fn write_preamble<W: Write>(out: &mut W, header: &str) -> Result<(), String> {
+pub(crate) fn write_preamble<W: Write>(out: &mut W, header: &str) -> Result<(), String> {
     let len = u16::try_from(header.len()).map_err(|_| "npy header too long".to_string())?;
     let e = |e: std::io::Error| e.to_string();
     out.write_all(MAGIC).map_err(e)?;
@@ -302,7 +316,7 @@ fn decode_f64(b: &[u8], dtype: Dtype, big: bool) -> f64 {
     }
 }
 
-fn decode_value(b: &[u8], dtype: Dtype, big: bool) -> f32 {
+pub(crate) fn decode_value(b: &[u8], dtype: Dtype, big: bool) -> f32 {
     match dtype {
         Dtype::U8 => f32::from(b[0]),
         Dtype::U16 => {

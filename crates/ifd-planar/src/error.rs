@@ -112,4 +112,8 @@ pub enum FilterError {
     /// The computation would need too much memory.
     #[error("too large: {0}")]
     TooLarge(String),
+    /// Reading or writing the pixels of a tile failed (tiled filtering: the
+    /// message names the file).
+    #[error("{0}")]
+    Io(String),
 }

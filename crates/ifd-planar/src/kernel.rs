@@ -570,11 +570,27 @@ impl KernelSpec {
                 }
             }
         };
-        let area = |inside: &dyn Fn(f64, f64) -> bool, data: &mut Vec<f64>| {
+        // Hard-edged shapes: the fraction of each pixel inside, from
+        // SUPERSAMPLE^2 points. `sdf` (a signed distance, negative inside)
+        // skips pixels whose whole square lies inside or outside (the
+        // centre farther from the edge than the half-diagonal): their points
+        // would all agree, so the result is the same, in time proportional
+        // to the edge's length instead of the area (a disk of radius 2000 in
+        // a fraction of a second instead of minutes).
+        // (each sample covers a unit pixel, whatever the grid spacing `1/q`)
+        let half_diagonal = std::f64::consts::FRAC_1_SQRT_2;
+        let area = |inside: &dyn Fn(f64, f64) -> bool,
+                    sdf: &dyn Fn(f64, f64) -> f64,
+                    data: &mut Vec<f64>| {
             let ss = SUPERSAMPLE as f64;
             for row in 0..n {
                 for col in 0..n {
                     let (cx, cy) = ((col as f64 - rf) / qf, (row as f64 - rf) / qf);
+                    let d = sdf(cx, cy);
+                    if d.abs() > half_diagonal * (1.0 + 1e-9) + 1e-12 {
+                        data[row * n + col] = if d < 0.0 { 1.0 } else { 0.0 };
+                        continue;
+                    }
                     let mut count = 0usize;
                     for sy in 0..SUPERSAMPLE {
                         for sx in 0..SUPERSAMPLE {
@@ -663,12 +679,21 @@ impl KernelSpec {
                         let (u, v) = to_local(x, y, c, s);
                         u.abs() <= 0.5 * w && v.abs() <= 0.5 * h
                     },
+                    &|x, y| {
+                        let (u, v) = to_local(x, y, c, s);
+                        let (dx, dy) = (u.abs() - 0.5 * w, v.abs() - 0.5 * h);
+                        dx.max(0.0).hypot(dy.max(0.0)) + dx.max(dy).min(0.0)
+                    },
                     &mut data,
                 );
                 normalise = true;
             }
             Self::Disk { r: rad, .. } => {
-                area(&|x, y| x * x + y * y <= rad * rad, &mut data);
+                area(
+                    &|x, y| x * x + y * y <= rad * rad,
+                    &|x, y| x.hypot(y) - rad,
+                    &mut data,
+                );
                 normalise = true;
             }
         }
@@ -1010,6 +1035,54 @@ impl FromStr for Kernel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The skip of whole-inside and whole-outside pixels changes nothing:
+    /// every sample equals the plain supersampled coverage (before the
+    /// normalisation, compared as ratios to the centre pixel).
+    #[test]
+    fn hard_edged_coverage_equals_plain_supersampling() {
+        type Inside<'a> = &'a dyn Fn(f64, f64) -> bool;
+        let cases: [(&str, Inside); 3] = [
+            ("disk:r=6.3", &|x, y| x * x + y * y <= 6.3 * 6.3),
+            ("box:w=7,h=3.5,theta=30", &|x, y| {
+                let (s, c) = 30f64.to_radians().sin_cos();
+                let (u, v) = to_local(x, y, c, s);
+                u.abs() <= 3.5 && v.abs() <= 1.75
+            }),
+            ("line:len=11,width=0.4,theta=-20", &|x, y| {
+                let (s, c) = (-20f64).to_radians().sin_cos();
+                let (u, v) = to_local(x, y, c, s);
+                u.abs() <= 5.5 && v.abs() <= 0.2
+            }),
+        ];
+        for (spec, inside) in cases {
+            let spec: KernelSpec = spec.parse().unwrap();
+            for q in [1, 2] {
+                let (k, factor) = spec.sample(q).unwrap();
+                let r = (k.width() / 2) as f64;
+                let ss = SUPERSAMPLE as f64;
+                for row in 0..k.height() {
+                    for col in 0..k.width() {
+                        let (cx, cy) = ((col as f64 - r) / q as f64, (row as f64 - r) / q as f64);
+                        let mut count = 0;
+                        for sy in 0..SUPERSAMPLE {
+                            for sx in 0..SUPERSAMPLE {
+                                let x = cx - 0.5 + (sx as f64 + 0.5) / ss;
+                                let y = cy - 0.5 + (sy as f64 + 0.5) / ss;
+                                count += usize::from(inside(x, y));
+                            }
+                        }
+                        let want = count as f64 / (ss * ss) * factor;
+                        let got = k.get(col as isize - r as isize, row as isize - r as isize);
+                        assert!(
+                            (got - want).abs() <= 1e-15,
+                            "{spec} q={q} ({col}, {row}): {got} vs {want}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn gauss_rotation_convention() {

@@ -40,6 +40,7 @@ pub mod filter;
 pub mod pipeline;
 pub mod reference;
 pub mod stack;
+pub mod tiled;
 
 pub use accuracy::{EvalPlan, PlanOptions};
 pub use decomposition::{Decomposition, FitReport, Term};

@@ -146,12 +146,7 @@ impl PyDecomposition {
                 format!("{scale} must be finite and positive"),
             ));
         }
-        let p = PreparedDecomposition::new(&self.inner).map_err(|e| errors::value("", e))?;
-        let sigma = self
-            .inner
-            .sampling
-            .effective_sigma(p.sigma_range().1, scale);
-        Ok((scale * p.reach() + 5.0 * sigma).ceil() as usize)
+        ifd_planar::tiled::halo(&self.inner, scale as f32).map_err(|e| errors::value("", e))
     }
 
     fn __len__(&self) -> usize {

@@ -74,8 +74,92 @@ pub struct Filter {
     /// that `--interp` plans for.
     #[arg(long, value_name = "E", default_value_t = EvalPlan::DEFAULT_BUDGET)]
     eval_budget: f64,
+    /// Filter tile by tile, output tiles of about PX pixels, streaming the
+    /// image, the maps and the output as .npy (images larger than memory;
+    /// equal to the whole-image result to float rounding). Chosen by itself,
+    /// with tiles sized to --memory-budget, when a .npy image would not fit
+    /// it whole.
+    #[arg(long, value_name = "PX", conflicts_with = "gpu")]
+    tile: Option<usize>,
     #[command(flatten)]
     input: InputOptions,
+}
+
+impl Filter {
+    fn options(&self) -> FilterOptions {
+        FilterOptions {
+            border: self.border,
+            interpolation: match self.interp {
+                InterpChoice::Auto => None,
+                InterpChoice::Linear => Some(Interpolation::Linear),
+                InterpChoice::Cubic => Some(Interpolation::Cubic),
+            },
+            eval_budget: self.eval_budget,
+            log_uniform: false,
+            scale_range: None,
+        }
+    }
+
+    /// The bytes a `.npy` image would need filtered whole, when more than the
+    /// memory budget (its samples, the stack, the maps and the result):
+    /// then it is filtered tile by tile. Other formats cannot stream; their
+    /// reader refuses them over the budget.
+    fn too_large_whole(&self, decomposition: &Decomposition) -> Result<Option<u64>> {
+        if !super::tiled::streams(&self.image) {
+            return Ok(None);
+        }
+        let r = ifd_image::NpyReader::open(&self.image, self.input.replace_nonfinite)?;
+        let (w, h, c) = (r.width(), r.height(), r.channels());
+        // A map's range needs a pass over it; the planning only needs to
+        // know that scales vary (a range of one octave stands for it).
+        let scale_range = if self.scale_map.is_some() {
+            (1.0, 2.0)
+        } else {
+            let s = self.scale.unwrap_or(1.0);
+            (s, s)
+        };
+        let Ok(grid) = ifd_planar::tiled::TileGrid::new(
+            decomposition,
+            (w, h, c),
+            self.angle_map.is_some(),
+            scale_range,
+            &self.options(),
+            w.max(h),
+        ) else {
+            // Planning errors are reported by the whole-image path.
+            return Ok(None);
+        };
+        let bytes = grid.tile_bytes(decomposition, self.angle_map.is_some(), &self.options())?;
+        Ok((bytes > self.input.budget().limit()).then_some(bytes))
+    }
+
+    fn run_tiled(&self, decomposition: &Decomposition) -> Result<()> {
+        super::tiled::run(&super::tiled::TiledRun {
+            image: &self.image,
+            decomposition,
+            angle: self
+                .angle_map
+                .as_deref()
+                .map_or(Ok(self.angle.unwrap_or(0.0)), Err),
+            scale: self
+                .scale_map
+                .as_deref()
+                .map_or(Ok(self.scale.unwrap_or(1.0)), Err),
+            output: &self.output.output,
+            options: self.options(),
+            tile: self.tile,
+            budget: self.input.budget().limit(),
+            replace_non_finite: self.input.replace_nonfinite,
+            verbose: self.verbose,
+        })
+        .with_context(|| {
+            format!(
+                "filtering {} with {}",
+                self.image.display(),
+                self.decomp.display()
+            )
+        })
+    }
 }
 
 /// `--interp`.
@@ -180,7 +264,42 @@ impl Filter {
     pub fn run(self) -> Result<()> {
         crate::output::check_output_path(&self.output.output)?;
         let decomposition = Decomposition::load(&self.decomp)?;
-        let image = self.input.read(&self.image)?.image;
+        if !(self.eval_budget.is_finite() && self.eval_budget > 0.0) {
+            bail!(
+                "--eval-budget {} must be finite and positive",
+                self.eval_budget
+            );
+        }
+        if self.tile == Some(0) {
+            bail!("--tile 0: the tile side must be at least 1 pixel");
+        }
+        if self.tile.is_some() {
+            return self.run_tiled(&decomposition);
+        }
+        if !self.gpu
+            && let Some(bytes) = self.too_large_whole(&decomposition)?
+        {
+            if !super::tiled::streams(&self.output.output) {
+                bail!(
+                    "{}: filtered whole it would need {}, more than the memory budget of {}; \
+                     tile by tile it fits, but tiles stream to {} only: write the output as .npy",
+                    self.image.display(),
+                    ifd_image::fmt_bytes(bytes),
+                    ifd_image::fmt_bytes(self.input.budget().limit()),
+                    super::tiled::STREAMING
+                );
+            }
+            return self.run_tiled(&decomposition);
+        }
+        let image = match self.input.read(&self.image) {
+            Ok(l) => l.image,
+            Err(e) if format!("{e:#}").contains("more than the budget") => bail!(
+                "{e:#}; images over the budget are filtered tile by tile when they are {} \
+                 (the output too)",
+                super::tiled::STREAMING
+            ),
+            Err(e) => return Err(e),
+        };
         let (w, h) = (image.width(), image.height());
         let angle_map = match &self.angle_map {
             Some(p) => Some(load_map(&self.input, p, "angle map", w, h)?),
@@ -208,12 +327,6 @@ impl Filter {
             self.scale_map.as_deref(),
             "--scale",
         )?;
-        if !(self.eval_budget.is_finite() && self.eval_budget > 0.0) {
-            bail!(
-                "--eval-budget {} must be finite and positive",
-                self.eval_budget
-            );
-        }
         let options = FilterOptions {
             border: self.border,
             interpolation: match self.interp {

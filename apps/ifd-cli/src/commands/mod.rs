@@ -12,3 +12,4 @@ pub mod info;
 pub mod render;
 pub mod smooth;
 pub mod sphere;
+pub mod tiled;

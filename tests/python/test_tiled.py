@@ -1,0 +1,90 @@
+"""`ifd filter` tile by tile (streaming .npy) gives the whole image's result.
+
+Tiles are cut smaller than the filter's reach, so every tile border lies
+inside some output pixel's footprint; the halo, the alignment of tile
+origins to the stack's coarsest subsampling and the shared scale range must
+make each tile's pixels equal the whole image's (to float rounding, 1e-5 of
+the result's range asserted). Also: the automatic switch when the image does
+not fit `--memory-budget`, and the formats that cannot stream.
+"""
+
+import numpy as np
+import pytest
+import scipy.ndimage as nd
+
+from conftest import save_npy
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    d = tmp_path_factory.mktemp("tiled")
+    rng = np.random.default_rng(11)
+    h, w = 700, 1000
+    img = nd.gaussian_filter(rng.random((h, w, 3)), (1.5, 1.5, 0)).astype(np.float32)
+    y, x = np.mgrid[0:h, 0:w]
+    angle = np.degrees(np.arctan2(y - h / 2, x - w / 2)).astype(np.float32)
+    scale = (0.7 + 1.6 * x / w).astype(np.float32)
+    return {
+        "dir": d,
+        "img": save_npy(d / "img.npy", img),
+        "angle": save_npy(d / "angle.npy", angle),
+        "scale": save_npy(d / "scale.npy", scale),
+    }
+
+
+@pytest.fixture(scope="module")
+def decomp(scene, run_ifd):
+    p = scene["dir"] / "g.json"
+    run_ifd("decompose", "gauss:sx=12,sy=1.5,theta=10", "-o", p)
+    return p
+
+
+def _close(a, b):
+    a, b = np.load(a), np.load(b)
+    assert a.shape == b.shape
+    err = float(np.abs(a - b).max())
+    assert err <= 1e-5 * float(np.abs(b).max()), err
+    return err
+
+
+@pytest.mark.parametrize(
+    "pose, tile",
+    [
+        (("--angle-map", "angle", "--scale-map", "scale"), 48),  # per-pixel angle and scale
+        (("--angle-map", "angle", "--scale", "2.5"), 96),  # per-pixel angle, deep stack
+        (("--angle", "30", "--scale", "1.5"), 64),  # constant pose: exact levels, direct terms
+    ],
+    ids=["angle+scale maps", "angle map, scale 2.5", "constant pose"],
+)
+def test_tiles_equal_the_whole_image(scene, decomp, run_ifd, pose, tile):
+    args = [a if a not in scene else scene[a] for a in pose]
+    d = scene["dir"]
+    whole, tiled = d / f"whole-{tile}.npy", d / f"tiled-{tile}.npy"
+    run_ifd("filter", scene["img"], "--decomp", decomp, *args, "-o", whole)
+    p = run_ifd("filter", scene["img"], "--decomp", decomp, *args, "--tile", tile, "-v", "-o", tiled)
+    assert "tiled:" in p.stderr, p.stderr
+    n_tiles = int(p.stderr.split("tiled: ")[1].split()[0])
+    assert n_tiles >= 4, p.stderr
+    _close(tiled, whole)
+
+
+def test_over_the_budget_goes_tiled_by_itself(scene, decomp, run_ifd):
+    d = scene["dir"]
+    whole, auto = d / "whole-auto.npy", d / "auto.npy"
+    args = ["--angle-map", scene["angle"], "--scale", "2"]
+    run_ifd("filter", scene["img"], "--decomp", decomp, *args, "-o", whole)
+    p = run_ifd("filter", scene["img"], "--decomp", decomp, *args, "--memory-budget", "48", "-v", "-o", auto)
+    assert "tiled:" in p.stderr, p.stderr
+    _close(auto, whole)
+
+
+def test_formats_that_cannot_stream_are_refused_naming_npy(scene, decomp, run_ifd):
+    d = scene["dir"]
+    p = run_ifd("filter", scene["img"], "--decomp", decomp, "--tile", "64", "-o", d / "out.png", check=False)
+    assert p.returncode == 2 and ".npy" in p.stderr and "out.png" in p.stderr, p.stderr
+    assert not (d / "out.png").exists()
+    png = d / "img.png"
+    run_ifd("convert", scene["img"], png)
+    p = run_ifd("filter", png, "--decomp", decomp, "--memory-budget", "1", "-o", d / "o.npy", check=False)
+    assert p.returncode == 2 and "more than the budget" in p.stderr and ".npy" in p.stderr, p.stderr
+    assert not (d / "o.npy").exists()
