@@ -63,8 +63,14 @@ impl Mesh {
             single_index: true,
             ..Default::default()
         };
-        let (models, _materials) = tobj::load_obj(path, &opts)
-            .map_err(|e| bad(format!("cannot read the OBJ file: {e}")))?;
+        let text =
+            std::fs::read(path).map_err(|e| bad(format!("cannot read the OBJ file: {e}")))?;
+        check_face_indices(&text).map_err(|e| bad(format!("malformed OBJ file: {e}")))?;
+        let (models, _materials) = tobj::load_obj_buf(&mut text.as_slice(), &opts, |_| {
+            // Materials are ignored.
+            Ok(Default::default())
+        })
+        .map_err(|e| bad(format!("cannot read the OBJ file: {e}")))?;
         let mut pos = Vec::new();
         let mut nrm = Vec::new();
         let mut uv = Vec::new();
@@ -399,4 +405,58 @@ fn smooth_normals(pos: &[DVec3], tris: &[[u32; 3]]) -> Vec<DVec3> {
                 .normalize_or_zero()
         })
         .collect()
+}
+
+/// Checks every face's vertex references (`f v`, `f v/vt`, `f v//vn`,
+/// `f v/vt/vn`, 1-based or negative = relative) against the positions,
+/// texture coordinates and normals defined before it, as OBJ requires.
+/// `tobj` trusts them: a relative index past the start (`f 1/-1` with no
+/// texture coordinate) overflows its index arithmetic and panics (found by
+/// fuzzing, `fuzz/regressions/obj/`).
+fn check_face_indices(text: &[u8]) -> std::result::Result<(), String> {
+    let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
+    for (k, line) in text.split(|&b| b == b'\n').enumerate() {
+        let line = String::from_utf8_lossy(line);
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => nv += 1,
+            Some("vt") => nvt += 1,
+            Some("vn") => nvn += 1,
+            Some("f" | "l" | "p") => {
+                for w in words {
+                    for (j, part) in w.split('/').enumerate() {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        let (what, count) = match j {
+                            0 => ("position", nv),
+                            1 => ("texture coordinate", nvt),
+                            2 => ("normal", nvn),
+                            _ => {
+                                return Err(format!(
+                                    "line {}: vertex {w:?} has more than 3 indices",
+                                    k + 1
+                                ));
+                            }
+                        };
+                        let Ok(i) = part.parse::<i64>() else {
+                            return Err(format!(
+                                "line {}: index {part:?} is not an integer",
+                                k + 1
+                            ));
+                        };
+                        let resolved = if i < 0 { count + i } else { i - 1 };
+                        if i == 0 || resolved < 0 || resolved >= count {
+                            return Err(format!(
+                                "line {}: {what} index {i} refers to none of the {count} defined before it",
+                                k + 1
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
 }

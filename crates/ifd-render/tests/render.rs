@@ -376,7 +376,19 @@ fn obj_meshes_render_like_the_analytic_surface() {
     // bad files
     for (name, text, needle) in [
         ("empty.obj", "# nothing\nv 0 0 0\n", "no triangles"),
-        ("bad.obj", "f 1 2 3\n", "cannot read the OBJ file"),
+        (
+            "bad.obj",
+            "f 1 2 3\n",
+            "position index 1 refers to none of the 0",
+        ),
+        // found by fuzzing: a relative texture index with no texture
+        // coordinates overflowed tobj's index arithmetic (a panic)
+        (
+            "relative.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/-1 2/-1 3/-1\n",
+            "texture coordinate index -1 refers to none of the 0",
+        ),
+        ("garbage.obj", "v 0 0 0\nf 1/x 1 1\n", "is not an integer"),
     ] {
         let p = dir.path().join(name);
         std::fs::write(&p, text).unwrap();
