@@ -273,6 +273,25 @@ fn patch_event(engine: &Engine, rect: PixelRect, dab_times: Vec<Duration>) -> Op
     })
 }
 
+/// After a replay or a recovery: the whole image, when the history moved
+/// from `before`, and the undo state.
+fn send_if_changed(engine: &Engine, before: u64, send: &impl Fn(Event)) {
+    if before != engine.history().current_id()
+        && let Some(img) = engine.image()
+    {
+        let all = PixelRect {
+            x0: 0,
+            y0: 0,
+            width: img.width(),
+            height: img.height(),
+        };
+        if let Some(ev) = patch_event(engine, all, Vec::new()) {
+            send(ev);
+        }
+    }
+    send(history_event(engine));
+}
+
 /// After a stroke ended on the GPU display path: its pixels, for the UI's
 /// copy of the image (the screen shows them already; on the CPU path the
 /// dabs' patches carried them).
@@ -476,20 +495,7 @@ fn serve(
             let before = engine.history().current_id();
             match engine.replay(&file) {
                 Ok(dabs) => {
-                    if before != engine.history().current_id()
-                        && let Some(img) = engine.image()
-                    {
-                        let all = PixelRect {
-                            x0: 0,
-                            y0: 0,
-                            width: img.width(),
-                            height: img.height(),
-                        };
-                        if let Some(ev) = patch_event(engine, all, Vec::new()) {
-                            send(ev);
-                        }
-                    }
-                    send(history_event(engine));
+                    send_if_changed(engine, before, send);
                     send(Event::ReplayDone { dabs });
                 }
                 Err(e) => fail(e),
@@ -501,20 +507,7 @@ fn serve(
             let before = engine.history().current_id();
             match engine.resolve_recovery(apply) {
                 Ok(_) => {
-                    if before != engine.history().current_id()
-                        && let Some(img) = engine.image()
-                    {
-                        let all = PixelRect {
-                            x0: 0,
-                            y0: 0,
-                            width: img.width(),
-                            height: img.height(),
-                        };
-                        if let Some(ev) = patch_event(engine, all, Vec::new()) {
-                            send(ev);
-                        }
-                    }
-                    send(history_event(engine));
+                    send_if_changed(engine, before, send);
                     send(Event::Recovered {
                         entries: if apply { entries } else { 0 },
                     });

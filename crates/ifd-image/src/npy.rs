@@ -261,21 +261,14 @@ pub(crate) fn write_preamble<W: Write>(out: &mut W, header: &str) -> Result<(), 
     out.write_all(header.as_bytes()).map_err(e)
 }
 
-pub(crate) fn read_npy(
+/// `(height, width, channels)` of an `HxW` or `HxWxC` array with no zero
+/// dimension.
+pub(crate) fn image_shape(
     path: &Path,
-    mut file: std::fs::File,
-    budget: MemoryBudget,
-) -> Result<Image, ImageError> {
-    let bad = |reason: String| ImageError::Decode {
-        path: path.to_path_buf(),
-        format: "NumPy",
-        reason,
-    };
-    let header = read_header(&mut file, &bad)?;
-    let Header {
-        fortran, ref shape, ..
-    } = header;
-    let (h, w, c) = match shape.as_slice() {
+    shape: &[usize],
+    bad: &dyn Fn(String) -> ImageError,
+) -> Result<(usize, usize, usize), ImageError> {
+    let (h, w, c) = match shape {
         [h, w] => (*h, *w, 1),
         [h, w, c] => (*h, *w, *c),
         _ => {
@@ -292,6 +285,24 @@ pub(crate) fn read_npy(
             channels: c,
         });
     }
+    Ok((h, w, c))
+}
+
+pub(crate) fn read_npy(
+    path: &Path,
+    mut file: std::fs::File,
+    budget: MemoryBudget,
+) -> Result<Image, ImageError> {
+    let bad = |reason: String| ImageError::Decode {
+        path: path.to_path_buf(),
+        format: "NumPy",
+        reason,
+    };
+    let header = read_header(&mut file, &bad)?;
+    let Header {
+        fortran, ref shape, ..
+    } = header;
+    let (h, w, c) = image_shape(path, shape, &bad)?;
     let n = h
         .checked_mul(w)
         .and_then(|v| v.checked_mul(c))

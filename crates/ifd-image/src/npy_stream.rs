@@ -28,7 +28,7 @@ use std::fs::File;
 use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use crate::npy::{Dtype, decode_value, padded_header, read_header, write_preamble};
+use crate::npy::{Dtype, decode_value, image_shape, padded_header, read_header, write_preamble};
 use crate::{Image, ImageError};
 
 /// An `HxW` or `HxWxC` `.npy` file read by region.
@@ -68,23 +68,7 @@ impl NpyReader {
                     .into(),
             ));
         }
-        let (height, width, channels) = match header.shape.as_slice() {
-            [h, w] => (*h, *w, 1),
-            [h, w, c] => (*h, *w, *c),
-            s => {
-                return Err(bad(format!(
-                    "shape {s:?} is not an image (expected HxW or HxWxC)"
-                )));
-            }
-        };
-        if height == 0 || width == 0 || channels == 0 {
-            return Err(ImageError::Empty {
-                path: Some(path.to_path_buf()),
-                width,
-                height,
-                channels,
-            });
-        }
+        let (height, width, channels) = image_shape(path, &header.shape, &bad)?;
         let data_start = file
             .stream_position()
             .map_err(|e| bad(format!("unreadable: {e}")))?;

@@ -328,16 +328,9 @@ impl Filter {
             "--scale",
         )?;
         let options = FilterOptions {
-            border: self.border,
-            interpolation: match self.interp {
-                InterpChoice::Auto => None,
-                InterpChoice::Linear => Some(Interpolation::Linear),
-                InterpChoice::Cubic => Some(Interpolation::Cubic),
-            },
-            eval_budget: self.eval_budget,
             // The GPU reads every term from a log-uniform stack.
             log_uniform: self.gpu,
-            scale_range: None,
+            ..self.options()
         };
         let plan = FilterPlan::new(
             (w, h, image.channels()),
