@@ -84,7 +84,8 @@ fn memory_budget_is_enforced() {
     );
     // A .npy is refused from its header: 20000x20000 float32 would need
     // 20000^2 x (4 read + 4 kept) bytes = 3.0 GiB; the data is never read
-    // (the file holds none, so a later check would say "truncated").
+    // (the file is sparse: its length says it holds the data, and the
+    // length is checked before the budget).
     let dir = tempfile::tempdir().unwrap();
     let mut header =
         "{'descr': '<f4', 'fortran_order': False, 'shape': (20000, 20000), }".to_string();
@@ -96,6 +97,11 @@ fn memory_budget_is_enforced() {
     bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
     bytes.extend_from_slice(header.as_bytes());
     let p = write_file(dir.path(), "huge.npy", &bytes);
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&p)
+        .and_then(|f| f.set_len(bytes.len() as u64 + 20000 * 20000 * 4))
+        .unwrap();
     let (code, _, err) = ifd(&["info", &p, "--memory-budget", "1"]);
     assert_eq!(code, 2, "{err}");
     assert!(

@@ -137,9 +137,11 @@ fn read_values<T>(
 
 /// `values` stored in Fortran order (first index fastest) for `shape`,
 /// reordered row-major (C order); `values` as they are when `fortran` is
-/// false or the array has fewer than two axes.
+/// false, the array has fewer than two axes or no element. (With an element,
+/// every stride divides the element count, which fits a `usize`; a zero-size
+/// array may have other axes whose product does not: found by fuzzing.)
 fn to_c_order<T: Copy + Default>(values: Vec<T>, shape: &[usize], fortran: bool) -> Vec<T> {
-    if !fortran || shape.len() < 2 {
+    if !fortran || shape.len() < 2 || values.is_empty() {
         return values;
     }
     // C-order stride of each axis.
