@@ -141,7 +141,7 @@ def test_smooth_scale_limits_and_field_format(run_ifd, tmp_path):
     img, _ = oblique_edge(32)
     src = save_npy(tmp_path / "in.npy", img.astype(np.float32))
     p = run_ifd("smooth", src, "--scale", "0.4", "-o", tmp_path / "o.npy", check=False)
-    assert p.returncode == 2 and "scale = 0.4 is outside" in p.stderr, p.stderr
+    assert p.returncode == 2 and "--scale 0.4: outside the supported range" in p.stderr, p.stderr
     p = run_ifd("smooth", src, "--scale", "1", "-o", tmp_path / "o.npy", "--field", tmp_path / "f.png", check=False)
     assert p.returncode == 2 and "--field" in p.stderr and ".npy" in p.stderr, p.stderr
     assert not (tmp_path / "o.npy").exists()
