@@ -75,21 +75,20 @@ def _import_skip_reason(rep):
     return reason if any(s in low for s in _IMPORT_SKIP) else None
 
 
-@pytest.hookimpl(hookwrapper=True)
-def pytest_runtest_makereport(item, call):
-    outcome = yield
-    rep = outcome.get_result()
+def _fail_import_skip(rep):
     reason = _import_skip_reason(rep)
     if reason is not None:
         rep.outcome = "failed"
         rep.longrepr = f"a reference library failed to import (a failure, not a skip): {reason}"
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    _fail_import_skip(outcome.get_result())
 
 
 @pytest.hookimpl(hookwrapper=True)
 def pytest_make_collect_report(collector):
     outcome = yield
-    rep = outcome.get_result()
-    reason = _import_skip_reason(rep)
-    if reason is not None:
-        rep.outcome = "failed"
-        rep.longrepr = f"a reference library failed to import (a failure, not a skip): {reason}"
+    _fail_import_skip(outcome.get_result())

@@ -221,8 +221,6 @@ struct JournalState {
     /// A journal of an interrupted session on this image, waiting for
     /// [`Engine::resolve_recovery`] (nothing is journaled until then).
     pending: Option<Recovered>,
-    /// Why journaling stopped (a failed write), once.
-    failed: Option<String>,
 }
 
 /// Bytes an image of this shape needs in the app with `brush`: the stack and
@@ -299,21 +297,6 @@ impl Engine {
         }
     }
 
-    /// The journal folder, when journaling is on.
-    #[must_use]
-    pub fn journal_dir(&self) -> Option<&Path> {
-        self.journal.dir.as_deref()
-    }
-
-    /// The journal file in use, and why journaling stopped if it did.
-    #[must_use]
-    pub fn journal_status(&self) -> (Option<&Path>, Option<&str>) {
-        (
-            self.journal.open.as_ref().map(Journal::path),
-            self.journal.failed.as_deref(),
-        )
-    }
-
     /// Ends journaling cleanly (the app closes normally): the journal is
     /// deleted, there is nothing to recover. A pending journal is kept.
     pub fn close_journal(&mut self) {
@@ -333,7 +316,7 @@ impl Engine {
                 j.set_announce(self.journal.announce);
                 self.journal.open = Some(j);
             }
-            Err(e) => self.journal.failed = Some(format!("{e:#}")),
+            Err(e) => eprintln!("warning: edits are not journaled: {e:#}"),
         }
     }
 
@@ -342,7 +325,6 @@ impl Engine {
             && let Err(e) = j.append(action)
         {
             eprintln!("warning: journaling stopped: {e:#}");
-            self.journal.failed = Some(format!("{e:#}"));
             self.journal.open = None;
         }
     }
@@ -631,7 +613,6 @@ impl Engine {
         // now, unless an interrupted session left one to offer first.
         self.close_journal();
         self.journal.pending = None;
-        self.journal.failed = None;
         if let (Some(dir), Some(p), Some(img)) = (&self.journal.dir, &self.path, &self.image) {
             self.journal.pending = journal::recoverable(dir, p, img);
         }

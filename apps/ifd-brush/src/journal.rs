@@ -119,6 +119,8 @@ pub fn path_for(dir: &Path, image_path: &Path) -> PathBuf {
 /// A journal read back: its header and the complete entries.
 #[derive(Clone, Debug)]
 pub struct Recovered {
+    /// The journal file.
+    pub path: PathBuf,
     /// The image it belongs to.
     pub header: Header,
     /// The entries, as a strokes file (for [`crate::engine::Engine::replay`]).
@@ -169,6 +171,7 @@ pub fn read(path: &Path) -> anyhow::Result<Recovered> {
         }
     }
     Ok(Recovered {
+        path: path.to_path_buf(),
         strokes: StrokesFile {
             image_size: Some(header.image_size),
             strokes,

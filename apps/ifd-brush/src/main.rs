@@ -142,8 +142,9 @@ fn headless(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
             // One entry at a time, pausing after each.
             for a in &file.strokes {
                 let one = StrokesFile {
+                    image_size: file.image_size,
                     strokes: vec![a.clone()],
-                    ..file.clone()
+                    ..StrokesFile::default()
                 };
                 dabs += engine.replay(&one)?;
                 std::thread::sleep(std::time::Duration::from_millis(args.replay_pace));

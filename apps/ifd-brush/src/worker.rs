@@ -364,10 +364,7 @@ fn serve(
                     if let Some(r) = engine.recoverable() {
                         send(Event::Recoverable {
                             entries: r.strokes.strokes.len(),
-                            journal: engine
-                                .journal_dir()
-                                .map(|d| crate::journal::path_for(d, &r.header.image))
-                                .unwrap_or_default(),
+                            journal: r.path.clone(),
                         });
                     }
                     prepare(engine, &brush, send);

@@ -75,6 +75,12 @@ pub fn write_output(path: &Path, image: &ifd_image::Image, opts: &WriteOptions) 
 /// folder that does not exist (or is a file). Writing still checks again.
 pub fn check_output_path(path: &Path) -> Result<()> {
     ifd_image::FileFormat::from_path(path)?;
+    check_output_folder(path)
+}
+
+/// Refuses an output file (of any kind) whose folder does not exist or is a
+/// file, before any work.
+pub fn check_output_folder(path: &Path) -> Result<()> {
     if let Some(why) = ifd_image::output_folder_problem(path) {
         anyhow::bail!("{}: {why}", path.display());
     }

@@ -29,6 +29,15 @@ impl Dtype {
     }
 }
 
+/// A malformed or truncated `.npy` file, named.
+pub(crate) fn npy_error(path: &Path, reason: String) -> ImageError {
+    ImageError::Decode {
+        path: path.to_path_buf(),
+        format: "NumPy",
+        reason,
+    }
+}
+
 /// A parsed `.npy` header: element type, byte order, memory order, shape.
 pub(crate) struct Header {
     pub(crate) dtype: Dtype,
@@ -193,11 +202,7 @@ pub struct NpyArray {
 /// array exceeds `budget`.
 pub fn read_npy_array(path: &Path, budget: MemoryBudget) -> Result<NpyArray, ImageError> {
     let mut file = crate::files::open(path)?;
-    let bad = |reason: String| ImageError::Decode {
-        path: path.to_path_buf(),
-        format: "NumPy",
-        reason,
-    };
+    let bad = |reason| npy_error(path, reason);
     let header = read_header(&mut file, &bad)?;
     let n = header
         .shape
@@ -295,11 +300,7 @@ pub(crate) fn read_npy(
     mut file: std::fs::File,
     budget: MemoryBudget,
 ) -> Result<Image, ImageError> {
-    let bad = |reason: String| ImageError::Decode {
-        path: path.to_path_buf(),
-        format: "NumPy",
-        reason,
-    };
+    let bad = |reason| npy_error(path, reason);
     let header = read_header(&mut file, &bad)?;
     let Header {
         fortran, ref shape, ..

@@ -28,7 +28,9 @@ use std::fs::File;
 use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use crate::npy::{Dtype, decode_value, image_shape, padded_header, read_header, write_preamble};
+use crate::npy::{
+    Dtype, decode_value, image_shape, npy_error, padded_header, read_header, write_preamble,
+};
 use crate::{Image, ImageError};
 
 /// An `HxW` or `HxWxC` `.npy` file read by region.
@@ -55,11 +57,7 @@ impl NpyReader {
     /// non-image array, a file shorter than its header declares.
     pub fn open(path: &Path, replace_non_finite: Option<f32>) -> Result<Self, ImageError> {
         let mut file = crate::files::open(path)?;
-        let bad = |reason: String| ImageError::Decode {
-            path: path.to_path_buf(),
-            format: "NumPy",
-            reason,
-        };
+        let bad = |reason| npy_error(path, reason);
         let header = read_header(&mut file, &bad)?;
         if header.fortran {
             return Err(bad(
@@ -137,11 +135,7 @@ impl NpyReader {
         width: usize,
         height: usize,
     ) -> Result<Image, ImageError> {
-        let bad = |reason: String| ImageError::Decode {
-            path: self.path.clone(),
-            format: "NumPy",
-            reason,
-        };
+        let bad = |reason| npy_error(&self.path, reason);
         if width == 0 || height == 0 || x0 + width > self.width || y0 + height > self.height {
             return Err(bad(format!(
                 "region {width}x{height} at ({x0}, {y0}) is not inside the {}x{} image",

@@ -89,8 +89,10 @@ impl FieldKind {
         }
     }
 
-    /// Why `v` is not a valid value of this kind, or `None` when it is.
-    fn why_invalid(self, v: f32) -> Option<&'static str> {
+    /// Why `v` is not a valid value of this kind, or `None` when it is
+    /// (the rule [`CheckedField::new`] applies to every value).
+    #[must_use]
+    pub fn why_invalid(self, v: f32) -> Option<&'static str> {
         if !v.is_finite() {
             Some("not finite")
         } else if self == FieldKind::Scale && v <= 0.0 {

@@ -31,8 +31,8 @@ use ifd_image::{Image, ImageView};
 use crate::accuracy::{EvalPlan, PlanOptions};
 use crate::filter::{self, DIRECT_SIGMA, Filter, evaluated_directly};
 use crate::{
-    Border, CheckedField, Decomposition, FilterError, Interpolation, PreparedDecomposition,
-    ScaleStack, StackOptions, StackPlan, stack_plan_for_decomposition,
+    Border, CheckedField, Decomposition, Field, FieldKind, FilterError, Interpolation,
+    PreparedDecomposition, ScaleStack, StackOptions, StackPlan, stack_plan_for_decomposition,
 };
 
 /// How [`FilterPlan::new`] plans.
@@ -159,6 +159,45 @@ impl FilterPlan {
             level_sigmas,
             direct_terms,
         })
+    }
+
+    /// The plan for a `(width, height, channels)` image whose angle is per
+    /// pixel or not (`angle_varies`) and whose scales span `scale_range`
+    /// (per pixel when the range is not one value), before any field is
+    /// read: plans depend on whether fields vary and on their ranges, not on
+    /// their values (tiles, chunks and memory estimates plan this way).
+    ///
+    /// # Errors
+    /// As [`FilterPlan::new`].
+    pub fn for_ranges(
+        dims: (usize, usize, usize),
+        decomposition: &Decomposition,
+        angle_varies: bool,
+        scale_range: (f32, f32),
+        options: &FilterOptions,
+    ) -> Result<Self, FilterError> {
+        // One-pixel stand-ins: a map when the field varies.
+        fn stand_in(
+            kind: FieldKind,
+            value: &[f32; 1],
+            varies: bool,
+        ) -> Result<CheckedField<'_>, FilterError> {
+            let field = if varies {
+                Field::Map(value)
+            } else {
+                Field::Constant(value[0])
+            };
+            CheckedField::new(field, kind, 1, 1)
+        }
+        let (lo, hi) = scale_range;
+        let (a0, s0) = ([0.0f32], [lo]);
+        let angle = stand_in(FieldKind::Angle, &a0, angle_varies)?;
+        let scale = stand_in(FieldKind::Scale, &s0, lo != hi)?;
+        let options = FilterOptions {
+            scale_range: Some(scale_range),
+            ..*options
+        };
+        Self::new(dims, decomposition, &angle, &scale, &options)
     }
 
     /// Prefilters `image` into the planned stack.

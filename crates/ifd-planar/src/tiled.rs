@@ -21,9 +21,9 @@
 //! that the tile's own border never reaches its output pixels.
 //!
 //! Pixels come from and go to [`RegionReader`] and [`RegionWriter`]
-//! (`ifd_image::NpyReader`/`NpyWriter` stream `.npy` files with positioned
-//! reads and writes), so peak memory is about one grown tile's stack, not
-//! the image.
+//! (implemented by [`ifd_image::NpyReader`] and [`ifd_image::NpyWriter`],
+//! which stream `.npy` files with positioned reads and writes, and by
+//! closures), so peak memory is about one grown tile's stack, not the image.
 //!
 //! ```
 //! use ifd_image::Image;
@@ -36,7 +36,7 @@
 //! let grid = TileGrid::new(&d, (90, 70, 1), false, (1.0, 1.0), &opts, 32)?;
 //! let mut out = Image::new(90, 70, 1)?;
 //! filter_tiled(
-//!     &d, &grid, &opts,
+//!     &d, &grid,
 //!     &mut |r: PixelRect| Ok(img.crop(r.x0, r.y0, r.width, r.height)),
 //!     TiledField::Constant(20.0), TiledField::Constant(1.0),
 //!     &mut |x0, y0, t: &Image| { out.paste(x0, y0, t); Ok(()) },
@@ -50,7 +50,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use ifd_image::Image;
+use ifd_image::{Image, NpyReader, NpyWriter};
 
 use crate::pipeline::{FilterOptions, FilterPlan, filter_image};
 use crate::{CheckedField, Decomposition, Field, FieldKind, FilterError, PixelRect};
@@ -84,6 +84,20 @@ pub trait RegionWriter {
 impl<F: FnMut(usize, usize, &Image) -> Result<(), FilterError>> RegionWriter for F {
     fn write(&mut self, x0: usize, y0: usize, tile: &Image) -> Result<(), FilterError> {
         self(x0, y0, tile)
+    }
+}
+
+impl RegionReader for NpyReader {
+    fn read(&mut self, r: PixelRect) -> Result<Image, FilterError> {
+        self.read_region(r.x0, r.y0, r.width, r.height)
+            .map_err(|e| FilterError::Io(e.to_string()))
+    }
+}
+
+impl RegionWriter for NpyWriter {
+    fn write(&mut self, x0: usize, y0: usize, tile: &Image) -> Result<(), FilterError> {
+        self.write_region(x0, y0, tile)
+            .map_err(|e| FilterError::Io(e.to_string()))
     }
 }
 
@@ -134,6 +148,10 @@ pub struct TileGrid {
     pub align: usize,
     /// The scale range every tile plans with.
     pub scale_range: (f32, f32),
+    /// Whether the angle is a per-pixel map.
+    pub angle_varies: bool,
+    /// How every tile plans (`scale_range` set to the grid's).
+    pub options: FilterOptions,
 }
 
 impl TileGrid {
@@ -156,26 +174,20 @@ impl TileGrid {
         if tile == 0 {
             return Err(FilterError::InvalidParameter("tile size 0".into()));
         }
-        let (lo, hi) = scale_range;
-        // The plan depends on whether the fields vary and on their ranges,
-        // not on their values: one-pixel stand-ins.
-        let (a0, s0) = ([0.0f32], [lo]);
-        let angle = stand_in(FieldKind::Angle, &a0, angle_varies)?;
-        let scale = stand_in(FieldKind::Scale, &s0, lo != hi)?;
         let options = FilterOptions {
             scale_range: Some(scale_range),
             ..*options
         };
-        let plan = FilterPlan::new(
+        let plan = FilterPlan::for_ranges(
             (width, height, channels),
             decomposition,
-            &angle,
-            &scale,
+            angle_varies,
+            scale_range,
             &options,
         )?;
         let align = plan.alignment()?.max(1);
         let up = |n: usize| n.div_ceil(align) * align;
-        let halo = up(halo(decomposition, hi)?);
+        let halo = up(halo(decomposition, scale_range.1)?);
         let tile = up(tile.max(2 * halo).max(1));
         Ok(Self {
             width,
@@ -185,6 +197,8 @@ impl TileGrid {
             halo,
             align,
             scale_range,
+            angle_varies,
+            options,
         })
     }
 
@@ -232,45 +246,18 @@ impl TileGrid {
     ///
     /// # Errors
     /// As [`FilterPlan::new`].
-    pub fn tile_bytes(
-        &self,
-        decomposition: &Decomposition,
-        angle_varies: bool,
-        options: &FilterOptions,
-    ) -> Result<u64, FilterError> {
+    pub fn tile_bytes(&self, decomposition: &Decomposition) -> Result<u64, FilterError> {
         let side = (2 * self.tile + 2 * self.halo).min(self.width.max(self.height));
         let (w, h) = (side.min(self.width), side.min(self.height));
-        let (lo, hi) = self.scale_range;
-        let (a0, s0) = ([0.0f32], [lo]);
-        let angle = stand_in(FieldKind::Angle, &a0, angle_varies)?;
-        let scale = stand_in(FieldKind::Scale, &s0, lo != hi)?;
-        let options = FilterOptions {
-            scale_range: Some(self.scale_range),
-            ..*options
-        };
-        let plan = FilterPlan::new(
+        let plan = FilterPlan::for_ranges(
             (w, h, self.channels),
             decomposition,
-            &angle,
-            &scale,
-            &options,
+            self.angle_varies,
+            self.scale_range,
+            &self.options,
         )?;
         let px = (w * h) as u64;
         Ok(plan.stack.layout()?.bytes() + px * (2 * self.channels as u64 + 2) * 4)
-    }
-}
-
-/// A one-pixel field standing for a map (`varies`) or a constant `value[0]`
-/// of any size: plans depend on whether fields vary and on their ranges.
-fn stand_in(
-    kind: FieldKind,
-    value: &[f32; 1],
-    varies: bool,
-) -> Result<CheckedField<'_>, FilterError> {
-    if varies {
-        CheckedField::new(Field::Map(value), kind, 1, 1)
-    } else {
-        Field::Constant(value[0]).check(kind, 1, 1)
     }
 }
 
@@ -283,21 +270,15 @@ fn stand_in(
 /// # Errors
 /// The readers' and writer's errors, bad field values (as
 /// [`CheckedField::new`]), and the errors of filtering a tile.
-#[expect(clippy::too_many_arguments, reason = "the parts of one run")]
 pub fn filter_tiled(
     decomposition: &Decomposition,
     grid: &TileGrid,
-    options: &FilterOptions,
     image: &mut dyn RegionReader,
     mut angle: TiledField<'_>,
     mut scale: TiledField<'_>,
     output: &mut dyn RegionWriter,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<(), FilterError> {
-    let options = FilterOptions {
-        scale_range: Some(grid.scale_range),
-        ..*options
-    };
     let tiles = grid.tiles();
     for (k, (inner, read)) in tiles.iter().enumerate() {
         let src = image.read(*read)?;
@@ -310,11 +291,10 @@ pub fn filter_tiled(
                 read.height
             )));
         }
-        let amap = read_map(&mut angle, *read)?;
-        let smap = read_map(&mut scale, *read)?;
-        let a = field(&angle, amap.as_ref(), FieldKind::Angle, *read)?;
-        let s = field(&scale, smap.as_ref(), FieldKind::Scale, *read)?;
-        let out = filter_image(&src, decomposition, a, s, &options)?;
+        let (mut amap, mut smap) = (None, None);
+        let a = region_field(&mut angle, FieldKind::Angle, *read, &mut amap)?;
+        let s = region_field(&mut scale, FieldKind::Scale, *read, &mut smap)?;
+        let out = filter_image(&src, decomposition, a, s, &grid.options)?;
         let (ox, oy) = (inner.x0 - read.x0, inner.y0 - read.y0);
         let tile = out.crop(ox, oy, inner.width, inner.height);
         output.write(inner.x0, inner.y0, &tile)?;
@@ -323,9 +303,16 @@ pub fn filter_tiled(
     Ok(())
 }
 
-fn read_map(f: &mut TiledField<'_>, rect: PixelRect) -> Result<Option<Image>, FilterError> {
+/// The field of the region `rect`: the constant, or the map's samples of
+/// `rect` read into `buf` (which the field borrows), checked as a `kind`.
+fn region_field<'a>(
+    f: &mut TiledField<'_>,
+    kind: FieldKind,
+    rect: PixelRect,
+    buf: &'a mut Option<Image>,
+) -> Result<CheckedField<'a>, FilterError> {
     match f {
-        TiledField::Constant(_) => Ok(None),
+        TiledField::Constant(v) => Field::Constant(*v).check(kind, rect.width, rect.height),
         TiledField::Map(r) => {
             let m = r.read(rect)?;
             if m.channels() != 1 || (m.width(), m.height()) != (rect.width, rect.height) {
@@ -338,22 +325,8 @@ fn read_map(f: &mut TiledField<'_>, rect: PixelRect) -> Result<Option<Image>, Fi
                     rect.height
                 )));
             }
-            Ok(Some(m))
-        }
-    }
-}
-
-fn field<'a>(
-    f: &TiledField<'_>,
-    map: Option<&'a Image>,
-    kind: FieldKind,
-    rect: PixelRect,
-) -> Result<CheckedField<'a>, FilterError> {
-    match (f, map) {
-        (TiledField::Constant(v), _) => Field::Constant(*v).check(kind, rect.width, rect.height),
-        (TiledField::Map(_), Some(m)) => {
+            let m = buf.insert(m);
             CheckedField::new(Field::Map(m.data()), kind, rect.width, rect.height)
         }
-        (TiledField::Map(_), None) => unreachable!("maps are read before"),
     }
 }

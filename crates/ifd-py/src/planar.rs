@@ -345,16 +345,6 @@ fn filter<'py>(
     Ok(arrays::image_array(py, out, squeeze))
 }
 
-/// A one-pixel stand-in for a field: a map when it `varies`, else the constant `v[0]`.
-fn one(kind: FieldKind, v: &[f32], varies: bool) -> PyResult<CheckedField<'_>> {
-    let field = if varies {
-        Field::Map(v)
-    } else {
-        Field::Constant(v[0])
-    };
-    CheckedField::new(field, kind, 1, 1).map_err(|e| errors::value(kind.name(), e))
-}
-
 /// The subsampling factor chunk origins must be multiples of for chunks to
 /// give the whole image's result (`FilterPlan::alignment`), for an image of
 /// `shape` `(H, W, C)` filtered with a constant or per-pixel angle at scales
@@ -371,22 +361,22 @@ fn filter_alignment(
     eval_budget: Option<f64>,
 ) -> PyResult<usize> {
     let (h, w, c) = shape;
-    let (lo, hi) = scale_range;
-    // The plan depends on whether fields vary and on their ranges, not on
-    // their values: one-pixel stand-ins.
-    let angle = one(FieldKind::Angle, &[0.0], angle_varies)?;
-    let lo_value = [lo];
-    let scale = one(FieldKind::Scale, &lo_value, lo != hi)?;
     let options = FilterOptions {
         border: parse_border(border)?,
         interpolation: parse_interp(interp)?,
         eval_budget: eval_budget.unwrap_or(ifd_planar::EvalPlan::DEFAULT_BUDGET),
         log_uniform: false,
-        scale_range: Some(scale_range),
+        scale_range: None,
     };
-    FilterPlan::new((w, h, c), &decomposition.inner, &angle, &scale, &options)
-        .and_then(|p| p.alignment())
-        .map_err(|e| errors::value("", e))
+    FilterPlan::for_ranges(
+        (w, h, c),
+        &decomposition.inner,
+        angle_varies,
+        scale_range,
+        &options,
+    )
+    .and_then(|p| p.alignment())
+    .map_err(|e| errors::value("", e))
 }
 
 /// Fitted banks kept for the process, by their options.

@@ -187,6 +187,15 @@ impl HessianFilters<'_> {
     }
 }
 
+/// Refuses a Hessian scale outside [`HESSIAN_SIGMA_RANGE`] (or not finite).
+///
+/// # Errors
+/// [`SmoothError::OutOfRange`] named `hessian sigma`.
+pub fn check_sigma(sigma: f64) -> Result<(), SmoothError> {
+    let (lo, hi) = HESSIAN_SIGMA_RANGE;
+    check_range("hessian sigma", sigma, lo, hi)
+}
+
 /// The Hessian of `image` (channel mean) at scale `sigma` as an `H x W x 3`
 /// image with channels `(Hxx, Hxy, Hyy)`, `x` = column, `y` = row, not
 /// scale-normalised. Builds the stack it needs.
@@ -201,8 +210,7 @@ pub fn hessian_image<'a>(
     border: Border,
 ) -> Result<Image, SmoothError> {
     let image = image.into();
-    let (lo, hi) = HESSIAN_SIGMA_RANGE;
-    check_range("hessian sigma", sigma, lo, hi)?;
+    check_sigma(sigma)?;
     let (slo, shi) = bank.stack_sigmas(sigma, sigma);
     let stack = ScaleStack::new(image, slo, shi, border, hessian_stack_options())?;
     let [hxx, hxy, hyy] = bank.bind(&stack)?.planes(sigma)?;

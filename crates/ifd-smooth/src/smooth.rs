@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use crate::bank::{AspectBank, BANK_SAMPLING, BankOptions};
 use crate::direct::{DIRECT_BELOW, DirectKernels};
 use crate::error::{SmoothError, check_range};
-use crate::hessian::{HESSIAN_SIGMA_RANGE, HessianBank, hessian_stack_options};
+use crate::hessian::{HessianBank, hessian_stack_options};
 use crate::orientation::{AnisoParams, Orientation, tensor};
 
 /// Smallest and largest footprint scale `S` (pixels) supported. Below
@@ -96,8 +96,7 @@ impl SmoothOptions {
     /// sigma`, `tensor sigma`, `max aspect`, `gamma`, `epsilon`).
     pub fn validate(&self) -> Result<(), SmoothError> {
         check_range("scale", self.scale, SCALE_RANGE.0, SCALE_RANGE.1)?;
-        let (lo, hi) = HESSIAN_SIGMA_RANGE;
-        check_range("hessian sigma", self.hessian_sigma(), lo, hi)?;
+        crate::hessian::check_sigma(self.hessian_sigma())?;
         check_range("tensor sigma", self.tensor_sigma(), 0.0, 64.0)?;
         self.aniso.validate()
     }

@@ -171,16 +171,21 @@ impl Decomposition {
             text: String::new(),
             reason,
         };
-        let value: serde_json::Value =
-            serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
-        if value.get("format").and_then(serde_json::Value::as_str) == Some("ifd-decomposition") {
-            return Err(bad(
+        let dec: Self = serde_json::from_str(text).map_err(|e| {
+            // Only on failure: is it a planar decomposition file?
+            let planar = serde_json::from_str::<serde_json::Value>(text)
+                .ok()
+                .is_some_and(|v| {
+                    v.get("format").and_then(serde_json::Value::as_str) == Some("ifd-decomposition")
+                });
+            bad(if planar {
                 "this is a planar decomposition (from `ifd decompose`, used by `ifd filter`), \
                  not a spherical one from `ifd sphere decompose`"
-                    .into(),
-            ));
-        }
-        let dec: Self = serde_json::from_value(value).map_err(|e| bad(e.to_string()))?;
+                    .into()
+            } else {
+                e.to_string()
+            })
+        })?;
         dec.validate()?;
         Ok(dec)
     }

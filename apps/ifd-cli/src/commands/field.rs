@@ -74,9 +74,7 @@ impl FieldCmd {
         ifd_image::MemoryBudget::default_for_machine()
             .check((w * h * 4) as u64)
             .with_context(|| format!("--size {w}x{h}"))?;
-        if let Some(why) = ifd_image::output_folder_problem(&self.output) {
-            bail!("{}: {why}", self.output.display());
-        }
+        crate::output::check_output_folder(&self.output)?;
         if !(self.min.is_finite() && self.max.is_finite()) {
             bail!("--min and --max must be finite");
         }

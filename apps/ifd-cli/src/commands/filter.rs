@@ -129,7 +129,7 @@ impl Filter {
             // Planning errors are reported by the whole-image path.
             return Ok(None);
         };
-        let bytes = grid.tile_bytes(decomposition, self.angle_map.is_some(), &self.options())?;
+        let bytes = grid.tile_bytes(decomposition)?;
         Ok((bytes > self.input.budget().limit()).then_some(bytes))
     }
 

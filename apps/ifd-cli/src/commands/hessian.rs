@@ -38,13 +38,8 @@ impl Hessian {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
         let border = self.border;
-        let (lo, hi) = ifd_smooth::hessian::HESSIAN_SIGMA_RANGE;
-        if !(self.sigma.is_finite() && self.sigma >= lo && self.sigma <= hi) {
-            anyhow::bail!(
-                "--sigma {}: outside the supported range [{lo}, {hi}]",
-                self.sigma
-            );
-        }
+        ifd_smooth::hessian::check_sigma(self.sigma)
+            .map_err(|e| crate::input::name_option(e, Some("--sigma")))?;
         crate::output::check_output_path(&self.output)?;
         let img = self.input.read(&self.image)?.image;
         let bank = HessianBank::new(0.01)?;

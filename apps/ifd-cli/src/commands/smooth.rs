@@ -114,7 +114,8 @@ impl Smooth {
                 self.scale
             );
         }
-        opts.validate().map_err(crate::input::name_option)?;
+        opts.validate()
+            .map_err(|e| crate::input::name_option(e, None))?;
         crate::output::check_output_path(&self.output.output)?;
         let img = self.input.read(&self.image)?.image;
         let t0 = Instant::now();

@@ -138,9 +138,7 @@ impl ShCmd {
             );
         }
         // unwritable outputs are refused before the work
-        if let Some(why) = ifd_image::output_folder_problem(&self.output) {
-            bail!("{}: {why}", self.output.display());
-        }
+        crate::output::check_output_folder(&self.output)?;
         if let Some(path) = &self.reconstruct {
             stores_negatives(path)?;
             crate::output::check_output_path(path).context("--reconstruct")?;
@@ -727,9 +725,7 @@ impl BrdfCmd {
         }
         let brdf = ifd_shade::Brdf::parse(&self.spec)?;
         // an unwritable output is refused before the work
-        if let Some(why) = ifd_image::output_folder_problem(&self.output) {
-            bail!("{}: {why}", self.output.display());
-        }
+        crate::output::check_output_folder(&self.output)?;
         let nt = self
             .theta_entries
             .unwrap_or_else(|| default_theta_entries(&brdf));

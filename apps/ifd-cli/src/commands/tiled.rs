@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use ifd_image::{FileFormat, NpyReader, NpyWriter};
 use ifd_planar::pipeline::FilterOptions;
 use ifd_planar::tiled::{TileGrid, TiledField, filter_tiled};
-use ifd_planar::{Decomposition, FilterError, PixelRect};
+use ifd_planar::{Decomposition, FieldKind};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// The formats that stream, for messages.
@@ -34,11 +34,6 @@ pub fn streams(path: &Path) -> bool {
     FileFormat::from_path(path).is_ok_and(|f| f == FileFormat::Npy)
 }
 
-#[expect(clippy::needless_pass_by_value, reason = "used as map_err(io)")]
-fn io(e: ifd_image::ImageError) -> FilterError {
-    FilterError::Io(e.to_string())
-}
-
 fn open_map(path: &Path, what: &str, w: usize, h: usize) -> Result<NpyReader> {
     if !streams(path) {
         bail!(
@@ -60,8 +55,9 @@ fn open_map(path: &Path, what: &str, w: usize, h: usize) -> Result<NpyReader> {
 }
 
 /// The range of a scale map, read in bands of rows (the map may be larger
-/// than memory too); every value checked.
-fn map_range(r: &mut NpyReader, path: &Path) -> Result<(f32, f32)> {
+/// than memory too); every value checked by the rule every scale field
+/// follows ([`FieldKind::why_invalid`]), naming the pixel.
+fn map_range(r: &mut NpyReader) -> Result<(f32, f32)> {
     let (w, h) = (r.width(), r.height());
     let band = (1 << 22) / w.max(1) + 1;
     let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
@@ -69,16 +65,12 @@ fn map_range(r: &mut NpyReader, path: &Path) -> Result<(f32, f32)> {
         let rows = band.min(h - y0);
         let m = r.read_region(0, y0, w, rows)?;
         for (i, &v) in m.data().iter().enumerate() {
-            let valid = ifd_planar::field::MIN_FIELD_SCALE..=ifd_planar::field::MAX_FIELD_VALUE;
-            if !valid.contains(&v) {
+            if let Some(why) = FieldKind::Scale.why_invalid(v) {
                 bail!(
-                    "scale map {}: value {v} at x={}, y={} is not a valid scale (finite, in \
-                     [{}, {}])",
-                    path.display(),
+                    "scale map {}: value {v} at x={}, y={}: {why}",
+                    r.path().display(),
                     i % w,
-                    y0 + i / w,
-                    ifd_planar::field::MIN_FIELD_SCALE,
-                    ifd_planar::field::MAX_FIELD_VALUE
+                    y0 + i / w
                 );
             }
             lo = lo.min(v);
@@ -106,18 +98,22 @@ pub fn run(t: &TiledRun<'_>) -> Result<()> {
     }
     let mut reader = NpyReader::open(t.image, t.replace_non_finite)?;
     let (w, h, c) = (reader.width(), reader.height(), reader.channels());
-    let mut amap = match t.angle {
-        Err(p) => Some(open_map(p, "angle map", w, h)?),
-        Ok(_) => None,
-    };
-    let mut smap = match t.scale {
-        Err(p) => Some(open_map(p, "scale map", w, h)?),
-        Ok(_) => None,
-    };
-    let scale_range = match (&mut smap, t.scale) {
-        (Some(r), Err(p)) => map_range(r, p)?,
-        (_, Ok(s)) => (s, s),
-        (None, Err(_)) => unreachable!("a scale map path opens a reader"),
+    let mut amap = t
+        .angle
+        .err()
+        .map(|p| open_map(p, "angle map", w, h))
+        .transpose()?;
+    let mut smap = t
+        .scale
+        .err()
+        .map(|p| open_map(p, "scale map", w, h))
+        .transpose()?;
+    // (a constant when there is no map)
+    let scale_range = if let Some(r) = &mut smap {
+        map_range(r)?
+    } else {
+        let s = t.scale.unwrap_or(1.0);
+        (s, s)
     };
     let angle_varies = amap.is_some();
     let grid_for = |tile: usize| {
@@ -138,7 +134,7 @@ pub fn run(t: &TiledRun<'_>) -> Result<()> {
         let mut n = 4096;
         loop {
             let g = grid_for(n)?;
-            let bytes = g.tile_bytes(t.decomposition, angle_varies, &t.options)?;
+            let bytes = g.tile_bytes(t.decomposition)?;
             if bytes <= t.budget / 2 || n <= g.align.max(2 * g.halo) {
                 if bytes > t.budget {
                     bail!(
@@ -169,36 +165,21 @@ pub fn run(t: &TiledRun<'_>) -> Result<()> {
         ProgressStyle::with_template("filtering tiles {bar:30} {pos}/{len} [{elapsed} < {eta}]")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let mut read_image = |r: PixelRect| {
-        reader
-            .read_region(r.x0, r.y0, r.width, r.height)
-            .map_err(io)
+    let angle = match &mut amap {
+        Some(m) => TiledField::Map(m),
+        None => TiledField::Constant(t.angle.unwrap_or(0.0)),
     };
-    let mut read_amap = |r: PixelRect| match &mut amap {
-        Some(m) => m.read_region(r.x0, r.y0, r.width, r.height).map_err(io),
-        None => Err(FilterError::Io("no angle map".into())),
+    let scale = match &mut smap {
+        Some(m) => TiledField::Map(m),
+        None => TiledField::Constant(t.scale.unwrap_or(1.0)),
     };
-    let mut read_smap = |r: PixelRect| match &mut smap {
-        Some(m) => m.read_region(r.x0, r.y0, r.width, r.height).map_err(io),
-        None => Err(FilterError::Io("no scale map".into())),
-    };
-    let angle = match t.angle {
-        Ok(a) => TiledField::Constant(a),
-        Err(_) => TiledField::Map(&mut read_amap),
-    };
-    let scale = match t.scale {
-        Ok(s) => TiledField::Constant(s),
-        Err(_) => TiledField::Map(&mut read_smap),
-    };
-    let mut write = |x0, y0, tile: &ifd_image::Image| writer.write_region(x0, y0, tile).map_err(io);
     filter_tiled(
         t.decomposition,
         &grid,
-        &t.options,
-        &mut read_image,
+        &mut reader,
         angle,
         scale,
-        &mut write,
+        &mut writer,
         |done, _| bar.set_position(done as u64),
     )
     .context("filtering tile by tile")?;
