@@ -1,18 +1,22 @@
-"""`ifd filter` tile by tile (streaming .npy) gives the whole image's result.
+"""`ifd filter` and `ifd smooth` tile by tile (streaming .npy) give the whole
+image's result.
 
 Tiles are cut smaller than the filter's reach, so every tile border lies
 inside some output pixel's footprint; the halo, the alignment of tile
 origins to the stack's coarsest subsampling and the shared scale range must
 make each tile's pixels equal the whole image's (to float rounding, 1e-5 of
-the result's range asserted). Also: the automatic switch when the image does
+the result's range asserted). The smoother's chain (Hessian, tensor
+averaging, dab grid, smoothing filters) has its own halo
+(`ifd_smooth::tiled`); its filter field is streamed too. Also: the automatic switch when the image does
 not fit `--memory-budget`, and the formats that cannot stream.
 """
 
 import numpy as np
 import pytest
 import scipy.ndimage as nd
+import skimage.io
 
-from conftest import save_npy
+from conftest import TESTDATA, save_npy
 
 
 @pytest.fixture(scope="module")
@@ -88,3 +92,61 @@ def test_formats_that_cannot_stream_are_refused_naming_npy(scene, decomp, run_if
     p = run_ifd("filter", png, "--decomp", decomp, "--memory-budget", "1", "-o", d / "o.npy", check=False)
     assert p.returncode == 2 and "more than the budget" in p.stderr and ".npy" in p.stderr, p.stderr
     assert not (d / "o.npy").exists()
+
+
+@pytest.fixture(scope="module")
+def photo(tmp_path_factory):
+    """A 600x520 crop of the bundled photograph with noise: edges of every
+    orientation, flat areas where the field is isotropic."""
+    d = tmp_path_factory.mktemp("tiled-smooth")
+    rgb = skimage.io.imread(TESTDATA / "astronaut.png")[..., :3].astype(np.float32) / 255
+    rgb = rgb[:520, :600]
+    rng = np.random.default_rng(3)
+    rgb = np.clip(rgb + rng.normal(0, 0.03, rgb.shape), 0, 1).astype(np.float32)
+    return {"dir": d, "img": save_npy(d / "photo.npy", rgb)}
+
+
+@pytest.mark.parametrize(
+    "args, tile",
+    [
+        # Tiles of 1 px are rounded up to twice the halo (the reach).
+        (("--scale", "4", "--mode", "per-pixel", "--strength", "0.8"), 1),
+        (("--scale", "4", "--mode", "dab"), 1),
+        (("--scale", "1.5", "--mode", "dab"), 100),  # direct kernels
+    ],
+    ids=["per-pixel", "dab", "direct"],
+)
+def test_smooth_tiles_equal_the_whole_image(photo, run_ifd, args, tile):
+    d = photo["dir"]
+    tag = "-".join(args).replace("-", "")
+    whole, tiled = d / f"whole-{tag}.npy", d / f"tiled-{tag}.npy"
+    wf, tf = d / f"wf-{tag}.npy", d / f"tf-{tag}.npy"
+    run_ifd("smooth", photo["img"], *args, "--field", wf, "-o", whole)
+    p = run_ifd("smooth", photo["img"], *args, "--tile", tile, "--field", tf, "-v", "-o", tiled)
+    assert "tiled:" in p.stderr, p.stderr
+    n_tiles = int(p.stderr.split("tiled: ")[1].split()[0])
+    assert n_tiles >= 4, p.stderr
+    _close(tiled, whole)
+    # The field: angles of (near-)isotropic filters are arbitrary, so
+    # compare the filters' covariances rather than the raw angle.
+    def cov(path):
+        f = np.load(path).astype(np.float64)
+        t, sx, sy = np.radians(f[..., 0]), f[..., 1], f[..., 2]
+        c, s = np.cos(t), np.sin(t)
+        return np.stack([sx**2 * c * c + sy**2 * s * s, (sx**2 - sy**2) * c * s, sx**2 * s * s + sy**2 * c * c])
+
+    a, b = cov(tf), cov(wf)
+    assert np.abs(a - b).max() <= 1e-4 * np.abs(b).max()
+
+
+def test_smooth_over_the_budget_goes_tiled_by_itself(photo, run_ifd):
+    d = photo["dir"]
+    whole, auto = d / "s-whole.npy", d / "s-auto.npy"
+    args = ["--scale", "3"]
+    run_ifd("smooth", photo["img"], *args, "-o", whole)
+    p = run_ifd("smooth", photo["img"], *args, "--memory-budget", "40", "-v", "-o", auto)
+    assert "tiled:" in p.stderr, p.stderr
+    _close(auto, whole)
+    p = run_ifd("smooth", photo["img"], *args, "--memory-budget", "40", "-o", d / "s.png", check=False)
+    assert p.returncode == 2 and ".npy" in p.stderr and "s.png" in p.stderr, p.stderr
+    assert not (d / "s.png").exists()

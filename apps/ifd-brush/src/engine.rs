@@ -123,26 +123,9 @@ impl Banks {
         cache: Option<&Path>,
         mut progress: impl FnMut(usize, usize),
     ) -> anyhow::Result<Self> {
-        let wanted = BankOptions::default();
-        let cached = cache
-            .and_then(|p| AspectBank::load(p).ok())
-            .filter(|b| b.options == wanted);
-        let (aspect, source) = if let Some(b) = cached {
-            let src = cache.map_or_else(String::new, |p| p.display().to_string());
-            (b, src)
-        } else {
-            let b = AspectBank::build(wanted, &mut progress).context("fitting the aspect bank")?;
-            if let Some(p) = cache {
-                if let Some(dir) = p.parent() {
-                    // Best effort: a cache is an optimisation.
-                    std::fs::create_dir_all(dir).ok();
-                }
-                if let Err(e) = b.save(p) {
-                    eprintln!("warning: cannot cache the aspect bank: {e}");
-                }
-            }
-            (b, "fitted".to_string())
-        };
+        let (aspect, source) =
+            AspectBank::load_or_build(BankOptions::default(), cache, &mut progress)
+                .context("fitting the aspect bank")?;
         let hessian = HessianBank::new(HESSIAN_TOL).context("fitting the Hessian filters")?;
         let errors = aspect
             .aspects
@@ -163,14 +146,11 @@ impl Banks {
         })
     }
 
-    /// The default cache file: `$XDG_CACHE_HOME/ifd-brush/aspect-bank-v1.json`
-    /// (or `~/.cache/...`).
+    /// The default cache file ([`AspectBank::default_cache`], shared with
+    /// `ifd smooth`).
     #[must_use]
     pub fn default_cache() -> Option<PathBuf> {
-        let base = std::env::var_os("XDG_CACHE_HOME")
-            .map(PathBuf::from)
-            .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
-        Some(base.join("ifd-brush").join("aspect-bank-v1.json"))
+        AspectBank::default_cache()
     }
 }
 

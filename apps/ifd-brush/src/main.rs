@@ -37,7 +37,7 @@ struct Args {
     /// Exit when done. With --replay and without --screenshot, runs without a window.
     #[arg(long)]
     exit: bool,
-    /// Aspect-bank cache file (default: ~/.cache/ifd-brush/aspect-bank-v1.json).
+    /// Aspect-bank cache file (default: ~/.cache/ifd/aspect-bank-v1.json, shared with `ifd smooth`).
     #[arg(long, value_name = "FILE")]
     bank: Option<PathBuf>,
     /// Evaluate dabs on the GPU: `auto` (hardware adapters only; a software

@@ -3,7 +3,7 @@
 
 use ifd_image::Image;
 use ifd_planar::{Field, ScaleStack};
-use ifd_smooth::smooth::{DabRegion, dab_grid_corners, nearest_pixel};
+use ifd_smooth::smooth::{DabRegion, anchored_dab_grid_corners, nearest_pixel};
 use ifd_smooth::{Dab, HessianBank, Mode, RegionRefresh, Smoother};
 
 use crate::context::GpuContext;
@@ -81,6 +81,8 @@ pub struct GpuSmoother {
     scale: f32,
     /// Spacing of the dab grid of whole-image [`Mode::Dab`] smoothing.
     grid: f32,
+    /// The smoother's dab-grid anchor (`Smoother::grid_origin`).
+    grid_origin: (usize, usize),
     entries: Vec<f32>,
     thetas: Vec<f32>,
 }
@@ -123,6 +125,7 @@ impl GpuSmoother {
             field: pose,
             scale,
             grid: smoother.dab_grid_spacing(),
+            grid_origin: smoother.grid_origin(),
             entries,
             thetas,
         })
@@ -266,7 +269,9 @@ impl GpuSmoother {
             weights.clear();
             for y in 0..h {
                 for x in 0..w {
-                    let ((cx, cy), wgt) = dab_grid_corners(x as f32, y as f32, self.grid)[corner];
+                    let ((cx, cy), wgt) =
+                        anchored_dab_grid_corners(x as f32, y as f32, self.grid, self.grid_origin)
+                            [corner];
                     let i = nearest_pixel(cx, cy, w, h);
                     thetas.push(self.thetas[i]);
                     entries.push(self.entries[i]);

@@ -129,11 +129,24 @@ pub fn halo(decomposition: &Decomposition, scale_max: f32) -> Result<usize, Filt
     Ok((s * p.reach() + 5.0 * sigma).ceil() as usize)
 }
 
-/// The tiles of a run: output tiles of `tile x tile` pixels (the last ones
-/// in a row or column smaller), each read with `halo` pixels around it,
-/// tile origins and halo multiples of `align`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TileGrid {
+/// Output tiles of `tile x tile` pixels (the last ones in a row or column
+/// larger, up to `2 tile - 1`), each read with `halo` pixels around it, tile
+/// origins and halo multiples of `align`: the geometry of any tiled run
+/// (filtering here, smoothing in `ifd_smooth::tiled`).
+///
+/// ```
+/// use ifd_planar::tiled::Tiling;
+/// let t = Tiling::new((100, 70, 3), 30, 7, 4)?;
+/// assert_eq!((t.tile, t.halo), (32, 8));
+/// let tiles = t.tiles();
+/// assert_eq!(tiles.len(), 3 * 2);
+/// // The last column joins the one before it; reads stop at the image.
+/// assert_eq!((tiles[2].0.x0, tiles[2].0.width), (64, 36));
+/// assert_eq!((tiles[2].1.x0, tiles[2].1.width), (56, 44));
+/// # Ok::<(), ifd_planar::FilterError>(())
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tiling {
     /// Image width.
     pub width: usize,
     /// Image height.
@@ -144,8 +157,101 @@ pub struct TileGrid {
     pub tile: usize,
     /// Pixels read around each tile, a multiple of `align`.
     pub halo: usize,
-    /// The stack's coarsest subsampling factor.
+    /// The alignment of tile origins (the stack's coarsest subsampling factor).
     pub align: usize,
+}
+
+impl Tiling {
+    /// Tiles of about `tile` pixels for a `(width, height, channels)`
+    /// image, read with `halo` pixels around them: the halo is rounded up to
+    /// a multiple of `align`, the tile to a multiple of it and to at least
+    /// twice the halo (so that a tile at the image's edge still holds the
+    /// whole reach).
+    ///
+    /// # Errors
+    /// [`FilterError::InvalidParameter`] for a zero `tile` or `align`, or
+    /// sizes that overflow.
+    pub fn new(
+        (width, height, channels): (usize, usize, usize),
+        tile: usize,
+        halo: usize,
+        align: usize,
+    ) -> Result<Self, FilterError> {
+        if tile == 0 || align == 0 {
+            return Err(FilterError::InvalidParameter(format!(
+                "tile size {tile} and alignment {align} must be positive"
+            )));
+        }
+        let up = |n: usize| {
+            n.checked_next_multiple_of(align)
+                .ok_or_else(|| FilterError::InvalidParameter(format!("a tile of {n} px is absurd")))
+        };
+        let halo = up(halo)?;
+        let tile = up(tile.max(halo.saturating_mul(2)).max(1))?;
+        Ok(Self {
+            width,
+            height,
+            channels,
+            tile,
+            halo,
+            align,
+        })
+    }
+
+    /// The tiles, row by row: `(output rectangle, rectangle read)`. A last
+    /// row or column narrower than a tile joins the one before it, so that
+    /// every tile read holds the whole reach (tiles are `tile` to
+    /// `2 tile - 1` pixels wide).
+    #[must_use]
+    pub fn tiles(&self) -> Vec<(PixelRect, PixelRect)> {
+        let spans = |n: usize| {
+            let mut starts: Vec<usize> = (0..n).step_by(self.tile).collect();
+            if starts.len() > 1 && n - starts[starts.len() - 1] < self.tile {
+                starts.pop();
+            }
+            let ends: Vec<usize> = starts.iter().skip(1).copied().chain([n]).collect();
+            starts.into_iter().zip(ends).collect::<Vec<_>>()
+        };
+        let mut out = Vec::new();
+        for &(y0, y1) in &spans(self.height) {
+            for &(x0, x1) in &spans(self.width) {
+                let inner = PixelRect {
+                    x0,
+                    y0,
+                    width: x1 - x0,
+                    height: y1 - y0,
+                };
+                let rx0 = x0.saturating_sub(self.halo);
+                let ry0 = y0.saturating_sub(self.halo);
+                let rx1 = (x0 + inner.width + self.halo).min(self.width);
+                let ry1 = (y0 + inner.height + self.halo).min(self.height);
+                let read = PixelRect {
+                    x0: rx0,
+                    y0: ry0,
+                    width: rx1 - rx0,
+                    height: ry1 - ry0,
+                };
+                out.push((inner, read));
+            }
+        }
+        out
+    }
+
+    /// The side of the largest rectangle a tile reads: `2 tile - 1 + 2 halo`
+    /// at most, clipped to the image (for memory estimates).
+    #[must_use]
+    pub fn largest_read(&self) -> (usize, usize) {
+        let side = 2 * self.tile + 2 * self.halo;
+        (side.min(self.width), side.min(self.height))
+    }
+}
+
+/// The tiles of a filtering run: a [`Tiling`] whose halo is the
+/// decomposition's reach ([`halo`]), and how every tile plans.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TileGrid {
+    /// Tile geometry.
+    pub tiling: Tiling,
     /// The scale range every tile plans with.
     pub scale_range: (f32, f32),
     /// Whether the angle is a per-pixel map.
@@ -186,59 +292,24 @@ impl TileGrid {
             &options,
         )?;
         let align = plan.alignment()?.max(1);
-        let up = |n: usize| n.div_ceil(align) * align;
-        let halo = up(halo(decomposition, scale_range.1)?);
-        let tile = up(tile.max(2 * halo).max(1));
-        Ok(Self {
-            width,
-            height,
-            channels,
+        let tiling = Tiling::new(
+            (width, height, channels),
             tile,
-            halo,
+            halo(decomposition, scale_range.1)?,
             align,
+        )?;
+        Ok(Self {
+            tiling,
             scale_range,
             angle_varies,
             options,
         })
     }
 
-    /// The tiles, row by row: `(output rectangle, rectangle read)`. A last
-    /// row or column narrower than a tile joins the one before it, so that
-    /// every tile read holds the whole kernel (tiles are `tile` to
-    /// `2 tile - 1` pixels wide).
+    /// The tiles, row by row ([`Tiling::tiles`]).
     #[must_use]
     pub fn tiles(&self) -> Vec<(PixelRect, PixelRect)> {
-        let spans = |n: usize| {
-            let mut starts: Vec<usize> = (0..n).step_by(self.tile).collect();
-            if starts.len() > 1 && n - starts[starts.len() - 1] < self.tile {
-                starts.pop();
-            }
-            let ends: Vec<usize> = starts.iter().skip(1).copied().chain([n]).collect();
-            starts.into_iter().zip(ends).collect::<Vec<_>>()
-        };
-        let mut out = Vec::new();
-        for &(y0, y1) in &spans(self.height) {
-            for &(x0, x1) in &spans(self.width) {
-                let inner = PixelRect {
-                    x0,
-                    y0,
-                    width: x1 - x0,
-                    height: y1 - y0,
-                };
-                let rx0 = x0.saturating_sub(self.halo);
-                let ry0 = y0.saturating_sub(self.halo);
-                let rx1 = (x0 + inner.width + self.halo).min(self.width);
-                let ry1 = (y0 + inner.height + self.halo).min(self.height);
-                let read = PixelRect {
-                    x0: rx0,
-                    y0: ry0,
-                    width: rx1 - rx0,
-                    height: ry1 - ry0,
-                };
-                out.push((inner, read));
-            }
-        }
-        out
+        self.tiling.tiles()
     }
 
     /// Bytes one tile needs at most: the grown tile's samples, its stack
@@ -247,17 +318,17 @@ impl TileGrid {
     /// # Errors
     /// As [`FilterPlan::new`].
     pub fn tile_bytes(&self, decomposition: &Decomposition) -> Result<u64, FilterError> {
-        let side = (2 * self.tile + 2 * self.halo).min(self.width.max(self.height));
-        let (w, h) = (side.min(self.width), side.min(self.height));
+        let (w, h) = self.tiling.largest_read();
+        let c = self.tiling.channels;
         let plan = FilterPlan::for_ranges(
-            (w, h, self.channels),
+            (w, h, c),
             decomposition,
             self.angle_varies,
             self.scale_range,
             &self.options,
         )?;
         let px = (w * h) as u64;
-        Ok(plan.stack.layout()?.bytes() + px * (2 * self.channels as u64 + 2) * 4)
+        Ok(plan.stack.layout()?.bytes() + px * (2 * c as u64 + 2) * 4)
     }
 }
 

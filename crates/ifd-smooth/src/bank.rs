@@ -246,6 +246,54 @@ impl AspectBank {
         Ok(())
     }
 
+    /// The bank with `options` from the cache file `cache` when it holds a
+    /// valid one built with them, else fitted (a few seconds;
+    /// `progress(done, total)` after each entry) and written there (best
+    /// effort: a cache that cannot be written is reported on stderr, not an
+    /// error). Returns the bank and where it came from (the file, or
+    /// `"fitted"`).
+    ///
+    /// # Errors
+    /// As [`AspectBank::build`].
+    pub fn load_or_build(
+        options: BankOptions,
+        cache: Option<&Path>,
+        progress: impl FnMut(usize, usize),
+    ) -> Result<(Self, String), SmoothError> {
+        if let Some(p) = cache
+            && let Ok(b) = Self::load(p)
+            && b.options == options
+            && b.aspects == log_spaced_aspects(options.max_aspect, options.steps_per_octave as f64)
+        {
+            return Ok((b, p.display().to_string()));
+        }
+        let b = Self::build(options, progress)?;
+        if let Some(p) = cache {
+            if let Some(dir) = p.parent() {
+                // Best effort: a cache is an optimisation.
+                std::fs::create_dir_all(dir).ok();
+            }
+            if let Err(e) = b.save(p) {
+                eprintln!("warning: cannot cache the aspect bank: {e}");
+            }
+        }
+        Ok((b, "fitted".to_string()))
+    }
+
+    /// The cache file of the default bank shared by ifd's tools:
+    /// `$XDG_CACHE_HOME/ifd/aspect-bank-v1.json` (else `~/.cache/ifd/...`;
+    /// `None` without either variable).
+    #[must_use]
+    pub fn default_cache() -> Option<std::path::PathBuf> {
+        let base = std::env::var_os("XDG_CACHE_HOME")
+            .filter(|v| !v.is_empty())
+            .map(std::path::PathBuf::from)
+            .or_else(|| {
+                std::env::var_os("HOME").map(|h| std::path::PathBuf::from(h).join(".cache"))
+            })?;
+        Some(base.join("ifd").join("aspect-bank-v1.json"))
+    }
+
     /// Reads a bank written by [`AspectBank::save`], checking it.
     ///
     /// # Errors

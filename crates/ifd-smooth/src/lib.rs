@@ -15,6 +15,8 @@
 //! - [`smooth`]: the [`Smoother`], which owns one prefiltered scale stack and
 //!   smooths a whole image or a dab, in the paper's mode (one filter per dab,
 //!   from the Hessian at the dab's centre) or per pixel.
+//! - [`tiled`]: images larger than memory, smoothed tile by tile with the
+//!   halo each stage of the chain needs (the result of smoothing them whole).
 //!
 //! Conventions are those of `ifd_planar`: `x` = column, `y` = row (down),
 //! angles in degrees counter-clockwise on screen, filtering is correlation.
@@ -34,6 +36,7 @@ pub mod error;
 pub mod hessian;
 pub mod orientation;
 pub mod smooth;
+pub mod tiled;
 
 pub use bank::{AspectBank, BankOptions};
 pub use error::SmoothError;

@@ -204,6 +204,28 @@ pub fn dab_grid_corners(x: f32, y: f32, g: f32) -> [((f32, f32), f32); 4] {
     ]
 }
 
+/// [`dab_grid_corners`] for a tile whose pixel (0, 0) lies at `origin` in
+/// the image whose grid it follows: `(x, y)` and the returned centres in the
+/// tile's coordinates.
+///
+/// ```
+/// use ifd_smooth::smooth::{anchored_dab_grid_corners, dab_grid_corners};
+/// let tile = anchored_dab_grid_corners(3.0, 1.0, 4.0, (8, 4));
+/// let whole = dab_grid_corners(11.0, 5.0, 4.0);
+/// assert_eq!(tile[0], ((0.0, 0.0), whole[0].1));
+/// assert_eq!(whole[0].0, (8.0, 4.0));
+/// ```
+#[must_use]
+pub fn anchored_dab_grid_corners(
+    x: f32,
+    y: f32,
+    g: f32,
+    origin: (usize, usize),
+) -> [((f32, f32), f32); 4] {
+    let (ox, oy) = (origin.0 as f32, origin.1 as f32);
+    dab_grid_corners(x + ox, y + oy, g).map(|((cx, cy), w)| ((cx - ox, cy - oy), w))
+}
+
 /// What [`Smoother::apply_dab`] touched: a [`PixelRect`](ifd_planar::PixelRect).
 pub use ifd_planar::PixelRect as DabRegion;
 
@@ -223,6 +245,9 @@ pub struct Smoother {
     width: usize,
     height: usize,
     channels: usize,
+    /// Where the image's pixel (0, 0) lies in a larger image it is a tile
+    /// of: the dab grid of [`Mode::Dab`] is anchored there.
+    grid_origin: (usize, usize),
 }
 
 impl Smoother {
@@ -251,16 +276,10 @@ impl Smoother {
         bank: &AspectBank,
         hbank: &HessianBank,
     ) -> StackPlan {
-        let hs = opts.hessian_sigma();
-        let (hlo, hhi) = hbank.stack_sigmas(hs, hs);
-        let (lo, hi) = if opts.evaluated_directly() {
-            // The smoothing filters do not read the stack.
-            (hlo, hhi)
-        } else {
-            let s = opts.scale / bank.options.sigma_ref;
-            let (blo, bhi) =
-                ifd_planar::filter::sigma_bounds(BANK_SAMPLING, bank.sigma_range(), (s, s));
-            (hlo.min(blo), hhi.max(bhi))
+        let (hlo, hhi) = Self::hessian_sigmas(opts, hbank);
+        let (lo, hi) = match Self::smoothing_sigmas(opts, bank) {
+            Some((blo, bhi)) => (hlo.min(blo), hhi.max(bhi)),
+            None => (hlo, hhi),
         };
         StackPlan {
             dims: (width, height, channels),
@@ -268,6 +287,26 @@ impl Smoother {
             border: opts.border,
             options: smoother_stack_options(bank, opts.scale, (width, height, channels), (lo, hi)),
         }
+    }
+
+    /// The stack sigmas the Hessian filters read.
+    pub(crate) fn hessian_sigmas(opts: &SmoothOptions, hbank: &HessianBank) -> (f64, f64) {
+        let hs = opts.hessian_sigma();
+        hbank.stack_sigmas(hs, hs)
+    }
+
+    /// The stack sigmas the smoothing filters read (`None` when they are
+    /// evaluated directly and do not read the stack).
+    pub(crate) fn smoothing_sigmas(opts: &SmoothOptions, bank: &AspectBank) -> Option<(f64, f64)> {
+        if opts.evaluated_directly() {
+            return None;
+        }
+        let s = opts.scale / bank.options.sigma_ref;
+        Some(ifd_planar::filter::sigma_bounds(
+            BANK_SAMPLING,
+            bank.sigma_range(),
+            (s, s),
+        ))
     }
 
     /// The layout of the scale stack a smoother of a `(width, height,
@@ -349,7 +388,35 @@ impl Smoother {
             width: w,
             height: h,
             channels: image.channels(),
+            grid_origin: (0, 0),
         })
+    }
+
+    /// Declares the smoother's image a tile of a larger image, with its
+    /// pixel (0, 0) at `(x0, y0)` there: whole-image [`Mode::Dab`]
+    /// smoothing then places its dab grid as it would on the larger image
+    /// ([`crate::tiled`]). Nothing else depends on the position.
+    #[must_use]
+    pub fn with_grid_origin(mut self, (x0, y0): (usize, usize)) -> Self {
+        self.grid_origin = (x0, y0);
+        self
+    }
+
+    /// The four dab-grid centres around pixel `(x, y)` of the smoother's
+    /// image and their bilinear weights ([`dab_grid_corners`] on the
+    /// grid anchored at [`Smoother::with_grid_origin`]), in the smoother's
+    /// coordinates (centres past its edges are clamped by
+    /// [`Smoother::orientation_at`]).
+    #[must_use]
+    pub fn dab_corners(&self, x: f32, y: f32) -> [((f32, f32), f32); 4] {
+        anchored_dab_grid_corners(x, y, self.dab_grid_spacing(), self.grid_origin)
+    }
+
+    /// Where the smoother's pixel (0, 0) lies in the image it is a tile of
+    /// ([`Smoother::with_grid_origin`]; `(0, 0)` for a whole image).
+    #[must_use]
+    pub fn grid_origin(&self) -> (usize, usize) {
+        self.grid_origin
     }
 
     /// The options in use.
@@ -478,38 +545,67 @@ impl Smoother {
     /// # Errors
     /// Filtering errors (should not happen for a valid smoother).
     pub fn smooth_image(&self, mode: Mode) -> Result<Image, SmoothError> {
+        self.smooth_rect(
+            mode,
+            DabRegion {
+                x0: 0,
+                y0: 0,
+                width: self.width,
+                height: self.height,
+            },
+        )
+    }
+
+    /// Smooths the pixels of `rect` (the rest of the image only feeds
+    /// them): the rectangle of [`Smoother::smooth_image`]'s result, computed
+    /// alone (how [`crate::tiled`] smooths a tile read with its halo).
+    ///
+    /// # Errors
+    /// [`SmoothError::BadImage`] for a rectangle outside the image, and
+    /// filtering errors (should not happen for a valid smoother).
+    pub fn smooth_rect(&self, mode: Mode, rect: DabRegion) -> Result<Image, SmoothError> {
         let (w, h, c) = (self.width, self.height, self.channels);
+        if rect.width == 0
+            || rect.height == 0
+            || rect.x0 + rect.width > w
+            || rect.y0 + rect.height > h
+        {
+            return Err(SmoothError::BadImage(format!(
+                "rectangle {}x{} at ({}, {}) is empty or outside the {w}x{h} image",
+                rect.width, rect.height, rect.x0, rect.y0
+            )));
+        }
         let filters = self.filters()?;
         let scaled = self.scaled(&filters)?;
-        let mut out = vec![0.0f32; w * h * c];
-        match mode {
-            Mode::PerPixel => {
-                out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
-                    for (x, px) in row.chunks_exact_mut(c).enumerate() {
-                        let o = self.field[y * w + x];
-                        self.add_smoothed(&scaled, x as f32, y as f32, o, 1.0, px);
-                    }
-                });
-            }
-            Mode::Dab => {
-                // Dab centres on a grid of spacing g; each pixel blends the
-                // results of the filters of its four surrounding centres.
-                let g = self.dab_grid_spacing();
-                out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
-                    for (x, px) in row.chunks_exact_mut(c).enumerate() {
-                        let (x, y) = (x as f32, y as f32);
-                        for ((cx, cy), wgt) in dab_grid_corners(x, y, g) {
-                            if wgt == 0.0 {
-                                continue;
+        let mut out = vec![0.0f32; rect.width * rect.height * c];
+        out.par_chunks_mut(rect.width * c)
+            .enumerate()
+            .for_each(|(j, row)| {
+                let y = rect.y0 + j;
+                for (i, px) in row.chunks_exact_mut(c).enumerate() {
+                    let x = rect.x0 + i;
+                    match mode {
+                        Mode::PerPixel => {
+                            let o = self.field[y * w + x];
+                            self.add_smoothed(&scaled, x as f32, y as f32, o, 1.0, px);
+                        }
+                        // Dab centres on a grid of spacing g; each pixel
+                        // blends the results of the filters of its four
+                        // surrounding centres.
+                        Mode::Dab => {
+                            let (x, y) = (x as f32, y as f32);
+                            for ((cx, cy), wgt) in self.dab_corners(x, y) {
+                                if wgt == 0.0 {
+                                    continue;
+                                }
+                                let o = self.orientation_at(cx, cy);
+                                self.add_smoothed(&scaled, x, y, o, wgt, px);
                             }
-                            let o = self.orientation_at(cx, cy);
-                            self.add_smoothed(&scaled, x, y, o, wgt, px);
                         }
                     }
-                });
-            }
-        }
-        Ok(Image::from_vec(w, h, c, out)?)
+                }
+            });
+        Ok(Image::from_vec(rect.width, rect.height, c, out)?)
     }
 
     /// Applies one dab to `target` (an image of the smoother's size, usually

@@ -295,3 +295,69 @@ fn direct_refresh_follows_the_edited_image() {
         .fold(0.0f32, f32::max);
     assert!(worst < 1e-4, "{worst}");
 }
+
+/// Tiles (each with its own stack, field and dab grid) give the whole
+/// image's result: both modes, a stack-based and a direct footprint, tiles
+/// smaller than the filters' reach.
+#[test]
+fn tiled_smoothing_equals_whole_image() {
+    use ifd_planar::PixelRect;
+    use ifd_smooth::tiled::{SmoothTiles, smooth_tiled};
+    let (bank, hbank) = banks();
+    let (w, h) = (420, 400);
+    // Two channels: the Hessian of the channel mean, smoothing per channel.
+    let base = test_image(w, h);
+    let data = base
+        .data()
+        .iter()
+        .enumerate()
+        .flat_map(|(i, &v)| [v, 0.5 + 0.3 * ((i % w) as f32 / 5.0).sin() * v])
+        .collect();
+    let img = Image::from_vec(w, h, 2, data).unwrap();
+    for (scale, mode) in [
+        (5.0, Mode::PerPixel),
+        (5.0, Mode::Dab),
+        (1.5, Mode::Dab),
+        (1.5, Mode::PerPixel),
+    ] {
+        let opts = SmoothOptions {
+            scale,
+            ..SmoothOptions::default()
+        };
+        let whole = Smoother::with_banks(&img, &opts, bank.clone(), hbank)
+            .unwrap()
+            .smooth_image(mode)
+            .unwrap();
+        let tiles = SmoothTiles::new((w, h, 2), &opts, mode, bank, hbank, 1).unwrap();
+        let t = tiles.tiling;
+        assert!(t.tiles().len() >= 4, "scale {scale}: {t:?}");
+        let mut out = Image::new(w, h, 2).unwrap();
+        let mut n = 0;
+        smooth_tiled(
+            &tiles,
+            &opts,
+            bank,
+            hbank,
+            &mut |r: PixelRect| Ok(img.crop(r.x0, r.y0, r.width, r.height)),
+            |tile| -> Result<(), SmoothError> {
+                out.paste(tile.inner.x0, tile.inner.y0, &tile.smooth(mode)?);
+                Ok(())
+            },
+            |done, _| n = done,
+        )
+        .unwrap();
+        assert_eq!(n, t.tiles().len());
+        let diff = out
+            .data()
+            .iter()
+            .zip(whole.data())
+            .fold(0f32, |m, (a, b)| m.max((a - b).abs()));
+        eprintln!("scale {scale} {mode:?}: {t:?}: max difference {diff:e}");
+        assert!(
+            diff < 1e-5,
+            "scale {scale} {mode:?}: tiles of {} px (halo {}) differ by {diff}",
+            t.tile,
+            t.halo
+        );
+    }
+}

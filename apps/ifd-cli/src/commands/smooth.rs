@@ -7,6 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use ifd_planar::Border;
+use ifd_smooth::tiled::{SmoothTiles, smooth_tiled};
 use ifd_smooth::{AnisoParams, AspectBank, HessianBank, Mode, SmoothOptions, Smoother};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -68,6 +69,18 @@ pub struct Smooth {
     /// (along it) and sy (across), in pixels.
     #[arg(long, value_name = "FIELD.npy")]
     field: Option<PathBuf>,
+    /// Smooth tile by tile, output tiles of about PX pixels, streaming the
+    /// .npy input and output (and --field); images larger than memory. Without
+    /// it, a .npy image that would not fit --memory-budget whole is smoothed
+    /// tile by tile anyway, with tiles sized to the budget. The result equals
+    /// the whole image's.
+    #[arg(long, value_name = "PX")]
+    tile: Option<usize>,
+    /// Fit the aspect-ratio bank of smoothing filters afresh instead of
+    /// reading it from (and writing it to) the cache shared with ifd-brush,
+    /// $XDG_CACHE_HOME/ifd/aspect-bank-v1.json (~/.cache/ifd/...).
+    #[arg(long)]
+    no_cache: bool,
     /// Print timings.
     #[arg(short, long)]
     verbose: bool,
@@ -117,7 +130,22 @@ impl Smooth {
         opts.validate()
             .map_err(|e| crate::input::name_option(e, None))?;
         crate::output::check_output_path(&self.output.output)?;
-        let img = self.input.read(&self.image)?.image;
+        if self.tile == Some(0) {
+            anyhow::bail!("--tile 0: the tile side must be at least 1 pixel");
+        }
+        let mode = match self.mode {
+            ModeArg::Dab => Mode::Dab,
+            ModeArg::PerPixel => Mode::PerPixel,
+        };
+        // Bad images are refused before the filters are decomposed: formats
+        // that cannot stream are read now, a .npy header is checked.
+        let streams = super::tiled::streams(&self.image);
+        let mut img = if streams {
+            ifd_image::NpyReader::open(&self.image, self.input.replace_nonfinite)?;
+            None
+        } else {
+            Some(self.read_whole()?)
+        };
         let t0 = Instant::now();
         let bar = ProgressBar::new(0);
         bar.set_style(
@@ -126,11 +154,44 @@ impl Smooth {
         );
         bar.set_message("decomposing filters");
         let hbank = HessianBank::new(opts.hessian_tol)?;
-        let bank = AspectBank::build(opts.bank, |done, total| {
-            bar.set_length(total as u64);
-            bar.set_position(done as u64);
-        })?;
+        let cache = if self.no_cache {
+            None
+        } else {
+            AspectBank::default_cache()
+        };
+        let (bank, source) =
+            AspectBank::load_or_build(opts.bank, cache.as_deref(), |done, total| {
+                bar.set_length(total as u64);
+                bar.set_position(done as u64);
+            })?;
         bar.finish_and_clear();
+        if self.verbose {
+            eprintln!("aspect bank: {source}");
+        }
+        let bank = Arc::new(bank);
+        if self.tile.is_some() {
+            return self.run_tiled(&opts, mode, &bank, &hbank);
+        }
+        if let Some(bytes) = self.too_large_whole(&opts, &bank, &hbank)? {
+            for out in std::iter::once(&self.output.output).chain(&self.field) {
+                if !super::tiled::streams(out) {
+                    anyhow::bail!(
+                        "{}: smoothed whole it would need {}, more than the memory budget of {}; \
+                         tile by tile it fits, but tiles stream to {} only: write {} as .npy",
+                        self.image.display(),
+                        ifd_image::fmt_bytes(bytes),
+                        ifd_image::fmt_bytes(self.input.budget().limit()),
+                        super::tiled::STREAMING,
+                        out.display()
+                    );
+                }
+            }
+            return self.run_tiled(&opts, mode, &bank, &hbank);
+        }
+        let img = match img.take() {
+            Some(img) => img,
+            None => self.read_whole()?,
+        };
         // With --gpu, a stack the device cannot hold is refused before the
         // prefiltering, not after.
         let ctx = if self.gpu {
@@ -143,12 +204,8 @@ impl Smooth {
             None
         };
         let t1 = Instant::now();
-        let smoother = Smoother::with_banks(&img, &opts, Arc::new(bank), &hbank)?;
+        let smoother = Smoother::with_banks(&img, &opts, bank, &hbank)?;
         let t2 = Instant::now();
-        let mode = match self.mode {
-            ModeArg::Dab => Mode::Dab,
-            ModeArg::PerPixel => Mode::PerPixel,
-        };
         let mut out = if let Some(ctx) = ctx {
             if self.verbose {
                 eprintln!("GPU: {}", ctx.adapter_info().name);
@@ -157,11 +214,7 @@ impl Smooth {
         } else {
             smoother.smooth_image(mode)?
         };
-        if self.strength < 1.0 {
-            for (o, &i) in out.data_mut().iter_mut().zip(img.data()) {
-                *o = i + self.strength * (*o - i);
-            }
-        }
+        blend(&mut out, &img, self.strength);
         let t3 = Instant::now();
         if self.verbose {
             eprintln!(
@@ -172,17 +225,192 @@ impl Smooth {
             );
         }
         if let Some(path) = &self.field {
-            let field: Vec<f32> = smoother
-                .orientation_field()
-                .iter()
-                .flat_map(|&o| {
-                    let (sx, sy) = smoother.footprint(o);
-                    [o.theta, sx as f32, sy as f32]
-                })
-                .collect();
-            let field = ifd_image::Image::from_vec(img.width(), img.height(), 3, field)?;
+            let field = field_image(&smoother, smoother.orientation_field(), img.width())?;
             write_output(path, &field, &ifd_image::WriteOptions::default())?;
         }
         self.output.write(&out)
     }
+
+    /// Reads the whole image (formats that cannot stream say so over the
+    /// budget).
+    fn read_whole(&self) -> Result<ifd_image::Image> {
+        match self.input.read(&self.image) {
+            Ok(l) => Ok(l.image),
+            Err(e) if format!("{e:#}").contains("more than the budget") => anyhow::bail!(
+                "{e:#}; images over the budget are smoothed tile by tile when they are {} \
+                 (the output too)",
+                super::tiled::STREAMING
+            ),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// The bytes a `.npy` image would need smoothed whole, when more than
+    /// the memory budget: then it is smoothed tile by tile. Other formats
+    /// cannot stream; their reader refuses them over the budget.
+    fn too_large_whole(
+        &self,
+        opts: &SmoothOptions,
+        bank: &AspectBank,
+        hbank: &HessianBank,
+    ) -> Result<Option<u64>> {
+        if !super::tiled::streams(&self.image) {
+            return Ok(None);
+        }
+        let r = ifd_image::NpyReader::open(&self.image, self.input.replace_nonfinite)?;
+        let (w, h, c) = (r.width(), r.height(), r.channels());
+        let bytes = match ifd_smooth::tiled::smoother_bytes((w, h, c), opts, bank, hbank, w * h) {
+            Ok(b) => b,
+            // A stack too large to plan whole (its FFT domain) is one to tile.
+            Err(ifd_smooth::SmoothError::Filter(ifd_planar::FilterError::TooLarge(_))) => u64::MAX,
+            Err(e) => return Err(e.into()),
+        };
+        Ok((bytes > self.input.budget().limit()).then_some(bytes))
+    }
+
+    /// Smooths tile by tile, streaming `.npy` input and outputs.
+    fn run_tiled(
+        &self,
+        opts: &SmoothOptions,
+        mode: Mode,
+        bank: &Arc<AspectBank>,
+        hbank: &HessianBank,
+    ) -> Result<()> {
+        use super::tiled::{STREAMING, streams};
+        if !streams(&self.image) {
+            anyhow::bail!(
+                "{}: tiled smoothing streams {STREAMING} only; convert the image first",
+                self.image.display()
+            );
+        }
+        for out in std::iter::once(&self.output.output).chain(&self.field) {
+            if !streams(out) {
+                anyhow::bail!("{}: tiled smoothing writes {STREAMING} only", out.display());
+            }
+        }
+        let mut reader = ifd_image::NpyReader::open(&self.image, self.input.replace_nonfinite)?;
+        let dims = (reader.width(), reader.height(), reader.channels());
+        let budget = self.input.budget().limit();
+        let plan = |tile| SmoothTiles::new(dims, opts, mode, bank, hbank, tile);
+        // The largest tile whose work fits half the budget (the rest:
+        // buffers, the allocator's slack), from 4096 px down.
+        let tiles = if let Some(n) = self.tile {
+            plan(n)?
+        } else {
+            let mut n = 4096;
+            loop {
+                let t = plan(n)?;
+                let bytes = t.tile_bytes(opts, bank, hbank)?;
+                if bytes <= budget / 2 || n <= t.tiling.align.max(2 * t.tiling.halo) {
+                    if bytes > budget {
+                        anyhow::bail!(
+                            "even the smallest tile ({}x{} px with a halo of {} px) needs {}, \
+                             more than the memory budget of {}",
+                            t.tiling.tile,
+                            t.tiling.tile,
+                            t.tiling.halo,
+                            ifd_image::fmt_bytes(bytes),
+                            ifd_image::fmt_bytes(budget)
+                        );
+                    }
+                    break t;
+                }
+                n /= 2;
+            }
+        };
+        let count = tiles.tiling.tiles().len();
+        if self.verbose {
+            eprintln!(
+                "tiled: {count} tiles of {} px, halo {} px, aligned to {} px",
+                tiles.tiling.tile, tiles.tiling.halo, tiles.tiling.align
+            );
+        }
+        let ctx = if self.gpu {
+            let ctx = ifd_gpu::GpuContext::new().context("--gpu")?;
+            let (w, h) = tiles.tiling.largest_read();
+            let layout = Smoother::stack_layout((w, h, dims.2), opts, bank, hbank)?;
+            ifd_gpu::GpuStack::check_fits(&ctx, (w, h), &layout)?;
+            Some(ctx)
+        } else {
+            None
+        };
+        let (w, h, c) = dims;
+        let mut writer = ifd_image::NpyWriter::create(&self.output.output, w, h, c)?;
+        let mut field_writer = self
+            .field
+            .as_deref()
+            .map(|p| ifd_image::NpyWriter::create(p, w, h, 3))
+            .transpose()?;
+        let bar = ProgressBar::new(count as u64);
+        bar.set_style(
+            ProgressStyle::with_template(
+                "smoothing tiles {bar:30} {pos}/{len} [{elapsed} < {eta}]",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        smooth_tiled(
+            &tiles,
+            opts,
+            bank,
+            hbank,
+            &mut reader,
+            |tile| -> Result<()> {
+                let mut out = match &ctx {
+                    Some(ctx) => {
+                        let r = tile.local_inner();
+                        ifd_gpu::GpuSmoother::new(ctx, tile.smoother)?
+                            .smooth_image(ctx, mode)?
+                            .crop(r.x0, r.y0, r.width, r.height)
+                    }
+                    None => tile.smooth(mode)?,
+                };
+                blend(&mut out, &tile.input(), self.strength);
+                writer.write_region(tile.inner.x0, tile.inner.y0, &out)?;
+                if let Some(fw) = &mut field_writer {
+                    let f = field_image(tile.smoother, &tile.orientations(), tile.inner.width)?;
+                    fw.write_region(tile.inner.x0, tile.inner.y0, &f)?;
+                }
+                Ok(())
+            },
+            |done, _| bar.set_position(done as u64),
+        )
+        .with_context(|| format!("smoothing {} tile by tile", self.image.display()))?;
+        bar.finish_and_clear();
+        if let Some(fw) = field_writer {
+            fw.finish()?;
+        }
+        writer.finish()?;
+        Ok(())
+    }
+}
+
+/// Moves `out` back towards `input` for a strength below 1.
+fn blend(out: &mut ifd_image::Image, input: &ifd_image::Image, strength: f32) {
+    if strength < 1.0 {
+        for (o, &i) in out.data_mut().iter_mut().zip(input.data()) {
+            *o = i + strength * (*o - i);
+        }
+    }
+}
+
+/// The filter field of `orientations` (rows of `width`) as an image of
+/// `(angle, sx, sy)`.
+fn field_image(
+    smoother: &Smoother,
+    orientations: &[ifd_smooth::Orientation],
+    width: usize,
+) -> Result<ifd_image::Image> {
+    let field: Vec<f32> = orientations
+        .iter()
+        .flat_map(|&o| {
+            let (sx, sy) = smoother.footprint(o);
+            [o.theta, sx as f32, sy as f32]
+        })
+        .collect();
+    Ok(ifd_image::Image::from_vec(
+        width,
+        orientations.len() / width.max(1),
+        3,
+        field,
+    )?)
 }

@@ -135,14 +135,14 @@ pub fn run(t: &TiledRun<'_>) -> Result<()> {
         loop {
             let g = grid_for(n)?;
             let bytes = g.tile_bytes(t.decomposition)?;
-            if bytes <= t.budget / 2 || n <= g.align.max(2 * g.halo) {
+            if bytes <= t.budget / 2 || n <= g.tiling.align.max(2 * g.tiling.halo) {
                 if bytes > t.budget {
                     bail!(
                         "even the smallest tile ({}x{} px with a halo of {} px) needs {}, \
                          more than the memory budget of {}",
-                        g.tile,
-                        g.tile,
-                        g.halo,
+                        g.tiling.tile,
+                        g.tiling.tile,
+                        g.tiling.halo,
                         ifd_image::fmt_bytes(bytes),
                         ifd_image::fmt_bytes(t.budget)
                     );
@@ -156,7 +156,7 @@ pub fn run(t: &TiledRun<'_>) -> Result<()> {
     if t.verbose {
         eprintln!(
             "tiled: {tiles} tiles of {} px, halo {} px, aligned to {} px, scales {:?}",
-            grid.tile, grid.halo, grid.align, scale_range
+            grid.tiling.tile, grid.tiling.halo, grid.tiling.align, scale_range
         );
     }
     let mut writer = NpyWriter::create(t.output, w, h, c)?;
