@@ -8,10 +8,12 @@ Run from the repository root after building:  .venv/bin/python tests/bench/bench
    columns), GGX alpha = 0.3 (a lobe table) and Phong s = 32 (closed form), the unit sphere
    filling most of the frame. Time = the render call alone (`render_seconds`: no map loading,
    SH projection or table build), median of 3 runs, all cores.
-2. Monte Carlo against ISD at equal RMS error against the exact oracle (128x128, GGX 0.3):
-   ISD at L = 16 with a 96-entry table (the table's size costs nothing per pixel and keeps its
-   interpolation error below the band limit's); Monte Carlo at doubling samples per pixel until
-   its relative RMS error is at most ISD's; both timed by their render calls, same cores.
+2. Monte Carlo against ISD at equal RMS error against the exact oracle (128x128, GGX 0.3),
+   as a curve: ISD at L = 8 ... 24 with 128-entry tables (a table's size costs nothing per
+   pixel and keeps its interpolation error below the band limit's); Monte Carlo at doubling
+   samples per pixel until its relative RMS error is below ISD's smallest; at each ISD error the
+   Monte Carlo time interpolated log-log between the two rungs that bracket it; both timed by
+   their render calls (medians of --runs for ISD, one run per rung), same cores.
 """
 
 import argparse
@@ -44,64 +46,94 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--ifd")
     ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--part", choices=["1", "2", "all"], default="all",
+                    help="1: frames per second; 2: Monte Carlo against ISD; all: both")
     args = ap.parse_args()
     ifd = ifd_binary(args.ifd)
     print(f"binary: {ifd}")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
-        print("\n| BRDF | L | isd fps | isd-maps fps | object pixels |")
-        print("|---|---|---|---|---|")
-        for brdf in ["ggx:alpha=0.3", "phong:s=32"]:
-            for L in [7, 11, 15, 30]:
-                table = []
-                if not brdf.startswith("phong"):
-                    t = tmp / f"t{L}.lobes"
-                    subprocess.run([str(ifd), "sphere", "brdf", brdf, "--lmax", str(L), "-o", str(t)],
-                                   check=True, capture_output=True)
-                    table = ["--table", t]
-                fps = {}
-                for method in ["isd", "isd-maps"]:
-                    times = []
-                    for _ in range(args.runs):
-                        out = run(ifd, "--brdf", brdf, "--lmax", L, *table, "--method", method,
-                                  "--size", "1024x768", "--eye", "1.9,-1.6,0.7", "--fov", "60",
-                                  "-o", tmp / "f.exr")
-                        times.append(out["render_seconds"])
-                    fps[method] = 1.0 / statistics.median(times)
-                    pixels = out["object_pixels"]
-                print(f"| {brdf} | {L} | {fps['isd']:.2f} | {fps['isd-maps']:.2f} | {pixels} |", flush=True)
+        if args.part != "2":
+            frames_per_second(ifd, tmp, args.runs)
+        if args.part != "1":
+            isd_against_monte_carlo(ifd, tmp, args.runs)
 
-        print("\nMonte Carlo against ISD at equal error (128x128, GGX alpha = 0.3, oracle = quadrature)")
-        common = ["--brdf", "ggx:alpha=0.3", "--size", "128x128", "--no-background"]
-        run(ifd, *common, "--method", "quadrature", "--mask", tmp / "m.npy", "-o", tmp / "q.npy")
-        q = np.load(tmp / "q.npy").astype(np.float64)
-        mask = np.load(tmp / "m.npy") > 0.5
-        mask3 = np.repeat(mask[..., None] if mask.ndim == 2 else mask, 3, axis=-1)
-        subprocess.run([str(ifd), "sphere", "brdf", "ggx:alpha=0.3", "--lmax", "16", "--theta-entries", "96",
-                        "-o", str(tmp / "t.lobes")],
-                       check=True, capture_output=True)
-        isd_t = []
-        for _ in range(args.runs):
-            out = run(ifd, *common, "--method", "isd", "--lmax", 16, "--table", tmp / "t.lobes", "-o", tmp / "i.npy")
-            isd_t.append(out["render_seconds"])
-        isd_err = rel_rms(np.load(tmp / "i.npy").astype(np.float64), q, mask3)
-        isd_time = statistics.median(isd_t)
-        print(f"ISD L = 16: relative RMS {isd_err:.4f}, {isd_time * 1e3:.1f} ms")
-        spp = 64
-        while True:
-            out = run(ifd, *common, "--method", "mc", "--spp", spp, "-o", tmp / "mc.npy")
-            err = rel_rms(np.load(tmp / "mc.npy").astype(np.float64), q, mask3)
-            print(f"MC {spp} spp: relative RMS {err:.4f}, {out['render_seconds'] * 1e3:.1f} ms", flush=True)
-            if err <= isd_err or spp >= 1 << 16:
-                break
-            spp *= 2
-        mc_t = [out["render_seconds"]]
-        for _ in range(args.runs - 1):
-            mc_t.append(run(ifd, *common, "--method", "mc", "--spp", spp, "-o", tmp / "mc.npy")["render_seconds"])
-        mc_time = statistics.median(mc_t)
-        print(f"at equal error: Monte Carlo {spp} spp {mc_time:.3f} s vs ISD {isd_time:.4f} s: "
-              f"ISD {mc_time / isd_time:.0f}x faster")
 
+def frames_per_second(ifd, tmp, runs):
+    print("\n| BRDF | L | isd fps | isd-maps fps | object pixels |")
+    print("|---|---|---|---|---|")
+    for brdf in ["ggx:alpha=0.3", "phong:s=32"]:
+        for L in [7, 11, 15, 30]:
+            table = []
+            if not brdf.startswith("phong"):
+                t = tmp / f"t{L}.lobes"
+                subprocess.run([str(ifd), "sphere", "brdf", brdf, "--lmax", str(L), "-o", str(t)],
+                               check=True, capture_output=True)
+                table = ["--table", t]
+            fps = {}
+            for method in ["isd", "isd-maps"]:
+                times = []
+                for _ in range(runs):
+                    out = run(ifd, "--brdf", brdf, "--lmax", L, *table, "--method", method,
+                              "--size", "1024x768", "--eye", "1.9,-1.6,0.7", "--fov", "60",
+                              "-o", tmp / "f.exr")
+                    times.append(out["render_seconds"])
+                fps[method] = 1.0 / statistics.median(times)
+                pixels = out["object_pixels"]
+            print(f"| {brdf} | {L} | {fps['isd']:.2f} | {fps['isd-maps']:.2f} | {pixels} |", flush=True)
+
+
+
+def isd_against_monte_carlo(ifd, tmp, runs):
+    print("\nMonte Carlo against ISD at equal error (128x128, GGX alpha = 0.3, oracle = quadrature)")
+    common = ["--brdf", "ggx:alpha=0.3", "--size", "128x128", "--no-background"]
+    run(ifd, *common, "--method", "quadrature", "--mask", tmp / "m.npy", "-o", tmp / "q.npy")
+    q = np.load(tmp / "q.npy").astype(np.float64)
+    mask = np.load(tmp / "m.npy") > 0.5
+    mask3 = np.repeat(mask[..., None] if mask.ndim == 2 else mask, 3, axis=-1)
+    # ISD at several L: error against the oracle and render time (median of runs).
+    isd = []
+    for L in [8, 12, 16, 20, 24]:
+        t = tmp / f"mc{L}.lobes"
+        subprocess.run([str(ifd), "sphere", "brdf", "ggx:alpha=0.3", "--lmax", str(L),
+                        "--theta-entries", "128", "-o", str(t)], check=True, capture_output=True)
+        times = []
+        for _ in range(runs):
+            out = run(ifd, *common, "--method", "isd", "--lmax", L, "--table", t, "-o", tmp / "i.npy")
+            times.append(out["render_seconds"])
+        err = rel_rms(np.load(tmp / "i.npy").astype(np.float64), q, mask3)
+        isd.append((L, err, statistics.median(times)))
+        print(f"ISD L = {L}: relative RMS {err:.5f}, {isd[-1][2] * 1e3:.1f} ms", flush=True)
+    # Monte Carlo at doubling samples until below the smallest ISD error.
+    target = min(e for _, e, _ in isd)
+    ladder = []
+    spp = 32
+    while True:
+        out = run(ifd, *common, "--method", "mc", "--spp", spp, "-o", tmp / "mc.npy")
+        err = rel_rms(np.load(tmp / "mc.npy").astype(np.float64), q, mask3)
+        ladder.append((spp, err, out["render_seconds"]))
+        print(f"MC {spp} spp: relative RMS {err:.5f}, {out['render_seconds'] * 1e3:.1f} ms", flush=True)
+        if err <= target or spp >= 1 << 17:
+            break
+        spp *= 2
+    # Equal error: between the two rungs that bracket ISD's error, error and time
+    # interpolated log-log (error falls as a power of the samples, time grows linearly).
+    print("\n| ISD L | ISD error | ISD time | MC spp at that error | MC time | ISD faster by |")
+    print("|---|---|---|---|---|---|")
+    for L, e, t in isd:
+        below = [i for i, (_, me, _) in enumerate(ladder) if me <= e]
+        if not below:
+            print(f"| {L} | {e:.5f} | {t * 1e3:.1f} ms | beyond {ladder[-1][0]} | - | - |")
+            continue
+        i = below[0]
+        if i == 0:
+            n, mt = ladder[0][0], ladder[0][2]
+        else:
+            (n0, e0, t0), (n1, e1, t1) = ladder[i - 1], ladder[i]
+            f = np.log(e / e0) / np.log(e1 / e0)
+            n = n0 * (n1 / n0) ** f
+            mt = t0 * (t1 / t0) ** f
+        print(f"| {L} | {e:.5f} | {t * 1e3:.1f} ms | {n:.0f} | {mt:.2f} s | {mt / t:.0f}x |", flush=True)
 
 if __name__ == "__main__":
     main()

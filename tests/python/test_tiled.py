@@ -150,3 +150,26 @@ def test_smooth_over_the_budget_goes_tiled_by_itself(photo, run_ifd):
     p = run_ifd("smooth", photo["img"], *args, "--memory-budget", "40", "-o", d / "s.png", check=False)
     assert p.returncode == 2 and ".npy" in p.stderr and "s.png" in p.stderr, p.stderr
     assert not (d / "s.png").exists()
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_an_interrupted_run_leaves_nothing(tmp_path, decomp, ifd_bin, sig):
+    """Ctrl-C or SIGTERM while tiles stream: no output, no hidden temporary."""
+    import signal
+    import subprocess
+    import time
+
+    img = save_npy(tmp_path / "big.npy", np.random.default_rng(5).random((2000, 2000)))
+    out = tmp_path / "out.npy"
+    p = subprocess.Popen([str(ifd_bin), "filter", img, "--decomp", decomp, "--angle", "20",
+                          "--tile", "128", "-o", out], stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not any(f.name.startswith(".ifd-tmp-") for f in tmp_path.iterdir()):
+        assert p.poll() is None, f"finished before it could be interrupted: {p.stderr.read()}"
+        assert time.monotonic() < deadline
+        time.sleep(0.02)
+    p.send_signal(getattr(signal, sig))
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130, (p.returncode, err)
+    assert "unfinished output file(s) removed" in err, err
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["big.npy"]

@@ -63,6 +63,19 @@ fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
 fn main() -> ExitCode {
     let matches = allow_negative_numbers(Cli::command()).get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    // Ctrl-C or SIGTERM mid-write: outputs are written to hidden temporary
+    // files renamed into place when complete; remove those, so that an
+    // interrupted run leaves nothing behind.
+    let handler = ctrlc::set_handler(|| {
+        let n = ifd_image::remove_pending_outputs();
+        eprintln!("interrupted: {n} unfinished output file(s) removed");
+        std::process::exit(130);
+    });
+    if let Err(e) = handler {
+        eprintln!(
+            "warning: cannot handle interruptions ({e}); an interrupted run may leave .ifd-tmp-* files"
+        );
+    }
     let result = match cli.command {
         Command::Compare(c) => c.run(),
         Command::Decompose(c) => c.run(),

@@ -24,6 +24,58 @@ pub(crate) fn open(path: &Path) -> Result<File, ImageError> {
     })
 }
 
+/// Temporary files of outputs being written ([`atomic_write`],
+/// [`crate::NpyWriter`]), for [`remove_pending_outputs`].
+static PENDING: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Registers a temporary output file while it lives (removed from the
+/// registry on drop; the file itself is removed by its `NamedTempFile`).
+#[derive(Debug)]
+pub(crate) struct Pending(PathBuf);
+
+impl Pending {
+    pub(crate) fn new(path: &Path) -> Self {
+        if let Ok(mut v) = PENDING.lock() {
+            v.push(path.to_path_buf());
+        }
+        Self(path.to_path_buf())
+    }
+}
+
+impl Drop for Pending {
+    fn drop(&mut self) {
+        if let Ok(mut v) = PENDING.lock()
+            && let Some(i) = v.iter().position(|p| *p == self.0)
+        {
+            v.swap_remove(i);
+        }
+    }
+}
+
+/// Removes the temporary files of every output still being written and
+/// returns how many: what a signal handler calls before the process exits,
+/// so that an interrupted run leaves neither its output (never renamed into
+/// place) nor the hidden `.ifd-tmp-*` file behind. `SIGKILL` cannot be
+/// caught; after one, such a file can be deleted by hand.
+///
+/// ```
+/// let dir = tempfile::tempdir()?;
+/// let out = dir.path().join("big.npy");
+/// let w = ifd_image::NpyWriter::create(&out, 4, 4, 1)?;
+/// assert_eq!(std::fs::read_dir(dir.path())?.count(), 1); // the hidden temporary
+/// assert_eq!(ifd_image::remove_pending_outputs(), 1);
+/// assert_eq!(std::fs::read_dir(dir.path())?.count(), 0);
+/// drop(w);
+/// assert!(!out.exists());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn remove_pending_outputs() -> usize {
+    let Ok(v) = PENDING.lock() else {
+        return 0;
+    };
+    v.iter().filter(|p| std::fs::remove_file(p).is_ok()).count()
+}
+
 /// Writes a file atomically: `fill` writes into a temporary file in the
 /// destination's folder, which is flushed, synced and renamed over `path`.
 /// On any failure the temporary file is removed and `path` is untouched.
@@ -62,6 +114,7 @@ where
             dir.display()
         ))
     })?;
+    let _pending = Pending::new(tmp.path());
     {
         let mut w = BufWriter::new(tmp.as_file());
         fill(&mut w).map_err(werr)?;

@@ -178,6 +178,8 @@ impl NpyReader {
 #[derive(Debug)]
 pub struct NpyWriter {
     tmp: tempfile::NamedTempFile,
+    /// Registered for [`crate::remove_pending_outputs`] while it lives.
+    _pending: crate::files::Pending,
     path: PathBuf,
     width: usize,
     height: usize,
@@ -239,6 +241,7 @@ impl NpyWriter {
             .set_len(total)
             .map_err(|e| werr(format!("cannot size the file to {total} bytes: {e}")))?;
         Ok(Self {
+            _pending: crate::files::Pending::new(tmp.path()),
             tmp,
             path: path.to_path_buf(),
             width,

@@ -17,7 +17,8 @@
 //! |---|---|
 //! | `lambert[:albedo=A]` | `A / pi * max(wi_z, 0)` |
 //! | `phong:s=S[,albedo=A]` | `A (S + 1) / (2 pi) max(r . wi, 0)^S`: the normalised Phong lobe about `r` with the cosine folded in (the SHRM paper's form; its integral over the sphere is exactly `A`; no horizon clamp, so that it stays zonal about `r` with closed-form coefficients, [`crate::zonal`]) |
-//! | `blinn:s=S[,albedo=A]` | `A (S + 8) / (8 pi) max(h_z, 0)^S max(wi_z, 0)` |
+//! | `blinn:s=S[,albedo=A]` | `A (S + 8) / (8 pi) max(h_z, 0)^S max(wi_z, 0)` (the common approximate normalisation: albedo `S (S + 8) / ((S + 2)(S + 4))` at normal view, above 1 for `S > 4`) |
+//! | `blinn-exact:s=S[,albedo=A]` | `A c(S) max(h_z, 0)^S max(wi_z, 0)` with `c(S)` making the albedo at normal view exactly `A` ([`blinn_exact_norm`]; lower at other views) |
 //! | `ggx:alpha=a` or `ggx:ax=..,ay=..` `[,f0=F][,albedo=A]` | `A D(h) V(wi, wo) F(wo . h) max(wi_z, 0)` (below) |
 //! | `ward:ax=..,ay=..` or `ward:alpha=a` `[,albedo=A]` | `A / (pi ax ay) (H . H) / H_z^4 exp(-((H_x / ax)^2 + (H_y / ay)^2) / H_z^2) max(wi_z, 0)`, `H = wi + wo` unnormalised |
 //! | `merl:FILE` | the measured BRDF (three channels), [`crate::merl`] |
@@ -62,6 +63,9 @@ pub enum Model {
     BlinnPhong {
         /// Exponent.
         s: f64,
+        /// The normalisation constant `c` of `c h_z^s`: `(s + 8) / (8 pi)`
+        /// (`blinn`), or [`blinn_exact_norm`] (`blinn-exact`).
+        norm: f64,
     },
     /// GGX (Trowbridge-Reitz) with height-correlated Smith visibility.
     Ggx {
@@ -89,6 +93,29 @@ pub struct Brdf {
     model: Model,
     albedo: f64,
     spec: String,
+}
+
+/// The Blinn-Phong constant `c(s)` whose slice `c h_z^s max(wi_z, 0)`
+/// integrates to exactly 1 at normal view (`wo = n`).
+///
+/// At normal view `h` lies at half the angle of `wi`: with `u = cos(t / 2)`,
+/// `cos t = 2 u^2 - 1` and `sin t dt = 4 u du`, so
+/// `∫ h_z^s wi_z dwi = 2 pi ∫_{1/sqrt 2}^1 u^s (2 u^2 - 1) 4 u du
+///  = 8 pi [2 u^(s+4) / (s+4) - u^(s+2) / (s+2)]_{1/sqrt 2}^1`.
+/// For large `s`, `c ≈ (s + 2)(s + 4) / (8 pi s)`, below the common
+/// `(s + 8) / (8 pi)` by about `2 / s` relatively.
+///
+/// ```
+/// use ifd_shade::brdf::blinn_exact_norm;
+/// let s = 64.0;
+/// let approx = (s + 8.0) / (8.0 * std::f64::consts::PI);
+/// // the common form's albedo at normal view, s (s + 8) / ((s + 2)(s + 4)) + O(2^(-s/2))
+/// assert!((approx / blinn_exact_norm(s) - 1.0266).abs() < 1e-4);
+/// ```
+#[must_use]
+pub fn blinn_exact_norm(s: f64) -> f64 {
+    let f = |u: f64| 2.0 * u.powf(s + 4.0) / (s + 4.0) - u.powf(s + 2.0) / (s + 2.0);
+    1.0 / (8.0 * PI * (f(1.0) - f(std::f64::consts::FRAC_1_SQRT_2)))
 }
 
 /// Largest accepted Phong/Blinn-Phong exponent (an SH degree of thousands would be needed beyond).
@@ -155,12 +182,12 @@ impl Brdf {
         }
         let allowed: &[&str] = match name {
             "lambert" => &["albedo"],
-            "phong" | "blinn" => &["s", "albedo"],
+            "phong" | "blinn" | "blinn-exact" => &["s", "albedo"],
             "ggx" => &["alpha", "ax", "ay", "f0", "albedo"],
             "ward" => &["alpha", "ax", "ay", "albedo"],
             _ => {
                 return Err(err(format!(
-                    "unknown BRDF {name:?} (lambert, phong, blinn, ggx, ward, merl)"
+                    "unknown BRDF {name:?} (lambert, phong, blinn, blinn-exact, ggx, ward, merl)"
                 )));
             }
         };
@@ -200,7 +227,20 @@ impl Brdf {
         let model = match name {
             "lambert" => Model::Lambert,
             "phong" => Model::Phong { s: exponent()? },
-            "blinn" => Model::BlinnPhong { s: exponent()? },
+            "blinn" => {
+                let s = exponent()?;
+                Model::BlinnPhong {
+                    s,
+                    norm: (s + 8.0) / (8.0 * PI),
+                }
+            }
+            "blinn-exact" => {
+                let s = exponent()?;
+                Model::BlinnPhong {
+                    s,
+                    norm: blinn_exact_norm(s),
+                }
+            }
             "ggx" => {
                 let (ax, ay) = roughness()?;
                 let f0 = get("f0")
@@ -317,7 +357,7 @@ impl Brdf {
         match self.model {
             Model::Lambert => 1.0,
             Model::Phong { s } => 1.0 / (s + 1.0).sqrt(),
-            Model::BlinnPhong { s } => 2.0 / (s + 2.0).sqrt(),
+            Model::BlinnPhong { s, .. } => 2.0 / (s + 2.0).sqrt(),
             Model::Ggx { ax, ay, .. } | Model::Ward { ax, ay } => 2.0 * ax.min(ay),
             // measured data: bins down to 1e-4 rad near the specular peak
             Model::Merl(_) => 0.05,
@@ -348,9 +388,9 @@ impl Brdf {
         let cos_i = wi[2];
         match &self.model {
             Model::Lambert => out[0] = a / PI * cos_i,
-            Model::BlinnPhong { s } => {
+            Model::BlinnPhong { s, norm } => {
                 let h = half(wi, wo);
-                out[0] = a * (s + 8.0) / (8.0 * PI) * h[2].max(0.0).powf(*s) * cos_i;
+                out[0] = a * norm * h[2].max(0.0).powf(*s) * cos_i;
             }
             Model::Ggx { ax, ay, f0 } => {
                 let h = half(wi, wo);

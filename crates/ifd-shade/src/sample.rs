@@ -60,7 +60,7 @@ impl Brdf {
                 let r = [-wo[0], -wo[1], wo[2]];
                 return Some(around(r, u[0].powf(1.0 / (s + 1.0)), phi));
             }
-            Model::BlinnPhong { s } => {
+            Model::BlinnPhong { s, .. } => {
                 let h = around([0.0, 0.0, 1.0], u[0].powf(1.0 / (s + 1.0)), phi);
                 reflect(wo, h)
             }
@@ -122,7 +122,7 @@ impl Brdf {
                 let rw = -wo[0] * wi[0] - wo[1] * wi[1] + wo[2] * wi[2];
                 (s + 1.0) / (2.0 * PI) * rw.max(0.0).powf(s)
             }
-            Model::BlinnPhong { s } => {
+            Model::BlinnPhong { s, .. } => {
                 let (h, oh) = h_and_oh();
                 if wi[2] <= 0.0 || h[2] <= 0.0 || oh <= 0.0 {
                     return 0.0;

@@ -46,7 +46,7 @@ pub struct Render {
     /// (default 128x64), negatives set to 0.
     #[arg(long, value_name = "FILE")]
     env: PathBuf,
-    /// BRDF spec: lambert, phong:s=.., blinn:s=.., ggx:alpha=.. or ggx:ax=..,ay=.., ward:.., merl:FILE
+    /// BRDF spec: lambert, phong:s=.., blinn:s=.., blinn-exact:s=.., ggx:alpha=.. or ggx:ax=..,ay=.., ward:.., merl:FILE
     /// (repeat it with --convergence).
     #[arg(long, value_name = "SPEC", required = true)]
     brdf: Vec<String>,

@@ -682,7 +682,8 @@ impl FilterCmd {
 /// `ifd sphere brdf SPEC --lmax L -o table.lobes`.
 ///
 /// SPEC is a BRDF (not a kernel of `sphere decompose`): `lambert`, `phong:s=32`
-/// (normalised, about the mirror direction, cosine folded in), `blinn:s=64`,
+/// (normalised, about the mirror direction, cosine folded in), `blinn:s=64`
+/// ((s+8)/(8 pi)) or `blinn-exact:s=64` (normalised exactly at normal view),
 /// `ggx:alpha=0.3` or `ggx:ax=0.1,ay=0.4` (optional `f0=` for Schlick
 /// Fresnel), `ward:ax=0.1,ay=0.3`, `merl:FILE`; each but merl takes
 /// `albedo=` (default 1). Formulas: `cargo doc -p ifd-shade` (module `brdf`).
