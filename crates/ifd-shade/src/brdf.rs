@@ -109,8 +109,10 @@ pub struct Brdf {
 /// use ifd_shade::brdf::blinn_exact_norm;
 /// let s = 64.0;
 /// let approx = (s + 8.0) / (8.0 * std::f64::consts::PI);
-/// // the common form's albedo at normal view, s (s + 8) / ((s + 2)(s + 4)) + O(2^(-s/2))
-/// assert!((approx / blinn_exact_norm(s) - 1.0266).abs() < 1e-4);
+/// // the common form's albedo at normal view: s (s + 8) / ((s + 2)(s + 4)) + O(2^(-s/2))
+/// let albedo = approx / blinn_exact_norm(s);
+/// assert!((albedo - s * (s + 8.0) / ((s + 2.0) * (s + 4.0))).abs() < 1e-9);
+/// assert!((albedo - 1.0267).abs() < 1e-4);
 /// ```
 #[must_use]
 pub fn blinn_exact_norm(s: f64) -> f64 {
