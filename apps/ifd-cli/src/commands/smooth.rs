@@ -292,32 +292,13 @@ impl Smooth {
         let dims = (reader.width(), reader.height(), reader.channels());
         let budget = self.input.budget().limit();
         let plan = |tile| SmoothTiles::new(dims, opts, mode, bank, hbank, tile);
-        // The largest tile whose work fits half the budget (the rest:
-        // buffers, the allocator's slack), from 4096 px down.
-        let tiles = if let Some(n) = self.tile {
-            plan(n)?
-        } else {
-            let mut n = 4096;
-            loop {
-                let t = plan(n)?;
-                let bytes = t.tile_bytes(opts, bank, hbank)?;
-                if bytes <= budget / 2 || n <= t.tiling.align.max(2 * t.tiling.halo) {
-                    if bytes > budget {
-                        anyhow::bail!(
-                            "even the smallest tile ({}x{} px with a halo of {} px) needs {}, \
-                             more than the memory budget of {}",
-                            t.tiling.tile,
-                            t.tiling.tile,
-                            t.tiling.halo,
-                            ifd_image::fmt_bytes(bytes),
-                            ifd_image::fmt_bytes(budget)
-                        );
-                    }
-                    break t;
-                }
-                n /= 2;
-            }
-        };
+        let tiles = super::tiled::choose_tiles(
+            self.tile,
+            budget,
+            plan,
+            |t| t.tiling,
+            |t| Ok(t.tile_bytes(opts, bank, hbank)?),
+        )?;
         let count = tiles.tiling.tiles().len();
         if self.verbose {
             eprintln!(

@@ -80,6 +80,46 @@ fn map_range(r: &mut NpyReader) -> Result<(f32, f32)> {
     Ok((lo, hi))
 }
 
+/// The tiles of a run: `forced` (`--tile`) as given, else the largest tile
+/// side, from 4096 px down by halves, whose work (`bytes`) fits half the
+/// budget (the rest: buffers, the reader's rows, the allocator's slack);
+/// refused, naming the sizes, when even the smallest tile exceeds the budget.
+pub fn choose_tiles<T, E>(
+    forced: Option<usize>,
+    budget: u64,
+    plan: impl Fn(usize) -> Result<T, E>,
+    tiling: impl Fn(&T) -> ifd_planar::tiled::Tiling,
+    bytes: impl Fn(&T) -> Result<u64>,
+) -> Result<T>
+where
+    E: std::error::Error + Send + Sync + 'static,
+{
+    if let Some(n) = forced {
+        return Ok(plan(n)?);
+    }
+    let mut n = 4096;
+    loop {
+        let t = plan(n)?;
+        let b = bytes(&t)?;
+        let g = tiling(&t);
+        if b <= budget / 2 || n <= g.align.max(2 * g.halo) {
+            if b > budget {
+                bail!(
+                    "even the smallest tile ({}x{} px with a halo of {} px) needs {}, \
+                     more than the memory budget of {}",
+                    g.tile,
+                    g.tile,
+                    g.halo,
+                    ifd_image::fmt_bytes(b),
+                    ifd_image::fmt_bytes(budget)
+                );
+            }
+            return Ok(t);
+        }
+        n /= 2;
+    }
+}
+
 /// Runs the tiled filter.
 pub fn run(t: &TiledRun<'_>) -> Result<()> {
     if !streams(t.image) {
@@ -126,32 +166,13 @@ pub fn run(t: &TiledRun<'_>) -> Result<()> {
             tile,
         )
     };
-    // The largest tile whose work fits half the budget (the rest: buffers,
-    // the reader's rows, the allocator's slack), from 4096 px down.
-    let grid = if let Some(n) = t.tile {
-        grid_for(n)?
-    } else {
-        let mut n = 4096;
-        loop {
-            let g = grid_for(n)?;
-            let bytes = g.tile_bytes(t.decomposition)?;
-            if bytes <= t.budget / 2 || n <= g.tiling.align.max(2 * g.tiling.halo) {
-                if bytes > t.budget {
-                    bail!(
-                        "even the smallest tile ({}x{} px with a halo of {} px) needs {}, \
-                         more than the memory budget of {}",
-                        g.tiling.tile,
-                        g.tiling.tile,
-                        g.tiling.halo,
-                        ifd_image::fmt_bytes(bytes),
-                        ifd_image::fmt_bytes(t.budget)
-                    );
-                }
-                break g;
-            }
-            n /= 2;
-        }
-    };
+    let grid = choose_tiles(
+        t.tile,
+        t.budget,
+        grid_for,
+        |g| g.tiling,
+        |g| Ok(g.tile_bytes(t.decomposition)?),
+    )?;
     let tiles = grid.tiles().len();
     if t.verbose {
         eprintln!(
