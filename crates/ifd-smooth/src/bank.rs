@@ -222,6 +222,17 @@ impl AspectBank {
         Ok((num / den).sqrt())
     }
 
+    /// The largest distance of an atom's centre from the origin over all
+    /// entries, in pixels at `sigma_ref` (scale it by `S / sigma_ref`).
+    #[must_use]
+    pub fn reach(&self) -> f64 {
+        self.terms
+            .iter()
+            .flatten()
+            .map(|t| t.x.hypot(t.y))
+            .fold(0.0, f64::max)
+    }
+
     /// Smallest and largest atom sigma over all entries.
     #[must_use]
     pub fn sigma_range(&self) -> (f64, f64) {

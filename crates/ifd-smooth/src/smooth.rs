@@ -82,6 +82,13 @@ impl SmoothOptions {
         self.scale < DIRECT_BELOW
     }
 
+    /// Spacing of the dab grid of whole-image [`Mode::Dab`] smoothing:
+    /// `max(2 S, 4)` pixels.
+    #[must_use]
+    pub fn dab_grid_spacing(&self) -> f32 {
+        (2.0 * self.scale).max(4.0) as f32
+    }
+
     /// The tensor averaging sigma in use.
     #[must_use]
     pub fn tensor_sigma(&self) -> f64 {
@@ -476,7 +483,7 @@ impl Smoother {
     /// `max(2 S, 4)` pixels.
     #[must_use]
     pub fn dab_grid_spacing(&self) -> f32 {
-        (2.0 * self.opts.scale).max(4.0) as f32
+        self.opts.dab_grid_spacing()
     }
 
     fn filters(&self) -> Result<Vec<Filter<'_>>, SmoothError> {
@@ -723,14 +730,7 @@ pub fn smoother_stack_options(
     (width, height, channels): (usize, usize, usize),
     (sigma_lo, sigma_hi): (f64, f64),
 ) -> ifd_planar::StackOptions {
-    let reach = bank
-        .terms
-        .iter()
-        .flatten()
-        .map(|t| t.x.hypot(t.y))
-        .fold(0.0, f64::max)
-        * scale
-        / bank.options.sigma_ref;
+    let reach = bank.reach() * scale / bank.options.sigma_ref;
     let need = reach.ceil() as usize + 2;
     let options = hessian_stack_options();
     // An invalid layout fails later, in `ScaleStack::new`, with its error.
@@ -741,12 +741,24 @@ pub fn smoother_stack_options(
     ifd_planar::StackOptions { margin, ..options }
 }
 
-/// Separable Gaussian blur of a plane (reflect-101 border, radius 3 sigma).
-fn gaussian_blur(p: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
+/// The radius, in pixels, of the tensor blur of sigma `sigma`: `ceil(3
+/// sigma)`, 0 (no blur) below 0.3 px. What [`gaussian_blur`] reads and what
+/// region refreshes and tiles add for it.
+pub(crate) fn blur_radius(sigma: f64) -> usize {
     if sigma < 0.3 {
+        0
+    } else {
+        (3.0 * sigma).ceil() as usize
+    }
+}
+
+/// Separable Gaussian blur of a plane (reflect-101 border, radius
+/// [`blur_radius`]).
+fn gaussian_blur(p: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
+    let r = blur_radius(sigma) as i64;
+    if r == 0 {
         return p.to_vec();
     }
-    let r = (3.0 * sigma).ceil() as i64;
     let k: Vec<f32> = (-r..=r)
         .map(|i| (-0.5 * (i * i) as f64 / (sigma * sigma)).exp() as f32)
         .collect();

@@ -94,23 +94,25 @@ pub fn smooth_halo(
     hbank: &HessianBank,
 ) -> Result<usize, SmoothError> {
     opts.validate()?;
-    let farthest = |terms: &mut dyn Iterator<Item = &ifd_planar::Term>| {
-        terms.map(|t| t.x.hypot(t.y)).fold(0.0, f64::max)
-    };
     let s_h = opts.hessian_sigma() / hbank.sigma0;
-    let hessian = s_h * farthest(&mut hbank.xx.terms.iter().chain(&hbank.xy.terms))
-        + LEVEL_REACH * Smoother::hessian_sigmas(opts, hbank).1;
-    let rho = opts.tensor_sigma();
-    let blur = if rho < 0.3 { 0.0 } else { (3.0 * rho).ceil() };
+    let hessian_reach = hbank
+        .xx
+        .terms
+        .iter()
+        .chain(&hbank.xy.terms)
+        .map(|t| t.x.hypot(t.y))
+        .fold(0.0, f64::max);
+    let hessian = s_h * hessian_reach + LEVEL_REACH * Smoother::hessian_sigmas(opts, hbank).1;
+    let blur = crate::smooth::blur_radius(opts.tensor_sigma()) as f64;
     let grid = match mode {
-        Mode::Dab => f64::from((2.0 * opts.scale).max(4.0) as f32).ceil() + 1.0,
+        Mode::Dab => f64::from(opts.dab_grid_spacing()).ceil() + 1.0,
         Mode::PerPixel => 0.0,
     };
     let orientation = hessian + blur + grid;
     let smoothing = match Smoother::smoothing_sigmas(opts, bank) {
         Some((_, hi)) => {
             let s_b = opts.scale / bank.options.sigma_ref;
-            s_b * farthest(&mut bank.terms.iter().flatten()) + LEVEL_REACH * hi
+            s_b * bank.reach() + LEVEL_REACH * hi
         }
         None => DirectKernels::new(opts.scale, opts.aniso.max_aspect).reach() as f64,
     };

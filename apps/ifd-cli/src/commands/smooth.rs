@@ -139,12 +139,11 @@ impl Smooth {
         };
         // Bad images are refused before the filters are decomposed: formats
         // that cannot stream are read now, a .npy header is checked.
-        let streams = super::tiled::streams(&self.image);
-        let mut img = if streams {
-            ifd_image::NpyReader::open(&self.image, self.input.replace_nonfinite)?;
-            None
+        let (mut img, npy_dims) = if super::tiled::streams(&self.image) {
+            let r = ifd_image::NpyReader::open(&self.image, self.input.replace_nonfinite)?;
+            (None, Some((r.width(), r.height(), r.channels())))
         } else {
-            Some(self.read_whole()?)
+            (Some(self.read_whole()?), None)
         };
         let t0 = Instant::now();
         let bar = ProgressBar::new(0);
@@ -172,7 +171,11 @@ impl Smooth {
         if self.tile.is_some() {
             return self.run_tiled(&opts, mode, &bank, &hbank);
         }
-        if let Some(bytes) = self.too_large_whole(&opts, &bank, &hbank)? {
+        let too_large = match npy_dims {
+            Some(dims) => self.too_large_whole(dims, &opts, &bank, &hbank)?,
+            None => None,
+        };
+        if let Some(bytes) = too_large {
             for out in std::iter::once(&self.output.output).chain(&self.field) {
                 if !super::tiled::streams(out) {
                     anyhow::bail!(
@@ -245,20 +248,17 @@ impl Smooth {
         }
     }
 
-    /// The bytes a `.npy` image would need smoothed whole, when more than
-    /// the memory budget: then it is smoothed tile by tile. Other formats
-    /// cannot stream; their reader refuses them over the budget.
+    /// The bytes a `.npy` image of `(w, h, c)` would need smoothed whole,
+    /// when more than the memory budget: then it is smoothed tile by tile.
+    /// Other formats cannot stream; their reader refuses them over the
+    /// budget.
     fn too_large_whole(
         &self,
+        (w, h, c): (usize, usize, usize),
         opts: &SmoothOptions,
         bank: &AspectBank,
         hbank: &HessianBank,
     ) -> Result<Option<u64>> {
-        if !super::tiled::streams(&self.image) {
-            return Ok(None);
-        }
-        let r = ifd_image::NpyReader::open(&self.image, self.input.replace_nonfinite)?;
-        let (w, h, c) = (r.width(), r.height(), r.channels());
         let bytes = match ifd_smooth::tiled::smoother_bytes((w, h, c), opts, bank, hbank, w * h) {
             Ok(b) => b,
             // A stack too large to plan whole (its FFT domain) is one to tile.

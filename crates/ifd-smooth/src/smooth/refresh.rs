@@ -105,11 +105,7 @@ impl Smoother {
             .ceil() as usize
             + 2;
         let rho = self.opts.tensor_sigma();
-        let rb = if rho < 0.3 {
-            0
-        } else {
-            (3.0 * rho).ceil() as usize
-        };
+        let rb = super::blur_radius(rho);
         let border = self.opts.border;
         let (rx0, rx1) = (rect.x0, rect.x0 + rect.width - 1);
         let (ry0, ry1) = (rect.y0, rect.y0 + rect.height - 1);
