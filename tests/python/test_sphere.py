@@ -349,7 +349,9 @@ def ggx_albedo_numpy(alpha, theta_o, n=600):
 def test_sphere_brdf_tables(run_ifd, tmp_path):
     out = json.loads(run_ifd("sphere", "brdf", "lambert", "--lmax", 6, "-o", tmp_path / "l.lobes").stdout)
     assert abs(out["albedo_min"] - 1) < 1e-6 and abs(out["albedo_max"] - 1) < 1e-6
-    assert out["lobes"] == 13 and out["isotropic"] and out["phi_entries"] == 1
+    # isotropic: L + 1 lobes in the plane of the view (the slice is even in y there)
+    assert out["lobes"] == 7 and out["lobe_layout"] == "in-plane"
+    assert out["isotropic"] and out["phi_entries"] == 1
     # a table of two entries: GGX's directional albedo at the two entry angles (pi/8, 3pi/8)
     out = json.loads(run_ifd("sphere", "brdf", "ggx:alpha=0.3", "--lmax", 8, "--theta-entries", 2,
                              "-o", tmp_path / "g.lobes").stdout)
@@ -360,11 +362,15 @@ def test_sphere_brdf_tables(run_ifd, tmp_path):
     assert data[:8] == b"IFDLOBES"
     hl = int.from_bytes(data[8:12], "little")
     header = json.loads(data[12:12 + hl])
-    assert header["brdf"] == "ggx:alpha=0.3" and header["l_max"] == 8 and header["version"] == 1
-    assert len(data) == 12 + hl + 4 * out["weight_bytes"] // 4
+    assert header["brdf"] == "ggx:alpha=0.3" and header["l_max"] == 8 and header["version"] == 2
+    assert header["lobes"]["kind"] == "in-plane" and len(header["lobes"]["angles"]) == 9
+    # 2 entries of (L + 1)(L + 2) / 2 = 45 f32 weights
+    assert out["weight_bytes"] == 2 * 45 * 4
+    assert len(data) == 12 + hl + out["weight_bytes"]
     out = json.loads(run_ifd("sphere", "brdf", "ggx:ax=0.3,ay=0.6", "--lmax", 3, "--theta-entries", 4,
                              "--phi-entries", 8, "-o", tmp_path / "a.lobes").stdout)
     assert not out["isotropic"] and out["weight_bytes"] == 4 * 8 * 16 * 4
+    assert out["lobes"] == 7 and out["lobe_layout"] == "shared"
 
 
 @pytest.mark.parametrize("args,needle", [

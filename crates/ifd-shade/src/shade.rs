@@ -13,15 +13,16 @@
 //! - **closed form** (Lambert, Phong): the slice is zonal about an axis `a`
 //!   (the normal, the mirror direction) with weights `k_l`, one lobe per band:
 //!   `I = sum_l k_l Ehat_l(R a)`, `L + 1` bands from one SH evaluation;
-//! - **table** ([`crate::table::LobeTable`]): `2L + 1` shared lobes, band `l`
-//!   using the first `2l + 1`: `2L + 1` SH evaluations per point.
+//! - **table** ([`crate::table::LobeTable`]): for isotropic BRDFs `L + 1`
+//!   in-plane lobes, band `l` using the first `l + 1` (the slice is even in
+//!   `y` in the rotated frame); for anisotropic ones `2L + 1` shared lobes,
+//!   band `l` using the first `2l + 1`: one SH evaluation per lobe.
 //!
 //! [`Material::shade_sh`] is the SH reference of the same band-limited slice:
 //! its SH coefficients rotated by `R` (Ivanic-Ruedenberg) and dotted with
 //! `e`. Both give the same number up to rounding.
 
 use ifd_sphere::sh::{ShEvaluator, pi_l};
-use ifd_sphere::zhf::{RzhBasis, RzhCoeffs};
 use ifd_sphere::{Rotation, ShCoeffs, ShRotation};
 
 use crate::brdf::Brdf;
@@ -43,8 +44,8 @@ pub trait Bands: Sync {
         self.bands_from(0, d, y, out);
     }
     /// [`Self::bands_into`] for the bands `l >= l0` only (the others of `out`
-    /// are left as they are): a shared lobe `j` serves the bands
-    /// `l >= ceil(j / 2)`.
+    /// are left as they are): a lobe serves the bands from
+    /// [`crate::table::LobeBasis::first_band`] up.
     fn bands_from(&self, l0: usize, d: [f64; 3], y: &mut [f64], out: &mut [f64]);
     /// [`Self::bands_from`] at four directions at once, lane `k` (bands
     /// `l >= l0[k]`) into `out[k (L + 1) C..]`.
@@ -315,8 +316,6 @@ pub struct Material {
     brdf: Brdf,
     l_max: usize,
     lobes: Lobes,
-    /// The table's basis (for the SH reference and weights -> SH).
-    basis: Option<RzhBasis>,
 }
 
 /// Scratch buffers for one thread's shading.
@@ -350,12 +349,11 @@ impl Material {
     /// [`ShadeError::Parameter`] when a table is needed and none is given.
     pub fn new(brdf: &Brdf, l_max: usize, table: Option<LobeTable>) -> Result<Self> {
         let closed = zonal_slice(brdf, [0.0, 0.0, 1.0], 0).is_some();
-        let (lobes, basis) = match (closed, table) {
-            (true, None) => (Lobes::Zonal, None),
+        let lobes = match (closed, table) {
+            (true, None) => Lobes::Zonal,
             (_, Some(t)) => {
                 t.check_for(brdf, l_max)?;
-                let basis = RzhBasis::new(t.directions().clone())?;
-                (Lobes::Table(Box::new(t)), Some(basis))
+                Lobes::Table(Box::new(t))
             }
             (false, None) => {
                 return Err(ShadeError::Parameter {
@@ -371,7 +369,6 @@ impl Material {
             brdf: brdf.clone(),
             l_max,
             lobes,
-            basis,
         })
     }
 
@@ -466,17 +463,24 @@ impl Material {
                 }
                 let n = t.entry_len();
                 t.weights_into(theta, phi, &mut s.weights[..n]);
-                let dirs = t.directions().all();
+                let basis = t.basis();
+                let dirs = basis.directions();
                 let nb = self.l_max + 1;
-                // four lobes at a time; lobe j serves the bands l >= ceil(j / 2)
+                // four lobes at a time; lobe j serves the bands l >= first_band(j)
                 for j0 in (0..dirs.len()).step_by(4) {
                     let js: [usize; 4] = std::array::from_fn(|k| j0 + k);
                     let d = js.map(|j| r.apply(dirs[j.min(dirs.len() - 1)]));
-                    let l0 = js.map(|j| if j < dirs.len() { j.div_ceil(2) } else { nb });
+                    let l0 = js.map(|j| {
+                        if j < dirs.len() {
+                            basis.first_band(j)
+                        } else {
+                            nb
+                        }
+                    });
                     env.bands4(l0, d, &mut s.y, &mut s.bands);
                     for (k, &j) in js.iter().enumerate() {
                         for l in l0[k]..nb {
-                            let base = (l * l + j) * kc;
+                            let base = basis.index(l, j) * kc;
                             for (c, o) in out[..ch].iter_mut().enumerate() {
                                 let lam = s.weights[base + if kc == 1 { 0 } else { c }];
                                 *o += lam * s.bands[(k * nb + l) * ch + c];
@@ -509,21 +513,16 @@ impl Material {
     pub fn slice_sh(&self, frame: &Frame, wo: [f64; 3]) -> Result<(Rotation, Option<ShCoeffs>)> {
         let (r, wl, theta, phi) = self.placement(frame, wo);
         let l = self.l_max;
-        let c = match (&self.lobes, &self.basis) {
+        let c = match &self.lobes {
             // the closed form, as the tables' slices are projected
-            (Lobes::Zonal, _) => project_slice(&self.brdf, wl, l, None)?,
-            (Lobes::Table(t), Some(basis)) => {
+            Lobes::Zonal => project_slice(&self.brdf, wl, l, None)?,
+            Lobes::Table(t) => {
                 if wl[2] <= 0.0 {
                     return Ok((r, None));
                 }
-                let lam = RzhCoeffs {
-                    l_max: l,
-                    channels: t.header().channels,
-                    data: t.weights_at(theta, phi),
-                };
-                basis.zhe(&lam)?
+                t.basis()
+                    .zhe(&t.weights_at(theta, phi), t.header().channels)?
             }
-            (Lobes::Table(_), None) => unreachable!("tables always carry their basis"),
         };
         Ok((r, Some(c)))
     }

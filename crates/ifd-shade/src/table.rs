@@ -3,13 +3,20 @@
 //! interpolated between entries.
 //!
 //! # Layout
-//! - Lobes: the RZH basis with `2L + 1` Fibonacci directions shared by all
-//!   bands (band `l` uses the first `2l + 1`; lobe sharing, ISD Sec. 7), so a
-//!   shading point evaluates `2L + 1` directions whatever the BRDF.
 //! - Isotropic BRDFs: a 1D table over `theta_o`, the slice taken in the frame
 //!   rotated about the normal so that `phi_o = 0`; the renderer applies the
-//!   same rotation ([`view_frame_angle`]).
-//! - Anisotropic BRDFs: a 2D table over `(theta_o, phi_o)` in the tangent frame.
+//!   same rotation ([`view_frame_angle`]). In that frame the slice is even in
+//!   `y`, so its band `l` needs only `l + 1` lobes: the in-plane basis of
+//!   [`ifd_sphere::zhf_plane`], `L + 1` directions in the `xz` plane shared by
+//!   all bands (band `l` uses the first `l + 1`), `(L + 1)(L + 2) / 2` weights
+//!   per entry ([`LobeKind::InPlane`], the default).
+//! - Anisotropic BRDFs: a 2D table over `(theta_o, phi_o)` in the tangent
+//!   frame, with the general RZH basis: `2L + 1` Fibonacci directions shared
+//!   by all bands (band `l` uses the first `2l + 1`; lobe sharing, ISD Sec. 7),
+//!   `(L + 1)^2` weights per entry ([`LobeKind::Shared`], which isotropic
+//!   tables may also use, for comparison).
+//! - A shading point evaluates the environment at every direction of the
+//!   table: `L + 1` for isotropic BRDFs, `2L + 1` for anisotropic ones.
 //! - Entries at cell centres: `theta_i = (i + 1/2) pi / (2 N_theta)`,
 //!   `phi_j = 2 pi j / N_phi`; linear (1D) or bilinear (2D, periodic in `phi`)
 //!   interpolation, constant beyond the first and last `theta` centres.
@@ -17,16 +24,19 @@
 //!   coefficients linearly (`c_l = M_l lambda_l` is linear), so the error is the
 //!   slice's own interpolation error, measured at the midpoints between entries
 //!   when a table is built ([`TableHeader::interpolation_error`]).
-//! - Stored as `f32` (the paper's memory counts, Table I): `N_theta N_phi
-//!   (L + 1)^2 C` values.
+//! - Stored as `f32` (the paper's memory counts, Table I): `N_theta N_phi K C`
+//!   values, `K` the weights per entry above.
 //!
-//! # File format (version 1)
+//! # File format (version 2)
 //! JSON would be 3-4x larger than the values and slow to parse for 2D tables
 //! of tens of MB, so tables are binary with a self-describing header: the 8
 //! bytes `IFDLOBES`, a little-endian `u32` header length, the header as UTF-8
 //! JSON ([`TableHeader`]), then the weights as little-endian `f32`,
-//! entry-major (`[theta][phi][(L + 1)^2][C]`). Readers check the magic, the
-//! version, every header field and the exact file size.
+//! entry-major (`[theta][phi][K][C]`, weight index `l^2 + j` for shared lobes,
+//! `l (l + 1) / 2 + j` for in-plane ones). Readers check the magic, the
+//! version, every header field (including the conditioning of the lobe
+//! directions) and the exact file size. Version 1 (shared lobes for every
+//! BRDF, before the in-plane basis) is refused with a request to rebuild.
 
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::io::{Read, Write};
@@ -34,6 +44,7 @@ use std::path::Path;
 
 use ifd_sphere::ShCoeffs;
 use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, RzhCoeffs, Sharing};
+use ifd_sphere::zhf_plane::{PlaneRzhBasis, plane_count, plane_index};
 use rayon::prelude::*;
 
 use crate::brdf::{Brdf, Model};
@@ -42,7 +53,7 @@ use crate::slice::project_slice;
 
 const MAGIC: &[u8; 8] = b"IFDLOBES";
 /// The format version this build reads and writes.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// The largest degree a table may have.
 pub const MAX_TABLE_DEGREE: usize = 100;
 
@@ -67,8 +78,8 @@ pub struct TableHeader {
     pub n_theta: usize,
     /// Entries over `phi_o` (1 for isotropic tables).
     pub n_phi: usize,
-    /// The shared lobe directions.
-    pub directions: DirectionSet,
+    /// The lobe directions and how bands use them.
+    pub lobes: LobeLayout,
     /// Largest relative L2 error of an interpolated slice at the midpoints
     /// between entries (see the module docs).
     pub interpolation_error: f64,
@@ -76,11 +87,160 @@ pub struct TableHeader {
     pub interpolation_rms: f64,
 }
 
+/// The lobes of a table, as stored in its header.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum LobeLayout {
+    /// `2L + 1` directions shared by all bands; band `l` uses the first
+    /// `2l + 1`; weight index `l^2 + j`.
+    Shared {
+        /// The directions.
+        directions: DirectionSet,
+    },
+    /// `L + 1` directions `(sin a, 0, cos a)` in the `xz` plane, for slices
+    /// even in `y`; band `l` uses the first `l + 1`; weight index
+    /// `l (l + 1) / 2 + j`.
+    InPlane {
+        /// The angles `a_j` from `+z` towards `+x`, radians.
+        angles: Vec<f64>,
+    },
+}
+
+/// Which lobes to build a table with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LobeKind {
+    /// [`LobeLayout::Shared`] (any BRDF).
+    Shared,
+    /// [`LobeLayout::InPlane`] (isotropic BRDFs only).
+    InPlane,
+}
+
+impl LobeKind {
+    /// In-plane for isotropic BRDFs, shared for the others.
+    #[must_use]
+    pub fn default_for(brdf: &Brdf) -> Self {
+        if brdf.is_isotropic() {
+            Self::InPlane
+        } else {
+            Self::Shared
+        }
+    }
+}
+
+/// The basis of a table's lobes: the matrices that turn weights into SH
+/// coefficients and back.
+#[derive(Clone, Debug)]
+pub enum LobeBasis {
+    /// The general RZH basis.
+    Shared(RzhBasis),
+    /// The in-plane basis for slices even in `y`.
+    InPlane(PlaneRzhBasis),
+}
+
+impl LobeBasis {
+    /// The basis of a layout (checking the degree and conditioning).
+    ///
+    /// # Errors
+    /// [`ShadeError::Sphere`] for degenerate directions;
+    /// [`ShadeError::Mismatch`] for a layout of another degree.
+    pub fn new(layout: &LobeLayout, l_max: usize) -> Result<Self> {
+        let b = match layout {
+            LobeLayout::Shared { directions } => {
+                if directions.sharing() != Sharing::Shared {
+                    return Err(ShadeError::Mismatch(
+                        "lobe tables need directions shared across bands".into(),
+                    ));
+                }
+                Self::Shared(RzhBasis::new(directions.clone())?)
+            }
+            LobeLayout::InPlane { angles } => Self::InPlane(PlaneRzhBasis::with_angles(angles)?),
+        };
+        if b.l_max() != l_max {
+            return Err(ShadeError::Mismatch(format!(
+                "lobe directions of degree {} in a table of degree {l_max}",
+                b.l_max()
+            )));
+        }
+        Ok(b)
+    }
+
+    /// Maximum degree.
+    #[must_use]
+    pub fn l_max(&self) -> usize {
+        match self {
+            Self::Shared(b) => b.l_max(),
+            Self::InPlane(b) => b.l_max(),
+        }
+    }
+
+    /// The lobe directions (local frame).
+    #[must_use]
+    pub fn directions(&self) -> &[[f64; 3]] {
+        match self {
+            Self::Shared(b) => b.directions().all(),
+            Self::InPlane(b) => b.directions(),
+        }
+    }
+
+    /// The lowest band lobe `j` serves: `ceil(j / 2)` (shared), `j` (in-plane).
+    #[must_use]
+    pub fn first_band(&self, j: usize) -> usize {
+        match self {
+            Self::Shared(_) => j.div_ceil(2),
+            Self::InPlane(_) => j,
+        }
+    }
+
+    /// The index of lobe `j` of band `l` among an entry's weights.
+    #[must_use]
+    pub fn index(&self, l: usize, j: usize) -> usize {
+        match self {
+            Self::Shared(_) => l * l + j,
+            Self::InPlane(_) => plane_index(l, j),
+        }
+    }
+
+    /// Weights per channel of an entry: `(L + 1)^2` or `(L + 1)(L + 2) / 2`.
+    #[must_use]
+    pub fn count(&self) -> usize {
+        match self {
+            Self::Shared(b) => (b.l_max() + 1) * (b.l_max() + 1),
+            Self::InPlane(b) => plane_count(b.l_max()),
+        }
+    }
+
+    /// Weights of an SH expansion (ZHF).
+    ///
+    /// # Errors
+    /// Degree mismatch.
+    pub fn zhf(&self, f: &ShCoeffs) -> Result<Vec<f64>> {
+        Ok(match self {
+            Self::Shared(b) => b.zhf(f)?.data,
+            Self::InPlane(b) => b.zhf(f)?,
+        })
+    }
+
+    /// SH coefficients of weights with `channels` channels (ZHE).
+    ///
+    /// # Errors
+    /// Length or degree mismatch.
+    pub fn zhe(&self, weights: &[f64], channels: usize) -> Result<ShCoeffs> {
+        Ok(match self {
+            Self::Shared(b) => b.zhe(&RzhCoeffs {
+                l_max: b.l_max(),
+                channels,
+                data: weights.to_vec(),
+            })?,
+            Self::InPlane(b) => b.zhe(weights, channels)?,
+        })
+    }
+}
+
 /// A BRDF's lobe weights over view directions.
 #[derive(Clone, Debug)]
 pub struct LobeTable {
     header: TableHeader,
-    basis_dirs: DirectionSet,
+    basis: LobeBasis,
     weights: Vec<f32>,
 }
 
@@ -120,20 +280,22 @@ pub fn brdf_digest(brdf: &Brdf) -> String {
 impl LobeTable {
     /// Builds the table of `brdf` at degree `l_max` with `n_theta` entries over
     /// `theta_o` and, for anisotropic BRDFs, `n_phi` over `phi_o` (ignored for
-    /// isotropic ones). `progress(done, total)` is called after each entry.
+    /// isotropic ones), with the lobes of [`LobeKind::default_for`].
+    /// `progress(done, total)` is called after each entry.
     ///
     /// ```
     /// use ifd_shade::{brdf::Brdf, table::LobeTable};
     /// let b = Brdf::parse("ggx:alpha=0.5")?;
     /// let t = LobeTable::build(&b, 4, 8, 1, &|_, _| {})?;
     /// assert_eq!(t.header().n_phi, 1);
-    /// assert_eq!(t.weights_at(0.3, 0.0).len(), 25);
+    /// // isotropic: 5 in-plane lobes, 1 + 2 + 3 + 4 + 5 weights per entry
+    /// assert_eq!(t.basis().directions().len(), 5);
+    /// assert_eq!(t.weights_at(0.3, 0.0).len(), 15);
     /// # Ok::<(), ifd_shade::ShadeError>(())
     /// ```
     ///
     /// # Errors
-    /// [`ShadeError::Parameter`] for `l_max` above [`MAX_TABLE_DEGREE`] or
-    /// fewer than 2 entries; degenerate lobe directions.
+    /// As [`Self::build_with`].
     pub fn build(
         brdf: &Brdf,
         l_max: usize,
@@ -141,6 +303,40 @@ impl LobeTable {
         n_phi: usize,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Self> {
+        Self::build_with(
+            brdf,
+            l_max,
+            n_theta,
+            n_phi,
+            LobeKind::default_for(brdf),
+            progress,
+        )
+    }
+
+    /// [`Self::build`] with the given lobes.
+    ///
+    /// # Errors
+    /// [`ShadeError::Parameter`] for `l_max` above [`MAX_TABLE_DEGREE`], fewer
+    /// than 2 entries, or in-plane lobes for an anisotropic BRDF; degenerate
+    /// lobe directions.
+    pub fn build_with(
+        brdf: &Brdf,
+        l_max: usize,
+        n_theta: usize,
+        n_phi: usize,
+        kind: LobeKind,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Self> {
+        if kind == LobeKind::InPlane && !brdf.is_isotropic() {
+            return Err(ShadeError::Parameter {
+                name: "lobes",
+                value: "in-plane".into(),
+                reason: format!(
+                    "the slices of the anisotropic BRDF {:?} are not even in y: use shared lobes",
+                    brdf.spec()
+                ),
+            });
+        }
         if l_max > MAX_TABLE_DEGREE {
             return Err(ShadeError::Parameter {
                 name: "--lmax",
@@ -161,8 +357,12 @@ impl LobeTable {
             });
         }
         let total = n_theta * n_phi;
+        let per_entry = match kind {
+            LobeKind::Shared => (l_max + 1) * (l_max + 1),
+            LobeKind::InPlane => plane_count(l_max),
+        };
         // f64 weights per entry while building, then the f32 table
-        let values = (total as u64) * ((l_max + 1) * (l_max + 1) * brdf.channels()) as u64;
+        let values = (total as u64) * (per_entry * brdf.channels()) as u64;
         let budget = ifd_image::MemoryBudget::default_for_machine();
         budget
             .check(values.saturating_mul(12))
@@ -171,10 +371,17 @@ impl LobeTable {
                 value: format!("{n_theta} x {n_phi} entries at L = {l_max}"),
                 reason: format!("{e}; use fewer entries or a lower L"),
             })?;
-        let dirs = DirectionSet::new(l_max, Sharing::Shared, Chooser::Fibonacci)?;
-        let basis = RzhBasis::new(dirs.clone())?;
+        let layout = match kind {
+            LobeKind::Shared => LobeLayout::Shared {
+                directions: DirectionSet::new(l_max, Sharing::Shared, Chooser::Fibonacci)?,
+            },
+            LobeKind::InPlane => LobeLayout::InPlane {
+                angles: ifd_sphere::zhf_plane::default_angles(l_max),
+            },
+        };
+        let basis = LobeBasis::new(&layout, l_max)?;
         let done = std::sync::atomic::AtomicUsize::new(0);
-        let entries: Vec<Result<RzhCoeffs>> = (0..total)
+        let entries: Vec<Result<Vec<f64>>> = (0..total)
             .into_par_iter()
             .map(|e| {
                 let wo = entry_view(e / n_phi, e % n_phi, n_theta, n_phi);
@@ -186,9 +393,9 @@ impl LobeTable {
             })
             .collect();
         let channels = brdf.channels();
-        let mut weights = Vec::with_capacity(total * (l_max + 1) * (l_max + 1) * channels);
+        let mut weights = Vec::with_capacity(total * per_entry * channels);
         for e in entries {
-            weights.extend(e?.data.iter().map(|&v| v as f32));
+            weights.extend(e?.iter().map(|&v| v as f32));
         }
         let mut table = Self {
             header: TableHeader {
@@ -201,14 +408,14 @@ impl LobeTable {
                 isotropic,
                 n_theta,
                 n_phi,
-                directions: dirs.clone(),
+                lobes: layout,
                 interpolation_error: 0.0,
                 interpolation_rms: 0.0,
             },
-            basis_dirs: dirs,
+            basis,
             weights,
         };
-        let (max, rms) = table.measure_interpolation(brdf, &basis)?;
+        let (max, rms) = table.measure_interpolation(brdf)?;
         table.header.interpolation_error = max;
         table.header.interpolation_rms = rms;
         Ok(table)
@@ -218,7 +425,7 @@ impl LobeTable {
     /// `|c_interp - c_exact| / |c_exact|` (Parseval: the L2 error of the
     /// band-limited slice), max and RMS over the midpoints (all `theta`
     /// midpoints; for 2D tables, those at every fourth `phi` midpoint).
-    fn measure_interpolation(&self, brdf: &Brdf, basis: &RzhBasis) -> Result<(f64, f64)> {
+    fn measure_interpolation(&self, brdf: &Brdf) -> Result<(f64, f64)> {
         let h = &self.header;
         let (nt, np) = (h.n_theta, h.n_phi);
         let phis: Vec<f64> = if h.isotropic {
@@ -240,12 +447,7 @@ impl LobeTable {
             .map(|&(t, p)| {
                 let wo = [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
                 let exact = project_slice(brdf, wo, h.l_max, None)?;
-                let lam = RzhCoeffs {
-                    l_max: h.l_max,
-                    channels: h.channels,
-                    data: self.weights_at(t, p),
-                };
-                let got = basis.zhe(&lam)?;
+                let got = self.basis.zhe(&self.weights_at(t, p), h.channels)?;
                 Ok(relative_l2(&got, &exact))
             })
             .collect();
@@ -266,15 +468,15 @@ impl LobeTable {
         &self.header
     }
 
-    /// The shared lobe directions.
+    /// The basis of the lobes.
     #[must_use]
-    pub fn directions(&self) -> &DirectionSet {
-        &self.basis_dirs
+    pub fn basis(&self) -> &LobeBasis {
+        &self.basis
     }
 
     /// The directional albedo `int k_wo` of every entry, channel 0: band 0 has
-    /// one lobe and `M_0 = pi_0 y_0^0 = 1`, so `c_0^0 = lambda_0^0` and the
-    /// integral is `lambda_0^0 sqrt(4 pi)`.
+    /// one lobe and `M_0 = pi_0 y_0^0 = 1` (both bases), so `c_0^0 =
+    /// lambda_0^0` and the integral is `lambda_0^0 sqrt(4 pi)`.
     #[must_use]
     pub fn entry_albedos(&self) -> Vec<f64> {
         let n = self.entry_len();
@@ -290,7 +492,8 @@ impl LobeTable {
         self.weights.len() * 4
     }
 
-    /// Interpolated weights at `(theta_o, phi_o)`, `((L + 1)^2, C)` row-major
+    /// Interpolated weights at `(theta_o, phi_o)`, `(K, C)` row-major (`K`
+    /// from [`LobeBasis::count`], index [`LobeBasis::index`])
     /// (`phi_o` is ignored by isotropic tables: rotate the frame by
     /// [`view_frame_angle`] first).
     #[must_use]
@@ -300,11 +503,10 @@ impl LobeTable {
         out
     }
 
-    /// Values per entry, `(L + 1)^2 C`.
+    /// Values per entry, `K C`.
     #[must_use]
     pub fn entry_len(&self) -> usize {
-        let l = self.header.l_max + 1;
-        l * l * self.header.channels
+        self.basis.count() * self.header.channels
     }
 
     /// [`Self::weights_at`] into a buffer of [`Self::entry_len`] values.
@@ -454,8 +656,13 @@ impl LobeTable {
         }
         if header.version != VERSION {
             return Err(ferr(format!(
-                "table version {} is not supported (this build reads version {VERSION})",
-                header.version
+                "table version {} is not supported (this build reads version {VERSION}{})",
+                header.version,
+                if header.version == 1 {
+                    "; version 1 predates in-plane lobes: rebuild the table with `ifd sphere brdf`"
+                } else {
+                    ""
+                }
             )));
         }
         let h = &header;
@@ -464,26 +671,30 @@ impl LobeTable {
             && (2..=4096).contains(&h.n_theta)
             && (1..=4096).contains(&h.n_phi)
             && (h.isotropic == (h.n_phi == 1))
-            && h.directions.l_max() == h.l_max
-            && h.directions.sharing() == Sharing::Shared;
+            && (h.isotropic || matches!(h.lobes, LobeLayout::Shared { .. }));
         if !shape_ok {
             return Err(ferr(format!(
                 "inconsistent header: L = {}, {} channel(s), {} x {} entries, isotropic {}, \
-                 directions of degree {}",
+                 {} lobes",
                 h.l_max,
                 h.channels,
                 h.n_theta,
                 h.n_phi,
                 h.isotropic,
-                h.directions.l_max()
+                match h.lobes {
+                    LobeLayout::Shared { .. } => "shared",
+                    LobeLayout::InPlane { .. } => "in-plane",
+                }
             )));
         }
-        h.directions
-            .check()
-            .map_err(|e| ferr(format!("lobe directions: {e}")))?;
-        let count = (h.n_theta as u64)
-            * (h.n_phi as u64)
-            * ((h.l_max + 1) * (h.l_max + 1) * h.channels) as u64;
+        if let LobeLayout::Shared { directions } = &h.lobes {
+            directions
+                .check()
+                .map_err(|e| ferr(format!("lobe directions: {e}")))?;
+        }
+        let basis =
+            LobeBasis::new(&h.lobes, h.l_max).map_err(|e| ferr(format!("lobe directions: {e}")))?;
+        let count = (h.n_theta as u64) * (h.n_phi as u64) * (basis.count() * h.channels) as u64;
         let have = file_len - 12 - hl;
         if have != 4 * count {
             return Err(ferr(format!(
@@ -506,8 +717,8 @@ impl LobeTable {
             return Err(ferr(format!("weight {i} is not finite")));
         }
         Ok(Self {
-            basis_dirs: header.directions.clone(),
             header,
+            basis,
             weights,
         })
     }

@@ -10,7 +10,6 @@ use ifd_shade::table::LobeTable;
 use ifd_shade::zonal::{legendre_moments, zonal_slice};
 use ifd_sphere::kernel::{project_band, project_function};
 use ifd_sphere::sh::{gauss_legendre, legendre_p};
-use ifd_sphere::zhf::{RzhBasis, RzhCoeffs};
 
 fn view(theta: f64, phi: f64) -> [f64; 3] {
     [
@@ -289,8 +288,14 @@ fn tables_interpolate_their_entries_and_round_trip() {
         let t = LobeTable::build(&b, l, nt, n_phi, &|_, _| {}).unwrap();
         let h = t.header();
         assert_eq!((h.n_theta, h.isotropic), (nt, n_phi == 1));
+        // isotropic tables: L + 1 in-plane lobes; anisotropic: 2L + 1 shared
+        let basis = t.basis();
+        assert_eq!(
+            basis.directions().len(),
+            if n_phi == 1 { l + 1 } else { 2 * l + 1 }
+        );
         // an entry's weights are the ZHF of that view's slice
-        let basis = RzhBasis::new(t.directions().clone()).unwrap();
+
         let (i, j) = (5, if n_phi == 1 { 0 } else { 3 });
         let th = (i as f64 + 0.5) * PI / 2.0 / nt as f64;
         let ph = 2.0 * PI * j as f64 / h.n_phi as f64;
@@ -298,19 +303,14 @@ fn tables_interpolate_their_entries_and_round_trip() {
             .zhf(&project_slice(&b, view(th, ph), l, None).unwrap())
             .unwrap();
         let got = t.weights_at(th, ph);
-        let scale = exact.data.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        for (g, e) in got.iter().zip(&exact.data) {
+        let scale = exact.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        for (g, e) in got.iter().zip(&exact) {
             assert!((g - e).abs() < 1e-6 * scale, "{spec}: {g} vs {e}");
         }
         // the measured interpolation error is real: recompute one midpoint
         let mid = (i as f64 + 1.0) * PI / 2.0 / nt as f64;
         let want = project_slice(&b, view(mid, ph), l, None).unwrap();
-        let lam = RzhCoeffs {
-            l_max: l,
-            channels: 1,
-            data: t.weights_at(mid, ph),
-        };
-        let c = basis.zhe(&lam).unwrap();
+        let c = basis.zhe(&t.weights_at(mid, ph), 1).unwrap();
         let num: f64 = c
             .data()
             .iter()
@@ -339,6 +339,67 @@ fn tables_interpolate_their_entries_and_round_trip() {
     }
 }
 
+/// The in-plane basis rests on the slice at `phi_o = 0` being even in `y`:
+/// the numerical projection of the slice (independent of the basis) has no
+/// `m < 0` part, and tables with in-plane and shared lobes shade alike (to
+/// the f32 storage) while evaluating `L + 1` directions instead of `2L + 1`.
+#[test]
+fn in_plane_and_shared_tables_shade_alike() {
+    use ifd_shade::shade::{Environment, Frame, Material};
+    use ifd_shade::table::LobeKind;
+    use ifd_sphere::ShCoeffs;
+    use ifd_sphere::zhf::SplitMix64;
+    use ifd_sphere::zhf_plane::odd_part_norm;
+    let l = 10;
+    for spec in ["ggx:alpha=0.3", "blinn-exact:s=40", "ward:ax=0.2,ay=0.2"] {
+        let b = Brdf::parse(spec).unwrap();
+        for t in [0.1, 0.7, 1.3] {
+            let c = project_slice(&b, view(t, 0.0), l, None).unwrap();
+            let all: f64 = c.data().iter().map(|v| v * v).sum::<f64>().sqrt();
+            assert!(
+                odd_part_norm(&c) < 1e-10 * all,
+                "{spec} at {t}: {}",
+                odd_part_norm(&c) / all
+            );
+        }
+        let mut rng = SplitMix64::new(11);
+        let mut e = ShCoeffs::zeros(l, 3).unwrap();
+        for v in e.data_mut() {
+            *v = rng.uniform() - 0.5;
+        }
+        let env = Environment::new(e).unwrap();
+        let plane = LobeTable::build_with(&b, l, 8, 1, LobeKind::InPlane, &|_, _| {}).unwrap();
+        let shared = LobeTable::build_with(&b, l, 8, 1, LobeKind::Shared, &|_, _| {}).unwrap();
+        assert_eq!(plane.basis().directions().len(), l + 1);
+        assert_eq!(shared.basis().directions().len(), 2 * l + 1);
+        assert_eq!(plane.entry_len() * 2 - (l + 1), shared.entry_len());
+        let mp = Material::new(&b, l, Some(plane)).unwrap();
+        let ms = Material::new(&b, l, Some(shared)).unwrap();
+        let mut s = mp.scratch(3);
+        let (mut worst, mut scale) = (0.0f64, 0.0f64);
+        for _ in 0..40 {
+            let f = Frame::new(rng.direction(), rng.direction());
+            let wo = rng.direction();
+            let (mut a, mut c) = ([0.0; 3], [0.0; 3]);
+            mp.shade_isd(&env, &f, wo, &mut s, &mut a).unwrap();
+            ms.shade_isd(&env, &f, wo, &mut s, &mut c).unwrap();
+            for k in 0..3 {
+                worst = worst.max((a[k] - c[k]).abs());
+                scale = scale.max(c[k].abs());
+            }
+        }
+        assert!(
+            scale > 0.0 && worst <= 1e-5 * scale,
+            "{spec}: {worst} vs {scale}"
+        );
+    }
+    let aniso = Brdf::parse("ggx:ax=0.2,ay=0.5").unwrap();
+    let e = LobeTable::build_with(&aniso, 4, 4, 8, LobeKind::InPlane, &|_, _| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not even in y"), "{e}");
+}
+
 #[test]
 fn table_reader_refuses_bad_files() {
     let dir = tempfile::tempdir().unwrap();
@@ -362,7 +423,7 @@ fn table_reader_refuses_bad_files() {
             "version",
             {
                 let mut v = bytes.clone();
-                let at = v.windows(11).position(|w| w == b"\"version\":1").unwrap();
+                let at = v.windows(11).position(|w| w == b"\"version\":2").unwrap();
                 v[at + 10] = b'7';
                 v
             },

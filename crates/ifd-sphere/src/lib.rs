@@ -43,6 +43,8 @@
 //!   cubemap and sample projection.
 //! - [`rotation`]: rotations and the Ivanic-Ruedenberg reference SH rotation.
 //! - [`zhf`]: direction sets, `M_l`, ZHF/ZHE, ZHF rotation (Eq. 10, 11).
+//! - [`zhf_plane`]: `l + 1` in-plane lobes per band for functions even in
+//!   `y` (isotropic BRDF slices).
 //! - [`profile`]: mother functions, `beta_{l l'}`, the general `M` (Eq. 15-19).
 //! - [`kernel`]: closed-form spherical filters and their projection.
 //! - [`filter`]: prefiltering (Eq. 13) and evaluation of `fhat(R)` (Eq. 6, 14).
@@ -61,6 +63,7 @@ pub mod rotation;
 pub mod sh;
 pub mod transform;
 pub mod zhf;
+pub mod zhf_plane;
 
 pub use crate::coeffs::ShCoeffs;
 pub use crate::error::{MAX_DEGREE, Result, SphereError};

@@ -546,6 +546,7 @@ pub struct RzhCoeffs {
     pub data: Vec<f64>,
 }
 
+#[derive(Clone)]
 struct Band {
     /// `M_l`, row-major `(2l+1)^2`.
     m: Vec<f64>,
@@ -572,6 +573,7 @@ struct Band {
 /// assert!(g.data().iter().zip(h.data()).all(|(a, b)| (a - b).abs() < 1e-11));
 /// # Ok::<(), ifd_sphere::SphereError>(())
 /// ```
+#[derive(Clone)]
 pub struct RzhBasis {
     dirs: DirectionSet,
     sh: ShEvaluator,

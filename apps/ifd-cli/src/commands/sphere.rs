@@ -755,7 +755,12 @@ impl BrdfCmd {
             json!({
                 "brdf": h.brdf, "lmax": h.l_max, "isotropic": h.isotropic,
                 "channels": h.channels, "theta_entries": h.n_theta, "phi_entries": h.n_phi,
-                "lobes": 2 * h.l_max + 1, "weight_bytes": table.weight_bytes(),
+                "lobes": table.basis().directions().len(),
+                "lobe_layout": match h.lobes {
+                    ifd_shade::table::LobeLayout::Shared { .. } => "shared",
+                    ifd_shade::table::LobeLayout::InPlane { .. } => "in-plane",
+                },
+                "weight_bytes": table.weight_bytes(),
                 "interpolation_error": h.interpolation_error,
                 "interpolation_rms": h.interpolation_rms,
                 "albedo_min": amin, "albedo_max": amax,
