@@ -9,7 +9,8 @@ Run from the repository root after building:  .venv/bin/python tests/bench/bench
    filling most of the frame. Time = the render call alone (`render_seconds`: no map loading,
    SH projection or table build), median of 3 runs, all cores.
 2. Monte Carlo against ISD at equal RMS error against the exact oracle (128x128, GGX 0.3),
-   as a curve: ISD at L = 8 ... 24 with 128-entry tables (a table's size costs nothing per
+   as a curve: ISD at L = 8 ... 24 with 128-entry tables (in-plane lobes, with the shared
+   2L + 1 layout timed beside it) (a table's size costs nothing per
    pixel and keeps its interpolation error below the band limit's); Monte Carlo at doubling
    samples per pixel until its relative RMS error is below ISD's smallest; at each ISD error the
    Monte Carlo time interpolated log-log between the two rungs that bracket it; both timed by
@@ -91,19 +92,29 @@ def isd_against_monte_carlo(ifd, tmp, runs):
     q = np.load(tmp / "q.npy").astype(np.float64)
     mask = np.load(tmp / "m.npy") > 0.5
     mask3 = np.repeat(mask[..., None] if mask.ndim == 2 else mask, 3, axis=-1)
-    # ISD at several L: error against the oracle and render time (median of runs).
+    # ISD at several L: error against the oracle and render time (median of runs), with the
+    # default in-plane lobes (L + 1) and, interleaved, the shared layout (2L + 1) for comparison.
     isd = []
     for L in [8, 12, 16, 20, 24]:
-        t = tmp / f"mc{L}.lobes"
-        subprocess.run([str(ifd), "sphere", "brdf", "ggx:alpha=0.3", "--lmax", str(L),
-                        "--theta-entries", "128", "-o", str(t)], check=True, capture_output=True)
-        times = []
+        tables = {}
+        for lobes in ["in-plane", "shared"]:
+            tables[lobes] = tmp / f"mc{L}-{lobes}.lobes"
+            subprocess.run([str(ifd), "sphere", "brdf", "ggx:alpha=0.3", "--lmax", str(L),
+                            "--theta-entries", "128", "--lobes", lobes, "-o", str(tables[lobes])],
+                           check=True, capture_output=True)
+        times = {k: [] for k in tables}
+        errs = {}
         for _ in range(runs):
-            out = run(ifd, *common, "--method", "isd", "--lmax", L, "--table", t, "-o", tmp / "i.npy")
-            times.append(out["render_seconds"])
-        err = rel_rms(np.load(tmp / "i.npy").astype(np.float64), q, mask3)
-        isd.append((L, err, statistics.median(times)))
-        print(f"ISD L = {L}: relative RMS {err:.5f}, {isd[-1][2] * 1e3:.1f} ms", flush=True)
+            for lobes, t in tables.items():
+                out = run(ifd, *common, "--method", "isd", "--lmax", L, "--table", t, "-o", tmp / "i.npy")
+                times[lobes].append(out["render_seconds"])
+                errs[lobes] = rel_rms(np.load(tmp / "i.npy").astype(np.float64), q, mask3)
+        err = errs["in-plane"]
+        isd.append((L, err, statistics.median(times["in-plane"])))
+        shared = statistics.median(times["shared"])
+        print(f"ISD L = {L}: relative RMS {err:.5f}, {isd[-1][2] * 1e3:.1f} ms "
+              f"(shared 2L+1 lobes: {errs['shared']:.5f}, {shared * 1e3:.1f} ms, "
+              f"{shared / isd[-1][2]:.2f}x slower)", flush=True)
     # Monte Carlo at doubling samples until below the smallest ISD error.
     target = min(e for _, e, _ in isd)
     ladder = []

@@ -709,6 +709,12 @@ struct BrdfCmd {
     /// Entries over phi_o for anisotropic BRDFs (default: 2x the theta entries, at most 128).
     #[arg(long, value_name = "N")]
     phi_entries: Option<usize>,
+    /// Lobe layout: auto (in-plane for isotropic BRDFs, shared for anisotropic
+    /// ones), shared (2L+1 directions, any BRDF; for comparison) or in-plane
+    /// (L+1 directions, isotropic BRDFs only).
+    #[arg(long, value_name = "LAYOUT", default_value = "auto",
+          value_parser = ["auto", "shared", "in-plane"])]
+    lobes: String,
     /// Output table file (binary, conventionally .lobes).
     #[arg(short, long)]
     output: PathBuf,
@@ -737,7 +743,12 @@ impl BrdfCmd {
             ProgressStyle::with_template("slices {bar:30} {pos}/{len} [{elapsed}<{eta}]")
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
-        let table = LobeTable::build(&brdf, self.lmax, nt, np, &|done, total| {
+        let kind = match self.lobes.as_str() {
+            "shared" => ifd_shade::table::LobeKind::Shared,
+            "in-plane" => ifd_shade::table::LobeKind::InPlane,
+            _ => ifd_shade::table::LobeKind::default_for(&brdf),
+        };
+        let table = LobeTable::build_with(&brdf, self.lmax, nt, np, kind, &|done, total| {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
         })?;
