@@ -671,7 +671,12 @@ impl LobeTable {
             && (2..=4096).contains(&h.n_theta)
             && (1..=4096).contains(&h.n_phi)
             && (h.isotropic == (h.n_phi == 1))
-            && (h.isotropic || matches!(h.lobes, LobeLayout::Shared { .. }));
+            && (h.isotropic || matches!(h.lobes, LobeLayout::Shared { .. }))
+            // the layout's degree before building its matrices
+            && match &h.lobes {
+                LobeLayout::Shared { directions } => directions.l_max() == h.l_max,
+                LobeLayout::InPlane { angles } => angles.len() == h.l_max + 1,
+            };
         if !shape_ok {
             return Err(ferr(format!(
                 "inconsistent header: L = {}, {} channel(s), {} x {} entries, isotropic {}, \

@@ -429,6 +429,24 @@ fn table_reader_refuses_bad_files() {
             },
             "version 7",
         ),
+        (
+            "angles",
+            {
+                // one in-plane angle too many for the declared L = 3
+                let hl = u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize;
+                let mut head = std::str::from_utf8(&bytes[12..12 + hl])
+                    .unwrap()
+                    .to_string();
+                let at = head.find("\"angles\":[").unwrap() + 10;
+                head.insert_str(at, "0.5,");
+                let mut v = b"IFDLOBES".to_vec();
+                v.extend_from_slice(&(head.len() as u32).to_le_bytes());
+                v.extend_from_slice(head.as_bytes());
+                v.extend_from_slice(&bytes[12 + hl..]);
+                v
+            },
+            "in-plane lobes",
+        ),
     ];
     for (name, data, needle) in cases {
         let p = d.join(format!("{name}.lobes"));
