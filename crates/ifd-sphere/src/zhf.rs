@@ -517,6 +517,24 @@ pub(crate) fn band_matrix(sh: &ShEvaluator, l: usize, dirs: &[[f64; 3]]) -> DMat
     m
 }
 
+/// The inverse and condition number of band `band`'s matrix, refused as
+/// [`SphereError::Degenerate`] when the condition number exceeds `limit` or
+/// the inversion fails.
+pub(crate) fn checked_inverse(
+    m: &DMatrix<f64>,
+    band: usize,
+    limit: f64,
+) -> Result<(DMatrix<f64>, f64)> {
+    let cond = condition_number(m);
+    let inv = if cond <= limit {
+        m.clone().try_inverse()
+    } else {
+        None
+    };
+    inv.map(|i| (i, cond))
+        .ok_or(SphereError::Degenerate { band, cond, limit })
+}
+
 /// 2-norm condition number (ratio of extreme singular values; infinite when singular).
 #[must_use]
 pub fn condition_number(m: &DMatrix<f64>) -> f64 {
@@ -608,19 +626,7 @@ impl RzhBasis {
         let mut bands = Vec::with_capacity(dirs.l_max() + 1);
         for l in 0..=dirs.l_max() {
             let m = band_matrix(&sh, l, dirs.band(l));
-            let cond = condition_number(&m);
-            let inv = if cond <= cond_limit {
-                m.clone().try_inverse()
-            } else {
-                None
-            };
-            let Some(inv) = inv else {
-                return Err(SphereError::Degenerate {
-                    band: l,
-                    cond,
-                    limit: cond_limit,
-                });
-            };
+            let (inv, cond) = checked_inverse(&m, l, cond_limit)?;
             bands.push(Band {
                 m: m.transpose().as_slice().to_vec(),
                 minv: inv.transpose().as_slice().to_vec(),

@@ -44,7 +44,7 @@ use nalgebra::DMatrix;
 use crate::coeffs::ShCoeffs;
 use crate::error::{Result, SphereError, check_degree};
 use crate::sh::{ShEvaluator, pi_l};
-use crate::zhf::{DEFAULT_COND_LIMIT, condition_number};
+use crate::zhf::{DEFAULT_COND_LIMIT, checked_inverse};
 
 /// Number of in-plane weights up to degree `l_max`: `(L + 1)(L + 2) / 2`.
 #[must_use]
@@ -153,19 +153,7 @@ impl PlaneRzhBasis {
             let n = l + 1;
             let p = pi_l(l);
             let e = DMatrix::from_fn(n, n, |m, j| p * y_all[j][l * (l + 1) + m]);
-            let cond = condition_number(&e);
-            let inv = if cond <= DEFAULT_COND_LIMIT {
-                e.clone().try_inverse()
-            } else {
-                None
-            };
-            let Some(inv) = inv else {
-                return Err(SphereError::Degenerate {
-                    band: l,
-                    cond,
-                    limit: DEFAULT_COND_LIMIT,
-                });
-            };
+            let (inv, cond) = checked_inverse(&e, l, DEFAULT_COND_LIMIT)?;
             bands.push((
                 e.transpose().as_slice().to_vec(),
                 inv.transpose().as_slice().to_vec(),

@@ -690,9 +690,11 @@ impl FilterCmd {
 ///
 /// For each view direction of the table, the cosine-weighted slice
 /// `k_wo(wi) = rho(wi, wo) max(cos, 0)` is projected on SH up to L and
-/// decomposed into 2L+1 rotated zonal lobes shared by all bands. Isotropic
-/// BRDFs get a 1D table over theta_o (frame rotated to phi_o = 0), anisotropic
-/// ones a 2D table over (theta_o, phi_o). The interpolation error (relative L2
+/// decomposed into rotated zonal lobes shared by all bands. Isotropic BRDFs
+/// get a 1D table over theta_o (frame rotated to phi_o = 0, where the slice is
+/// even across the plane of the normal and the view, so L+1 lobes in that
+/// plane suffice), anisotropic ones a 2D table over (theta_o, phi_o) with 2L+1
+/// lobes. The interpolation error (relative L2
 /// of the interpolated slice at the midpoints between entries) is measured and
 /// reported. The file is binary with a JSON header (2D tables reach tens of
 /// MB, which JSON text would triple), versioned and self-describing.
