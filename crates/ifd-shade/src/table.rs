@@ -106,6 +106,17 @@ pub enum LobeLayout {
     },
 }
 
+impl LobeLayout {
+    /// `"shared"` or `"in-plane"` (as `ifd sphere brdf --lobes` spells them).
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Shared { .. } => "shared",
+            Self::InPlane { .. } => "in-plane",
+        }
+    }
+}
+
 /// Which lobes to build a table with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LobeKind {
@@ -357,10 +368,16 @@ impl LobeTable {
             });
         }
         let total = n_theta * n_phi;
-        let per_entry = match kind {
-            LobeKind::Shared => (l_max + 1) * (l_max + 1),
-            LobeKind::InPlane => plane_count(l_max),
+        let layout = match kind {
+            LobeKind::Shared => LobeLayout::Shared {
+                directions: DirectionSet::new(l_max, Sharing::Shared, Chooser::Fibonacci)?,
+            },
+            LobeKind::InPlane => LobeLayout::InPlane {
+                angles: ifd_sphere::zhf_plane::default_angles(l_max),
+            },
         };
+        let basis = LobeBasis::new(&layout, l_max)?;
+        let per_entry = basis.count();
         // f64 weights per entry while building, then the f32 table
         let values = (total as u64) * (per_entry * brdf.channels()) as u64;
         let budget = ifd_image::MemoryBudget::default_for_machine();
@@ -371,15 +388,6 @@ impl LobeTable {
                 value: format!("{n_theta} x {n_phi} entries at L = {l_max}"),
                 reason: format!("{e}; use fewer entries or a lower L"),
             })?;
-        let layout = match kind {
-            LobeKind::Shared => LobeLayout::Shared {
-                directions: DirectionSet::new(l_max, Sharing::Shared, Chooser::Fibonacci)?,
-            },
-            LobeKind::InPlane => LobeLayout::InPlane {
-                angles: ifd_sphere::zhf_plane::default_angles(l_max),
-            },
-        };
-        let basis = LobeBasis::new(&layout, l_max)?;
         let done = std::sync::atomic::AtomicUsize::new(0);
         let entries: Vec<Result<Vec<f64>>> = (0..total)
             .into_par_iter()
@@ -686,10 +694,7 @@ impl LobeTable {
                 h.n_theta,
                 h.n_phi,
                 h.isotropic,
-                match h.lobes {
-                    LobeLayout::Shared { .. } => "shared",
-                    LobeLayout::InPlane { .. } => "in-plane",
-                }
+                h.lobes.name()
             )));
         }
         if let LobeLayout::Shared { directions } = &h.lobes {

@@ -295,7 +295,6 @@ fn tables_interpolate_their_entries_and_round_trip() {
             if n_phi == 1 { l + 1 } else { 2 * l + 1 }
         );
         // an entry's weights are the ZHF of that view's slice
-
         let (i, j) = (5, if n_phi == 1 { 0 } else { 3 });
         let th = (i as f64 + 0.5) * PI / 2.0 / nt as f64;
         let ph = 2.0 * PI * j as f64 / h.n_phi as f64;

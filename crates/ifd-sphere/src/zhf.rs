@@ -882,7 +882,7 @@ impl RzhBasis {
 }
 
 /// `out[i][c] = sum_j a[i][j] x[j][c]` for an `n x n` row-major block.
-fn block_mul(a: &[f64], n: usize, x: &[f64], out: &mut [f64], ch: usize) {
+pub(crate) fn block_mul(a: &[f64], n: usize, x: &[f64], out: &mut [f64], ch: usize) {
     for i in 0..n {
         for c in 0..ch {
             let mut s = 0.0;

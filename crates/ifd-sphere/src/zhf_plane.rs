@@ -44,7 +44,7 @@ use nalgebra::DMatrix;
 use crate::coeffs::ShCoeffs;
 use crate::error::{Result, SphereError, check_degree};
 use crate::sh::{ShEvaluator, pi_l};
-use crate::zhf::{DEFAULT_COND_LIMIT, checked_inverse};
+use crate::zhf::{DEFAULT_COND_LIMIT, block_mul, checked_inverse};
 
 /// Number of in-plane weights up to degree `l_max`: `(L + 1)(L + 2) / 2`.
 #[must_use]
@@ -214,14 +214,13 @@ impl PlaneRzhBasis {
         let ch = f.channels();
         let mut out = vec![0.0; plane_count(self.l_max()) * ch];
         for (l, (_, inv, _)) in self.bands.iter().enumerate() {
-            let n = l + 1;
-            let src = &f.data()[l * (l + 1) * ch..];
-            let dst = &mut out[plane_index(l, 0) * ch..];
-            for j in 0..n {
-                for c in 0..ch {
-                    dst[j * ch + c] = (0..n).map(|m| inv[j * n + m] * src[m * ch + c]).sum();
-                }
-            }
+            block_mul(
+                inv,
+                l + 1,
+                &f.data()[l * (l + 1) * ch..],
+                &mut out[plane_index(l, 0) * ch..],
+                ch,
+            );
         }
         Ok(out)
     }
@@ -244,14 +243,13 @@ impl PlaneRzhBasis {
         let ch = channels;
         let mut out = ShCoeffs::zeros(l_max, ch)?;
         for (l, (e, _, _)) in self.bands.iter().enumerate() {
-            let n = l + 1;
-            let src = &weights[plane_index(l, 0) * ch..];
-            let dst = &mut out.data_mut()[l * (l + 1) * ch..];
-            for m in 0..n {
-                for c in 0..ch {
-                    dst[m * ch + c] = (0..n).map(|j| e[m * n + j] * src[j * ch + c]).sum();
-                }
-            }
+            block_mul(
+                e,
+                l + 1,
+                &weights[plane_index(l, 0) * ch..],
+                &mut out.data_mut()[l * (l + 1) * ch..],
+                ch,
+            );
         }
         Ok(out)
     }

@@ -769,10 +769,7 @@ impl BrdfCmd {
                 "brdf": h.brdf, "lmax": h.l_max, "isotropic": h.isotropic,
                 "channels": h.channels, "theta_entries": h.n_theta, "phi_entries": h.n_phi,
                 "lobes": table.basis().directions().len(),
-                "lobe_layout": match h.lobes {
-                    ifd_shade::table::LobeLayout::Shared { .. } => "shared",
-                    ifd_shade::table::LobeLayout::InPlane { .. } => "in-plane",
-                },
+                "lobe_layout": h.lobes.name(),
                 "weight_bytes": table.weight_bytes(),
                 "interpolation_error": h.interpolation_error,
                 "interpolation_rms": h.interpolation_rms,
