@@ -95,6 +95,7 @@ mod context;
 mod error;
 mod eval;
 pub mod shaders;
+pub mod shading;
 mod smooth;
 mod stack;
 mod wgpu_helpers;

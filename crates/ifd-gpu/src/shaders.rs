@@ -81,3 +81,53 @@ pub const TO_RGBA8: &str = include_str!("../../../shaders/to_rgba8.wgsl");
 
 /// Brush-dab blend into an image on the device (`shaders/dab_blend.wgsl`).
 pub const DAB_BLEND: &str = include_str!("../../../shaders/dab_blend.wgsl");
+
+/// ISD shading, Eq. 22 (`shaders/isd_shade.wgsl`) as written: it uses the
+/// band count `NB` and the constants of [`shade_codes`], which
+/// [`isd_shade_source`] prepends.
+pub const ISD_SHADE: &str = include_str!("../../../shaders/isd_shade.wgsl");
+
+/// The numbers the shading kernel and the host agree on.
+pub mod shade_codes {
+    /// `variant`: the per-band environment from SH coefficients.
+    pub const VARIANT_SH: u32 = 0;
+    /// `variant`: the per-band environment from prefiltered maps.
+    pub const VARIANT_MAPS: u32 = 1;
+    /// `material`: Lambert, closed-form zonal weights about the normal.
+    pub const MATERIAL_LAMBERT: u32 = 0;
+    /// `material`: Phong, closed-form zonal weights about the mirror direction.
+    pub const MATERIAL_PHONG: u32 = 1;
+    /// `material`: lobe tables (one, or a roughness family).
+    pub const MATERIAL_TABLE: u32 = 2;
+
+    /// Every code with its name, as [`super::isd_shade_source`] declares them.
+    pub const ALL: [(&str, u32); 5] = [
+        ("VARIANT_SH", VARIANT_SH),
+        ("VARIANT_MAPS", VARIANT_MAPS),
+        ("MATERIAL_LAMBERT", MATERIAL_LAMBERT),
+        ("MATERIAL_PHONG", MATERIAL_PHONG),
+        ("MATERIAL_TABLE", MATERIAL_TABLE),
+    ];
+}
+
+/// The shading kernel as compiled for degree `l_max`: `const NB` (the band
+/// count `l_max + 1`, which sizes the kernel's private band sums), the
+/// [`shade_codes`], then [`ISD_SHADE`].
+///
+/// ```
+/// let src = ifd_gpu::shaders::isd_shade_source(7);
+/// assert!(src.starts_with("const NB: u32 = 8u;"));
+/// assert!(src.ends_with(ifd_gpu::shaders::ISD_SHADE));
+/// ```
+#[must_use]
+pub fn isd_shade_source(l_max: usize) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "const NB: u32 = {}u;", l_max + 1);
+    for (name, v) in shade_codes::ALL {
+        let _ = writeln!(s, "const {name}: u32 = {v}u;");
+    }
+    s.push('\n');
+    s.push_str(ISD_SHADE);
+    s
+}

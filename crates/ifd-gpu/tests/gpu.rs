@@ -131,6 +131,17 @@ fn crop(img: &Image, r: Region) -> Image {
     Image::from_vec(r.width, r.height, c, data).expect("crop")
 }
 
+fn validate(src: &str, path: &std::path::Path) {
+    let module = naga::front::wgsl::parse_str(src)
+        .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(src)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::empty(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(src)));
+}
+
 #[test]
 fn every_shader_parses_and_validates() {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
@@ -146,14 +157,16 @@ fn every_shader_parses_and_validates() {
             assert!(ifd_gpu::shaders::ifd_eval_source().ends_with(&src));
             src = ifd_gpu::shaders::ifd_eval_source();
         }
-        let module = naga::front::wgsl::parse_str(&src)
-            .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&src)));
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::empty(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&src)));
+        if path.file_name().is_some_and(|n| n == "isd_shade.wgsl") {
+            // It is compiled per degree, with the band count and codes prepended;
+            // the extremes of the range are checked here, L = 7 below.
+            assert!(ifd_gpu::shaders::isd_shade_source(7).ends_with(&src));
+            for l in [0, 100] {
+                validate(&ifd_gpu::shaders::isd_shade_source(l), &path);
+            }
+            src = ifd_gpu::shaders::isd_shade_source(7);
+        }
+        validate(&src, &path);
         n += 1;
     }
     assert!(n >= 2, "found only {n} shaders in {}", dir.display());
@@ -1169,4 +1182,289 @@ fn no_adapter_is_a_clear_error_not_a_panic() {
         out.status
     );
     assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+// ---- ISD shading (shaders/isd_shade.wgsl) against the CPU renderer ----
+
+mod shading {
+    use glam::DVec3;
+    use ifd_gpu::shading::{GpuEnvironment, GpuMaterial, GpuShader, GpuSurfaces, SurfacePoint};
+    use ifd_image::Image;
+    use ifd_render::camera::Camera;
+    use ifd_render::envmap::EnvMap;
+    use ifd_render::gbuffer;
+    use ifd_render::render::{Job, Method, render};
+    use ifd_render::scene::Scene;
+    use ifd_render::textures::{RoughnessFamily, SurfaceMaps, Texture};
+    use ifd_shade::Brdf;
+    use ifd_shade::shade::{BandMaps, Environment, Material};
+    use ifd_shade::table::{LobeKind, LobeTable};
+
+    use super::{ctx, testdata};
+
+    /// GPU (f32) against CPU (f64) shading: `max |gpu - cpu| <= 1e-3 max |cpu|`.
+    const SHADE_TOL: f64 = 1e-3;
+
+    /// The forest map averaged down to 64x32 (what the renderer integrates).
+    fn forest() -> EnvMap {
+        let img = ifd_image::read(testdata("forest.hdr")).expect("forest.hdr");
+        let small = ifd_sphere::transform::downsample_equirect(&img, 64, 32).expect("downsample");
+        EnvMap::new(small, 30.0).expect("env")
+    }
+
+    struct Case<'a> {
+        brdf: &'a Brdf,
+        material: Option<&'a Material>,
+        family: Option<&'a RoughnessFamily>,
+        maps: Option<&'a SurfaceMaps>,
+        scene: Scene,
+        size: usize,
+        l_max: usize,
+        method: Method,
+    }
+
+    /// Renders `case` on the CPU and the GPU and returns the largest
+    /// difference relative to the CPU image's maximum.
+    fn compare(name: &str, env: &EnvMap, case: &Case<'_>) -> Option<f64> {
+        let ctx = ctx()?;
+        let camera = Camera::new(
+            DVec3::new(3.0, -2.5, 1.2),
+            DVec3::ZERO,
+            DVec3::Z,
+            40.0,
+            case.size,
+            case.size,
+        )
+        .expect("camera");
+        let job = Job {
+            scene: case.scene.clone(),
+            camera,
+            env,
+            background: Some(env),
+            brdf: case.brdf,
+            material: case.material,
+            method: case.method,
+            spp: 0,
+            seed: 0,
+            maps: case.maps,
+            family: case.family,
+        };
+        let cpu = render(&job, &|_, _| {}).expect("cpu render");
+        let px = gbuffer::pixels(&case.scene, &camera, case.maps).expect("pixels");
+        let points: Vec<SurfacePoint> = px
+            .iter()
+            .map(|p| SurfacePoint::from_pixel(p, Some(env)))
+            .collect();
+        let surfaces = GpuSurfaces::upload(ctx, case.size, case.size, &points).expect("upload");
+        let e = Environment::new(env.sh(case.l_max).expect("sh")).expect("env");
+        let genv = match case.method {
+            Method::Isd => GpuEnvironment::sh(ctx, &e).expect("sh upload"),
+            Method::IsdMaps => {
+                GpuEnvironment::maps(ctx, &BandMaps::new(&e).expect("maps")).expect("maps upload")
+            }
+            m => panic!("no GPU path for {m:?}"),
+        };
+        let material = match (case.family, case.material) {
+            (Some(f), _) => GpuMaterial::family(ctx, f).expect("family"),
+            (None, Some(m)) => GpuMaterial::new(ctx, m).expect("material"),
+            _ => panic!("a case needs a material"),
+        };
+        let shader = GpuShader::new(ctx).expect("shader");
+        let shaded = shader
+            .shade(ctx, &surfaces, &genv, &material)
+            .expect("shade");
+        let (gpu, mask) = shaded.read(ctx).expect("read");
+        assert_eq!(mask, cpu.mask, "{name}: the object masks differ");
+        // the background is copied through exactly; measure the object
+        let (diff, max, at) = max_diff(&gpu, &cpu.image, &mask);
+        let rel = diff / max;
+        eprintln!(
+            "{name}: max |gpu - cpu| = {rel:.2e} of the object's maximum {max:.3} (at value {at})"
+        );
+        assert!(max > 0.0 && rel.is_finite());
+        Some(rel)
+    }
+
+    /// The largest difference over the object's pixels, the object's
+    /// largest value, and where the difference is (flat index).
+    fn max_diff(a: &Image, b: &Image, mask: &[bool]) -> (f64, f64, usize) {
+        assert_eq!(a.data().len(), b.data().len());
+        let ch = a.channels();
+        let (mut best, mut max, mut at) = (0.0, 0.0f64, 0);
+        for (i, (x, y)) in a.data().iter().zip(b.data()).enumerate() {
+            if !mask[i / ch] {
+                assert_eq!(x, y, "background value {i}");
+                continue;
+            }
+            max = max.max(f64::from(y.abs()));
+            let d = f64::from((x - y).abs());
+            if d > best || d.is_nan() {
+                (best, at) = (d, i);
+            }
+        }
+        (best, max, at)
+    }
+
+    fn table(brdf: &Brdf, l: usize, nt: usize, np: usize, kind: LobeKind) -> Material {
+        let t = LobeTable::build_with(brdf, l, nt, np, kind, &|_, _| {}).expect("table");
+        Material::new(brdf, l, Some(t)).expect("material")
+    }
+
+    fn check(name: &str, env: &EnvMap, case: &Case<'_>) {
+        if let Some(rel) = compare(name, env, case) {
+            assert!(
+                rel <= SHADE_TOL,
+                "{name}: GPU and CPU differ by {rel:.2e} of the maximum"
+            );
+        }
+    }
+
+    #[test]
+    fn closed_form_materials_match_cpu() {
+        let env = forest();
+        for (spec, l, method) in [
+            ("lambert", 6, Method::Isd),
+            ("phong:s=30", 10, Method::Isd),
+            ("phong:s=30", 10, Method::IsdMaps),
+        ] {
+            let brdf = Brdf::parse(spec).expect("brdf");
+            let m = Material::new(&brdf, l, None).expect("material");
+            let case = Case {
+                brdf: &brdf,
+                material: Some(&m),
+                family: None,
+                maps: None,
+                scene: Scene::Torus,
+                size: 40,
+                l_max: l,
+                method,
+            };
+            check(&format!("{spec} L={l} {method:?}"), &env, &case);
+        }
+    }
+
+    #[test]
+    fn lobe_tables_match_cpu_both_variants() {
+        let env = forest();
+        let iso = Brdf::parse("ggx:alpha=0.3").expect("brdf");
+        let aniso = Brdf::parse("ggx:ax=0.2,ay=0.5").expect("brdf");
+        let cases = [
+            (
+                "ggx in-plane",
+                &iso,
+                table(&iso, 8, 24, 1, LobeKind::InPlane),
+                8,
+            ),
+            (
+                "ggx shared",
+                &iso,
+                table(&iso, 8, 24, 1, LobeKind::Shared),
+                8,
+            ),
+            (
+                "ggx anisotropic",
+                &aniso,
+                table(&aniso, 6, 12, 16, LobeKind::Shared),
+                6,
+            ),
+        ];
+        for (name, brdf, m, l) in &cases {
+            for method in [Method::Isd, Method::IsdMaps] {
+                let case = Case {
+                    brdf,
+                    material: Some(m),
+                    family: None,
+                    maps: None,
+                    scene: Scene::Sphere,
+                    size: 32,
+                    l_max: *l,
+                    method,
+                };
+                check(&format!("{name} L={l} {method:?}"), &env, &case);
+            }
+        }
+    }
+
+    #[test]
+    fn spatially_varying_brdf_matches_cpu() {
+        let env = forest();
+        let brdf = Brdf::parse("ggx:alpha=0.3").expect("brdf");
+        // roughness stripes and an albedo ramp over the sphere's (u, v)
+        let (w, h) = (32, 16);
+        let rough: Vec<f32> = (0..w * h)
+            .map(|i| {
+                0.3 + 0.5
+                    * (((i % w) as f32) / w as f32 * std::f32::consts::TAU)
+                        .sin()
+                        .abs()
+            })
+            .collect();
+        let albedo: Vec<f32> = (0..w * h)
+            .flat_map(|i| {
+                let v = (i / w) as f32 / h as f32;
+                [0.9, 0.3 + 0.6 * v, 0.5]
+            })
+            .collect();
+        let maps = SurfaceMaps {
+            roughness: Some(
+                Texture::new(Image::from_vec(w, h, 1, rough).expect("img"), "roughness")
+                    .expect("texture"),
+            ),
+            albedo: Some(
+                Texture::new(Image::from_vec(w, h, 3, albedo).expect("img"), "albedo")
+                    .expect("texture"),
+            ),
+        };
+        let l = 6;
+        let range = maps.roughness.as_ref().expect("set").range();
+        let family = RoughnessFamily::build(&brdf, l, range, 4, &|_, _| {}).expect("family");
+        let case = Case {
+            brdf: &brdf,
+            material: None,
+            family: Some(&family),
+            maps: Some(&maps),
+            scene: Scene::Sphere,
+            size: 32,
+            l_max: l,
+            method: Method::Isd,
+        };
+        check("roughness + albedo maps", &env, &case);
+    }
+
+    #[test]
+    fn high_degrees_stay_accurate_in_f32() {
+        // L = 40: the CPU's reduced Legendre values would overflow f32 here
+        let env = forest();
+        let brdf = Brdf::parse("phong:s=400").expect("brdf");
+        let m = Material::new(&brdf, 40, None).expect("material");
+        let case = Case {
+            brdf: &brdf,
+            material: Some(&m),
+            family: None,
+            maps: None,
+            scene: Scene::Sphere,
+            size: 20,
+            l_max: 40,
+            method: Method::Isd,
+        };
+        check("phong:s=400 L=40", &env, &case);
+    }
+
+    #[test]
+    fn mismatched_degrees_are_refused() {
+        let Some(ctx) = ctx() else { return };
+        let mut e = ifd_sphere::ShCoeffs::zeros(4, 3).expect("coeffs");
+        e.data_mut()[..3].fill(1.0);
+        let env = GpuEnvironment::sh(ctx, &Environment::new(e).expect("env")).expect("upload");
+        let brdf = Brdf::parse("lambert").expect("brdf");
+        let m = GpuMaterial::new(ctx, &Material::new(&brdf, 5, None).expect("m")).expect("upload");
+        let points = vec![SurfacePoint::default(); 4];
+        let s = GpuSurfaces::upload(ctx, 2, 2, &points).expect("surfaces");
+        let err = GpuShader::new(ctx)
+            .expect("shader")
+            .shade(ctx, &s, &env, &m)
+            .expect_err("degrees differ");
+        assert!(err.to_string().contains("L = 4"), "{err}");
+        assert!(GpuSurfaces::upload(ctx, 3, 2, &points).is_err());
+    }
 }

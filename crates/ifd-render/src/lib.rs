@@ -27,6 +27,7 @@
 //! - [`convergence`]: error against the oracle as `L` grows (ISD Fig. 4), CSV and plot.
 //! - [`scene`]: sphere, torus, plane, meshes.
 //! - [`mesh`]: OBJ meshes and their BVH.
+//! - [`gbuffer`]: what each pixel's ray sees (frame, view, map values), for the CPU and GPU shaders.
 //! - [`envmap`]: environment maps (rotation, downsampling, lookups, exact SH, texel samples).
 //! - [`oracle`]: the exact texel quadrature.
 //! - [`mc`]: the Monte Carlo reference (environment and BRDF sampling, MIS).
@@ -39,6 +40,7 @@ mod error;
 pub mod camera;
 pub mod convergence;
 pub mod envmap;
+pub mod gbuffer;
 pub mod hit;
 pub mod mc;
 pub mod mesh;

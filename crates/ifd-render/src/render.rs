@@ -11,6 +11,7 @@ use rayon::prelude::*;
 use crate::camera::Camera;
 use crate::envmap::EnvMap;
 use crate::error::{RenderError, Result};
+use crate::gbuffer::{Pixel, Surface, check_maps, nothing_visible, pixel};
 use crate::mc::{EnvSampler, estimate, pixel_seed};
 use crate::oracle::Oracle;
 use crate::scene::Scene;
@@ -113,13 +114,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
     let ch = job.env.channels();
     let rough_map = job.maps.and_then(|m| m.roughness.as_ref());
     let albedo_map = job.maps.and_then(|m| m.albedo.as_ref());
-    if (rough_map.is_some() || albedo_map.is_some()) && !job.scene.has_tangents() {
-        return Err(RenderError::Parameter {
-            name: "--scene",
-            value: "mesh".into(),
-            reason: "texture maps need texture coordinates, and the mesh has none".into(),
-        });
-    }
+    check_maps(&job.scene, job.maps)?;
     let kc = job.brdf.channels();
     if kc != 1 && kc != ch {
         return Err(RenderError::Parameter {
@@ -183,15 +178,17 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             let l = degree.unwrap_or(0);
             let mut scratch = Scratch::new(l, ch);
             for x in 0..w {
-                let (o, d) = job.camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                let Pixel { dir: d, surface } = pixel(&job.scene, &job.camera, job.maps, x, y);
                 out.fill(0.0);
-                if let Some(hit) = job.scene.intersect(o, d) {
+                if let Some(surface) = surface {
                     mask[x] = true;
-                    let n = hit.n.to_array();
-                    let frame = Frame::new(n, hit.dpdu.to_array());
-                    let wo = (-d).to_array();
-                    let uv = hit.uv.unwrap_or([0.0, 0.0]);
-                    let rough = rough_map.map(|t| t.sample(uv, 0));
+                    let Surface {
+                        frame,
+                        wo,
+                        roughness: rough,
+                        albedo,
+                        ..
+                    } = surface;
                     // the exact BRDF of this point (oracle, Monte Carlo)
                     let local = match rough {
                         Some(r) if matches!(job.method, Method::Quadrature | Method::Mc) => {
@@ -235,9 +232,9 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                             resid = resid.max(r);
                         }
                     }
-                    if let Some(a) = albedo_map {
+                    if albedo_map.is_some() {
                         for c in 0..ch {
-                            let k = a.sample(uv, c);
+                            let k = albedo[c];
                             out[c] *= k;
                             if !se.is_empty() {
                                 se[x * ch + c] *= k as f32;
@@ -245,7 +242,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                         }
                     }
                 } else if let Some(bg) = job.background {
-                    bg.lookup(d.to_array(), &mut out);
+                    bg.lookup(d, &mut out);
                 }
                 for c in 0..ch {
                     px[x * ch + c] = out[c] as f32;
@@ -271,10 +268,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
     }
     let object_pixels = mask.iter().filter(|m| **m).count();
     if object_pixels == 0 {
-        return Err(RenderError::NothingVisible(format!(
-            "no ray of the {w}x{h} image hits the {:?} (check --eye, --target, --fov)",
-            job.scene
-        )));
+        return Err(nothing_visible(&job.scene, &job.camera));
     }
     Ok(Rendered {
         image: Image::from_vec(w, h, ch, data)?,

@@ -144,6 +144,18 @@ impl RoughnessFamily {
         (&self.materials[k], &self.materials[k + 1], w)
     }
 
+    /// The roughness values of the materials, increasing.
+    #[must_use]
+    pub fn roughness(&self) -> &[f64] {
+        &self.roughness
+    }
+
+    /// The materials, one per roughness value.
+    #[must_use]
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
     /// The degree of the materials.
     #[must_use]
     pub fn l_max(&self) -> usize {

@@ -210,6 +210,18 @@ impl BandMaps {
         (self.width, self.height)
     }
 
+    /// The maps, `[band][row][column][channel]` f32 (rows from the zenith).
+    #[must_use]
+    pub fn data(&self) -> &[f32] {
+        &self.data
+    }
+
+    /// Channels.
+    #[must_use]
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
     /// Bytes of the maps.
     #[must_use]
     pub fn bytes(&self) -> usize {
@@ -382,6 +394,15 @@ impl Material {
     #[must_use]
     pub fn l_max(&self) -> usize {
         self.l_max
+    }
+
+    /// The lobe table (`None` for closed-form weights).
+    #[must_use]
+    pub fn table(&self) -> Option<&LobeTable> {
+        match &self.lobes {
+            Lobes::Zonal => None,
+            Lobes::Table(t) => Some(t),
+        }
     }
 
     /// Whether the weights are closed-form (one lobe per band).

@@ -494,6 +494,13 @@ impl LobeTable {
             .collect()
     }
 
+    /// The stored weights, entry-major (`[theta][phi][K][C]`, as in the file):
+    /// what a GPU interpolates itself.
+    #[must_use]
+    pub fn raw_weights(&self) -> &[f32] {
+        &self.weights
+    }
+
     /// Bytes of the stored weights.
     #[must_use]
     pub fn weight_bytes(&self) -> usize {

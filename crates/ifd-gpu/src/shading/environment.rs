@@ -1,0 +1,142 @@
+//! The environment on the device, in either variant of Eq. 22.
+
+use ifd_shade::shade::{BandMaps, Environment};
+
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use crate::wgpu_helpers::buffer_init;
+
+/// How the kernel gets the per-band environment `Ehat_l(d)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    /// Reconstructed from the SH coefficients at each rotated lobe direction
+    /// (`(L + 1)^2` recurrence steps per lobe).
+    Sh,
+    /// Read from per-band prefiltered maps (16 Catmull-Rom taps per band and
+    /// lobe, weights computed in the kernel).
+    Maps,
+}
+
+/// An environment uploaded for shading: SH coefficients or per-band maps,
+/// always as RGB (a grey environment is repeated in the three channels).
+#[derive(Debug)]
+pub struct GpuEnvironment {
+    pub(crate) buffer: wgpu::Buffer,
+    pub(crate) l_max: usize,
+    pub(crate) channels: usize,
+    pub(crate) variant: Variant,
+    pub(crate) map_size: (usize, usize),
+}
+
+/// `values` (`channels` per item) as RGB(A) floats, `stride` per item.
+fn rgb(values: &[f32], channels: usize, stride: usize) -> Vec<f32> {
+    let n = values.len() / channels;
+    let mut out = vec![0.0f32; n * stride];
+    for (o, v) in out
+        .chunks_exact_mut(stride)
+        .zip(values.chunks_exact(channels))
+    {
+        for c in 0..3 {
+            o[c] = v[c.min(channels - 1)];
+        }
+    }
+    out
+}
+
+impl GpuEnvironment {
+    /// The SH coefficients of `env` ([`Variant::Sh`]).
+    ///
+    /// # Errors
+    /// [`GpuError::Unsupported`] for other than 1 or 3 channels;
+    /// [`GpuError::Limit`] beyond the device's limits.
+    pub fn sh(ctx: &GpuContext, env: &Environment) -> Result<Self, GpuError> {
+        let ch = env.channels();
+        check_channels(ch)?;
+        let values: Vec<f32> = env.coeffs().data().iter().map(|&v| v as f32).collect();
+        let data = rgb(&values, ch, 4);
+        Self::upload(ctx, &data, env.l_max(), ch, Variant::Sh, (0, 0))
+    }
+
+    /// The per-band prefiltered maps ([`Variant::Maps`]).
+    ///
+    /// # Errors
+    /// As [`Self::sh`]; maps larger than a storage binding (`L` about 60 on
+    /// lavapipe's 128 MiB) are a [`GpuError::Limit`].
+    pub fn maps(ctx: &GpuContext, maps: &BandMaps) -> Result<Self, GpuError> {
+        let ch = maps.channels();
+        check_channels(ch)?;
+        let (w, h) = maps.size();
+        let bytes = (maps.data().len() / ch * 12) as u64;
+        ctx.check_buffer("the per-band environment maps", bytes, true)?;
+        let data = rgb(maps.data(), ch, 3);
+        Self::upload(
+            ctx,
+            &data,
+            ifd_shade::shade::Bands::l_max(maps),
+            ch,
+            Variant::Maps,
+            (w, h),
+        )
+    }
+
+    fn upload(
+        ctx: &GpuContext,
+        data: &[f32],
+        l_max: usize,
+        channels: usize,
+        variant: Variant,
+        map_size: (usize, usize),
+    ) -> Result<Self, GpuError> {
+        let bytes = std::mem::size_of_val(data) as u64;
+        ctx.check_buffer("the environment", bytes, true)?;
+        let buffer = ctx.scoped("uploading the environment", || {
+            Ok(buffer_init(
+                ctx.device(),
+                "isd environment",
+                bytemuck::cast_slice(data),
+                wgpu::BufferUsages::STORAGE,
+            ))
+        })?;
+        Ok(Self {
+            buffer,
+            l_max,
+            channels,
+            variant,
+            map_size,
+        })
+    }
+
+    /// The variant.
+    #[must_use]
+    pub fn variant(&self) -> Variant {
+        self.variant
+    }
+
+    /// Maximum degree `L`.
+    #[must_use]
+    pub fn l_max(&self) -> usize {
+        self.l_max
+    }
+
+    /// Channels of the source (1 or 3; the device copy is RGB).
+    #[must_use]
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// Bytes on the device.
+    #[must_use]
+    pub fn bytes(&self) -> u64 {
+        self.buffer.size()
+    }
+}
+
+fn check_channels(ch: usize) -> Result<(), GpuError> {
+    if ch == 1 || ch == 3 {
+        Ok(())
+    } else {
+        Err(GpuError::Unsupported(format!(
+            "an environment of {ch} channels (1 or 3 are shaded)"
+        )))
+    }
+}

@@ -1,0 +1,226 @@
+//! A material on the device: closed-form zonal weights or lobe tables (one,
+//! or a roughness family), the lobe directions, and the constants of the SH
+//! recurrences at its degree.
+
+use ifd_render::textures::RoughnessFamily;
+use ifd_shade::brdf::Model;
+use ifd_shade::shade::Material;
+use ifd_shade::table::{LobeBasis, LobeTable};
+use ifd_shade::zonal::zonal_slice;
+
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use crate::shaders::shade_codes;
+use crate::wgpu_helpers::buffer_init;
+
+/// The `struct Table` of `shaders/isd_shade.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct TableInfo {
+    offset: u32,
+    n_theta: u32,
+    n_phi: u32,
+    roughness: f32,
+}
+
+/// A material uploaded for shading (see the module docs).
+#[derive(Debug)]
+pub struct GpuMaterial {
+    pub(crate) l_max: usize,
+    pub(crate) code: u32,
+    pub(crate) isotropic: bool,
+    pub(crate) in_plane: bool,
+    pub(crate) n_lobes: usize,
+    pub(crate) count: usize,
+    pub(crate) kc: usize,
+    pub(crate) n_tables: usize,
+    pub(crate) consts: wgpu::Buffer,
+    pub(crate) lobes: wgpu::Buffer,
+    pub(crate) weights: wgpu::Buffer,
+    pub(crate) tables: wgpu::Buffer,
+}
+
+/// The kernel's `consts`: per order `m` the sectoral factor
+/// `-sqrt((2m + 1) / 2m)` and `sqrt(2m + 3)`, per band `(pi_l, k_l)`, then the
+/// Legendre recurrence `(a_lm, b_lm)` of `ifd_sphere::sh` at `l (l + 1) / 2 + m`.
+fn constants(l_max: usize, k: &[f64]) -> Vec<[f32; 2]> {
+    let nb = l_max + 1;
+    let mut c = Vec::with_capacity(2 * nb + nb * (nb + 1) / 2);
+    for m in 0..nb {
+        let mf = m as f64;
+        let q = if m == 0 {
+            1.0
+        } else {
+            -((2.0 * mf + 1.0) / (2.0 * mf)).sqrt()
+        };
+        c.push([q as f32, (2.0 * mf + 3.0).sqrt() as f32]);
+    }
+    for l in 0..nb {
+        let kl = k.get(l).copied().unwrap_or(0.0);
+        c.push([ifd_sphere::sh::pi_l(l) as f32, kl as f32]);
+    }
+    for l in 0..nb {
+        for m in 0..=l {
+            let (lf, mf) = (l as f64, m as f64);
+            if l >= m + 2 {
+                let a = ((4.0 * lf * lf - 1.0) / (lf * lf - mf * mf)).sqrt();
+                let l1 = lf - 1.0;
+                let b = ((l1 * l1 - mf * mf) / (4.0 * l1 * l1 - 1.0)).sqrt();
+                c.push([a as f32, b as f32]);
+            } else {
+                c.push([0.0, 0.0]);
+            }
+        }
+    }
+    c
+}
+
+impl GpuMaterial {
+    /// Uploads a material: Lambert and Phong as closed-form zonal weights,
+    /// the others as their lobe table.
+    ///
+    /// # Errors
+    /// [`GpuError::Limit`] beyond the device's limits.
+    pub fn new(ctx: &GpuContext, material: &Material) -> Result<Self, GpuError> {
+        let l = material.l_max();
+        if let Some(t) = material.table() {
+            return Self::from_tables(ctx, l, &[(t, 0.0)]);
+        }
+        let code = match material.brdf().model() {
+            Model::Lambert => shade_codes::MATERIAL_LAMBERT,
+            Model::Phong { .. } => shade_codes::MATERIAL_PHONG,
+            _ => {
+                return Err(GpuError::Unsupported(format!(
+                    "closed-form weights of {}",
+                    material.brdf().spec()
+                )));
+            }
+        };
+        let k = zonal_slice(material.brdf(), [0.0, 0.0, 1.0], l)
+            .map(|(_, k)| k)
+            .unwrap_or_default();
+        Self::build(ctx, l, code, &k, None, &[])
+    }
+
+    /// Uploads a roughness family (ISD with a roughness map): its tables, the
+    /// kernel blending the two around each pixel's roughness as the CPU does.
+    ///
+    /// # Errors
+    /// As [`Self::new`]; [`GpuError::Unsupported`] for tables of different
+    /// lobe layouts.
+    pub fn family(ctx: &GpuContext, family: &RoughnessFamily) -> Result<Self, GpuError> {
+        let mut tables = Vec::new();
+        for (m, r) in family.materials().iter().zip(family.roughness()) {
+            let Some(t) = m.table() else {
+                return Err(GpuError::Unsupported(
+                    "a roughness family of closed-form materials".into(),
+                ));
+            };
+            tables.push((t, *r));
+        }
+        Self::from_tables(ctx, family.l_max(), &tables)
+    }
+
+    fn from_tables(
+        ctx: &GpuContext,
+        l_max: usize,
+        tables: &[(&LobeTable, f64)],
+    ) -> Result<Self, GpuError> {
+        let first = tables[0].0;
+        for (t, _) in tables {
+            let (h, f) = (t.header(), first.header());
+            if h.lobes != f.lobes || h.channels != f.channels || h.isotropic != f.isotropic {
+                return Err(GpuError::Unsupported(
+                    "lobe tables of different lobe layouts in one material".into(),
+                ));
+            }
+        }
+        Self::build(
+            ctx,
+            l_max,
+            shade_codes::MATERIAL_TABLE,
+            &[],
+            Some(first.basis()),
+            tables,
+        )
+    }
+
+    fn build(
+        ctx: &GpuContext,
+        l_max: usize,
+        code: u32,
+        k: &[f64],
+        basis: Option<&LobeBasis>,
+        tables: &[(&LobeTable, f64)],
+    ) -> Result<Self, GpuError> {
+        let consts = constants(l_max, k);
+        let lobes: Vec<[f32; 4]> = basis.map_or_else(Vec::new, |b| {
+            b.directions()
+                .iter()
+                .enumerate()
+                .map(|(j, d)| {
+                    [
+                        d[0] as f32,
+                        d[1] as f32,
+                        d[2] as f32,
+                        b.first_band(j) as f32,
+                    ]
+                })
+                .collect()
+        });
+        let total: usize = tables.iter().map(|(t, _)| t.raw_weights().len()).sum();
+        ctx.check_buffer("the lobe tables", total as u64 * 4, true)?;
+        let mut weights = Vec::with_capacity(total);
+        let mut infos = Vec::with_capacity(tables.len());
+        for (t, r) in tables {
+            let offset = u32::try_from(weights.len()).map_err(|_| {
+                GpuError::Unsupported("lobe tables of more than 2^32 weights".into())
+            })?;
+            infos.push(TableInfo {
+                offset,
+                n_theta: t.header().n_theta as u32,
+                n_phi: t.header().n_phi as u32,
+                roughness: *r as f32,
+            });
+            weights.extend_from_slice(t.raw_weights());
+        }
+        let header = tables.first().map(|(t, _)| t.header());
+        let device = ctx.device();
+        let usage = wgpu::BufferUsages::STORAGE;
+        let (consts_b, lobes_b, weights_b, tables_b) =
+            ctx.scoped("uploading the material", || {
+                Ok((
+                    buffer_init(device, "isd consts", bytemuck::cast_slice(&consts), usage),
+                    buffer_init(device, "isd lobes", bytemuck::cast_slice(&lobes), usage),
+                    buffer_init(device, "isd weights", bytemuck::cast_slice(&weights), usage),
+                    buffer_init(device, "isd tables", bytemuck::cast_slice(&infos), usage),
+                ))
+            })?;
+        Ok(Self {
+            l_max,
+            code,
+            isotropic: header.is_none_or(|h| h.isotropic),
+            in_plane: matches!(basis, Some(LobeBasis::InPlane(_))),
+            n_lobes: lobes.len(),
+            count: basis.map_or(0, LobeBasis::count),
+            kc: header.map_or(1, |h| h.channels),
+            n_tables: tables.len(),
+            consts: consts_b,
+            lobes: lobes_b,
+            weights: weights_b,
+            tables: tables_b,
+        })
+    }
+
+    /// Maximum degree `L`.
+    #[must_use]
+    pub fn l_max(&self) -> usize {
+        self.l_max
+    }
+
+    /// Bytes on the device (tables, lobes, constants).
+    #[must_use]
+    pub fn bytes(&self) -> u64 {
+        self.consts.size() + self.lobes.size() + self.weights.size() + self.tables.size()
+    }
+}

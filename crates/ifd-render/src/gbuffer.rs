@@ -1,0 +1,111 @@
+//! What each pixel's ray sees, before shading: the surface point's frame, the
+//! view, the texture maps' values there, or the direction of the background.
+//! The CPU render loop ([`crate::render`]) shades these records itself, and
+//! the GPU path (`ifd render --gpu`, `ifd_gpu::shading`) uploads them, so both
+//! shade the same points.
+
+use ifd_shade::shade::Frame;
+use rayon::prelude::*;
+
+use crate::camera::Camera;
+use crate::error::{RenderError, Result};
+use crate::scene::Scene;
+use crate::textures::SurfaceMaps;
+
+/// A surface point seen by a pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Surface {
+    /// The shading frame (normal, and the tangent anisotropic BRDFs align
+    /// `ax` with).
+    pub frame: Frame,
+    /// The unit direction towards the viewer.
+    pub wo: [f64; 3],
+    /// Texture coordinates (`[0, 0]` for meshes without them).
+    pub uv: [f64; 2],
+    /// The roughness map's value, when there is one.
+    pub roughness: Option<f64>,
+    /// The albedo map's value per channel (a grey map repeats its value),
+    /// `[1, 1, 1]` without a map.
+    pub albedo: [f64; 3],
+}
+
+/// One pixel: its ray's direction and what it hits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pixel {
+    /// The unit direction of the ray through the pixel's centre.
+    pub dir: [f64; 3],
+    /// The surface, `None` where the ray sees the background.
+    pub surface: Option<Surface>,
+}
+
+/// The ray through pixel `(x, y)`'s centre and what it hits.
+#[must_use]
+pub fn pixel(
+    scene: &Scene,
+    camera: &Camera,
+    maps: Option<&SurfaceMaps>,
+    x: usize,
+    y: usize,
+) -> Pixel {
+    let (o, d) = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+    let surface = scene.intersect(o, d).map(|hit| {
+        let uv = hit.uv.unwrap_or([0.0, 0.0]);
+        let roughness = maps
+            .and_then(|m| m.roughness.as_ref())
+            .map(|t| t.sample(uv, 0));
+        let albedo = match maps.and_then(|m| m.albedo.as_ref()) {
+            Some(a) => [a.sample(uv, 0), a.sample(uv, 1), a.sample(uv, 2)],
+            None => [1.0; 3],
+        };
+        Surface {
+            frame: Frame::new(hit.n.to_array(), hit.dpdu.to_array()),
+            wo: (-d).to_array(),
+            uv,
+            roughness,
+            albedo,
+        }
+    });
+    Pixel {
+        dir: d.to_array(),
+        surface,
+    }
+}
+
+/// Every pixel of the camera's image, row-major (rows in parallel).
+///
+/// # Errors
+/// [`RenderError::Parameter`] for texture maps on a mesh without texture
+/// coordinates; [`RenderError::NothingVisible`] when no ray hits the object.
+pub fn pixels(scene: &Scene, camera: &Camera, maps: Option<&SurfaceMaps>) -> Result<Vec<Pixel>> {
+    check_maps(scene, maps)?;
+    let (w, h) = (camera.width(), camera.height());
+    let px: Vec<Pixel> = (0..h)
+        .into_par_iter()
+        .flat_map_iter(|y| (0..w).map(move |x| pixel(scene, camera, maps, x, y)))
+        .collect();
+    if px.iter().all(|p| p.surface.is_none()) {
+        return Err(nothing_visible(scene, camera));
+    }
+    Ok(px)
+}
+
+/// Texture maps need texture coordinates.
+pub(crate) fn check_maps(scene: &Scene, maps: Option<&SurfaceMaps>) -> Result<()> {
+    let any = maps.is_some_and(|m| m.roughness.is_some() || m.albedo.is_some());
+    if any && !scene.has_tangents() {
+        return Err(RenderError::Parameter {
+            name: "--scene",
+            value: "mesh".into(),
+            reason: "texture maps need texture coordinates, and the mesh has none".into(),
+        });
+    }
+    Ok(())
+}
+
+pub(crate) fn nothing_visible(scene: &Scene, camera: &Camera) -> RenderError {
+    RenderError::NothingVisible(format!(
+        "no ray of the {}x{} image hits the {scene:?} (check --eye, --target, --fov)",
+        camera.width(),
+        camera.height()
+    ))
+}
