@@ -6,6 +6,7 @@ g(w) = f(R^T w) = ducc0.sht.rotate_alm(alm, lmax, psi=c, theta=b, phi=a).
 """
 
 import json
+import os
 
 # The reference libraries are imported outright: a missing one is an error
 # (counted as a failure by scripts/test-all.sh), never a silent skip.
@@ -539,3 +540,42 @@ def test_render_refuses_a_table_of_another_degree_or_brdf(run_ifd, tmp_path):
     p = run_ifd("render", "--env", tmp_path / "env.npy", "--size", "8x8", "--table", tmp_path / "junk.lobes",
                 "--brdf", "ggx:alpha=0.4", "--lmax", 6, "-o", tmp_path / "o.exr", check=False)
     assert p.returncode == 2 and "junk.lobes" in p.stderr and "truncated" in p.stderr, p.stderr
+
+
+def test_render_gpu_matches_cpu(run_ifd, tmp_path):
+    """`ifd render --gpu` (the WGSL kernels, f32) against the CPU path (f64) on the same views:
+    both variants, a closed-form and an anisotropic table BRDF, a grey environment, and the
+    roughness and albedo maps of a spatially varying BRDF, within 1e-3 of the object's maximum."""
+    rng = np.random.default_rng(5)
+    env = (rng.random((16, 32, 3)) ** 4 * 6).astype(np.float32)
+    np.save(tmp_path / "env.npy", env)
+    np.save(tmp_path / "grey.npy", env[..., :1])
+    np.save(tmp_path / "rough.npy", np.linspace(0.3, 0.8, 64, dtype=np.float32).reshape(8, 8))
+    np.save(tmp_path / "albedo.npy", rng.random((8, 8, 3)).astype(np.float32))
+    cases = [
+        ("env.npy", ["--brdf", "phong:s=40", "--lmax", 10, "--method", "isd-maps"]),
+        ("env.npy", ["--brdf", "ggx:ax=0.2,ay=0.45", "--lmax", 6, "--scene", "torus"]),
+        ("grey.npy", ["--brdf", "ward:alpha=0.3", "--lmax", 8, "--method", "isd-maps"]),
+        ("env.npy", ["--brdf", "ggx:alpha=0.5", "--lmax", 6, "--roughness-map", tmp_path / "rough.npy",
+                     "--roughness-tables", 3, "--albedo-map", tmp_path / "albedo.npy"]),
+    ]
+    for env_name, args in cases:
+        common = ["render", "--env", tmp_path / env_name, "--size", "32x24", *args, "--mask", tmp_path / "m.npy"]
+        run_ifd(*common, "-o", tmp_path / "cpu.npy")
+        p = run_ifd(*common, "--gpu", "-o", tmp_path / "gpu.npy", check=False)
+        if p.returncode != 0 and "no GPU adapter" in p.stderr and os.environ.get("IFD_GPU_TESTS") == "skip":
+            pytest.skip("no GPU adapter (IFD_GPU_TESTS=skip)")
+        assert p.returncode == 0, p.stderr
+        report = json.loads(p.stdout)["gpu"]
+        assert report["frames"] == 1 and report["adapter"], report
+        cpu, gpu = np.load(tmp_path / "cpu.npy"), np.load(tmp_path / "gpu.npy")
+        mask = np.load(tmp_path / "m.npy") > 0.5
+        assert cpu.shape == gpu.shape and mask.sum() > 100, (cpu.shape, gpu.shape)
+        obj = mask[..., 0] if mask.ndim == 3 else mask
+        err = np.abs(gpu - cpu)[obj].max() / np.abs(cpu[obj]).max()
+        assert err <= 1e-3, (args, err)
+        np.testing.assert_array_equal(gpu[~obj], cpu[~obj])  # the background, copied through
+    p = run_ifd("render", "--env", tmp_path / "env.npy", "--brdf", "lambert", "--method", "mc", "--gpu",
+                "-o", tmp_path / "x.npy", check=False)
+    assert p.returncode == 2 and "--gpu shades --method isd or isd-maps" in p.stderr, p.stderr
+    assert not (tmp_path / "x.npy").exists()

@@ -40,6 +40,13 @@ pub enum GpuError {
     /// Invalid smoothing input.
     #[error(transparent)]
     Smooth(#[from] ifd_smooth::SmoothError),
+    /// Invalid shading input (the CPU shading's checks and messages).
+    #[error(transparent)]
+    Shade(#[from] ifd_shade::ShadeError),
+    /// A render job the CPU renderer refuses too (nothing visible, maps
+    /// without texture coordinates).
+    #[error(transparent)]
+    Render(#[from] ifd_render::RenderError),
     /// Something the GPU path does not do (yet).
     #[error("not supported on the GPU: {0}")]
     Unsupported(String),

@@ -42,6 +42,7 @@
 
 mod environment;
 mod material;
+mod render;
 mod surface;
 
 use std::collections::HashMap;
@@ -52,6 +53,7 @@ use ifd_image::Image;
 
 pub use environment::{GpuEnvironment, Variant};
 pub use material::GpuMaterial;
+pub use render::GpuRender;
 pub use surface::{GpuSurfaces, SurfacePoint};
 
 use crate::context::GpuContext;
