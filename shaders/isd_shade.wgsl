@@ -11,23 +11,31 @@
 // CPU reference is `ifd_shade::shade::Material::shade_isd` (docs/gpu-shading.md).
 //
 // The host prepends (ifd_gpu::shaders::isd_shade_source):
-//   const NB: u32           bands, L + 1 (sizes the private band sums);
+//   const NB: u32           bands, L + 1 (sizes the private band sums and the
+//                           uniform arrays);
 //   const VARIANT_*, MATERIAL_* codes (ifd_gpu::shaders::shade_codes).
+//
+// What every invocation reads at the same index (the SH coefficients, the
+// recurrence constants, the lobes, the table headers) is in uniform buffers:
+// broadcast from the constant cache on GPUs, and scalar loads rather than
+// per-lane gathers on lavapipe (about 2x there). Limit: (L + 1)^2 vec4 of
+// coefficients in a 64 KiB binding, L <= 63.
 //
 // Buffers:
 //   surf     4 vec4 per pixel: (n, hit), (tangent, roughness), (wo, 0),
 //            (albedo, 0) on the object or (background, 0) elsewhere; the
 //            tangent is already orthogonal to n (ifd_shade's Frame).
-//   env      VARIANT_SH: (L + 1)^2 vec4 (rgb, 0) coefficients e_l^m, index
-//            l (l + 1) + m; VARIANT_MAPS: (L + 1) maps of map_w x map_h
-//            texels, 3 floats each, band-major, rows from the zenith.
-//   consts   vec2: [0, NB) (sectoral factor, sqrt(2m + 3)) per m;
-//            [NB, 2 NB) (pi_l, k_l) per l (k_l: closed-form zonal weights);
-//            [2 NB, ...) the Legendre recurrence (a_lm, b_lm) at l (l + 1) / 2 + m.
+//   sh       VARIANT_SH: (L + 1)^2 vec4 (rgb, 0) coefficients e_l^m, index
+//            l (l + 1) + m (zeros in the other variant).
+//   consts   vec4 per k < NB: (sectoral factor of order m = k, sqrt(2m + 3),
+//            pi_l, k_l of band l = k) (k_l: closed-form zonal weights); then
+//            the Legendre recurrence (a_lm, b_lm, 0, 0) at NB + l (l + 1) / 2 + m.
 //   lobes    vec4 per lobe: local direction, first band it serves.
 //   weights  every lobe table of the material, one after another, each
 //            [theta][phi][K][kc] f32.
 //   tables   per table: offset into weights, n_theta, n_phi, roughness.
+//   maps     VARIANT_MAPS: (L + 1) maps of map_w x map_h texels, 3 floats
+//            each, band-major, rows from the zenith.
 
 struct Params {
     width: u32,
@@ -51,14 +59,19 @@ struct Table {
     roughness: f32,
 }
 
+const MAX_LOBES: u32 = 2u * NB - 1u;
+const N_CONSTS: u32 = NB + NB * (NB + 1u) / 2u;
+const MAX_TABLES: u32 = 64u;
+
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> surf: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> env: array<f32>;
-@group(0) @binding(3) var<storage, read> consts: array<vec2<f32>>;
-@group(0) @binding(4) var<storage, read> lobes: array<vec4<f32>>;
+@group(0) @binding(2) var<uniform> sh: array<vec4<f32>, NB * NB>;
+@group(0) @binding(3) var<uniform> consts: array<vec4<f32>, N_CONSTS>;
+@group(0) @binding(4) var<uniform> lobes: array<vec4<f32>, MAX_LOBES>;
 @group(0) @binding(5) var<storage, read> weights: array<f32>;
-@group(0) @binding(6) var<storage, read> tables: array<Table>;
-@group(0) @binding(7) var<storage, read_write> out: array<vec4<f32>>;
+@group(0) @binding(6) var<uniform> tables: array<Table, MAX_TABLES>;
+@group(0) @binding(7) var<storage, read> maps: array<f32>;
+@group(0) @binding(8) var<storage, read_write> out: array<vec4<f32>>;
 
 const PI: f32 = 3.14159265358979;
 const HALF_PI: f32 = 1.57079632679490;
@@ -70,7 +83,7 @@ const SQRT2: f32 = 1.41421356237310;
 var<private> bands: array<vec3<f32>, NB>;
 
 fn coeff(i: u32) -> vec3<f32> {
-    return vec3<f32>(env[4u * i], env[4u * i + 1u], env[4u * i + 2u]);
+    return sh[i].xyz;
 }
 
 // bands[l] = sum_m e_l^m y_l^m(d) for l >= l0 (the others are left as they
@@ -116,7 +129,7 @@ fn band_sums(d: vec3<f32>, l0: u32) {
                 bands[m + 1u] += p1 * band_term(m + 1u, m, fc, fs);
             }
             for (var l = m + 2u; l < NB; l++) {
-                let ab = consts[2u * NB + l * (l + 1u) / 2u + m];
+                let ab = consts[NB + l * (l + 1u) / 2u + m];
                 let p = ab.x * (z * p1 - ab.y * p2);
                 if l >= l0 {
                     bands[l] += p * band_term(l, m, fc, fs);
@@ -196,7 +209,7 @@ fn map_band(l: u32) -> vec3<f32> {
     var acc = vec3<f32>(0.0);
     for (var k = 0u; k < 16u; k++) {
         let i = 3u * (base + tap_index[k]);
-        acc += tap_weight[k] * vec3<f32>(env[i], env[i + 1u], env[i + 2u]);
+        acc += tap_weight[k] * vec3<f32>(maps[i], maps[i + 1u], maps[i + 2u]);
     }
     return acc;
 }
@@ -206,7 +219,7 @@ fn environment_bands(d: vec3<f32>, l0: u32) {
     if params.variant == VARIANT_SH {
         band_sums(d, l0);
         for (var l = l0; l < NB; l++) {
-            bands[l] *= consts[NB + l].x;
+            bands[l] *= consts[l].z;
         }
     } else {
         map_taps(d);
@@ -221,7 +234,7 @@ fn shade_zonal(axis: vec3<f32>) -> vec3<f32> {
     environment_bands(axis, 0u);
     var acc = vec3<f32>(0.0);
     for (var l = 0u; l < NB; l++) {
-        acc += consts[NB + l].y * bands[l];
+        acc += consts[l].w * bands[l];
     }
     return acc;
 }

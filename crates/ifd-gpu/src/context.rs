@@ -393,6 +393,20 @@ impl GpuContext {
         Ok(())
     }
 
+    /// Checks a uniform buffer's size against `max_uniform_buffer_binding_size`.
+    pub(crate) fn check_uniform(&self, what: &str, bytes: u64) -> Result<(), GpuError> {
+        let limit = u64::from(self.device.limits().max_uniform_buffer_binding_size);
+        if bytes > limit {
+            return Err(GpuError::Limit {
+                what: what.to_string(),
+                needed: fmt_bytes(bytes),
+                limit_name: "max_uniform_buffer_binding_size",
+                limit: fmt_bytes(limit),
+            });
+        }
+        Ok(())
+    }
+
     /// Checks a dispatch of `w x h` invocations in 8x8 workgroups.
     pub(crate) fn check_dispatch(&self, what: &str, w: u32, h: u32) -> Result<(), GpuError> {
         let max = self.device.limits().max_compute_workgroups_per_dimension;

@@ -268,10 +268,7 @@ impl Render {
             );
         }
         if self.gpu && !matches!(method, Method::Isd | Method::IsdMaps) {
-            bail!(
-                "--gpu shades --method isd or isd-maps, not {}",
-                self.method
-            );
+            bail!("--gpu shades --method isd or isd-maps, not {}", self.method);
         }
         if !(1..=10_000).contains(&self.frames) {
             bail!("--frames {}: use 1..=10000", self.frames);

@@ -21,7 +21,10 @@ pub enum Variant {
 /// always as RGB (a grey environment is repeated in the three channels).
 #[derive(Debug)]
 pub struct GpuEnvironment {
-    pub(crate) buffer: wgpu::Buffer,
+    /// `(L + 1)^2` RGB0 coefficients (uniform; zeros for maps).
+    pub(crate) sh: wgpu::Buffer,
+    /// The maps (storage; 16 bytes for SH).
+    pub(crate) maps: wgpu::Buffer,
     pub(crate) l_max: usize,
     pub(crate) channels: usize,
     pub(crate) variant: Variant,
@@ -48,13 +51,14 @@ impl GpuEnvironment {
     ///
     /// # Errors
     /// [`GpuError::Unsupported`] for other than 1 or 3 channels;
-    /// [`GpuError::Limit`] beyond the device's limits.
+    /// [`GpuError::Limit`] for coefficients beyond a uniform binding (`L` 63
+    /// with the usual 64 KiB).
     pub fn sh(ctx: &GpuContext, env: &Environment) -> Result<Self, GpuError> {
         let ch = env.channels();
         check_channels(ch)?;
         let values: Vec<f32> = env.coeffs().data().iter().map(|&v| v as f32).collect();
         let data = rgb(&values, ch, 4);
-        Self::upload(ctx, &data, env.l_max(), ch, Variant::Sh, (0, 0))
+        Self::upload(ctx, &data, &[], env.l_max(), ch, Variant::Sh, (0, 0))
     }
 
     /// The per-band prefiltered maps ([`Variant::Maps`]).
@@ -69,36 +73,44 @@ impl GpuEnvironment {
         let bytes = (maps.data().len() / ch * 12) as u64;
         ctx.check_buffer("the per-band environment maps", bytes, true)?;
         let data = rgb(maps.data(), ch, 3);
-        Self::upload(
-            ctx,
-            &data,
-            ifd_shade::shade::Bands::l_max(maps),
-            ch,
-            Variant::Maps,
-            (w, h),
-        )
+        let l_max = ifd_shade::shade::Bands::l_max(maps);
+        let zeros = vec![0.0f32; 4 * (l_max + 1) * (l_max + 1)];
+        Self::upload(ctx, &zeros, &data, l_max, ch, Variant::Maps, (w, h))
     }
 
     fn upload(
         ctx: &GpuContext,
-        data: &[f32],
+        sh: &[f32],
+        maps: &[f32],
         l_max: usize,
         channels: usize,
         variant: Variant,
         map_size: (usize, usize),
     ) -> Result<Self, GpuError> {
-        let bytes = std::mem::size_of_val(data) as u64;
-        ctx.check_buffer("the environment", bytes, true)?;
-        let buffer = ctx.scoped("uploading the environment", || {
-            Ok(buffer_init(
-                ctx.device(),
-                "isd environment",
-                bytemuck::cast_slice(data),
-                wgpu::BufferUsages::STORAGE,
+        ctx.check_uniform(
+            "the SH coefficients of the environment",
+            std::mem::size_of_val(sh) as u64,
+        )?;
+        ctx.check_buffer("the environment", std::mem::size_of_val(maps) as u64, true)?;
+        let (sh, maps) = ctx.scoped("uploading the environment", || {
+            Ok((
+                buffer_init(
+                    ctx.device(),
+                    "isd environment sh",
+                    bytemuck::cast_slice(sh),
+                    wgpu::BufferUsages::UNIFORM,
+                ),
+                buffer_init(
+                    ctx.device(),
+                    "isd environment maps",
+                    bytemuck::cast_slice(maps),
+                    wgpu::BufferUsages::STORAGE,
+                ),
             ))
         })?;
         Ok(Self {
-            buffer,
+            sh,
+            maps,
             l_max,
             channels,
             variant,
@@ -127,7 +139,7 @@ impl GpuEnvironment {
     /// Bytes on the device.
     #[must_use]
     pub fn bytes(&self) -> u64 {
-        self.buffer.size()
+        self.sh.size() + self.maps.size()
     }
 }
 

@@ -40,24 +40,31 @@ pub struct GpuMaterial {
     pub(crate) tables: wgpu::Buffer,
 }
 
-/// The kernel's `consts`: per order `m` the sectoral factor
-/// `-sqrt((2m + 1) / 2m)` and `sqrt(2m + 3)`, per band `(pi_l, k_l)`, then the
-/// Legendre recurrence `(a_lm, b_lm)` of `ifd_sphere::sh` at `l (l + 1) / 2 + m`.
-fn constants(l_max: usize, k: &[f64]) -> Vec<[f32; 2]> {
+/// Table headers the kernel's uniform array holds (a roughness family's
+/// tables at most).
+pub(crate) const MAX_TABLES: usize = 64;
+
+/// The kernel's `consts`: per `k < L + 1` the sectoral factor
+/// `-sqrt((2m + 1) / 2m)` and `sqrt(2m + 3)` of order `m = k`, and `(pi_l,
+/// k_l)` of band `l = k`; then the Legendre recurrence `(a_lm, b_lm)` of
+/// `ifd_sphere::sh` at `L + 1 + l (l + 1) / 2 + m`.
+fn constants(l_max: usize, k: &[f64]) -> Vec<[f32; 4]> {
     let nb = l_max + 1;
-    let mut c = Vec::with_capacity(2 * nb + nb * (nb + 1) / 2);
-    for m in 0..nb {
-        let mf = m as f64;
-        let q = if m == 0 {
+    let mut c = Vec::with_capacity(nb + nb * (nb + 1) / 2);
+    for i in 0..nb {
+        let mf = i as f64;
+        let q = if i == 0 {
             1.0
         } else {
             -((2.0 * mf + 1.0) / (2.0 * mf)).sqrt()
         };
-        c.push([q as f32, (2.0 * mf + 3.0).sqrt() as f32]);
-    }
-    for l in 0..nb {
-        let kl = k.get(l).copied().unwrap_or(0.0);
-        c.push([ifd_sphere::sh::pi_l(l) as f32, kl as f32]);
+        let kl = k.get(i).copied().unwrap_or(0.0);
+        c.push([
+            q as f32,
+            (2.0 * mf + 3.0).sqrt() as f32,
+            ifd_sphere::sh::pi_l(i) as f32,
+            kl as f32,
+        ]);
     }
     for l in 0..nb {
         for m in 0..=l {
@@ -66,9 +73,9 @@ fn constants(l_max: usize, k: &[f64]) -> Vec<[f32; 2]> {
                 let a = ((4.0 * lf * lf - 1.0) / (lf * lf - mf * mf)).sqrt();
                 let l1 = lf - 1.0;
                 let b = ((l1 * l1 - mf * mf) / (4.0 * l1 * l1 - 1.0)).sqrt();
-                c.push([a as f32, b as f32]);
+                c.push([a as f32, b as f32, 0.0, 0.0]);
             } else {
-                c.push([0.0, 0.0]);
+                c.push([0.0; 4]);
             }
         }
     }
@@ -153,8 +160,15 @@ impl GpuMaterial {
         basis: Option<&LobeBasis>,
         tables: &[(&LobeTable, f64)],
     ) -> Result<Self, GpuError> {
+        if tables.len() > MAX_TABLES {
+            return Err(GpuError::Unsupported(format!(
+                "{} lobe tables in one material (at most {MAX_TABLES})",
+                tables.len()
+            )));
+        }
         let consts = constants(l_max, k);
-        let lobes: Vec<[f32; 4]> = basis.map_or_else(Vec::new, |b| {
+        ctx.check_uniform("the shading constants", (consts.len() * 16) as u64)?;
+        let mut lobes: Vec<[f32; 4]> = basis.map_or_else(Vec::new, |b| {
             b.directions()
                 .iter()
                 .enumerate()
@@ -168,6 +182,9 @@ impl GpuMaterial {
                 })
                 .collect()
         });
+        let n_lobes = lobes.len();
+        // the kernel's uniform arrays have fixed sizes
+        lobes.resize(2 * l_max + 1, [0.0; 4]);
         let total: usize = tables.iter().map(|(t, _)| t.raw_weights().len()).sum();
         ctx.check_buffer("the lobe tables", total as u64 * 4, true)?;
         let mut weights = Vec::with_capacity(total);
@@ -184,16 +201,30 @@ impl GpuMaterial {
             });
             weights.extend_from_slice(t.raw_weights());
         }
+        infos.resize(
+            MAX_TABLES,
+            TableInfo {
+                offset: 0,
+                n_theta: 0,
+                n_phi: 0,
+                roughness: 0.0,
+            },
+        );
         let header = tables.first().map(|(t, _)| t.header());
         let device = ctx.device();
-        let usage = wgpu::BufferUsages::STORAGE;
+        let (uniform, storage) = (wgpu::BufferUsages::UNIFORM, wgpu::BufferUsages::STORAGE);
         let (consts_b, lobes_b, weights_b, tables_b) =
             ctx.scoped("uploading the material", || {
                 Ok((
-                    buffer_init(device, "isd consts", bytemuck::cast_slice(&consts), usage),
-                    buffer_init(device, "isd lobes", bytemuck::cast_slice(&lobes), usage),
-                    buffer_init(device, "isd weights", bytemuck::cast_slice(&weights), usage),
-                    buffer_init(device, "isd tables", bytemuck::cast_slice(&infos), usage),
+                    buffer_init(device, "isd consts", bytemuck::cast_slice(&consts), uniform),
+                    buffer_init(device, "isd lobes", bytemuck::cast_slice(&lobes), uniform),
+                    buffer_init(
+                        device,
+                        "isd weights",
+                        bytemuck::cast_slice(&weights),
+                        storage,
+                    ),
+                    buffer_init(device, "isd tables", bytemuck::cast_slice(&infos), uniform),
                 ))
             })?;
         Ok(Self {
@@ -201,7 +232,7 @@ impl GpuMaterial {
             code,
             isotropic: header.is_none_or(|h| h.isotropic),
             in_plane: matches!(basis, Some(LobeBasis::InPlane(_))),
-            n_lobes: lobes.len(),
+            n_lobes,
             count: basis.map_or(0, LobeBasis::count),
             kc: header.map_or(1, |h| h.channels),
             n_tables: tables.len(),

@@ -92,21 +92,21 @@ impl GpuShader {
     /// # Errors
     /// [`GpuError::Device`] when wgpu refuses the layout.
     pub fn new(ctx: &GpuContext) -> Result<Self, GpuError> {
-        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+        let uniform = |binding: u32| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::COMPUTE,
             ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
+                ty: wgpu::BufferBindingType::Uniform,
                 has_dynamic_offset: false,
                 min_binding_size: None,
             },
             count: None,
         };
-        let uniform = wgpu::BindGroupLayoutEntry {
-            binding: 0,
+        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+            binding,
             visibility: wgpu::ShaderStages::COMPUTE,
             ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
+                ty: wgpu::BufferBindingType::Storage { read_only },
                 has_dynamic_offset: false,
                 min_binding_size: None,
             },
@@ -118,14 +118,15 @@ impl GpuShader {
                 .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                     label: Some("isd_shade"),
                     entries: &[
-                        uniform,
+                        uniform(0),
                         storage(1, true),
-                        storage(2, true),
-                        storage(3, true),
-                        storage(4, true),
+                        uniform(2),
+                        uniform(3),
+                        uniform(4),
                         storage(5, true),
-                        storage(6, true),
-                        storage(7, false),
+                        uniform(6),
+                        storage(7, true),
+                        storage(8, false),
                     ],
                 }))
         })?;
@@ -252,12 +253,13 @@ impl GpuShader {
                 entries: &[
                     entry(0, &pb),
                     entry(1, &surfaces.buffer),
-                    entry(2, &env.buffer),
+                    entry(2, &env.sh),
                     entry(3, &material.consts),
                     entry(4, &material.lobes),
                     entry(5, &material.weights),
                     entry(6, &material.tables),
-                    entry(7, &output),
+                    entry(7, &env.maps),
+                    entry(8, &output),
                 ],
             });
             let timing = ctx.has_timestamps().then(|| {

@@ -107,11 +107,9 @@ impl GpuRender {
         let (rgb, mask) = shaded.read(ctx)?;
         let image = if self.channels == 1 {
             let grey = rgb.data().chunks_exact(3).map(|p| p[0]).collect();
-            Image::from_vec(rgb.width(), rgb.height(), 1, grey).map_err(|e| {
-                GpuError::Readback {
-                    what: "the shaded image",
-                    reason: e.to_string(),
-                }
+            Image::from_vec(rgb.width(), rgb.height(), 1, grey).map_err(|e| GpuError::Readback {
+                what: "the shaded image",
+                reason: e.to_string(),
             })?
         } else {
             rgb
