@@ -395,7 +395,7 @@ impl GpuContext {
 
     /// Checks a uniform buffer's size against `max_uniform_buffer_binding_size`.
     pub(crate) fn check_uniform(&self, what: &str, bytes: u64) -> Result<(), GpuError> {
-        let limit = u64::from(self.device.limits().max_uniform_buffer_binding_size);
+        let limit = self.device.limits().max_uniform_buffer_binding_size;
         if bytes > limit {
             return Err(GpuError::Limit {
                 what: what.to_string(),
