@@ -50,6 +50,12 @@ struct Params {
     n_tables: u32,
     map_w: u32,
     map_h: u32,
+    // the rows shaded by this dispatch start here (frames are shaded in
+    // bands, so that a slow adapter never holds the queue for long)
+    row0: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 struct Table {
@@ -356,10 +362,11 @@ fn shade_table(n: vec3<f32>, t_in: vec3<f32>, wl: vec3<f32>, roughness: f32) -> 
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if gid.x >= params.width || gid.y >= params.height {
+    let y = gid.y + params.row0;
+    if gid.x >= params.width || y >= params.height {
         return;
     }
-    let i = gid.y * params.width + gid.x;
+    let i = y * params.width + gid.x;
     let s0 = surf[4u * i];
     let s1 = surf[4u * i + 1u];
     let s2 = surf[4u * i + 2u];

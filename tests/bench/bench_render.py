@@ -15,6 +15,12 @@ Run from the repository root after building:  .venv/bin/python tests/bench/bench
    samples per pixel until its relative RMS error is below ISD's smallest; at each ISD error the
    Monte Carlo time interpolated log-log between the two rungs that bracket it; both timed by
    their render calls (medians of --runs for ISD, one run per rung), same cores.
+3. GPU frames per second (`ifd render --gpu`, shaders/isd_shade.wgsl) in the setting of part 1,
+   both variants, GPU time per frame from timestamp queries (median of --frames shaded in one
+   process after the upload; one frame from L = 15 up), and the CPU path's render time run
+   beside it for the ratio.
+   On a machine without a GPU the adapter is lavapipe (Mesa's software Vulkan on the same
+   cores): the table reports the adapter, and lavapipe numbers say nothing of a real GPU.
 """
 
 import argparse
@@ -47,17 +53,22 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--ifd")
     ap.add_argument("--runs", type=int, default=3)
-    ap.add_argument("--part", choices=["1", "2", "all"], default="all",
-                    help="1: frames per second; 2: Monte Carlo against ISD; all: both")
+    ap.add_argument("--part", choices=["1", "2", "3", "all"], default="all",
+                    help="1: frames per second; 2: Monte Carlo against ISD; 3: GPU frames per second; "
+                         "all: 1 and 2 (3 only when asked: slow on lavapipe)")
+    ap.add_argument("--frames", type=int, default=3, help="part 3: frames per GPU measurement")
+    ap.add_argument("--degrees", default="7,11,15,30", help="part 3: the degrees L")
     args = ap.parse_args()
     ifd = ifd_binary(args.ifd)
     print(f"binary: {ifd}")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
-        if args.part != "2":
+        if args.part in ("1", "all"):
             frames_per_second(ifd, tmp, args.runs)
-        if args.part != "1":
+        if args.part in ("2", "all"):
             isd_against_monte_carlo(ifd, tmp, args.runs)
+        if args.part == "3":
+            gpu_frames_per_second(ifd, tmp, args.frames, [int(x) for x in args.degrees.split(",")])
 
 
 def frames_per_second(ifd, tmp, runs):
@@ -83,6 +94,29 @@ def frames_per_second(ifd, tmp, runs):
                 pixels = out["object_pixels"]
             print(f"| {brdf} | {L} | {fps['isd']:.2f} | {fps['isd-maps']:.2f} | {pixels} |", flush=True)
 
+
+
+def gpu_frames_per_second(ifd, tmp, frames, degrees):
+    view = ["--size", "1024x768", "--eye", "1.9,-1.6,0.7", "--fov", "60"]
+    print("\n| BRDF | L | variant | GPU ms/frame | GPU fps | CPU ms (same variant, same run) | GPU / CPU time | adapter |")
+    print("|---|---|---|---|---|---|---|---|")
+    for brdf in ["ggx:alpha=0.3", "phong:s=32"]:
+        for L in degrees:
+            table = []
+            if not brdf.startswith("phong"):
+                t = tmp / f"t{L}.lobes"
+                subprocess.run([str(ifd), "sphere", "brdf", brdf, "--lmax", str(L), "-o", str(t)],
+                               check=True, capture_output=True)
+                table = ["--table", t]
+            for method in ["isd", "isd-maps"]:
+                common = ["--brdf", brdf, "--lmax", L, *table, "--method", method, *view]
+                # one frame at L >= 15 (a frame takes minutes on lavapipe there)
+                n = frames if L < 15 else 1
+                gpu = run(ifd, *common, "--gpu", "--frames", n, "-o", tmp / "g.exr")["gpu"]
+                cpu = run(ifd, *common, "-o", tmp / "c.exr")["render_seconds"]
+                g = gpu["gpu_seconds_median"] or gpu["frame_seconds_median"]
+                print(f"| {brdf} | {L} | {method} | {g * 1e3:.0f} | {1 / g:.3f} | {cpu * 1e3:.0f} | "
+                      f"{g / cpu:.2f} | {gpu['adapter']} |", flush=True)
 
 
 def isd_against_monte_carlo(ifd, tmp, runs):

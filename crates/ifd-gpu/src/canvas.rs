@@ -11,8 +11,8 @@ use crate::error::GpuError;
 use crate::eval::Region;
 use crate::smooth::GpuSmoother;
 use crate::wgpu_helpers::{
-    Rgba8Params, buffer_init, check_region, entry, read_buffer_range, rgba8_texture, submit_pass,
-    submit_rgba8,
+    Rgba8Params, buffer_init, check_region, entry, read_buffer_range, read_rgba8, rgba8_texture,
+    submit_pass, submit_rgba8,
 };
 
 /// One display texture of a [`GpuCanvas`]: `rgba8unorm`, the pixels of
@@ -359,40 +359,6 @@ impl GpuCanvas {
             ))
             .into());
         };
-        let (tw, th) = (t.region.width, t.region.height);
-        let row = (tw as u32 * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let device = ctx.device();
-        let staging = ctx.scoped("copying a display tile", || {
-            let staging = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("ifd tile readback"),
-                size: u64::from(row) * th as u64,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("ifd tile readback"),
-            });
-            enc.copy_texture_to_buffer(
-                t.texture.as_image_copy(),
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &staging,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(row),
-                        rows_per_image: None,
-                    },
-                },
-                t.texture.size(),
-            );
-            ctx.queue().submit([enc.finish()]);
-            Ok(staging)
-        })?;
-        let bytes = read_buffer_range(ctx, &staging, 0, staging.size(), "a display tile")?;
-        let mut out = Vec::with_capacity(tw * th);
-        for y in 0..th {
-            let line = &bytes[y * row as usize..y * row as usize + tw * 4];
-            out.extend(line.chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]));
-        }
-        Ok(out)
+        read_rgba8(ctx, &t.texture, "a display tile")
     }
 }

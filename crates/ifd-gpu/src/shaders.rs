@@ -79,6 +79,9 @@ pub fn ifd_eval_source() -> String {
 /// Result to `rgba8unorm` texture (`shaders/to_rgba8.wgsl`).
 pub const TO_RGBA8: &str = include_str!("../../../shaders/to_rgba8.wgsl");
 
+/// The display transform of shaded images (`shaders/tonemap.wgsl`).
+pub const TONEMAP: &str = include_str!("../../../shaders/tonemap.wgsl");
+
 /// Brush-dab blend into an image on the device (`shaders/dab_blend.wgsl`).
 pub const DAB_BLEND: &str = include_str!("../../../shaders/dab_blend.wgsl");
 

@@ -212,3 +212,47 @@ pub(crate) fn read_buffer_range(
     staging.unmap();
     Ok(bytes)
 }
+
+/// Reads an `rgba8unorm` texture (usage `COPY_SRC`) back: `width * height`
+/// texels, row-major.
+pub(crate) fn read_rgba8(
+    ctx: &GpuContext,
+    texture: &wgpu::Texture,
+    what: &'static str,
+) -> Result<Vec<[u8; 4]>, GpuError> {
+    let (tw, th) = (texture.width() as usize, texture.height() as usize);
+    let row = (tw as u32 * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let device = ctx.device();
+    let staging = ctx.scoped("copying a texture for readback", || {
+        let staging = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("ifd texture readback"),
+            size: u64::from(row) * th as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("ifd texture readback"),
+        });
+        enc.copy_texture_to_buffer(
+            texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &staging,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row),
+                    rows_per_image: None,
+                },
+            },
+            texture.size(),
+        );
+        ctx.queue().submit([enc.finish()]);
+        Ok(staging)
+    })?;
+    let bytes = read_buffer_range(ctx, &staging, 0, staging.size(), what)?;
+    let mut out = Vec::with_capacity(tw * th);
+    for y in 0..th {
+        let line = &bytes[y * row as usize..y * row as usize + tw * 4];
+        out.extend(line.chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]));
+    }
+    Ok(out)
+}

@@ -1196,6 +1196,7 @@ mod shading {
     use ifd_render::render::{Job, Method, render};
     use ifd_render::scene::Scene;
     use ifd_render::textures::{RoughnessFamily, SurfaceMaps, Texture};
+    use ifd_render::tonemap::Tonemap;
     use ifd_shade::Brdf;
     use ifd_shade::shade::{BandMaps, Environment, Material};
     use ifd_shade::table::{LobeKind, LobeTable};
@@ -1448,6 +1449,70 @@ mod shading {
             method: Method::Isd,
         };
         check("phong:s=400 L=40", &env, &case);
+    }
+
+    #[test]
+    fn bands_of_rows_and_the_display_transform_match() {
+        let Some(ctx) = ctx() else { return };
+        let env = forest();
+        let brdf = Brdf::parse("phong:s=20").expect("brdf");
+        let l = 8;
+        let m = Material::new(&brdf, l, None).expect("material");
+        let camera = Camera::new(
+            DVec3::new(3.0, -2.5, 1.2),
+            DVec3::ZERO,
+            DVec3::Z,
+            40.0,
+            30,
+            22,
+        )
+        .expect("camera");
+        let px = gbuffer::pixels(&Scene::Sphere, &camera, None).expect("pixels");
+        let points: Vec<SurfacePoint> = px
+            .iter()
+            .map(|p| SurfacePoint::from_pixel(p, Some(&env)))
+            .collect();
+        let surfaces = GpuSurfaces::upload(ctx, 30, 22, &points).expect("upload");
+        let e = Environment::new(env.sh(l).expect("sh")).expect("env");
+        let genv = GpuEnvironment::sh(ctx, &e).expect("env upload");
+        let gm = GpuMaterial::new(ctx, &m).expect("material upload");
+        let shader = GpuShader::new(ctx).expect("shader");
+        let whole = shader.shade(ctx, &surfaces, &genv, &gm).expect("shade");
+        let mut banded = shader.output(ctx, 30, 22).expect("output");
+        for r in [0..5, 5..6, 6..22] {
+            shader
+                .shade_rows(ctx, &surfaces, &genv, &gm, &mut banded, r)
+                .expect("band");
+        }
+        let (a, _) = whole.read(ctx).expect("read");
+        let (b, _) = banded.read(ctx).expect("read");
+        assert_eq!(a.data(), b.data(), "bands differ from the whole frame");
+        assert!(
+            shader
+                .shade_rows(ctx, &surfaces, &genv, &gm, &mut banded, 20..23)
+                .is_err()
+        );
+        // the display transform, against ifd-render's
+        for (tm, ev) in [
+            (Tonemap::Aces, 0.0),
+            (Tonemap::Reinhard, 1.5),
+            (Tonemap::None, -1.0),
+        ] {
+            let tex = GpuShader::display_texture(ctx, 30, 22);
+            shader
+                .display(ctx, &whole, tm.into(), ev, &tex)
+                .expect("display");
+            let texels = GpuShader::read_display(ctx, &tex).expect("read display");
+            let mut worst = 0i32;
+            for (i, t) in texels.iter().enumerate() {
+                for (c, v) in t.iter().take(3).enumerate() {
+                    let want = (tm.display(a.data()[i * 3 + c], ev) * 255.0).round() as i32;
+                    worst = worst.max((i32::from(*v) - want).abs());
+                }
+                assert_eq!(t[3], 255);
+            }
+            assert!(worst <= 1, "{tm:?}: display differs by {worst}/255");
+        }
     }
 
     #[test]

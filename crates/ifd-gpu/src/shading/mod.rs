@@ -59,7 +59,9 @@ pub use surface::{GpuSurfaces, SurfacePoint};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::shaders::{self, shade_codes};
-use crate::wgpu_helpers::{buffer_init, entry, read_buffer};
+use crate::wgpu_helpers::{
+    buffer_init, entry, read_buffer, read_rgba8, rgba8_texture, submit_pass,
+};
 
 /// The `struct Params` of `shaders/isd_shade.wgsl`.
 #[repr(C)]
@@ -77,6 +79,42 @@ struct Params {
     n_tables: u32,
     map_w: u32,
     map_h: u32,
+    row0: u32,
+    pad: [u32; 3],
+}
+
+/// The `struct Params` of `shaders/tonemap.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct DisplayParams {
+    width: u32,
+    height: u32,
+    curve: u32,
+    pad0: u32,
+    scale: f32,
+    pad1: [f32; 3],
+}
+
+/// The tone curve of [`GpuShader::display`] (as `ifd_render::tonemap::Tonemap`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Curve {
+    /// Clip to `[0, 1]`.
+    None,
+    /// `x / (1 + x)`.
+    Reinhard,
+    /// Narkowicz's fit of the ACES filmic curve.
+    Aces,
+}
+
+impl From<ifd_render::tonemap::Tonemap> for Curve {
+    fn from(t: ifd_render::tonemap::Tonemap) -> Self {
+        use ifd_render::tonemap::Tonemap;
+        match t {
+            Tonemap::None => Self::None,
+            Tonemap::Reinhard => Self::Reinhard,
+            Tonemap::Aces => Self::Aces,
+        }
+    }
 }
 
 /// The shading pipelines of one device (compiled per degree on first use).
@@ -84,6 +122,8 @@ struct Params {
 pub struct GpuShader {
     layout: wgpu::BindGroupLayout,
     pipelines: Mutex<HashMap<usize, Arc<wgpu::ComputePipeline>>>,
+    display_layout: wgpu::BindGroupLayout,
+    display_pipeline: wgpu::ComputePipeline,
 }
 
 impl GpuShader {
@@ -130,9 +170,49 @@ impl GpuShader {
                     ],
                 }))
         })?;
+        let device = ctx.device();
+        let (display_layout, display_pipeline) = ctx.scoped("building the display pass", || {
+            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("isd tonemap"),
+                entries: &[
+                    uniform(0),
+                    storage(1, true),
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 2,
+                        visibility: wgpu::ShaderStages::COMPUTE,
+                        ty: wgpu::BindingType::StorageTexture {
+                            access: wgpu::StorageTextureAccess::WriteOnly,
+                            format: wgpu::TextureFormat::Rgba8Unorm,
+                            view_dimension: wgpu::TextureViewDimension::D2,
+                        },
+                        count: None,
+                    },
+                ],
+            });
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("isd tonemap"),
+                source: wgpu::ShaderSource::Wgsl(shaders::TONEMAP.into()),
+            });
+            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("isd tonemap"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("isd tonemap"),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                cache: None,
+            });
+            Ok((layout, pipeline))
+        })?;
         Ok(Self {
             layout,
             pipelines: Mutex::new(HashMap::new()),
+            display_layout,
+            display_pipeline,
         })
     }
 
@@ -196,6 +276,61 @@ impl GpuShader {
         env: &GpuEnvironment,
         material: &GpuMaterial,
     ) -> Result<GpuShaded, GpuError> {
+        let mut out = self.output(ctx, surfaces.width, surfaces.height)?;
+        self.shade_rows(ctx, surfaces, env, material, &mut out, 0..surfaces.height)?;
+        Ok(out)
+    }
+
+    /// A `width x height` output buffer for [`Self::shade_rows`].
+    ///
+    /// # Errors
+    /// [`GpuError::Limit`] beyond the device's limits.
+    pub fn output(
+        &self,
+        ctx: &GpuContext,
+        width: usize,
+        height: usize,
+    ) -> Result<GpuShaded, GpuError> {
+        let (w32, h32) = (
+            u32::try_from(width).unwrap_or(u32::MAX),
+            u32::try_from(height).unwrap_or(u32::MAX),
+        );
+        ctx.check_dispatch("the shading", w32, h32)?;
+        let bytes = (width * height * 16) as u64;
+        ctx.check_buffer("the shaded image", bytes, true)?;
+        let buffer = ctx.scoped("allocating the shaded image", || {
+            Ok(ctx.device().create_buffer(&wgpu::BufferDescriptor {
+                label: Some("isd shaded"),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }))
+        })?;
+        Ok(GpuShaded {
+            buffer,
+            width,
+            height,
+            timestamps: None,
+        })
+    }
+
+    /// Shades the rows `rows` of `surfaces` into `out` (of the same size):
+    /// frames shaded in bands, one band per UI frame, keep a slow adapter
+    /// from holding the queue (and the window) for a whole frame's shading.
+    /// The pass is timed into `out` (the last band's time).
+    ///
+    /// # Errors
+    /// As [`Self::shade`]; [`GpuError::Unsupported`] for an output of another
+    /// size or rows beyond the image.
+    pub fn shade_rows(
+        &self,
+        ctx: &GpuContext,
+        surfaces: &GpuSurfaces,
+        env: &GpuEnvironment,
+        material: &GpuMaterial,
+        out: &mut GpuShaded,
+        rows: std::ops::Range<usize>,
+    ) -> Result<(), GpuError> {
         if env.l_max != material.l_max {
             return Err(GpuError::Unsupported(format!(
                 "an environment of L = {} with a material of L = {}",
@@ -208,19 +343,19 @@ impl GpuShader {
             ));
         }
         let (w, h) = (surfaces.width, surfaces.height);
-        let (w32, h32) = (
-            u32::try_from(w).unwrap_or(u32::MAX),
-            u32::try_from(h).unwrap_or(u32::MAX),
-        );
-        ctx.check_dispatch("the shading", w32, h32)?;
-        let out_bytes = (w * h * 16) as u64;
-        ctx.check_buffer("the shaded image", out_bytes, true)?;
+        if (out.width, out.height) != (w, h) || rows.start >= rows.end || rows.end > h {
+            return Err(GpuError::Unsupported(format!(
+                "rows {rows:?} of a {w}x{h} frame into a {}x{} output",
+                out.width, out.height
+            )));
+        }
         let pipeline = self.pipeline(ctx, material.l_max)?;
         let device = ctx.device();
+        let n_rows = (rows.end - rows.start) as u32;
         ctx.scoped("shading", || {
             let params = Params {
-                width: w32,
-                height: h32,
+                width: w as u32,
+                height: h as u32,
                 variant: match env.variant {
                     Variant::Sh => shade_codes::VARIANT_SH,
                     Variant::Maps => shade_codes::VARIANT_MAPS,
@@ -234,6 +369,8 @@ impl GpuShader {
                 n_tables: material.n_tables as u32,
                 map_w: env.map_size.0 as u32,
                 map_h: env.map_size.1 as u32,
+                row0: rows.start as u32,
+                pad: [0; 3],
             };
             let pb = buffer_init(
                 device,
@@ -241,12 +378,6 @@ impl GpuShader {
                 bytemuck::bytes_of(&params),
                 wgpu::BufferUsages::UNIFORM,
             );
-            let output = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("isd shaded"),
-                size: out_bytes,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
             let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("isd_shade"),
                 layout: &self.layout,
@@ -259,7 +390,7 @@ impl GpuShader {
                     entry(5, &material.weights),
                     entry(6, &material.tables),
                     entry(7, &env.maps),
-                    entry(8, &output),
+                    entry(8, &out.buffer),
                 ],
             });
             let timing = ctx.has_timestamps().then(|| {
@@ -292,19 +423,98 @@ impl GpuShader {
                 });
                 pass.set_pipeline(&pipeline);
                 pass.set_bind_group(0, &bind, &[]);
-                pass.dispatch_workgroups(w32.div_ceil(8), h32.div_ceil(8), 1);
+                pass.dispatch_workgroups((w as u32).div_ceil(8), n_rows.div_ceil(8), 1);
             }
             if let Some((set, resolve)) = &timing {
                 enc.resolve_query_set(set, 0..2, resolve, 0);
             }
             ctx.queue().submit([enc.finish()]);
-            Ok(GpuShaded {
-                buffer: output,
+            out.timestamps = timing.map(|(_, r)| r);
+            Ok(())
+        })
+    }
+
+    /// Submits the display transform of `shaded` (`2^exposure`, `curve`,
+    /// sRGB, as `ifd render` writes 8-bit files) into `target`, an
+    /// `rgba8unorm` texture of the image's size with `STORAGE_BINDING`
+    /// usage, for a renderer on the same device (no readback).
+    ///
+    /// # Errors
+    /// [`GpuError::Unsupported`] for a target of another size or format.
+    pub fn display(
+        &self,
+        ctx: &GpuContext,
+        shaded: &GpuShaded,
+        curve: Curve,
+        exposure: f32,
+        target: &wgpu::Texture,
+    ) -> Result<(), GpuError> {
+        let (w, h) = (shaded.width as u32, shaded.height as u32);
+        if target.width() != w
+            || target.height() != h
+            || target.format() != wgpu::TextureFormat::Rgba8Unorm
+        {
+            return Err(GpuError::Unsupported(format!(
+                "a {}x{} {:?} display texture for a {w}x{h} image (rgba8unorm of the same size)",
+                target.width(),
+                target.height(),
+                target.format()
+            )));
+        }
+        let device = ctx.device();
+        ctx.scoped("converting the shaded image for display", || {
+            let params = DisplayParams {
                 width: w,
                 height: h,
-                timestamps: timing.map(|(_, r)| r),
-            })
+                curve: match curve {
+                    Curve::None => 0,
+                    Curve::Reinhard => 1,
+                    Curve::Aces => 2,
+                },
+                pad0: 0,
+                scale: exposure.exp2(),
+                pad1: [0.0; 3],
+            };
+            let pb = buffer_init(
+                device,
+                "isd tonemap params",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let view = target.create_view(&wgpu::TextureViewDescriptor::default());
+            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("isd tonemap"),
+                layout: &self.display_layout,
+                entries: &[
+                    entry(0, &pb),
+                    entry(1, &shaded.buffer),
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::TextureView(&view),
+                    },
+                ],
+            });
+            submit_pass(ctx, "isd tonemap", &self.display_pipeline, &bind, (w, h));
+            Ok(())
         })
+    }
+
+    /// Reads a display texture back (tests, screenshots without a window).
+    ///
+    /// # Errors
+    /// [`GpuError::Readback`] when mapping fails.
+    pub fn read_display(
+        ctx: &GpuContext,
+        texture: &wgpu::Texture,
+    ) -> Result<Vec<[u8; 4]>, GpuError> {
+        read_rgba8(ctx, texture, "a display texture")
+    }
+
+    /// A `width x height` `rgba8unorm` texture for [`Self::display`] (usages
+    /// `STORAGE_BINDING | TEXTURE_BINDING | COPY_SRC`).
+    #[must_use]
+    pub fn display_texture(ctx: &GpuContext, width: usize, height: usize) -> wgpu::Texture {
+        rgba8_texture(ctx.device(), "isd display", width as u32, height as u32)
     }
 }
 
