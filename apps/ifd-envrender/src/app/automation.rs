@@ -1,0 +1,136 @@
+//! Runs without a person (`--screenshot`, `--exit`): wait for the first
+//! complete frame, let a few frames settle, save a screenshot and report the
+//! viewport's rectangle in it, close. A failure closes the window with a
+//! message that `main` reports (exit status 2).
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use egui::ColorImage;
+use ifd_image::Image;
+
+use super::EnvApp;
+
+/// What to do without a person.
+#[derive(Clone, Debug, Default)]
+pub struct Automation {
+    /// Save a screenshot of the window here (PNG) once the frame is shown.
+    pub screenshot: Option<PathBuf>,
+    /// Close the window when done.
+    pub exit: bool,
+    /// Where a failed automated run leaves its message.
+    pub failure: Arc<Mutex<Option<String>>>,
+    /// Where the viewport's rectangle in the screenshot is reported
+    /// (`[x, y, width, height]`, physical pixels).
+    pub viewport: Arc<Mutex<Option<[usize; 4]>>>,
+}
+
+impl Automation {
+    /// Whether anything is automated.
+    #[must_use]
+    pub fn active(&self) -> bool {
+        self.screenshot.is_some() || self.exit
+    }
+}
+
+/// Where an automated run is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Stage {
+    WaitFrame,
+    Settle(u32),
+    WaitShot,
+    Done,
+}
+
+impl EnvApp {
+    pub(super) fn fail(&mut self, ctx: &egui::Context, msg: String) {
+        if let Ok(mut slot) = self.automation.failure.lock() {
+            slot.get_or_insert(msg);
+        }
+        self.stage = Stage::Done;
+        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+    }
+
+    pub(super) fn automation_step(&mut self, ctx: &egui::Context) {
+        if !self.automation.active() {
+            return;
+        }
+        match self.stage {
+            Stage::WaitFrame => {
+                if self.frame_complete() {
+                    self.stage = Stage::Settle(0);
+                }
+                ctx.request_repaint_after(Duration::from_millis(20));
+            }
+            Stage::Settle(n) if n < 4 => {
+                self.stage = Stage::Settle(n + 1);
+                ctx.request_repaint();
+            }
+            Stage::Settle(_) => {
+                if self.automation.screenshot.is_none() {
+                    self.finish_run(ctx);
+                    return;
+                }
+                let slot = Arc::clone(&self.shot);
+                let c2 = ctx.clone();
+                ctx.request_screenshot(move |img| {
+                    if let Ok(mut s) = slot.lock() {
+                        *s = Some(img);
+                    }
+                    c2.request_repaint();
+                });
+                self.stage = Stage::WaitShot;
+            }
+            Stage::WaitShot => {
+                let img = self.shot.lock().ok().and_then(|mut s| s.take());
+                if let Some(img) = img {
+                    if let Some(p) = &self.automation.screenshot
+                        && let Err(e) = write_screenshot(p, &img)
+                    {
+                        self.fail(ctx, format!("writing the screenshot: {e:#}"));
+                        return;
+                    }
+                    if let (Some(r), Ok(mut slot)) =
+                        (self.viewport, self.automation.viewport.lock())
+                    {
+                        let ppp = ctx.pixels_per_point();
+                        *slot = Some([
+                            (r.min.x * ppp).round() as usize,
+                            (r.min.y * ppp).round() as usize,
+                            (r.width() * ppp).round() as usize,
+                            (r.height() * ppp).round() as usize,
+                        ]);
+                    }
+                    self.finish_run(ctx);
+                } else {
+                    ctx.request_repaint_after(Duration::from_millis(20));
+                }
+            }
+            Stage::Done => {}
+        }
+    }
+
+    fn finish_run(&mut self, ctx: &egui::Context) {
+        self.stage = Stage::Done;
+        if self.automation.exit {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+    }
+}
+
+/// Writes an egui screenshot as PNG.
+///
+/// # Errors
+/// Write failures.
+pub fn write_screenshot(path: &Path, img: &ColorImage) -> anyhow::Result<()> {
+    let [w, h] = img.size;
+    let data = img
+        .pixels
+        .iter()
+        .flat_map(|c| [c.r(), c.g(), c.b()].map(|v| f32::from(v) / 255.0))
+        .collect();
+    let im = Image::from_vec(w, h, 3, data)?;
+    ifd_image::write(path, &im)?;
+    Ok(())
+}

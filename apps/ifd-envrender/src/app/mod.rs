@@ -1,0 +1,286 @@
+//! The egui UI: the viewport, the side panel of settings, the status bar,
+//! frame times, and automated runs.
+
+mod automation;
+mod gpu_view;
+mod panels;
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use eframe::egui_wgpu::RenderState;
+use ifd_gpu::GpuContext;
+use ifd_render::tonemap::Tonemap;
+
+pub use automation::{Automation, write_screenshot};
+pub use gpu_view::GpuView;
+
+use crate::settings::Settings;
+use crate::worker::{self, Event, Frame, Handle, Info};
+
+/// Which shading path to use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuChoice {
+    /// The GPU on a hardware adapter; the CPU on a software one (lavapipe
+    /// runs the kernel slower than the CPU path on the same cores).
+    Auto,
+    /// The GPU on any adapter.
+    On,
+    /// The CPU renderer.
+    Off,
+}
+
+/// How the app starts.
+pub struct StartOptions {
+    /// The window's device (`None`: headless harness, or a GL backend).
+    pub render_state: Option<RenderState>,
+    /// GPU or CPU shading.
+    pub gpu: GpuChoice,
+    /// Automated run.
+    pub automation: Automation,
+}
+
+/// The app.
+pub struct EnvApp {
+    /// The settings (persisted by the shell).
+    pub settings: Settings,
+    sent: Option<Settings>,
+    worker: Handle,
+    gpu: Option<GpuView>,
+    /// Why the CPU renderer is used (status bar), `None` on the GPU.
+    cpu_reason: Option<String>,
+    adapter: String,
+    cpu_texture: Option<egui::TextureHandle>,
+    cpu_frame: Option<Duration>,
+    progress: String,
+    errors: Vec<String>,
+    info: Info,
+    frames_seen: u64,
+    /// UI frame times, ms (latest 240).
+    ui_times: Vec<f32>,
+    automation: Automation,
+    stage: automation::Stage,
+    shot: Arc<Mutex<Option<Arc<egui::ColorImage>>>>,
+    viewport: Option<egui::Rect>,
+}
+
+impl std::fmt::Debug for EnvApp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EnvApp")
+            .field("settings", &self.settings)
+            .finish_non_exhaustive()
+    }
+}
+
+impl EnvApp {
+    /// Starts the worker (and the GPU view on the window's device).
+    #[must_use]
+    pub fn new(ctx: &egui::Context, settings: Settings, start: StartOptions) -> Self {
+        let (gpu, cpu_reason, adapter) = gpu_view(start.render_state, start.gpu);
+        let wake = ctx.clone();
+        let worker = worker::spawn(gpu.as_ref().map(|(c, _)| Arc::clone(c)), move || {
+            wake.request_repaint();
+        });
+        Self {
+            settings,
+            sent: None,
+            worker,
+            gpu: gpu.map(|(_, v)| v),
+            cpu_reason,
+            adapter,
+            cpu_texture: None,
+            cpu_frame: None,
+            progress: String::new(),
+            errors: Vec::new(),
+            info: Info::default(),
+            frames_seen: 0,
+            ui_times: Vec::new(),
+            automation: start.automation,
+            stage: automation::Stage::WaitFrame,
+            shot: Arc::new(Mutex::new(None)),
+            viewport: None,
+        }
+    }
+
+    /// Errors reported so far (newest last).
+    #[must_use]
+    pub fn errors(&self) -> &[String] {
+        &self.errors
+    }
+
+    /// Frames received from the worker.
+    #[must_use]
+    pub fn frames_seen(&self) -> u64 {
+        self.frames_seen
+    }
+
+    /// UI frame times so far, ms.
+    #[must_use]
+    pub fn ui_times(&self) -> &[f32] {
+        &self.ui_times
+    }
+
+    /// Whether the latest frame is completely shown.
+    #[must_use]
+    pub fn frame_complete(&self) -> bool {
+        match &self.gpu {
+            Some(g) => g.is_complete(),
+            None => self.cpu_texture.is_some(),
+        }
+    }
+
+    fn tonemap(&self) -> Tonemap {
+        Tonemap::parse(&self.settings.tonemap).unwrap_or(Tonemap::Aces)
+    }
+
+    /// One UI frame.
+    pub fn frame(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
+        let t0 = Instant::now();
+        // the worker renders the latest settings that change the image
+        let display_only = self.sent.as_ref().is_some_and(|s| {
+            let mut a = s.clone();
+            a.exposure = self.settings.exposure;
+            a.tonemap.clone_from(&self.settings.tonemap);
+            a == self.settings
+        });
+        if self.sent.as_ref() != Some(&self.settings) {
+            if display_only && self.gpu.is_some() {
+                if let Some(g) = &mut self.gpu {
+                    g.redisplay();
+                }
+            } else {
+                // The worker only stops when the app does.
+                self.worker.tx.send(self.settings.clone()).ok();
+            }
+            self.sent = Some(self.settings.clone());
+        }
+        self.events(&ctx);
+        let (curve, exposure) = (self.tonemap().into(), self.settings.exposure);
+        if let Some(g) = &mut self.gpu {
+            match g.step(curve, exposure) {
+                Ok(true) => ctx.request_repaint(),
+                Ok(false) => {}
+                Err(e) => self.errors.push(format!("GPU: {e}")),
+            }
+        }
+        panels::status_bar(self, ui);
+        panels::side_panel(self, ui);
+        panels::viewport(self, ui);
+        self.automation_step(&ctx);
+        // the UI thread's time in this frame (what a person waits for)
+        self.ui_times.push(t0.elapsed().as_secs_f32() * 1e3);
+        if self.ui_times.len() > 240 {
+            self.ui_times.remove(0);
+        }
+    }
+
+    fn events(&mut self, ctx: &egui::Context) {
+        while let Ok(e) = self.worker.rx.try_recv() {
+            match e {
+                Event::Progress(p) => self.progress = p,
+                Event::Error(msg) => {
+                    self.progress.clear();
+                    if self.automation.active() {
+                        self.fail(ctx, msg.clone());
+                    }
+                    self.errors.push(msg);
+                }
+                Event::Info(i) => self.info = i,
+                Event::Frame(f) => {
+                    self.progress.clear();
+                    self.frames_seen += 1;
+                    match f {
+                        Frame::Gpu {
+                            surfaces,
+                            env,
+                            material,
+                        } => {
+                            if let Some(g) = &mut self.gpu
+                                && let Err(e) = g.set_frame(surfaces, env, material)
+                            {
+                                self.errors.push(format!("GPU: {e}"));
+                            }
+                        }
+                        Frame::Cpu { image, seconds } => {
+                            self.cpu_frame = Some(Duration::from_secs_f64(seconds));
+                            match &mut self.cpu_texture {
+                                Some(t) => t.set(image, egui::TextureOptions::NEAREST),
+                                None => {
+                                    self.cpu_texture = Some(ctx.load_texture(
+                                        "ifd-envrender view",
+                                        image,
+                                        egui::TextureOptions::NEAREST,
+                                    ));
+                                }
+                            }
+                        }
+                    }
+                    ctx.request_repaint();
+                }
+            }
+        }
+        // a CPU frame's display settings are applied by re-rendering: keep
+        // the worker's answer flowing
+        if self.gpu.is_none() && self.sent.as_ref() != Some(&self.settings) {
+            ctx.request_repaint_after(Duration::from_millis(30));
+        }
+    }
+
+    /// Called when the window closes.
+    pub fn finish(&mut self) {}
+}
+
+/// The GPU path's device and view, why there is none, and the adapter.
+type GpuStart = (Option<(Arc<GpuContext>, GpuView)>, Option<String>, String);
+
+/// The GPU view on the window's device, or why there is none.
+fn gpu_view(rs: Option<RenderState>, choice: GpuChoice) -> GpuStart {
+    let Some(rs) = rs else {
+        return (
+            None,
+            Some("no wgpu device (headless)".into()),
+            "none".into(),
+        );
+    };
+    let info = rs.adapter.get_info();
+    let adapter = format!("{} ({:?}, {:?})", info.name, info.device_type, info.backend);
+    if choice == GpuChoice::Off {
+        return (None, Some("--gpu off".into()), adapter);
+    }
+    if choice == GpuChoice::Auto && info.device_type == eframe::wgpu::DeviceType::Cpu {
+        return (
+            None,
+            Some(
+                "a software adapter, slower than the CPU renderer here (--gpu on to use it)".into(),
+            ),
+            adapter,
+        );
+    }
+    if info.backend == eframe::wgpu::Backend::Gl {
+        return (
+            None,
+            Some("a GL device (the kernels need Vulkan)".into()),
+            adapter,
+        );
+    }
+    let ctx = match GpuContext::from_device(rs.device.clone(), rs.queue.clone(), info) {
+        Ok(c) => Arc::new(c),
+        Err(e) => return (None, Some(format!("the GPU path failed: {e}")), adapter),
+    };
+    match GpuView::new(Arc::clone(&ctx), rs) {
+        Ok(v) => (Some((ctx, v)), None, adapter),
+        Err(e) => (
+            None,
+            Some(format!("the shading kernels failed: {e}")),
+            adapter,
+        ),
+    }
+}
+
+/// The default path of a file dropped or typed in.
+#[must_use]
+pub fn dropped_path(ctx: &egui::Context) -> Option<PathBuf> {
+    ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()))
+}

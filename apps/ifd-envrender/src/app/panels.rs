@@ -1,0 +1,247 @@
+//! The side panel (settings), the status bar, and the viewport with the
+//! orbit camera's controls.
+
+use egui::{Color32, Sense, Stroke, vec2};
+
+use super::EnvApp;
+use crate::settings::Variant;
+
+/// The BRDF models the panel offers, with their parameter's name and range.
+const MODELS: [(&str, &str, f64, f64); 6] = [
+    ("lambert", "", 0.0, 0.0),
+    ("phong", "s", 1.0, 2000.0),
+    ("blinn", "s", 1.0, 2000.0),
+    ("ggx", "alpha", 0.02, 1.0),
+    ("ward", "alpha", 0.02, 1.0),
+    ("ggx-aniso", "ay", 0.02, 1.0),
+];
+
+/// The model and main parameter of a spec, if the panel's sliders can edit it.
+fn parse_spec(spec: &str) -> Option<(&'static str, f64)> {
+    let (model, params) = spec.split_once(':').unwrap_or((spec, ""));
+    let value = |key: &str| {
+        params
+            .split(',')
+            .filter_map(|kv| kv.split_once('='))
+            .find(|(k, _)| k.trim() == key)
+            .and_then(|(_, v)| v.trim().parse::<f64>().ok())
+    };
+    match model {
+        "lambert" => Some(("lambert", 0.0)),
+        "phong" => Some(("phong", value("s")?)),
+        "blinn" => Some(("blinn", value("s")?)),
+        "ggx" if value("alpha").is_some() => Some(("ggx", value("alpha")?)),
+        "ggx" => Some(("ggx-aniso", value("ay")?)),
+        "ward" => Some(("ward", value("alpha")?)),
+        _ => None,
+    }
+}
+
+fn spec_of(model: &str, v: f64) -> String {
+    match model {
+        "lambert" => "lambert".into(),
+        "phong" | "blinn" => format!("{model}:s={}", v.round()),
+        "ggx-aniso" => format!("ggx:ax=0.1,ay={v:.3}"),
+        _ => format!("{model}:alpha={v:.3}"),
+    }
+}
+
+pub(super) fn side_panel(app: &mut EnvApp, ui: &mut egui::Ui) {
+    egui::Panel::left("settings")
+        .resizable(false)
+        .default_size(250.0)
+        .show(ui, |ui| {
+            let s = &mut app.settings;
+            ui.heading("Environment");
+            let name = s.env.as_ref().and_then(|p| p.file_name()).map_or_else(
+                || "bundled forest.hdr".into(),
+                |n| n.to_string_lossy().into_owned(),
+            );
+            ui.label(name)
+                .on_hover_text("drop an HDR/EXR map on the window to open it");
+            ui.add(egui::Slider::new(&mut s.env_rotate, -180.0..=180.0).text("rotation (deg)"));
+            ui.checkbox(&mut s.background, "background");
+            ui.separator();
+            ui.heading("Scene");
+            egui::ComboBox::from_id_salt("scene")
+                .selected_text(s.scene.clone())
+                .show_ui(ui, |ui| {
+                    for name in ["sphere", "torus", "plane"] {
+                        ui.selectable_value(&mut s.scene, name.to_string(), name);
+                    }
+                });
+            ui.separator();
+            ui.heading("BRDF");
+            if let Some((model, mut v)) = parse_spec(&s.brdf) {
+                let mut m = model;
+                egui::ComboBox::from_id_salt("model")
+                    .selected_text(m)
+                    .show_ui(ui, |ui| {
+                        for (name, _, lo, hi) in MODELS {
+                            if ui.selectable_value(&mut m, name, name).changed() {
+                                v = if hi > 0.0 {
+                                    (lo * hi).sqrt().max(lo)
+                                } else {
+                                    0.0
+                                };
+                            }
+                        }
+                    });
+                if let Some((_, param, lo, hi)) = MODELS.iter().find(|x| x.0 == m)
+                    && *hi > 0.0
+                {
+                    ui.add(
+                        egui::Slider::new(&mut v, *lo..=*hi)
+                            .logarithmic(true)
+                            .text(*param),
+                    );
+                }
+                let spec = spec_of(m, v);
+                if m != model || parse_spec(&s.brdf).is_some_and(|(_, old)| (old - v).abs() > 1e-9)
+                {
+                    s.brdf = spec;
+                }
+            }
+            ui.horizontal(|ui| {
+                ui.label("spec");
+                ui.text_edit_singleline(&mut s.brdf).on_hover_text(
+                    "any `ifd render --brdf` spec, e.g. merl:FILE or ggx:ax=0.1,ay=0.4",
+                );
+            });
+            ui.separator();
+            ui.heading("Shading");
+            ui.add(egui::Slider::new(&mut s.l_max, 1..=30).text("L (max SH degree)"));
+            ui.horizontal(|ui| {
+                ui.radio_value(&mut s.variant, Variant::Sh, "SH");
+                ui.radio_value(&mut s.variant, Variant::Maps, "per-band maps");
+            });
+            ui.separator();
+            ui.heading("Display");
+            ui.add(egui::Slider::new(&mut s.exposure, -6.0..=6.0).text("exposure (EV)"));
+            egui::ComboBox::from_id_salt("tonemap")
+                .selected_text(s.tonemap.clone())
+                .show_ui(ui, |ui| {
+                    for name in ["aces", "reinhard", "none"] {
+                        ui.selectable_value(&mut s.tonemap, name.to_string(), name);
+                    }
+                });
+            ui.label("drag: orbit, wheel: zoom, F: frame");
+            ui.separator();
+            ui.heading("Frame times");
+            frame_plot(ui, &app.ui_times);
+        });
+}
+
+/// UI frame times (ms) as a small line plot with the 50 ms line.
+fn frame_plot(ui: &mut egui::Ui, times: &[f32]) {
+    let (rect, _) = ui.allocate_exact_size(vec2(220.0, 60.0), Sense::hover());
+    let p = ui.painter_at(rect);
+    p.rect_filled(rect, 2.0, Color32::from_gray(24));
+    let top = 100.0f32;
+    let y = |ms: f32| rect.bottom() - (ms.min(top) / top) * rect.height();
+    p.hline(rect.x_range(), y(50.0), Stroke::new(1.0, Color32::DARK_RED));
+    let n = times.len().max(2);
+    let pts: Vec<egui::Pos2> = times
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            egui::pos2(
+                rect.left() + rect.width() * i as f32 / (n - 1) as f32,
+                y(*t),
+            )
+        })
+        .collect();
+    p.add(egui::Shape::line(
+        pts,
+        Stroke::new(1.0, Color32::LIGHT_GREEN),
+    ));
+    let last = times.last().copied().unwrap_or(0.0);
+    ui.label(format!("UI frame {last:.1} ms (red: 50 ms)"));
+}
+
+pub(super) fn status_bar(app: &mut EnvApp, ui: &mut egui::Ui) {
+    egui::Panel::bottom("status").show(ui, |ui| {
+        ui.horizontal_wrapped(|ui| {
+            match &app.cpu_reason {
+                None => ui.label(format!("GPU: {}", app.adapter)),
+                Some(why) => ui.label(format!("CPU shading ({why}); adapter: {}", app.adapter)),
+            };
+            ui.separator();
+            let i = &app.info;
+            ui.label(format!("{} | {} | {} lobes/pixel", i.env, i.brdf, i.lobes));
+            let table = i
+                .table_bytes
+                .map_or_else(|| "closed form".into(), |b| ifd_image::fmt_bytes(b as u64));
+            ui.label(format!(
+                "table {table} | environment {}",
+                ifd_image::fmt_bytes(i.env_bytes as u64)
+            ));
+            let shade = app
+                .gpu
+                .as_ref()
+                .and_then(|g| g.last_frame)
+                .or(app.cpu_frame);
+            if let Some(t) = shade {
+                ui.label(format!("frame {:.0} ms", t.as_secs_f64() * 1e3));
+            }
+            if !app.progress.is_empty() {
+                ui.spinner();
+                ui.label(&app.progress);
+            }
+            if let Some(e) = app.errors.last() {
+                ui.colored_label(Color32::LIGHT_RED, e);
+            }
+        });
+    });
+}
+
+pub(super) fn viewport(app: &mut EnvApp, ui: &mut egui::Ui) {
+    egui::CentralPanel::default().show(ui, |ui| {
+        let tex = match &app.gpu {
+            Some(g) => g.texture(),
+            None => app.cpu_texture.as_ref().map(|t| (t.id(), t.size())),
+        };
+        let [w, h] = app.settings.size;
+        let ppp = ui.ctx().pixels_per_point();
+        // one image pixel per screen pixel
+        let size = vec2(w as f32, h as f32) / ppp;
+        let (rect, resp) = ui.allocate_exact_size(size, Sense::click_and_drag());
+        if let Some((id, _)) = tex {
+            ui.painter().image(
+                id,
+                rect,
+                egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
+                Color32::WHITE,
+            );
+        } else {
+            ui.painter().rect_filled(rect, 0.0, Color32::from_gray(16));
+        }
+        app.viewport = Some(rect);
+        let cam = &mut app.settings.camera;
+        if resp.dragged() {
+            let d = resp.drag_delta();
+            cam.drag(f64::from(d.x), f64::from(d.y));
+        }
+        if resp.hovered() {
+            let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+            if scroll != 0.0 {
+                cam.zoom(f64::from(scroll));
+            }
+        }
+        if ui.input(|i| i.key_pressed(egui::Key::F)) {
+            let r = match app.settings.scene.as_str() {
+                "torus" => 1.4,
+                "plane" => 2.0 * std::f64::consts::SQRT_2,
+                _ => 1.0,
+            };
+            cam.frame(r);
+        }
+        if let Some(p) = super::dropped_path(ui.ctx()) {
+            if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj")) {
+                app.settings.scene = p.to_string_lossy().into_owned();
+            } else {
+                app.settings.env = Some(p);
+            }
+        }
+    });
+}

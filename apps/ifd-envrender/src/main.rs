@@ -1,0 +1,286 @@
+//! The `ifd-envrender` program: the environment renderer's window.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
+
+use anyhow::Context as _;
+use clap::Parser;
+use glam::DVec3;
+use ifd_envrender::app::{Automation, EnvApp, GpuChoice, StartOptions};
+use ifd_envrender::orbit::Orbit;
+use ifd_envrender::settings::{STORAGE_KEY, Settings, Variant};
+
+/// Look at an object lit by an environment map, shaded by ISD (Eq. 22) on
+/// the GPU: orbit the camera, change the BRDF, L, the variant, the map.
+///
+/// Options given here override the stored settings of the last session.
+#[derive(Parser, Debug)]
+#[command(version)]
+struct Args {
+    /// Environment map, 2:1 equirectangular (HDR, EXR, ...); default: the bundled forest.hdr.
+    #[arg(long, value_name = "FILE")]
+    env: Option<PathBuf>,
+    /// BRDF spec, as `ifd render --brdf`.
+    #[arg(long, value_name = "SPEC")]
+    brdf: Option<String>,
+    /// Maximum SH degree L.
+    #[arg(long, value_name = "L")]
+    lmax: Option<usize>,
+    /// Scene: sphere, torus, plane or an OBJ file.
+    #[arg(long)]
+    scene: Option<String>,
+    /// Evaluation: sh (per-band environment from SH) or maps (per-band prefiltered maps).
+    #[arg(long, value_name = "sh|maps")]
+    variant: Option<String>,
+    /// Viewport size `WxH`.
+    #[arg(long, value_name = "WxH")]
+    size: Option<String>,
+    /// Camera position (with --target and --fov: the orbit's start).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    eye: Option<String>,
+    /// Point looked at.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    target: Option<String>,
+    /// Vertical field of view, degrees.
+    #[arg(long, value_name = "DEG")]
+    fov: Option<f64>,
+    /// Exposure in stops.
+    #[arg(long, value_name = "EV", allow_hyphen_values = true)]
+    exposure: Option<f32>,
+    /// Tone curve: none, reinhard, aces.
+    #[arg(long)]
+    tonemap: Option<String>,
+    /// Rotate the environment about +z, degrees.
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    env_rotate: Option<f64>,
+    /// Black background.
+    #[arg(long)]
+    no_background: bool,
+    /// Shade on the GPU: auto (hardware adapters; a software one such as
+    /// lavapipe is slower than the CPU renderer), on (any adapter), off.
+    #[arg(long, value_enum, default_value = "auto")]
+    gpu: Gpu,
+    /// Save a screenshot of the window (PNG) once the frame is shown; prints
+    /// the viewport's rectangle in it as JSON.
+    #[arg(long, value_name = "PATH.png")]
+    screenshot: Option<PathBuf>,
+    /// Exit when done (after --screenshot, or after the first frame).
+    #[arg(long)]
+    exit: bool,
+    /// Start from the defaults instead of the stored settings.
+    #[arg(long)]
+    reset: bool,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum Gpu {
+    Auto,
+    On,
+    Off,
+}
+
+fn parse_vec(text: &str, option: &str) -> anyhow::Result<DVec3> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{option} {text:?}: expected X,Y,Z"))?;
+    if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+        anyhow::bail!("{option} {text:?}: expected three finite numbers X,Y,Z");
+    }
+    Ok(DVec3::new(v[0], v[1], v[2]))
+}
+
+/// The settings: stored ones (unless --reset), then the options.
+fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
+    let mut s = if args.reset { None } else { stored }.unwrap_or_default();
+    if let Some(e) = &args.env {
+        s.env = Some(e.clone());
+    }
+    if let Some(b) = &args.brdf {
+        ifd_shade::Brdf::parse(b).with_context(|| format!("--brdf {b}"))?;
+        s.brdf.clone_from(b);
+    }
+    if let Some(l) = args.lmax {
+        if !(1..=63).contains(&l) {
+            anyhow::bail!("--lmax {l}: use 1..=63");
+        }
+        s.l_max = l;
+    }
+    if let Some(sc) = &args.scene {
+        s.scene.clone_from(sc);
+    }
+    if let Some(v) = &args.variant {
+        s.variant = match v.as_str() {
+            "sh" => Variant::Sh,
+            "maps" => Variant::Maps,
+            _ => anyhow::bail!("--variant {v}: use sh or maps"),
+        };
+    }
+    if let Some(sz) = &args.size {
+        let (w, h) = sz
+            .split_once('x')
+            .and_then(|(w, h)| Some((w.parse::<usize>().ok()?, h.parse::<usize>().ok()?)))
+            .with_context(|| format!("--size {sz:?}: expected WxH"))?;
+        if !(16..=4096).contains(&w) || !(16..=4096).contains(&h) {
+            anyhow::bail!("--size {sz}: use 16..=4096 pixels a side");
+        }
+        s.size = [w, h];
+    }
+    if args.eye.is_some() || args.target.is_some() || args.fov.is_some() {
+        let eye = match &args.eye {
+            Some(e) => parse_vec(e, "--eye")?,
+            None => s.camera.eye(),
+        };
+        let target = match &args.target {
+            Some(t) => parse_vec(t, "--target")?,
+            None => DVec3::from_array(s.camera.target),
+        };
+        let fov = args.fov.unwrap_or(s.camera.fov);
+        if !(fov > 0.0 && fov < 180.0) {
+            anyhow::bail!("--fov {fov}: use 0 < fov < 180 degrees");
+        }
+        if (eye - target).length() < 1e-9 {
+            anyhow::bail!("--eye equals --target");
+        }
+        s.camera = Orbit::looking(eye, target, fov);
+    }
+    if let Some(e) = args.exposure {
+        s.exposure = e;
+    }
+    if let Some(t) = &args.tonemap {
+        ifd_render::tonemap::Tonemap::parse(t)?;
+        s.tonemap.clone_from(t);
+    }
+    if let Some(r) = args.env_rotate {
+        s.env_rotate = r;
+    }
+    if args.no_background {
+        s.background = false;
+    }
+    Ok(s)
+}
+
+/// eframe's wgpu set-up with a device the shading can compute on: the
+/// adapter's own limits and timestamp queries when it has them.
+fn wgpu_options() -> eframe::egui_wgpu::WgpuConfiguration {
+    use eframe::egui_wgpu::WgpuSetup;
+    use eframe::wgpu;
+    let mut options = eframe::egui_wgpu::WgpuConfiguration::default();
+    if let WgpuSetup::CreateNew(create) = &mut options.wgpu_setup {
+        let base = std::sync::Arc::clone(&create.device_descriptor);
+        create.device_descriptor = std::sync::Arc::new(move |adapter: &wgpu::Adapter| {
+            let mut d = base(adapter);
+            if adapter.get_info().backend != wgpu::Backend::Gl {
+                d.required_limits = adapter.limits();
+                if adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+                    d.required_features |= wgpu::Features::TIMESTAMP_QUERY;
+                }
+            }
+            d
+        });
+    }
+    options
+}
+
+struct Shell(EnvApp);
+
+impl eframe::App for Shell {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        self.0.frame(ui);
+    }
+
+    fn save(&mut self, storage: &mut dyn eframe::Storage) {
+        eframe::set_value(storage, STORAGE_KEY, &self.0.settings);
+    }
+
+    fn on_exit(&mut self) {
+        self.0.finish();
+    }
+}
+
+fn run(args: &Args) -> anyhow::Result<()> {
+    // check the options before a window opens
+    settings(args, None)?;
+    let failure = Arc::new(Mutex::new(None::<String>));
+    let viewport = Arc::new(Mutex::new(None::<[usize; 4]>));
+    let automation = Automation {
+        screenshot: args.screenshot.clone(),
+        exit: args.exit,
+        failure: Arc::clone(&failure),
+        viewport: Arc::clone(&viewport),
+    };
+    let gpu = match args.gpu {
+        Gpu::Auto => GpuChoice::Auto,
+        Gpu::On => GpuChoice::On,
+        Gpu::Off => GpuChoice::Off,
+    };
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title("ifd envrender")
+            .with_inner_size([1180.0, 760.0])
+            .with_drag_and_drop(true),
+        persistence_path: std::env::var_os("IFD_ENVRENDER_STATE_DIR")
+            .map(|d| PathBuf::from(d).join("app.ron")),
+        wgpu_options: wgpu_options(),
+        ..eframe::NativeOptions::default()
+    };
+    let mut err = None;
+    let args_ref = args;
+    eframe::run_native(
+        "ifd-envrender",
+        options,
+        Box::new(|cc| {
+            let stored: Option<Settings> = cc
+                .storage
+                .and_then(|s| eframe::get_value(s, STORAGE_KEY))
+                .filter(|s: &Settings| s.format == STORAGE_KEY);
+            let s = match settings(args_ref, stored) {
+                Ok(s) => s,
+                Err(e) => {
+                    err = Some(e);
+                    Settings::default()
+                }
+            };
+            if automation.active() {
+                // the viewport at one screen pixel per image pixel
+                cc.egui_ctx.set_pixels_per_point(1.0);
+            }
+            Ok(Box::new(Shell(EnvApp::new(
+                &cc.egui_ctx,
+                s,
+                StartOptions {
+                    render_state: cc.wgpu_render_state.clone(),
+                    gpu,
+                    automation,
+                },
+            ))))
+        }),
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
+    if let Some(e) = err {
+        return Err(e);
+    }
+    if let Some(msg) = failure.lock().ok().and_then(|mut f| f.take()) {
+        anyhow::bail!(msg);
+    }
+    if let Some(r) = viewport.lock().ok().and_then(|v| *v) {
+        println!(
+            "{}",
+            serde_json::json!({"viewport": {"x": r[0], "y": r[1], "width": r[2], "height": r[3]}})
+        );
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    match run(&args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

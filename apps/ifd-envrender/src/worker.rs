@@ -1,0 +1,327 @@
+//! Everything slow runs here, on its own thread: reading the environment map,
+//! its SH projection and per-band maps, lobe tables, the G-buffer, the
+//! uploads, and (without the GPU path) the CPU render. The UI sends the
+//! whole [`Settings`] whenever they change; the worker works on the latest
+//! only, reuses what did not change, and answers with [`Event`]s. A step
+//! that fails reports an error and keeps the previous scene.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, Sender};
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use ifd_gpu::GpuContext;
+use ifd_gpu::shading::{GpuEnvironment, GpuMaterial, GpuSurfaces, SurfacePoint};
+use ifd_render::envmap::EnvMap;
+use ifd_render::gbuffer;
+use ifd_render::render::{Job, Method, render};
+use ifd_render::scene::Scene;
+use ifd_render::tonemap::Tonemap;
+use ifd_shade::Brdf;
+use ifd_shade::shade::{BandMaps, Environment, Material};
+use ifd_shade::table::{LobeTable, default_theta_entries};
+
+use crate::settings::{Settings, Variant, bundled_env};
+
+/// What the worker tells the UI.
+#[derive(Debug)]
+pub enum Event {
+    /// Work in progress (shown in the status bar).
+    Progress(String),
+    /// A step failed; the previous scene stays.
+    Error(String),
+    /// The scene's description, after each change.
+    Info(Info),
+    /// A frame to show.
+    Frame(Frame),
+}
+
+/// The current scene, for the status bar.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Info {
+    /// The map's file name and its size.
+    pub env: String,
+    /// The BRDF spec.
+    pub brdf: String,
+    /// Lobe table bytes (`None`: closed-form weights).
+    pub table_bytes: Option<usize>,
+    /// Lobes per pixel.
+    pub lobes: usize,
+    /// Bytes of the environment as the shader reads it.
+    pub env_bytes: usize,
+}
+
+/// A frame: inputs for the GPU shading, or a CPU-rendered image.
+#[derive(Debug)]
+pub enum Frame {
+    /// Shade on the window's device.
+    Gpu {
+        /// The G-buffer.
+        surfaces: Arc<GpuSurfaces>,
+        /// The environment.
+        env: Arc<GpuEnvironment>,
+        /// The material.
+        material: Arc<GpuMaterial>,
+    },
+    /// Shaded on the CPU (`ifd_render::render`), display-transformed.
+    Cpu {
+        /// The pixels.
+        image: egui::ColorImage,
+        /// Render time, seconds.
+        seconds: f64,
+    },
+}
+
+/// The worker's end of the channels.
+#[derive(Debug)]
+pub struct Handle {
+    /// Settings to render (the latest wins).
+    pub tx: Sender<Settings>,
+    /// Answers.
+    pub rx: Receiver<Event>,
+}
+
+/// Starts the worker; `gpu` is the device frames are shaded on (`None`: the
+/// CPU renderer); `wake` is called after every event (a repaint request).
+#[must_use]
+pub fn spawn(gpu: Option<Arc<GpuContext>>, wake: impl Fn() + Send + Sync + 'static) -> Handle {
+    let (tx, rx_settings) = std::sync::mpsc::channel::<Settings>();
+    let (tx_events, rx) = std::sync::mpsc::channel();
+    std::thread::Builder::new()
+        .name("ifd-envrender worker".into())
+        .spawn(move || {
+            let mut w = Worker {
+                gpu,
+                cache: Cache::default(),
+            };
+            while let Ok(mut s) = rx_settings.recv() {
+                // only the latest settings matter
+                while let Ok(newer) = rx_settings.try_recv() {
+                    s = newer;
+                }
+                let send = |e: Event| {
+                    let ok = tx_events.send(e).is_ok();
+                    wake();
+                    ok
+                };
+                if let Err(e) = w.update(&s, &send) {
+                    send(Event::Error(format!("{e:#}")));
+                }
+            }
+        })
+        .ok();
+    Handle { tx, rx }
+}
+
+/// A value and the inputs it was made from.
+type Slot<K, V> = Option<(K, Arc<V>)>;
+/// The map's path and rotation (bits of the angle).
+type EnvKey = (PathBuf, u64);
+/// The map's path, rotation and the degree.
+type ShKey = (PathBuf, u64, usize);
+
+/// What the last settings produced, reused while its inputs stay the same.
+#[derive(Default)]
+struct Cache {
+    /// The full map (background) and the one shading integrates.
+    env: Slot<EnvKey, (EnvMap, EnvMap)>,
+    sh: Slot<ShKey, Environment>,
+    maps: Slot<ShKey, BandMaps>,
+    material: Slot<(String, usize), Material>,
+    scene: Option<(String, Scene)>,
+    gpu_env: Slot<(PathBuf, u64, usize, Variant), GpuEnvironment>,
+    gpu_material: Slot<(String, usize), GpuMaterial>,
+}
+
+struct Worker {
+    gpu: Option<Arc<GpuContext>>,
+    cache: Cache,
+}
+
+/// Reuses `slot` when its key is `key`, else makes a new value.
+fn cached<K: PartialEq + Clone, V>(
+    slot: &mut Slot<K, V>,
+    key: &K,
+    make: impl FnOnce() -> Result<V>,
+) -> Result<Arc<V>> {
+    if let Some((k, v)) = slot
+        && k == key
+    {
+        return Ok(Arc::clone(v));
+    }
+    let v = Arc::new(make()?);
+    *slot = Some((key.clone(), Arc::clone(&v)));
+    Ok(v)
+}
+
+impl Worker {
+    fn update(&mut self, s: &Settings, send: &(dyn Fn(Event) -> bool + Sync)) -> Result<()> {
+        let path = s.env.clone().unwrap_or_else(bundled_env);
+        let rot = s.env_rotate.to_bits();
+        let env_key = (path.clone(), rot);
+        let maps = cached(&mut self.cache.env, &env_key, || {
+            send(Event::Progress(format!("reading {}", path.display())));
+            load_env(&path, s.env_rotate)
+        })?;
+        let (full, env) = (&maps.0, &maps.1);
+        let l = s.l_max;
+        let sh_key = (path.clone(), rot, l);
+        let sh = cached(&mut self.cache.sh, &sh_key, || {
+            send(Event::Progress(format!("SH projection to L = {l}")));
+            Ok(Environment::new(env.sh(l)?)?)
+        })?;
+        let band_maps = if s.variant == Variant::Maps {
+            Some(cached(&mut self.cache.maps, &sh_key, || {
+                send(Event::Progress(format!("per-band maps to L = {l}")));
+                Ok(BandMaps::new(&sh)?)
+            })?)
+        } else {
+            None
+        };
+        let brdf = Brdf::parse(&s.brdf).with_context(|| format!("BRDF {:?}", s.brdf))?;
+        let material = cached(&mut self.cache.material, &(s.brdf.clone(), l), || {
+            build_material(&brdf, l, send)
+        })?;
+        let scene = match &self.cache.scene {
+            Some((name, sc)) if *name == s.scene => sc.clone(),
+            _ => {
+                send(Event::Progress(format!("loading the scene {}", s.scene)));
+                let sc = Scene::parse(&s.scene, false)?;
+                self.cache.scene = Some((s.scene.clone(), sc.clone()));
+                sc
+            }
+        };
+        if !brdf.is_isotropic() && !scene.has_tangents() {
+            anyhow::bail!(
+                "the anisotropic BRDF {} needs tangents, and {} has no texture coordinates",
+                brdf.spec(),
+                s.scene
+            );
+        }
+        send(Event::Info(Info {
+            env: format!(
+                "{} ({}x{})",
+                path.file_name()
+                    .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+                full.image().width(),
+                full.image().height()
+            ),
+            brdf: brdf.spec().to_string(),
+            table_bytes: material.table().map(LobeTable::weight_bytes),
+            lobes: material
+                .table()
+                .map_or(l + 1, |t| t.basis().directions().len()),
+            env_bytes: band_maps
+                .as_ref()
+                .map_or(sh.coeffs().data().len() * 4, |m| m.bytes()),
+        }));
+        let [w, h] = s.size;
+        let camera = s.camera.camera(w, h)?;
+        let background = s.background.then_some(full);
+        if let Some(ctx) = &self.gpu {
+            let gkey = (path, rot, l, s.variant);
+            let genv = cached(&mut self.cache.gpu_env, &gkey, || {
+                Ok(match &band_maps {
+                    Some(m) => GpuEnvironment::maps(ctx, m)?,
+                    None => GpuEnvironment::sh(ctx, &sh)?,
+                })
+            })?;
+            let gmat = cached(&mut self.cache.gpu_material, &(s.brdf.clone(), l), || {
+                Ok(GpuMaterial::new(ctx, &material)?)
+            })?;
+            let px = gbuffer::pixels(&scene, &camera, None)?;
+            let points: Vec<SurfacePoint> = px
+                .iter()
+                .map(|p| SurfacePoint::from_pixel(p, background))
+                .collect();
+            let surfaces = Arc::new(GpuSurfaces::upload(ctx, w, h, &points)?);
+            send(Event::Frame(Frame::Gpu {
+                surfaces,
+                env: genv,
+                material: gmat,
+            }));
+            return Ok(());
+        }
+        let t = Instant::now();
+        let job = Job {
+            scene,
+            camera,
+            env,
+            background,
+            brdf: &brdf,
+            material: Some(&material),
+            method: match s.variant {
+                Variant::Sh => Method::Isd,
+                Variant::Maps => Method::IsdMaps,
+            },
+            spp: 0,
+            seed: 0,
+            maps: None,
+            family: None,
+        };
+        let r = render(&job, &|_, _| {})?;
+        let tm = Tonemap::parse(&s.tonemap)?;
+        let image = display_image(&r.image, tm, s.exposure);
+        send(Event::Frame(Frame::Cpu {
+            image,
+            seconds: t.elapsed().as_secs_f64(),
+        }));
+        Ok(())
+    }
+}
+
+/// The full map (background) and the one the shading integrates: averaged
+/// down to 128x64 when that divides the map, as `ifd render` does.
+fn load_env(path: &std::path::Path, rotate: f64) -> Result<(EnvMap, EnvMap)> {
+    let img = ifd_image::read(path).with_context(|| format!("{}", path.display()))?;
+    let full = EnvMap::new(img, rotate).with_context(|| format!("{}", path.display()))?;
+    let (mw, mh) = (full.image().width(), full.image().height());
+    let (ew, eh) = if mw % 128 == 0 && mh % 64 == 0 {
+        (128, 64)
+    } else {
+        (mw, mh)
+    };
+    let env = full.downsampled(ew, eh)?;
+    Ok((full, env))
+}
+
+/// Closed form for Lambert and Phong, else a lobe table at `ifd render`'s
+/// default resolution.
+fn build_material(
+    brdf: &Brdf,
+    l: usize,
+    send: &(dyn Fn(Event) -> bool + Sync),
+) -> Result<Material> {
+    if let Ok(m) = Material::new(brdf, l, None) {
+        return Ok(m);
+    }
+    let nt = default_theta_entries(brdf);
+    let np = (2 * nt).min(128);
+    let t = LobeTable::build(brdf, l, nt, np, &|d, n| {
+        if d % 8 == 0 || d == n {
+            send(Event::Progress(format!("lobe table {d}/{n}")));
+        }
+    })?;
+    Ok(Material::new(brdf, l, Some(t))?)
+}
+
+/// `ifd render`'s 8-bit display transform, as egui pixels.
+#[must_use]
+pub fn display_image(img: &ifd_image::Image, tm: Tonemap, exposure: f32) -> egui::ColorImage {
+    let c = img.channels();
+    let byte = |v: f32| (tm.display(v, exposure) * 255.0).round() as u8;
+    let pixels = img
+        .data()
+        .chunks_exact(c)
+        .map(|p| {
+            let (r, g, b) = if c >= 3 {
+                (p[0], p[1], p[2])
+            } else {
+                (p[0], p[0], p[0])
+            };
+            egui::Color32::from_rgb(byte(r), byte(g), byte(b))
+        })
+        .collect();
+    egui::ColorImage::new([img.width(), img.height()], pixels)
+}

@@ -1,0 +1,78 @@
+"""The environment renderer's window (apps/ifd-envrender) under Xvfb against `ifd render`.
+
+The app renders the same view as `ifd render` (same map, BRDF, L, camera, tone curve); the
+viewport of its screenshot (at one image pixel per screen pixel) must equal `ifd render`'s PNG
+within 2 of 255 levels, on the GPU path (the WGSL kernels on the window's own device, lavapipe
+here) and on the CPU path. Without Xvfb the test fails unless IFD_WINDOW_TESTS=skip.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from conftest import TESTDATA, _binary
+
+
+def envrender_binary():
+    return _binary().with_name("ifd-envrender")
+
+
+def run_window(tmp_path, *args, check=True):
+    exe = envrender_binary()
+    if not exe.exists():
+        pytest.fail(f"{exe} not built: run `cargo build -p ifd-envrender` first")
+    if shutil.which("xvfb-run") is None:
+        if os.environ.get("IFD_WINDOW_TESTS") == "skip":
+            pytest.skip("xvfb-run not installed (IFD_WINDOW_TESTS=skip)")
+        pytest.fail("xvfb-run not installed (apt-get install xvfb xauth) or set IFD_WINDOW_TESTS=skip")
+    state = tmp_path / "state"
+    state.mkdir(exist_ok=True)
+    runtime = tmp_path / "xdg"
+    runtime.mkdir(mode=0o700, exist_ok=True)
+    env = dict(os.environ, IFD_ENVRENDER_STATE_DIR=str(state), XDG_RUNTIME_DIR=str(runtime))
+    p = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x800x24", str(exe), *map(str, args)],
+                       capture_output=True, text=True, env=env, timeout=600)
+    if check and p.returncode != 0:
+        raise AssertionError(f"ifd-envrender {args} failed ({p.returncode}):\n{p.stderr}")
+    return p
+
+
+@pytest.mark.parametrize("gpu,variant,brdf,lmax,extra", [
+    ("on", "sh", "ggx:alpha=0.3", 8, []),
+    ("on", "maps", "phong:s=40", 10, ["--scene", "torus", "--eye", "0,-3.5,2", "--tonemap", "reinhard"]),
+    ("off", "sh", "ggx:alpha=0.3", 8, ["--exposure", "1"]),
+])
+def test_screenshot_viewport_matches_ifd_render(run_ifd, tmp_path, gpu, variant, brdf, lmax, extra):
+    import cv2
+    view = ["--brdf", brdf, "--lmax", lmax, "--size", "200x150", *extra]
+    shot = tmp_path / "shot.png"
+    p = run_window(tmp_path, "--reset", *view, "--variant", variant, "--gpu", gpu,
+                   "--screenshot", shot, "--exit")
+    vp = json.loads(p.stdout.strip().splitlines()[-1])["viewport"]
+    assert (vp["width"], vp["height"]) == (200, 150), vp
+    method = "isd" if variant == "sh" else "isd-maps"
+    run_ifd("render", "--env", TESTDATA / "forest.hdr", *view, "--method", method, "-o", tmp_path / "ref.png")
+    ref = cv2.imread(str(tmp_path / "ref.png")).astype(int)
+    img = cv2.imread(str(shot)).astype(int)
+    crop = img[vp["y"]:vp["y"] + 150, vp["x"]:vp["x"] + 200]
+    diff = np.abs(crop - ref)
+    assert diff.max() <= 2, (gpu, variant, diff.max(), (diff > 2).sum())
+    # the path the status bar names is the one asked for (GPU: the adapter's name)
+    persisted = (tmp_path / "state" / "app.ron").read_text()
+    assert "ifd-envrender-settings" in persisted and brdf in persisted
+
+
+def test_bad_input_exits_2_with_a_message(tmp_path):
+    p = run_window(tmp_path, "--reset", "--env", tmp_path / "missing.hdr", "--size", "64x48",
+                   "--screenshot", tmp_path / "s.png", "--exit", check=False)
+    assert p.returncode == 2 and "missing.hdr" in p.stderr and "panicked" not in p.stderr, p.stderr
+    assert not (tmp_path / "s.png").exists()
+    (tmp_path / "bad.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 8\n\x01")
+    p = run_window(tmp_path, "--reset", "--env", tmp_path / "bad.hdr", "--size", "64x48", "--exit", check=False)
+    assert p.returncode == 2 and "bad.hdr" in p.stderr and "panicked" not in p.stderr, p.stderr
+    p = run_window(tmp_path, "--reset", "--brdf", "velvet", "--exit", check=False)
+    assert p.returncode == 2 and "velvet" in p.stderr, p.stderr
