@@ -9,7 +9,8 @@ struct Params {
     height: u32,
     // 0: clip, 1: Reinhard x / (1 + x), 2: Narkowicz's ACES fit
     curve: u32,
-    pad0: u32,
+    // the first row converted (a band of rows after banded shading)
+    row0: u32,
     // 2^exposure
     scale: f32,
     pad1: f32,
@@ -41,9 +42,10 @@ fn display(v: f32) -> f32 {
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if gid.x >= params.width || gid.y >= params.height {
+    let y = gid.y + params.row0;
+    if gid.x >= params.width || y >= params.height {
         return;
     }
-    let p = src[gid.y * params.width + gid.x];
-    textureStore(dst, gid.xy, vec4<f32>(display(p.x), display(p.y), display(p.z), 1.0));
+    let p = src[y * params.width + gid.x];
+    textureStore(dst, vec2<u32>(gid.x, y), vec4<f32>(display(p.x), display(p.y), display(p.z), 1.0));
 }

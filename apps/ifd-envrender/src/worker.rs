@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use ifd_gpu::GpuContext;
-use ifd_gpu::shading::{GpuEnvironment, GpuMaterial, GpuSurfaces, SurfacePoint};
+use ifd_gpu::shading::{GpuEnvironment, GpuMaterial, GpuShader, GpuSurfaces, SurfacePoint};
 use ifd_render::envmap::EnvMap;
 use ifd_render::gbuffer;
 use ifd_render::render::{Job, Method, render};
@@ -31,6 +31,9 @@ pub enum Event {
     Progress(String),
     /// A step failed; the previous scene stays.
     Error(String),
+    /// The GPU cannot shade these settings (a device limit); this frame was
+    /// rendered on the CPU.
+    Fallback(String),
     /// The scene's description, after each change.
     Info(Info),
     /// A frame to show.
@@ -46,7 +49,7 @@ pub struct Info {
     pub brdf: String,
     /// Lobe table bytes (`None`: closed-form weights).
     pub table_bytes: Option<usize>,
-    /// Lobes per pixel.
+    /// Lobe directions per pixel (1 for closed-form zonal weights).
     pub lobes: usize,
     /// Bytes of the environment as the shader reads it.
     pub env_bytes: usize,
@@ -63,6 +66,8 @@ pub enum Frame {
         env: Arc<GpuEnvironment>,
         /// The material.
         material: Arc<GpuMaterial>,
+        /// Object pixels per row (what a band of rows costs to shade).
+        row_objects: Vec<u32>,
     },
     /// Shaded on the CPU (`ifd_render::render`), display-transformed.
     Cpu {
@@ -82,10 +87,15 @@ pub struct Handle {
     pub rx: Receiver<Event>,
 }
 
-/// Starts the worker; `gpu` is the device frames are shaded on (`None`: the
-/// CPU renderer); `wake` is called after every event (a repaint request).
+/// Starts the worker; `gpu` is the device frames are shaded on and the
+/// shader (whose kernels the worker compiles, off the UI thread) (`None`:
+/// the CPU renderer); `wake` is called after every event (a repaint
+/// request).
 #[must_use]
-pub fn spawn(gpu: Option<Arc<GpuContext>>, wake: impl Fn() + Send + Sync + 'static) -> Handle {
+pub fn spawn(
+    gpu: Option<(Arc<GpuContext>, Arc<GpuShader>)>,
+    wake: impl Fn() + Send + Sync + 'static,
+) -> Handle {
     let (tx, rx_settings) = std::sync::mpsc::channel::<Settings>();
     let (tx_events, rx) = std::sync::mpsc::channel();
     std::thread::Builder::new()
@@ -135,7 +145,7 @@ struct Cache {
 }
 
 struct Worker {
-    gpu: Option<Arc<GpuContext>>,
+    gpu: Option<(Arc<GpuContext>, Arc<GpuShader>)>,
     cache: Cache,
 }
 
@@ -209,9 +219,7 @@ impl Worker {
             ),
             brdf: brdf.spec().to_string(),
             table_bytes: material.table().map(LobeTable::weight_bytes),
-            lobes: material
-                .table()
-                .map_or(l + 1, |t| t.basis().directions().len()),
+            lobes: material.table().map_or(1, |t| t.basis().directions().len()),
             env_bytes: band_maps
                 .as_ref()
                 .map_or(sh.coeffs().data().len() * 4, |m| m.bytes()),
@@ -219,38 +227,74 @@ impl Worker {
         let [w, h] = s.size;
         let camera = s.camera.camera(w, h)?;
         let background = s.background.then_some(full);
-        if let Some(ctx) = &self.gpu {
+        if let Some((ctx, shader)) = &self.gpu {
             let gkey = (path, rot, l, s.variant);
-            let genv = cached(&mut self.cache.gpu_env, &gkey, || {
+            let uploads = cached(&mut self.cache.gpu_env, &gkey, || {
                 Ok(match &band_maps {
                     Some(m) => GpuEnvironment::maps(ctx, m)?,
                     None => GpuEnvironment::sh(ctx, &sh)?,
                 })
-            })?;
-            let gmat = cached(&mut self.cache.gpu_material, &(s.brdf.clone(), l), || {
-                Ok(GpuMaterial::new(ctx, &material)?)
-            })?;
+            })
+            .and_then(|e| {
+                let m = cached(&mut self.cache.gpu_material, &(s.brdf.clone(), l), || {
+                    Ok(GpuMaterial::new(ctx, &material)?)
+                })?;
+                Ok((e, m))
+            });
+            // beyond the device's limits (L > 63, maps beyond a binding):
+            // this frame on the CPU, and the status bar says why
+            let (genv, gmat) = match uploads {
+                Ok(u) => u,
+                Err(e) => {
+                    send(Event::Fallback(format!("{e:#}")));
+                    return Self::render_cpu(
+                        s, scene, camera, env, background, &brdf, &material, send,
+                    );
+                }
+            };
+            // the kernel for this degree, compiled here rather than on the UI thread
+            shader.pipeline(ctx, l)?;
             let px = gbuffer::pixels(&scene, &camera, None)?;
             let points: Vec<SurfacePoint> = px
                 .iter()
                 .map(|p| SurfacePoint::from_pixel(p, background))
                 .collect();
             let surfaces = Arc::new(GpuSurfaces::upload(ctx, w, h, &points)?);
+            let row_objects = px
+                .chunks_exact(w)
+                .map(|row| row.iter().filter(|p| p.surface.is_some()).count() as u32)
+                .collect();
             send(Event::Frame(Frame::Gpu {
                 surfaces,
                 env: genv,
                 material: gmat,
+                row_objects,
             }));
             return Ok(());
         }
+        Self::render_cpu(s, scene, camera, env, background, &brdf, &material, send)
+    }
+
+    /// The frame on the CPU (`ifd_render::render`), display-transformed.
+    #[allow(clippy::too_many_arguments)]
+    fn render_cpu(
+        s: &Settings,
+        scene: Scene,
+        camera: ifd_render::camera::Camera,
+        env: &EnvMap,
+        background: Option<&EnvMap>,
+        brdf: &Brdf,
+        material: &Material,
+        send: &(dyn Fn(Event) -> bool + Sync),
+    ) -> Result<()> {
         let t = Instant::now();
         let job = Job {
             scene,
             camera,
             env,
             background,
-            brdf: &brdf,
-            material: Some(&material),
+            brdf,
+            material: Some(material),
             method: match s.variant {
                 Variant::Sh => Method::Isd,
                 Variant::Maps => Method::IsdMaps,

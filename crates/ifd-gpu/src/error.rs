@@ -21,7 +21,7 @@ pub enum GpuError {
     },
     /// A resource or dispatch would exceed one of the device's limits.
     #[error(
-        "{what} needs {needed} but the device's {limit_name} is {limit}; use a smaller image, \
+        "{what} needs {needed} but the device's {limit_name} is {limit}; use a smaller image, L, \
          region or sigma range, or the CPU path"
     )]
     Limit {

@@ -12,26 +12,36 @@ use eframe::wgpu;
 use ifd_gpu::GpuContext;
 use ifd_gpu::shading::{Curve, GpuEnvironment, GpuMaterial, GpuShaded, GpuShader, GpuSurfaces};
 
-/// GPU time the UI allows one band, before the next frame is drawn.
+/// GPU time the UI allows one band, before the next frame is drawn (on
+/// lavapipe a submission runs before `submit` returns, so this is also what
+/// the UI thread waits).
 const BAND_BUDGET: Duration = Duration::from_millis(12);
+
+/// The first guess of the shading cost per object pixel (pessimistic, a
+/// software adapter at high `L`); measured from then on.
+const FIRST_COST_S: f64 = 50e-6;
 
 struct Inputs {
     surfaces: Arc<GpuSurfaces>,
     env: Arc<GpuEnvironment>,
     material: Arc<GpuMaterial>,
+    /// Object pixels per row (the cost of a row; background rows are copies).
+    row_objects: Vec<u32>,
 }
 
 /// The GPU frame in progress and its display texture.
 pub struct GpuView {
     ctx: Arc<GpuContext>,
     render_state: RenderState,
-    shader: GpuShader,
+    shader: Arc<GpuShader>,
     inputs: Option<Inputs>,
     output: Option<GpuShaded>,
     texture: Option<(wgpu::Texture, egui::TextureId)>,
     next_row: usize,
-    rows_per_band: usize,
-    in_flight: Option<(Instant, usize, Arc<AtomicBool>)>,
+    /// Measured GPU seconds per object pixel (the band sizes follow it).
+    cost: f64,
+    /// The band in flight: submission time, object pixels, done flag.
+    in_flight: Option<(Instant, u64, Arc<AtomicBool>)>,
     frame_started: Instant,
     /// The last complete frame's shading time (submission of its first band
     /// to completion of its last).
@@ -44,19 +54,18 @@ impl std::fmt::Debug for GpuView {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("GpuView")
             .field("next_row", &self.next_row)
-            .field("rows_per_band", &self.rows_per_band)
+            .field("cost", &self.cost)
             .finish_non_exhaustive()
     }
 }
 
 impl GpuView {
-    /// The view on the window's device.
-    ///
-    /// # Errors
-    /// When the shading pipelines cannot be built there.
-    pub fn new(ctx: Arc<GpuContext>, render_state: RenderState) -> Result<Self, ifd_gpu::GpuError> {
-        let shader = GpuShader::new(&ctx)?;
-        Ok(Self {
+    /// The view on the window's device, shading with `shader` (shared with
+    /// the worker, which compiles each degree's kernel before the UI uses
+    /// it).
+    #[must_use]
+    pub fn new(ctx: Arc<GpuContext>, render_state: RenderState, shader: Arc<GpuShader>) -> Self {
+        Self {
             ctx,
             render_state,
             shader,
@@ -64,15 +73,16 @@ impl GpuView {
             output: None,
             texture: None,
             next_row: 0,
-            rows_per_band: 8,
+            cost: FIRST_COST_S,
             in_flight: None,
             frame_started: Instant::now(),
             last_frame: None,
             dirty_display: false,
-        })
+        }
     }
 
-    /// Starts shading a new frame.
+    /// Starts shading a new frame; `row_objects` are the object pixels of
+    /// each row.
     ///
     /// # Errors
     /// When the output buffer for a new size cannot be made.
@@ -81,6 +91,7 @@ impl GpuView {
         surfaces: Arc<GpuSurfaces>,
         env: Arc<GpuEnvironment>,
         material: Arc<GpuMaterial>,
+        row_objects: Vec<u32>,
     ) -> Result<(), ifd_gpu::GpuError> {
         let (w, h) = surfaces.size();
         let same = self.output.as_ref().is_some_and(|o| o.size() == (w, h));
@@ -111,6 +122,7 @@ impl GpuView {
             surfaces,
             env,
             material,
+            row_objects,
         });
         self.next_row = 0;
         self.frame_started = Instant::now();
@@ -149,22 +161,23 @@ impl GpuView {
     /// # Errors
     /// GPU errors (caught by error scopes).
     pub fn step(&mut self, curve: Curve, exposure: f32) -> Result<bool, ifd_gpu::GpuError> {
-        if let Some((t0, rows, done)) = &self.in_flight {
+        if let Some((t0, objects, done)) = &self.in_flight {
             // fire the completion callback if the band is done (non-blocking)
             let _ = self.ctx.device().poll(wgpu::PollType::Poll);
             if !done.load(Ordering::Acquire) {
                 return Ok(true);
             }
-            // adapt the band to the budget from the last band's GPU time
-            // (timestamps: the band is done, so reading them does not wait
-            // for shading), else from the time to its completion callback
-            let gpu = self
-                .output
-                .as_ref()
-                .and_then(|o| o.gpu_time(&self.ctx).ok().flatten());
-            let secs = gpu.unwrap_or_else(|| t0.elapsed()).as_secs_f64().max(1e-4);
-            let scale = (BAND_BUDGET.as_secs_f64() / secs).clamp(0.25, 4.0);
-            self.rows_per_band = ((*rows as f64 * scale) as usize).max(1);
+            // the cost per object pixel from the band's GPU time
+            // (timestamps: the band is done, so reading them does not wait),
+            // else from the time to its completion callback
+            if *objects >= 256 {
+                let gpu = self
+                    .output
+                    .as_ref()
+                    .and_then(|o| o.gpu_time(&self.ctx).ok().flatten());
+                let secs = gpu.unwrap_or_else(|| t0.elapsed()).as_secs_f64();
+                self.cost = secs / *objects as f64;
+            }
             self.in_flight = None;
             if let Some(o) = &self.output
                 && self.next_row >= o.size().1
@@ -176,10 +189,19 @@ impl GpuView {
             return Ok(false);
         };
         let h = out.size().1;
-        let shading = self.next_row < h;
-        if shading {
+        if self.next_row < h {
+            // as many rows as the budget allows at the measured cost (at least one)
             let r0 = self.next_row;
-            let r1 = (r0 + self.rows_per_band).min(h);
+            let allowed = (BAND_BUDGET.as_secs_f64() / self.cost.max(1e-12)) as u64;
+            let (mut r1, mut objects) = (r0, 0u64);
+            while r1 < h {
+                let next = objects + u64::from(inputs.row_objects.get(r1).copied().unwrap_or(0));
+                if r1 > r0 && next > allowed {
+                    break;
+                }
+                objects = next;
+                r1 += 1;
+            }
             self.shader.shade_rows(
                 &self.ctx,
                 &inputs.surfaces,
@@ -194,9 +216,14 @@ impl GpuView {
             self.ctx
                 .queue()
                 .on_submitted_work_done(move || flag.store(true, Ordering::Release));
-            self.in_flight = Some((Instant::now(), r1 - r0, done));
-        }
-        if shading || self.dirty_display {
+            self.in_flight = Some((Instant::now(), objects, done));
+            if let Some((tex, _)) = &self.texture {
+                let rows = if self.dirty_display { 0..h } else { r0..r1 };
+                self.shader
+                    .display_rows(&self.ctx, out, curve, exposure, tex, rows)?;
+            }
+            self.dirty_display = false;
+        } else if self.dirty_display {
             if let Some((tex, _)) = &self.texture {
                 self.shader.display(&self.ctx, out, curve, exposure, tex)?;
             }

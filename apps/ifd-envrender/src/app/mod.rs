@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 
 use eframe::egui_wgpu::RenderState;
 use ifd_gpu::GpuContext;
+use ifd_gpu::shading::GpuShader;
 use ifd_render::tonemap::Tonemap;
 
 pub use automation::{Automation, write_screenshot};
@@ -50,6 +51,8 @@ pub struct EnvApp {
     gpu: Option<GpuView>,
     /// Why the CPU renderer is used (status bar), `None` on the GPU.
     cpu_reason: Option<String>,
+    /// Why the current frame came from the CPU although the GPU path is on.
+    fallback: Option<String>,
     adapter: String,
     cpu_texture: Option<egui::TextureHandle>,
     cpu_frame: Option<Duration>,
@@ -79,15 +82,19 @@ impl EnvApp {
     pub fn new(ctx: &egui::Context, settings: Settings, start: StartOptions) -> Self {
         let (gpu, cpu_reason, adapter) = gpu_view(start.render_state, start.gpu);
         let wake = ctx.clone();
-        let worker = worker::spawn(gpu.as_ref().map(|(c, _)| Arc::clone(c)), move || {
-            wake.request_repaint();
-        });
+        let worker = worker::spawn(
+            gpu.as_ref().map(|(c, s, _)| (Arc::clone(c), Arc::clone(s))),
+            move || {
+                wake.request_repaint();
+            },
+        );
         Self {
             settings,
             sent: None,
             worker,
-            gpu: gpu.map(|(_, v)| v),
+            gpu: gpu.map(|(_, _, v)| v),
             cpu_reason,
+            fallback: None,
             adapter,
             cpu_texture: None,
             cpu_frame: None,
@@ -125,8 +132,8 @@ impl EnvApp {
     #[must_use]
     pub fn frame_complete(&self) -> bool {
         match &self.gpu {
-            Some(g) => g.is_complete(),
-            None => self.cpu_texture.is_some(),
+            Some(g) if self.fallback.is_none() => g.is_complete(),
+            _ => self.cpu_texture.is_some(),
         }
     }
 
@@ -188,6 +195,9 @@ impl EnvApp {
                     self.errors.push(msg);
                 }
                 Event::Info(i) => self.info = i,
+                Event::Fallback(why) => {
+                    self.fallback = Some(why);
+                }
                 Event::Frame(f) => {
                     self.progress.clear();
                     self.frames_seen += 1;
@@ -196,9 +206,12 @@ impl EnvApp {
                             surfaces,
                             env,
                             material,
+                            row_objects,
                         } => {
+                            self.fallback = None;
+                            self.cpu_texture = None;
                             if let Some(g) = &mut self.gpu
-                                && let Err(e) = g.set_frame(surfaces, env, material)
+                                && let Err(e) = g.set_frame(surfaces, env, material, row_objects)
                             {
                                 self.errors.push(format!("GPU: {e}"));
                             }
@@ -232,8 +245,12 @@ impl EnvApp {
     pub fn finish(&mut self) {}
 }
 
-/// The GPU path's device and view, why there is none, and the adapter.
-type GpuStart = (Option<(Arc<GpuContext>, GpuView)>, Option<String>, String);
+/// The GPU path's device, shader and view, why there is none, and the adapter.
+type GpuStart = (
+    Option<(Arc<GpuContext>, Arc<GpuShader>, GpuView)>,
+    Option<String>,
+    String,
+);
 
 /// The GPU view on the window's device, or why there is none.
 fn gpu_view(rs: Option<RenderState>, choice: GpuChoice) -> GpuStart {
@@ -269,8 +286,12 @@ fn gpu_view(rs: Option<RenderState>, choice: GpuChoice) -> GpuStart {
         Ok(c) => Arc::new(c),
         Err(e) => return (None, Some(format!("the GPU path failed: {e}")), adapter),
     };
-    match GpuView::new(Arc::clone(&ctx), rs) {
-        Ok(v) => (Some((ctx, v)), None, adapter),
+    match GpuShader::new(&ctx) {
+        Ok(shader) => {
+            let shader = Arc::new(shader);
+            let view = GpuView::new(Arc::clone(&ctx), rs, Arc::clone(&shader));
+            (Some((ctx, shader, view)), None, adapter)
+        }
         Err(e) => (
             None,
             Some(format!("the shading kernels failed: {e}")),

@@ -110,7 +110,7 @@ pub(super) fn side_panel(app: &mut EnvApp, ui: &mut egui::Ui) {
             });
             ui.separator();
             ui.heading("Shading");
-            ui.add(egui::Slider::new(&mut s.l_max, 1..=30).text("L (max SH degree)"));
+            ui.add(egui::Slider::new(&mut s.l_max, 1..=63).text("L (max SH degree)"));
             ui.horizontal(|ui| {
                 ui.radio_value(&mut s.variant, Variant::Sh, "SH");
                 ui.radio_value(&mut s.variant, Variant::Maps, "per-band maps");
@@ -162,9 +162,15 @@ fn frame_plot(ui: &mut egui::Ui, times: &[f32]) {
 pub(super) fn status_bar(app: &mut EnvApp, ui: &mut egui::Ui) {
     egui::Panel::bottom("status").show(ui, |ui| {
         ui.horizontal_wrapped(|ui| {
-            match &app.cpu_reason {
-                None => ui.label(format!("GPU: {}", app.adapter)),
-                Some(why) => ui.label(format!("CPU shading ({why}); adapter: {}", app.adapter)),
+            match (&app.cpu_reason, &app.fallback) {
+                (None, None) => ui.label(format!("GPU: {}", app.adapter)),
+                (None, Some(why)) => ui.colored_label(
+                    Color32::YELLOW,
+                    format!("CPU shading for this frame: the GPU cannot ({why})"),
+                ),
+                (Some(why), _) => {
+                    ui.label(format!("CPU shading ({why}); adapter: {}", app.adapter))
+                }
             };
             ui.separator();
             let i = &app.info;
@@ -198,8 +204,8 @@ pub(super) fn status_bar(app: &mut EnvApp, ui: &mut egui::Ui) {
 pub(super) fn viewport(app: &mut EnvApp, ui: &mut egui::Ui) {
     egui::CentralPanel::default().show(ui, |ui| {
         let tex = match &app.gpu {
-            Some(g) => g.texture(),
-            None => app.cpu_texture.as_ref().map(|t| (t.id(), t.size())),
+            Some(g) if app.fallback.is_none() => g.texture(),
+            _ => app.cpu_texture.as_ref().map(|t| (t.id(), t.size())),
         };
         let [w, h] = app.settings.size;
         let ppp = ui.ctx().pixels_per_point();

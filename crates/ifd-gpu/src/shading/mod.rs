@@ -90,7 +90,7 @@ struct DisplayParams {
     width: u32,
     height: u32,
     curve: u32,
-    pad0: u32,
+    row0: u32,
     scale: f32,
     pad1: [f32; 3],
 }
@@ -449,6 +449,28 @@ impl GpuShader {
         exposure: f32,
         target: &wgpu::Texture,
     ) -> Result<(), GpuError> {
+        self.display_rows(ctx, shaded, curve, exposure, target, 0..shaded.height)
+    }
+
+    /// [`Self::display`] for the rows `rows` only (the band just shaded).
+    ///
+    /// # Errors
+    /// As [`Self::display`]; [`GpuError::Unsupported`] for rows beyond the image.
+    pub fn display_rows(
+        &self,
+        ctx: &GpuContext,
+        shaded: &GpuShaded,
+        curve: Curve,
+        exposure: f32,
+        target: &wgpu::Texture,
+        rows: std::ops::Range<usize>,
+    ) -> Result<(), GpuError> {
+        if rows.start >= rows.end || rows.end > shaded.height {
+            return Err(GpuError::Unsupported(format!(
+                "display rows {rows:?} of a {}-row image",
+                shaded.height
+            )));
+        }
         let (w, h) = (shaded.width as u32, shaded.height as u32);
         if target.width() != w
             || target.height() != h
@@ -471,7 +493,7 @@ impl GpuShader {
                     Curve::Reinhard => 1,
                     Curve::Aces => 2,
                 },
-                pad0: 0,
+                row0: rows.start as u32,
                 scale: exposure.exp2(),
                 pad1: [0.0; 3],
             };
@@ -494,7 +516,8 @@ impl GpuShader {
                     },
                 ],
             });
-            submit_pass(ctx, "isd tonemap", &self.display_pipeline, &bind, (w, h));
+            let n = (rows.end - rows.start) as u32;
+            submit_pass(ctx, "isd tonemap", &self.display_pipeline, &bind, (w, n));
             Ok(())
         })
     }
