@@ -76,3 +76,16 @@ def test_bad_input_exits_2_with_a_message(tmp_path):
     assert p.returncode == 2 and "bad.hdr" in p.stderr and "panicked" not in p.stderr, p.stderr
     p = run_window(tmp_path, "--reset", "--brdf", "velvet", "--exit", check=False)
     assert p.returncode == 2 and "velvet" in p.stderr, p.stderr
+
+
+def test_monte_carlo_reference_and_error_against_l(tmp_path):
+    """The side-by-side Monte Carlo reference: refined while the camera is still, ISD's error
+    against it reported, and the error-against-L curve of the view falling with L (at 64 spp the
+    reference's own noise, about 5%, is the floor)."""
+    p = run_window(tmp_path, "--reset", "--brdf", "ggx:alpha=0.3", "--lmax", 8, "--size", "96x72",
+                   "--gpu", "on", "--reference", "--reference-spp", 64, "--exit")
+    r = json.loads(p.stdout.strip().splitlines()[-1])["reference"]
+    assert r["spp"] >= 64 and 0.0 < r["rel_rms"] < 0.25 and r["psnr_db"] > 20, r
+    curve = [c["rel_rms"] for c in r["curve"]]
+    assert [c["lmax"] for c in r["curve"]] == [2, 4, 6, 8], r
+    assert curve[0] > 1.5 * curve[-1], curve

@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 use anyhow::Context as _;
 use clap::Parser;
 use glam::DVec3;
-use ifd_envrender::app::{Automation, EnvApp, GpuChoice, StartOptions};
+use ifd_envrender::app::{Automation, EnvApp, GpuChoice, ReferenceReport, StartOptions};
 use ifd_envrender::orbit::Orbit;
 use ifd_envrender::settings::{STORAGE_KEY, Settings, Variant};
 
@@ -17,6 +17,8 @@ use ifd_envrender::settings::{STORAGE_KEY, Settings, Variant};
 /// Options given here override the stored settings of the last session.
 #[derive(Parser, Debug)]
 #[command(version)]
+// command-line switches are bools by nature
+#[allow(clippy::struct_excessive_bools)]
 struct Args {
     /// Environment map, 2:1 equirectangular (HDR, EXR, ...); default: the bundled forest.hdr.
     #[arg(long, value_name = "FILE")]
@@ -71,6 +73,13 @@ struct Args {
     /// Start from the defaults instead of the stored settings.
     #[arg(long)]
     reset: bool,
+    /// Show the Monte Carlo reference beside the ISD image, with the error.
+    #[arg(long)]
+    reference: bool,
+    /// With --exit: wait for the reference to reach N samples per pixel (and,
+    /// from 64, the error-against-L curve); the errors are printed as JSON.
+    #[arg(long, value_name = "N", requires = "reference")]
+    reference_spp: Option<usize>,
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -159,6 +168,17 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
     if args.no_background {
         s.background = false;
     }
+    if args.reference {
+        s.reference = true;
+    }
+    if let Some(n) = args.reference_spp
+        && !(1..=ifd_envrender::reference::MAX_SPP).contains(&n)
+    {
+        anyhow::bail!(
+            "--reference-spp {n}: use 1..={}",
+            ifd_envrender::reference::MAX_SPP
+        );
+    }
     Ok(s)
 }
 
@@ -205,11 +225,14 @@ fn run(args: &Args) -> anyhow::Result<()> {
     settings(args, None)?;
     let failure = Arc::new(Mutex::new(None::<String>));
     let viewport = Arc::new(Mutex::new(None::<[usize; 4]>));
+    let reference = Arc::new(Mutex::new(None::<ReferenceReport>));
     let automation = Automation {
         screenshot: args.screenshot.clone(),
         exit: args.exit,
         failure: Arc::clone(&failure),
         viewport: Arc::clone(&viewport),
+        reference_spp: args.reference_spp,
+        reference: Arc::clone(&reference),
     };
     let gpu = match args.gpu {
         Gpu::Auto => GpuChoice::Auto,
@@ -265,11 +288,19 @@ fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(msg) = failure.lock().ok().and_then(|mut f| f.take()) {
         anyhow::bail!(msg);
     }
+    let mut report = serde_json::json!({});
     if let Some(r) = viewport.lock().ok().and_then(|v| *v) {
-        println!(
-            "{}",
-            serde_json::json!({"viewport": {"x": r[0], "y": r[1], "width": r[2], "height": r[3]}})
-        );
+        report["viewport"] =
+            serde_json::json!({"x": r[0], "y": r[1], "width": r[2], "height": r[3]});
+    }
+    if let Some((spp, rel, psnr, curve)) = reference.lock().ok().and_then(|mut r| r.take()) {
+        report["reference"] = serde_json::json!({
+            "spp": spp, "rel_rms": rel, "psnr_db": psnr,
+            "curve": curve.iter().map(|(l, e)| serde_json::json!({"lmax": l, "rel_rms": e})).collect::<Vec<_>>(),
+        });
+    }
+    if report.as_object().is_some_and(|o| !o.is_empty()) {
+        println!("{report}");
     }
     Ok(())
 }

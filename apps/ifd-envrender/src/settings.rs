@@ -44,6 +44,9 @@ pub struct Settings {
     pub env_rotate: f64,
     /// Show the environment behind the object.
     pub background: bool,
+    /// Refine a Monte Carlo reference of the view while the camera is still,
+    /// shown beside the ISD image with the error against it.
+    pub reference: bool,
 }
 
 impl Default for Settings {
@@ -61,6 +64,7 @@ impl Default for Settings {
             tonemap: "aces".into(),
             env_rotate: 0.0,
             background: true,
+            reference: false,
         }
     }
 }

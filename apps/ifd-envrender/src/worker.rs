@@ -73,6 +73,8 @@ pub enum Frame {
     Cpu {
         /// The pixels.
         image: egui::ColorImage,
+        /// The linear radiance (for the error against the reference).
+        linear: Arc<ifd_image::Image>,
         /// Render time, seconds.
         seconds: f64,
     },
@@ -309,6 +311,7 @@ impl Worker {
         let image = display_image(&r.image, tm, s.exposure);
         send(Event::Frame(Frame::Cpu {
             image,
+            linear: Arc::new(r.image),
             seconds: t.elapsed().as_secs_f64(),
         }));
         Ok(())
@@ -317,7 +320,10 @@ impl Worker {
 
 /// The full map (background) and the one the shading integrates: averaged
 /// down to 128x64 when that divides the map, as `ifd render` does.
-fn load_env(path: &std::path::Path, rotate: f64) -> Result<(EnvMap, EnvMap)> {
+///
+/// # Errors
+/// A map that cannot be read or is not 2:1.
+pub fn load_env(path: &std::path::Path, rotate: f64) -> Result<(EnvMap, EnvMap)> {
     let img = ifd_image::read(path).with_context(|| format!("{}", path.display()))?;
     let full = EnvMap::new(img, rotate).with_context(|| format!("{}", path.display()))?;
     let (mw, mh) = (full.image().width(), full.image().height());

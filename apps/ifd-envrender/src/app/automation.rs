@@ -24,7 +24,16 @@ pub struct Automation {
     /// Where the viewport's rectangle in the screenshot is reported
     /// (`[x, y, width, height]`, physical pixels).
     pub viewport: Arc<Mutex<Option<[usize; 4]>>>,
+    /// Wait for the Monte Carlo reference to reach this many samples per
+    /// pixel (and, from 64, the error-against-`L` curve) before finishing.
+    pub reference_spp: Option<usize>,
+    /// Where the reference's result is reported: samples per pixel, ISD's
+    /// relative RMS error and PSNR against it, the curve `(L, error)`.
+    pub reference: Arc<Mutex<Option<ReferenceReport>>>,
 }
+
+/// The reference's result at the end of an automated run.
+pub type ReferenceReport = (usize, f64, f64, Vec<(usize, f64)>);
 
 impl Automation {
     /// Whether anything is automated.
@@ -58,7 +67,22 @@ impl EnvApp {
         }
         match self.stage {
             Stage::WaitFrame => {
-                if self.frame_complete() {
+                let reference_done = self.automation.reference_spp.is_none_or(|n| {
+                    let r = &self.refs;
+                    let spp = r.image.as_ref().map_or(0, |i| i.2);
+                    spp >= n && r.error.is_some() && (n < 64 || r.curve.is_some())
+                });
+                if self.frame_complete() && reference_done {
+                    if self.automation.reference_spp.is_some()
+                        && let (Some((_, _, spp)), Some((rel, psnr)), Ok(mut slot)) = (
+                            &self.refs.image,
+                            self.refs.error,
+                            self.automation.reference.lock(),
+                        )
+                    {
+                        let curve = self.refs.curve.as_ref().map(|c| c.0.clone());
+                        *slot = Some((*spp, rel, psnr, curve.unwrap_or_default()));
+                    }
                     self.stage = Stage::Settle(0);
                 }
                 ctx.request_repaint_after(Duration::from_millis(20));

@@ -146,6 +146,18 @@ impl GpuView {
             && !self.dirty_display
     }
 
+    /// The shaded frame's linear RGB (blocks until the GPU is done: call it
+    /// once the frame is complete).
+    ///
+    /// # Errors
+    /// Readback failures.
+    pub fn read_linear(&self) -> Result<ifd_image::Image, ifd_gpu::GpuError> {
+        let Some(o) = &self.output else {
+            return Err(ifd_gpu::GpuError::Unsupported("no frame yet".into()));
+        };
+        Ok(o.read(&self.ctx)?.0)
+    }
+
     /// The texture to draw and its size.
     #[must_use]
     pub fn texture(&self) -> Option<(egui::TextureId, [usize; 2])> {

@@ -14,11 +14,32 @@ use ifd_gpu::GpuContext;
 use ifd_gpu::shading::GpuShader;
 use ifd_render::tonemap::Tonemap;
 
-pub use automation::{Automation, write_screenshot};
+pub use automation::{Automation, ReferenceReport, write_screenshot};
 pub use gpu_view::GpuView;
 
+use crate::reference::{self, RefEvent, Request};
 use crate::settings::Settings;
 use crate::worker::{self, Event, Frame, Handle, Info};
+
+/// The Monte Carlo reference of the current view and ISD's error against it.
+#[derive(Default)]
+pub(crate) struct RefState {
+    /// Settings changes that alter the image (answers carry it).
+    generation: u64,
+    /// The generation a request was sent for.
+    requested: Option<u64>,
+    /// When the image-changing settings last changed.
+    changed_at: Option<Instant>,
+    /// ISD's linear image of this generation.
+    isd: Option<Arc<ifd_image::Image>>,
+    /// The reference so far: image, mask, samples per pixel.
+    image: Option<(Arc<ifd_image::Image>, Arc<Vec<bool>>, usize)>,
+    texture: Option<egui::TextureHandle>,
+    /// Relative RMS and PSNR (dB) of ISD against the reference.
+    error: Option<(f64, f64)>,
+    /// `(L, relative RMS)` and the reference's samples per pixel.
+    curve: Option<(Vec<(usize, f64)>, usize)>,
+}
 
 /// Which shading path to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,6 +87,8 @@ pub struct EnvApp {
     stage: automation::Stage,
     shot: Arc<Mutex<Option<Arc<egui::ColorImage>>>>,
     viewport: Option<egui::Rect>,
+    reference: reference::Handle,
+    pub(crate) refs: RefState,
 }
 
 impl std::fmt::Debug for EnvApp {
@@ -82,6 +105,8 @@ impl EnvApp {
     pub fn new(ctx: &egui::Context, settings: Settings, start: StartOptions) -> Self {
         let (gpu, cpu_reason, adapter) = gpu_view(start.render_state, start.gpu);
         let wake = ctx.clone();
+        let wake_ref = ctx.clone();
+        let reference = reference::spawn(move || wake_ref.request_repaint());
         let worker = worker::spawn(
             gpu.as_ref().map(|(c, s, _)| (Arc::clone(c), Arc::clone(s))),
             move || {
@@ -107,6 +132,8 @@ impl EnvApp {
             stage: automation::Stage::WaitFrame,
             shot: Arc::new(Mutex::new(None)),
             viewport: None,
+            reference,
+            refs: RefState::default(),
         }
     }
 
@@ -160,10 +187,33 @@ impl EnvApp {
             } else {
                 // The worker only stops when the app does.
                 self.worker.tx.send(self.settings.clone()).ok();
+                let reference_only = self.sent.as_ref().is_some_and(|s| {
+                    let mut a = s.clone();
+                    a.reference = self.settings.reference;
+                    a == self.settings
+                });
+                if !reference_only {
+                    let g = self.refs.generation + 1;
+                    self.refs = RefState {
+                        generation: g,
+                        ..RefState::default()
+                    };
+                }
+                self.refs.changed_at = Some(Instant::now());
+            }
+            let tm = self.tonemap();
+            if let Some(t) = &mut self.refs.texture
+                && let Some((img, _, _)) = &self.refs.image
+            {
+                t.set(
+                    worker::display_image(img, tm, self.settings.exposure),
+                    egui::TextureOptions::NEAREST,
+                );
             }
             self.sent = Some(self.settings.clone());
         }
         self.events(&ctx);
+        self.reference_step(&ctx);
         let (curve, exposure) = (self.tonemap().into(), self.settings.exposure);
         if let Some(g) = &mut self.gpu {
             match g.step(curve, exposure) {
@@ -216,7 +266,13 @@ impl EnvApp {
                                 self.errors.push(format!("GPU: {e}"));
                             }
                         }
-                        Frame::Cpu { image, seconds } => {
+                        Frame::Cpu {
+                            image,
+                            linear,
+                            seconds,
+                        } => {
+                            self.refs.isd = Some(linear);
+                            self.refs.error = None;
                             self.cpu_frame = Some(Duration::from_secs_f64(seconds));
                             match &mut self.cpu_texture {
                                 Some(t) => t.set(image, egui::TextureOptions::NEAREST),
@@ -238,6 +294,83 @@ impl EnvApp {
         // the worker's answer flowing
         if self.gpu.is_none() && self.sent.as_ref() != Some(&self.settings) {
             ctx.request_repaint_after(Duration::from_millis(30));
+        }
+    }
+
+    /// Requests the reference once the view has been still for 400 ms and
+    /// the frame is complete; takes the reference thread's answers.
+    fn reference_step(&mut self, ctx: &egui::Context) {
+        let r = &mut self.refs;
+        let still = r
+            .changed_at
+            .is_none_or(|t| t.elapsed() > Duration::from_millis(400));
+        if self.settings.reference && r.requested != Some(r.generation) {
+            if still && self.frame_complete() {
+                self.reference
+                    .tx
+                    .send(Request {
+                        settings: self.settings.clone(),
+                        generation: self.refs.generation,
+                    })
+                    .ok();
+                self.refs.requested = Some(self.refs.generation);
+            } else {
+                ctx.request_repaint_after(Duration::from_millis(100));
+            }
+        }
+        // the GPU frame's linear image, read back once it is complete
+        if self.settings.reference
+            && self.refs.isd.is_none()
+            && self.fallback.is_none()
+            && let Some(g) = &self.gpu
+            && g.is_complete()
+        {
+            match g.read_linear() {
+                Ok(img) => self.refs.isd = Some(Arc::new(img)),
+                Err(e) => self.errors.push(format!("GPU: {e}")),
+            }
+        }
+        while let Ok(e) = self.reference.rx.try_recv() {
+            match e {
+                RefEvent::Pass {
+                    generation,
+                    image,
+                    mask,
+                    spp,
+                } if generation == self.refs.generation => {
+                    let shown =
+                        worker::display_image(&image, self.tonemap(), self.settings.exposure);
+                    match &mut self.refs.texture {
+                        Some(t) => t.set(shown, egui::TextureOptions::NEAREST),
+                        None => {
+                            self.refs.texture = Some(ctx.load_texture(
+                                "ifd-envrender reference",
+                                shown,
+                                egui::TextureOptions::NEAREST,
+                            ));
+                        }
+                    }
+                    self.refs.image = Some((image, mask, spp));
+                    self.refs.error = None;
+                }
+                RefEvent::Curve {
+                    generation,
+                    points,
+                    spp,
+                } if generation == self.refs.generation => {
+                    self.refs.curve = Some((points, spp));
+                }
+                RefEvent::Error(msg) => self.errors.push(format!("reference: {msg}")),
+                _ => {}
+            }
+        }
+        let r = &mut self.refs;
+        if r.error.is_none()
+            && let (Some(isd), Some((reference, mask, _))) = (&r.isd, &r.image)
+            && isd.width() == reference.width()
+            && isd.height() == reference.height()
+        {
+            r.error = Some(errors(isd, reference, mask));
         }
     }
 
@@ -304,4 +437,28 @@ fn gpu_view(rs: Option<RenderState>, choice: GpuChoice) -> GpuStart {
 #[must_use]
 pub fn dropped_path(ctx: &egui::Context) -> Option<PathBuf> {
     ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()))
+}
+
+/// Relative RMS error and PSNR (dB; the reference's largest object value as
+/// the data range) of `a` against `reference` over the object's pixels.
+fn errors(a: &ifd_image::Image, reference: &ifd_image::Image, mask: &[bool]) -> (f64, f64) {
+    let ch = a.channels().min(reference.channels());
+    let (mut se, mut n, mut peak) = (0.0, 0usize, 0.0f64);
+    for (i, m) in mask.iter().enumerate() {
+        if !m {
+            continue;
+        }
+        for c in 0..ch {
+            let (x, y) = (
+                f64::from(a.data()[i * a.channels() + c]),
+                f64::from(reference.data()[i * reference.channels() + c]),
+            );
+            se += (x - y) * (x - y);
+            n += 1;
+            peak = peak.max(y.abs());
+        }
+    }
+    let rel = ifd_render::render::relative_rms(a, reference, mask);
+    let psnr = ifd_image::metrics::psnr_from_mse(se / n.max(1) as f64, peak.max(1e-12));
+    (rel, psnr)
 }

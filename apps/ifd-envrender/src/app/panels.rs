@@ -127,9 +127,88 @@ pub(super) fn side_panel(app: &mut EnvApp, ui: &mut egui::Ui) {
                 });
             ui.label("drag: orbit, wheel: zoom, F: frame");
             ui.separator();
+            ui.heading("Reference");
+            ui.checkbox(&mut s.reference, "Monte Carlo reference, side by side")
+                .on_hover_text(
+                    "refined on a worker thread while the camera is still (8 samples per pixel \
+                     a pass, up to 1024); ISD's error against it below",
+                );
+            if s.reference {
+                reference_report(ui, &app.refs, s.l_max);
+            }
+            ui.separator();
             ui.heading("Frame times");
             frame_plot(ui, &app.ui_times);
         });
+}
+
+/// The reference's progress, ISD's error against it, and the error over `L`.
+fn reference_report(ui: &mut egui::Ui, r: &super::RefState, l_max: usize) {
+    match (&r.image, r.error) {
+        (Some((_, _, spp)), Some((rel, psnr))) => {
+            ui.label(format!(
+                "{spp} spp: ISD rel. RMS {rel:.4}, PSNR {psnr:.1} dB"
+            ));
+        }
+        (Some((_, _, spp)), None) => {
+            ui.label(format!("{spp} spp"));
+        }
+        _ => {
+            ui.label("waiting for a still camera");
+        }
+    }
+    let Some((points, spp)) = &r.curve else {
+        return;
+    };
+    ui.label(format!("error against L (reference at {spp} spp):"));
+    let (rect, _) = ui.allocate_exact_size(vec2(220.0, 80.0), Sense::hover());
+    let p = ui.painter_at(rect);
+    p.rect_filled(rect, 2.0, Color32::from_gray(24));
+    let logs: Vec<f64> = points.iter().map(|(_, e)| e.max(1e-6).log10()).collect();
+    let (lo, hi) = logs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
+    let (lo, hi) = (lo.floor(), hi.ceil().max(lo.floor() + 1.0));
+    let lmax = points.iter().map(|(l, _)| *l).max().unwrap_or(1).max(1) as f32;
+    let at = |l: usize, v: f64| {
+        egui::pos2(
+            rect.left() + 4.0 + (rect.width() - 8.0) * l as f32 / lmax,
+            rect.bottom() - 4.0 - (rect.height() - 8.0) * ((v - lo) / (hi - lo)) as f32,
+        )
+    };
+    let pts: Vec<egui::Pos2> = points
+        .iter()
+        .zip(&logs)
+        .map(|((l, _), v)| at(*l, *v))
+        .collect();
+    for q in &pts {
+        p.circle_filled(*q, 2.0, Color32::LIGHT_BLUE);
+    }
+    p.add(egui::Shape::line(
+        pts,
+        Stroke::new(1.0, Color32::LIGHT_BLUE),
+    ));
+    p.text(
+        rect.left_top() + vec2(4.0, 2.0),
+        egui::Align2::LEFT_TOP,
+        format!("1e{hi:.0}"),
+        egui::FontId::monospace(9.0),
+        Color32::GRAY,
+    );
+    p.text(
+        rect.left_bottom() + vec2(4.0, -2.0),
+        egui::Align2::LEFT_BOTTOM,
+        format!("1e{lo:.0}"),
+        egui::FontId::monospace(9.0),
+        Color32::GRAY,
+    );
+    if let Some((_, e)) = points.iter().find(|(l, _)| *l == l_max) {
+        ui.label(format!(
+            "at L = {l_max}: {e:.4} (floor: the reference's noise)"
+        ));
+    }
 }
 
 /// UI frame times (ms) as a small line plot with the 50 ms line.
@@ -223,6 +302,17 @@ pub(super) fn viewport(app: &mut EnvApp, ui: &mut egui::Ui) {
             ui.painter().rect_filled(rect, 0.0, Color32::from_gray(16));
         }
         app.viewport = Some(rect);
+        if app.settings.reference
+            && let Some(t) = &app.refs.texture
+        {
+            let r = egui::Rect::from_min_size(rect.right_top() + vec2(8.0, 0.0), size);
+            ui.painter().image(
+                t.id(),
+                r,
+                egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
+                Color32::WHITE,
+            );
+        }
         let cam = &mut app.settings.camera;
         if resp.dragged() {
             let d = resp.drag_delta();
