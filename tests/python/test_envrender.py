@@ -43,11 +43,20 @@ def run_window(tmp_path, *args, check=True):
 
 @pytest.mark.parametrize("gpu,variant,brdf,lmax,extra", [
     ("on", "sh", "ggx:alpha=0.3", 8, []),
+    ("on", "sh", "ggx:alpha=0.5", 6, ["maps"]),
     ("on", "maps", "phong:s=40", 10, ["--scene", "torus", "--eye", "0,-3.5,2", "--tonemap", "reinhard"]),
     ("off", "sh", "ggx:alpha=0.3", 8, ["--exposure", "1"]),
 ])
 def test_screenshot_viewport_matches_ifd_render(run_ifd, tmp_path, gpu, variant, brdf, lmax, extra):
     import cv2
+    if extra == ["maps"]:
+        # a spatially varying BRDF: roughness stripes and an albedo ramp over the sphere's (u, v)
+        rough = np.tile(np.linspace(0.3, 0.8, 16, dtype=np.float32), (8, 1))
+        np.save(tmp_path / "rough.npy", rough)
+        albedo = np.stack([np.full((8, 16), 0.9), np.linspace(0.2, 1, 8)[:, None].repeat(16, 1),
+                           np.full((8, 16), 0.5)], -1).astype(np.float32)
+        np.save(tmp_path / "albedo.npy", albedo)
+        extra = ["--roughness-map", tmp_path / "rough.npy", "--albedo-map", tmp_path / "albedo.npy"]
     view = ["--brdf", brdf, "--lmax", lmax, "--size", "200x150", *extra]
     shot = tmp_path / "shot.png"
     p = run_window(tmp_path, "--reset", *view, "--variant", variant, "--gpu", gpu,
@@ -55,7 +64,9 @@ def test_screenshot_viewport_matches_ifd_render(run_ifd, tmp_path, gpu, variant,
     vp = json.loads(p.stdout.strip().splitlines()[-1])["viewport"]
     assert (vp["width"], vp["height"]) == (200, 150), vp
     method = "isd" if variant == "sh" else "isd-maps"
-    run_ifd("render", "--env", TESTDATA / "forest.hdr", *view, "--method", method, "-o", tmp_path / "ref.png")
+    tables = ["--roughness-tables", 6] if "--roughness-map" in view else []
+    run_ifd("render", "--env", TESTDATA / "forest.hdr", *view, *tables, "--method", method,
+            "-o", tmp_path / "ref.png")
     ref = cv2.imread(str(tmp_path / "ref.png")).astype(int)
     img = cv2.imread(str(shot)).astype(int)
     crop = img[vp["y"]:vp["y"] + 150, vp["x"]:vp["x"] + 200]

@@ -59,6 +59,13 @@ struct Args {
     /// Black background.
     #[arg(long)]
     no_background: bool,
+    /// Albedo map over the surface's texture coordinates (as `ifd render`).
+    #[arg(long, value_name = "IMAGE")]
+    albedo_map: Option<PathBuf>,
+    /// Roughness map (as `ifd render`; isotropic GGX or Ward; 6 lobe tables
+    /// over its range, `ifd render --roughness-tables 6`).
+    #[arg(long, value_name = "IMAGE")]
+    roughness_map: Option<PathBuf>,
     /// Shade on the GPU: auto (hardware adapters; a software one such as
     /// lavapipe is slower than the CPU renderer), on (any adapter), off.
     #[arg(long, value_enum, default_value = "auto")]
@@ -170,6 +177,12 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
     }
     if args.reference {
         s.reference = true;
+    }
+    if let Some(p) = &args.albedo_map {
+        s.albedo_map = Some(p.clone());
+    }
+    if let Some(p) = &args.roughness_map {
+        s.roughness_map = Some(p.clone());
     }
     if let Some(n) = args.reference_spp
         && !(1..=ifd_envrender::reference::MAX_SPP).contains(&n)

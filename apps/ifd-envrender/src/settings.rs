@@ -47,6 +47,11 @@ pub struct Settings {
     /// Refine a Monte Carlo reference of the view while the camera is still,
     /// shown beside the ISD image with the error against it.
     pub reference: bool,
+    /// Albedo map over the surface's texture coordinates (`ifd render
+    /// --albedo-map`).
+    pub albedo_map: Option<PathBuf>,
+    /// Roughness map (`ifd render --roughness-map`; isotropic GGX or Ward).
+    pub roughness_map: Option<PathBuf>,
 }
 
 impl Default for Settings {
@@ -65,6 +70,8 @@ impl Default for Settings {
             env_rotate: 0.0,
             background: true,
             reference: false,
+            albedo_map: None,
+            roughness_map: None,
         }
     }
 }

@@ -17,6 +17,7 @@ use ifd_render::envmap::EnvMap;
 use ifd_render::gbuffer;
 use ifd_render::render::{Job, Method, render};
 use ifd_render::scene::Scene;
+use ifd_render::textures::{RoughnessFamily, SurfaceMaps, Texture};
 use ifd_render::tonemap::Tonemap;
 use ifd_shade::Brdf;
 use ifd_shade::shade::{BandMaps, Environment, Material};
@@ -142,8 +143,37 @@ struct Cache {
     maps: Slot<ShKey, BandMaps>,
     material: Slot<(String, usize), Material>,
     scene: Option<(String, Scene)>,
+    surface: Slot<MapKey, SurfaceMaps>,
+    family: Slot<(String, usize, MapKey), RoughnessFamily>,
     gpu_env: Slot<(PathBuf, u64, usize, Variant), GpuEnvironment>,
-    gpu_material: Slot<(String, usize), GpuMaterial>,
+    gpu_material: Slot<(String, usize, MapKey), GpuMaterial>,
+}
+
+/// The albedo and roughness maps' paths.
+type MapKey = (Option<PathBuf>, Option<PathBuf>);
+
+/// Reads the texture maps (8/16-bit albedo sRGB-decoded, as `ifd render`).
+fn load_maps((albedo, roughness): &MapKey) -> Result<SurfaceMaps> {
+    let read = |p: &PathBuf, srgb: bool, what: &'static str| -> Result<Texture> {
+        let opts = ifd_image::ReadOptions {
+            srgb_decode: srgb,
+            ..Default::default()
+        };
+        let img = ifd_image::read_image(p, &opts)
+            .with_context(|| format!("{what} {}", p.display()))?
+            .image;
+        Texture::new(img, what).with_context(|| format!("{}", p.display()))
+    };
+    Ok(SurfaceMaps {
+        albedo: albedo
+            .as_ref()
+            .map(|p| read(p, true, "albedo map"))
+            .transpose()?,
+        roughness: roughness
+            .as_ref()
+            .map(|p| read(p, false, "roughness map"))
+            .transpose()?,
+    })
 }
 
 struct Worker {
@@ -192,9 +222,31 @@ impl Worker {
             None
         };
         let brdf = Brdf::parse(&s.brdf).with_context(|| format!("BRDF {:?}", s.brdf))?;
-        let material = cached(&mut self.cache.material, &(s.brdf.clone(), l), || {
-            build_material(&brdf, l, send)
-        })?;
+        let map_key: MapKey = (s.albedo_map.clone(), s.roughness_map.clone());
+        let surface = cached(&mut self.cache.surface, &map_key, || load_maps(&map_key))?;
+        // a roughness map: a family of tables over its range, as `ifd render`
+        let family = match &surface.roughness {
+            Some(t) => {
+                brdf.with_roughness(0.5).context("the roughness map")?;
+                let key = (s.brdf.clone(), l, map_key.clone());
+                Some(cached(&mut self.cache.family, &key, || {
+                    Ok(RoughnessFamily::build(&brdf, l, t.range(), 6, &|d, n| {
+                        send(Event::Progress(format!("roughness tables {d}/{n}")));
+                    })?)
+                })?)
+            }
+            None => None,
+        };
+        let material = match &family {
+            Some(f) => Arc::new(Material::new(
+                f.materials()[0].brdf(),
+                l,
+                f.materials()[0].table().cloned(),
+            )?),
+            None => cached(&mut self.cache.material, &(s.brdf.clone(), l), || {
+                build_material(&brdf, l, send)
+            })?,
+        };
         let scene = match &self.cache.scene {
             Some((name, sc)) if *name == s.scene => sc.clone(),
             _ => {
@@ -220,7 +272,15 @@ impl Worker {
                 full.image().height()
             ),
             brdf: brdf.spec().to_string(),
-            table_bytes: material.table().map(LobeTable::weight_bytes),
+            table_bytes: match &family {
+                Some(f) => Some(
+                    f.materials()
+                        .iter()
+                        .filter_map(|m| m.table().map(LobeTable::weight_bytes))
+                        .sum(),
+                ),
+                None => material.table().map(LobeTable::weight_bytes),
+            },
             lobes: material.table().map_or(1, |t| t.basis().directions().len()),
             env_bytes: band_maps
                 .as_ref()
@@ -238,8 +298,12 @@ impl Worker {
                 })
             })
             .and_then(|e| {
-                let m = cached(&mut self.cache.gpu_material, &(s.brdf.clone(), l), || {
-                    Ok(GpuMaterial::new(ctx, &material)?)
+                let key = (s.brdf.clone(), l, map_key.clone());
+                let m = cached(&mut self.cache.gpu_material, &key, || {
+                    Ok(match &family {
+                        Some(f) => GpuMaterial::family(ctx, f)?,
+                        None => GpuMaterial::new(ctx, &material)?,
+                    })
                 })?;
                 Ok((e, m))
             });
@@ -250,13 +314,20 @@ impl Worker {
                 Err(e) => {
                     send(Event::Fallback(format!("{e:#}")));
                     return Self::render_cpu(
-                        s, scene, camera, env, background, &brdf, &material, send,
+                        s,
+                        scene,
+                        camera,
+                        env,
+                        background,
+                        &brdf,
+                        (&material, &surface, family.as_deref()),
+                        send,
                     );
                 }
             };
             // the kernel for this degree, compiled here rather than on the UI thread
             shader.pipeline(ctx, l)?;
-            let px = gbuffer::pixels(&scene, &camera, None)?;
+            let px = gbuffer::pixels(&scene, &camera, Some(&surface))?;
             let points: Vec<SurfacePoint> = px
                 .iter()
                 .map(|p| SurfacePoint::from_pixel(p, background))
@@ -274,7 +345,16 @@ impl Worker {
             }));
             return Ok(());
         }
-        Self::render_cpu(s, scene, camera, env, background, &brdf, &material, send)
+        Self::render_cpu(
+            s,
+            scene,
+            camera,
+            env,
+            background,
+            &brdf,
+            (&material, &surface, family.as_deref()),
+            send,
+        )
     }
 
     /// The frame on the CPU (`ifd_render::render`), display-transformed.
@@ -286,7 +366,7 @@ impl Worker {
         env: &EnvMap,
         background: Option<&EnvMap>,
         brdf: &Brdf,
-        material: &Material,
+        (material, surface, family): (&Material, &SurfaceMaps, Option<&RoughnessFamily>),
         send: &(dyn Fn(Event) -> bool + Sync),
     ) -> Result<()> {
         let t = Instant::now();
@@ -303,8 +383,8 @@ impl Worker {
             },
             spp: 0,
             seed: 0,
-            maps: None,
-            family: None,
+            maps: Some(surface),
+            family,
         };
         let r = render(&job, &|_, _| {})?;
         let tm = Tonemap::parse(&s.tonemap)?;

@@ -102,6 +102,22 @@ pub(super) fn side_panel(app: &mut EnvApp, ui: &mut egui::Ui) {
                     s.brdf = spec;
                 }
             }
+            for (what, slot) in [
+                ("albedo map", &mut s.albedo_map),
+                ("roughness map", &mut s.roughness_map),
+            ] {
+                if let Some(p) = slot.clone() {
+                    ui.horizontal(|ui| {
+                        let name = p
+                            .file_name()
+                            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+                        ui.label(format!("{what}: {name}"));
+                        if ui.small_button("clear").clicked() {
+                            *slot = None;
+                        }
+                    });
+                }
+            }
             ui.horizontal(|ui| {
                 ui.label("spec");
                 ui.text_edit_singleline(&mut s.brdf).on_hover_text(
