@@ -46,6 +46,11 @@ pub struct GpuView {
     /// The last complete frame's shading time (submission of its first band
     /// to completion of its last).
     pub last_frame: Option<Duration>,
+    /// GPU time of the frame in progress (sum of its bands' timestamps).
+    frame_gpu: Duration,
+    /// GPU time of each complete frame, ms (latest 120; empty without
+    /// timestamp queries).
+    pub gpu_frames: Vec<f32>,
     /// Whether the display needs redrawing (settings changed).
     dirty_display: bool,
 }
@@ -77,6 +82,8 @@ impl GpuView {
             in_flight: None,
             frame_started: Instant::now(),
             last_frame: None,
+            frame_gpu: Duration::ZERO,
+            gpu_frames: Vec::new(),
             dirty_display: false,
         }
     }
@@ -126,6 +133,7 @@ impl GpuView {
         });
         self.next_row = 0;
         self.frame_started = Instant::now();
+        self.frame_gpu = Duration::ZERO;
         Ok(())
     }
 
@@ -182,11 +190,14 @@ impl GpuView {
             // the cost per object pixel from the band's GPU time
             // (timestamps: the band is done, so reading them does not wait),
             // else from the time to its completion callback
+            let gpu = self
+                .output
+                .as_ref()
+                .and_then(|o| o.gpu_time(&self.ctx).ok().flatten());
+            if let Some(g) = gpu {
+                self.frame_gpu += g;
+            }
             if *objects >= 256 {
-                let gpu = self
-                    .output
-                    .as_ref()
-                    .and_then(|o| o.gpu_time(&self.ctx).ok().flatten());
                 let secs = gpu.unwrap_or_else(|| t0.elapsed()).as_secs_f64();
                 self.cost = secs / *objects as f64;
             }
@@ -195,6 +206,12 @@ impl GpuView {
                 && self.next_row >= o.size().1
             {
                 self.last_frame = Some(self.frame_started.elapsed());
+                if self.ctx.has_timestamps() {
+                    self.gpu_frames.push(self.frame_gpu.as_secs_f32() * 1e3);
+                    if self.gpu_frames.len() > 120 {
+                        self.gpu_frames.remove(0);
+                    }
+                }
             }
         }
         let (Some(inputs), Some(out)) = (&self.inputs, &mut self.output) else {

@@ -155,7 +155,43 @@ pub(super) fn side_panel(app: &mut EnvApp, ui: &mut egui::Ui) {
             ui.separator();
             ui.heading("Frame times");
             frame_plot(ui, &app.ui_times);
+            if let Some(g) = &app.gpu
+                && let Some(last) = g.gpu_frames.last()
+            {
+                ui.label(format!(
+                    "GPU shading per frame (timestamps): {last:.1} ms, {} frames",
+                    g.gpu_frames.len()
+                ));
+                gpu_plot(ui, &g.gpu_frames);
+            }
         });
+}
+
+/// GPU time per shaded frame (ms), scaled to the largest.
+fn gpu_plot(ui: &mut egui::Ui, times: &[f32]) {
+    let (rect, _) = ui.allocate_exact_size(vec2(220.0, 40.0), Sense::hover());
+    let p = ui.painter_at(rect);
+    p.rect_filled(rect, 2.0, Color32::from_gray(24));
+    let top = times.iter().copied().fold(1e-3f32, f32::max);
+    let n = times.len().max(2);
+    let pts: Vec<egui::Pos2> = times
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            egui::pos2(
+                rect.left() + rect.width() * i as f32 / (n - 1) as f32,
+                rect.bottom() - (t / top) * (rect.height() - 4.0),
+            )
+        })
+        .collect();
+    p.add(egui::Shape::line(pts, Stroke::new(1.0, Color32::GOLD)));
+    p.text(
+        rect.left_top() + vec2(4.0, 2.0),
+        egui::Align2::LEFT_TOP,
+        format!("{top:.0} ms"),
+        egui::FontId::monospace(9.0),
+        Color32::GRAY,
+    );
 }
 
 /// The reference's progress, ISD's error against it, and the error over `L`.
