@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use crate::error::{GpuError, fmt_bytes};
 use crate::shaders;
+use crate::wgpu_helpers::{compute_pipeline, rgba8_target_entry, storage_entry, uniform_entry};
 
 /// Which adapter [`GpuContext::new_with`] may pick.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -178,26 +179,7 @@ impl GpuContext {
         info: wgpu::AdapterInfo,
     ) -> Result<Self, GpuError> {
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let uniform = wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
+        let (storage, uniform) = (storage_entry, uniform_entry(0));
         let eval_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("ifd_eval"),
             entries: &[
@@ -212,43 +194,14 @@ impl GpuContext {
         });
         let rgba8_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("to_rgba8"),
-            entries: &[
-                uniform,
-                storage(1, true),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: wgpu::TextureFormat::Rgba8Unorm,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                    },
-                    count: None,
-                },
-            ],
+            entries: &[uniform, storage(1, true), rgba8_target_entry(2)],
         });
         let blend_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("dab_blend"),
             entries: &[uniform, storage(1, true), storage(2, false)],
         });
         let pipeline = |name: &str, source: &str, layout: &wgpu::BindGroupLayout| {
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(name),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(name),
-                bind_group_layouts: &[Some(layout)],
-                immediate_size: 0,
-            });
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(name),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some("main"),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            })
+            compute_pipeline(&device, name, source, layout)
         };
         let eval_source = shaders::ifd_eval_source();
         let eval_pipeline = pipeline("ifd_eval", &eval_source, &eval_layout);

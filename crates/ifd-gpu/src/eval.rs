@@ -14,7 +14,8 @@ use crate::error::GpuError;
 use crate::shaders::codes;
 use crate::stack::GpuStack;
 use crate::wgpu_helpers::{
-    Rgba8Params, buffer_init, check_region, entry, read_buffer, rgba8_texture, submit_rgba8,
+    Rgba8Params, Timestamps, buffer_init, check_region, entry, read_buffer, read_gpu_time,
+    rgba8_texture, submit_rgba8,
 };
 
 /// The shader's `struct Params`.
@@ -459,14 +460,7 @@ impl GpuOutput {
     /// # Errors
     /// As [`GpuOutput::read`].
     pub fn gpu_time(&self, ctx: &GpuContext) -> Result<Option<Duration>, GpuError> {
-        let Some(ts) = &self.timestamps else {
-            return Ok(None);
-        };
-        let data = read_buffer(ctx, ts, "the timestamps")?;
-        let t: Vec<u64> = bytemuck::pod_collect_to_vec(&data);
-        let ticks = t[1].saturating_sub(t[0]);
-        let ns = ticks as f64 * f64::from(ctx.queue().get_timestamp_period());
-        Ok(Some(Duration::from_secs_f64(ns * 1e-9)))
+        read_gpu_time(ctx, self.timestamps.as_ref())
     }
 
     /// Converts the result to a new `rgba8unorm` texture of the region's size
@@ -733,33 +727,14 @@ impl GpuContext {
                     })
                 })
                 .collect();
-            let timing = self.has_timestamps().then(|| {
-                let set = device.create_query_set(&wgpu::QuerySetDescriptor {
-                    label: Some("ifd timestamps"),
-                    ty: wgpu::QueryType::Timestamp,
-                    count: 2,
-                });
-                let resolve = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("ifd timestamps"),
-                    size: 16,
-                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                });
-                (set, resolve)
-            });
+            let timing = Timestamps::new(self, "ifd timestamps");
             let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("ifd_eval"),
             });
             {
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("ifd_eval"),
-                    timestamp_writes: timing.as_ref().map(|(set, _)| {
-                        wgpu::ComputePassTimestampWrites {
-                            query_set: set,
-                            beginning_of_pass_write_index: Some(0),
-                            end_of_pass_write_index: Some(1),
-                        }
-                    }),
+                    timestamp_writes: timing.as_ref().map(Timestamps::writes),
                 });
                 pass.set_pipeline(&self.eval_pipeline);
                 for bind in &binds {
@@ -767,15 +742,15 @@ impl GpuContext {
                     pass.dispatch_workgroups(rw.div_ceil(8), rh.div_ceil(8), 1);
                 }
             }
-            if let Some((set, resolve)) = &timing {
-                enc.resolve_query_set(set, 0..2, resolve, 0);
+            if let Some(t) = &timing {
+                t.resolve(&mut enc);
             }
             self.queue().submit([enc.finish()]);
             Ok(GpuOutput {
                 buffer: output,
                 region,
                 channels: stack.channels(),
-                timestamps: timing.map(|(_, r)| r),
+                timestamps: timing.map(|t| t.resolve),
             })
         })
     }

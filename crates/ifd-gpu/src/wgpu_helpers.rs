@@ -256,3 +256,128 @@ pub(crate) fn read_rgba8(
     }
     Ok(out)
 }
+
+/// A compute-stage storage-buffer binding.
+pub(crate) fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A compute-stage uniform-buffer binding.
+pub(crate) fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A compute-stage write-only `rgba8unorm` storage-texture binding.
+pub(crate) fn rgba8_target_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format: wgpu::TextureFormat::Rgba8Unorm,
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
+        count: None,
+    }
+}
+
+/// The compute pipeline of WGSL `source` (entry point `main`) with one bind
+/// group of `layout`.
+pub(crate) fn compute_pipeline(
+    device: &wgpu::Device,
+    name: &str,
+    source: &str,
+    layout: &wgpu::BindGroupLayout,
+) -> wgpu::ComputePipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(name),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(name),
+        bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(name),
+        layout: Some(&pl),
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: wgpu::PipelineCompilationOptions::default(),
+        cache: None,
+    })
+}
+
+/// A pair of timestamp queries bracketing a pass and the buffer they resolve
+/// into, when the device has timestamp queries.
+pub(crate) struct Timestamps {
+    set: wgpu::QuerySet,
+    pub(crate) resolve: wgpu::Buffer,
+}
+
+impl Timestamps {
+    /// The pair, or `None` without timestamp queries.
+    pub(crate) fn new(ctx: &GpuContext, label: &str) -> Option<Self> {
+        let device = ctx.device();
+        ctx.has_timestamps().then(|| Self {
+            set: device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some(label),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            }),
+            resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: 16,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+        })
+    }
+
+    /// The pass's timestamp writes (beginning and end).
+    pub(crate) fn writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.set,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: Some(1),
+        }
+    }
+
+    /// Resolves the queries into the buffer (after the pass).
+    pub(crate) fn resolve(&self, enc: &mut wgpu::CommandEncoder) {
+        enc.resolve_query_set(&self.set, 0..2, &self.resolve, 0);
+    }
+}
+
+/// The time between a resolved pair of timestamps (`None` for none).
+pub(crate) fn read_gpu_time(
+    ctx: &GpuContext,
+    resolved: Option<&wgpu::Buffer>,
+) -> Result<Option<std::time::Duration>, GpuError> {
+    let Some(ts) = resolved else {
+        return Ok(None);
+    };
+    let data = read_buffer(ctx, ts, "the timestamps")?;
+    let t: Vec<u64> = bytemuck::pod_collect_to_vec(&data);
+    let ticks = t[1].saturating_sub(t[0]);
+    let ns = ticks as f64 * f64::from(ctx.queue().get_timestamp_period());
+    Ok(Some(std::time::Duration::from_secs_f64(ns * 1e-9)))
+}

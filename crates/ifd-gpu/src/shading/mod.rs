@@ -60,7 +60,8 @@ use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::shaders::{self, shade_codes};
 use crate::wgpu_helpers::{
-    buffer_init, entry, read_buffer, read_rgba8, rgba8_texture, submit_pass,
+    Timestamps, buffer_init, compute_pipeline, entry, read_buffer, read_gpu_time, read_rgba8,
+    rgba8_target_entry, rgba8_texture, storage_entry, submit_pass, uniform_entry,
 };
 
 /// The `struct Params` of `shaders/isd_shade.wgsl`.
@@ -132,26 +133,7 @@ impl GpuShader {
     /// # Errors
     /// [`GpuError::Device`] when wgpu refuses the layout.
     pub fn new(ctx: &GpuContext) -> Result<Self, GpuError> {
-        let uniform = |binding: u32| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
+        let (uniform, storage) = (uniform_entry, storage_entry);
         let layout = ctx.scoped("creating the shading layout", || {
             Ok(ctx
                 .device()
@@ -174,38 +156,9 @@ impl GpuShader {
         let (display_layout, display_pipeline) = ctx.scoped("building the display pass", || {
             let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("isd tonemap"),
-                entries: &[
-                    uniform(0),
-                    storage(1, true),
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 2,
-                        visibility: wgpu::ShaderStages::COMPUTE,
-                        ty: wgpu::BindingType::StorageTexture {
-                            access: wgpu::StorageTextureAccess::WriteOnly,
-                            format: wgpu::TextureFormat::Rgba8Unorm,
-                            view_dimension: wgpu::TextureViewDimension::D2,
-                        },
-                        count: None,
-                    },
-                ],
+                entries: &[uniform(0), storage(1, true), rgba8_target_entry(2)],
             });
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("isd tonemap"),
-                source: wgpu::ShaderSource::Wgsl(shaders::TONEMAP.into()),
-            });
-            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("isd tonemap"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("isd tonemap"),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some("main"),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            });
+            let pipeline = compute_pipeline(device, "isd tonemap", shaders::TONEMAP, &layout);
             Ok((layout, pipeline))
         })?;
         Ok(Self {
@@ -232,31 +185,15 @@ impl GpuShader {
         if let Some(p) = cache.get(&l_max) {
             return Ok(Arc::clone(p));
         }
-        let device = ctx.device();
-        let p = ctx.scoped(
-            &format!("compiling the shading kernel for L = {l_max}"),
-            || {
-                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some("isd_shade"),
-                    source: wgpu::ShaderSource::Wgsl(shaders::isd_shade_source(l_max).into()),
-                });
-                let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: Some("isd_shade"),
-                    bind_group_layouts: &[Some(&self.layout)],
-                    immediate_size: 0,
-                });
-                Ok(
-                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some("isd_shade"),
-                        layout: Some(&pl),
-                        module: &module,
-                        entry_point: Some("main"),
-                        compilation_options: wgpu::PipelineCompilationOptions::default(),
-                        cache: None,
-                    }),
-                )
-            },
-        )?;
+        let name = format!("compiling the shading kernel for L = {l_max}");
+        let p = ctx.scoped(&name, || {
+            Ok(compute_pipeline(
+                ctx.device(),
+                "isd_shade",
+                &shaders::isd_shade_source(l_max),
+                &self.layout,
+            ))
+        })?;
         let p = Arc::new(p);
         cache.insert(l_max, Arc::clone(&p));
         Ok(p)
@@ -393,43 +330,24 @@ impl GpuShader {
                     entry(8, &out.buffer),
                 ],
             });
-            let timing = ctx.has_timestamps().then(|| {
-                let set = device.create_query_set(&wgpu::QuerySetDescriptor {
-                    label: Some("isd timestamps"),
-                    ty: wgpu::QueryType::Timestamp,
-                    count: 2,
-                });
-                let resolve = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("isd timestamps"),
-                    size: 16,
-                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                });
-                (set, resolve)
-            });
+            let timing = Timestamps::new(ctx, "isd timestamps");
             let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("isd_shade"),
             });
             {
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("isd_shade"),
-                    timestamp_writes: timing.as_ref().map(|(set, _)| {
-                        wgpu::ComputePassTimestampWrites {
-                            query_set: set,
-                            beginning_of_pass_write_index: Some(0),
-                            end_of_pass_write_index: Some(1),
-                        }
-                    }),
+                    timestamp_writes: timing.as_ref().map(Timestamps::writes),
                 });
                 pass.set_pipeline(&pipeline);
                 pass.set_bind_group(0, &bind, &[]);
                 pass.dispatch_workgroups((w as u32).div_ceil(8), n_rows.div_ceil(8), 1);
             }
-            if let Some((set, resolve)) = &timing {
-                enc.resolve_query_set(set, 0..2, resolve, 0);
+            if let Some(t) = &timing {
+                t.resolve(&mut enc);
             }
             ctx.queue().submit([enc.finish()]);
-            out.timestamps = timing.map(|(_, r)| r);
+            out.timestamps = timing.map(|t| t.resolve);
             Ok(())
         })
     }
@@ -593,13 +511,6 @@ impl GpuShaded {
     /// # Errors
     /// As [`Self::read`].
     pub fn gpu_time(&self, ctx: &GpuContext) -> Result<Option<Duration>, GpuError> {
-        let Some(ts) = &self.timestamps else {
-            return Ok(None);
-        };
-        let data = read_buffer(ctx, ts, "the timestamps")?;
-        let t: Vec<u64> = bytemuck::pod_collect_to_vec(&data);
-        let ticks = t[1].saturating_sub(t[0]);
-        let ns = ticks as f64 * f64::from(ctx.queue().get_timestamp_period());
-        Ok(Some(Duration::from_secs_f64(ns * 1e-9)))
+        read_gpu_time(ctx, self.timestamps.as_ref())
     }
 }
