@@ -6,43 +6,131 @@ use egui::{Color32, Sense, Stroke, vec2};
 use super::EnvApp;
 use crate::settings::Variant;
 
-/// The BRDF models the panel offers, with their parameter's name and range.
-const MODELS: [(&str, &str, f64, f64); 6] = [
-    ("lambert", "", 0.0, 0.0),
-    ("phong", "s", 1.0, 2000.0),
-    ("blinn", "s", 1.0, 2000.0),
-    ("ggx", "alpha", 0.02, 1.0),
-    ("ward", "alpha", 0.02, 1.0),
-    ("ggx-aniso", "ay", 0.02, 1.0),
-];
+/// The BRDF models the panel offers.
+const MODELS: [&str; 6] = ["lambert", "phong", "blinn", "blinn-exact", "ggx", "ward"];
 
-/// The model and main parameter of a spec, if the panel's sliders can edit it.
-fn parse_spec(spec: &str) -> Option<(&'static str, f64)> {
-    let (model, params) = spec.split_once(':').unwrap_or((spec, ""));
-    let value = |key: &str| {
-        params
-            .split(',')
-            .filter_map(|kv| kv.split_once('='))
-            .find(|(k, _)| k.trim() == key)
-            .and_then(|(_, v)| v.trim().parse::<f64>().ok())
-    };
-    match model {
-        "lambert" => Some(("lambert", 0.0)),
-        "phong" => Some(("phong", value("s")?)),
-        "blinn" => Some(("blinn", value("s")?)),
-        "ggx" if value("alpha").is_some() => Some(("ggx", value("alpha")?)),
-        "ggx" => Some(("ggx-aniso", value("ay")?)),
-        "ward" => Some(("ward", value("alpha")?)),
-        _ => None,
+/// A parameter's slider: range and whether it is logarithmic.
+fn range_of(key: &str) -> (f64, f64, bool) {
+    match key {
+        "s" => (1.0, 5000.0, true),
+        "alpha" | "ax" | "ay" => (0.01, 1.0, true),
+        _ => (0.0, 1.0, false), // albedo, f0
     }
 }
 
-fn spec_of(model: &str, v: f64) -> String {
-    match model {
-        "lambert" => "lambert".into(),
-        "phong" | "blinn" => format!("{model}:s={}", v.round()),
-        "ggx-aniso" => format!("ggx:ax=0.1,ay={v:.3}"),
-        _ => format!("{model}:alpha={v:.3}"),
+/// A spec's model and its numeric parameters, if the panel can edit it
+/// (not `merl:FILE`).
+fn parse_spec(spec: &str) -> Option<(String, Vec<(String, f64)>)> {
+    let (model, params) = spec.split_once(':').unwrap_or((spec, ""));
+    if !MODELS.contains(&model) {
+        return None;
+    }
+    let mut out = Vec::new();
+    for kv in params.split(',').filter(|t| !t.trim().is_empty()) {
+        let (k, v) = kv.split_once('=')?;
+        out.push((k.trim().to_string(), v.trim().parse().ok()?));
+    }
+    Some((model.to_string(), out))
+}
+
+/// The spec of a model and its parameters.
+fn spec_of(model: &str, params: &[(String, f64)]) -> String {
+    if params.is_empty() {
+        return model.to_string();
+    }
+    let p: Vec<String> = params
+        .iter()
+        .map(|(k, v)| {
+            if k == "s" {
+                format!("{k}={}", v.round())
+            } else {
+                format!("{k}={v:.3}")
+            }
+        })
+        .collect();
+    format!("{model}:{}", p.join(","))
+}
+
+/// The parameters a model starts with.
+fn defaults_of(model: &str) -> Vec<(String, f64)> {
+    let p: &[(&str, f64)] = match model {
+        "phong" | "blinn" | "blinn-exact" => &[("s", 32.0)],
+        "ggx" | "ward" => &[("alpha", 0.3)],
+        _ => &[],
+    };
+    p.iter().map(|(k, v)| ((*k).to_string(), *v)).collect()
+}
+
+/// The BRDF editor: model, a slider per parameter, the anisotropic and
+/// Fresnel switches; any other spec (MERL) is edited as text only.
+fn brdf_editor(ui: &mut egui::Ui, spec: &mut String) {
+    let Some((model, mut params)) = parse_spec(spec) else {
+        return;
+    };
+    let mut m = model.clone();
+    egui::ComboBox::from_id_salt("model")
+        .selected_text(m.clone())
+        .show_ui(ui, |ui| {
+            for name in MODELS {
+                ui.selectable_value(&mut m, name.to_string(), name);
+            }
+        });
+    let mut changed = m != model;
+    if changed {
+        params = defaults_of(&m);
+    }
+    let has = |p: &[(String, f64)], k: &str| p.iter().any(|(q, _)| q == k);
+    if m == "ggx" || m == "ward" {
+        let mut aniso = has(&params, "ax");
+        if ui.checkbox(&mut aniso, "anisotropic").changed() {
+            changed = true;
+            let a = params
+                .iter()
+                .find(|(k, _)| k == "alpha" || k == "ax")
+                .map_or(0.3, |p| p.1);
+            params.retain(|(k, _)| !matches!(k.as_str(), "alpha" | "ax" | "ay"));
+            if aniso {
+                params.insert(0, ("ay".into(), a));
+                params.insert(0, ("ax".into(), a));
+            } else {
+                params.insert(0, ("alpha".into(), a));
+            }
+        }
+    }
+    if m == "ggx" {
+        let mut fresnel = has(&params, "f0");
+        if ui.checkbox(&mut fresnel, "Fresnel (f0)").changed() {
+            changed = true;
+            if fresnel {
+                params.push(("f0".into(), 0.04));
+            } else {
+                params.retain(|(k, _)| k != "f0");
+            }
+        }
+    }
+    let mut albedo = params
+        .iter()
+        .find(|(k, _)| k == "albedo")
+        .map_or(1.0, |p| p.1);
+    for (k, v) in params.iter_mut().filter(|(k, _)| k != "albedo") {
+        let (lo, hi, log) = range_of(k);
+        changed |= ui
+            .add(
+                egui::Slider::new(v, lo..=hi)
+                    .logarithmic(log)
+                    .text(k.as_str()),
+            )
+            .changed();
+    }
+    changed |= ui
+        .add(egui::Slider::new(&mut albedo, 0.0..=1.0).text("albedo"))
+        .changed();
+    params.retain(|(k, _)| k != "albedo");
+    if (albedo - 1.0).abs() > 1e-9 {
+        params.push(("albedo".into(), albedo));
+    }
+    if changed {
+        *spec = spec_of(&m, &params);
     }
 }
 
@@ -72,36 +160,7 @@ pub(super) fn side_panel(app: &mut EnvApp, ui: &mut egui::Ui) {
                 });
             ui.separator();
             ui.heading("BRDF");
-            if let Some((model, mut v)) = parse_spec(&s.brdf) {
-                let mut m = model;
-                egui::ComboBox::from_id_salt("model")
-                    .selected_text(m)
-                    .show_ui(ui, |ui| {
-                        for (name, _, lo, hi) in MODELS {
-                            if ui.selectable_value(&mut m, name, name).changed() {
-                                v = if hi > 0.0 {
-                                    (lo * hi).sqrt().max(lo)
-                                } else {
-                                    0.0
-                                };
-                            }
-                        }
-                    });
-                if let Some((_, param, lo, hi)) = MODELS.iter().find(|x| x.0 == m)
-                    && *hi > 0.0
-                {
-                    ui.add(
-                        egui::Slider::new(&mut v, *lo..=*hi)
-                            .logarithmic(true)
-                            .text(*param),
-                    );
-                }
-                let spec = spec_of(m, v);
-                if m != model || parse_spec(&s.brdf).is_some_and(|(_, old)| (old - v).abs() > 1e-9)
-                {
-                    s.brdf = spec;
-                }
-            }
+            brdf_editor(ui, &mut s.brdf);
             for (what, slot) in [
                 ("albedo map", &mut s.albedo_map),
                 ("roughness map", &mut s.roughness_map),
@@ -392,4 +451,29 @@ pub(super) fn viewport(app: &mut EnvApp, ui: &mut egui::Ui) {
             }
         }
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn editor_specs_round_trip_and_parse() {
+        for spec in [
+            "lambert",
+            "phong:s=32",
+            "blinn-exact:s=100,albedo=0.5",
+            "ggx:ax=0.1,ay=0.4,f0=0.04",
+            "ward:alpha=0.3",
+        ] {
+            let (m, p) = parse_spec(spec).expect("editable");
+            let again = spec_of(&m, &p);
+            assert_eq!(parse_spec(&again), Some((m.clone(), p)), "{spec}");
+            ifd_shade::Brdf::parse(&again).expect("a valid spec");
+            // every model's defaults are a valid spec
+            ifd_shade::Brdf::parse(&spec_of(&m, &defaults_of(&m))).expect("defaults");
+        }
+        assert!(parse_spec("merl:alum.binary").is_none());
+        assert!(parse_spec("ggx:alpha=x").is_none());
+    }
 }
