@@ -109,6 +109,8 @@ pub struct Handle {
     pub tx: Sender<Request>,
     /// Answers.
     pub rx: Receiver<RefEvent>,
+    /// The thread (joined by [`Handle::stop`]).
+    pub thread: Option<std::thread::JoinHandle<()>>,
 }
 
 /// Starts the reference thread; `wake` asks the UI for a frame.
@@ -116,7 +118,7 @@ pub struct Handle {
 pub fn spawn(wake: impl Fn() + Send + 'static) -> Handle {
     let (tx, rx_req) = std::sync::mpsc::channel::<Request>();
     let (tx_ev, rx) = std::sync::mpsc::channel();
-    std::thread::Builder::new()
+    let thread = std::thread::Builder::new()
         .name("ifd-envrender reference".into())
         .spawn(move || {
             let mut envs: EnvCache = None;
@@ -138,7 +140,7 @@ pub fn spawn(wake: impl Fn() + Send + 'static) -> Handle {
             }
         })
         .ok();
-    Handle { tx, rx }
+    Handle { tx, rx, thread }
 }
 
 /// Refines the reference of `req` until [`MAX_SPP`] or a newer request,
@@ -173,11 +175,16 @@ fn refine(
     let mut mean: Option<(Vec<f64>, Vec<bool>, usize, usize)> = None;
     let mut spp = 0;
     while spp < MAX_SPP {
-        if let Ok(mut newer) = rx.try_recv() {
-            while let Ok(n) = rx.try_recv() {
-                newer = n;
+        match rx.try_recv() {
+            Ok(mut newer) => {
+                while let Ok(n) = rx.try_recv() {
+                    newer = n;
+                }
+                return Ok(Some(newer));
             }
-            return Ok(Some(newer));
+            // the app is closing
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => return Ok(None),
+            Err(std::sync::mpsc::TryRecvError::Empty) => {}
         }
         let pass = render(
             &job(view, Method::Mc, None, PASS_SPP, spp as u64 + 1),
@@ -243,4 +250,23 @@ fn curve(
         points.push((l, relative_rms(&img, reference, mask)));
     }
     Ok(points)
+}
+
+impl Handle {
+    /// Closes the requests and waits (at most `limit`) for the thread to
+    /// finish what it is doing, so that nothing runs on the GPU device while
+    /// the window tears it down.
+    pub fn stop(&mut self, limit: std::time::Duration) {
+        let (closed, _) = std::sync::mpsc::channel();
+        self.tx = closed;
+        let t0 = std::time::Instant::now();
+        if let Some(t) = self.thread.take() {
+            while !t.is_finished() && t0.elapsed() < limit {
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            if t.is_finished() {
+                t.join().ok();
+            }
+        }
+    }
 }

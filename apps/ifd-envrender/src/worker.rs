@@ -88,6 +88,8 @@ pub struct Handle {
     pub tx: Sender<Settings>,
     /// Answers.
     pub rx: Receiver<Event>,
+    /// The thread (joined by [`Handle::stop`]).
+    pub thread: Option<std::thread::JoinHandle<()>>,
 }
 
 /// Starts the worker; `gpu` is the device frames are shaded on and the
@@ -101,7 +103,7 @@ pub fn spawn(
 ) -> Handle {
     let (tx, rx_settings) = std::sync::mpsc::channel::<Settings>();
     let (tx_events, rx) = std::sync::mpsc::channel();
-    std::thread::Builder::new()
+    let thread = std::thread::Builder::new()
         .name("ifd-envrender worker".into())
         .spawn(move || {
             let mut w = Worker {
@@ -124,7 +126,7 @@ pub fn spawn(
             }
         })
         .ok();
-    Handle { tx, rx }
+    Handle { tx, rx, thread }
 }
 
 /// A value and the inputs it was made from.
@@ -454,4 +456,23 @@ pub fn display_image(img: &ifd_image::Image, tm: Tonemap, exposure: f32) -> egui
         })
         .collect();
     egui::ColorImage::new([img.width(), img.height()], pixels)
+}
+
+impl Handle {
+    /// Closes the requests and waits (at most `limit`) for the thread to
+    /// finish what it is doing, so that nothing runs on the GPU device while
+    /// the window tears it down.
+    pub fn stop(&mut self, limit: std::time::Duration) {
+        let (closed, _) = std::sync::mpsc::channel();
+        self.tx = closed;
+        let t0 = std::time::Instant::now();
+        if let Some(t) = self.thread.take() {
+            while !t.is_finished() && t0.elapsed() < limit {
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            if t.is_finished() {
+                t.join().ok();
+            }
+        }
+    }
 }

@@ -375,7 +375,15 @@ impl EnvApp {
     }
 
     /// Called when the window closes.
-    pub fn finish(&mut self) {}
+    /// Stops the threads (waiting up to 5 s for work in progress) and drops
+    /// the GPU resources while the window's device is still alive: a worker
+    /// uploading while the device is torn down crashed lavapipe at exit.
+    pub fn finish(&mut self) {
+        let limit = Duration::from_secs(5);
+        self.worker.stop(limit);
+        self.reference.stop(limit);
+        self.gpu = None;
+    }
 }
 
 /// The GPU path's device, shader and view, why there is none, and the adapter.
