@@ -8,7 +8,7 @@
 //! - [`worker`]: everything slow, off the UI thread: reading the map, its SH
 //!   projection, the per-band maps, lobe tables, the G-buffer; the CPU
 //!   renderer when the GPU path is not used.
-//! - [`reference`]: the progressive Monte Carlo reference of the current
+//! - [`reference`](mod@reference): the progressive Monte Carlo reference of the current
 //!   view and ISD's error against it over `L`.
 //! - [`app`]: the egui UI, the banded GPU shading and display, automated
 //!   runs (`--screenshot`, `--exit`).

@@ -4,8 +4,8 @@ use std::fmt::Write as _;
 use std::sync::Arc;
 
 use crate::error::{GpuError, fmt_bytes};
+use crate::pipelines::{compute_pipeline, rgba8_target_entry, storage_entry, uniform_entry};
 use crate::shaders;
-use crate::wgpu_helpers::{compute_pipeline, rgba8_target_entry, storage_entry, uniform_entry};
 
 /// Which adapter [`GpuContext::new_with`] may pick.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -94,6 +94,7 @@ mod canvas;
 mod context;
 mod error;
 mod eval;
+mod pipelines;
 pub mod shaders;
 pub mod shading;
 mod smooth;

@@ -58,10 +58,11 @@ pub use surface::{GpuSurfaces, SurfacePoint};
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
+use crate::pipelines::{compute_pipeline, rgba8_target_entry, storage_entry, uniform_entry};
 use crate::shaders::{self, shade_codes};
 use crate::wgpu_helpers::{
-    Timestamps, buffer_init, compute_pipeline, entry, read_buffer, read_gpu_time, read_rgba8,
-    rgba8_target_entry, rgba8_texture, storage_entry, submit_pass, uniform_entry,
+    Timestamps, buffer_init, entry, read_buffer, read_gpu_time, read_rgba8, rgba8_texture,
+    submit_pass,
 };
 
 /// The `struct Params` of `shaders/isd_shade.wgsl`.
