@@ -15,10 +15,9 @@ use ifd_render::render::{Job, Method, relative_rms, render};
 use ifd_render::scene::Scene;
 use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
-use ifd_shade::table::{LobeTable, default_theta_entries};
 
 use crate::settings::{Settings, bundled_env};
-use crate::worker::load_env;
+use crate::worker::{build_material, load_env};
 
 /// The maps of a path and rotation (the full map and the integrated one).
 type EnvCache = Option<((PathBuf, u64), Arc<(EnvMap, EnvMap)>)>;
@@ -239,13 +238,7 @@ fn curve(
     degrees.push(s.l_max);
     let mut points = Vec::new();
     for l in degrees {
-        let material = if let Ok(m) = Material::new(brdf, l, None) {
-            m
-        } else {
-            let nt = default_theta_entries(brdf);
-            let t = LobeTable::build(brdf, l, nt, (2 * nt).min(128), &|_, _| {})?;
-            Material::new(brdf, l, Some(t))?
-        };
+        let material = build_material(brdf, l, &|_, _| {})?;
         let img = render_isd(&material, Method::Isd)?;
         points.push((l, relative_rms(&img, reference, mask)));
     }
@@ -253,20 +246,8 @@ fn curve(
 }
 
 impl Handle {
-    /// Closes the requests and waits (at most `limit`) for the thread to
-    /// finish what it is doing, so that nothing runs on the GPU device while
-    /// the window tears it down.
+    /// Closes the requests and waits (at most `limit`) for the thread.
     pub fn stop(&mut self, limit: std::time::Duration) {
-        let (closed, _) = std::sync::mpsc::channel();
-        self.tx = closed;
-        let t0 = std::time::Instant::now();
-        if let Some(t) = self.thread.take() {
-            while !t.is_finished() && t0.elapsed() < limit {
-                std::thread::sleep(std::time::Duration::from_millis(10));
-            }
-            if t.is_finished() {
-                t.join().ok();
-            }
-        }
+        crate::worker::stop_thread(&mut self.tx, &mut self.thread, limit);
     }
 }

@@ -246,7 +246,11 @@ impl Worker {
                 f.materials()[0].table().cloned(),
             )?),
             None => cached(&mut self.cache.material, &(s.brdf.clone(), l), || {
-                build_material(&brdf, l, send)
+                build_material(&brdf, l, &|d, n| {
+                    if d % 8 == 0 || d == n {
+                        send(Event::Progress(format!("lobe table {d}/{n}")));
+                    }
+                })
             })?,
         };
         let scene = match &self.cache.scene {
@@ -420,21 +424,22 @@ pub fn load_env(path: &std::path::Path, rotate: f64) -> Result<(EnvMap, EnvMap)>
 
 /// Closed form for Lambert and Phong, else a lobe table at `ifd render`'s
 /// default resolution.
-fn build_material(
+///
+/// `progress(done, total)` after each table entry.
+///
+/// # Errors
+/// Table errors.
+pub(crate) fn build_material(
     brdf: &Brdf,
     l: usize,
-    send: &(dyn Fn(Event) -> bool + Sync),
+    progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Material> {
     if let Ok(m) = Material::new(brdf, l, None) {
         return Ok(m);
     }
     let nt = default_theta_entries(brdf);
     let np = (2 * nt).min(128);
-    let t = LobeTable::build(brdf, l, nt, np, &|d, n| {
-        if d % 8 == 0 || d == n {
-            send(Event::Progress(format!("lobe table {d}/{n}")));
-        }
-    })?;
+    let t = LobeTable::build(brdf, l, nt, np, progress)?;
     Ok(Material::new(brdf, l, Some(t))?)
 }
 
@@ -459,20 +464,29 @@ pub fn display_image(img: &ifd_image::Image, tm: Tonemap, exposure: f32) -> egui
 }
 
 impl Handle {
-    /// Closes the requests and waits (at most `limit`) for the thread to
-    /// finish what it is doing, so that nothing runs on the GPU device while
-    /// the window tears it down.
+    /// Closes the requests and waits (at most `limit`) for the thread.
     pub fn stop(&mut self, limit: std::time::Duration) {
-        let (closed, _) = std::sync::mpsc::channel();
-        self.tx = closed;
-        let t0 = std::time::Instant::now();
-        if let Some(t) = self.thread.take() {
-            while !t.is_finished() && t0.elapsed() < limit {
-                std::thread::sleep(std::time::Duration::from_millis(10));
-            }
-            if t.is_finished() {
-                t.join().ok();
-            }
+        stop_thread(&mut self.tx, &mut self.thread, limit);
+    }
+}
+
+/// Closes a thread's request channel (replacing `tx` by a closed one) and
+/// waits (at most `limit`) for it to finish what it is doing, so that nothing
+/// runs on the GPU device while the window tears it down.
+pub(crate) fn stop_thread<T>(
+    tx: &mut Sender<T>,
+    thread: &mut Option<std::thread::JoinHandle<()>>,
+    limit: std::time::Duration,
+) {
+    let (closed, _) = std::sync::mpsc::channel();
+    *tx = closed;
+    let t0 = std::time::Instant::now();
+    if let Some(t) = thread.take() {
+        while !t.is_finished() && t0.elapsed() < limit {
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        if t.is_finished() {
+            t.join().ok();
         }
     }
 }
