@@ -80,6 +80,11 @@ fn rotation(c: &mut Criterion) {
         g.bench_with_input(BenchmarkId::new("tailored", n), &n, |b, _| {
             b.iter(|| basis.rotate_tailored(black_box(&f), black_box(&r)).unwrap());
         });
+        // ZHF Eq. 11 with the band expansions tabulated (512 rows)
+        let tables = ifd_sphere::tabulated::BandTables::new(&f, 512).unwrap();
+        g.bench_with_input(BenchmarkId::new("tabulated", n), &n, |b, _| {
+            b.iter(|| tables.rotate(black_box(&basis), black_box(&r)).unwrap());
+        });
     }
     g.finish();
 }

@@ -43,6 +43,9 @@
 //!   cubemap and sample projection.
 //! - [`rotation`]: rotations and the Ivanic-Ruedenberg reference SH rotation.
 //! - [`zhf`]: direction sets, `M_l`, ZHF/ZHE, ZHF rotation (Eq. 10, 11).
+//! - [`sparsity`]: the ZHF paper's sparsity search (its Table I, Fig. 3).
+//! - [`tabulated`]: pre-tabulated band expansions for the signal-tailored
+//!   rotation (ZHF Eq. 11 with lookups).
 //! - [`zhf_plane`]: `l + 1` in-plane lobes per band for functions even in
 //!   `y` (isotropic BRDF slices).
 //! - [`profile`]: mother functions, `beta_{l l'}`, the general `M` (Eq. 15-19).
@@ -61,6 +64,8 @@ pub mod kernel;
 pub mod profile;
 pub mod rotation;
 pub mod sh;
+pub mod sparsity;
+pub mod tabulated;
 pub mod transform;
 pub mod zhf;
 pub mod zhf_plane;
