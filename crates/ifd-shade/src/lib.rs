@@ -21,16 +21,24 @@
 //! # Modules
 //! - [`brdf`]: models, specs, slices.
 //! - [`merl`]: the MERL measured-BRDF format.
+//! - [`brdf_sh`]: BRDFs on the 4D SH basis, vMF filtering of noisy and
+//!   sparse data (Eq. 30-32).
 //! - [`zonal`]: closed-form zonal coefficients (Lambert, Phong).
 //! - [`slice`](mod@slice): SH projection of slices.
 //! - [`table`]: view-dependent lobe-weight tables and their file format.
 //! - [`shade`]: shading by Eq. 22 (ISD and the SH reference).
+//! - [`lights`]: zonal lighting: spherical light sources (Eq. 33-34) and
+//!   radially symmetric light (Eq. 23), with their quadrature reference.
+//! - [`radial`]: radial reflection maps for any BRDF (Eq. 23-24).
 //! - [`sample`]: importance sampling of slices (Monte Carlo references).
 
 mod error;
 
 pub mod brdf;
+pub mod brdf_sh;
+pub mod lights;
 pub mod merl;
+pub mod radial;
 pub mod sample;
 pub mod shade;
 pub mod slice;

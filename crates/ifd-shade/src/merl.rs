@@ -44,6 +44,8 @@ pub struct Merl {
     values: Vec<[f32; 3]>,
     /// How many stored values (over all three channels) were negative (invalid).
     invalid: usize,
+    /// Per bin, whether all three channels were valid (`None`: all were).
+    valid: Option<Vec<bool>>,
 }
 
 impl std::fmt::Debug for Merl {
@@ -99,6 +101,7 @@ impl Merl {
             f64::from_le_bytes(b)
         };
         let mut values = vec![[0.0f32; 3]; SAMPLES];
+        let mut valid = vec![true; SAMPLES];
         let mut invalid = 0;
         for c in 0..3 {
             for (i, v) in values.iter_mut().enumerate() {
@@ -110,11 +113,16 @@ impl Merl {
                 }
                 if x < 0.0 {
                     invalid += 1;
+                    valid[i] = false;
                 }
                 v[c] = (x.max(0.0) * SCALE[c]) as f32;
             }
         }
-        Ok(Self { values, invalid })
+        Ok(Self {
+            values,
+            invalid,
+            valid: (invalid > 0).then_some(valid),
+        })
     }
 
     /// Tabulates `f(theta_h, theta_d, phi_d) -> [r, g, b]` at the centre of
@@ -130,7 +138,11 @@ impl Merl {
                 [v[0] as f32, v[1] as f32, v[2] as f32]
             })
             .collect();
-        Self { values, invalid: 0 }
+        Self {
+            values,
+            invalid: 0,
+            valid: None,
+        }
     }
 
     /// Writes the BRDF in the MERL format (atomically).
@@ -169,6 +181,16 @@ impl Merl {
     #[must_use]
     pub fn invalid_values(&self) -> usize {
         self.invalid
+    }
+
+    /// Whether the bin of `(wi, wo)` holds valid data in every channel (a
+    /// negative stored value marks a hole).
+    #[must_use]
+    pub fn is_valid(&self, wi: [f64; 3], wo: [f64; 3]) -> bool {
+        self.valid.as_ref().is_none_or(|v| {
+            let (th, _, td, pd) = half_diff(wi, wo);
+            v[bin_index(th, td, pd)]
+        })
     }
 
     /// The BRDF value `[r, g, b]` for light `wi` and view `wo` (local frame,

@@ -514,6 +514,63 @@ impl Material {
         Ok(())
     }
 
+    /// Step 1 of shading with visibility (ISD Appendix A): the slice's SH
+    /// coefficients in the world frame, `rho_l^m = pi_l sum_j lambda_l^j(wo)
+    /// y_l^m(R z_j)`, straight from the rotated lobes (no SH rotation);
+    /// `None` for a view below the surface (tables). One value per BRDF
+    /// channel.
+    ///
+    /// # Errors
+    /// Degrees beyond [`ifd_sphere::MAX_DEGREE`].
+    pub fn world_sh(
+        &self,
+        frame: &Frame,
+        wo: [f64; 3],
+        s: &mut Scratch,
+    ) -> Result<Option<ShCoeffs>> {
+        let (r, wl, theta, phi) = self.placement(frame, wo);
+        let kc = self.brdf.channels();
+        let sh = ShEvaluator::new(self.l_max)?;
+        let mut c = ShCoeffs::zeros(self.l_max, kc)?;
+        let n = (self.l_max + 1) * (self.l_max + 1);
+        match &self.lobes {
+            Lobes::Zonal => {
+                let Some((axis, k)) = zonal_slice(&self.brdf, wl, self.l_max) else {
+                    return Ok(None);
+                };
+                sh.eval_into(r.apply(axis), &mut s.y[..n]);
+                let d = c.data_mut();
+                for (l, kl) in k.iter().enumerate() {
+                    let band = l * l..(l + 1) * (l + 1);
+                    for (di, yi) in d[band.clone()].iter_mut().zip(&s.y[band]) {
+                        *di = kl * pi_l(l) * yi;
+                    }
+                }
+            }
+            Lobes::Table(t) => {
+                if wl[2] <= 0.0 {
+                    return Ok(None);
+                }
+                let ne = t.entry_len();
+                t.weights_into(theta, phi, &mut s.weights[..ne]);
+                let basis = t.basis();
+                let d = c.data_mut();
+                for (j, dir) in basis.directions().iter().enumerate() {
+                    sh.eval_into(r.apply(*dir), &mut s.y[..n]);
+                    for l in basis.first_band(j)..=self.l_max {
+                        let base = basis.index(l, j) * kc;
+                        for i in l * l..(l + 1) * (l + 1) {
+                            for cc in 0..kc {
+                                d[i * kc + cc] += pi_l(l) * s.weights[base + cc] * s.y[i];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Ok(Some(c))
+    }
+
     fn check_env(&self, env: &impl Bands) -> Result<()> {
         if env.l_max() != self.l_max {
             return Err(ShadeError::Mismatch(format!(
