@@ -52,6 +52,7 @@ fn job<'a>(
         seed,
         maps: None,
         family: None,
+        lights: &[],
     }
 }
 

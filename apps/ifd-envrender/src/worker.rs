@@ -391,6 +391,7 @@ impl Worker {
             seed: 0,
             maps: Some(surface),
             family,
+            lights: &[],
         };
         let r = render(&job, &|_, _| {})?;
         let tm = Tonemap::parse(&s.tonemap)?;

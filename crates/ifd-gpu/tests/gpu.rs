@@ -1249,6 +1249,7 @@ mod shading {
             seed: 0,
             maps: case.maps,
             family: case.family,
+            lights: &[],
         };
         let cpu = render(&job, &|_, _| {}).expect("cpu render");
         let px = gbuffer::pixels(&case.scene, &camera, case.maps).expect("pixels");

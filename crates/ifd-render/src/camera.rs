@@ -90,6 +90,12 @@ impl Camera {
         })
     }
 
+    /// The eye position.
+    #[must_use]
+    pub fn eye(&self) -> DVec3 {
+        self.eye
+    }
+
     /// Image width.
     #[must_use]
     pub fn width(&self) -> usize {

@@ -149,6 +149,7 @@ fn job<'b>(
         seed: 0,
         maps: None,
         family: None,
+        lights: &[],
     }
 }
 

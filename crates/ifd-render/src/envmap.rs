@@ -185,6 +185,29 @@ impl EnvMap {
         }
     }
 
+    /// The map seen in direction `d` (unit), bilinear between texel centres
+    /// (wrapping in azimuth, clamped at the poles' rows): the lookup of a
+    /// mirror reflection.
+    pub fn lookup_bilinear(&self, d: [f64; 3], out: &mut [f64]) {
+        let (w, h, ch) = (self.img.width(), self.img.height(), self.img.channels());
+        let t = d[2].clamp(-1.0, 1.0).acos();
+        let p = (d[1].atan2(d[0]) - self.rotation).rem_euclid(2.0 * PI);
+        let fu = p / (2.0 * PI) * w as f64 - 0.5;
+        let fv = (t / PI * h as f64 - 0.5).clamp(0.0, (h - 1) as f64);
+        let (u0, v0) = (fu.floor(), fv.floor());
+        let (a, b) = (fu - u0, fv - v0);
+        let u0 = (u0 as i64).rem_euclid(w as i64) as usize;
+        let u1 = (u0 + 1) % w;
+        let v0 = v0 as usize;
+        let v1 = (v0 + 1).min(h - 1);
+        let px = self.img.data();
+        for (c, o) in out.iter_mut().enumerate().take(ch) {
+            let at = |u: usize, v: usize| f64::from(px[(v * w + u) * ch + c]);
+            *o = (1.0 - b) * ((1.0 - a) * at(u0, v0) + a * at(u1, v0))
+                + b * ((1.0 - a) * at(u0, v1) + a * at(u1, v1));
+        }
+    }
+
     /// The exact SH coefficients of the (rotated) piecewise-constant map up to
     /// `l_max`, or the given ones for an environment made by [`Self::from_sh`].
     ///

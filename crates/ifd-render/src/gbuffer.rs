@@ -18,6 +18,8 @@ pub struct Surface {
     /// The shading frame (normal, and the tangent anisotropic BRDFs align
     /// `ax` with).
     pub frame: Frame,
+    /// The point (world), where local lights are seen from.
+    pub p: [f64; 3],
     /// The unit direction towards the viewer.
     pub wo: [f64; 3],
     /// Texture coordinates (`[0, 0]` for meshes without them).
@@ -59,6 +61,7 @@ pub fn pixel(
         };
         Surface {
             frame: Frame::new(hit.n.to_array(), hit.dpdu.to_array()),
+            p: hit.p.to_array(),
             wo: (-d).to_array(),
             uv,
             roughness,

@@ -14,7 +14,7 @@
 //! let material = Material::new(&brdf, 4, None)?;
 //! let camera = Camera::new(DVec3::new(0.0, -4.0, 0.0), DVec3::ZERO, DVec3::Z, 40.0, 16, 16)?;
 //! let job = Job { scene: Scene::Sphere, camera, env: &env, background: None, brdf: &brdf,
-//!                 material: Some(&material), method: Method::Isd, spp: 0, seed: 0, maps: None, family: None };
+//!                 material: Some(&material), method: Method::Isd, spp: 0, seed: 0, maps: None, family: None, lights: &[] };
 //! let r = render(&job, &|_, _| {})?;
 //! // the white furnace: a white Lambertian sphere in a uniform unit light is 1
 //! let centre = r.image.get(8, 8, 0);
@@ -30,10 +30,12 @@
 //! - [`gbuffer`]: what each pixel's ray sees (frame, view, map values), for the CPU and GPU shaders.
 //! - [`envmap`]: environment maps (rotation, downsampling, lookups, exact SH, texel samples).
 //! - [`oracle`]: the exact texel quadrature.
+//! - [`mirror`]: anti-aliased mirror reflections on a bumpy mirror (Eq. 26-29).
 //! - [`mc`]: the Monte Carlo reference (environment and BRDF sampling, MIS).
 //! - [`render`]: the render loop and error measures.
 //! - [`textures`]: albedo and roughness maps (spatially varying BRDFs).
 //! - [`tonemap`]: exposure, tone curves, sRGB.
+//! - [`visibility`]: self-shadowed shading on meshes (Eq. 25, Appendix A).
 
 mod error;
 
@@ -44,10 +46,12 @@ pub mod gbuffer;
 pub mod hit;
 pub mod mc;
 pub mod mesh;
+pub mod mirror;
 pub mod oracle;
 pub mod render;
 pub mod scene;
 pub mod textures;
 pub mod tonemap;
+pub mod visibility;
 
 pub use crate::error::{RenderError, Result};

@@ -242,6 +242,31 @@ impl Mesh {
     /// The first hit of the ray `o + t d`, `t > 1e-9`.
     #[must_use]
     pub fn intersect(&self, o: DVec3, d: DVec3) -> Option<Hit> {
+        self.intersect_vertices(o, d).map(|(h, _, _)| h)
+    }
+
+    /// Vertex positions (after centring and scaling).
+    #[must_use]
+    pub fn positions(&self) -> &[DVec3] {
+        &self.pos
+    }
+
+    /// Vertex normals (unit).
+    #[must_use]
+    pub fn normals(&self) -> &[DVec3] {
+        &self.nrm
+    }
+
+    /// Whether the ray `o + t d` hits anything for `t` in `(1e-9, t_max)`.
+    #[must_use]
+    pub fn occluded(&self, o: DVec3, d: DVec3, t_max: f64) -> bool {
+        self.intersect(o, d).is_some_and(|h| h.t < t_max)
+    }
+
+    /// [`Self::intersect`] with the hit triangle's vertex indices and their
+    /// barycentric weights (for per-vertex data).
+    #[must_use]
+    pub fn intersect_vertices(&self, o: DVec3, d: DVec3) -> Option<(Hit, [usize; 3], [f64; 3])> {
         // zero components: a huge finite inverse keeps the slab test free of 0 * inf
         let inv = DVec3::new(
             if d.x == 0.0 { 1e300 } else { 1.0 / d.x },
@@ -293,13 +318,17 @@ impl Mesh {
                 w * uv[a][1] + u * uv[b][1] + v * uv[c][1],
             ]
         });
-        Some(Hit {
-            t,
-            p: o + t * d,
-            n,
-            dpdu: self.dpdu[i],
-            uv,
-        })
+        Some((
+            Hit {
+                t,
+                p: o + t * d,
+                n,
+                dpdu: self.dpdu[i],
+                uv,
+            },
+            [a, b, c],
+            [1.0 - u - v, u, v],
+        ))
     }
 
     fn hit_triangle(&self, i: usize, o: DVec3, d: DVec3) -> Option<(f64, f64, f64)> {

@@ -5,6 +5,7 @@
 
 use ifd_image::Image;
 use ifd_shade::Brdf;
+use ifd_shade::lights::SphericalLight;
 use ifd_shade::shade::{BandMaps, Environment, Frame, Material, Scratch};
 use rayon::prelude::*;
 
@@ -79,6 +80,11 @@ pub struct Job<'a> {
     pub maps: Option<&'a SurfaceMaps>,
     /// ISD materials over roughness, for a roughness map.
     pub family: Option<&'a RoughnessFamily>,
+    /// Local spherical lights added to the environment (ISD Sec. 7.3):
+    /// zonal lighting per point for `isd`, `isd-maps` and `sh` (Eq. 33-34), the
+    /// cap's quadrature for `quadrature`; refused by `mc`. Pixels whose ray
+    /// meets a light before the object show its radiance.
+    pub lights: &'a [SphericalLight],
 }
 
 /// A rendered image with what a caller needs to measure it.
@@ -123,6 +129,25 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             reason: format!("a {kc}-channel BRDF needs a {kc}-channel environment, not {ch}"),
         });
     }
+    if !job.lights.is_empty() && job.method == Method::Mc {
+        return Err(RenderError::Parameter {
+            name: "--light",
+            value: format!("{} lights", job.lights.len()),
+            reason: "the Monte Carlo renderer does not sample spherical lights; use \
+                     --method quadrature for their reference"
+                .into(),
+        });
+    }
+    let eye = job.camera.eye().to_array();
+    for l in job.lights {
+        l.radiance_for(ch)?;
+        // the camera inside a light sees nothing else
+        l.cap_at(eye).map_err(|_| RenderError::Parameter {
+            name: "--light",
+            value: format!("centre {:?}, radius {}", l.centre, l.radius),
+            reason: "the camera (--eye) is inside the light".into(),
+        })?;
+    }
     if rough_map.is_some()
         && job.family.is_none()
         && matches!(job.method, Method::Isd | Method::IsdMaps | Method::Sh)
@@ -155,14 +180,33 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
     };
     let oracle = (job.method == Method::Quadrature).then(|| Oracle::new(job.env));
     let sampler = (job.method == Method::Mc).then(|| EnvSampler::new(job.env));
-    // one ISD-side shading of a material into `out`
-    let shade = |m: &Material, frame: &Frame, wo: [f64; 3], s: &mut Scratch, out: &mut [f64]| match (
-        job.method, &env_sh, &maps,
-    ) {
-        (Method::Isd, Some(e), _) => m.shade_isd(e, frame, wo, s, out),
-        (Method::IsdMaps, _, Some(bm)) => m.shade_isd(bm, frame, wo, s, out),
-        (Method::Sh, Some(e), _) => m.shade_sh(e, frame, wo, out),
-        _ => unreachable!("ISD-side methods have their environment"),
+    // one ISD-side shading of a material into `out`: the environment, then
+    // each light as zonal lighting at the point (`tmp`: scratch)
+    let shade = |m: &Material,
+                 surface: &Surface,
+                 s: &mut Scratch,
+                 tmp: &mut [f64],
+                 out: &mut [f64]|
+     -> Result<()> {
+        let (frame, wo) = (&surface.frame, surface.wo);
+        match (job.method, &env_sh, &maps) {
+            (Method::Isd, Some(e), _) => m.shade_isd(e, frame, wo, s, out)?,
+            (Method::IsdMaps, _, Some(bm)) => m.shade_isd(bm, frame, wo, s, out)?,
+            (Method::Sh, Some(e), _) => m.shade_sh(e, frame, wo, out)?,
+            _ => unreachable!("ISD-side methods have their environment"),
+        }
+        for light in job.lights {
+            let z = light.at(surface.p, m.l_max(), ch)?;
+            if job.method == Method::Sh {
+                m.shade_sh(&Environment::new(z.to_sh()?)?, frame, wo, tmp)?;
+            } else {
+                m.shade_isd(&z, frame, wo, s, tmp)?;
+            }
+            for c in 0..ch {
+                out[c] += tmp[c];
+            }
+        }
+        Ok(())
     };
     let done = std::sync::atomic::AtomicUsize::new(0);
     let rows: Vec<Result<Row>> = (0..h)
@@ -175,11 +219,19 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             let (mut max_k, mut bad, mut resid) = (0, 0, 0.0f64);
             let mut out = vec![0.0; ch.max(3)];
             let mut out2 = vec![0.0; ch.max(3)];
+            let mut tmp = vec![0.0; ch.max(3)];
             let l = degree.unwrap_or(0);
             let mut scratch = Scratch::new(l, ch);
             for x in 0..w {
                 let Pixel { dir: d, surface } = pixel(&job.scene, &job.camera, job.maps, x, y);
                 out.fill(0.0);
+                if let Some(light) = light_in_front(job, d, surface.as_ref()) {
+                    let r = light.radiance_for(ch)?;
+                    for c in 0..ch {
+                        px[x * ch + c] = r[c] as f32;
+                    }
+                    continue;
+                }
                 if let Some(surface) = surface {
                     mask[x] = true;
                     let Surface {
@@ -187,6 +239,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                         wo,
                         roughness: rough,
                         albedo,
+                        p,
                         ..
                     } = surface;
                     // the exact BRDF of this point (oracle, Monte Carlo)
@@ -201,13 +254,13 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                         Method::Isd | Method::IsdMaps | Method::Sh => {
                             if let (Some(r), Some(f)) = (rough, job.family) {
                                 let (m0, m1, t) = f.locate(r);
-                                shade(m0, &frame, wo, &mut scratch, &mut out)?;
-                                shade(m1, &frame, wo, &mut scratch, &mut out2)?;
+                                shade(m0, &surface, &mut scratch, &mut tmp, &mut out)?;
+                                shade(m1, &surface, &mut scratch, &mut tmp, &mut out2)?;
                                 for c in 0..ch {
                                     out[c] = (1.0 - t) * out[c] + t * out2[c];
                                 }
                             } else if let Some(m) = job.material {
-                                shade(m, &frame, wo, &mut scratch, &mut out)?;
+                                shade(m, &surface, &mut scratch, &mut tmp, &mut out)?;
                             }
                         }
                         Method::Mc => {
@@ -230,6 +283,14 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                             max_k = max_k.max(k);
                             bad += usize::from(!ok);
                             resid = resid.max(r);
+                            for light in job.lights {
+                                let ok =
+                                    light_quadrature(light, brdf, &frame, p, wo, ch, &mut tmp)?;
+                                bad += usize::from(!ok);
+                                for c in 0..ch {
+                                    out[c] += tmp[c];
+                                }
+                            }
                         }
                     }
                     if albedo_map.is_some() {
@@ -268,6 +329,13 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
     }
     let object_pixels = mask.iter().filter(|m| **m).count();
     if object_pixels == 0 {
+        if !job.lights.is_empty() {
+            return Err(RenderError::NothingVisible(format!(
+                "no ray of the {w}x{h} image reaches the {:?}: the --light spheres hide or \
+                 contain it, or the camera misses it (check --eye, --target, --fov)",
+                job.scene
+            )));
+        }
         return Err(nothing_visible(&job.scene, &job.camera));
     }
     Ok(Rendered {
@@ -283,6 +351,58 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             None
         },
     })
+}
+
+/// The light the ray `d` from the camera meets before the surface, if any.
+fn light_in_front<'a>(
+    job: &Job<'a>,
+    d: [f64; 3],
+    surface: Option<&Surface>,
+) -> Option<&'a SphericalLight> {
+    if job.lights.is_empty() {
+        return None;
+    }
+    let o = job.camera.eye().to_array();
+    let t_surface = surface.map_or(f64::INFINITY, |s| {
+        ((s.p[0] - o[0]).powi(2) + (s.p[1] - o[1]).powi(2) + (s.p[2] - o[2]).powi(2)).sqrt()
+    });
+    job.lights
+        .iter()
+        .filter_map(|l| l.intersect(o, d).map(|t| (t, l)))
+        .filter(|(t, _)| *t < t_surface)
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, l)| l)
+}
+
+/// The exact reference of one light at a point: the cap's quadrature in the
+/// local frame (tolerance 1e-6 of the pixel). Returns whether it converged.
+fn light_quadrature(
+    light: &SphericalLight,
+    brdf: &Brdf,
+    frame: &Frame,
+    p: [f64; 3],
+    wo: [f64; 3],
+    ch: usize,
+    out: &mut [f64],
+) -> Result<bool> {
+    let (axis, cos_alpha) = light.cap_at(p)?;
+    let radiance = light.radiance_for(ch)?;
+    let kc = brdf.channels();
+    let mut k = vec![0.0; kc];
+    let ok = ifd_shade::lights::zonal_quadrature(
+        brdf,
+        frame.to_local(wo),
+        frame.to_local(axis),
+        &|_| 1.0,
+        (cos_alpha, 1.0),
+        &[],
+        1e-6,
+        &mut k,
+    );
+    for c in 0..ch {
+        out[c] = radiance[c] * k[if kc == 1 { 0 } else { c }];
+    }
+    Ok(ok)
 }
 
 /// Relative RMS error of `a` against `b` over the masked pixels:
