@@ -7,6 +7,7 @@
 // formulas and `HxW` in backticks would read worse there.
 #![expect(clippy::doc_markdown, reason = "doc comments are clap help text")]
 
+use std::io::Write as _;
 use std::process::ExitCode;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
@@ -48,6 +49,10 @@ enum Command {
     Sphere(commands::sphere::Sphere),
     /// Render an object lit by an environment map: ISD shading (Eq. 22), its SH reference or the exact quadrature.
     Render(Box<commands::render::Render>),
+    /// Anti-aliased mirror reflections on a bumpy mirror (ISD Sec. 6.2, Eq. 26-29) against supersampling.
+    Mirror(commands::mirror::Mirror),
+    /// Self-shadowed ISD shading on a mesh (ISD Eq. 25, Appendix A) against a ray-traced reference.
+    Visibility(commands::visibility::Visibility),
     /// Image-based lighting for engines: prefiltered GGX radiance mips, irradiance, SH (KTX2), the DFG table.
     Envmap(commands::envmap::Envmap),
 }
@@ -68,7 +73,12 @@ fn main() -> ExitCode {
     // interrupted run leaves nothing behind.
     let handler = ctrlc::set_handler(|| {
         let n = ifd_image::remove_pending_outputs();
-        eprintln!("interrupted: {n} unfinished output file(s) removed");
+        // not eprintln!: it panics on a closed stderr (a pipe whose reader
+        // is gone), which would end this handler's thread before the exit
+        let _ = writeln!(
+            std::io::stderr(),
+            "interrupted: {n} unfinished output file(s) removed"
+        );
         std::process::exit(130);
     });
     if let Err(e) = handler {
@@ -83,6 +93,8 @@ fn main() -> ExitCode {
         Command::Field(c) => c.run(),
         Command::Sphere(c) => c.run(),
         Command::Render(c) => c.run(),
+        Command::Mirror(c) => c.run(),
+        Command::Visibility(c) => c.run(),
         Command::Envmap(c) => c.run(),
         Command::Convert(c) => c.run(),
         Command::Info(c) => c.run(),

@@ -156,6 +156,18 @@ pub struct Render {
     /// Lobe tables across the roughness map's range (ISD methods).
     #[arg(long, value_name = "K", default_value_t = 8)]
     roughness_tables: usize,
+    /// A local spherical light added to the environment (ISD Sec. 7.3): centre, radius and the
+    /// radiance of its surface, `x,y,z,radius,L` or `x,y,z,radius,R,G,B`; repeat for several.
+    /// isd, isd-maps and sh shade it as zonal lighting per point (Eq. 33-34, at the same L),
+    /// quadrature integrates its cap exactly; not with mc or --gpu. Unshadowed; the light is
+    /// drawn where the camera sees it.
+    #[arg(
+        long,
+        value_name = "X,Y,Z,R,L",
+        allow_hyphen_values = true,
+        conflicts_with = "convergence"
+    )]
+    light: Vec<String>,
     /// Also write the object mask (1 on the object, 0 elsewhere).
     #[arg(long, value_name = "FILE")]
     mask: Option<PathBuf>,
@@ -183,7 +195,7 @@ pub struct Render {
     input: InputOptions,
 }
 
-fn parse_vec(text: &str, option: &str) -> Result<DVec3> {
+pub(crate) fn parse_vec(text: &str, option: &str) -> Result<DVec3> {
     let v: Vec<f64> = text
         .split(',')
         .map(|x| x.trim().parse::<f64>())
@@ -265,6 +277,20 @@ impl Render {
             bail!(
                 "--lmax {l}: shading supports L <= {}",
                 ifd_shade::table::MAX_TABLE_DEGREE
+            );
+        }
+        let lights = self
+            .light
+            .iter()
+            .map(|l| ifd_shade::lights::SphericalLight::parse(l))
+            .collect::<Result<Vec<_>, _>>()?;
+        if self.gpu && !lights.is_empty() {
+            bail!("--light: spherical lights are shaded on the CPU only (drop --gpu)");
+        }
+        if method == Method::Mc && !lights.is_empty() {
+            bail!(
+                "--light: the Monte Carlo renderer does not sample spherical lights; use \
+                 --method quadrature for their reference"
             );
         }
         if self.gpu && !matches!(method, Method::Isd | Method::IsdMaps) {
@@ -355,6 +381,7 @@ impl Render {
             seed: self.seed,
             maps: Some(&surface),
             family: family.as_ref(),
+            lights: &lights,
         };
         let t_render = std::time::Instant::now();
         let (r, gpu_report) = if let Some(ctx) = &gpu {

@@ -42,6 +42,12 @@ enum SphereCommand {
     Filter(FilterCmd),
     /// Tabulate a BRDF's view-dependent ISD lobe weights (ISD Sec. 6.1, 7.1) into a table file.
     Brdf(BrdfCmd),
+    /// Radial reflection map of any BRDF under radially symmetric light (ISD Sec. 6.1, Eq. 23-24).
+    Radial(crate::commands::radial::RadialCmd),
+    /// Filter noisy or sparse BRDF data with a separable vMF kernel on the 4D SH basis (ISD Sec. 6.3).
+    BrdfFilter(crate::commands::brdf_filter::BrdfFilterCmd),
+    /// Search lobe directions that make the ZHF matrix sparse (ZHF Sec. 5-6, Table I, Fig. 3).
+    Sparsity(crate::commands::sparsity::SparsityCmd),
 }
 
 impl Sphere {
@@ -55,6 +61,9 @@ impl Sphere {
             SphereCommand::Eval(c) => c.run(),
             SphereCommand::Filter(c) => c.run(),
             SphereCommand::Brdf(c) => c.run(),
+            SphereCommand::Radial(c) => c.run(),
+            SphereCommand::BrdfFilter(c) => c.run(),
+            SphereCommand::Sparsity(c) => c.run(),
         }
     }
 }
