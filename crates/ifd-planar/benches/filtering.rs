@@ -22,8 +22,12 @@
 //!   (log-uniform stack, two lookups per term), and `gather_limit_bilinear`,
 //!   the machine's limit for the first: the same bilinear lookups at the same
 //!   positions of the same stack with no filter logic (no border handling,
-//!   level chosen beforehand, one channel). Report ifd as a fraction of it.
-//!   Run with `RAYON_NUM_THREADS=1` for per-thread numbers.
+//!   level chosen beforehand, one channel), and `gather_limit_avx2`, the same
+//!   loop eight pixels at a time with AVX2 gathers (the limit of ifd's vector
+//!   kernels; skipped without AVX2). Each ifd path runs twice: with the vector
+//!   gathers (the default) and with the scalar loop (`_scalar`). Report ifd as
+//!   a fraction of the limits. Run with `RAYON_NUM_THREADS=1` for per-thread
+//!   numbers.
 //!
 //! Both sides use rayon's default thread count.
 
@@ -35,7 +39,7 @@ use ifd_image::Image;
 use ifd_planar::reference::correlate_varying_rows;
 use ifd_planar::{
     Border, Decomposition, Field, Filter, Interpolation, ScaleStack, StackOptions, Term,
-    stack_for_decomposition,
+    stack_for_decomposition, stack_plan_for_decomposition,
 };
 use rayon::prelude::*;
 
@@ -322,10 +326,22 @@ fn throughput(c: &mut Criterion) {
     g.throughput(Throughput::Elements((w * h * n) as u64));
     let sigmas = ifd_planar::filter::level_sigmas(&d, s, 0.0);
     for interpolation in [Interpolation::Linear, Interpolation::Cubic] {
-        let options = StackOptions {
-            interpolation,
-            ..StackOptions::default()
-        };
+        // The stored margin `ifd filter` plans (covering the kernel's reach
+        // where memory allows, so lookups near the border stay on the fast
+        // path), with levels at the terms' exact sigmas.
+        let options = stack_plan_for_decomposition(
+            (w, h, 1),
+            &d,
+            s,
+            s,
+            Border::Reflect101,
+            StackOptions {
+                interpolation,
+                ..StackOptions::default()
+            },
+        )
+        .expect("plan")
+        .options;
         let stack =
             ScaleStack::with_sigmas(&img, &sigmas, Border::Reflect101, options).expect("stack");
         let f = Filter::new(&stack, &d).expect("filter");
@@ -338,6 +354,16 @@ fn throughput(c: &mut Criterion) {
                 });
             },
         );
+        if interpolation == Interpolation::Linear {
+            let scalar = f.clone().with_vector_kernels(false);
+            g.bench_function(format!("angle_map_linear_scalar_{n}_terms"), |b| {
+                b.iter(|| {
+                    scalar
+                        .apply(Field::Map(&angles), Field::Constant(s))
+                        .expect("apply")
+                });
+            });
+        }
         if interpolation == Interpolation::Linear {
             let level_of = |sigma: f64| {
                 stack
@@ -371,6 +397,18 @@ fn throughput(c: &mut Criterion) {
             g.bench_function(format!("gather_limit_bilinear_{n}_terms"), |b| {
                 b.iter(|| gather_bilinear(&stack, &terms, &angles, s));
             });
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                let want = gather_bilinear(&stack, &terms, &angles, s);
+                let got = vector_limit::gather(&stack, &terms, &angles, s);
+                eprintln!(
+                    "avx2 gather loop vs scalar gather loop: PSNR {:.1} dB",
+                    psnr(&got, &want)
+                );
+                g.bench_function(format!("gather_limit_avx2_{n}_terms"), |b| {
+                    b.iter(|| vector_limit::gather(&stack, &terms, &angles, s));
+                });
+            }
         }
     }
     let stack = stack_for_decomposition(
@@ -389,7 +427,153 @@ fn throughput(c: &mut Criterion) {
                 .expect("apply")
         });
     });
+    let scalar = f.clone().with_vector_kernels(false);
+    g.bench_function(
+        format!("angle_and_scale_maps_linear_scalar_{n}_terms"),
+        |b| {
+            b.iter(|| {
+                scalar
+                    .apply(Field::Map(&angles), Field::Map(&scales))
+                    .expect("apply")
+            });
+        },
+    );
     g.finish();
+}
+
+/// The plain gather loop of [`gather_bilinear`] eight pixels at a time with
+/// AVX2: rotation, positions, indices and weights as vectors, each bilinear
+/// lookup as two 64-bit gathers per row pair (the two horizontal
+/// neighbours at once), no border logic (indices clamped). The limit of
+/// ifd's vector kernels, which add the interior test, the scalar fallback
+/// and the scalar loop's order of operations (no FMA).
+#[cfg(target_arch = "x86_64")]
+#[allow(
+    unsafe_code,
+    reason = "AVX2 gathers, as in ifd_planar's vector kernels"
+)]
+mod vector_limit {
+    use std::arch::x86_64::{
+        _mm256_add_epi32, _mm256_add_ps, _mm256_castsi256_ps, _mm256_castsi256_si128,
+        _mm256_cvtepi32_ps, _mm256_cvttps_epi32, _mm256_extracti128_si256, _mm256_fmadd_ps,
+        _mm256_fnmadd_ps, _mm256_i32gather_epi64, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps,
+        _mm256_mul_ps, _mm256_mullo_epi32, _mm256_permute2x128_si256, _mm256_permutevar8x32_epi32,
+        _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32, _mm256_setr_ps, _mm256_setzero_ps,
+        _mm256_storeu_ps, _mm256_sub_ps,
+    };
+
+    use ifd_planar::ScaleStack;
+    use rayon::prelude::*;
+
+    pub fn gather(
+        stack: &ScaleStack,
+        terms: &[(f32, f32, f32, usize)],
+        angles: &[f32],
+        scale: f32,
+    ) -> Vec<f32> {
+        let w = stack.width();
+        let mut out = vec![0.0f32; w * stack.height()];
+        out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            // SAFETY: the caller checked that the CPU has AVX2.
+            unsafe { gather_row(stack, terms, &angles[y * w..(y + 1) * w], scale, y, row) };
+        });
+        out
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    fn gather_row(
+        stack: &ScaleStack,
+        terms: &[(f32, f32, f32, usize)],
+        angles: &[f32],
+        scale: f32,
+        y: usize,
+        row: &mut [f32],
+    ) {
+        let levels: Vec<(&[f32], f32, f32, i32, i32)> = stack
+            .level_layouts()
+            .enumerate()
+            .map(|(i, l)| {
+                (
+                    stack.level_data(i).expect("level"),
+                    l.origin as f32,
+                    1.0 / l.step as f32,
+                    l.nx as i32,
+                    l.ny as i32,
+                )
+            })
+            .collect();
+        let split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+        let lane = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0);
+        let zero = _mm256_setzero_ps();
+        for x0 in (0..row.len() / 8 * 8).step_by(8) {
+            let mut c = [0.0f32; 8];
+            let mut s = [0.0f32; 8];
+            for k in 0..8 {
+                let (sin, cos) = angles[x0 + k].to_radians().sin_cos();
+                (c[k], s[k]) = (cos * scale, sin * scale);
+            }
+            // SAFETY: eight floats each.
+            let (c, s) = unsafe { (_mm256_loadu_ps(c.as_ptr()), _mm256_loadu_ps(s.as_ptr())) };
+            let xf = _mm256_add_ps(_mm256_set1_ps(x0 as f32), lane);
+            let yf = _mm256_set1_ps(y as f32);
+            let mut acc = zero;
+            for &(weight, cx, cy, li) in terms {
+                let (data, origin, inv, nx, ny) = levels[li];
+                let (cx, cy) = (_mm256_set1_ps(cx), _mm256_set1_ps(cy));
+                let px = _mm256_fmadd_ps(s, cy, _mm256_fmadd_ps(c, cx, xf));
+                let py = _mm256_fmadd_ps(c, cy, _mm256_fnmadd_ps(s, cx, yf));
+                let u = _mm256_mul_ps(
+                    _mm256_sub_ps(px, _mm256_set1_ps(origin)),
+                    _mm256_set1_ps(inv),
+                );
+                let v = _mm256_mul_ps(
+                    _mm256_sub_ps(py, _mm256_set1_ps(origin)),
+                    _mm256_set1_ps(inv),
+                );
+                let u = _mm256_min_ps(_mm256_max_ps(u, zero), _mm256_set1_ps((nx - 2) as f32));
+                let v = _mm256_min_ps(_mm256_max_ps(v, zero), _mm256_set1_ps((ny - 2) as f32));
+                let (iu, iv) = (_mm256_cvttps_epi32(u), _mm256_cvttps_epi32(v));
+                let fu = _mm256_sub_ps(u, _mm256_cvtepi32_ps(iu));
+                let fv = _mm256_sub_ps(v, _mm256_cvtepi32_ps(iv));
+                let idx = _mm256_add_epi32(_mm256_mullo_epi32(iv, _mm256_set1_epi32(nx)), iu);
+                let (lo, hi) = (
+                    _mm256_castsi256_si128(idx),
+                    _mm256_extracti128_si256::<1>(idx),
+                );
+                let p = data.as_ptr();
+                // SAFETY: u and v are clamped to the level's interior, so
+                // every 8-byte read at idx (row 0) and idx + nx (row 1) is in it.
+                #[allow(clippy::cast_ptr_alignment, reason = "gathers need no alignment")]
+                let (r0l, r0h, r1l, r1h) = unsafe {
+                    let q = p.add(nx as usize);
+                    (
+                        _mm256_i32gather_epi64::<4>(p.cast(), lo),
+                        _mm256_i32gather_epi64::<4>(p.cast(), hi),
+                        _mm256_i32gather_epi64::<4>(q.cast(), lo),
+                        _mm256_i32gather_epi64::<4>(q.cast(), hi),
+                    )
+                };
+                let (r0l, r0h) = (
+                    _mm256_permutevar8x32_epi32(r0l, split),
+                    _mm256_permutevar8x32_epi32(r0h, split),
+                );
+                let (r1l, r1h) = (
+                    _mm256_permutevar8x32_epi32(r1l, split),
+                    _mm256_permutevar8x32_epi32(r1h, split),
+                );
+                let a = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x20>(r0l, r0h));
+                let b = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x31>(r0l, r0h));
+                let cc = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x20>(r1l, r1h));
+                let d = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x31>(r1l, r1h));
+                let top = _mm256_fmadd_ps(fu, _mm256_sub_ps(b, a), a);
+                let bottom = _mm256_fmadd_ps(fu, _mm256_sub_ps(d, cc), cc);
+                let value = _mm256_fmadd_ps(fv, _mm256_sub_ps(bottom, top), top);
+                acc = _mm256_fmadd_ps(_mm256_set1_ps(weight), value, acc);
+            }
+            // SAFETY: eight floats of the row.
+            unsafe { _mm256_storeu_ps(row[x0..x0 + 8].as_mut_ptr(), acc) };
+        }
+    }
 }
 
 criterion_group!(benches, prefilter, terms, extent, throughput);

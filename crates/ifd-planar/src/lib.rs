@@ -55,5 +55,6 @@ pub use filter::{
     DIRECT_SIGMA, Filter, Rotation, ScaledFilter, Taps, stack_for_decomposition,
     stack_plan_for_decomposition,
 };
+pub use stack::gather::vector_kernels;
 pub use stack::refresh::{FixedTap, PixelRect, RefreshReport};
 pub use stack::{Interpolation, LevelLayout, ScaleStack, StackLayout, StackOptions, StackPlan};

@@ -54,6 +54,10 @@ pub struct FilterOptions {
     /// image, each with a part of a scale map, pass the whole map's range so
     /// that they all read the same levels and give the whole image's result.
     pub scale_range: Option<(f32, f32)>,
+    /// Let per-pixel maps use the CPU's vector gathers where it has them
+    /// ([`Filter::with_vector_kernels`]; the same output either way).
+    /// Default true.
+    pub vector_kernels: bool,
 }
 
 impl Default for FilterOptions {
@@ -64,6 +68,7 @@ impl Default for FilterOptions {
             eval_budget: EvalPlan::DEFAULT_BUDGET,
             log_uniform: false,
             scale_range: None,
+            vector_kernels: true,
         }
     }
 }
@@ -83,6 +88,8 @@ pub struct FilterPlan {
     pub level_sigmas: Option<Vec<f64>>,
     /// Terms evaluated directly at the (constant) scale.
     pub direct_terms: usize,
+    /// As [`FilterOptions::vector_kernels`].
+    pub vector_kernels: bool,
 }
 
 impl FilterPlan {
@@ -158,6 +165,7 @@ impl FilterPlan {
             stack,
             level_sigmas,
             direct_terms,
+            vector_kernels: options.vector_kernels,
         })
     }
 
@@ -263,6 +271,7 @@ impl FilterPlan {
     ) -> Result<Image, FilterError> {
         Filter::new(stack, &self.decomposition)?
             .with_direct(image, self.eval.direct_sigma)?
+            .with_vector_kernels(self.vector_kernels)
             .apply(angle, scale)
     }
 }

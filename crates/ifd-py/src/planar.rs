@@ -325,6 +325,7 @@ fn filter<'py>(
         eval_budget: eval_budget.unwrap_or(ifd_planar::EvalPlan::DEFAULT_BUDGET),
         log_uniform: false,
         scale_range,
+        vector_kernels: true,
     };
     let inner = &decomposition.inner;
     let out = py
@@ -367,6 +368,7 @@ fn filter_alignment(
         eval_budget: eval_budget.unwrap_or(ifd_planar::EvalPlan::DEFAULT_BUDGET),
         log_uniform: false,
         scale_range: None,
+        vector_kernels: true,
     };
     FilterPlan::for_ranges(
         (w, h, c),

@@ -81,6 +81,11 @@ pub struct Filter {
     /// it whole.
     #[arg(long, value_name = "PX", conflicts_with = "gpu")]
     tile: Option<usize>,
+    /// Evaluate per-pixel maps with the scalar loop instead of the CPU's
+    /// vector gathers (AVX2, detected at run time): the same output bit for
+    /// bit, slower; for measuring.
+    #[arg(long, conflicts_with = "gpu")]
+    scalar: bool,
     #[command(flatten)]
     input: InputOptions,
 }
@@ -97,6 +102,7 @@ impl Filter {
             eval_budget: self.eval_budget,
             log_uniform: false,
             scale_range: None,
+            vector_kernels: !self.scalar,
         }
     }
 
@@ -159,6 +165,22 @@ impl Filter {
                 self.decomp.display()
             )
         })
+    }
+}
+
+/// How the CPU evaluates per-pixel maps, in words (for `-v`).
+fn per_pixel_kernel(interpolation: Interpolation, channels: usize, vector: bool) -> String {
+    match ifd_planar::vector_kernels() {
+        _ if !vector => "scalar loop (--scalar)".into(),
+        None => "scalar loop (this CPU has no AVX2)".into(),
+        Some(_) if interpolation != Interpolation::Linear => {
+            format!(
+                "scalar loop ({} levels have no vector kernel)",
+                interpolation.name()
+            )
+        }
+        Some(_) if channels > 4 => "scalar loop (more than 4 channels)".into(),
+        Some(isa) => format!("{isa} gathers, 8 pixels per vector"),
     }
 }
 
@@ -352,6 +374,12 @@ impl Filter {
         } else {
             None
         };
+        let per_pixel = (angle.is_map() || scale.is_map()) && gpu.is_none();
+        let kernel = per_pixel_kernel(
+            plan.eval.interpolation,
+            image.channels(),
+            plan.vector_kernels,
+        );
         let t0 = Instant::now();
         let stack = plan.build_stack(&image).context("prefiltering")?;
         let t1 = Instant::now();
@@ -379,6 +407,9 @@ impl Filter {
                 100.0 * plan.eval.error_bound,
                 plan.eval.amplification
             );
+            if per_pixel {
+                eprintln!("per-pixel lookups: {kernel}");
+            }
             eprintln!(
                 "{} terms; prefiltering {:.1} ms ({} levels, {}), filtering {:.1} ms",
                 decomposition.terms.len(),

@@ -1323,6 +1323,7 @@ fn build_levels(layout: &StackLayout, data: &[f32], border: Border, levels: &mut
     }
 }
 
+pub(crate) mod gather;
 pub(crate) mod lookup;
 pub mod refresh;
 

@@ -1,0 +1,529 @@
+//! Bilinear lookups for eight neighbouring pixels at once: the per-pixel
+//! paths' inner loop, vectorised across pixels with AVX2 gathers (detected at
+//! run time; other CPUs take the scalar loop).
+//!
+//! # Why vectors across pixels
+//! With a per-pixel angle (or scale) every term of every pixel reads its own
+//! displaced position, so nothing is shared between the lookups of one pixel;
+//! but the positions of eight neighbouring pixels for one term are a few
+//! multiply-adds apart. One term for eight pixels is then one vector of
+//! positions, one vector of indices and weights, and four gathers (two when
+//! the level has one channel: each gather reads the two horizontal
+//! neighbours as one 64-bit element). The scalar loop spends most of its
+//! instructions on exactly that address and weight arithmetic, one pixel at
+//! a time.
+//!
+//! # Same results as the scalar loop
+//! The kernels evaluate the scalar loop's expressions in the same order with
+//! separate multiplies and adds (no fused multiply-add), and a block with a
+//! lane whose stencil leaves the stored level hands that term's eight lookups
+//! to the scalar, border-resolving lookup in lane order. So the output is
+//! bit for bit the scalar loop's on every CPU (tested), whatever the thread
+//! count.
+//!
+//! # The `unsafe` in this module
+//! The workspace denies `unsafe`; this module is the one exception, for two
+//! things stable Rust only offers as `unsafe`: calling a function compiled
+//! for AVX2 (after `is_x86_feature_detected!` said the CPU has it), and the
+//! gather instructions, which take a raw pointer. Memory safety does not rest
+//! on the interior test that chooses the vector path: the gather indices are
+//! clamped (integer min/max) into the range every read of a stencil stays in,
+//! and the levels' sizes are checked once (`supports`) before any kernel
+//! runs.
+#![allow(
+    unsafe_code,
+    reason = "AVX2 gathers and run-time dispatch; see the module documentation"
+)]
+
+use super::{Interpolation, ScaleStack};
+
+/// Pixels per vector block.
+pub(crate) const LANES: usize = 8;
+
+/// One term at a constant scale: displacement, its one or two levels and
+/// their weights (`wb == 0` for one lookup).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FixedTerm {
+    pub(crate) cx: f32,
+    pub(crate) cy: f32,
+    pub(crate) a: usize,
+    pub(crate) b: usize,
+    pub(crate) wa: f32,
+    pub(crate) wb: f32,
+}
+
+/// The vector instruction set the kernels use on this CPU, if any.
+#[must_use]
+pub fn vector_kernels() -> Option<&'static str> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            return Some("avx2");
+        }
+    }
+    None
+}
+
+/// Whether the kernels can read `stack` with `channels = C`: bilinear
+/// levels, every level at least 2x2 samples, stored as `nx * ny * C`
+/// samples addressable with 32-bit indices, and a CPU that has them.
+pub(crate) fn supports<const C: usize>(stack: &ScaleStack) -> bool {
+    C > 0
+        && stack.channels == C
+        && stack.interpolation == Interpolation::Linear
+        && vector_kernels().is_some()
+        && stack.levels.iter().all(|l| {
+            let (nx, ny) = (l.layout.nx, l.layout.ny);
+            nx >= 2 && ny >= 2 && l.data.len() == nx * ny * C && l.data.len() < i32::MAX as usize
+        })
+}
+
+/// Adds the filtered values of the pixels `0..n` of row `y` into `out` (the
+/// row, `C` interleaved channels) for per-pixel rotations `cs[x] = s cos`,
+/// `ss[x] = s sin` at a constant scale, where `n` is the returned count (a
+/// multiple of [`LANES`]; 0 when the kernels cannot run). The caller
+/// filters the remaining pixels.
+pub(crate) fn rotated_row<const C: usize>(
+    stack: &ScaleStack,
+    terms: &[FixedTerm],
+    y: usize,
+    cs: &[f32],
+    ss: &[f32],
+    out: &mut [f32],
+) -> usize {
+    if !supports::<C>(stack) || cs.len() != ss.len() || out.len() < cs.len() * C {
+        return 0;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: `supports` checked that the CPU has AVX2.
+        unsafe { avx2::rotated_row::<C>(stack, terms, y, cs, ss, out) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (terms, y);
+        0
+    }
+}
+
+/// One term with a per-pixel scale: displacement, weight and the index of
+/// its sigma among the decomposition's distinct sigmas.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ScaledTerm {
+    pub(crate) cx: f32,
+    pub(crate) cy: f32,
+    pub(crate) weight: f32,
+    pub(crate) group: usize,
+}
+
+/// As [`rotated_row`] with a per-pixel scale: `levels[g * w + x]` gives the
+/// levels `(a, b)` and weights `(wa, wb)` (the term weight not included) of
+/// the terms of sigma group `g` at pixel `x`, `w = cs.len()`.
+pub(crate) fn scaled_row<const C: usize>(
+    stack: &ScaleStack,
+    terms: &[ScaledTerm],
+    levels: &[(usize, usize, f32, f32)],
+    y: usize,
+    cs: &[f32],
+    ss: &[f32],
+    out: &mut [f32],
+) -> usize {
+    let w = cs.len();
+    let n_levels = stack.levels.len();
+    if !supports::<C>(stack)
+        || ss.len() != w
+        || out.len() < w * C
+        || terms.iter().any(|t| (t.group + 1) * w > levels.len())
+        || levels.iter().any(|l| l.0 >= n_levels || l.1 >= n_levels)
+    {
+        return 0;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: `supports` checked that the CPU has AVX2.
+        unsafe { avx2::scaled_row::<C>(stack, terms, levels, y, cs, ss, out) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (terms, levels, y);
+        0
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::{
+        __m256, _CMP_GE_OQ, _mm256_add_epi32, _mm256_add_ps, _mm256_and_si256, _mm256_castps_si256,
+        _mm256_castsi256_ps, _mm256_castsi256_si128, _mm256_cmp_ps, _mm256_cmpgt_epi32,
+        _mm256_cvtepi32_ps, _mm256_cvttps_epi32, _mm256_extracti128_si256, _mm256_i32gather_epi64,
+        _mm256_i32gather_ps, _mm256_loadu_ps, _mm256_max_epi32, _mm256_min_epi32,
+        _mm256_movemask_epi8, _mm256_mul_ps, _mm256_mullo_epi32, _mm256_permute2x128_si256,
+        _mm256_permutevar8x32_epi32, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32,
+        _mm256_setr_ps, _mm256_setzero_ps, _mm256_setzero_si256, _mm256_storeu_ps, _mm256_sub_ps,
+    };
+
+    use super::{FixedTerm, LANES, ScaledTerm};
+    use crate::stack::{Level, ScaleStack};
+
+    /// Eight floats into a vector.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn load(v: &[f32; LANES]) -> __m256 {
+        // SAFETY: reads exactly the eight floats of `v`.
+        unsafe { _mm256_loadu_ps(v.as_ptr()) }
+    }
+
+    /// A vector into eight floats.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn store(v: __m256) -> [f32; LANES] {
+        let mut out = [0.0f32; LANES];
+        // SAFETY: writes exactly the eight floats of `out`.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) };
+        out
+    }
+
+    /// Eight consecutive floats of `s` from `at`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn load_at(s: &[f32], at: usize) -> __m256 {
+        let v: &[f32; LANES] = s[at..at + LANES].try_into().expect("eight lanes");
+        load(v)
+    }
+
+    /// Adds `w *` the bilinear lookups of `level` at `(px, py)` to `acc`
+    /// when every lane's 2x2 stencil lies in the stored level (the scalar
+    /// lookup's interior test, lane by lane); returns false, touching
+    /// nothing, otherwise.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn lookup<const C: usize>(
+        level: &Level,
+        px: __m256,
+        py: __m256,
+        w: __m256,
+        acc: &mut [__m256; C],
+    ) -> bool {
+        let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
+        let origin = _mm256_set1_ps(level.origin);
+        let inv = _mm256_set1_ps(level.inv_step);
+        let u = _mm256_mul_ps(_mm256_sub_ps(px, origin), inv);
+        let v = _mm256_mul_ps(_mm256_sub_ps(py, origin), inv);
+        let zero = _mm256_setzero_ps();
+        // Truncation of a value >= 0 is its floor; out-of-range values
+        // become i32::MIN and fail the `>= 0` test.
+        let iu = _mm256_cvttps_epi32(u);
+        let iv = _mm256_cvttps_epi32(v);
+        let minus1 = _mm256_set1_epi32(-1);
+        let inside = _mm256_and_si256(
+            _mm256_and_si256(
+                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(u, zero)),
+                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(v, zero)),
+            ),
+            _mm256_and_si256(
+                _mm256_and_si256(
+                    _mm256_cmpgt_epi32(iu, minus1),
+                    _mm256_cmpgt_epi32(_mm256_set1_epi32(nx - 1), iu),
+                ),
+                _mm256_and_si256(
+                    _mm256_cmpgt_epi32(iv, minus1),
+                    _mm256_cmpgt_epi32(_mm256_set1_epi32(ny - 1), iv),
+                ),
+            ),
+        );
+        if _mm256_movemask_epi8(inside) != -1 {
+            return false;
+        }
+        let fu = _mm256_sub_ps(u, _mm256_cvtepi32_ps(iu));
+        let fv = _mm256_sub_ps(v, _mm256_cvtepi32_ps(iv));
+        let idx = _mm256_add_epi32(_mm256_mullo_epi32(iv, _mm256_set1_epi32(nx)), iu);
+        // Memory safety: every read below is at most `nx + 1` samples (times
+        // C, plus C - 1) past `idx <= nx (ny - 1) - 2`, inside the level's
+        // `nx ny C` samples (`supports` checked the length).
+        let idx = _mm256_min_epi32(
+            _mm256_max_epi32(idx, _mm256_setzero_si256()),
+            _mm256_set1_epi32(nx * (ny - 1) - 2),
+        );
+        let data = level.data.as_slice();
+        let p = data.as_ptr();
+        let row = nx as usize * C;
+        if C == 1 {
+            // (a, b) and (c, d) pairs as 64-bit elements, four lanes per
+            // gather, then split into even (left) and odd (right) floats.
+            let lo = _mm256_castsi256_si128(idx);
+            let hi = _mm256_extracti128_si256::<1>(idx);
+            // SAFETY: each gather reads 8 bytes at `4 idx` bytes from `p` or
+            // `p + nx`, with `idx + nx + 1 < nx ny = data.len()` (above).
+            #[expect(
+                clippy::cast_ptr_alignment,
+                reason = "gathers need no alignment; the pointer type is the intrinsic's signature"
+            )]
+            let (r0l, r0h, r1l, r1h) = unsafe {
+                let q = p.add(nx as usize);
+                (
+                    _mm256_i32gather_epi64::<4>(p.cast::<i64>(), lo),
+                    _mm256_i32gather_epi64::<4>(p.cast::<i64>(), hi),
+                    _mm256_i32gather_epi64::<4>(q.cast::<i64>(), lo),
+                    _mm256_i32gather_epi64::<4>(q.cast::<i64>(), hi),
+                )
+            };
+            let split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+            let (r0l, r0h) = (
+                _mm256_permutevar8x32_epi32(r0l, split),
+                _mm256_permutevar8x32_epi32(r0h, split),
+            );
+            let (r1l, r1h) = (
+                _mm256_permutevar8x32_epi32(r1l, split),
+                _mm256_permutevar8x32_epi32(r1h, split),
+            );
+            let a = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x20>(r0l, r0h));
+            let b = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x31>(r0l, r0h));
+            let c = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x20>(r1l, r1h));
+            let d = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x31>(r1l, r1h));
+            acc[0] = blend(acc[0], w, fu, fv, [a, b, c, d]);
+            return true;
+        }
+        let idx = _mm256_mullo_epi32(idx, _mm256_set1_epi32(C as i32));
+        for (k, a) in acc.iter_mut().enumerate() {
+            // SAFETY: the largest index read is `idx + row + C + k <=
+            // nx ny C - 1` (above); the base pointers are inside `data`.
+            let corners = unsafe {
+                [
+                    _mm256_i32gather_ps::<4>(p.add(k), idx),
+                    _mm256_i32gather_ps::<4>(p.add(C + k), idx),
+                    _mm256_i32gather_ps::<4>(p.add(row + k), idx),
+                    _mm256_i32gather_ps::<4>(p.add(row + C + k), idx),
+                ]
+            };
+            *a = blend(*a, w, fu, fv, corners);
+        }
+        true
+    }
+
+    /// `acc + w * bilinear(corners)`, in the scalar lookup's order of
+    /// operations.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn blend(acc: __m256, w: __m256, fu: __m256, fv: __m256, [a, b, c, d]: [__m256; 4]) -> __m256 {
+        let r0 = _mm256_add_ps(a, _mm256_mul_ps(fu, _mm256_sub_ps(b, a)));
+        let r1 = _mm256_add_ps(c, _mm256_mul_ps(fu, _mm256_sub_ps(d, c)));
+        let value = _mm256_add_ps(r0, _mm256_mul_ps(fv, _mm256_sub_ps(r1, r0)));
+        _mm256_add_ps(acc, _mm256_mul_ps(w, value))
+    }
+
+    /// The eight lanes' accumulators as arrays, lane-major.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn spill<const C: usize>(acc: &[__m256; C]) -> [[f32; C]; LANES] {
+        let mut lanes = [[0.0f32; C]; LANES];
+        for (k, v) in acc.iter().enumerate() {
+            for (lane, x) in store(*v).into_iter().enumerate() {
+                lanes[lane][k] = x;
+            }
+        }
+        lanes
+    }
+
+    /// The inverse of [`spill`].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn fill<const C: usize>(lanes: &[[f32; C]; LANES], acc: &mut [__m256; C]) {
+        for (k, v) in acc.iter_mut().enumerate() {
+            *v = load(&std::array::from_fn(|lane| lanes[lane][k]));
+        }
+    }
+
+    /// One lookup per lane through the scalar, border-resolving path, in
+    /// lane order (each lane's sum in the same order as the scalar loop's).
+    #[inline(never)]
+    #[target_feature(enable = "avx2")]
+    fn scalar_lanes<const C: usize>(
+        stack: &ScaleStack,
+        lookups: &[(usize, f32); LANES],
+        px: __m256,
+        py: __m256,
+        acc: &mut [__m256; C],
+    ) {
+        let (px, py) = (store(px), store(py));
+        let mut lanes = spill(acc);
+        for (lane, sum) in lanes.iter_mut().enumerate() {
+            let (li, w) = lookups[lane];
+            if w != 0.0 {
+                stack.accumulate_fixed::<C>(li, px[lane], py[lane], w, sum);
+            }
+        }
+        fill(&lanes, acc);
+    }
+
+    /// Adds the block's sums into `out` (pixels `x0..x0 + 8`, interleaved).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn add_out<const C: usize>(acc: &[__m256; C], out: &mut [f32], x0: usize) {
+        let lanes = spill(acc);
+        let dst = &mut out[x0 * C..(x0 + LANES) * C];
+        for (px, sum) in dst.chunks_exact_mut(C).zip(&lanes) {
+            for (o, v) in px.iter_mut().zip(sum) {
+                *o += v;
+            }
+        }
+    }
+
+    /// The block's positions for displacement `(cx, cy)`: `x + cs cx + ss
+    /// cy`, `y - ss cx + cs cy`, in the scalar loop's order.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn positions(
+        xf: __m256,
+        yf: __m256,
+        c: __m256,
+        s: __m256,
+        cx: f32,
+        cy: f32,
+    ) -> (__m256, __m256) {
+        let (cx, cy) = (_mm256_set1_ps(cx), _mm256_set1_ps(cy));
+        let px = _mm256_add_ps(
+            _mm256_add_ps(xf, _mm256_mul_ps(c, cx)),
+            _mm256_mul_ps(s, cy),
+        );
+        let py = _mm256_add_ps(
+            _mm256_sub_ps(yf, _mm256_mul_ps(s, cx)),
+            _mm256_mul_ps(c, cy),
+        );
+        (px, py)
+    }
+
+    /// Pixel coordinates `x0 .. x0 + 7` (exact below 2^24).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn columns(x0: usize) -> __m256 {
+        _mm256_add_ps(
+            _mm256_set1_ps(x0 as f32),
+            _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0),
+        )
+    }
+
+    #[target_feature(enable = "avx2")]
+    pub(super) fn rotated_row<const C: usize>(
+        stack: &ScaleStack,
+        terms: &[FixedTerm],
+        y: usize,
+        cs: &[f32],
+        ss: &[f32],
+        out: &mut [f32],
+    ) -> usize {
+        let n = cs.len() / LANES * LANES;
+        let yf = _mm256_set1_ps(y as f32);
+        for x0 in (0..n).step_by(LANES) {
+            let xf = columns(x0);
+            let (c, s) = (load_at(cs, x0), load_at(ss, x0));
+            let mut acc = [_mm256_setzero_ps(); C];
+            for t in terms {
+                let (px, py) = positions(xf, yf, c, s, t.cx, t.cy);
+                for (li, w) in [(t.a, t.wa), (t.b, t.wb)] {
+                    if w == 0.0 {
+                        continue;
+                    }
+                    if !lookup::<C>(&stack.levels[li], px, py, _mm256_set1_ps(w), &mut acc) {
+                        scalar_lanes::<C>(stack, &[(li, w); LANES], px, py, &mut acc);
+                    }
+                }
+            }
+            add_out::<C>(&acc, out, x0);
+        }
+        n
+    }
+
+    /// One sigma group's levels over a block of eight pixels.
+    #[derive(Clone, Copy)]
+    enum Block {
+        /// Every lane between levels `a` and `a + 1`: weights per lane on
+        /// each (a lane snapped to a level has weight 0 on the other).
+        Vector {
+            a: usize,
+            wa: [f32; LANES],
+            wb: [f32; LANES],
+        },
+        /// Lanes on different pairs of levels: each lane looks up its own.
+        Lanes,
+    }
+
+    /// The block of lanes `lv` (as the scalar loop's `(a, b, wa, wb)`).
+    fn classify(lv: &[(usize, usize, f32, f32)]) -> Block {
+        let a = lv.iter().map(|l| l.0).min().unwrap_or(0);
+        let (mut wa, mut wb) = ([0.0f32; LANES], [0.0f32; LANES]);
+        for (lane, &(la, lb, xa, xb)) in lv.iter().enumerate() {
+            (wa[lane], wb[lane]) = if la == a && (lb == a || lb == a + 1) {
+                (xa, xb)
+            } else if la == a + 1 && lb == a + 1 {
+                // Snapped to the upper level: the scalar loop reads it alone
+                // with weight `xa`; here it reads level `a` with weight 0
+                // first, which adds nothing.
+                (0.0, xa)
+            } else {
+                return Block::Lanes;
+            };
+        }
+        Block::Vector { a, wa, wb }
+    }
+
+    #[target_feature(enable = "avx2")]
+    pub(super) fn scaled_row<const C: usize>(
+        stack: &ScaleStack,
+        terms: &[ScaledTerm],
+        levels: &[(usize, usize, f32, f32)],
+        y: usize,
+        cs: &[f32],
+        ss: &[f32],
+        out: &mut [f32],
+    ) -> usize {
+        let w = cs.len();
+        let n = w / LANES * LANES;
+        let groups = levels.len() / w.max(1);
+        let yf = _mm256_set1_ps(y as f32);
+        let mut blocks = vec![Block::Lanes; groups];
+        for x0 in (0..n).step_by(LANES) {
+            for (g, b) in blocks.iter_mut().enumerate() {
+                *b = classify(&levels[g * w + x0..g * w + x0 + LANES]);
+            }
+            let xf = columns(x0);
+            let (c, s) = (load_at(cs, x0), load_at(ss, x0));
+            let mut acc = [_mm256_setzero_ps(); C];
+            for t in terms {
+                let (px, py) = positions(xf, yf, c, s, t.cx, t.cy);
+                match &blocks[t.group] {
+                    Block::Vector { a, wa, wb } => {
+                        let tw = _mm256_set1_ps(t.weight);
+                        for (li, lw) in [(*a, wa), (a + 1, wb)] {
+                            if lw.iter().all(|&v| v == 0.0) {
+                                continue;
+                            }
+                            let wv = _mm256_mul_ps(tw, load(lw));
+                            if !lookup::<C>(&stack.levels[li], px, py, wv, &mut acc) {
+                                let ws = store(wv);
+                                let l = std::array::from_fn(|lane| (li, ws[lane]));
+                                scalar_lanes::<C>(stack, &l, px, py, &mut acc);
+                            }
+                        }
+                    }
+                    Block::Lanes => {
+                        // Each lane's two lookups in the scalar order.
+                        let (pxs, pys) = (store(px), store(py));
+                        let mut lanes = spill(&acc);
+                        let lv = &levels[t.group * w + x0..t.group * w + x0 + LANES];
+                        for (lane, sum) in lanes.iter_mut().enumerate() {
+                            let (a, b, wa, wb) = lv[lane];
+                            let (px, py) = (pxs[lane], pys[lane]);
+                            stack.accumulate_fixed::<C>(a, px, py, t.weight * wa, sum);
+                            if wb != 0.0 {
+                                stack.accumulate_fixed::<C>(b, px, py, t.weight * wb, sum);
+                            }
+                        }
+                        fill(&lanes, &mut acc);
+                    }
+                }
+            }
+            add_out::<C>(&acc, out, x0);
+        }
+        n
+    }
+}
