@@ -8,6 +8,8 @@ swirl angle field and the 51-term 8:1 Gaussian `gauss:sx=32,sy=4` (extent
 outputs, so a speed-up that changed the result shows.
 
 Usage: .venv/bin/python tests/bench/ab_filter.py --before OLD_IFD --after target/release/ifd [--runs 5]
+       .venv/bin/python tests/bench/ab_filter.py --before target/release/ifd --before-args=--scalar \
+           --after target/release/ifd --extra="--interp linear"   # one build, two evaluation paths
 """
 
 import argparse
@@ -29,6 +31,9 @@ def main():
     ap.add_argument("--before", required=True)
     ap.add_argument("--after", default=str(ROOT / "target" / "release" / "ifd"))
     ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--before-args", default="", help="extra ifd filter arguments of the first (e.g. --scalar)")
+    ap.add_argument("--after-args", default="", help="extra ifd filter arguments of the second")
+    ap.add_argument("--extra", default="", help="extra ifd filter arguments of both (e.g. --interp linear)")
     a = ap.parse_args()
     n = 1024
     cam = cv2.imread(str(ROOT / "testdata" / "camera.png"), cv2.IMREAD_GRAYSCALE).astype(np.float32) / 255
@@ -49,14 +54,14 @@ def main():
             "angle map, scale 0.7": ["--angle-map", tmp / "angle.npy", "--scale", "0.7"],
             "angle and scale maps": ["--angle-map", tmp / "angle.npy", "--scale-map", tmp / "scale.npy"],
         }
-        bins = {"before": a.before, "after": a.after}
+        bins = {"before": (a.before, a.before_args.split()), "after": (a.after, a.after_args.split())}
         print("| case | before (ms) | after (ms) | before / after | rel. L2 difference |")
         print("|---|---|---|---|---|")
         for name, extra in cases.items():
             times = {k: [] for k in bins}
             for _ in range(a.runs):
-                for k, b in bins.items():
-                    args = [b, "filter", tmp / "img.npy", "--decomp", d, *extra, "-o", tmp / f"{k}.npy", "--verbose"]
+                for k, (b, own) in bins.items():
+                    args = [b, "filter", tmp / "img.npy", "--decomp", d, *extra, *a.extra.split(), *own, "-o", tmp / f"{k}.npy", "--verbose"]
                     p = subprocess.run(list(map(str, args)), capture_output=True, text=True, env=env, check=True)
                     times[k].append(float(re.search(r"filtering ([\d.]+) ms$", p.stderr.strip())[1]))
             x, y = np.load(tmp / "before.npy"), np.load(tmp / "after.npy")

@@ -24,7 +24,9 @@
 //!   positions of the same stack with no filter logic (no border handling,
 //!   level chosen beforehand, one channel), and `gather_limit_avx2`, the same
 //!   loop eight pixels at a time with AVX2 gathers (the limit of ifd's vector
-//!   kernels; skipped without AVX2). Each ifd path runs twice: with the vector
+//!   kernels; skipped without AVX2) and `gather_limit_avx2_l1`, that loop with
+//!   every term at the pixel itself (all lookups in L1: the difference is
+//!   what the memory hierarchy costs). Each ifd path runs twice: with the vector
 //!   gathers (the default) and with the scalar loop (`_scalar`). Report ifd as
 //!   a fraction of the limits. Run with `RAYON_NUM_THREADS=1` for per-thread
 //!   numbers.
@@ -354,9 +356,10 @@ fn throughput(c: &mut Criterion) {
                 });
             },
         );
-        if interpolation == Interpolation::Linear {
+        {
             let scalar = f.clone().with_vector_kernels(false);
-            g.bench_function(format!("angle_map_linear_scalar_{n}_terms"), |b| {
+            let name = interpolation.name();
+            g.bench_function(format!("angle_map_{name}_scalar_{n}_terms"), |b| {
                 b.iter(|| {
                     scalar
                         .apply(Field::Map(&angles), Field::Constant(s))
@@ -407,6 +410,17 @@ fn throughput(c: &mut Criterion) {
                 );
                 g.bench_function(format!("gather_limit_avx2_{n}_terms"), |b| {
                     b.iter(|| vector_limit::gather(&stack, &terms, &angles, s));
+                });
+                // The same loop with every term at the pixel itself: all
+                // lookups of a pixel read the same few cache lines (L1), so
+                // the difference to the line above is what the real access
+                // pattern costs in the memory hierarchy.
+                let at_pixel: Vec<(f32, f32, f32, usize)> = terms
+                    .iter()
+                    .map(|&(w, _, _, li)| (w, 0.0, 0.0, li))
+                    .collect();
+                g.bench_function(format!("gather_limit_avx2_l1_{n}_terms"), |b| {
+                    b.iter(|| vector_limit::gather(&stack, &at_pixel, &angles, s));
                 });
             }
         }

@@ -863,7 +863,7 @@ fn vector_gathers_equal_the_scalar_loop_on_a_realistic_case() {
     let (w, h) = (203, 61);
     let d = anisotropic_decomposition();
     let angles = angle_field(w, h);
-    for c in 1..=4 {
+    for (c, options) in (1..=4).flat_map(|c| [(c, StackOptions::default()), (c, cubic())]) {
         let img = test_image(w, h, c, 5 + c as u64);
         let (v, s) = vector_and_scalar(
             &img,
@@ -872,7 +872,7 @@ fn vector_gathers_equal_the_scalar_loop_on_a_realistic_case() {
             Field::Constant(2.7),
             (2.7, 2.7),
             Border::Reflect101,
-            StackOptions::default(),
+            options,
         );
         assert_same_bits(&v, &s);
         let scales: Vec<f32> = (0..w * h)
@@ -885,7 +885,7 @@ fn vector_gathers_equal_the_scalar_loop_on_a_realistic_case() {
             Field::Map(&scales),
             (0.6, 3.5),
             Border::Reflect101,
-            StackOptions::default(),
+            options,
         );
         assert_same_bits(&v, &s);
     }
@@ -904,6 +904,7 @@ proptest! {
         slope in -40.0f32..40.0,
         s0 in 0.5f32..2.0,
         varying_scale in any::<bool>(),
+        cubic_levels in any::<bool>(),
         border in border_strategy(),
     ) {
         let img = test_image(w, h, c, seed);
@@ -920,7 +921,8 @@ proptest! {
         } else {
             (Field::Constant(s0), (s0, s0))
         };
-        let (v, s) = vector_and_scalar(&img, &d, &angles, scale, range, border, StackOptions::default());
+        let options = if cubic_levels { cubic() } else { StackOptions::default() };
+        let (v, s) = vector_and_scalar(&img, &d, &angles, scale, range, border, options);
         for (x, y) in v.data().iter().zip(s.data()) {
             prop_assert!(x == y, "{} vs {}", x, y);
         }

@@ -173,14 +173,11 @@ fn per_pixel_kernel(interpolation: Interpolation, channels: usize, vector: bool)
     match ifd_planar::vector_kernels() {
         _ if !vector => "scalar loop (--scalar)".into(),
         None => "scalar loop (this CPU has no AVX2)".into(),
-        Some(_) if interpolation != Interpolation::Linear => {
-            format!(
-                "scalar loop ({} levels have no vector kernel)",
-                interpolation.name()
-            )
-        }
         Some(_) if channels > 4 => "scalar loop (more than 4 channels)".into(),
-        Some(isa) => format!("{isa} gathers, 8 pixels per vector"),
+        Some(isa) => format!(
+            "{isa} gathers, 8 pixels per vector ({} levels)",
+            interpolation.name()
+        ),
     }
 }
 

@@ -52,7 +52,14 @@ pub(crate) struct FixedTerm {
     pub(crate) wb: f32,
 }
 
-/// The vector instruction set the kernels use on this CPU, if any.
+/// The vector instruction set the per-pixel kernels use on this CPU, if
+/// any: `Some("avx2")` on x86-64 CPUs with AVX2, `None` elsewhere (the scalar
+/// loop, same results).
+///
+/// ```
+/// let isa = ifd_planar::vector_kernels();
+/// assert!(isa.is_none() || isa == Some("avx2"));
+/// ```
 #[must_use]
 pub fn vector_kernels() -> Option<&'static str> {
     #[cfg(target_arch = "x86_64")]
@@ -64,17 +71,24 @@ pub fn vector_kernels() -> Option<&'static str> {
     None
 }
 
-/// Whether the kernels can read `stack` with `channels = C`: bilinear
-/// levels, every level at least 2x2 samples, stored as `nx * ny * C`
-/// samples addressable with 32-bit indices, and a CPU that has them.
+/// Whether the kernels can read `stack` with `channels = C`: every level at
+/// least as large as a stencil (2x2 samples bilinear, 4x4 cubic), stored as
+/// `nx * ny * C` samples addressable with 32-bit indices, and a CPU that has
+/// them.
 pub(crate) fn supports<const C: usize>(stack: &ScaleStack) -> bool {
+    let least = match stack.interpolation {
+        Interpolation::Linear => 2,
+        Interpolation::Cubic => 4,
+    };
     C > 0
         && stack.channels == C
-        && stack.interpolation == Interpolation::Linear
         && vector_kernels().is_some()
         && stack.levels.iter().all(|l| {
             let (nx, ny) = (l.layout.nx, l.layout.ny);
-            nx >= 2 && ny >= 2 && l.data.len() == nx * ny * C && l.data.len() < i32::MAX as usize
+            nx >= least
+                && ny >= least
+                && l.data.len() == nx * ny * C
+                && l.data.len() < i32::MAX as usize
         })
 }
 
@@ -153,17 +167,18 @@ pub(crate) fn scaled_row<const C: usize>(
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::{
-        __m256, _CMP_GE_OQ, _mm256_add_epi32, _mm256_add_ps, _mm256_and_si256, _mm256_castps_si256,
-        _mm256_castsi256_ps, _mm256_castsi256_si128, _mm256_cmp_ps, _mm256_cmpgt_epi32,
-        _mm256_cvtepi32_ps, _mm256_cvttps_epi32, _mm256_extracti128_si256, _mm256_i32gather_epi64,
-        _mm256_i32gather_ps, _mm256_loadu_ps, _mm256_max_epi32, _mm256_min_epi32,
-        _mm256_movemask_epi8, _mm256_mul_ps, _mm256_mullo_epi32, _mm256_permute2x128_si256,
-        _mm256_permutevar8x32_epi32, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32,
-        _mm256_setr_ps, _mm256_setzero_ps, _mm256_setzero_si256, _mm256_storeu_ps, _mm256_sub_ps,
+        __m256, __m256i, _CMP_GE_OQ, _mm256_add_epi32, _mm256_add_ps, _mm256_and_si256,
+        _mm256_castps_si256, _mm256_castsi256_ps, _mm256_castsi256_si128, _mm256_cmp_ps,
+        _mm256_cmpgt_epi32, _mm256_cvtepi32_ps, _mm256_cvttps_epi32, _mm256_extracti128_si256,
+        _mm256_i32gather_epi64, _mm256_i32gather_ps, _mm256_loadu_ps, _mm256_max_epi32,
+        _mm256_min_epi32, _mm256_movemask_epi8, _mm256_mul_ps, _mm256_mullo_epi32,
+        _mm256_permute2x128_si256, _mm256_permutevar8x32_epi32, _mm256_set1_epi32, _mm256_set1_ps,
+        _mm256_setr_epi32, _mm256_setr_ps, _mm256_setzero_ps, _mm256_setzero_si256,
+        _mm256_storeu_ps, _mm256_sub_epi32, _mm256_sub_ps,
     };
 
     use super::{FixedTerm, LANES, ScaledTerm};
-    use crate::stack::{Level, ScaleStack};
+    use crate::stack::{Interpolation, Level, ScaleStack};
 
     /// Eight floats into a vector.
     #[inline]
@@ -191,13 +206,31 @@ mod avx2 {
         load(v)
     }
 
-    /// Adds `w *` the bilinear lookups of `level` at `(px, py)` to `acc`
-    /// when every lane's 2x2 stencil lies in the stored level (the scalar
-    /// lookup's interior test, lane by lane); returns false, touching
-    /// nothing, otherwise.
+    /// Adds `w *` the lookups of level `li` at `(px, py)` to `acc` when
+    /// every lane's stencil lies in the stored level (the scalar lookup's
+    /// interior test, lane by lane); returns false, touching nothing,
+    /// otherwise.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn lookup<const C: usize>(
+        stack: &ScaleStack,
+        li: usize,
+        px: __m256,
+        py: __m256,
+        w: __m256,
+        acc: &mut [__m256; C],
+    ) -> bool {
+        let level = &stack.levels[li];
+        match stack.interpolation {
+            Interpolation::Linear => bilinear::<C>(level, px, py, w, acc),
+            Interpolation::Cubic => cubic::<C>(level, px, py, w, acc),
+        }
+    }
+
+    /// The bilinear lookups of `level` (see [`lookup`]).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn bilinear<const C: usize>(
         level: &Level,
         px: __m256,
         py: __m256,
@@ -296,6 +329,175 @@ mod avx2 {
                 ]
             };
             *a = blend(*a, w, fu, fv, corners);
+        }
+        true
+    }
+
+    /// The cubic B-spline weights of the samples at `-1, 0, 1, 2` for
+    /// fractions `t` in `[0, 1)`, as `bspline_weights` computes them.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn bspline(t: __m256) -> [__m256; 4] {
+        let k = _mm256_set1_ps;
+        let sixth = k(1.0 / 6.0);
+        let t2 = _mm256_mul_ps(t, t);
+        let t3 = _mm256_mul_ps(t2, t);
+        let s = _mm256_sub_ps(k(1.0), t);
+        [
+            _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(s, s), s), sixth),
+            _mm256_mul_ps(
+                _mm256_add_ps(
+                    _mm256_sub_ps(_mm256_mul_ps(k(3.0), t3), _mm256_mul_ps(k(6.0), t2)),
+                    k(4.0),
+                ),
+                sixth,
+            ),
+            _mm256_mul_ps(
+                _mm256_add_ps(
+                    _mm256_add_ps(
+                        _mm256_add_ps(_mm256_mul_ps(k(-3.0), t3), _mm256_mul_ps(k(3.0), t2)),
+                        _mm256_mul_ps(k(3.0), t),
+                    ),
+                    k(1.0),
+                ),
+                sixth,
+            ),
+            _mm256_mul_ps(t3, sixth),
+        ]
+    }
+
+    /// The floats at `idx` and `idx + 1` (per lane) from `p`, by two 64-bit
+    /// gathers of four lanes each.
+    ///
+    /// # Safety
+    /// Every `p + idx` and `p + idx + 1` must be inside one allocation.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    #[expect(
+        clippy::cast_ptr_alignment,
+        reason = "gathers need no alignment; the pointer type is the intrinsic's signature"
+    )]
+    unsafe fn pairs(p: *const f32, idx: __m256i) -> (__m256, __m256) {
+        let lo = _mm256_castsi256_si128(idx);
+        let hi = _mm256_extracti128_si256::<1>(idx);
+        // SAFETY: as the caller promises.
+        let (l, h) = unsafe {
+            (
+                _mm256_i32gather_epi64::<4>(p.cast::<i64>(), lo),
+                _mm256_i32gather_epi64::<4>(p.cast::<i64>(), hi),
+            )
+        };
+        let split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+        let (l, h) = (
+            _mm256_permutevar8x32_epi32(l, split),
+            _mm256_permutevar8x32_epi32(h, split),
+        );
+        (
+            _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x20>(l, h)),
+            _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x31>(l, h)),
+        )
+    }
+
+    /// The cubic B-spline lookups of `level` (see [`lookup`]): 4x4
+    /// coefficients around each lane's position, in the scalar lookup's
+    /// order of operations.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn cubic<const C: usize>(
+        level: &Level,
+        px: __m256,
+        py: __m256,
+        w: __m256,
+        acc: &mut [__m256; C],
+    ) -> bool {
+        let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
+        let origin = _mm256_set1_ps(level.origin);
+        let inv = _mm256_set1_ps(level.inv_step);
+        let u = _mm256_mul_ps(_mm256_sub_ps(px, origin), inv);
+        let v = _mm256_mul_ps(_mm256_sub_ps(py, origin), inv);
+        let one = _mm256_set1_ps(1.0);
+        let iu = _mm256_cvttps_epi32(u);
+        let iv = _mm256_cvttps_epi32(v);
+        // The scalar test: u >= 1, v >= 1, iu + 2 < nx, iv + 2 < ny.
+        let inside = _mm256_and_si256(
+            _mm256_and_si256(
+                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(u, one)),
+                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(v, one)),
+            ),
+            _mm256_and_si256(
+                _mm256_and_si256(
+                    _mm256_cmpgt_epi32(iu, _mm256_setzero_si256()),
+                    _mm256_cmpgt_epi32(_mm256_set1_epi32(nx - 2), iu),
+                ),
+                _mm256_and_si256(
+                    _mm256_cmpgt_epi32(iv, _mm256_setzero_si256()),
+                    _mm256_cmpgt_epi32(_mm256_set1_epi32(ny - 2), iv),
+                ),
+            ),
+        );
+        if _mm256_movemask_epi8(inside) != -1 {
+            return false;
+        }
+        let wx = bspline(_mm256_sub_ps(u, _mm256_cvtepi32_ps(iu)));
+        let wy = bspline(_mm256_sub_ps(v, _mm256_cvtepi32_ps(iv)));
+        // Sample (iu - 1, iv - 1) of each lane. Memory safety: every read
+        // below is at most `3 nx + 3` samples (times C, plus C - 1) past
+        // `base <= nx ny - 3 nx - 4`, inside the level's `nx ny C` samples.
+        let base = _mm256_add_epi32(
+            _mm256_mullo_epi32(
+                _mm256_sub_epi32(iv, _mm256_set1_epi32(1)),
+                _mm256_set1_epi32(nx),
+            ),
+            _mm256_sub_epi32(iu, _mm256_set1_epi32(1)),
+        );
+        let base = _mm256_min_epi32(
+            _mm256_max_epi32(base, _mm256_setzero_si256()),
+            _mm256_set1_epi32(nx * ny - 3 * nx - 4),
+        );
+        let p = level.data.as_ptr();
+        let row = nx as usize * C;
+        let dot = |r: [__m256; 4]| {
+            _mm256_add_ps(
+                _mm256_add_ps(
+                    _mm256_add_ps(_mm256_mul_ps(wx[0], r[0]), _mm256_mul_ps(wx[1], r[1])),
+                    _mm256_mul_ps(wx[2], r[2]),
+                ),
+                _mm256_mul_ps(wx[3], r[3]),
+            )
+        };
+        if C == 1 {
+            let mut sum = _mm256_setzero_ps();
+            for (j, wyj) in wy.iter().enumerate() {
+                // SAFETY: `p + j nx` is inside the level (j <= 3 < ny) and
+                // every pair read is within the bound above.
+                let (r0, r1, r2, r3) = unsafe {
+                    let q = p.add(j * row);
+                    let (r0, r1) = pairs(q, base);
+                    let (r2, r3) = pairs(q.add(2), base);
+                    (r0, r1, r2, r3)
+                };
+                sum = _mm256_add_ps(sum, _mm256_mul_ps(*wyj, dot([r0, r1, r2, r3])));
+            }
+            acc[0] = _mm256_add_ps(acc[0], _mm256_mul_ps(w, sum));
+            return true;
+        }
+        let base = _mm256_mullo_epi32(base, _mm256_set1_epi32(C as i32));
+        for (j, wyj) in wy.iter().enumerate() {
+            let wj = _mm256_mul_ps(w, *wyj);
+            for (k, a) in acc.iter_mut().enumerate() {
+                // SAFETY: the largest index read is `base + 3 row + 3 C + k
+                // <= nx ny C - 1` (above); the base pointer is inside `data`.
+                let r = unsafe {
+                    let q = p.add(j * row + k);
+                    [
+                        _mm256_i32gather_ps::<4>(q, base),
+                        _mm256_i32gather_ps::<4>(q.add(C), base),
+                        _mm256_i32gather_ps::<4>(q.add(2 * C), base),
+                        _mm256_i32gather_ps::<4>(q.add(3 * C), base),
+                    ]
+                };
+                *a = _mm256_add_ps(*a, _mm256_mul_ps(wj, dot(r)));
+            }
         }
         true
     }
@@ -423,7 +625,7 @@ mod avx2 {
                     if w == 0.0 {
                         continue;
                     }
-                    if !lookup::<C>(&stack.levels[li], px, py, _mm256_set1_ps(w), &mut acc) {
+                    if !lookup::<C>(stack, li, px, py, _mm256_set1_ps(w), &mut acc) {
                         scalar_lanes::<C>(stack, &[(li, w); LANES], px, py, &mut acc);
                     }
                 }
@@ -498,7 +700,7 @@ mod avx2 {
                                 continue;
                             }
                             let wv = _mm256_mul_ps(tw, load(lw));
-                            if !lookup::<C>(&stack.levels[li], px, py, wv, &mut acc) {
+                            if !lookup::<C>(stack, li, px, py, wv, &mut acc) {
                                 let ws = store(wv);
                                 let l = std::array::from_fn(|lane| (li, ws[lane]));
                                 scalar_lanes::<C>(stack, &l, px, py, &mut acc);
