@@ -227,6 +227,50 @@ mod avx2 {
         }
     }
 
+    /// Level coordinates `(u, v)` of `(px, py)` and their floors `(iu, iv)`
+    /// when every lane's stencil, `before` samples before and `after` after
+    /// the one below the point (0 and 1 bilinear, 1 and 2 cubic), lies in
+    /// the stored level: the scalar lookups' test `u >= before`, `v >=
+    /// before`, `iu + after < nx`, `iv + after < ny`, lane by lane.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn stencil_inside(
+        level: &Level,
+        px: __m256,
+        py: __m256,
+        before: i32,
+        after: i32,
+    ) -> Option<(__m256, __m256, __m256i, __m256i)> {
+        let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
+        let origin = _mm256_set1_ps(level.origin);
+        let inv = _mm256_set1_ps(level.inv_step);
+        let u = _mm256_mul_ps(_mm256_sub_ps(px, origin), inv);
+        let v = _mm256_mul_ps(_mm256_sub_ps(py, origin), inv);
+        let lo = _mm256_set1_ps(before as f32);
+        // Truncation of a value >= 0 is its floor; out-of-range values
+        // become i32::MIN and fail the integer tests.
+        let iu = _mm256_cvttps_epi32(u);
+        let iv = _mm256_cvttps_epi32(v);
+        let least = _mm256_set1_epi32(before - 1);
+        let inside = _mm256_and_si256(
+            _mm256_and_si256(
+                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(u, lo)),
+                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(v, lo)),
+            ),
+            _mm256_and_si256(
+                _mm256_and_si256(
+                    _mm256_cmpgt_epi32(iu, least),
+                    _mm256_cmpgt_epi32(_mm256_set1_epi32(nx - after), iu),
+                ),
+                _mm256_and_si256(
+                    _mm256_cmpgt_epi32(iv, least),
+                    _mm256_cmpgt_epi32(_mm256_set1_epi32(ny - after), iv),
+                ),
+            ),
+        );
+        (_mm256_movemask_epi8(inside) == -1).then_some((u, v, iu, iv))
+    }
+
     /// The bilinear lookups of `level` (see [`lookup`]).
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -238,35 +282,9 @@ mod avx2 {
         acc: &mut [__m256; C],
     ) -> bool {
         let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
-        let origin = _mm256_set1_ps(level.origin);
-        let inv = _mm256_set1_ps(level.inv_step);
-        let u = _mm256_mul_ps(_mm256_sub_ps(px, origin), inv);
-        let v = _mm256_mul_ps(_mm256_sub_ps(py, origin), inv);
-        let zero = _mm256_setzero_ps();
-        // Truncation of a value >= 0 is its floor; out-of-range values
-        // become i32::MIN and fail the `>= 0` test.
-        let iu = _mm256_cvttps_epi32(u);
-        let iv = _mm256_cvttps_epi32(v);
-        let minus1 = _mm256_set1_epi32(-1);
-        let inside = _mm256_and_si256(
-            _mm256_and_si256(
-                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(u, zero)),
-                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(v, zero)),
-            ),
-            _mm256_and_si256(
-                _mm256_and_si256(
-                    _mm256_cmpgt_epi32(iu, minus1),
-                    _mm256_cmpgt_epi32(_mm256_set1_epi32(nx - 1), iu),
-                ),
-                _mm256_and_si256(
-                    _mm256_cmpgt_epi32(iv, minus1),
-                    _mm256_cmpgt_epi32(_mm256_set1_epi32(ny - 1), iv),
-                ),
-            ),
-        );
-        if _mm256_movemask_epi8(inside) != -1 {
+        let Some((u, v, iu, iv)) = stencil_inside(level, px, py, 0, 1) else {
             return false;
-        }
+        };
         let fu = _mm256_sub_ps(u, _mm256_cvtepi32_ps(iu));
         let fv = _mm256_sub_ps(v, _mm256_cvtepi32_ps(iv));
         let idx = _mm256_add_epi32(_mm256_mullo_epi32(iv, _mm256_set1_epi32(nx)), iu);
@@ -411,33 +429,9 @@ mod avx2 {
         acc: &mut [__m256; C],
     ) -> bool {
         let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
-        let origin = _mm256_set1_ps(level.origin);
-        let inv = _mm256_set1_ps(level.inv_step);
-        let u = _mm256_mul_ps(_mm256_sub_ps(px, origin), inv);
-        let v = _mm256_mul_ps(_mm256_sub_ps(py, origin), inv);
-        let one = _mm256_set1_ps(1.0);
-        let iu = _mm256_cvttps_epi32(u);
-        let iv = _mm256_cvttps_epi32(v);
-        // The scalar test: u >= 1, v >= 1, iu + 2 < nx, iv + 2 < ny.
-        let inside = _mm256_and_si256(
-            _mm256_and_si256(
-                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(u, one)),
-                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(v, one)),
-            ),
-            _mm256_and_si256(
-                _mm256_and_si256(
-                    _mm256_cmpgt_epi32(iu, _mm256_setzero_si256()),
-                    _mm256_cmpgt_epi32(_mm256_set1_epi32(nx - 2), iu),
-                ),
-                _mm256_and_si256(
-                    _mm256_cmpgt_epi32(iv, _mm256_setzero_si256()),
-                    _mm256_cmpgt_epi32(_mm256_set1_epi32(ny - 2), iv),
-                ),
-            ),
-        );
-        if _mm256_movemask_epi8(inside) != -1 {
+        let Some((u, v, iu, iv)) = stencil_inside(level, px, py, 1, 2) else {
             return false;
-        }
+        };
         let wx = bspline(_mm256_sub_ps(u, _mm256_cvtepi32_ps(iu)));
         let wy = bspline(_mm256_sub_ps(v, _mm256_cvtepi32_ps(iv)));
         // Sample (iu - 1, iv - 1) of each lane. Memory safety: every read
