@@ -257,18 +257,9 @@ fn extent(c: &mut Criterion) {
     g.finish();
 }
 
-/// The plain gather loop: for every pixel and term, the bilinear lookup of
-/// the term's level (index in `levels`) at the pixel displaced by the
-/// rotated, scaled centre, weighted and summed; indices clamped into the
-/// level instead of any border logic.
-fn gather_bilinear(
-    stack: &ScaleStack,
-    terms: &[(f32, f32, f32, usize)],
-    angles: &[f32],
-    scale: f32,
-) -> Vec<f32> {
-    let w = stack.width();
-    let levels: Vec<(&[f32], f32, f32, usize, usize)> = stack
+/// Every level of `stack` as `(samples, origin, 1 / step, nx, ny)`.
+fn level_views(stack: &ScaleStack) -> Vec<LevelView<'_>> {
+    stack
         .level_layouts()
         .enumerate()
         .map(|(i, l)| {
@@ -280,7 +271,24 @@ fn gather_bilinear(
                 l.ny,
             )
         })
-        .collect();
+        .collect()
+}
+
+/// A level as the plain gather loops read it.
+type LevelView<'a> = (&'a [f32], f32, f32, usize, usize);
+
+/// The plain gather loop: for every pixel and term, the bilinear lookup of
+/// the term's level (index in `levels`) at the pixel displaced by the
+/// rotated, scaled centre, weighted and summed; indices clamped into the
+/// level instead of any border logic.
+fn gather_bilinear(
+    stack: &ScaleStack,
+    terms: &[(f32, f32, f32, usize)],
+    angles: &[f32],
+    scale: f32,
+) -> Vec<f32> {
+    let w = stack.width();
+    let levels = level_views(stack);
     let mut out = vec![0.0f32; w * stack.height()];
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, o) in row.iter_mut().enumerate() {
@@ -486,36 +494,24 @@ mod vector_limit {
         scale: f32,
     ) -> Vec<f32> {
         let w = stack.width();
+        let levels = super::level_views(stack);
         let mut out = vec![0.0f32; w * stack.height()];
         out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             // SAFETY: the caller checked that the CPU has AVX2.
-            unsafe { gather_row(stack, terms, &angles[y * w..(y + 1) * w], scale, y, row) };
+            unsafe { gather_row(&levels, terms, &angles[y * w..(y + 1) * w], scale, y, row) };
         });
         out
     }
 
     #[target_feature(enable = "avx2,fma")]
     fn gather_row(
-        stack: &ScaleStack,
+        levels: &[super::LevelView<'_>],
         terms: &[(f32, f32, f32, usize)],
         angles: &[f32],
         scale: f32,
         y: usize,
         row: &mut [f32],
     ) {
-        let levels: Vec<(&[f32], f32, f32, i32, i32)> = stack
-            .level_layouts()
-            .enumerate()
-            .map(|(i, l)| {
-                (
-                    stack.level_data(i).expect("level"),
-                    l.origin as f32,
-                    1.0 / l.step as f32,
-                    l.nx as i32,
-                    l.ny as i32,
-                )
-            })
-            .collect();
         let split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
         let lane = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0);
         let zero = _mm256_setzero_ps();
@@ -533,6 +529,7 @@ mod vector_limit {
             let mut acc = zero;
             for &(weight, cx, cy, li) in terms {
                 let (data, origin, inv, nx, ny) = levels[li];
+                let (nx, ny) = (nx as i32, ny as i32);
                 let (cx, cy) = (_mm256_set1_ps(cx), _mm256_set1_ps(cy));
                 let px = _mm256_fmadd_ps(s, cy, _mm256_fmadd_ps(c, cx, xf));
                 let py = _mm256_fmadd_ps(c, cy, _mm256_fnmadd_ps(s, cx, yf));
