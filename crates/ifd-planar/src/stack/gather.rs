@@ -299,38 +299,10 @@ mod avx2 {
         let p = data.as_ptr();
         let row = nx as usize * C;
         if C == 1 {
-            // (a, b) and (c, d) pairs as 64-bit elements, four lanes per
-            // gather, then split into even (left) and odd (right) floats.
-            let lo = _mm256_castsi256_si128(idx);
-            let hi = _mm256_extracti128_si256::<1>(idx);
-            // SAFETY: each gather reads 8 bytes at `4 idx` bytes from `p` or
-            // `p + nx`, with `idx + nx + 1 < nx ny = data.len()` (above).
-            #[expect(
-                clippy::cast_ptr_alignment,
-                reason = "gathers need no alignment; the pointer type is the intrinsic's signature"
-            )]
-            let (r0l, r0h, r1l, r1h) = unsafe {
-                let q = p.add(nx as usize);
-                (
-                    _mm256_i32gather_epi64::<4>(p.cast::<i64>(), lo),
-                    _mm256_i32gather_epi64::<4>(p.cast::<i64>(), hi),
-                    _mm256_i32gather_epi64::<4>(q.cast::<i64>(), lo),
-                    _mm256_i32gather_epi64::<4>(q.cast::<i64>(), hi),
-                )
-            };
-            let split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
-            let (r0l, r0h) = (
-                _mm256_permutevar8x32_epi32(r0l, split),
-                _mm256_permutevar8x32_epi32(r0h, split),
-            );
-            let (r1l, r1h) = (
-                _mm256_permutevar8x32_epi32(r1l, split),
-                _mm256_permutevar8x32_epi32(r1h, split),
-            );
-            let a = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x20>(r0l, r0h));
-            let b = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x31>(r0l, r0h));
-            let c = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x20>(r1l, r1h));
-            let d = _mm256_castsi256_ps(_mm256_permute2x128_si256::<0x31>(r1l, r1h));
+            // (a, b) and (c, d) as pairs of neighbouring floats.
+            // SAFETY: the pairs read at `idx` from `p` and `p + nx` end at
+            // `idx + nx + 1 < nx ny = data.len()` (above).
+            let ((a, b), (c, d)) = unsafe { (pairs(p, idx), pairs(p.add(nx as usize), idx)) };
             acc[0] = blend(acc[0], w, fu, fv, [a, b, c, d]);
             return true;
         }
