@@ -59,12 +59,12 @@ pub struct Filter<'a> {
     sampling: Sampling,
     /// Whether the per-pixel paths may use the vector gathers.
     vector: bool,
-    /// The distinct term sigmas (one representative term each) and, per
-    /// term, the index of its sigma: with a scale map the levels and
-    /// weights of a pixel depend on the sigma only, so they are located
-    /// once per distinct sigma.
+    /// The distinct term sigmas (one representative term each) and the
+    /// terms as the vector gathers read them with a scale map, each with the
+    /// index of its sigma: the levels and weights of a pixel depend on the
+    /// sigma only, so they are located once per distinct sigma.
     sigma_groups: Vec<Prepared>,
-    group_of: Vec<usize>,
+    scaled_terms: Vec<ScaledTerm>,
 }
 
 /// Below this many pixels (after scaling), [`Filter::with_direct`] evaluates
@@ -122,6 +122,16 @@ impl<'a> Filter<'a> {
             .collect();
         let (sigma_lo, sigma_hi) = d.sigma_range();
         let (sigma_groups, group_of) = sigma_groups(&terms);
+        let scaled_terms = terms
+            .iter()
+            .zip(group_of)
+            .map(|(t, group)| ScaledTerm {
+                cx: t.cx,
+                cy: t.cy,
+                weight: t.weight,
+                group,
+            })
+            .collect();
         Ok(Self {
             stack,
             terms,
@@ -131,7 +141,7 @@ impl<'a> Filter<'a> {
             sampling: d.sampling(),
             vector: true,
             sigma_groups,
-            group_of,
+            scaled_terms,
         })
     }
 
@@ -538,18 +548,7 @@ impl<'a> Filter<'a> {
                         levels[g * w + x] = self.uniform_level(rep, s, t_s, var);
                     }
                 }
-                let terms: Vec<ScaledTerm> = self
-                    .terms
-                    .iter()
-                    .zip(&self.group_of)
-                    .map(|(t, &group)| ScaledTerm {
-                        cx: t.cx,
-                        cy: t.cy,
-                        weight: t.weight,
-                        group,
-                    })
-                    .collect();
-                gather::scaled_row::<C>(self.stack, &terms, &levels, y, &cs, &ss, row)
+                gather::scaled_row::<C>(self.stack, &self.scaled_terms, &levels, y, &cs, &ss, row)
             }
             Field::Map(_) => 0,
         }
