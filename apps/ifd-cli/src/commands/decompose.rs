@@ -69,6 +69,12 @@ pub struct Decompose {
     /// default: the kernel's half-size, at least 2).
     #[arg(long, value_name = "PX")]
     margin: Option<usize>,
+    /// Fit the L2 error alone. By default every refit is constrained so
+    /// that the filter's DC gain (what it multiplies a constant image by)
+    /// equals the kernel's sum exactly: flat regions then come out exact,
+    /// for at most a term or two more.
+    #[arg(long)]
+    free_dc: bool,
     #[command(flatten)]
     input: InputOptions,
 }
@@ -100,6 +106,7 @@ impl Decompose {
             alpha: self.alpha,
             max_terms: self.max_terms,
             tol: self.tol,
+            exact_dc: !self.free_dc,
             ..DecomposeOptions::default()
         };
         // Options first, named as the command line names them.
