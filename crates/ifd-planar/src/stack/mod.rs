@@ -1220,7 +1220,9 @@ fn transpose(src: &[Complex32], rows: usize, cols: usize, dst: &mut [Complex32])
 /// Fills every level: one forward FFT per pair of channels (packed as real
 /// and imaginary parts — the Gaussian is real and even, so the two channels
 /// do not mix), then per level a product with the transfer function, an
-/// alias sum down to the level's resolution and an inverse FFT.
+/// alias sum down to the level's resolution and an inverse FFT. A channel
+/// without a partner (a grey image, the third of RGB) takes the real-input
+/// path, [`build_lone_channel`], at half the cost.
 fn build_levels(layout: &StackLayout, data: &[f32], border: Border, levels: &mut [Level]) {
     let (w, h, channels) = (layout.width, layout.height, layout.channels);
     let (nxp, nyp, pad) = (layout.fft_width, layout.fft_height, layout.pad);
@@ -1256,12 +1258,24 @@ fn build_levels(layout: &StackLayout, data: &[f32], border: Border, levels: &mut
         .collect();
     let cval = border.constant();
     let zero = Complex32::new(0.0, 0.0);
-    let mut z = vec![zero; nxp * nyp];
-    let mut spec = vec![zero; nxp * nyp];
-    let mut coarse = vec![zero; nxp * nyp];
+    // The pair buffers (none for a single channel).
+    let paired = if channels > 1 { nxp * nyp } else { 0 };
+    let mut z = vec![zero; paired];
+    let mut spec = vec![zero; paired];
+    let mut coarse = vec![zero; paired];
     let scale = 1.0 / (nxp as f64 * nyp as f64);
     for c0 in (0..channels).step_by(2) {
         let c1 = (c0 + 1 < channels).then_some(c0 + 1);
+        if c1.is_none() {
+            let plans = LonePlans {
+                fwd_x: &fwd_x,
+                fwd_y: &fwd_y,
+                inverse: &inverse,
+                transfers: &transfers,
+            };
+            build_lone_channel(layout, data, c0, (&xmap, &ymap, cval), &plans, levels);
+            continue;
+        }
         z.par_chunks_mut(nxp).enumerate().for_each(|(py, row)| {
             let sy = ymap[py];
             for (px, v) in row.iter_mut().enumerate() {
@@ -1323,6 +1337,210 @@ fn build_levels(layout: &StackLayout, data: &[f32], border: Border, levels: &mut
     }
 }
 
+/// The plans and transfer functions [`build_lone_channel`] shares with
+/// [`build_levels`].
+struct LonePlans<'a> {
+    fwd_x: &'a FftPlan,
+    fwd_y: &'a FftPlan,
+    /// Per level: inverse plans of lengths `nxp / step` and `nyp / step`.
+    inverse: &'a [(FftPlan, FftPlan)],
+    /// Per level: the transfer along x (length `nxp`) and along y (`nyp`).
+    transfers: &'a [(Vec<f32>, Vec<f32>)],
+}
+
+/// One real channel's levels through half spectra. The spectrum of a real
+/// image is Hermitian, `X(-k) = conj X(k)`, so only the columns
+/// `kx = 0..=nxp/2` are computed and kept:
+///
+/// - forward: rows are transformed two at a time, packed as `z = a + i b`;
+///   then `A(k) = (Z(k) + conj Z(-k)) / 2` and
+///   `B(k) = (Z(k) - conj Z(-k)) / 2i` are the two rows' spectra; the
+///   columns `0..=nxp/2` are transformed along y;
+/// - per level: the alias sum onto the coarse columns `0..=mx/2` reads
+///   fine columns above `nxp/2` as `conj X(nxp - kx, -ky)`; after the
+///   inverse transforms along y, two coarse rows `a`, `b` (real, with
+///   Hermitian half spectra `A`, `B`) are rebuilt together as one complex
+///   row `Z(k) = A(k) + i B(k)` (`k <= mx/2`), `conj A(mx-k) + i conj
+///   B(mx-k)` (above), whose inverse transform is `a + i b`.
+///
+/// Half the transforms of the packed-pair path, for the same samples up to
+/// f32 rounding (the stack tests compare both against direct correlation).
+fn build_lone_channel(
+    layout: &StackLayout,
+    data: &[f32],
+    c0: usize,
+    (xmap, ymap, cval): (&[Option<usize>], &[Option<usize>], f32),
+    plans: &LonePlans<'_>,
+    levels: &mut [Level],
+) {
+    let (w, channels) = (layout.width, layout.channels);
+    let (nxp, nyp) = (layout.fft_width, layout.fft_height);
+    let pad = layout.pad;
+    let zero = Complex32::new(0.0, 0.0);
+    let hx = nxp / 2 + 1;
+    let pairs = nyp.div_ceil(2);
+    let value = |py: usize, px: usize| -> f32 {
+        match (ymap[py], xmap[px]) {
+            (Some(y), Some(x)) => data[(y * w + x) * channels + c0],
+            _ => cval,
+        }
+    };
+    // Rows 2r and 2r + 1 as one complex row.
+    let mut z = vec![zero; pairs * nxp];
+    z.par_chunks_mut(nxp).enumerate().for_each(|(r, row)| {
+        let (ya, yb) = (2 * r, 2 * r + 1);
+        for (px, v) in row.iter_mut().enumerate() {
+            let b = if yb < nyp { value(yb, px) } else { 0.0 };
+            *v = Complex32::new(value(ya, px), b);
+        }
+    });
+    fft_rows(&mut z, nxp, plans.fwd_x);
+    // Split into the half spectra of the single rows. (Buffers are reused
+    // across levels below: fresh ones cost a page fault per 4 KiB, which
+    // was as much as the transforms.)
+    let mut half = vec![zero; nyp * hx];
+    half.par_chunks_mut(2 * hx)
+        .enumerate()
+        .for_each(|(r, out)| {
+            let zr = &z[r * nxp..(r + 1) * nxp];
+            let (ra, rb) = out.split_at_mut(hx);
+            for k in 0..hx {
+                let zk = zr[k];
+                let zm = zr[(nxp - k) % nxp].conj();
+                ra[k] = (zk + zm) * 0.5;
+                if !rb.is_empty() {
+                    let d = (zk - zm) * 0.5;
+                    // d / i = -i d
+                    rb[k] = Complex32::new(d.im, -d.re);
+                }
+            }
+        });
+    // spec[kx * nyp + ky], kx in 0..hx.
+    let mut spec = vec![zero; hx * nyp];
+    transpose(&half, nyp, hx, &mut spec);
+    fft_rows(&mut spec, nyp, plans.fwd_y);
+    let mut coarse = vec![zero; hx * nyp];
+    let scale = 1.0 / (nxp as f64 * nyp as f64);
+    for (li, level) in levels.iter_mut().enumerate() {
+        let step = level.layout.step;
+        let (mx, my) = (nxp / step, nyp / step);
+        let mh = mx / 2 + 1;
+        let (gx, gy) = (&plans.transfers[li].0, &plans.transfers[li].1);
+        let pre = (layout.interpolation == Interpolation::Cubic)
+            .then(|| (bspline_prefilter(mx), bspline_prefilter(my)));
+        let cbuf = &mut coarse[..mh * my];
+        let spec_ref = &spec;
+        cbuf.par_chunks_mut(my).enumerate().for_each(|(kx, row)| {
+            blurred_half_row(kx, row, step, spec_ref, gx, gy);
+            if let Some((px, py)) = &pre {
+                let p = px[kx];
+                for (o, q) in row.iter_mut().zip(py) {
+                    *o *= p * q;
+                }
+            }
+        });
+        let (inv_x, inv_y) = &plans.inverse[li];
+        fft_rows(cbuf, my, inv_y);
+        // rows[y' * mh + kx]
+        let rows = &mut half[..my * mh];
+        transpose(cbuf, mh, my, rows);
+        let rows = &*rows;
+        let row_pairs = my.div_ceil(2);
+        let out = &mut z[..row_pairs * mx];
+        out.par_chunks_mut(mx).enumerate().for_each(|(r, o)| {
+            let a = &rows[2 * r * mh..(2 * r + 1) * mh];
+            let b = (2 * r + 1 < my).then(|| &rows[(2 * r + 1) * mh..(2 * r + 2) * mh]);
+            // A real row's spectrum is real at 0 and at mx / 2 (even mx):
+            // drop the rounding there so that it does not leak into the
+            // partner row.
+            let fix = |mut c: Complex32, k: usize| {
+                if k == 0 || 2 * k == mx {
+                    c.im = 0.0;
+                }
+                c
+            };
+            for (k, v) in o.iter_mut().enumerate() {
+                let (ca, cb, j, conj) = if k < mh {
+                    (a[k], b.map_or(zero, |b| b[k]), k, false)
+                } else {
+                    (a[mx - k], b.map_or(zero, |b| b[mx - k]), mx - k, true)
+                };
+                let (mut ca, mut cb) = (fix(ca, j), fix(cb, j));
+                if conj {
+                    ca = ca.conj();
+                    cb = cb.conj();
+                }
+                // A + i B
+                *v = Complex32::new(ca.re - cb.im, ca.im + cb.re);
+            }
+        });
+        fft_rows(out, mx, inv_x);
+        let first = ((pad / step) as i64 + level.layout.origin / step as i64) as usize;
+        let nx = level.layout.nx;
+        let out_ref = &*out;
+        level
+            .data
+            .par_chunks_mut(nx * channels)
+            .enumerate()
+            .for_each(|(iy, row)| {
+                let y = first + iy;
+                let src = &out_ref[(y / 2) * mx + first..];
+                let odd = y % 2 == 1;
+                for ix in 0..nx {
+                    let v = src[ix];
+                    let v = if odd { v.im } else { v.re };
+                    row[ix * channels + c0] = (f64::from(v) * scale) as f32;
+                }
+            });
+    }
+}
+
+/// Row `kx` (`<= mx / 2`) of a level's coarse half spectrum from the fine
+/// half spectrum `spec_half[kx * nyp + ky]` (`kx <= nxp / 2`): as
+/// [`blurred_coarse_row`], reading the fine columns above `nxp / 2` by
+/// Hermitian symmetry, `X(kx, ky) = conj X(nxp - kx, (nyp - ky) mod nyp)`.
+fn blurred_half_row(
+    kx: usize,
+    row: &mut [Complex32],
+    step: usize,
+    spec_half: &[Complex32],
+    gx: &[f32],
+    gy: &[f32],
+) {
+    let my = row.len();
+    let nyp = my * step;
+    let nxp = gx.len();
+    let mx = nxp / step;
+    row.fill(Complex32::new(0.0, 0.0));
+    for ax in 0..step {
+        let fx = kx + ax * mx;
+        let g = gx[fx];
+        if g.abs() < 1e-12 {
+            continue;
+        }
+        if 2 * fx <= nxp {
+            let srow = &spec_half[fx * nyp..(fx + 1) * nyp];
+            for ay in 0..step {
+                let base = ay * my;
+                for (ky, o) in row.iter_mut().enumerate() {
+                    let fy = base + ky;
+                    *o += srow[fy] * (g * gy[fy]);
+                }
+            }
+        } else {
+            let mirror = nxp - fx;
+            let srow = &spec_half[mirror * nyp..(mirror + 1) * nyp];
+            for ay in 0..step {
+                let base = ay * my;
+                for (ky, o) in row.iter_mut().enumerate() {
+                    let fy = base + ky;
+                    *o += srow[(nyp - fy) % nyp].conj() * (g * gy[fy]);
+                }
+            }
+        }
+    }
+}
+
 pub(crate) mod gather;
 pub(crate) mod lookup;
 pub mod refresh;
@@ -1378,6 +1596,72 @@ mod tests {
             let (a, b, wa, wb) = stack.locate_ln((0.5 * (s0.ln() + s1.ln())).exp().ln());
             assert_eq!((a, b), (0, 1));
             assert!((wa - 0.5).abs() < 1e-6 && (wb - 0.5).abs() < 1e-6);
+        }
+    }
+
+    /// The real-input path of a lone channel gives the samples the
+    /// packed-pair path gives the same channel (paired with another): odd
+    /// and even FFT sizes, subsampled levels, every border, both
+    /// interpolations. (Both are also checked against direct correlation by
+    /// `refresh::tests::refresh_matches_rebuild`.)
+    #[test]
+    fn a_lone_channel_matches_the_same_channel_in_a_pair() {
+        let (w, h) = (97usize, 70usize);
+        let grey: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                (0.37 * x).sin() + (0.21 * y * y / h as f32).cos() + ((i * 7919) % 13) as f32 / 13.0
+            })
+            .collect();
+        let pair: Vec<f32> = grey
+            .iter()
+            .enumerate()
+            .flat_map(|(i, &v)| [v, (i % 5) as f32])
+            .collect();
+        for interpolation in [Interpolation::Linear, Interpolation::Cubic] {
+            for border in [
+                Border::Reflect101,
+                Border::Constant(0.25),
+                Border::Replicate,
+                Border::Wrap,
+            ] {
+                for (smin, smax, factor) in [(0.6, 24.0, 2.0), (1.3, 9.0, 1.0), (2.0, 2.0, 4.0)] {
+                    let opts = StackOptions {
+                        pyramid_factor: factor,
+                        margin: 5,
+                        interpolation,
+                        ..StackOptions::default()
+                    };
+                    let lone =
+                        ScaleStack::from_interleaved(w, h, 1, &grey, smin, smax, border, opts)
+                            .unwrap();
+                    let two =
+                        ScaleStack::from_interleaved(w, h, 2, &pair, smin, smax, border, opts)
+                            .unwrap();
+                    let mut steps = Vec::new();
+                    for (k, l) in lone.level_layouts().enumerate() {
+                        steps.push(l.step);
+                        let (a, b) = (lone.level_data(k).unwrap(), two.level_data(k).unwrap());
+                        let range = a.iter().fold(0f32, |m, v| m.max(v.abs()));
+                        let worst = a
+                            .iter()
+                            .zip(b.iter().step_by(2))
+                            .fold(0f32, |m, (u, v)| m.max((u - v).abs()));
+                        assert!(
+                            worst <= 2e-6 * range.max(1.0),
+                            "{interpolation:?} {border} sigma {} step {}: {worst}",
+                            l.sigma,
+                            l.step
+                        );
+                    }
+                    if factor == 1.0 {
+                        assert!(
+                            steps.iter().any(|&s| s > 1),
+                            "no subsampled level: {steps:?}"
+                        );
+                    }
+                }
+            }
         }
     }
 
