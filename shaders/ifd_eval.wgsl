@@ -4,7 +4,11 @@
 //   out(p) = sum_e b_e sum_{t in entry e} w_t fhat_{s sigma_t}(p + s R_theta c_t)
 //
 // with one lookup per term: bilinear (or cubic B-spline, by the stack's
-// interpolation) in space, linear in ln sigma.
+// interpolation) in space, linear in ln sigma. At a constant scale the host
+// locates every term's levels once (FLAG_TERM_LEVELS, `term_levels`); on a
+// stack built at the terms' sigmas that is one lookup per term, no level
+// arithmetic per pixel. With a scale map the levels are located per pixel
+// on a log-uniform stack.
 // A plain filter is one entry with b = 1; anisotropic smoothing blends two
 // entries of the aspect-ratio bank, b = (1 - t, t). Every step mirrors the
 // CPU path `ifd_planar::Filter` (crates/ifd-planar/src/filter.rs, stack.rs):
@@ -82,6 +86,17 @@ struct Term {
     ln_sigma: f32,
 }
 
+// The levels term i reads at a constant scale and their weights, located on
+// the host exactly as the CPU path locates them (FLAG_TERM_LEVELS): b == a
+// and wb == 0 for a sigma on a level, which a stack built at the terms'
+// sigmas gives every term.
+struct TermLevel {
+    a: u32,
+    b: u32,
+    wa: f32,
+    wb: f32,
+}
+
 // Terms [start, start + count) form one bank entry.
 struct Entry {
     start: u32,
@@ -95,6 +110,7 @@ struct Entry {
 @group(0) @binding(4) var<storage, read> entries: array<Entry>;
 @group(0) @binding(5) var<storage, read> maps: array<f32>;
 @group(0) @binding(6) var<storage, read_write> out: array<f32>;
+@group(0) @binding(7) var<storage, read> term_levels: array<TermLevel>;
 
 // The codes the host writes into Params (BORDER_*, INTERP_*, SAMPLING_*,
 // FLAG_*) are defined once, in Rust (`ifd_gpu::shaders::codes`), and
@@ -332,6 +348,21 @@ const LEVEL_SNAP: f32 = 1e-4;
 fn eval_entry(e: u32, x: f32, y: f32, cs: f32, ss: f32, u_offset: f32, s: f32) -> vec4<f32> {
     let entry = entries[e];
     let last = params.n_levels - 1u;
+    if (params.flags & FLAG_TERM_LEVELS) != 0u {
+        // A constant scale: levels located once on the host, not per pixel.
+        var acc = vec4<f32>(0.0);
+        for (var i = entry.start; i < entry.start + entry.count; i++) {
+            let t = terms[i];
+            let l = term_levels[i];
+            let px = x + cs * t.cx + ss * t.cy;
+            let py = y - ss * t.cx + cs * t.cy;
+            acc += (t.weight * l.wa) * lookup(l.a, px, py);
+            if l.wb != 0.0 {
+                acc += (t.weight * l.wb) * lookup(l.b, px, py);
+            }
+        }
+        return acc;
+    }
     let var_s = footprint_variance(s);
     let ln_s = log(s);
     var acc = vec4<f32>(0.0);

@@ -3,11 +3,16 @@
 //! `cargo bench -p ifd-gpu --bench gpu`. Groups (the adapter is printed first;
 //! on a machine without a GPU it is lavapipe, which runs on the CPU cores):
 //! - `eval`: filtering a 256x256 single-channel image with `s` = 16 and 64
-//!   terms (small, because lavapipe takes seconds per evaluation) (constant angle/scale, and per-pixel angle and scale maps): the
-//!   CPU path (`Filter::apply`, rayon) against the GPU path, both from a
-//!   prebuilt stack. `gpu` is submit + wait (result left on the device),
-//!   `gpu+read` adds the readback. Setup also prints the GPU time of the
-//!   pass from timestamp queries when the adapter has them.
+//!   terms (small, because lavapipe takes seconds per evaluation; set
+//!   `IFD_GPU_BENCH_SIZE=1024 IFD_GPU_BENCH_TERMS=51,256` on a real GPU):
+//!   the CPU path (`Filter::apply`, rayon) against the GPU path, both from a
+//!   prebuilt stack, for three poses: `constant` (angle and scale constant,
+//!   log-uniform levels: two lookups for most terms), `exact` (the same pose
+//!   on a stack at exactly the terms' sigmas, what `ifd filter` builds at a
+//!   constant scale: one lookup per term) and `maps` (per-pixel angle and
+//!   scale). `gpu` is submit + wait (result left on the device), `gpu+read`
+//!   adds the readback. Setup also prints the GPU time of the pass from
+//!   timestamp queries when the adapter has them.
 //! - `fetch`: `shaders/bench_fetch.wgsl`, the same lookups reading a stack of
 //!   full-resolution levels from a storage buffer or an r32float texture
 //!   array (textureLoad, manual bilinear), 512x512, 8 levels, 128 terms.
@@ -19,7 +24,7 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use ifd_gpu::{GpuContext, GpuDecomposition, GpuPose, GpuStack};
 use ifd_image::Image;
 use ifd_planar::{
-    Border, Decomposition, Field, Filter, StackOptions, Term, stack_for_decomposition,
+    Border, Decomposition, Field, Filter, ScaleStack, StackOptions, Term, stack_for_decomposition,
 };
 use wgpu::util::DeviceExt as _;
 
@@ -68,7 +73,15 @@ fn ctx() -> Option<GpuContext> {
 
 fn eval(c: &mut Criterion) {
     let Some(ctx) = ctx() else { return };
-    let (w, h) = (256, 256);
+    let side = std::env::var("IFD_GPU_BENCH_SIZE")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .unwrap_or(256);
+    let term_counts: Vec<usize> = std::env::var("IFD_GPU_BENCH_TERMS").ok().map_or_else(
+        || vec![16, 64],
+        |v| v.split(',').filter_map(|n| n.trim().parse().ok()).collect(),
+    );
+    let (w, h) = (side, side);
     let img = image(w, h);
     let angles: Vec<f32> = (0..w * h).map(|i| (i % w) as f32 * 0.7).collect();
     let scales: Vec<f32> = (0..w * h)
@@ -78,7 +91,7 @@ fn eval(c: &mut Criterion) {
     group.sample_size(10);
     group.measurement_time(Duration::from_secs(4));
     group.throughput(Throughput::Elements((w * h) as u64));
-    for n in [16, 64] {
+    for n in term_counts {
         let d = decomposition(n);
         let stack = stack_for_decomposition(
             &img,
@@ -89,18 +102,40 @@ fn eval(c: &mut Criterion) {
             StackOptions::default(),
         )
         .expect("stack");
-        let filter = Filter::new(&stack, &d).expect("filter");
-        let gs = GpuStack::upload(&ctx, &stack).expect("upload");
+        let exact_stack = ScaleStack::with_sigmas(
+            &img,
+            &ifd_planar::filter::level_sigmas(&d, 1.0, 0.0),
+            Border::Reflect101,
+            StackOptions {
+                margin: 32,
+                ..StackOptions::default()
+            },
+        )
+        .expect("stack at the terms' sigmas");
+        let uniform = (
+            Filter::new(&stack, &d).expect("filter"),
+            GpuStack::upload(&ctx, &stack).expect("upload"),
+        );
+        let exact = (
+            Filter::new(&exact_stack, &d).expect("filter"),
+            GpuStack::upload(&ctx, &exact_stack).expect("upload"),
+        );
         let gd = GpuDecomposition::new(&ctx, &d).expect("terms");
-        for (name, angle, scale) in [
-            ("constant", Field::Constant(30.0), Field::Constant(1.0)),
-            ("maps", Field::Map(&angles), Field::Map(&scales)),
+        for (name, angle, scale, (filter, gs)) in [
+            (
+                "constant",
+                Field::Constant(30.0),
+                Field::Constant(1.0),
+                &uniform,
+            ),
+            ("exact", Field::Constant(30.0), Field::Constant(1.0), &exact),
+            ("maps", Field::Map(&angles), Field::Map(&scales), &uniform),
         ] {
-            let pose = GpuPose::new(&ctx, &gs, angle, scale, Field::Constant(0.0)).expect("pose");
+            let pose = GpuPose::new(&ctx, gs, angle, scale, Field::Constant(0.0)).expect("pose");
             // GPU time by timestamps (median of 5), when available.
             let mut times: Vec<Duration> = (0..5)
                 .filter_map(|_| {
-                    let out = ctx.evaluate(&gs, &gd, &pose, None).expect("eval");
+                    let out = ctx.evaluate(gs, &gd, &pose, None).expect("eval");
                     out.gpu_time(&ctx).expect("timestamps")
                 })
                 .collect();
@@ -118,7 +153,7 @@ fn eval(c: &mut Criterion) {
             });
             group.bench_function(BenchmarkId::new("gpu", &id), |b| {
                 b.iter(|| {
-                    let out = ctx.evaluate(&gs, &gd, &pose, None).expect("eval");
+                    let out = ctx.evaluate(gs, &gd, &pose, None).expect("eval");
                     ctx.device()
                         .poll(wgpu::PollType::wait_indefinitely())
                         .expect("poll");
@@ -127,7 +162,7 @@ fn eval(c: &mut Criterion) {
             });
             group.bench_function(BenchmarkId::new("gpu+read", &id), |b| {
                 b.iter(|| {
-                    let out = ctx.evaluate(&gs, &gd, &pose, None).expect("eval");
+                    let out = ctx.evaluate(gs, &gd, &pose, None).expect("eval");
                     black_box(out.read(&ctx).expect("read"))
                 });
             });

@@ -190,6 +190,7 @@ impl GpuContext {
                 storage(4, true),
                 storage(5, true),
                 storage(6, false),
+                storage(7, true),
             ],
         });
         let rgba8_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

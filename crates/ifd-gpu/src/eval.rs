@@ -63,6 +63,18 @@ struct GpuTerm {
     ln_sigma: f32,
 }
 
+/// The shader's `struct TermLevel`: the levels a term reads at a constant
+/// scale and their weights, located on the host as the CPU path locates them
+/// ([`ifd_planar::LevelLocator::locate`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GpuTermLevel {
+    a: u32,
+    b: u32,
+    wa: f32,
+    wb: f32,
+}
+
 /// One or more decompositions ("entries") on the GPU, terms concatenated.
 ///
 /// A plain filter is one entry. The aspect-ratio bank of anisotropic
@@ -76,6 +88,8 @@ pub struct GpuDecomposition {
     n_terms: usize,
     sigma_range: (f64, f64),
     sampling: Sampling,
+    /// Every term's sigma, in upload order (to locate levels on the host).
+    sigmas: Vec<f64>,
 }
 
 impl GpuDecomposition {
@@ -115,6 +129,7 @@ impl GpuDecomposition {
             .into());
         }
         let mut terms = Vec::new();
+        let mut sigmas = Vec::new();
         let mut offsets: Vec<[u32; 2]> = Vec::with_capacity(entries.len());
         let mut lo = f64::INFINITY;
         let mut hi = 0.0f64;
@@ -123,6 +138,7 @@ impl GpuDecomposition {
             let (a, b) = entry.sigma_range();
             lo = lo.min(a);
             hi = hi.max(b);
+            sigmas.extend(entry.terms().iter().map(|t| t.sigma));
             terms.extend(entry.terms().iter().map(|t| GpuTerm {
                 weight: t.weight as f32,
                 cx: t.x as f32,
@@ -156,6 +172,7 @@ impl GpuDecomposition {
             n_terms: terms.len(),
             sigma_range: (lo, hi),
             sampling,
+            sigmas,
         })
     }
 
@@ -238,7 +255,23 @@ impl GpuPose {
         let entry = entry.check(FieldKind::Entry, w, h)?.field();
         let scale = checked_scale.field();
         let (ln0, inv) = stack.ln_params;
-        let level_offset = |s: f32| ((f64::from(s).ln() - ln0) * inv) as f32;
+        let uniform = stack.locator.is_uniform();
+        if !uniform && matches!(scale, Field::Map(_)) {
+            return Err(FilterError::InvalidParameter(
+                "a per-pixel scale map reads a stack of log-uniformly spaced levels \
+                 (ScaleStack::new); this one has levels at given sigmas, for a constant scale"
+                    .into(),
+            )
+            .into());
+        }
+        // (Unused with levels at given sigmas: the host locates every term.)
+        let level_offset = |s: f32| {
+            if uniform {
+                ((f64::from(s).ln() - ln0) * inv) as f32
+            } else {
+                0.0
+            }
+        };
         let mut maps: Vec<f32> = Vec::new();
         let mut flags = 0;
         let (mut rot_off, mut scale_off, mut entry_off) = (0, 0, 0);
@@ -658,8 +691,43 @@ impl GpuContext {
             Border::Replicate => (codes::BORDER_REPLICATE, 0.0),
             Border::Wrap => (codes::BORDER_WRAP, 0.0),
         };
+        // A constant scale: every term's levels located here, once, as the
+        // CPU path locates them (one lookup per term on a stack at the
+        // terms' sigmas), instead of per pixel in the shader.
+        let mut flags = pose.flags;
+        let term_levels: Vec<GpuTermLevel> = if pose.flags & codes::FLAG_SCALE_MAP == 0 {
+            flags |= codes::FLAG_TERM_LEVELS;
+            let s = f64::from(pose.scale);
+            decomposition
+                .sigmas
+                .iter()
+                .map(|&sigma| {
+                    let (a, b, wa, wb) = stack
+                        .locator
+                        .locate(decomposition.sampling.effective_sigma(sigma, s));
+                    GpuTermLevel {
+                        a: a as u32,
+                        b: b as u32,
+                        wa,
+                        wb,
+                    }
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let device = self.device();
         self.scoped("evaluating the decomposition", || {
+            let levels_buffer = buffer_init(
+                device,
+                "ifd term levels",
+                if term_levels.is_empty() {
+                    &[0u8; 16]
+                } else {
+                    bytemuck::cast_slice(&term_levels)
+                },
+                wgpu::BufferUsages::STORAGE,
+            );
             let output = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("ifd result"),
                 size: out_bytes.max(16),
@@ -689,7 +757,7 @@ impl GpuContext {
                         scale: pose.scale,
                         u_offset: pose.u_offset,
                         entry: pose.entry,
-                        flags: pose.flags,
+                        flags,
                         rot_off: pose.rot_off,
                         scale_off: pose.scale_off,
                         entry_off: pose.entry_off,
@@ -723,6 +791,7 @@ impl GpuContext {
                             entry(4, &decomposition.entries),
                             entry(5, &pose.maps),
                             entry(6, &output),
+                            entry(7, &levels_buffer),
                         ],
                     })
                 })

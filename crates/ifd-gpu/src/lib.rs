@@ -61,8 +61,13 @@
 //! `max_storage_buffer_binding_size` is split into more groups (down to one
 //! channel per buffer, evaluated by one dispatch each).
 //!
-//! **Same arithmetic as the CPU.** The shader locates levels as
-//! `ScaleStack` does (linear in `ln sigma`), takes the same fast bilinear
+//! **Same arithmetic as the CPU.** At a constant scale the host locates
+//! every term's levels once with the stack's own
+//! [`ifd_planar::LevelLocator`] (on a stack at exactly the terms' sigmas,
+//! [`ifd_planar::ScaleStack::with_sigmas`], which `ifd filter --gpu` builds
+//! then, that is one lookup per term); with a scale map the shader locates
+//! them per pixel as `ScaleStack` does (linear in `ln sigma`, log-uniform
+//! levels). It takes the same fast bilinear
 //! path when the 2x2 footprint is stored and resolves other coordinates with
 //! the same border mapping. Angle maps are turned into `(cos, sin)` on the
 //! CPU with the same `f32` `sin_cos` (WGSL allows `sin`/`cos` an absolute

@@ -16,6 +16,10 @@ pub mod codes {
     pub const FLAG_SCALE_MAP: u32 = 2;
     /// `flags`: the bank entry is a per-pixel map.
     pub const FLAG_ENTRY_MAP: u32 = 4;
+    /// `flags`: every term's levels and weights come located from the host
+    /// (a constant scale): one lookup per term on a stack at the terms'
+    /// sigmas.
+    pub const FLAG_TERM_LEVELS: u32 = 8;
     /// `border_mode`: `Border::Reflect101`.
     pub const BORDER_REFLECT101: u32 = 0;
     /// `border_mode`: `Border::Constant`.
@@ -38,10 +42,11 @@ pub mod codes {
     pub const SAMPLING_AVERAGED: u32 = 3;
 
     /// Every code with its name, as [`super::ifd_eval_source`] declares them.
-    pub const ALL: [(&str, u32); 13] = [
+    pub const ALL: [(&str, u32); 14] = [
         ("FLAG_ANGLE_MAP", FLAG_ANGLE_MAP),
         ("FLAG_SCALE_MAP", FLAG_SCALE_MAP),
         ("FLAG_ENTRY_MAP", FLAG_ENTRY_MAP),
+        ("FLAG_TERM_LEVELS", FLAG_TERM_LEVELS),
         ("BORDER_REFLECT101", BORDER_REFLECT101),
         ("BORDER_CONSTANT", BORDER_CONSTANT),
         ("BORDER_REPLICATE", BORDER_REPLICATE),

@@ -52,26 +52,23 @@ pub struct GpuStack {
     pub(crate) n_levels: u32,
     pub(crate) sigma_range: (f64, f64),
     pub(crate) ln_params: (f64, f64),
+    /// Locates sigmas among the levels (log-uniform or at given sigmas).
+    pub(crate) locator: ifd_planar::LevelLocator,
     pub(crate) chunks: Vec<Chunk>,
     bytes: u64,
 }
 
 impl GpuStack {
-    /// Uploads `stack`.
+    /// Uploads `stack`: log-uniform levels ([`ScaleStack::new`]), which any
+    /// pose reads, or levels at given sigmas ([`ScaleStack::with_sigmas`],
+    /// what a constant scale reads with one lookup per term), which only
+    /// poses of a constant scale read.
     ///
     /// # Errors
     /// [`GpuError::Limit`] when one channel of the stack exceeds the device's
     /// `max_storage_buffer_binding_size` or `max_buffer_size` or the image is
     /// too large to index, [`GpuError::Device`] if wgpu fails to allocate.
     pub fn upload(ctx: &GpuContext, stack: &ScaleStack) -> Result<Self, GpuError> {
-        if !stack.is_uniform() {
-            return Err(ifd_planar::FilterError::InvalidParameter(
-                "the GPU path reads stacks with log-uniformly spaced levels \
-                 (ScaleStack::new), not levels at given sigmas"
-                    .into(),
-            )
-            .into());
-        }
         let channels = stack.channels();
         let layouts: Vec<_> = stack.level_layouts().copied().collect();
         let plane_bytes = plane_bytes(&layouts);
@@ -113,6 +110,7 @@ impl GpuStack {
             n_levels: layouts.len() as u32,
             sigma_range: stack.sigma_range(),
             ln_params: stack.ln_sigma_params(),
+            locator: stack.locator(),
             chunks,
             bytes: plane_bytes * channels as u64,
         })

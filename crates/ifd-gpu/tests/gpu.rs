@@ -231,6 +231,52 @@ fn cubic_levels_match_cpu() {
     }
 }
 
+/// A stack at exactly the sigmas a constant scale reads (what `ifd filter
+/// --gpu` now builds at a constant scale): the host locates every term's
+/// level, one lookup each, and the result agrees with the CPU path for a
+/// constant angle and an angle map, both interpolations; a scale map on such
+/// a stack is a clear error, not levels read at the wrong sigmas.
+#[test]
+fn stacks_at_the_terms_sigmas_match_cpu() {
+    let Some(ctx) = ctx() else { return };
+    let img = read("camera.png");
+    let (w, h) = (img.width(), img.height());
+    let d = decomposition(40, 30.0, 9);
+    let angles: Vec<f32> = (0..w * h)
+        .map(|i| ((i % w) as f32 * 0.6 - (i / w) as f32 * 0.35) % 360.0)
+        .collect();
+    let scale = 1.4;
+    let sigmas = ifd_planar::filter::level_sigmas(&d, scale, 0.0);
+    assert!(sigmas.len() > 3, "{sigmas:?}");
+    for interpolation in [
+        ifd_planar::Interpolation::Linear,
+        ifd_planar::Interpolation::Cubic,
+    ] {
+        let options = StackOptions {
+            interpolation,
+            margin: 48,
+            ..StackOptions::default()
+        };
+        let stack =
+            ScaleStack::with_sigmas(&img, &sigmas, Border::Reflect101, options).expect("stack");
+        assert!(!stack.is_uniform());
+        let filter = Filter::new(&stack, &d).expect("filter");
+        for angle in [Field::Constant(-20.0), Field::Map(&angles)] {
+            let cpu = filter.apply(angle, Field::Constant(scale)).expect("cpu");
+            let gpu = filter_image(ctx, &stack, &d, angle, Field::Constant(scale)).expect("gpu");
+            assert_close(
+                &gpu,
+                &cpu,
+                &format!("camera, levels at the terms' sigmas, {interpolation:?}"),
+            );
+        }
+        let scales = vec![scale; w * h];
+        let err = filter_image(ctx, &stack, &d, Field::Constant(0.0), Field::Map(&scales))
+            .expect_err("a scale map on levels at given sigmas");
+        assert!(err.to_string().contains("log-uniformly spaced"), "{err}");
+    }
+}
+
 #[test]
 fn rgb_constant_filter_matches_cpu() {
     let Some(ctx) = ctx() else { return };

@@ -57,4 +57,6 @@ pub use filter::{
 };
 pub use stack::gather::vector_kernels;
 pub use stack::refresh::{FixedTap, PixelRect, RefreshReport};
-pub use stack::{Interpolation, LevelLayout, ScaleStack, StackLayout, StackOptions, StackPlan};
+pub use stack::{
+    Interpolation, LevelLayout, LevelLocator, ScaleStack, StackLayout, StackOptions, StackPlan,
+};

@@ -47,8 +47,12 @@ pub struct FilterOptions {
     /// [`EvalPlan::DEFAULT_BUDGET`].
     pub eval_budget: f64,
     /// Plan for an evaluator that reads every term from a log-uniformly
-    /// spaced stack (the GPU): no levels at exact sigmas, no direct terms.
+    /// spaced stack: no levels at exact sigmas, no direct terms.
     pub log_uniform: bool,
+    /// At a constant pose, evaluate the terms narrower than
+    /// [`DIRECT_SIGMA`] directly. `false` plans for an evaluator that
+    /// reads every term from the stack (the GPU). Default true.
+    pub direct_terms: bool,
     /// Plan for scales over this range, which must contain the scale
     /// field's (default: the field's own range). Tiles or chunks of one
     /// image, each with a part of a scale map, pass the whole map's range so
@@ -67,6 +71,7 @@ impl Default for FilterOptions {
             interpolation: None,
             eval_budget: EvalPlan::DEFAULT_BUDGET,
             log_uniform: false,
+            direct_terms: true,
             scale_range: None,
             vector_kernels: true,
         }
@@ -124,7 +129,8 @@ impl FilterPlan {
         };
         check_kernel_fits(decomposition, smax, width, height)?;
         let prepared = PreparedDecomposition::new(decomposition)?;
-        let constant_pose = !angle.is_map() && !scale.is_map() && !options.log_uniform;
+        let constant_pose =
+            !angle.is_map() && !scale.is_map() && !options.log_uniform && options.direct_terms;
         let eval = EvalPlan::choose(
             decomposition,
             smin,

@@ -324,6 +324,7 @@ fn filter<'py>(
         interpolation: parse_interp(interp)?,
         eval_budget: eval_budget.unwrap_or(ifd_planar::EvalPlan::DEFAULT_BUDGET),
         log_uniform: false,
+        direct_terms: true,
         scale_range,
         vector_kernels: true,
     };
@@ -367,6 +368,7 @@ fn filter_alignment(
         interpolation: parse_interp(interp)?,
         eval_budget: eval_budget.unwrap_or(ifd_planar::EvalPlan::DEFAULT_BUDGET),
         log_uniform: false,
+        direct_terms: true,
         scale_range: None,
         vector_kernels: true,
     };

@@ -101,6 +101,7 @@ impl Filter {
             },
             eval_budget: self.eval_budget,
             log_uniform: false,
+            direct_terms: true,
             scale_range: None,
             vector_kernels: !self.scalar,
         }
@@ -347,8 +348,10 @@ impl Filter {
             "--scale",
         )?;
         let options = FilterOptions {
-            // The GPU reads every term from a log-uniform stack.
-            log_uniform: self.gpu,
+            // The GPU reads every term from the stack: levels at exactly
+            // the sigmas a constant scale reads (one lookup per term), else
+            // log-uniform levels.
+            direct_terms: !self.gpu,
             ..self.options()
         };
         let plan = FilterPlan::new(

@@ -802,21 +802,31 @@ impl ScaleStack {
     /// The two levels bracketing `sigma` and their weights (linear in
     /// `ln sigma`); clamps to the range.
     pub(crate) fn locate_ln(&self, ln_sigma: f64) -> (usize, usize, f32, f32) {
-        let n = self.sigmas.len() - 1;
-        if n == 0 {
-            return (0, 0, 1.0, 0.0);
+        locate_in(self.ln_sigma0, self.inv_ln_ratio, &self.ln_sigmas, ln_sigma)
+    }
+
+    /// What locating sigmas among the levels needs, without the samples
+    /// (for evaluators that hold the levels elsewhere, such as the GPU's).
+    ///
+    /// ```
+    /// use ifd_image::Image;
+    /// use ifd_planar::{Border, ScaleStack, StackOptions};
+    /// let img = Image::from_vec(32, 32, 1, vec![0.5; 32 * 32])?;
+    /// let stack = ScaleStack::with_sigmas(&img, &[1.0, 3.0], Border::Reflect101, StackOptions::default())?;
+    /// let at = stack.locator();
+    /// assert_eq!(at.locate(3.0), (1, 1, 1.0, 0.0)); // on a level: that level alone
+    /// let (a, b, wa, wb) = at.locate(3f64.sqrt()); // half-way in ln sigma
+    /// assert_eq!((a, b), (0, 1));
+    /// assert!((wa - 0.5).abs() < 1e-6 && (wb - 0.5).abs() < 1e-6);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    #[must_use]
+    pub fn locator(&self) -> LevelLocator {
+        LevelLocator {
+            ln_sigma0: self.ln_sigma0,
+            inv_ln_ratio: self.inv_ln_ratio,
+            ln_sigmas: self.ln_sigmas.clone(),
         }
-        if !self.is_uniform() {
-            // Levels at given sigmas: the bracketing pair by bisection, linear
-            // in ln sigma between them (exact on a level, to 1e-9).
-            let l = &self.ln_sigmas;
-            let i = l.partition_point(|&v| v <= ln_sigma).clamp(1, n) - 1;
-            let f = ((ln_sigma - l[i]) / (l[i + 1] - l[i])).clamp(0.0, 1.0);
-            return snap_to_level(i, f);
-        }
-        let t = ((ln_sigma - self.ln_sigma0) * self.inv_ln_ratio).clamp(0.0, n as f64);
-        let i = (t.floor() as usize).min(n - 1);
-        snap_to_level(i, t - i as f64)
     }
 
     /// `ln sigma_0` and `1 / ln r` (for callers that locate many sigmas).
@@ -1539,6 +1549,61 @@ fn blurred_half_row(
             }
         }
     }
+}
+
+/// Locates sigmas among the levels of a [`ScaleStack`]
+/// ([`ScaleStack::locator`]) exactly as the stack's own lookups do.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LevelLocator {
+    ln_sigma0: f64,
+    inv_ln_ratio: f64,
+    ln_sigmas: Vec<f64>,
+}
+
+impl LevelLocator {
+    /// `(a, b, wa, wb)`: the levels bracketing `sigma` and their weights,
+    /// linear in `ln sigma`, clamped to the levels; a sigma on a level (to a
+    /// relative 1e-6 of the spacing) reads that level alone (`b == a`,
+    /// `wb == 0`).
+    #[must_use]
+    pub fn locate(&self, sigma: f64) -> (usize, usize, f32, f32) {
+        locate_in(
+            self.ln_sigma0,
+            self.inv_ln_ratio,
+            &self.ln_sigmas,
+            sigma.ln(),
+        )
+    }
+
+    /// Whether the levels are log-uniformly spaced ([`ScaleStack::is_uniform`]).
+    #[must_use]
+    pub fn is_uniform(&self) -> bool {
+        !self.inv_ln_ratio.is_nan()
+    }
+}
+
+/// [`ScaleStack::locate_ln`] on its parts.
+fn locate_in(
+    ln_sigma0: f64,
+    inv_ln_ratio: f64,
+    ln_sigmas: &[f64],
+    ln_sigma: f64,
+) -> (usize, usize, f32, f32) {
+    let n = ln_sigmas.len() - 1;
+    if n == 0 {
+        return (0, 0, 1.0, 0.0);
+    }
+    if inv_ln_ratio.is_nan() {
+        // Levels at given sigmas: the bracketing pair by bisection, linear
+        // in ln sigma between them (exact on a level, to 1e-9).
+        let l = ln_sigmas;
+        let i = l.partition_point(|&v| v <= ln_sigma).clamp(1, n) - 1;
+        let f = ((ln_sigma - l[i]) / (l[i + 1] - l[i])).clamp(0.0, 1.0);
+        return snap_to_level(i, f);
+    }
+    let t = ((ln_sigma - ln_sigma0) * inv_ln_ratio).clamp(0.0, n as f64);
+    let i = (t.floor() as usize).min(n - 1);
+    snap_to_level(i, t - i as f64)
 }
 
 pub(crate) mod gather;
