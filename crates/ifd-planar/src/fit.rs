@@ -169,18 +169,10 @@ impl Default for DecomposeOptions {
 /// ```
 #[must_use]
 pub fn sampled_dc_gain(decomposition: &Decomposition) -> f64 {
-    let axis = |c: f64, sigma: f64| -> f64 {
-        let r = (8.0 * sigma).ceil() + 1.0;
-        let norm = 1.0 / ((std::f64::consts::TAU).sqrt() * sigma);
-        let (lo, hi) = ((c - r).floor() as i64, (c + r).ceil() as i64);
-        (lo..=hi)
-            .map(|i| (-(i as f64 - c).powi(2) / (2.0 * sigma * sigma)).exp() * norm)
-            .sum()
-    };
     decomposition
         .terms
         .iter()
-        .map(|t| t.weight * axis(t.x, t.sigma) * axis(t.y, t.sigma))
+        .map(|t| t.weight * sampled_sum(t.x, t.sigma) * sampled_sum(t.y, t.sigma))
         .sum()
 }
 

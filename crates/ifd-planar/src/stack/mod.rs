@@ -1405,29 +1405,33 @@ fn build_lone_channel(
         }
     });
     fft_rows(&mut z, nxp, plans.fwd_x);
-    // Split into the half spectra of the single rows. (Buffers are reused
-    // across levels below: fresh ones cost a page fault per 4 KiB, which
-    // was as much as the transforms.)
-    let mut half = vec![zero; nyp * hx];
-    half.par_chunks_mut(2 * hx)
+    // Split into the half spectra of the single rows, written transposed:
+    // spec[kx * nyp + ky], kx in 0..hx (one pass, no intermediate buffer;
+    // buffers are reused across levels below: a fresh one costs a page
+    // fault per 4 KiB, which was as much as the transforms).
+    let mut spec = vec![zero; hx * nyp];
+    let z_ref = &z;
+    spec.par_chunks_mut(nyp * COLUMN_BLOCK)
         .enumerate()
-        .for_each(|(r, out)| {
-            let zr = &z[r * nxp..(r + 1) * nxp];
-            let (ra, rb) = out.split_at_mut(hx);
-            for k in 0..hx {
-                let zk = zr[k];
-                let zm = zr[(nxp - k) % nxp].conj();
-                ra[k] = (zk + zm) * 0.5;
-                if !rb.is_empty() {
-                    let d = (zk - zm) * 0.5;
-                    // d / i = -i d
-                    rb[k] = Complex32::new(d.im, -d.re);
+        .for_each(|(block, cols)| {
+            let k0 = block * COLUMN_BLOCK;
+            let kn = cols.len() / nyp;
+            for r in 0..pairs {
+                let zr = &z_ref[r * nxp..(r + 1) * nxp];
+                for j in 0..kn {
+                    let k = k0 + j;
+                    let zk = zr[k];
+                    let zm = zr[(nxp - k) % nxp].conj();
+                    let col = &mut cols[j * nyp..(j + 1) * nyp];
+                    col[2 * r] = (zk + zm) * 0.5;
+                    if 2 * r + 1 < nyp {
+                        let d = (zk - zm) * 0.5;
+                        // d / i = -i d
+                        col[2 * r + 1] = Complex32::new(d.im, -d.re);
+                    }
                 }
             }
         });
-    // spec[kx * nyp + ky], kx in 0..hx.
-    let mut spec = vec![zero; hx * nyp];
-    transpose(&half, nyp, hx, &mut spec);
     fft_rows(&mut spec, nyp, plans.fwd_y);
     let mut coarse = vec![zero; hx * nyp];
     let scale = 1.0 / (nxp as f64 * nyp as f64);
@@ -1451,39 +1455,45 @@ fn build_lone_channel(
         });
         let (inv_x, inv_y) = &plans.inverse[li];
         fft_rows(cbuf, my, inv_y);
-        // rows[y' * mh + kx]
-        let rows = &mut half[..my * mh];
-        transpose(cbuf, mh, my, rows);
-        let rows = &*rows;
+        // cbuf[kx * my + y'], kx in 0..mh: rebuild rows 2r and 2r + 1 as
+        // one complex row, reading the columns directly (blocks of row
+        // pairs keep the columns' lines in cache).
+        let cols = &*cbuf;
         let row_pairs = my.div_ceil(2);
         let out = &mut z[..row_pairs * mx];
-        out.par_chunks_mut(mx).enumerate().for_each(|(r, o)| {
-            let a = &rows[2 * r * mh..(2 * r + 1) * mh];
-            let b = (2 * r + 1 < my).then(|| &rows[(2 * r + 1) * mh..(2 * r + 2) * mh]);
-            // A real row's spectrum is real at 0 and at mx / 2 (even mx):
-            // drop the rounding there so that it does not leak into the
-            // partner row.
-            let fix = |mut c: Complex32, k: usize| {
-                if k == 0 || 2 * k == mx {
-                    c.im = 0.0;
-                }
-                c
-            };
-            for (k, v) in o.iter_mut().enumerate() {
-                let (ca, cb, j, conj) = if k < mh {
-                    (a[k], b.map_or(zero, |b| b[k]), k, false)
-                } else {
-                    (a[mx - k], b.map_or(zero, |b| b[mx - k]), mx - k, true)
+        out.par_chunks_mut(mx * ROW_PAIR_BLOCK)
+            .enumerate()
+            .for_each(|(block, o)| {
+                let r0 = block * ROW_PAIR_BLOCK;
+                // A real row's spectrum is real at 0 and at mx / 2 (even
+                // mx): drop the rounding there so that it does not leak
+                // into the partner row.
+                let fix = |mut c: Complex32, k: usize| {
+                    if k == 0 || 2 * k == mx {
+                        c.im = 0.0;
+                    }
+                    c
                 };
-                let (mut ca, mut cb) = (fix(ca, j), fix(cb, j));
-                if conj {
-                    ca = ca.conj();
-                    cb = cb.conj();
+                for (dr, o) in o.chunks_mut(mx).enumerate() {
+                    let (ya, yb) = (2 * (r0 + dr), 2 * (r0 + dr) + 1);
+                    for (k, v) in o.iter_mut().enumerate() {
+                        let (j, conj) = if k < mh { (k, false) } else { (mx - k, true) };
+                        let ca = fix(cols[j * my + ya], j);
+                        let cb = if yb < my {
+                            fix(cols[j * my + yb], j)
+                        } else {
+                            zero
+                        };
+                        let (ca, cb) = if conj {
+                            (ca.conj(), cb.conj())
+                        } else {
+                            (ca, cb)
+                        };
+                        // A + i B
+                        *v = Complex32::new(ca.re - cb.im, ca.im + cb.re);
+                    }
                 }
-                // A + i B
-                *v = Complex32::new(ca.re - cb.im, ca.im + cb.re);
-            }
-        });
+            });
         fft_rows(out, mx, inv_x);
         let first = ((pad / step) as i64 + level.layout.origin / step as i64) as usize;
         let nx = level.layout.nx;
@@ -1504,6 +1514,12 @@ fn build_lone_channel(
             });
     }
 }
+
+/// Columns of the half spectrum written per task by the forward split of
+/// [`build_lone_channel`].
+const COLUMN_BLOCK: usize = 16;
+/// Row pairs rebuilt per task by its inverse.
+const ROW_PAIR_BLOCK: usize = 8;
 
 /// Row `kx` (`<= mx / 2`) of a level's coarse half spectrum from the fine
 /// half spectrum `spec_half[kx * nyp + ky]` (`kx <= nxp / 2`): as
