@@ -1141,6 +1141,14 @@ fn gaussian_transfer(sigma: f64, n: usize, planner: &mut FftPlanner<f64>) -> Vec
 /// A planned FFT.
 type FftPlan = Arc<dyn Fft<f32>>;
 
+/// The coarse FFT sample (along either axis) of a level's first stored
+/// sample: coarse sample `i` is padded index `i * step`, and the level
+/// starts `origin` full-resolution pixels from the image, `pad` after the
+/// FFT domain's start.
+fn first_stored(pad: usize, level: &LevelLayout) -> usize {
+    ((pad / level.step) as i64 + level.origin / level.step as i64) as usize
+}
+
 /// Row `kx` of a level's coarse spectrum: the image spectrum times the
 /// Gaussian's transfer, alias-summed over the `step x step` fine frequencies
 /// that fold onto each coarse one (a plain product when `step == 1`).
@@ -1325,8 +1333,7 @@ fn build_levels(layout: &StackLayout, data: &[f32], border: Border, levels: &mut
             transpose(cbuf, mx, my, zbuf);
             fft_rows(zbuf, mx, inv_x);
             // zbuf[y' * mx + x'], coarse sample i <-> padded index i * step.
-            let first = (pad / step) as i64 + level.layout.origin / step as i64;
-            let first = first as usize;
+            let first = first_stored(pad, &level.layout);
             let nx = level.layout.nx;
             let zref = &*zbuf;
             level
@@ -1495,7 +1502,7 @@ fn build_lone_channel(
                 }
             });
         fft_rows(out, mx, inv_x);
-        let first = ((pad / step) as i64 + level.layout.origin / step as i64) as usize;
+        let first = first_stored(pad, &level.layout);
         let nx = level.layout.nx;
         let out_ref = &*out;
         level
