@@ -176,6 +176,12 @@ pub fn sampled_dc_gain(decomposition: &Decomposition) -> f64 {
         .sum()
 }
 
+/// The revision of what [`decompose`] returns for given options: it changes
+/// whenever the fitting changes its results, so that stored fits made by
+/// older code (the smoother's cached aspect bank) are refitted, not reused.
+/// 2: DC-exact refits ([`DecomposeOptions::exact_dc`], 2026-12-04).
+pub const FIT_REVISION: u32 = 2;
+
 /// The most samples (kernel window and margin) a fit runs over.
 const MAX_FIT_SAMPLES: usize = 1 << 26;
 

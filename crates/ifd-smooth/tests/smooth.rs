@@ -361,3 +361,33 @@ fn tiled_smoothing_equals_whole_image() {
         );
     }
 }
+
+/// A cached bank is reused only when the current fitting code made it: one
+/// recorded with an older `FIT_REVISION` (or none, as files written before
+/// it was recorded) is refitted and the cache rewritten, so an upgrade does
+/// not keep smoothing with fits the new code would not make.
+#[test]
+fn a_cached_bank_from_older_fitting_code_is_refitted() {
+    let dir = std::env::temp_dir().join(format!("ifd-smooth-bank-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("bank.json");
+    let (bank, _) = banks();
+    bank.save(&path).unwrap();
+    let (same, source) = AspectBank::load_or_build(bank.options, Some(&path), |_, _| {}).unwrap();
+    assert_eq!(source, path.display().to_string());
+    assert_eq!(&same, bank.as_ref());
+    // The same bank, as older code would have recorded it: altered weights
+    // that a refit cannot reproduce, and no revision.
+    let mut old = (**bank).clone();
+    old.fit_revision = 0;
+    for t in old.terms.iter_mut().flatten() {
+        t.weight *= 1.01;
+    }
+    old.save(&path).unwrap();
+    let (fresh, source) = AspectBank::load_or_build(bank.options, Some(&path), |_, _| {}).unwrap();
+    assert_eq!(source, "fitted");
+    assert_eq!(fresh.fit_revision, ifd_planar::fit::FIT_REVISION);
+    assert_eq!(&fresh, bank.as_ref());
+    assert_eq!(&AspectBank::load(&path).unwrap(), bank.as_ref());
+    std::fs::remove_dir_all(&dir).ok();
+}
