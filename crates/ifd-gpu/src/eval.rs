@@ -223,6 +223,20 @@ pub struct GpuPose {
     scale_where: [String; 2],
 }
 
+/// A per-pixel scale map locates levels in the shader by the log-uniform
+/// formula: refused on a stack whose levels are at given sigmas.
+fn check_scale_map_reads(stack: &GpuStack, scale_map: bool) -> Result<(), GpuError> {
+    if scale_map && !stack.locator.is_uniform() {
+        return Err(FilterError::InvalidParameter(
+            "a per-pixel scale map reads a stack of log-uniformly spaced levels \
+             (ScaleStack::new); this one has levels at given sigmas, for a constant scale"
+                .into(),
+        )
+        .into());
+    }
+    Ok(())
+}
+
 /// `[cos, sin]` of an angle in degrees, as the pose maps hold rotations
 /// (the CPU path's `f32` `sin_cos`).
 fn cos_sin(degrees: f32) -> [f32; 2] {
@@ -256,14 +270,7 @@ impl GpuPose {
         let scale = checked_scale.field();
         let (ln0, inv) = stack.ln_params;
         let uniform = stack.locator.is_uniform();
-        if !uniform && matches!(scale, Field::Map(_)) {
-            return Err(FilterError::InvalidParameter(
-                "a per-pixel scale map reads a stack of log-uniformly spaced levels \
-                 (ScaleStack::new); this one has levels at given sigmas, for a constant scale"
-                    .into(),
-            )
-            .into());
-        }
+        check_scale_map_reads(stack, matches!(scale, Field::Map(_)))?;
         // (Unused with levels at given sigmas: the host locates every term.)
         let level_offset = |s: f32| {
             if uniform {
@@ -632,6 +639,9 @@ impl GpuContext {
             ))
             .into());
         }
+        // A pose made for a log-uniform stack of the same size may be
+        // handed a stack at given sigmas: its scale map cannot be read there.
+        check_scale_map_reads(stack, pose.flags & codes::FLAG_SCALE_MAP != 0)?;
         let region = region.unwrap_or(Region::full(w, h));
         check_region(region, w, h, "image")?;
         if pose.flags & codes::FLAG_ENTRY_MAP == 0

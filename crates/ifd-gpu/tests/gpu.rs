@@ -274,6 +274,25 @@ fn stacks_at_the_terms_sigmas_match_cpu() {
         let err = filter_image(ctx, &stack, &d, Field::Constant(0.0), Field::Map(&scales))
             .expect_err("a scale map on levels at given sigmas");
         assert!(err.to_string().contains("log-uniformly spaced"), "{err}");
+        // A scale-map pose made for a log-uniform stack of the same size is
+        // refused on this one too, not read with the wrong level formula.
+        let uniform = stack_for_decomposition(&img, &d, scale, scale, Border::Reflect101, options)
+            .expect("stack");
+        let gu = ifd_gpu::GpuStack::upload(ctx, &uniform).expect("upload");
+        let ge = ifd_gpu::GpuStack::upload(ctx, &stack).expect("upload");
+        let gd = ifd_gpu::GpuDecomposition::new(ctx, &d).expect("terms");
+        let pose = ifd_gpu::GpuPose::new(
+            ctx,
+            &gu,
+            Field::Constant(0.0),
+            Field::Map(&scales),
+            Field::Constant(0.0),
+        )
+        .expect("pose");
+        let err = ctx
+            .evaluate(&ge, &gd, &pose, None)
+            .expect_err("a scale-map pose on levels at given sigmas");
+        assert!(err.to_string().contains("log-uniformly spaced"), "{err}");
     }
 }
 
