@@ -35,7 +35,7 @@ echo "==> the spherical half: a GGX sphere lit by the bundled forest map (ISD, E
   -o "$OUT/forest-ggx.png"
 
 echo "==> IBL for engines: GGX-prefiltered mips, irradiance and SH of the forest map (KTX2)"
-"$IFD" envmap prefilter testdata/forest.hdr -o "$OUT/ibl"
+"$IFD" envmap prefilter testdata/forest.hdr --out-dir "$OUT/ibl"
 
 echo
 echo "done: $OUT/astronaut-swirl.png (filtered), $OUT/gauss8-decomposition.png (the fit),"

@@ -77,7 +77,7 @@ def main():
     tmp = pathlib.Path(tempfile.mkdtemp())
     rows = []  # (name, [(label, level (6,n,n,3), frame fn)], irradiance or None)
     n = args.size
-    subprocess.run([args.ifd, "envmap", "prefilter", args.env, "--face-size", str(n), "-o", tmp / "ifd"],
+    subprocess.run([args.ifd, "envmap", "prefilter", args.env, "--face-size", str(n), "--out-dir", tmp / "ifd"],
                    check=True, capture_output=True)
     _, lev = T.read_ktx2(tmp / "ifd" / "radiance.ktx2")
     _, irr = T.read_ktx2(tmp / "ifd" / "irradiance.ktx2")

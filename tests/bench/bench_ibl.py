@@ -325,7 +325,7 @@ def main():
     # ---- timing: one tool at a time, nothing else running
     outputs, times = {}, []
     for n in a.sizes:
-        tools = [("ifd", lambda o, n=n: [[ifd, "envmap", "prefilter", env_map, "--face-size", n, "-o", o / "out"]])]
+        tools = [("ifd", lambda o, n=n: [[ifd, "envmap", "prefilter", env_map, "--face-size", n, "--out-dir", o / "out", "--json"]])]
         if cmgen:
             tools.append(("cmgen", lambda o, n=n: [[cmgen, "-q", "-s", n, "-f", "ktx", "-x", o / "cm", "--no-mirror", env_map]]))
         if gltf:

@@ -38,10 +38,10 @@ ENV = ROOT / "testdata" / "forest.hdr"
 
 
 def run(ifd, *args):
-    p = subprocess.run([str(ifd), "render", "--env", str(ENV), *map(str, args)], capture_output=True, text=True)
+    p = subprocess.run([str(ifd), "render", "--env", str(ENV), *map(str, args), "--json"], capture_output=True, text=True)
     if p.returncode != 0:
         raise SystemExit(p.stderr)
-    return json.loads(p.stdout.strip().splitlines()[-1])
+    return json.loads(p.stdout)
 
 
 def rel_rms(a, b, mask):

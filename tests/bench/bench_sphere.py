@@ -2,7 +2,7 @@
 
 Run from the repository root:  .venv/bin/python tests/bench/bench_sphere.py
 ifd is timed in the same run through `ifd sphere sh` (single-threaded,
-RAYON_NUM_THREADS=1), whose JSON reports the in-process analysis time, when
+RAYON_NUM_THREADS=1), whose JSON (`--json`) reports the in-process analysis time, when
 target/release/ifd or target/debug/ifd exists (`--ifd PATH` to choose); the
 criterion bench `cargo bench -p ifd-sphere --bench sphere` gives the same
 analysis without the CLI.
@@ -72,7 +72,7 @@ def main():
                 ts = []
                 for _ in range(5):
                     out = subprocess.run([str(ifd), "sphere", "sh", f"{tmp}/map.npy", "--lmax", str(L),
-                                          "--keep-negatives", "-o", f"{tmp}/c.npy"],
+                                          "--keep-negatives", "-o", f"{tmp}/c.npy", "--json"],
                                          capture_output=True, text=True, check=True, env=env)
                     ts.append(json.loads(out.stdout)["seconds"])
                 t_ifd = min(ts)

@@ -79,11 +79,11 @@ PAPER = {
 
 
 def run_ifd(ifd, *args):
-    """Runs `ifd ARGS`; returns the JSON of its last stdout line."""
-    p = subprocess.run([str(ifd), *map(str, args)], capture_output=True, text=True)
+    """Runs `ifd ARGS --json`; returns its JSON report."""
+    p = subprocess.run([str(ifd), *map(str, args), "--json"], capture_output=True, text=True)
     if p.returncode != 0:
         raise SystemExit(f"ifd {' '.join(map(str, args))} failed ({p.returncode}):\n{p.stderr}")
-    return json.loads(p.stdout.strip().splitlines()[-1])
+    return json.loads(p.stdout)
 
 
 def rel_rms(a, ref, mask):

@@ -42,7 +42,11 @@ def run_ifd(ifd_bin):
 
 @pytest.fixture(scope="session")
 def run_json(run_ifd):
+    """Runs `ifd ARGS... --json`; returns the parsed report."""
+
     def run(*args):
+        if "--json" not in map(str, args):
+            args = (*args, "--json")
         return json.loads(run_ifd(*args).stdout)
 
     return run

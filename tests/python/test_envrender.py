@@ -42,10 +42,10 @@ def run_window(tmp_path, *args, check=True):
 
 
 @pytest.mark.parametrize("gpu,variant,brdf,lmax,extra", [
-    ("on", "sh", "ggx:alpha=0.3", 8, []),
-    ("on", "sh", "ggx:alpha=0.5", 6, ["maps"]),
-    ("on", "maps", "phong:s=40", 10, ["--scene", "torus", "--eye", "0,-3.5,2", "--tonemap", "reinhard"]),
-    ("off", "sh", "ggx:alpha=0.3", 8, ["--exposure", "1"]),
+    ("gpu", "sh", "ggx:alpha=0.3", 8, []),
+    ("gpu", "sh", "ggx:alpha=0.5", 6, ["maps"]),
+    ("gpu", "maps", "phong:s=40", 10, ["--scene", "torus", "--eye", "0,-3.5,2", "--tonemap", "reinhard"]),
+    ("cpu", "sh", "ggx:alpha=0.3", 8, ["--exposure", "1"]),
 ])
 def test_screenshot_viewport_matches_ifd_render(run_ifd, tmp_path, gpu, variant, brdf, lmax, extra):
     import cv2
@@ -59,7 +59,7 @@ def test_screenshot_viewport_matches_ifd_render(run_ifd, tmp_path, gpu, variant,
         extra = ["--roughness-map", tmp_path / "rough.npy", "--albedo-map", tmp_path / "albedo.npy"]
     view = ["--brdf", brdf, "--lmax", lmax, "--size", "200x150", *extra]
     shot = tmp_path / "shot.png"
-    p = run_window(tmp_path, "--reset", *view, "--variant", variant, "--gpu", gpu,
+    p = run_window(tmp_path, "--reset", *view, "--variant", variant, "--device", gpu,
                    "--screenshot", shot, "--exit")
     vp = json.loads(p.stdout.strip().splitlines()[-1])["viewport"]
     assert (vp["width"], vp["height"]) == (200, 150), vp
@@ -94,7 +94,7 @@ def test_monte_carlo_reference_and_error_against_l(tmp_path):
     against it reported, and the error-against-L curve of the view falling with L (at 64 spp the
     reference's own noise, about 5%, is the floor)."""
     p = run_window(tmp_path, "--reset", "--brdf", "ggx:alpha=0.3", "--lmax", 8, "--size", "96x72",
-                   "--gpu", "on", "--reference", "--reference-spp", 64, "--exit")
+                   "--device", "gpu", "--reference", "--reference-spp", 64, "--exit")
     r = json.loads(p.stdout.strip().splitlines()[-1])["reference"]
     assert r["spp"] >= 64 and 0.0 < r["rel_rms"] < 0.25 and r["psnr_db"] > 20, r
     curve = [c["rel_rms"] for c in r["curve"]]

@@ -157,7 +157,7 @@ def forest_small(tmp_path_factory):
 def baked(forest_small, run_ifd, tmp_path_factory):
     path, src = forest_small
     out = tmp_path_factory.mktemp("bake")
-    rep = json.loads(run_ifd("envmap", "prefilter", path, "--face-size", 64, "-o", out).stdout)
+    rep = json.loads(run_ifd("envmap", "prefilter", "--json", path, "--face-size", 64, "--out-dir", out).stdout)
     return out, rep, src
 
 
@@ -284,7 +284,7 @@ def test_sh_files_agree_and_project_the_source(baked):
 def test_white_furnace(run_ifd, tmp_path):
     src = np.full((32, 64, 3), 0.75, np.float32)
     np.save(tmp_path / "white.npy", src)
-    run_ifd("envmap", "prefilter", tmp_path / "white.npy", "--face-size", 32, "-o", tmp_path / "o")
+    run_ifd("envmap", "prefilter", tmp_path / "white.npy", "--face-size", 32, "--out-dir", tmp_path / "o")
     _, levels = read_ktx2(tmp_path / "o" / "radiance.ktx2")
     _, irr = read_ktx2(tmp_path / "o" / "irradiance.ktx2")
     for lev in levels + irr:
@@ -331,8 +331,8 @@ def test_cube_seams_are_no_larger_than_in_face_steps(baked):
 
 def test_exr_faces_equal_the_ktx2_levels(forest_small, run_ifd, tmp_path):
     path, _ = forest_small
-    run_ifd("envmap", "prefilter", path, "--face-size", 16, "-o", tmp_path / "k")
-    run_ifd("envmap", "prefilter", path, "--face-size", 16, "--format", "exr", "-o", tmp_path / "e")
+    run_ifd("envmap", "prefilter", path, "--face-size", 16, "--out-dir", tmp_path / "k")
+    run_ifd("envmap", "prefilter", path, "--face-size", 16, "--format", "exr", "--out-dir", tmp_path / "e")
     _, levels = read_ktx2(tmp_path / "k" / "radiance.ktx2")
     names = ["px", "nx", "py", "ny", "pz", "nz"]
     for m, lev in enumerate(levels):
@@ -346,14 +346,14 @@ def test_exr_faces_equal_the_ktx2_levels(forest_small, run_ifd, tmp_path):
 
 def test_cmgen_mapping_and_phong(forest_small, run_ifd, tmp_path):
     path, _ = forest_small
-    rep = json.loads(run_ifd("envmap", "prefilter", path, "--face-size", 64, "--roughness", "cmgen",
-                             "--irradiance-size", 0, "-o", tmp_path / "c").stdout)
+    rep = json.loads(run_ifd("envmap", "prefilter", "--json", path, "--face-size", 64, "--roughness", "cmgen",
+                             "--irradiance-size", 0, "--out-dir", tmp_path / "c").stdout)
     # cmgen stops at 16 texels: 64, 32, 16; roughness 1 - sqrt(1 - m/(M-1))
     assert [l["size"] for l in rep["levels"]] == [64, 32, 16]
     assert abs(rep["levels"][1]["roughness"] - (1 - np.sqrt(0.5))) < 1e-12
     assert not (tmp_path / "c" / "irradiance.ktx2").exists()
-    rep = json.loads(run_ifd("envmap", "prefilter", path, "--face-size", 16, "--brdf", "phong:s=32",
-                             "-o", tmp_path / "p").stdout)
+    rep = json.loads(run_ifd("envmap", "prefilter", "--json", path, "--face-size", 16, "--lobe", "phong:s=32",
+                             "--out-dir", tmp_path / "p").stdout)
     assert len(rep["levels"]) == 1 and rep["levels"][0]["lobe"] == {"kind": "phong", "s": 32.0}
     _, levels = read_ktx2(tmp_path / "p" / "radiance.ktx2")
     assert len(levels) == 1
@@ -378,7 +378,7 @@ def dfg_brute(nv, r):
 
 
 def test_dfg_table_matches_brute_force(run_ifd, tmp_path):
-    run_ifd("envmap", "dfg", "--size", 16, "-o", tmp_path / "dfg.npy")
+    run_ifd("envmap", "dfg", "--table-size", 16, "-o", tmp_path / "dfg.npy")
     t = np.load(tmp_path / "dfg.npy")
     assert t.shape == (16, 16, 3)
     assert np.all(t[..., 2] == 0)
@@ -392,7 +392,9 @@ def test_dfg_table_matches_brute_force(run_ifd, tmp_path):
     (["--face-size", 100], "power of two"),
     (["--face-size", 16, "--mips", 9], "--mips"),
     (["--brdf", "cooktorrance"], "unknown lobe"),
-    (["--brdf", "phong:s=-3"], "phong:s=S"),
+    (["--lobe", "phong:s=-3"], "phong:s=S"),
+    (["--brdf", "ggx"], "--lobe"),
+    (["-o", "x"], "--out-dir"),
     (["--format", "dds"], "--format"),
     (["--roughness", "quadratic"], "--roughness"),
     (["--eps", "2"], "--eps"),
@@ -401,7 +403,7 @@ def test_dfg_table_matches_brute_force(run_ifd, tmp_path):
 ])
 def test_bad_options_fail_cleanly(forest_small, run_ifd, tmp_path, args, needle):
     path, _ = forest_small
-    p = run_ifd("envmap", "prefilter", path, *args, "-o", tmp_path / "o", check=False)
+    p = run_ifd("envmap", "prefilter", path, *args, "--out-dir", tmp_path / "o", check=False)
     assert p.returncode == 2, p.stderr
     assert needle in p.stderr and "panicked" not in p.stderr
     assert not (tmp_path / "o").exists()
@@ -411,21 +413,21 @@ def test_bad_maps_and_outputs_fail_cleanly(forest_small, run_ifd, tmp_path):
     path, _ = forest_small
     # not 2:1 or 6:1
     np.save(tmp_path / "sq.npy", np.ones((16, 16, 3), np.float32))
-    p = run_ifd("envmap", "prefilter", tmp_path / "sq.npy", "-o", tmp_path / "o1", check=False)
+    p = run_ifd("envmap", "prefilter", tmp_path / "sq.npy", "--out-dir", tmp_path / "o1", check=False)
     assert p.returncode == 2 and "2:1" in p.stderr and "sq.npy" in p.stderr
     # NaN texel
     bad = np.ones((16, 32, 3), np.float32)
     bad[3, 4, 1] = np.nan
     np.save(tmp_path / "nan.npy", bad)
-    p = run_ifd("envmap", "prefilter", tmp_path / "nan.npy", "-o", tmp_path / "o2", check=False)
+    p = run_ifd("envmap", "prefilter", tmp_path / "nan.npy", "--out-dir", tmp_path / "o2", check=False)
     assert p.returncode == 2 and "nan.npy" in p.stderr
     # gray map
     np.save(tmp_path / "gray.npy", np.ones((16, 32), np.float32))
-    p = run_ifd("envmap", "prefilter", tmp_path / "gray.npy", "-o", tmp_path / "o3", check=False)
+    p = run_ifd("envmap", "prefilter", tmp_path / "gray.npy", "--out-dir", tmp_path / "o3", check=False)
     assert p.returncode == 2 and "RGB" in p.stderr
     # an output folder under a regular file
     (tmp_path / "file").write_text("x")
-    p = run_ifd("envmap", "prefilter", path, "--face-size", 16, "-o", tmp_path / "file" / "out", check=False)
+    p = run_ifd("envmap", "prefilter", path, "--face-size", 16, "--out-dir", tmp_path / "file" / "out", check=False)
     assert p.returncode == 2 and "file" in p.stderr and "panicked" not in p.stderr
     for o in ("o1", "o2", "o3"):
         assert not (tmp_path / o).exists()
@@ -433,7 +435,7 @@ def test_bad_maps_and_outputs_fail_cleanly(forest_small, run_ifd, tmp_path):
     neg = np.ones((16, 32, 3), np.float32)
     neg[0, 0] = -1
     np.save(tmp_path / "neg.npy", neg)
-    p = run_ifd("envmap", "prefilter", tmp_path / "neg.npy", "--face-size", 8, "-o", tmp_path / "o4")
+    p = run_ifd("envmap", "prefilter", tmp_path / "neg.npy", "--face-size", 8, "--out-dir", tmp_path / "o4")
     assert "clamped 3 negative samples" in p.stderr
 
 
@@ -441,13 +443,13 @@ def test_cube_strip_input_round_trips(run_ifd, tmp_path, forest_small):
     path, _ = forest_small
     # bake mip 0 as EXR faces, assemble a strip, bake again from the strip
     run_ifd("envmap", "prefilter", path, "--face-size", 32, "--mips", 1, "--format", "exr",
-            "--irradiance-size", 8, "-o", tmp_path / "a")
+            "--irradiance-size", 8, "--out-dir", tmp_path / "a")
     faces = [read_exr(run_ifd, tmp_path / "a" / f"radiance_m0_{n}.exr")
              for n in ["px", "nx", "py", "ny", "pz", "nz"]]
     strip = np.concatenate(faces, axis=1).astype(np.float32)
     np.save(tmp_path / "strip.npy", strip)
     run_ifd("envmap", "prefilter", tmp_path / "strip.npy", "--face-size", 32, "--mips", 1,
-            "--format", "exr", "--irradiance-size", 8, "-o", tmp_path / "b")
+            "--format", "exr", "--irradiance-size", 8, "--out-dir", tmp_path / "b")
     for n in ["px", "nx", "py", "ny", "pz", "nz"]:
         a = read_exr(run_ifd, tmp_path / "a" / f"irradiance_{n}.exr")
         b = read_exr(run_ifd, tmp_path / "b" / f"irradiance_{n}.exr")
@@ -456,7 +458,7 @@ def test_cube_strip_input_round_trips(run_ifd, tmp_path, forest_small):
 
 
 def test_shrm_table4_runs_and_checks_its_input(run_ifd, tmp_path):
-    p = run_ifd("envmap", "shrm", TESTDATA / "forest.hdr", "--size", "64x32", "--exponents", "8,32",
+    p = run_ifd("paper", "shrm-table4", TESTDATA / "forest.hdr", "--size", "64x32", "--exponents", "8,32",
                 "--runs", 1, "--min-seconds", 0, "--csv", tmp_path / "t4.csv")
     rows = [l for l in p.stdout.splitlines() if l.startswith("| 8 ") or l.startswith("| 32 ")]
     assert len(rows) == 2
@@ -469,10 +471,12 @@ def test_shrm_table4_runs_and_checks_its_input(run_ifd, tmp_path):
     assert all(float(r["rel_diff"]) < 0.06 for r in t)
     # the angular support shrinks as the lobe sharpens
     assert float(t[1]["support_texels"]) < float(t[0]["support_texels"])
-    for args, needle in [(["--table", 6], "Tables 4"), (["--exponents", "0.5"], "--exponents"),
+    q = run_ifd("envmap", "shrm", TESTDATA / "forest.hdr", "--table", 4, check=False)
+    assert q.returncode == 2 and "ifd paper shrm-table" in q.stderr, q.stderr
+    for args, needle in [(["--exponents", "0.5"], "--exponents"),
                          (["--size", "64x32", "--exponents", "2000"], "rows"),
                          (["--eps-angular", "1"], "--eps-angular")]:
-        q = run_ifd("envmap", "shrm", TESTDATA / "forest.hdr", *args, check=False)
+        q = run_ifd("paper", "shrm-table4", TESTDATA / "forest.hdr", *args, check=False)
         assert q.returncode == 2 and needle in q.stderr, (args, q.stderr)
 
 
@@ -480,7 +484,7 @@ def test_shrm_table5_orders_match_the_paper(run_ifd, tmp_path):
     """Table 5's F_B, P_B (the BRDF energy criterion of Sec. 5.1 on the
     microfacet BRDF of Eq. 11) against the paper's, and the SHRM's maps against
     angular integration on a small map."""
-    p = run_ifd("envmap", "shrm", TESTDATA / "forest.hdr", "--table", 5, "--size", "32x16",
+    p = run_ifd("paper", "shrm-table5", TESTDATA / "forest.hdr", "--size", "32x16",
                 "--sigmas", "0.2,0.4", "--maps", 1, "--csv", tmp_path / "t5.csv")
     import csv
 
@@ -500,7 +504,7 @@ def test_render_reads_the_baked_sh(forest_small, run_ifd, tmp_path):
     """sh.npy is usable by `ifd render --env`: the SH methods then shade with
     exactly those coefficients, the same as rendering the source map itself."""
     path, _ = forest_small
-    run_ifd("envmap", "prefilter", path, "--face-size", 8, "--sh-lmax", 6, "-o", tmp_path / "b")
+    run_ifd("envmap", "prefilter", path, "--face-size", 8, "--sh-lmax", 6, "--out-dir", tmp_path / "b")
     common = ["--brdf", "phong:s=8", "--lmax", 6, "--method", "sh", "--size", "24x24", "--no-background"]
     run_ifd("render", "--env", tmp_path / "b" / "sh.npy", *common, "-o", tmp_path / "a.npy")
     run_ifd("render", "--env", path, "--env-size", "256x128", *common, "-o", tmp_path / "m.npy")

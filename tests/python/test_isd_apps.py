@@ -43,8 +43,8 @@ def _reference(brdf, wo, zeta, profile_s):
 def test_radial_map_matches_quadrature(run_json, tmp_path, brdf):
     spec = "lambert" if brdf[0] == "lambert" else f"phong:s={brdf[1]:g}"
     out = tmp_path / "map.npy"
-    rep = run_json("sphere", "radial", "--brdf", spec, "--light", "power:s=3", "--lmax", 30,
-                   "--size", "4x6x5", "-o", out, "--coeffs", tmp_path / "e.npy")
+    rep = run_json("sphere", "radial", "--brdf", spec, "--light-profile", "power:s=3", "--lmax", 30,
+                   "--cells", "4x6x5", "-o", out, "--coeffs", tmp_path / "e.npy")
     m = np.load(out)
     assert m.shape == (4, 1, 6, 5, 1) and rep["shape"] == [4, 1, 6, 5, 1]
     assert np.load(tmp_path / "e.npy").shape == (31, 1)
@@ -70,11 +70,13 @@ def test_radial_map_matches_quadrature(run_json, tmp_path, brdf):
 
 def test_radial_bad_input(run_ifd, tmp_path):
     cases = [
-        (["--light", "sun"], "unknown profile"),
-        (["--light", "cap:deg=0"], "deg"),
-        (["--light", "overcast", "--radiance", "-1"], "--radiance"),
-        (["--light", "overcast", "--size", "4x0x5"], "--size"),
-        (["--light", "overcast", "--size", "4x5"], "--size"),
+        (["--light-profile", "sun"], "unknown profile"),
+        (["--light-profile", "cap:deg=0"], "deg"),
+        (["--light-profile", "overcast", "--radiance", "-1"], "--radiance"),
+        (["--light-profile", "overcast", "--cells", "4x0x5"], "--cells"),
+        (["--light-profile", "overcast", "--cells", "4x5"], "--cells"),
+        (["--light", "overcast"], "--light-profile"),
+        (["--light-profile", "overcast", "--size", "4x5x5"], "--cells"),
         (["--env", tmp_path / "missing.hdr"], "missing.hdr"),
     ]
     for extra, needle in cases:
@@ -120,7 +122,7 @@ def test_render_light_is_added_and_drawn(run_ifd, tmp_path):
 
 
 def test_mirror_command(run_json, run_ifd, tmp_path):
-    rep = run_json("mirror", "--env", TESTDATA / "forest.hdr", "--size", "48x48", "--reference", 8,
+    rep = run_json("paper", "isd-mirror", "--env", TESTDATA / "forest.hdr", "--size", "48x48", "--reference-grid", 8,
                    "--runs", 1, "--lmax", 24, "--out-dir", tmp_path)
     rows = {r["method"]: r for r in rep["rows"]}
     assert set(rows) == {"none", "ss4x4", "ss16x16", "isd-direct", "isd"}
@@ -131,10 +133,13 @@ def test_mirror_command(run_json, run_ifd, tmp_path):
     assert "| isd |" in (tmp_path / "table.md").read_text()
     for extra, needle in [(["--lmax", 0], "--lmax"), (["--size", "0x5"], "--size"),
                           (["--supersample", "0"], "--supersample")]:
-        p = run_ifd("mirror", "--env", TESTDATA / "forest.hdr", *extra, check=False)
+        p = run_ifd("paper", "isd-mirror", "--env", TESTDATA / "forest.hdr", *extra, check=False)
         assert p.returncode == 2 and needle in p.stderr, (extra, p.stderr)
-    p = run_ifd("mirror", "--env", tmp_path / "nope.hdr", check=False)
+    p = run_ifd("paper", "isd-mirror", "--env", tmp_path / "nope.hdr", check=False)
     assert p.returncode == 2 and "nope.hdr" in p.stderr
+    # the old spelling is refused with the new one, not run
+    p = run_ifd("mirror", "--env", TESTDATA / "forest.hdr", check=False)
+    assert p.returncode == 2 and "ifd paper isd-mirror" in p.stderr, p.stderr
 
 
 # --- vMF filtering of noisy and sparse BRDF data (ISD Sec. 6.3) -------------
@@ -275,8 +280,8 @@ def test_brdf_filter_bad_input(run_ifd, tmp_path):
 
 
 def test_visibility_command(run_json, run_ifd, tmp_path):
-    rep = run_json("visibility", "--env", TESTDATA / "forest.hdr", "--env-size", "32x16",
-                   "--size", "32x32", "--degrees", "4..12:4", "--dirs", 1024, "--out-dir", tmp_path)
+    rep = run_json("paper", "isd-visibility", "--env", TESTDATA / "forest.hdr", "--env-size", "32x16",
+                   "--size", "32x32", "--degrees", "4..12:4", "--rays", 1024, "--out-dir", tmp_path)
     rows = rep["rows"]
     assert [r["l"] for r in rows] == [4, 8, 12]
     assert rows[-1]["isd_visibility"] < rows[0]["isd_visibility"]
@@ -287,9 +292,9 @@ def test_visibility_command(run_json, run_ifd, tmp_path):
     csv = (tmp_path / "error.csv").read_text().splitlines()
     assert csv[0] == "l,isd_visibility,isd_unshadowed" and len(csv) == 4
     for extra, needle in [(["--degrees", "5..2"], "--degrees"), (["--degrees", "1..40"], "--degrees"),
-                          (["--dirs", 3], "--dirs"), (["--scene", "cube"], "--scene"),
+                          (["--rays", 3], "--rays"), (["--scene", "cube"], "--scene"),
                           (["--env-size", "30x16"], "divide")]:
-        p = run_ifd("visibility", "--env", TESTDATA / "forest.hdr", *extra, check=False)
+        p = run_ifd("paper", "isd-visibility", "--env", TESTDATA / "forest.hdr", *extra, check=False)
         assert p.returncode == 2 and needle in p.stderr, (extra, p.stderr)
 
 
@@ -297,7 +302,7 @@ def test_sparsity_search_command(run_json, run_ifd, tmp_path):
     """ZHF Sec. 5-6: bands 2-3 reach the paper's Table I (64%, 67%) and the
     shared order-4 set beats random draws from the same candidates; the
     directions returned factorise exactly (checked here with numpy)."""
-    rep = run_json("sphere", "sparsity", "--bands", "2..3", "--orders", "4..4", "--stall", 200,
+    rep = run_json("paper", "zhf-sparsity", "--bands", "2..3", "--orders", "4..4", "--stall", 200,
                    "--generations", 2000, "--restarts", 8, "--random", 500,
                    "--markdown", tmp_path / "t.md")
     b = {r["l"]: r for r in rep["bands"]}
@@ -317,7 +322,7 @@ def test_sparsity_search_command(run_json, run_ifd, tmp_path):
     assert abs(zeros - b[2]["sparsity"]) < 1e-12, (zeros, b[2]["sparsity"])
     for extra, needle in [(["--bands", "0..3"], "--bands"), (["--orders", "1..4"], "--orders"),
                           (["--population", 2], "--population"), (["--restarts", 0], "--restarts")]:
-        p = run_ifd("sphere", "sparsity", *extra, check=False)
+        p = run_ifd("paper", "zhf-sparsity", *extra, check=False)
         assert p.returncode == 2 and needle in p.stderr, (extra, p.stderr)
 
 

@@ -38,7 +38,7 @@ def sun_errors(run_ifd, tmp_path_factory):
     degrees = sorted({bench.rule_sqrt(S), bench.rule_shrm(S, EPS), 12, 24, 32, 48})
     common = ["render", "--env", env, "--brdf", f"phong:s={S}", "--size", SIZE,
               "--env-size", ENV_SIZE, "--no-background"]
-    q_json = json.loads(run_ifd(*common, "--method", "quadrature", "--mask", tmp / "m.npy",
+    q_json = json.loads(run_ifd(*common, "--json", "--method", "quadrature", "--mask", tmp / "m.npy",
                                 "-o", tmp / "q.npy").stdout)
     assert q_json["quadrature_unconverged_pixels"] == 0
     q = np.load(tmp / "q.npy").astype(np.float64)
@@ -116,7 +116,7 @@ def test_error_decreases_with_L_and_vanishes(sun_errors):
 
 def _table(run_ifd, tmp_path, brdf, L, *extra):
     path = tmp_path / f"t{L}.lobes"
-    info = json.loads(run_ifd("sphere", "brdf", brdf, "--lmax", L, *extra, "-o", path).stdout)
+    info = json.loads(run_ifd("sphere", "brdf", "--json", brdf, "--lmax", L, *extra, "-o", path).stdout)
     raw = path.read_bytes()
     assert raw[:8] == b"IFDLOBES"
     (hlen,) = struct.unpack("<I", raw[8:12])

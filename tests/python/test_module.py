@@ -431,3 +431,16 @@ def test_shade_bad_inputs():
         ifd.sphere.shade(c, "ggx:alpha=0.3", n, n, table="/nonexistent/missing.lobes")
     with pytest.raises(ValueError, match="2 views for 1 normals"):
         ifd.sphere.shade(c, "lambert", n, np.vstack([n, n]))
+
+
+def test_the_namespaces_show_the_api_only():
+    """`dir(ifd)` and `dir(ifd.sphere)` list the API (their `__all__`) and no
+    import helpers (numpy, os, typing names, `annotations`); `ifd.dask` imports
+    as documented."""
+    import ifd.dask
+    import ifd.sphere
+
+    for module, extra in [(ifd, {"dask"}), (ifd.sphere, set()), (ifd.dask, {"Decomposition"})]:
+        public = {n for n in dir(module) if not n.startswith("_")}
+        assert public == (set(module.__all__) - {"__version__"}) | extra, (module.__name__, public)
+    assert callable(ifd.dask.filter) and callable(ifd.dask.plan)

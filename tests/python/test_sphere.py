@@ -112,7 +112,7 @@ def test_equirect_analysis_matches_ducc0(run_ifd, tmp_path):
     rng = np.random.default_rng(1)
     img = rng.random((H, W, 3)).astype(np.float32)
     np.save(tmp_path / "map.npy", img)
-    out = json.loads(run_ifd("sphere", "sh", tmp_path / "map.npy", "--lmax", L, "-o", tmp_path / "c.npy").stdout)
+    out = json.loads(run_ifd("sphere", "sh", "--json", tmp_path / "map.npy", "--lmax", L, "-o", tmp_path / "c.npy").stdout)
     assert out["negatives"] == 0
     c = np.load(tmp_path / "c.npy")
     assert c.shape == ((L + 1) ** 2, 3)
@@ -142,7 +142,7 @@ def test_synthesis_matches_ducc0(run_ifd, tmp_path):
 def test_bundled_envmap_negatives_are_clamped_and_counted(run_ifd, tmp_path):
     from conftest import TESTDATA
 
-    out = run_ifd("sphere", "sh", TESTDATA / "forest_dwab.exr", "--lmax", 8, "-o", tmp_path / "c.npy")
+    out = run_ifd("sphere", "sh", TESTDATA / "forest_dwab.exr", "--lmax", 8, "-o", tmp_path / "c.npy", "--json")
     info = json.loads(out.stdout)
     assert info["negatives"] > 0 and "clamped" in out.stderr
     c = np.load(tmp_path / "c.npy")
@@ -178,18 +178,18 @@ def test_bad_inputs_fail_cleanly(run_ifd, tmp_path):
 
 
 def test_decompose_and_condition(run_ifd, tmp_path):
-    out = json.loads(run_ifd("sphere", "decompose", "aniso-gauss:s1=0.3,s2=0.05", "--lmax", 8,
+    out = json.loads(run_ifd("sphere", "decompose", "--json", "aniso-gauss:s1=0.3,s2=0.05", "--lmax", 8,
                              "--directions", "shared", "-o", tmp_path / "d.json").stdout)
     assert out["lobes"] == 81 and out["directions"] == 17 and out["channels"] == 1
     assert out["condition_number"] < 1e4
     d = json.loads((tmp_path / "d.json").read_text())
     assert d["profile"] == "zonal" and d["directions"]["sharing"] == "shared"
-    out = json.loads(run_ifd("sphere", "decompose", "vmf:kappa=50", "--lmax", 6, "--profile", "gauss",
+    out = json.loads(run_ifd("sphere", "decompose", "--json", "vmf:kappa=50", "--lmax", 6, "--profile", "gauss",
                              "-o", tmp_path / "g.json").stdout)
     assert out["profile"] == "gauss"
     p = run_ifd("sphere", "decompose", "phong:s=-3", "--lmax", 4, "-o", tmp_path / "x.json", check=False)
     assert p.returncode == 2 and "phong:s=-3" in p.stderr
-    rows = json.loads(run_ifd("sphere", "condition", "--lmax", 6, "--plot", tmp_path / "c.png",
+    rows = json.loads(run_ifd("paper", "isd-condition", "--json", "--lmax", 6, "--plot", tmp_path / "c.png",
                               "--csv", tmp_path / "c.csv").stdout)
     assert (tmp_path / "c.png").stat().st_size > 1000
     csv = (tmp_path / "c.csv").read_text().splitlines()
@@ -259,7 +259,7 @@ def test_sphere_filter_matches_quadrature(run_ifd, tmp_path, spec, lmax, directi
     env = rng.random((H, W, 2)).astype(np.float32) ** 4  # a few bright texels
     np.save(tmp_path / "env.npy", env)
     run_ifd("sphere", "decompose", spec, "--lmax", lmax, "--directions", directions, "-o", tmp_path / "d.json")
-    out = json.loads(run_ifd("sphere", "filter", tmp_path / "env.npy", "--decomp", tmp_path / "d.json",
+    out = json.loads(run_ifd("sphere", "filter", "--json", tmp_path / "env.npy", "--decomp", tmp_path / "d.json",
                              "--raw", "--size", "32x16", "-o", tmp_path / "f.npy").stdout)
     assert out["layout"] == "equirect" and out["scale"] == 1.0
     got = np.load(tmp_path / "f.npy").astype(np.float64)
@@ -295,9 +295,9 @@ def test_sphere_filter_normalises_and_refuses_bad_input(run_ifd, tmp_path):
     rng = np.random.default_rng(7)
     np.save(tmp_path / "env.npy", rng.random((16, 32, 3)).astype(np.float32))
     run_ifd("sphere", "decompose", "vmf:kappa=10", "--lmax", 16, "-o", tmp_path / "d.json")
-    raw = json.loads(run_ifd("sphere", "filter", tmp_path / "env.npy", "--decomp", tmp_path / "d.json",
+    raw = json.loads(run_ifd("sphere", "filter", "--json", tmp_path / "env.npy", "--decomp", tmp_path / "d.json",
                              "--raw", "--size", "48x8", "-o", tmp_path / "raw.npy").stdout)
-    out = json.loads(run_ifd("sphere", "filter", tmp_path / "env.npy", "--decomp", tmp_path / "d.json",
+    out = json.loads(run_ifd("sphere", "filter", "--json", tmp_path / "env.npy", "--decomp", tmp_path / "d.json",
                              "--size", "48x8", "-o", tmp_path / "c.npy").stdout)
     assert out["layout"] == "cubemap-strip" and raw["scale"] == 1.0
     # int exp(kappa (t - 1)) dw = 2 pi (1 - exp(-2 kappa)) / kappa, and the energy beyond L = 16 is < 1e-8
@@ -348,13 +348,13 @@ def ggx_albedo_numpy(alpha, theta_o, n=600):
 
 
 def test_sphere_brdf_tables(run_ifd, tmp_path):
-    out = json.loads(run_ifd("sphere", "brdf", "lambert", "--lmax", 6, "-o", tmp_path / "l.lobes").stdout)
+    out = json.loads(run_ifd("sphere", "brdf", "--json", "lambert", "--lmax", 6, "-o", tmp_path / "l.lobes").stdout)
     assert abs(out["albedo_min"] - 1) < 1e-6 and abs(out["albedo_max"] - 1) < 1e-6
     # isotropic: L + 1 lobes in the plane of the view (the slice is even in y there)
     assert out["lobes"] == 7 and out["lobe_layout"] == "in-plane"
     assert out["isotropic"] and out["phi_entries"] == 1
     # a table of two entries: GGX's directional albedo at the two entry angles (pi/8, 3pi/8)
-    out = json.loads(run_ifd("sphere", "brdf", "ggx:alpha=0.3", "--lmax", 8, "--theta-entries", 2,
+    out = json.loads(run_ifd("sphere", "brdf", "--json", "ggx:alpha=0.3", "--lmax", 8, "--theta-entries", 2,
                              "-o", tmp_path / "g.lobes").stdout)
     want = [ggx_albedo_numpy(0.3, np.pi / 8), ggx_albedo_numpy(0.3, 3 * np.pi / 8)]
     got = sorted([out["albedo_min"], out["albedo_max"]])
@@ -368,7 +368,7 @@ def test_sphere_brdf_tables(run_ifd, tmp_path):
     # 2 entries of (L + 1)(L + 2) / 2 = 45 f32 weights
     assert out["weight_bytes"] == 2 * 45 * 4
     assert len(data) == 12 + hl + out["weight_bytes"]
-    out = json.loads(run_ifd("sphere", "brdf", "ggx:ax=0.3,ay=0.6", "--lmax", 3, "--theta-entries", 4,
+    out = json.loads(run_ifd("sphere", "brdf", "--json", "ggx:ax=0.3,ay=0.6", "--lmax", 3, "--theta-entries", 4,
                              "--phi-entries", 8, "-o", tmp_path / "a.lobes").stdout)
     assert not out["isotropic"] and out["weight_bytes"] == 4 * 8 * 16 * 4
     assert out["lobes"] == 7 and out["lobe_layout"] == "shared"
@@ -405,7 +405,7 @@ def test_render_matches_numpy_brute_force(run_ifd, tmp_path):
     np.save(tmp_path / "env.npy", env)
     common = ["--env", tmp_path / "env.npy", "--brdf", "ggx:alpha=0.4", "--size", "24x24",
               "--eye", "0,-4,1", "--fov", "35", "--env-rotate", "20", "--no-background"]
-    out = json.loads(run_ifd("render", *common, "--method", "quadrature", "--mask", tmp_path / "m.npy",
+    out = json.loads(run_ifd("render", "--json", *common, "--method", "quadrature", "--mask", tmp_path / "m.npy",
                              "-o", tmp_path / "q.npy").stdout)
     assert out["env_size"] == [16, 8] and out["object_pixels"] > 100
     run_ifd("render", *common, "--method", "isd", "--lmax", 20, "-o", tmp_path / "i.npy")
@@ -484,7 +484,7 @@ def test_render_obj_meshes_and_their_bad_input(run_ifd, tmp_path):
     np.save(tmp_path / "env.npy", np.ones((8, 16, 3), np.float32))
     # a tetrahedron without normals or texture coordinates, y-up
     (tmp_path / "tet.obj").write_text("v 0 1 0\nv -1 -1 1\nv 1 -1 1\nv 0 -1 -1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n")
-    out = json.loads(run_ifd("render", "--env", tmp_path / "env.npy", "--scene", tmp_path / "tet.obj",
+    out = json.loads(run_ifd("render", "--json", "--env", tmp_path / "env.npy", "--scene", tmp_path / "tet.obj",
                              "--brdf", "lambert", "--lmax", 4, "--size", "32x32", "-o", tmp_path / "t.npy").stdout)
     assert out["object_pixels"] > 50
     img = np.load(tmp_path / "t.npy")
@@ -515,7 +515,7 @@ def test_render_texture_maps(run_ifd, tmp_path):
     srgb = 128 / 255
     want = ((srgb + 0.055) / 1.055) ** 2.4  # white furnace times the decoded albedo
     np.testing.assert_allclose(lit, want, rtol=1e-3)
-    out = json.loads(run_ifd(*common, "--brdf", "ggx:alpha=0.5", "--lmax", 8, "--roughness-map",
+    out = json.loads(run_ifd(*common, "--json", "--brdf", "ggx:alpha=0.5", "--lmax", 8, "--roughness-map",
                              tmp_path / "rough.npy", "--roughness-tables", 3, "-o", tmp_path / "r.npy").stdout)
     assert out["object_pixels"] > 100
     p = run_ifd(*common, "--brdf", "phong:s=8", "--lmax", 4, "--roughness-map", tmp_path / "rough.npy",
@@ -562,7 +562,7 @@ def test_render_gpu_matches_cpu(run_ifd, tmp_path):
     for env_name, args in cases:
         common = ["render", "--env", tmp_path / env_name, "--size", "32x24", *args, "--mask", tmp_path / "m.npy"]
         run_ifd(*common, "-o", tmp_path / "cpu.npy")
-        p = run_ifd(*common, "--gpu", "-o", tmp_path / "gpu.npy", check=False)
+        p = run_ifd(*common, "--gpu", "--json", "-o", tmp_path / "gpu.npy", check=False)
         if p.returncode != 0 and "no GPU adapter" in p.stderr and os.environ.get("IFD_GPU_TESTS") == "skip":
             pytest.skip("no GPU adapter (IFD_GPU_TESTS=skip)")
         assert p.returncode == 0, p.stderr

@@ -40,13 +40,16 @@ struct Args {
     /// Aspect-bank cache file (default: ~/.cache/ifd/aspect-bank-v1.json, shared with `ifd smooth`).
     #[arg(long, value_name = "FILE")]
     bank: Option<PathBuf>,
-    /// Evaluate dabs on the GPU: `auto` (hardware adapters only; a software
-    /// one such as lavapipe is slower than the CPU path), `on` (any adapter),
-    /// `off`.
-    #[arg(long, value_enum, default_value = "auto")]
-    gpu: Gpu,
+    /// Where dabs are evaluated: auto (a hardware GPU when there is one; a
+    /// software adapter such as lavapipe is slower than the CPU path), gpu
+    /// (any adapter, software included), cpu.
+    #[arg(long, value_enum, default_value_t = Device::Auto)]
+    device: Device,
+    /// Renamed: --device auto|gpu|cpu (`--gpu` is a switch in `ifd`).
+    #[arg(long, hide = true)]
+    gpu: Option<String>,
     /// Memory budget for images, MiB (default: 75% of physical memory).
-    #[arg(long, value_name = "MiB")]
+    #[arg(long, value_name = "MIB")]
     memory_budget: Option<u64>,
     /// Brush settings for a headless replay's strokes that give none, and
     /// the window's start settings: JSON like {"radius": 20, "mode": "dab"}.
@@ -57,6 +60,9 @@ struct Args {
     /// window: ~/.local/state/ifd-brush/journal; headless runs journal only
     /// when this is given).
     #[arg(long, value_name = "DIR", conflicts_with = "no_journal")]
+    journal_dir: Option<PathBuf>,
+    /// Renamed: --journal-dir (a folder is always a --*-dir flag).
+    #[arg(long, hide = true)]
     journal: Option<PathBuf>,
     /// Do not journal edits.
     #[arg(long)]
@@ -71,20 +77,23 @@ struct Args {
     replay_pace: u64,
 }
 
-/// `--gpu` values.
+/// `--device` values.
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum Gpu {
+enum Device {
+    /// A hardware GPU when there is one, else the CPU.
     Auto,
-    On,
-    Off,
+    /// Any GPU adapter, software included.
+    Gpu,
+    /// The CPU.
+    Cpu,
 }
 
-impl From<Gpu> for GpuChoice {
-    fn from(g: Gpu) -> Self {
+impl From<Device> for GpuChoice {
+    fn from(g: Device) -> Self {
         match g {
-            Gpu::Auto => GpuChoice::Auto,
-            Gpu::On => GpuChoice::On,
-            Gpu::Off => GpuChoice::Off,
+            Device::Auto => GpuChoice::Auto,
+            Device::Gpu => GpuChoice::On,
+            Device::Cpu => GpuChoice::Off,
         }
     }
 }
@@ -101,9 +110,9 @@ fn headless(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
     })?;
     let mut engine = Engine::new(banks, budget);
     if !args.no_journal {
-        engine.set_journal_dir(args.journal.clone(), true);
+        engine.set_journal_dir(args.journal_dir.clone(), true);
     }
-    let (label, note) = engine.enable_gpu(args.gpu.into());
+    let (label, note) = engine.enable_gpu(args.device.into());
     eprintln!(
         "compute: {label}{}",
         note.map(|n| format!(" ({n})")).unwrap_or_default()
@@ -185,8 +194,8 @@ fn window_journal_dir(args: &Args) -> Option<PathBuf> {
         args.replay.is_some() || args.save.is_some() || args.screenshot.is_some() || args.exit;
     if args.no_journal {
         None
-    } else if args.journal.is_some() {
-        args.journal.clone()
+    } else if args.journal_dir.is_some() {
+        args.journal_dir.clone()
     } else if automated {
         None
     } else {
@@ -213,7 +222,7 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
         image: args.image.clone(),
         bank_cache: args.bank.clone().or_else(Banks::default_cache),
         budget,
-        gpu: args.gpu.into(),
+        gpu: args.device.into(),
         automation: Automation {
             replay,
             save: args.save.clone(),
@@ -308,8 +317,23 @@ impl eframe::App for Shell {
     }
 }
 
+/// Old spellings are refused with the new one, never reinterpreted.
+fn renamed(args: &Args) -> Option<&'static str> {
+    if args.gpu.is_some() {
+        Some("--gpu auto|on|off is now --device auto|gpu|cpu (`--gpu` is a switch in `ifd`)")
+    } else if args.journal.is_some() {
+        Some("--journal DIR is now --journal-dir DIR")
+    } else {
+        None
+    }
+}
+
 fn main() -> ExitCode {
     let args = Args::parse();
+    if let Some(old) = renamed(&args) {
+        eprintln!("error: {old}");
+        return ExitCode::from(2);
+    }
     let budget = args
         .memory_budget
         .map_or_else(MemoryBudget::default_for_machine, |m| {
@@ -326,6 +350,26 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory as _;
+
+    /// `docs/reference/cli/ifd-brush.json` is what this binary defines, and its
+    /// flags follow the grammar (the three binaries together are checked by
+    /// `ifd-clidoc`'s tests, against the checked-in files).
+    #[test]
+    fn the_command_line_matches_its_checked_in_schema_and_the_grammar() {
+        let schema = ifd_clidoc::schema(super::Args::command().name("ifd-brush"));
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../docs/reference/cli/ifd-brush.json");
+        let problems = ifd_clidoc::check_grammar(&[&schema], ifd_clidoc::EXCEPTIONS);
+        assert!(problems.is_empty(), "{}", problems.join("\n"));
+        if let Err(e) = ifd_clidoc::check_file(&schema, &path) {
+            panic!("{e}");
         }
     }
 }

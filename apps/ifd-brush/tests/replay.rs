@@ -456,8 +456,8 @@ fn killed_replay_is_recovered_from_the_journal() {
     let arg = |p: &std::path::Path| p.to_str().expect("utf8").to_string();
     let mut child = Command::new(env!("CARGO_BIN_EXE_ifd-brush"))
         .args(["--image", &arg(&input), "--replay", &arg(&sfile)])
-        .args(["--journal", &arg(&journal_dir), "--bank", &arg(&bank)])
-        .args(["--gpu", "off", "--replay-pace", "400", "--exit"])
+        .args(["--journal-dir", &arg(&journal_dir), "--bank", &arg(&bank)])
+        .args(["--device", "cpu", "--replay-pace", "400", "--exit"])
         .stderr(Stdio::piped())
         .spawn()
         .expect("run ifd-brush");
@@ -495,8 +495,8 @@ fn killed_replay_is_recovered_from_the_journal() {
     // The next start on the image recovers the journal.
     let out = dir.path().join("recovered.exr");
     let o = Command::new(env!("CARGO_BIN_EXE_ifd-brush"))
-        .args(["--image", &arg(&input), "--journal", &arg(&journal_dir)])
-        .args(["--bank", &arg(&bank), "--gpu", "off", "--recover"])
+        .args(["--image", &arg(&input), "--journal-dir", &arg(&journal_dir)])
+        .args(["--bank", &arg(&bank), "--device", "cpu", "--recover"])
         .args(["--save", &arg(&out), "--exit"])
         .output()
         .expect("run ifd-brush --recover");

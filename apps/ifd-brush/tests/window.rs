@@ -69,7 +69,7 @@ fn window_under_xvfb_shows_image_and_controls() {
             .args(["--screenshot", shot.to_str().expect("utf8")])
             .args(["--bank", common::bank_cache().to_str().expect("utf8")])
             .args(["--brush", r#"{"radius": 37.5}"#])
-            .args(["--gpu", gpu])
+            .args(["--device", gpu])
             .arg("--exit")
             .env("IFD_BRUSH_STATE_DIR", &state)
             .env("XDG_RUNTIME_DIR", &runtime)
@@ -90,11 +90,11 @@ fn window_under_xvfb_shows_image_and_controls() {
         let stderr = std::fs::read_to_string(&log).unwrap_or_default();
         assert!(
             status.success(),
-            "ifd-brush --gpu {gpu} in Xvfb failed: {status}\n{stderr}"
+            "ifd-brush --device {gpu} in Xvfb failed: {status}\n{stderr}"
         );
         stderr
     };
-    run("off", &shot, &out);
+    run("cpu", &shot, &out);
 
     // Settings were persisted (eframe storage) on exit.
     let persisted = std::fs::read_to_string(state.join("app.ron")).unwrap_or_default();
@@ -164,7 +164,7 @@ fn window_under_xvfb_shows_image_and_controls() {
     let gpu_shot = artifacts.join("brush-screenshot-gpu.png");
     std::fs::remove_file(&gpu_shot).ok();
     let gpu_out = dir.path().join("out-gpu.exr");
-    let log = run("on", &gpu_shot, &gpu_out);
+    let log = run("gpu", &gpu_shot, &gpu_out);
     if !log.contains("shown without readback") {
         assert!(
             skip::allowed("IFD_GPU_TESTS"),
@@ -243,7 +243,7 @@ fn automation_failure_exits_2_with_the_message() {
         .args(["--image", input.to_str().expect("utf8")])
         .args(["--screenshot", shot.to_str().expect("utf8")])
         .args(["--bank", common::bank_cache().to_str().expect("utf8")])
-        .args(["--gpu", "off"])
+        .args(["--device", "cpu"])
         .arg("--exit")
         .env("IFD_BRUSH_STATE_DIR", &state)
         .env("XDG_RUNTIME_DIR", &runtime)

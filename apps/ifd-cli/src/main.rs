@@ -14,12 +14,13 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 mod commands;
 mod input;
+mod options;
 mod output;
 
 /// Isotropic filter decomposition: apply huge, anisotropic, rotated, scaled,
 /// spatially varying filters at the cost of a few lookups per pixel.
 #[derive(Debug, Parser)]
-#[command(name = "ifd", version, about, long_about = None)]
+#[command(name = "ifd", version, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -49,12 +50,16 @@ enum Command {
     Sphere(commands::sphere::Sphere),
     /// Render an object lit by an environment map: ISD shading (Eq. 22), its SH reference or the exact quadrature.
     Render(Box<commands::render::Render>),
-    /// Anti-aliased mirror reflections on a bumpy mirror (ISD Sec. 6.2, Eq. 26-29) against supersampling.
-    Mirror(commands::mirror::Mirror),
-    /// Self-shadowed ISD shading on a mesh (ISD Eq. 25, Appendix A) against a ray-traced reference.
-    Visibility(commands::visibility::Visibility),
     /// Image-based lighting for engines: prefiltered GGX radiance mips, irradiance, SH (KTX2), the DFG table.
     Envmap(commands::envmap::Envmap),
+    /// Reproduce the papers' tables and figures (`ifd paper list`).
+    Paper(commands::paper::Paper),
+    /// Moved: `ifd paper isd-mirror`.
+    #[command(hide = true, disable_help_flag = true)]
+    Mirror(commands::paper::Moved),
+    /// Moved: `ifd paper isd-visibility`.
+    #[command(hide = true, disable_help_flag = true)]
+    Visibility(commands::paper::Moved),
 }
 
 /// `--scale -1` must reach the command's own check (which names the option
@@ -65,7 +70,28 @@ fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
         .mut_subcommands(allow_negative_numbers)
 }
 
+/// Old spellings that clap cannot refuse by name (the flags they came with
+/// are gone too): refused with the new spelling before parsing.
+fn moved_spelling(args: &[String]) -> Option<&'static str> {
+    let command = args.get(1).map(String::as_str);
+    if command == Some("render") && args.iter().any(|a| a.starts_with("--convergence")) {
+        return Some(
+            "`ifd render --convergence` has moved: the convergence study is `ifd paper \
+             isd-convergence` (the same --brdf, scene, camera and environment flags; the degrees \
+             are --degrees A..B[:S])",
+        );
+    }
+    None
+}
+
 fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args_os()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect();
+    if let Some(message) = moved_spelling(&args) {
+        eprintln!("error: {message}");
+        return ExitCode::from(2);
+    }
     let matches = allow_negative_numbers(Cli::command()).get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     // Ctrl-C or SIGTERM mid-write: outputs are written to hidden temporary
@@ -93,8 +119,13 @@ fn main() -> ExitCode {
         Command::Field(c) => c.run(),
         Command::Sphere(c) => c.run(),
         Command::Render(c) => c.run(),
-        Command::Mirror(c) => c.run(),
-        Command::Visibility(c) => c.run(),
+        Command::Paper(c) => c.run(),
+        Command::Mirror(_) => {
+            crate::commands::paper::Moved::refuse("ifd mirror", "ifd paper isd-mirror")
+        }
+        Command::Visibility(_) => {
+            crate::commands::paper::Moved::refuse("ifd visibility", "ifd paper isd-visibility")
+        }
         Command::Envmap(c) => c.run(),
         Command::Convert(c) => c.run(),
         Command::Info(c) => c.run(),
@@ -108,5 +139,30 @@ fn main() -> ExitCode {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `docs/reference/cli/ifd.json` is what this binary defines, and the
+    /// tree alone follows the grammar (the three binaries together are
+    /// checked by `ifd-clidoc`'s tests, against the checked-in files).
+    #[test]
+    fn the_command_line_matches_its_checked_in_schema_and_the_grammar() {
+        let schema = ifd_clidoc::schema(allow_negative_numbers(Cli::command()));
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../docs/reference/cli/ifd.json");
+        let problems = ifd_clidoc::check_grammar(&[&schema], ifd_clidoc::EXCEPTIONS);
+        assert!(problems.is_empty(), "{}", problems.join("\n"));
+        if let Err(e) = ifd_clidoc::check_file(&schema, &path) {
+            panic!("{e}");
+        }
+    }
+
+    #[test]
+    fn clap_accepts_the_definitions() {
+        Cli::command().debug_assert();
     }
 }

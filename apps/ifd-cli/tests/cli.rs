@@ -387,6 +387,7 @@ mod sphere {
         let (code, out, err) = ifd(&[
             "sphere",
             "sh",
+            "--json",
             &map,
             "--lmax",
             "8",
@@ -400,6 +401,7 @@ mod sphere {
         let (code, out, err) = ifd(&[
             "sphere",
             "sh",
+            "--json",
             &map,
             "--lmax",
             "8",
@@ -486,6 +488,7 @@ mod sphere {
             let (code, out, err) = ifd(&[
                 "sphere",
                 "sh",
+                "--json",
                 &path,
                 "--lmax",
                 "2",
@@ -533,7 +536,7 @@ mod sphere {
                 && err.contains("--lmax 5000"),
             "{err}"
         );
-        let (code, _, err) = ifd(&["sphere", "condition", "--lmax", "41"]);
+        let (code, _, err) = ifd(&["paper", "isd-condition", "--lmax", "41"]);
         assert_eq!(code, 2);
         assert!(err.contains("1..=40"), "{err}");
     }
@@ -546,6 +549,7 @@ mod sphere {
         let (code, out, err) = ifd(&[
             "sphere",
             "decompose",
+            "--json",
             spec,
             "--lmax",
             "6",
@@ -610,6 +614,7 @@ mod sphere {
         let (code, out, err) = ifd(&[
             "sphere",
             "decompose",
+            "--json",
             &sh,
             "--lmax",
             "6",
@@ -631,6 +636,7 @@ mod sphere {
         let (code, out, _) = ifd(&[
             "sphere",
             "decompose",
+            "--json",
             &sh,
             "--lmax",
             "6",
@@ -681,6 +687,7 @@ mod sphere {
             let (code, out, err) = ifd(&[
                 "sphere",
                 "decompose",
+                "--json",
                 "aniso-gauss:s1=0.4,s2=0.2",
                 "--lmax",
                 "6",
@@ -774,8 +781,9 @@ mod sphere {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
         let (code, out, err) = ifd(&[
-            "sphere",
-            "condition",
+            "paper",
+            "isd-condition",
+            "--json",
             "--lmax",
             "8",
             "--csv",
@@ -805,5 +813,130 @@ mod sphere {
         assert!(singular > 0, "{csv}");
         let png = ifd_image::read(p(d, "c.png")).unwrap();
         assert_eq!((png.width(), png.height()), (1000, 640));
+    }
+}
+
+/// One grammar: reports are a human summary by default and JSON with
+/// `--json`; enum-like values are refused with the list; old spellings are
+/// refused with the new one, never reinterpreted.
+mod grammar {
+    use super::*;
+
+    #[test]
+    fn reports_are_human_by_default_and_json_with_the_flag() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("dfg.npy");
+        let out = out.to_str().unwrap();
+        let (code, human, err) = ifd(&["envmap", "dfg", "--table-size", "8", "-o", out]);
+        assert_eq!(code, 0, "{err}");
+        assert!(
+            serde_json::from_str::<serde_json::Value>(&human).is_err(),
+            "{human}"
+        );
+        assert!(human.lines().any(|l| l.starts_with("size ")), "{human}");
+        let (code, json, err) = ifd(&["envmap", "dfg", "--table-size", "8", "-o", out, "--json"]);
+        assert_eq!(code, 0, "{err}");
+        let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+        assert_eq!(v["size"], 8);
+    }
+
+    #[test]
+    fn a_wrong_choice_is_refused_with_the_list() {
+        let (code, _, err) = ifd(&[
+            "render", "--env", "x.hdr", "--brdf", "lambert", "--method", "exact", "-o", "o.png",
+        ]);
+        assert_eq!(code, 2);
+        assert!(
+            err.contains("possible values") && err.contains("quadrature"),
+            "{err}"
+        );
+        let (code, _, err) = ifd(&["envmap", "prefilter", "x.hdr", "--format", "dds"]);
+        assert_eq!(code, 2);
+        assert!(err.contains("ktx2") && err.contains("exr"), "{err}");
+    }
+
+    #[test]
+    fn old_spellings_name_the_new_ones() {
+        let dir = tempfile::tempdir().unwrap();
+        let o = dir.path().join("o");
+        let o = o.to_str().unwrap();
+        let forest = testdata("forest.hdr");
+        for (args, needle) in [
+            (vec!["mirror", "--env", &forest], "ifd paper isd-mirror"),
+            (
+                vec!["visibility", "--env", &forest],
+                "ifd paper isd-visibility",
+            ),
+            (
+                vec!["sphere", "condition", "--lmax", "4"],
+                "ifd paper isd-condition",
+            ),
+            (vec!["sphere", "sparsity"], "ifd paper zhf-sparsity"),
+            (
+                vec!["envmap", "shrm", &forest, "--table", "5"],
+                "ifd paper shrm-table",
+            ),
+            (vec!["envmap", "prefilter", &forest, "-o", o], "--out-dir"),
+            (
+                vec![
+                    "envmap",
+                    "prefilter",
+                    &forest,
+                    "--out-dir",
+                    o,
+                    "--brdf",
+                    "ggx",
+                ],
+                "--lobe",
+            ),
+            (
+                vec!["envmap", "dfg", "--size", "8", "-o", o],
+                "--table-size",
+            ),
+            (
+                vec![
+                    "render",
+                    "--env",
+                    &forest,
+                    "--brdf",
+                    "lambert",
+                    "--convergence",
+                    "2..4",
+                    "-o",
+                    o,
+                ],
+                "ifd paper isd-convergence",
+            ),
+            (
+                vec![
+                    "sphere", "radial", "--brdf", "lambert", "--lmax", "2", "--light", "overcast",
+                    "-o", o,
+                ],
+                "--light-profile",
+            ),
+        ] {
+            let (code, _, err) = ifd(&args);
+            assert_eq!(code, 2, "{args:?}: {err}");
+            assert!(err.contains(needle), "{args:?}: {err}");
+            assert!(!Path::new(o).exists(), "{args:?} wrote {o}");
+        }
+    }
+
+    #[test]
+    fn paper_list_names_every_study() {
+        let (code, out, err) = ifd(&["paper", "list"]);
+        assert_eq!(code, 0, "{err}");
+        for name in [
+            "isd-convergence",
+            "isd-condition",
+            "isd-mirror",
+            "isd-visibility",
+            "shrm-table4",
+            "shrm-table5",
+            "zhf-sparsity",
+            "tests/bench/zhf_table2.py",
+        ] {
+            assert!(out.contains(name), "{name}: {out}");
+        }
     }
 }

@@ -29,12 +29,12 @@ struct Args {
     /// Maximum SH degree L.
     #[arg(long, value_name = "L")]
     lmax: Option<usize>,
-    /// Scene: sphere, torus, plane or an OBJ file.
-    #[arg(long)]
+    /// A built-in shape (sphere, torus, plane) or a path to an .obj file.
+    #[arg(long, value_name = "SCENE")]
     scene: Option<String>,
-    /// Evaluation: sh (per-band environment from SH) or maps (per-band prefiltered maps).
-    #[arg(long, value_name = "sh|maps")]
-    variant: Option<String>,
+    /// Evaluation of the per-band environment.
+    #[arg(long, value_enum)]
+    variant: Option<VariantArg>,
     /// Viewport size `WxH`.
     #[arg(long, value_name = "WxH")]
     size: Option<String>,
@@ -50,9 +50,9 @@ struct Args {
     /// Exposure in stops.
     #[arg(long, value_name = "EV", allow_hyphen_values = true)]
     exposure: Option<f32>,
-    /// Tone curve: none, reinhard, aces.
-    #[arg(long)]
-    tonemap: Option<String>,
+    /// Tone curve.
+    #[arg(long, value_enum)]
+    tonemap: Option<ToneCurve>,
     /// Rotate the environment about +z, degrees.
     #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     env_rotate: Option<f64>,
@@ -66,10 +66,14 @@ struct Args {
     /// over its range, `ifd render --roughness-tables 6`).
     #[arg(long, value_name = "IMAGE")]
     roughness_map: Option<PathBuf>,
-    /// Shade on the GPU: auto (hardware adapters; a software one such as
-    /// lavapipe is slower than the CPU renderer), on (any adapter), off.
-    #[arg(long, value_enum, default_value = "auto")]
-    gpu: Gpu,
+    /// Where the frame is shaded: auto (a hardware GPU when there is one; a
+    /// software adapter such as lavapipe is slower than the CPU renderer), gpu
+    /// (any adapter, software included), cpu.
+    #[arg(long, value_enum, default_value_t = Device::Auto)]
+    device: Device,
+    /// Renamed: --device auto|gpu|cpu (`--gpu` is a switch in `ifd`).
+    #[arg(long, hide = true)]
+    gpu: Option<String>,
     /// Save a screenshot of the window (PNG) once the frame is shown; prints
     /// the viewport's rectangle in it as JSON.
     #[arg(long, value_name = "PATH.png")]
@@ -89,11 +93,35 @@ struct Args {
     reference_spp: Option<usize>,
 }
 
+/// `--device` values.
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum Gpu {
+enum Device {
+    /// A hardware GPU when there is one, else the CPU.
     Auto,
-    On,
-    Off,
+    /// Any GPU adapter, software included.
+    Gpu,
+    /// The CPU.
+    Cpu,
+}
+
+/// `--variant` values.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum VariantArg {
+    /// The per-band environment synthesised from SH.
+    Sh,
+    /// Per-band prefiltered maps.
+    Maps,
+}
+
+/// `--tonemap` values (as `ifd render --tonemap`).
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum ToneCurve {
+    /// Clamp to [0, 1].
+    None,
+    /// x / (1 + x).
+    Reinhard,
+    /// The ACES filmic fit.
+    Aces,
 }
 
 fn parse_vec(text: &str, option: &str) -> anyhow::Result<DVec3> {
@@ -110,6 +138,11 @@ fn parse_vec(text: &str, option: &str) -> anyhow::Result<DVec3> {
 
 /// The settings: stored ones (unless --reset), then the options.
 fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
+    if args.gpu.is_some() {
+        anyhow::bail!(
+            "--gpu auto|on|off is now --device auto|gpu|cpu (`--gpu` is a switch in `ifd`)"
+        );
+    }
     let mut s = if args.reset { None } else { stored }.unwrap_or_default();
     if let Some(e) = &args.env {
         s.env = Some(e.clone());
@@ -127,11 +160,10 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
     if let Some(sc) = &args.scene {
         s.scene.clone_from(sc);
     }
-    if let Some(v) = &args.variant {
-        s.variant = match v.as_str() {
-            "sh" => Variant::Sh,
-            "maps" => Variant::Maps,
-            _ => anyhow::bail!("--variant {v}: use sh or maps"),
+    if let Some(v) = args.variant {
+        s.variant = match v {
+            VariantArg::Sh => Variant::Sh,
+            VariantArg::Maps => Variant::Maps,
         };
     }
     if let Some(sz) = &args.size {
@@ -165,9 +197,13 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
     if let Some(e) = args.exposure {
         s.exposure = e;
     }
-    if let Some(t) = &args.tonemap {
-        ifd_render::tonemap::Tonemap::parse(t)?;
-        s.tonemap.clone_from(t);
+    if let Some(t) = args.tonemap {
+        match t {
+            ToneCurve::None => "none",
+            ToneCurve::Reinhard => "reinhard",
+            ToneCurve::Aces => "aces",
+        }
+        .clone_into(&mut s.tonemap);
     }
     if let Some(r) = args.env_rotate {
         s.env_rotate = r;
@@ -247,10 +283,10 @@ fn run(args: &Args) -> anyhow::Result<()> {
         reference_spp: args.reference_spp,
         reference: Arc::clone(&reference),
     };
-    let gpu = match args.gpu {
-        Gpu::Auto => GpuChoice::Auto,
-        Gpu::On => GpuChoice::On,
-        Gpu::Off => GpuChoice::Off,
+    let gpu = match args.device {
+        Device::Auto => GpuChoice::Auto,
+        Device::Gpu => GpuChoice::On,
+        Device::Cpu => GpuChoice::Off,
     };
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
@@ -325,6 +361,26 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory as _;
+
+    /// `docs/reference/cli/ifd-envrender.json` is what this binary defines, and its
+    /// flags follow the grammar (the three binaries together are checked by
+    /// `ifd-clidoc`'s tests, against the checked-in files).
+    #[test]
+    fn the_command_line_matches_its_checked_in_schema_and_the_grammar() {
+        let schema = ifd_clidoc::schema(super::Args::command().name("ifd-envrender"));
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../docs/reference/cli/ifd-envrender.json");
+        let problems = ifd_clidoc::check_grammar(&[&schema], ifd_clidoc::EXCEPTIONS);
+        assert!(problems.is_empty(), "{}", problems.join("\n"));
+        if let Err(e) = ifd_clidoc::check_file(&schema, &path) {
+            panic!("{e}");
         }
     }
 }

@@ -20,9 +20,8 @@ pub struct Compare {
     a: PathBuf,
     /// The image to compare with it.
     b: PathBuf,
-    /// Print one JSON object instead of a table.
-    #[arg(long)]
-    json: bool,
+    #[command(flatten)]
+    report: crate::options::ReportOptions,
     /// The data range R of PSNR and SSIM. Default: 1 when every value of both
     /// images lies in [0, 1] (all 8/16-bit files), else max - min of A.
     #[arg(long, value_name = "R")]
@@ -63,7 +62,7 @@ impl Compare {
             .data_range
             .unwrap_or_else(|| metrics::default_data_range(a.data(), b.data()));
         let cmp = metrics::compare(&a, &b, range).context("comparing images")?;
-        if self.json {
+        if self.report.json {
             println!("{}", serde_json::to_string_pretty(&to_json(&cmp))?);
         } else {
             print_table(&cmp);

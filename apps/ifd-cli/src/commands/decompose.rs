@@ -50,9 +50,8 @@ pub struct Decompose {
     /// Also write a plot: kernel, reconstruction, error, log-histogram of weights per level.
     #[arg(long, value_name = "PNG")]
     plot: Option<PathBuf>,
-    /// Print the report as one JSON object.
-    #[arg(long)]
-    json: bool,
+    #[command(flatten)]
+    report: crate::options::ReportOptions,
     /// Fit a built-in spec on a grid this many times finer than the pixels
     /// (1 to 8), so that the sum of Gaussians also matches the filter between
     /// pixel centres, which rotated and scaled copies sample (default: 2 for
@@ -165,7 +164,7 @@ impl Decompose {
             let img = ifd_plot::decomposition_plot(&kernel, &decomposition)?;
             write_output(plot, &img, &ifd_image::WriteOptions::default())?;
         }
-        report(&decomposition, self.json)
+        report(&decomposition, self.report.json)
     }
 }
 

@@ -30,7 +30,7 @@ pub struct FieldCmd {
     #[arg(value_enum)]
     kind: Kind,
     /// Size as WIDTHxHEIGHT, e.g. 512x512.
-    #[arg(long)]
+    #[arg(long, value_name = "WxH")]
     size: String,
     /// Smallest value (distance, ramp).
     #[arg(long, default_value_t = 1.0)]

@@ -13,9 +13,8 @@ use crate::input::InputOptions;
 pub struct Info {
     /// The image.
     path: PathBuf,
-    /// Print one JSON object.
-    #[arg(long)]
-    json: bool,
+    #[command(flatten)]
+    report: crate::options::ReportOptions,
     #[command(flatten)]
     input: InputOptions,
 }
@@ -37,7 +36,7 @@ impl Info {
                 (lo, hi, mean)
             })
             .collect();
-        if self.json {
+        if self.report.json {
             let v = json!({
                 "width": img.width(),
                 "height": img.height(),

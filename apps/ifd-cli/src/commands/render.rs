@@ -5,21 +5,17 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
-use glam::DVec3;
-use ifd_render::camera::Camera;
-use ifd_render::envmap::EnvMap;
+use clap::{Args, ValueEnum};
 use ifd_render::render::{Job, Method, render};
-use ifd_render::scene::Scene;
 use ifd_render::textures::{RoughnessFamily, SurfaceMaps, Texture};
-use ifd_render::tonemap::Tonemap;
 use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
 use ifd_shade::table::{LobeTable, default_theta_entries};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
-use crate::input::{InputOptions, parse_size};
+use crate::input::InputOptions;
+use crate::options::{CameraOptions, DisplayOptions, EnvOptions, ReportOptions, SceneOptions};
 
 /// Render an analytic object lit by an environment map (unshadowed, one ray
 /// per pixel centre).
@@ -39,77 +35,25 @@ use crate::input::{InputOptions, parse_size};
 /// --exposure and --tonemap.
 #[derive(Debug, Args)]
 pub struct Render {
-    /// Environment map, 2:1 equirectangular (EXR, HDR, ...), or SH coefficients
-    /// (.npy of shape ((L+1)^2, 1 or 3): the sh.npy of `ifd envmap prefilter` or
-    /// `ifd sphere sh`), which isd and sh use as they are (L up to theirs), and
-    /// the oracle, Monte Carlo and the background read synthesised on --env-size
-    /// (default 128x64), negatives set to 0.
-    #[arg(long, value_name = "FILE")]
-    env: PathBuf,
-    /// BRDF spec: lambert, phong:s=.., blinn:s=.., blinn-exact:s=.., ggx:alpha=.. or ggx:ax=..,ay=.., ward:.., merl:FILE
-    /// (repeat it with --convergence).
-    #[arg(long, value_name = "SPEC", required = true)]
-    brdf: Vec<String>,
-    /// Maximum SH degree L (isd, sh).
+    #[command(flatten)]
+    env: EnvOptions,
+    /// BRDF spec: lambert, phong:s=.., blinn:s=.., blinn-exact:s=.., ggx:alpha=.. or
+    /// ggx:ax=..,ay=.., ward:.., merl:FILE.
+    #[arg(long, value_name = "SPEC")]
+    brdf: String,
+    /// Maximum SH degree L (isd, isd-maps, sh).
     #[arg(long, value_name = "L")]
     lmax: Option<usize>,
     /// Lobe table from `ifd sphere brdf` (built on the fly when needed and absent).
     #[arg(long, value_name = "FILE")]
     table: Option<PathBuf>,
-    /// Scene: sphere (unit), torus (radii 1 and 0.4 around z), plane (z = 0, [-2, 2]^2) or an
-    /// OBJ file (centred and scaled to a unit bounding sphere; smooth normals computed when it
-    /// has none; anisotropic BRDFs need its texture coordinates).
-    #[arg(long, default_value = "sphere")]
-    scene: String,
-    /// The up axis of an OBJ file: y (the OBJ convention; rotated to ifd's z up) or z.
-    #[arg(long, default_value = "y")]
-    obj_up: String,
-    /// Image size WxH.
-    #[arg(long, value_name = "WxH", default_value = "256x256")]
-    size: String,
-    /// Camera position.
-    #[arg(
-        long,
-        value_name = "X,Y,Z",
-        default_value = "3,-2.5,1.2",
-        allow_hyphen_values = true
-    )]
-    eye: String,
-    /// Point looked at.
-    #[arg(
-        long,
-        value_name = "X,Y,Z",
-        default_value = "0,0,0",
-        allow_hyphen_values = true
-    )]
-    target: String,
-    /// Up direction.
-    #[arg(
-        long,
-        value_name = "X,Y,Z",
-        default_value = "0,0,1",
-        allow_hyphen_values = true
-    )]
-    up: String,
-    /// Vertical field of view in degrees.
-    #[arg(long, value_name = "DEG", default_value_t = 40.0)]
-    fov: f64,
-    /// Rotate the environment about +z by this many degrees.
-    #[arg(
-        long,
-        value_name = "DEG",
-        default_value_t = 0.0,
-        allow_hyphen_values = true
-    )]
-    env_rotate: f64,
-    /// Size the environment is averaged down to (2:1, dividing the map's size);
-    /// default 128x64 when it divides the map, else the map's own size.
-    #[arg(long, value_name = "WxH")]
-    env_size: Option<String>,
-    /// Shading: isd (Eq. 22), sh (rotated slice SH, same weights), quadrature (exact oracle) or
-    /// mc (Monte Carlo: environment and BRDF importance sampling, MIS, low-discrepancy points).
-    #[arg(long, default_value = "isd")]
-    method: String,
+    #[command(flatten)]
+    scene: SceneOptions,
+    #[command(flatten)]
+    camera: CameraOptions,
+    /// Shading algorithm.
+    #[arg(long, value_enum, default_value_t = RenderMethod::Isd)]
+    method: RenderMethod,
     /// Shade on the GPU (wgpu, Vulkan: a hardware adapter when there is one,
     /// else lavapipe) with the WGSL kernels of the environment renderer
     /// (shaders/isd_shade.wgsl); methods isd and isd-maps. Rays are cast on the
@@ -125,8 +69,8 @@ pub struct Render {
     /// Monte Carlo samples per pixel (each: one environment and one BRDF sample).
     #[arg(long, value_name = "N", default_value_t = 64)]
     spp: usize,
-    /// Monte Carlo seed.
-    #[arg(long, default_value_t = 1)]
+    /// Random seed.
+    #[arg(long, value_name = "N", default_value_t = 1)]
     seed: u64,
     /// Monte Carlo: also write the per-pixel standard error (linear; .exr or .npy).
     #[arg(long, value_name = "FILE")]
@@ -134,17 +78,8 @@ pub struct Render {
     /// Black background instead of the environment.
     #[arg(long)]
     no_background: bool,
-    /// Tone curve for PNG output: none, reinhard, aces.
-    #[arg(long, default_value = "aces")]
-    tonemap: String,
-    /// Exposure in stops for PNG output.
-    #[arg(
-        long,
-        value_name = "EV",
-        default_value_t = 0.0,
-        allow_hyphen_values = true
-    )]
-    exposure: f32,
+    #[command(flatten)]
+    display: DisplayOptions,
     /// Albedo map over the surface's texture coordinates (multiplies the BRDF; 8/16-bit files
     /// are sRGB-encoded as glTF's base colour, float files linear).
     #[arg(long, value_name = "IMAGE")]
@@ -161,54 +96,56 @@ pub struct Render {
     /// isd, isd-maps and sh shade it as zonal lighting per point (Eq. 33-34, at the same L),
     /// quadrature integrates its cap exactly; not with mc or --gpu. Unshadowed; the light is
     /// drawn where the camera sees it.
-    #[arg(
-        long,
-        value_name = "X,Y,Z,R,L",
-        allow_hyphen_values = true,
-        conflicts_with = "convergence"
-    )]
+    #[arg(long, value_name = "X,Y,Z,R,L", allow_hyphen_values = true)]
     light: Vec<String>,
     /// Also write the object mask (1 on the object, 0 elsewhere).
     #[arg(long, value_name = "FILE")]
     mask: Option<PathBuf>,
-    /// Convergence study instead of one image: degrees A..B (e.g. 2..24, step with A..B:S);
-    /// renders the oracle once per --brdf, then ISD and SH at every degree, and writes --csv,
-    /// --plot and --grid.
-    #[arg(long, value_name = "A..B[:S]")]
-    convergence: Option<String>,
-    /// Convergence: the CSV of errors (brdf, L, method, rel_rms, psnr_db).
-    #[arg(long, value_name = "FILE", requires = "convergence")]
-    csv: Option<PathBuf>,
-    /// Convergence: the plot of the relative RMS error against L (PNG).
-    #[arg(long, value_name = "FILE", requires = "convergence")]
-    plot: Option<PathBuf>,
-    /// Convergence: an image grid, one row per BRDF, ISD at a few degrees then the oracle (PNG).
-    #[arg(long, value_name = "FILE", requires = "convergence")]
-    grid: Option<PathBuf>,
-    /// Convergence: skip the SH reference (slow at high L; it equals ISD to rounding).
-    #[arg(long, requires = "convergence")]
-    no_sh: bool,
     /// Output image.
-    #[arg(short, long, required_unless_present = "convergence")]
-    output: Option<PathBuf>,
+    #[arg(short, long, value_name = "IMAGE")]
+    output: PathBuf,
+    #[command(flatten)]
+    report: ReportOptions,
     #[command(flatten)]
     input: InputOptions,
 }
 
-pub(crate) fn parse_vec(text: &str, option: &str) -> Result<DVec3> {
-    let v: Vec<f64> = text
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<std::result::Result<_, _>>()
-        .with_context(|| format!("{option} {text:?}: expected three numbers X,Y,Z"))?;
-    if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
-        bail!("{option} {text:?}: expected three finite numbers X,Y,Z");
+/// `ifd render --method` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RenderMethod {
+    /// ISD (Eq. 22) from the environment's SH.
+    Isd,
+    /// ISD from per-band prefiltered maps.
+    IsdMaps,
+    /// The rotated slice's SH, same weights (ISD's reference).
+    Sh,
+    /// The exact oracle: each texel integrated against the exact BRDF.
+    Quadrature,
+    /// Monte Carlo: environment and BRDF importance sampling, MIS, low-discrepancy points.
+    Mc,
+}
+
+impl RenderMethod {
+    /// The renderer's method.
+    pub fn method(self) -> Method {
+        match self {
+            Self::Isd => Method::Isd,
+            Self::IsdMaps => Method::IsdMaps,
+            Self::Sh => Method::Sh,
+            Self::Quadrature => Method::Quadrature,
+            Self::Mc => Method::Mc,
+        }
     }
-    Ok(DVec3::new(v[0], v[1], v[2]))
+
+    /// The value's name on the command line.
+    pub fn name(self) -> String {
+        self.to_possible_value()
+            .map_or_else(String::new, |v| v.get_name().to_owned())
+    }
 }
 
 /// Whether the output gets the display transform (8-bit formats).
-fn is_display(path: &std::path::Path) -> Result<bool> {
+pub(crate) fn is_display(path: &std::path::Path) -> Result<bool> {
     use ifd_image::FileFormat;
     Ok(matches!(
         FileFormat::from_path(path)?,
@@ -219,26 +156,15 @@ fn is_display(path: &std::path::Path) -> Result<bool> {
 impl Render {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
-        if self.convergence.is_some() {
-            return self.run_convergence();
-        }
-        if self.brdf.len() != 1 {
-            bail!("--brdf: give one BRDF (several only with --convergence)");
-        }
-        let Some(output) = self.output.clone() else {
-            bail!("-o OUTPUT is required");
-        };
-        let method = Method::parse(&self.method)?;
-        let scene = self.scene()?;
-        let tonemap = Tonemap::parse(&self.tonemap)?;
-        if !self.exposure.is_finite() {
-            bail!("--exposure {}: not finite", self.exposure);
-        }
+        let output = self.output.clone();
+        let method = self.method.method();
+        let scene = self.scene.scene()?;
+        let tonemap = self.display.tonemap()?;
         let display = is_display(&output)?;
         if let Some(m) = &self.mask {
             is_display(m)?;
         }
-        let camera = self.camera()?;
+        let camera = self.camera.camera()?;
         let (w, h) = (camera.width(), camera.height());
         // the image, its row buffers and the mask, before any work
         let bytes = (w as u64)
@@ -248,12 +174,12 @@ impl Render {
             .budget()
             .check(bytes)
             .with_context(|| format!("--size {w}x{h}"))?;
-        let brdf = Brdf::parse(&self.brdf[0])?;
+        let brdf = Brdf::parse(&self.brdf)?;
         if !brdf.is_isotropic() && !scene.has_tangents() {
             bail!(
                 "--brdf {}: an anisotropic BRDF needs tangents, and {} has no texture coordinates",
                 brdf.spec(),
-                self.scene
+                self.scene.scene
             );
         }
         if method == Method::Mc && !(1..=1 << 24).contains(&self.spp) {
@@ -271,7 +197,7 @@ impl Render {
         let l_max = match (method, self.lmax) {
             (Method::Quadrature | Method::Mc, l) => l,
             (_, Some(l)) => Some(l),
-            (_, None) => bail!("--lmax L is needed for --method {}", self.method),
+            (_, None) => bail!("--lmax L is needed for --method {}", self.method.name()),
         };
         if let Some(l) = l_max.filter(|&l| l > ifd_shade::table::MAX_TABLE_DEGREE) {
             bail!(
@@ -294,7 +220,10 @@ impl Render {
             );
         }
         if self.gpu && !matches!(method, Method::Isd | Method::IsdMaps) {
-            bail!("--gpu shades --method isd or isd-maps, not {}", self.method);
+            bail!(
+                "--gpu shades --method isd or isd-maps, not {}",
+                self.method.name()
+            );
         }
         if !(1..=10_000).contains(&self.frames) {
             bail!("--frames {}: use 1..=10000", self.frames);
@@ -311,7 +240,7 @@ impl Render {
         } else {
             None
         };
-        let (full, env) = self.environments()?;
+        let (full, env) = self.env.environments(&self.input)?;
         let (ew, eh) = (env.image().width(), env.image().height());
         let start = std::time::Instant::now();
         // with a roughness map the ISD methods shade with the roughness family
@@ -401,7 +330,7 @@ impl Render {
         let mut img = r.image;
         if display {
             for v in img.data_mut() {
-                *v = tonemap.display(*v, self.exposure);
+                *v = tonemap.display(*v, self.display.exposure);
             }
         }
         if let Some(m) = &self.mask {
@@ -413,11 +342,9 @@ impl Render {
             crate::output::write_output(p, se, &ifd_image::WriteOptions::default())?;
         }
         crate::output::write_output(&output, &img, &ifd_image::WriteOptions::default())?;
-        println!(
-            "{}",
-            json!({
-                "method": self.method, "brdf": brdf.spec(), "lmax": l_max,
-                "scene": self.scene, "width": w, "height": h,
+        self.report.emit(&json!({
+                "method": self.method.name(), "brdf": brdf.spec(), "lmax": l_max,
+                "scene": self.scene.scene, "width": w, "height": h,
                 "env_size": [ew, eh], "object_pixels": r.object_pixels,
                 "closed_form": material.as_ref().map(Material::is_closed_form),
                 "quadrature_max_k": (method == Method::Quadrature).then_some(r.max_k),
@@ -426,8 +353,7 @@ impl Render {
                 "spp": (method == Method::Mc).then_some(self.spp),
                 "seconds": secs, "render_seconds": render_secs,
                 "gpu": gpu_report,
-            })
-        );
+            }))?;
         Ok(())
     }
 }
@@ -486,47 +412,6 @@ impl Render {
         ))
     }
 
-    /// The full-resolution map (background) and the one every method integrates.
-    fn environments(&self) -> Result<(EnvMap, EnvMap)> {
-        // SH coefficients ((L+1)^2 x 1 or 3 .npy, from `ifd envmap prefilter`
-        // or `ifd sphere sh`): the ISD and SH methods use them as they are
-        if self
-            .env
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
-            && let Ok(c) = ifd_sphere::ShCoeffs::read_npy(&self.env)
-            && matches!(c.channels(), 1 | 3)
-        {
-            let l = c.l_max();
-            let (ew, eh) = match &self.env_size {
-                Some(s) => parse_size(s, "--env-size")?,
-                None if l < 64 => (128, 64),
-                None => (4 * (l + 1), 2 * (l + 1)),
-            };
-            let (env, clamped) = EnvMap::from_sh(c, ew, eh, self.env_rotate)
-                .with_context(|| format!("{}", self.env.display()))?;
-            if clamped > 0 {
-                eprintln!(
-                    "note: {}: the SH environment synthesised on {ew}x{eh} (for the \
-                     oracle, Monte Carlo and the background) rings below 0 at {clamped} \
-                     samples, set to 0 there",
-                    self.env.display()
-                );
-            }
-            return Ok((env.clone(), env));
-        }
-        let full = EnvMap::new(self.input.read(&self.env)?.image, self.env_rotate)
-            .with_context(|| format!("{}", self.env.display()))?;
-        let (mw, mh) = (full.image().width(), full.image().height());
-        let (ew, eh) = match &self.env_size {
-            Some(s) => parse_size(s, "--env-size")?,
-            None if mw % 128 == 0 && mh % 64 == 0 => (128, 64),
-            None => (mw, mh),
-        };
-        let env = full.downsampled(ew, eh)?;
-        Ok((full, env))
-    }
-
     /// The albedo and roughness maps.
     fn surface_maps(&self) -> Result<SurfaceMaps> {
         let read = |p: &PathBuf, srgb: bool, what: &'static str| -> Result<Texture> {
@@ -550,132 +435,9 @@ impl Render {
                 .transpose()?,
         })
     }
-
-    fn scene(&self) -> Result<Scene> {
-        let z_up = match self.obj_up.as_str() {
-            "y" => false,
-            "z" => true,
-            other => bail!("--obj-up {other:?}: use y or z"),
-        };
-        Ok(Scene::parse(&self.scene, z_up)?)
-    }
-
-    fn camera(&self) -> Result<Camera> {
-        let (w, h) = parse_size(&self.size, "--size")?;
-        Ok(Camera::new(
-            parse_vec(&self.eye, "--eye")?,
-            parse_vec(&self.target, "--target")?,
-            parse_vec(&self.up, "--up")?,
-            self.fov,
-            w,
-            h,
-        )?)
-    }
-
-    fn run_convergence(self) -> Result<()> {
-        use ifd_render::convergence::{Study, csv, plot, run};
-        let text = self.convergence.as_deref().unwrap_or_default();
-        let bad = || {
-            anyhow::anyhow!(
-                "--convergence {text:?}: expected A..B or A..B:STEP with 0 <= A <= B <= 100"
-            )
-        };
-        let (range, step) = text.split_once(':').unwrap_or((text, "1"));
-        let (a, b) = range.split_once("..").ok_or_else(bad)?;
-        let (a, b, step): (usize, usize, usize) = (
-            a.trim().parse().map_err(|_| bad())?,
-            b.trim().parse().map_err(|_| bad())?,
-            step.trim().parse().map_err(|_| bad())?,
-        );
-        if a > b || b > ifd_shade::table::MAX_TABLE_DEGREE || step == 0 {
-            return Err(bad());
-        }
-        for p in [&self.plot, &self.grid].into_iter().flatten() {
-            is_display(p)?;
-        }
-        let degrees: Vec<usize> = (a..=b).step_by(step).collect();
-        let brdfs = self
-            .brdf
-            .iter()
-            .map(|s| Brdf::parse(s))
-            .collect::<std::result::Result<Vec<_>, _>>()?;
-        let scene = self.scene()?;
-        let camera = self.camera()?;
-        let tonemap = Tonemap::parse(&self.tonemap)?;
-        let (_, env) = self.environments()?;
-        let study = Study {
-            scene,
-            camera,
-            env: &env,
-            brdfs: &brdfs,
-            degrees: &degrees,
-            with_sh: !self.no_sh,
-        };
-        let start = std::time::Instant::now();
-        let outcome = run(&study, &|m| eprintln!("{m}"))?;
-        let table = csv(&outcome.rows);
-        if let Some(p) = &self.csv {
-            ifd_image::atomic_write(p, |w| {
-                use std::io::Write;
-                w.write_all(table.as_bytes()).map_err(|e| e.to_string())
-            })?;
-        }
-        if let Some(p) = &self.plot {
-            crate::output::write_output(
-                p,
-                &plot(&outcome.rows)?,
-                &ifd_image::WriteOptions::default(),
-            )?;
-        }
-        if let Some(p) = &self.grid {
-            // a few degrees across the range, then the oracle
-            let n = degrees.len();
-            let pick: Vec<usize> = if n <= 4 {
-                (0..n).collect()
-            } else {
-                (0..4).map(|i| i * (n - 1) / 3).collect()
-            };
-            let (w, h) = (camera.width(), camera.height());
-            let cols = pick.len() + 1;
-            let rows = outcome.images.len();
-            let mut grid = ifd_image::Image::new(cols * w, rows * h, 3)?;
-            for (r, (oracle, isd)) in outcome.images.iter().enumerate() {
-                let tiles: Vec<&ifd_image::Image> = pick
-                    .iter()
-                    .map(|&i| &isd[i])
-                    .chain([&oracle.image])
-                    .collect();
-                for (c, tile) in tiles.into_iter().enumerate() {
-                    let ch = tile.channels();
-                    for y in 0..h {
-                        for x in 0..w {
-                            for k in 0..3 {
-                                let v = tile.get(x, y, k.min(ch - 1));
-                                grid.set(
-                                    c * w + x,
-                                    r * h + y,
-                                    k,
-                                    tonemap.display(v, self.exposure),
-                                );
-                            }
-                        }
-                    }
-                }
-            }
-            crate::output::write_output(p, &grid, &ifd_image::WriteOptions::default())?;
-            eprintln!(
-                "grid: rows {:?}; columns L = {:?}, then the oracle",
-                self.brdf,
-                pick.iter().map(|&i| degrees[i]).collect::<Vec<_>>()
-            );
-        }
-        print!("{table}");
-        eprintln!("took {:.1} s", start.elapsed().as_secs_f64());
-        Ok(())
-    }
 }
 
-fn progress_bar(what: &str) -> ProgressBar {
+pub(crate) fn progress_bar(what: &str) -> ProgressBar {
     let bar = ProgressBar::new(0);
     bar.set_style(
         ProgressStyle::with_template(&format!(

@@ -39,7 +39,7 @@ pub struct Smooth {
     image: PathBuf,
     /// Footprint scale S in pixels (0.5 to 128). Below 2 the pixel-integrated
     /// Gaussians are applied directly (a few taps per pixel, CPU only).
-    #[arg(long)]
+    #[arg(long, value_name = "S")]
     scale: f64,
     /// Largest aspect ratio K of the Gaussian (1 to 16).
     #[arg(long, default_value_t = 8.0)]

@@ -31,13 +31,16 @@ with the CLI's message; files that cannot be read or written raise
 
 from __future__ import annotations
 
-import os
-from typing import Optional, Union
+import os as _os
+from typing import Optional as _Optional, Union as _Union
 
-import numpy as np
+import numpy as _np
 
 from . import _ifd
 from ._ifd import Decomposition, __version__
+
+# the __future__ import binds `annotations`: not part of the API
+del annotations
 
 __all__ = [
     "Decomposition",
@@ -52,51 +55,51 @@ __all__ = [
     "sphere",
 ]
 
-ArrayLike = Union[np.ndarray, "list[float]"]
-Field = Union[float, np.ndarray]
+_ArrayLike = _Union[_np.ndarray, "list[float]"]
+_Field = _Union[float, _np.ndarray]
 
 
-def _image(a: ArrayLike, name: str) -> np.ndarray:
+def _image(a: _ArrayLike, name: str) -> _np.ndarray:
     """A C-contiguous float32 (H, W) or (H, W, C) array: no copy when it already is one."""
-    arr = np.asarray(a)
+    arr = _np.asarray(a)
     if arr.ndim not in (2, 3):
         raise ValueError(f"{name}: expected an (H, W) or (H, W, C) array, got shape {arr.shape}")
-    if arr.dtype == np.uint8:
-        return np.ascontiguousarray(arr, dtype=np.float32) / np.float32(255.0)
-    if arr.dtype == np.uint16:
-        return np.ascontiguousarray(arr, dtype=np.float32) / np.float32(65535.0)
-    if arr.dtype in (np.float32, np.float64, np.float16):
-        return np.ascontiguousarray(arr, dtype=np.float32)
+    if arr.dtype == _np.uint8:
+        return _np.ascontiguousarray(arr, dtype=_np.float32) / _np.float32(255.0)
+    if arr.dtype == _np.uint16:
+        return _np.ascontiguousarray(arr, dtype=_np.float32) / _np.float32(65535.0)
+    if arr.dtype in (_np.float32, _np.float64, _np.float16):
+        return _np.ascontiguousarray(arr, dtype=_np.float32)
     raise ValueError(
         f"{name}: dtype {arr.dtype} is not supported (float32, float64, uint8 or uint16)"
     )
 
 
-def _field(value: Field, name: str) -> tuple[float, Optional[np.ndarray]]:
+def _field(value: _Field, name: str) -> tuple[float, _Optional[_np.ndarray]]:
     """A constant (float) or a per-pixel (H, W) map, as the extension takes them."""
-    if np.isscalar(value) or (isinstance(value, np.ndarray) and value.ndim == 0):
+    if _np.isscalar(value) or (isinstance(value, _np.ndarray) and value.ndim == 0):
         v = float(value)  # type: ignore[arg-type]
         return v, None
-    arr = np.asarray(value)
+    arr = _np.asarray(value)
     if arr.dtype.kind not in "fiu":
         raise ValueError(f"{name}: dtype {arr.dtype} is not numeric")
     if arr.ndim != 2:
         raise ValueError(f"{name}: expected a number or an (H, W) map, got shape {arr.shape}")
     # Maps are data (degrees, scale factors): integer dtypes are read as
     # their values, never rescaled.
-    return 0.0 if name == "angle" else 1.0, np.ascontiguousarray(arr, dtype=np.float32)
+    return 0.0 if name == "angle" else 1.0, _np.ascontiguousarray(arr, dtype=_np.float32)
 
 
 def decompose(
-    spec_or_kernel: Union[str, ArrayLike],
+    spec_or_kernel: _Union[str, _ArrayLike],
     tol: float = 0.01,
-    max_terms: Optional[int] = None,
+    max_terms: _Optional[int] = None,
     *,
-    levels: Optional[int] = None,
-    alpha: Optional[float] = None,
-    oversample: Optional[int] = None,
-    min_sigma: Optional[float] = None,
-    margin: Optional[int] = None,
+    levels: _Optional[int] = None,
+    alpha: _Optional[float] = None,
+    oversample: _Optional[int] = None,
+    min_sigma: _Optional[float] = None,
+    margin: _Optional[int] = None,
 ) -> Decomposition:
     """Decompose a 2D filter into a sparse sum of displaced isotropic Gaussians.
 
@@ -130,25 +133,25 @@ def decompose(
     )
     if isinstance(spec_or_kernel, str):
         return _ifd.decompose_filter(spec_or_kernel, None, **kw)
-    kernel = np.ascontiguousarray(np.asarray(spec_or_kernel), dtype=np.float64)
+    kernel = _np.ascontiguousarray(_np.asarray(spec_or_kernel), dtype=_np.float64)
     return _ifd.decompose_filter(None, kernel, **kw)
 
 
-def load(path: Union[str, os.PathLike]) -> Decomposition:
+def load(path: _Union[str, _os.PathLike]) -> Decomposition:
     """Read a decomposition file written by ``ifd decompose`` or :meth:`Decomposition.save`."""
-    return Decomposition.load(os.fspath(path))
+    return Decomposition.load(_os.fspath(path))
 
 
 def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
-    image: ArrayLike,
+    image: _ArrayLike,
     decomposition: Decomposition,
-    angle: Field = 0.0,
-    scale: Field = 1.0,
+    angle: _Field = 0.0,
+    scale: _Field = 1.0,
     border: str = "reflect101",
     *,
     interp: str = "auto",
-    eval_budget: Optional[float] = None,
-) -> np.ndarray:
+    eval_budget: _Optional[float] = None,
+) -> _np.ndarray:
     """Filter ``image`` with ``decomposition`` rotated by ``angle`` and scaled by ``scale``.
 
     ``angle`` (degrees, counter-clockwise on screen) and ``scale`` are numbers
@@ -178,7 +181,7 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
     )
 
 
-def hessian(image: ArrayLike, sigma: float, border: str = "reflect101") -> np.ndarray:
+def hessian(image: _ArrayLike, sigma: float, border: str = "reflect101") -> _np.ndarray:
     """The Hessian of the image (channel mean) at scale ``sigma``, computed with IFD.
 
     Returns ``(H, W, 3)`` float32 with channels ``(Hxx, Hxy, Hyy)``, ``x`` the
@@ -191,17 +194,17 @@ def hessian(image: ArrayLike, sigma: float, border: str = "reflect101") -> np.nd
 
 
 def smooth(
-    image: ArrayLike,
+    image: _ArrayLike,
     scale: float,
     max_aspect: float = 8.0,
     mode: str = "per-pixel",
     *,
     gamma: float = 1.0,
     epsilon: float = 0.02,
-    hessian_sigma: Optional[float] = None,
+    hessian_sigma: _Optional[float] = None,
     strength: float = 1.0,
     border: str = "reflect101",
-) -> np.ndarray:
+) -> _np.ndarray:
     """Edge-respecting anisotropic smoothing driven by the image Hessian (``ifd smooth``).
 
     The Gaussian's footprint is fixed by ``scale`` (``sx * sy = scale^2``,
@@ -225,7 +228,7 @@ def smooth(
 
 
 def compare(
-    a: ArrayLike, b: ArrayLike, data_range: Optional[float] = None, *, crop_border: int = 0
+    a: _ArrayLike, b: _ArrayLike, data_range: _Optional[float] = None, *, crop_border: int = 0
 ) -> dict:
     """PSNR, SSIM and error statistics of ``b`` against the reference ``a`` (``ifd compare --json``).
 

@@ -35,11 +35,14 @@ Workers need ``ifd`` installed (``pip install ./crates/ifd-py``).
 
 from __future__ import annotations
 
-from typing import Optional, Union
+from typing import Optional as _Optional, Union as _Union
 
-import numpy as np
+import numpy as _np
 
 from . import Decomposition, _ifd, _image
+
+# the __future__ import binds `annotations`: not part of the API
+del annotations
 
 __all__ = ["filter", "plan"]
 
@@ -68,7 +71,7 @@ def _range(a) -> tuple[float, float]:
     if isinstance(a, da.Array):
         lo, hi = da.compute(a.min(), a.max())
     else:
-        arr = np.asarray(a)
+        arr = _np.asarray(a)
         lo, hi = arr.min(), arr.max()
     return float(lo), float(hi)
 
@@ -81,7 +84,7 @@ def plan(
     border: str = "reflect101",
     *,
     interp: str = "auto",
-    eval_budget: Optional[float] = None,
+    eval_budget: _Optional[float] = None,
 ) -> tuple[int, int]:
     """The ``(halo, alignment)`` of chunked filtering of an image of ``shape``.
 
@@ -105,13 +108,13 @@ def plan(
 def filter(  # noqa: A001
     image,
     decomposition: Decomposition,
-    angle: Union[float, np.ndarray, "dask.array.Array"] = 0.0,  # noqa: F821
-    scale: Union[float, np.ndarray, "dask.array.Array"] = 1.0,  # noqa: F821
+    angle: _Union[float, _np.ndarray, "dask.array.Array"] = 0.0,  # noqa: F821
+    scale: _Union[float, _np.ndarray, "dask.array.Array"] = 1.0,  # noqa: F821
     border: str = "reflect101",
     *,
     chunks: int = 2048,
     interp: str = "auto",
-    eval_budget: Optional[float] = None,
+    eval_budget: _Optional[float] = None,
 ):
     """:func:`ifd.filter` over a Dask array: a lazy ``dask.array.Array`` of float32.
 
@@ -125,11 +128,11 @@ def filter(  # noqa: A001
     import dask.array as da
 
     if isinstance(image, da.Array):
-        img = image.astype(np.float32) if image.dtype != np.float32 else image
-        if image.dtype == np.uint8:
-            img = img / np.float32(255.0)
-        elif image.dtype == np.uint16:
-            img = img / np.float32(65535.0)
+        img = image.astype(_np.float32) if image.dtype != _np.float32 else image
+        if image.dtype == _np.uint8:
+            img = img / _np.float32(255.0)
+        elif image.dtype == _np.uint16:
+            img = img / _np.float32(65535.0)
     else:
         img = da.from_array(_image(image, "image"), chunks=-1)
     if img.ndim not in (2, 3):
@@ -140,17 +143,17 @@ def filter(  # noqa: A001
     h, w, c = img.shape
 
     def as_map(v, name):
-        if np.isscalar(v) or (isinstance(v, np.ndarray) and v.ndim == 0):
+        if _np.isscalar(v) or (isinstance(v, _np.ndarray) and v.ndim == 0):
             return float(v), None
-        m = v if isinstance(v, da.Array) else da.from_array(np.asarray(v), chunks=-1)
+        m = v if isinstance(v, da.Array) else da.from_array(_np.asarray(v), chunks=-1)
         if m.shape != (h, w):
             raise ValueError(f"{name}: the map is {m.shape} but the image is {(h, w)}")
-        return None, m.astype(np.float32)[:, :, None]
+        return None, m.astype(_np.float32)[:, :, None]
 
     a_const, a_map = as_map(angle, "angle")
     s_const, s_map = as_map(scale, "scale")
     s_range = (s_const, s_const) if s_map is None else _range(s_map)
-    if not all(np.isfinite(s_range)) or s_range[0] <= 0:
+    if not all(_np.isfinite(s_range)) or s_range[0] <= 0:
         raise ValueError(f"scale: the scales span {s_range}; they must be finite and positive")
     halo, align = plan(
         (h, w, c), decomposition, a_map is not None, s_range, border,
@@ -162,8 +165,8 @@ def filter(  # noqa: A001
     for m in (a_map, s_map):
         if m is not None:
             arrays.append(m.rechunk((rows, cols, 1)))
-    row_starts = np.concatenate([[0], np.cumsum(rows)])
-    col_starts = np.concatenate([[0], np.cumsum(cols)])
+    row_starts = _np.concatenate([[0], _np.cumsum(rows)])
+    col_starts = _np.concatenate([[0], _np.cumsum(cols)])
 
     def block(*parts, block_info=None):
         # The chunk's global offset (halo included): where its stack's
@@ -175,14 +178,14 @@ def filter(  # noqa: A001
             raise RuntimeError(
                 f"ifd.dask: chunk ({i}, {j}) starts at ({y0}, {x0}), not a multiple of {align}"
             )
-        tile = np.ascontiguousarray(parts[0])
+        tile = _np.ascontiguousarray(parts[0])
         k = 1
         amap = smap = None
         if a_map is not None:
-            amap = np.ascontiguousarray(parts[k][:, :, 0])
+            amap = _np.ascontiguousarray(parts[k][:, :, 0])
             k += 1
         if s_map is not None:
-            smap = np.ascontiguousarray(parts[k][:, :, 0])
+            smap = _np.ascontiguousarray(parts[k][:, :, 0])
         return _ifd.filter(
             tile,
             decomposition,
@@ -203,7 +206,7 @@ def filter(  # noqa: A001
         boundary="none",
         trim=True,
         align_arrays=False,
-        dtype=np.float32,
-        meta=np.empty((0, 0, 0), np.float32),
+        dtype=_np.float32,
+        meta=_np.empty((0, 0, 0), _np.float32),
     )
     return out[:, :, 0] if squeeze else out

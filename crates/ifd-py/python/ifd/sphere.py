@@ -16,25 +16,28 @@ are float64, ``((L+1)^2, C)`` (or ``((L+1)^2,)``).
 
 from __future__ import annotations
 
-import os
-from typing import Union
+import os as _os
+from typing import Union as _Union
 
-import numpy as np
+import numpy as _np
 
 from . import _ifd
 from ._ifd import SphereDecomposition as Decomposition
 
+# the __future__ import binds `annotations`: not part of the API
+del annotations
+
 __all__ = ["Decomposition", "decompose", "filter", "load", "rotate", "shade", "sh", "synthesize"]
 
 
-def _coeffs(c, name: str) -> np.ndarray:
-    arr = np.ascontiguousarray(np.asarray(c), dtype=np.float64)
+def _coeffs(c, name: str) -> _np.ndarray:
+    arr = _np.ascontiguousarray(_np.asarray(c), dtype=_np.float64)
     if arr.ndim not in (1, 2):
         raise ValueError(f"{name}: expected a ((L+1)^2,) or ((L+1)^2, C) array, got shape {arr.shape}")
     return arr
 
 
-def sh(env, lmax: int, *, keep_negatives: bool = False) -> np.ndarray:
+def sh(env, lmax: int, *, keep_negatives: bool = False) -> _np.ndarray:
     """SH coefficients ``((L+1)^2, C)`` of an environment map (``ifd sphere sh``).
 
     ``env`` is equirectangular (``W = 2H``) or a cubemap strip (``W = 6H``,
@@ -46,12 +49,12 @@ def sh(env, lmax: int, *, keep_negatives: bool = False) -> np.ndarray:
     return _ifd.sphere_sh(_image(env, "env"), int(lmax), keep_negatives=keep_negatives)
 
 
-def synthesize(coeffs, width: int, height: int) -> np.ndarray:
+def synthesize(coeffs, width: int, height: int) -> _np.ndarray:
     """The ``height x width`` equirectangular map of SH coefficients (float32)."""
     return _ifd.sphere_synthesize(_coeffs(coeffs, "coeffs"), int(width), int(height))
 
 
-def rotate(coeffs, zyz, method: str = "zhf") -> np.ndarray:
+def rotate(coeffs, zyz, method: str = "zhf") -> _np.ndarray:
     """Rotate SH coefficients: ``g(w) = f(R^T w)`` with ``R = Rz(a) Ry(b) Rz(c)`` (radians).
 
     ``method``: ``zhf`` (zonal harmonic factorization, ZHF Eq. 10),
@@ -63,7 +66,7 @@ def rotate(coeffs, zyz, method: str = "zhf") -> np.ndarray:
 
 
 def decompose(
-    kernel: Union[str, np.ndarray],
+    kernel: _Union[str, _np.ndarray],
     lmax: int,
     *,
     directions: str = "fibonacci",
@@ -87,7 +90,7 @@ def decompose(
 
 def filter(  # noqa: A001
     env, decomposition: Decomposition, size=None, *, raw: bool = False, keep_negatives: bool = False
-) -> np.ndarray:
+) -> _np.ndarray:
     """Filter an environment map with a spherical decomposition (``ifd sphere filter``).
 
     Every output texel with direction ``w`` gets the kernel rotated to ``w``
@@ -106,7 +109,7 @@ def filter(  # noqa: A001
     )
 
 
-def shade(coeffs, brdf: str, normals, views, *, lmax=None, table=None, tangents=None) -> np.ndarray:
+def shade(coeffs, brdf: str, normals, views, *, lmax=None, table=None, tangents=None) -> _np.ndarray:
     """Radiance leaving surface points lit by an environment, by ISD (Eq. 22).
 
     ``coeffs`` are the environment's SH coefficients (:func:`sh`);
@@ -120,15 +123,15 @@ def shade(coeffs, brdf: str, normals, views, *, lmax=None, table=None, tangents=
     ``tangents`` orient anisotropic BRDFs. ``lmax`` defaults to the
     coefficients' degree. Returns ``(N, C)`` float64.
     """
-    import os
+    import os as _os
 
-    n = np.ascontiguousarray(np.asarray(normals), dtype=np.float64)
-    v = np.ascontiguousarray(np.asarray(views), dtype=np.float64)
-    t = None if tangents is None else np.ascontiguousarray(np.asarray(tangents), dtype=np.float64)
-    path = None if table is None else os.fspath(table)
+    n = _np.ascontiguousarray(_np.asarray(normals), dtype=_np.float64)
+    v = _np.ascontiguousarray(_np.asarray(views), dtype=_np.float64)
+    t = None if tangents is None else _np.ascontiguousarray(_np.asarray(tangents), dtype=_np.float64)
+    path = None if table is None else _os.fspath(table)
     return _ifd.sphere_shade(_coeffs(coeffs, "coeffs"), brdf, n, v, lmax=lmax, table=path, tangents=t)
 
 
-def load(path: Union[str, os.PathLike]) -> Decomposition:
+def load(path: _Union[str, _os.PathLike]) -> Decomposition:
     """Read a decomposition written by ``ifd sphere decompose`` or :meth:`Decomposition.save`."""
-    return Decomposition.load(os.fspath(path))
+    return Decomposition.load(_os.fspath(path))

@@ -14,7 +14,8 @@ use ifd_shade::table::{LobeTable, default_theta_entries};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
-use crate::commands::render::parse_vec;
+use crate::options::ReportOptions;
+use crate::options::parse_vec;
 
 /// Tabulate a BRDF's reflection under radially symmetric distant light (ISD
 /// Eq. 24): a radial reflection map, generalising Stone's (Phong only) to any
@@ -33,7 +34,7 @@ use crate::commands::render::parse_vec;
 /// shape (T_o, P_o, T_z, P_z, C). --check N compares N entries with the
 /// quadrature of the same light and reports the errors.
 ///
-/// Example: `ifd sphere radial --brdf ggx:alpha=0.3 --light overcast --lmax 24 -o sky.npy --preview sky.png --check 50`
+/// Example: `ifd sphere radial --brdf ggx:alpha=0.3 --light-profile overcast --lmax 24 -o sky.npy --preview sky.png --check 50`
 #[derive(Debug, Args)]
 pub struct RadialCmd {
     /// BRDF spec (as `ifd render`).
@@ -42,6 +43,9 @@ pub struct RadialCmd {
     /// Radially symmetric light: cap:deg=D, overcast or power:s=S (about +z of the light's
     /// frame; the map's axis cells place it).
     #[arg(long, value_name = "PROFILE", conflicts_with = "env")]
+    light_profile: Option<String>,
+    /// Renamed: --light-profile (--light is a spherical light X,Y,Z,R,L in `ifd render`).
+    #[arg(long, hide = true)]
     light: Option<String>,
     /// Or: an environment map (2:1 equirectangular) whose radial part about --axis is the light.
     #[arg(long, value_name = "FILE")]
@@ -71,8 +75,11 @@ pub struct RadialCmd {
     #[arg(long, value_name = "FILE")]
     table: Option<PathBuf>,
     /// Map cells: T_OxT_ZxP_Z, or T_OxP_OxT_ZxP_Z for anisotropic BRDFs.
-    #[arg(long, value_name = "DIMS", default_value = "16x32x32")]
-    size: String,
+    #[arg(long, value_name = "AxBxC[xD]", default_value = "16x32x32")]
+    cells: String,
+    /// Renamed: --cells (--size is always WxH).
+    #[arg(long, hide = true)]
+    size: Option<String>,
     /// Output map (float64 .npy, shape (T_o, P_o, T_z, P_z, C)).
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
@@ -86,6 +93,8 @@ pub struct RadialCmd {
     /// Compare N map entries (spread over the map) with the quadrature of the same light.
     #[arg(long, value_name = "N", default_value_t = 0)]
     check: usize,
+    #[command(flatten)]
+    report: ReportOptions,
 }
 
 impl RadialCmd {
@@ -113,9 +122,17 @@ impl RadialCmd {
         if self.check > 100_000 {
             bail!("--check {}: at most 100000 entries", self.check);
         }
+        if self.light.is_some() {
+            bail!(
+                "--light is a spherical light X,Y,Z,R,L in `ifd render`; a radial profile is --light-profile"
+            );
+        }
+        if self.size.is_some() {
+            bail!("--size is always WxH; the map's cells are --cells AxBxC[xD]");
+        }
         let start = std::time::Instant::now();
         // the light: a profile, or the radial part of a map
-        let (light, profile) = match (&self.light, &self.env) {
+        let (light, profile) = match (&self.light_profile, &self.env) {
             (Some(spec), None) => {
                 let p = RadialProfile::parse(spec)?;
                 let radiance = parse_radiance(&self.radiance)?;
@@ -135,7 +152,7 @@ impl RadialCmd {
                 let sh = env.sh(self.lmax)?;
                 (ZonalLighting::radial_part(&sh, axis.to_array())?, None)
             }
-            _ => bail!("give --light PROFILE or --env MAP"),
+            _ => bail!("give --light-profile PROFILE or --env MAP"),
         };
         let ch = light.coeffs().len() / (self.lmax + 1);
         if brdf.channels() != 1 && brdf.channels() != ch {
@@ -186,29 +203,28 @@ impl RadialCmd {
         let check = (self.check > 0)
             .then(|| check(&map, &brdf, &light, profile.as_ref(), self.check))
             .transpose()?;
-        println!(
-            "{}",
-            json!({
-                "brdf": brdf.spec(), "lmax": self.lmax, "channels": ch,
-                "light": self.light, "env": self.env, "isotropic": map.isotropic,
-                "shape": [size.theta_o, size.phi_o, size.theta_z, size.phi_z, ch],
-                "map_bytes_f32": map.bytes(),
-                "coefficient_bytes_f32": 4 * light.coeffs().len(),
-                "coefficients": light.coeffs(),
-                "build_seconds": build_seconds,
-                "check": check,
-            })
-        );
+        self.report.emit(&json!({
+            "brdf": brdf.spec(), "lmax": self.lmax, "channels": ch,
+            "light_profile": self.light_profile, "env": self.env, "isotropic": map.isotropic,
+            "shape": [size.theta_o, size.phi_o, size.theta_z, size.phi_z, ch],
+            "map_bytes_f32": map.bytes(),
+            "coefficient_bytes_f32": 4 * light.coeffs().len(),
+            "coefficients": light.coeffs(),
+            "build_seconds": build_seconds,
+            "check": check,
+        }))?;
         Ok(())
     }
 
     fn parse_size(&self, brdf: &Brdf) -> Result<MapSize> {
         let v: Vec<usize> = self
-            .size
+            .cells
             .split(['x', 'X'])
             .map(|t| t.trim().parse::<usize>())
             .collect::<std::result::Result<_, _>>()
-            .with_context(|| format!("--size {:?}: expected integers like 16x32x32", self.size))?;
+            .with_context(|| {
+                format!("--cells {:?}: expected integers like 16x32x32", self.cells)
+            })?;
         let iso = brdf.is_isotropic();
         let s = match (v.as_slice(), iso) {
             ([to, tz, pz], true) => MapSize {
@@ -224,19 +240,19 @@ impl RadialCmd {
                 phi_z: *pz,
             },
             (_, true) => bail!(
-                "--size {:?}: an isotropic BRDF's map is T_OxT_ZxP_Z (3 sizes)",
-                self.size
+                "--cells {:?}: an isotropic BRDF's map is T_OxT_ZxP_Z (3 sizes)",
+                self.cells
             ),
             (_, false) => bail!(
-                "--size {:?}: an anisotropic BRDF's map is T_OxP_OxT_ZxP_Z (4 sizes)",
-                self.size
+                "--cells {:?}: an anisotropic BRDF's map is T_OxP_OxT_ZxP_Z (4 sizes)",
+                self.cells
             ),
         };
         if [s.theta_o, s.phi_o, s.theta_z, s.phi_z]
             .iter()
             .any(|d| !(1..=4096).contains(d))
         {
-            bail!("--size {:?}: every size in 1..=4096", self.size);
+            bail!("--cells {:?}: every size in 1..=4096", self.cells);
         }
         Ok(s)
     }

@@ -1,4 +1,4 @@
-//! `ifd visibility`: self-shadowed ISD shading on a mesh against a
+//! `ifd paper isd-visibility`: self-shadowed ISD shading on a mesh against a
 //! ray-traced reference (ISD Sec. 6.1, Eq. 25, Appendix A, Fig. 7).
 
 use std::fmt::Write as _;
@@ -6,8 +6,6 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::Args;
-use glam::DVec3;
-use ifd_render::camera::Camera;
 use ifd_render::envmap::EnvMap;
 use ifd_render::visibility::{VisibilityScene, study, torus_mesh};
 use ifd_shade::Brdf;
@@ -15,8 +13,9 @@ use ifd_shade::shade::Material;
 use ifd_shade::table::{LobeTable, default_theta_entries};
 use serde_json::json;
 
-use crate::commands::render::parse_vec;
 use crate::input::parse_size;
+use crate::options::CameraOptions;
+use crate::options::ReportOptions;
 
 /// Shading with visibility (ISD Eq. 25, Appendix A): per-vertex SH visibility
 /// by ray casting, the product matrix of the lighting (the paper's gamma)
@@ -29,10 +28,11 @@ use crate::input::parse_size;
 /// tracing the visibility of each node from the pixel's point; ISD
 /// interpolates the vertices' visibility. Writes the images, the error
 /// against L as CSV and a plot (with the unshadowed ISD error for
-/// comparison) into --out-dir, and prints a JSON report.
+/// comparison) into --out-dir, and prints a report (JSON with --json).
 ///
-/// Example: `ifd visibility --env testdata/forest.hdr --brdf phong:s=8 --out-dir vis`
+/// Example: `ifd paper isd-visibility --env testdata/forest.hdr --brdf phong:s=8 --out-dir vis`
 #[derive(Debug, Args)]
+#[command(mut_arg("size", |a| a.default_value("96x96")), mut_arg("eye", |a| a.default_value("0,-2.4,1.7")))]
 pub struct Visibility {
     /// Environment map (2:1 equirectangular).
     #[arg(long, value_name = "FILE")]
@@ -46,29 +46,19 @@ pub struct Visibility {
     /// Degrees: A..B or A..B:S.
     #[arg(long, value_name = "A..B[:S]", default_value = "2..14:2")]
     degrees: String,
-    /// Scene: torus or an OBJ file.
-    #[arg(long, default_value = "torus")]
+    /// Scene: torus (triangulated) or a path to an .obj file.
+    #[arg(long, value_name = "SCENE", default_value = "torus")]
     scene: String,
     /// Rays per vertex for the visibility's SH.
     #[arg(long, value_name = "N", default_value_t = 4096)]
-    dirs: usize,
-    /// Image size WxH.
-    #[arg(long, value_name = "WxH", default_value = "96x96")]
-    size: String,
-    /// Camera position.
-    #[arg(
-        long,
-        value_name = "X,Y,Z",
-        default_value = "0,-2.4,1.7",
-        allow_hyphen_values = true
-    )]
-    eye: String,
-    /// Vertical field of view in degrees.
-    #[arg(long, value_name = "DEG", default_value_t = 40.0)]
-    fov: f64,
+    rays: usize,
+    #[command(flatten)]
+    camera: CameraOptions,
     /// Folder for the images, CSV and plot.
     #[arg(long, value_name = "DIR")]
     out_dir: Option<PathBuf>,
+    #[command(flatten)]
+    report: ReportOptions,
 }
 
 fn parse_degrees(text: &str) -> Result<Vec<usize>> {
@@ -94,10 +84,11 @@ impl Visibility {
     pub fn run(self) -> Result<()> {
         let degrees = parse_degrees(&self.degrees)?;
         let l_max = *degrees.last().unwrap_or(&1);
-        let (w, h) = parse_size(&self.size, "--size")?;
+        let camera = self.camera.camera()?;
+        let (w, h) = (camera.width(), camera.height());
         let (ew, eh) = parse_size(&self.env_size, "--env-size")?;
-        if !(64..=1 << 20).contains(&self.dirs) {
-            bail!("--dirs {}: use 64..=1048576", self.dirs);
+        if !(64..=1 << 20).contains(&self.rays) {
+            bail!("--rays {}: use 64..=1048576", self.rays);
         }
         if let Some(d) = &self.out_dir {
             std::fs::create_dir_all(d)
@@ -119,21 +110,13 @@ impl Visibility {
             LobeTable::build(&brdf, l_max, default_theta_entries(&brdf), 32, &|_, _| {})
         });
         let material = Material::new(&brdf, l_max, table.transpose()?)?;
-        let camera = Camera::new(
-            parse_vec(&self.eye, "--eye")?,
-            DVec3::ZERO,
-            DVec3::Z,
-            self.fov,
-            w,
-            h,
-        )?;
         let scene = VisibilityScene {
             mesh: &mesh,
             camera,
             env: &env,
             brdf: &brdf,
         };
-        let s = study(&scene, &material, self.dirs, &degrees, &|m| {
+        let s = study(&scene, &material, self.rays, &degrees, &|m| {
             eprintln!("{m}");
         })?;
         if let Some(dir) = &self.out_dir {
@@ -176,17 +159,14 @@ impl Visibility {
                 &ifd_image::WriteOptions::default(),
             )?;
         }
-        println!(
-            "{}",
-            json!({
+        self.report.emit(&json!({
                 "brdf": brdf.spec(), "scene": self.scene, "width": w, "height": h,
-                "env_size": [ew, eh], "dirs": self.dirs, "triangles": mesh.triangles(),
+                "env_size": [ew, eh], "rays": self.rays, "triangles": mesh.triangles(),
                 "vertices": mesh.positions().len(),
                 "rows": s.rows.iter().map(|(l, a, b)| json!({"l": l, "isd_visibility": a, "isd_unshadowed": b})).collect::<Vec<_>>(),
                 "seconds": {"reference": s.seconds[0], "visibility": s.seconds[1],
                             "product_matrix": s.seconds[2], "isd_frame": s.seconds[3]},
-            })
-        );
+            }))?;
         Ok(())
     }
 }

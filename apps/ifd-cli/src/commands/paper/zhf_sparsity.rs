@@ -1,4 +1,4 @@
-//! `ifd sphere sparsity`: the ZHF paper's sparsity search (Sec. 5-6, Table
+//! `ifd paper zhf-sparsity`: the ZHF paper's sparsity search (Sec. 5-6, Table
 //! I, Fig. 3).
 
 use std::fmt::Write as _;
@@ -11,14 +11,16 @@ use ifd_sphere::sparsity::{
 };
 use serde_json::json;
 
+use crate::options::ReportOptions;
+
 /// Search lobe directions that make the ZHF matrix A_l = Y_l^-1 sparse (ZHF
 /// Sec. 5): candidates at the zeros of the associated Legendre functions and
 /// of the sinusoids, a genetic search per band (--bands) and for shared,
 /// nested sets of 2N-1 directions per order (--orders, Sec. 6), beside random
-/// draws from the same candidates (Fig. 3). Prints JSON (the directions
+/// draws from the same candidates (Fig. 3). Prints a summary (--json: the report, directions
 /// included) and, with --markdown, a table against the paper's Table I.
 ///
-/// Example: `ifd sphere sparsity --bands 2..12 --orders 2..8 --markdown sparsity.md` (minutes:
+/// Example: `ifd paper zhf-sparsity --bands 2..12 --orders 2..8 --markdown sparsity.md` (minutes:
 /// the search is long on purpose, see `ifd_sphere::sparsity`)
 #[derive(Debug, Args)]
 pub struct SparsityCmd {
@@ -41,7 +43,7 @@ pub struct SparsityCmd {
     #[arg(long, default_value_t = 4)]
     restarts: usize,
     /// Seed of the first run.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, value_name = "N", default_value_t = 1)]
     seed: u64,
     /// Random draws per order for the baseline.
     #[arg(long, default_value_t = 2000)]
@@ -49,6 +51,8 @@ pub struct SparsityCmd {
     /// Also write the table as Markdown.
     #[arg(long, value_name = "FILE")]
     markdown: Option<PathBuf>,
+    #[command(flatten)]
+    report: ReportOptions,
 }
 
 fn range(text: &str, option: &str, lo: usize, hi: usize) -> Result<Vec<usize>> {
@@ -148,11 +152,10 @@ impl SparsityCmd {
                 std::io::Write::write_all(w, md.as_bytes()).map_err(|e| e.to_string())
             })?;
         }
-        println!(
-            "{}",
-            json!({"bands": band_rows, "orders": order_rows, "population": self.population,
-                   "stall": self.stall, "restarts": self.restarts, "seed": self.seed})
-        );
+        self.report.emit(
+            &json!({"bands": band_rows, "orders": order_rows, "population": self.population,
+                   "stall": self.stall, "restarts": self.restarts, "seed": self.seed}),
+        )?;
         Ok(())
     }
 }

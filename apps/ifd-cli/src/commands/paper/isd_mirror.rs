@@ -1,4 +1,4 @@
-//! `ifd mirror`: anti-aliased environment-map reflections on a bumpy mirror
+//! `ifd paper isd-mirror`: anti-aliased environment-map reflections on a bumpy mirror
 //! (ISD Sec. 6.2, Fig. 6), ISD's filter against supersampling.
 
 use std::fmt::Write as _;
@@ -6,14 +6,12 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::Args;
-use glam::DVec3;
-use ifd_render::camera::Camera;
 use ifd_render::envmap::EnvMap;
 use ifd_render::mirror::{AaMethod, BumpyMirror, IsdFilter, MirrorScene, PixelFilter, study};
 use serde_json::json;
 
-use crate::commands::render::parse_vec;
-use crate::input::parse_size;
+use crate::options::CameraOptions;
+use crate::options::ReportOptions;
 
 /// Anti-aliased mirror reflections (ISD Sec. 6.2, Eq. 26-29): a unit mirror
 /// sphere, bumpy above z = 0.35 and smooth below z = 0.15, reflecting an
@@ -24,24 +22,24 @@ use crate::input::parse_size;
 /// 64x64 stratified supersampled reference, all with the same pixel filter (a
 /// Gaussian of 0.5 pixel over [-1, 1]^2). Prints the table (relative RMS error
 /// over interior pixels, the bumpy and the smooth region; median time of
-/// --runs interleaved runs, and the ratio to 4x4) as JSON, and writes each
+/// --runs interleaved runs, and the ratio to 4x4; JSON with --json), and writes each
 /// image (EXR and PNG), a side-by-side strip and table.md into --out-dir.
 ///
-/// Example: `ifd mirror --env testdata/forest.hdr --out-dir mirror-out`
+/// Example: `ifd paper isd-mirror --env testdata/forest.hdr --out-dir mirror-out`
 #[derive(Debug, Args)]
+#[command(mut_arg("eye", |a| a.default_value("0,-3.2,1.1")), mut_arg("fov", |a| a.default_value("42")))]
 pub struct Mirror {
     /// Environment map, 2:1 equirectangular (looked up bilinearly at full resolution).
     #[arg(long, value_name = "FILE")]
     env: PathBuf,
-    /// Image size WxH.
-    #[arg(long, value_name = "WxH", default_value = "256x256")]
-    size: String,
+    #[command(flatten)]
+    camera: CameraOptions,
     /// SH degree L of ISD's filter.
     #[arg(long, value_name = "L", default_value_t = 32)]
     lmax: usize,
     /// Reference: NxN jittered stratified samples per pixel.
     #[arg(long, value_name = "N", default_value_t = 64)]
-    reference: usize,
+    reference_grid: usize,
     /// Supersampling rates to compare (NxN each).
     #[arg(
         long,
@@ -53,17 +51,6 @@ pub struct Mirror {
     /// Timed runs per method (interleaved; the median is reported).
     #[arg(long, value_name = "N", default_value_t = 5)]
     runs: usize,
-    /// Camera position.
-    #[arg(
-        long,
-        value_name = "X,Y,Z",
-        default_value = "0,-3.2,1.1",
-        allow_hyphen_values = true
-    )]
-    eye: String,
-    /// Vertical field of view in degrees.
-    #[arg(long, value_name = "DEG", default_value_t = 42.0)]
-    fov: f64,
     /// Rotate the environment about +z by this many degrees.
     #[arg(
         long,
@@ -83,26 +70,26 @@ pub struct Mirror {
     /// Folder for the images and table.md.
     #[arg(long, value_name = "DIR")]
     out_dir: Option<PathBuf>,
+    #[command(flatten)]
+    report: ReportOptions,
 }
 
 impl Mirror {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
-        let (w, h) = parse_size(&self.size, "--size")?;
+        let camera = self.camera.camera()?;
+        let (w, h) = (camera.width(), camera.height());
         if !(1..=200).contains(&self.lmax) {
             bail!("--lmax {}: use 1..=200", self.lmax);
         }
-        if !(1..=256).contains(&self.reference) {
-            bail!("--reference {}: use 1..=256", self.reference);
+        if !(1..=256).contains(&self.reference_grid) {
+            bail!("--reference-grid {}: use 1..=256", self.reference_grid);
         }
         if self.supersample.iter().any(|n| !(1..=64).contains(n)) {
             bail!("--supersample {:?}: each in 1..=64", self.supersample);
         }
         if !(1..=100).contains(&self.runs) {
             bail!("--runs {}: use 1..=100", self.runs);
-        }
-        if !(self.fov > 0.0 && self.fov < 179.0) {
-            bail!("--fov {}: use (0, 179) degrees", self.fov);
         }
         if !self.exposure.is_finite() {
             bail!("--exposure {}: not finite", self.exposure);
@@ -114,8 +101,6 @@ impl Mirror {
         let img = ifd_image::read(&self.env)
             .map_err(|e| anyhow::anyhow!("--env {}: {e}", self.env.display()))?;
         let env = EnvMap::new(img, self.env_rotate)?;
-        let eye = parse_vec(&self.eye, "--eye")?;
-        let camera = Camera::new(eye, DVec3::ZERO, DVec3::Z, self.fov, w, h)?;
         let scene = MirrorScene {
             mirror: BumpyMirror::default(),
             camera,
@@ -137,7 +122,7 @@ impl Mirror {
         } = study(
             &scene,
             &methods,
-            AaMethod::Reference(self.reference),
+            AaMethod::Reference(self.reference_grid),
             Some(&isd),
             self.runs,
             &|s| eprintln!("{s}"),
@@ -162,18 +147,15 @@ impl Mirror {
             crate::output::write_figure(dir, &named, self.exposure)?;
             std::fs::write(dir.join("table.md"), markdown(&rows, ss4))?;
         }
-        println!(
-            "{}",
-            json!({
-                "env": self.env, "width": w, "height": h, "lmax": self.lmax,
-                "reference": format!("{0}x{0} jittered", self.reference),
-                "isd_threshold_radians": isd.threshold(), "isd_setup_seconds": setup,
-                "interior_pixels": count(&regions.interior), "bumpy_pixels": count(&regions.bumpy),
-                "smooth_pixels": count(&regions.smooth), "runs": self.runs,
-                "threads": rayon::current_num_threads(),
-                "rows": table,
-            })
-        );
+        self.report.emit(&json!({
+            "env": self.env, "width": w, "height": h, "lmax": self.lmax,
+            "reference": format!("{0}x{0} jittered", self.reference_grid),
+            "isd_threshold_radians": isd.threshold(), "isd_setup_seconds": setup,
+            "interior_pixels": count(&regions.interior), "bumpy_pixels": count(&regions.bumpy),
+            "smooth_pixels": count(&regions.smooth), "runs": self.runs,
+            "threads": rayon::current_num_threads(),
+            "rows": table,
+        }))?;
         Ok(())
     }
 }

@@ -13,6 +13,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde_json::json;
 
+use crate::options::ReportOptions;
+
 /// Filter a BRDF (typically a noisy or sparse MERL measurement) with the
 /// separable von Mises-Fisher kernel of ISD Sec. 6.3 on the 4D SH basis.
 ///
@@ -50,6 +52,8 @@ pub struct BrdfFilterCmd {
     /// Output: .binary (MERL) or .npy (coefficients).
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
+    #[command(flatten)]
+    report: ReportOptions,
 }
 
 impl BrdfFilterCmd {
@@ -177,18 +181,15 @@ impl BrdfFilterCmd {
             let m = filtered.basis_len();
             ifd_image::write_npy_f64(&self.output, &[m, m, ch], filtered.coeffs())?;
         }
-        println!(
-            "{}",
-            json!({
-                "brdf": brdf.spec(), "lmax": self.lmax, "kappa": self.kappa, "nodes": nodes,
-                "basis_per_direction": filtered.basis_len(), "holes": sh4.has_holes(),
-                "coefficient_asymmetry": sh4.asymmetry(),
-                "albedo_min": albedo.0, "albedo_max": albedo.1,
-                "reciprocity_max_abs": recip, "value_max": peak,
-                "errors": errors,
-                "seconds": start.elapsed().as_secs_f64(),
-            })
-        );
+        self.report.emit(&json!({
+            "brdf": brdf.spec(), "lmax": self.lmax, "kappa": self.kappa, "nodes": nodes,
+            "basis_per_direction": filtered.basis_len(), "holes": sh4.has_holes(),
+            "coefficient_asymmetry": sh4.asymmetry(),
+            "albedo_min": albedo.0, "albedo_max": albedo.1,
+            "reciprocity_max_abs": recip, "value_max": peak,
+            "errors": errors,
+            "seconds": start.elapsed().as_secs_f64(),
+        }))?;
         Ok(())
     }
 }

@@ -1,0 +1,56 @@
+//! `ifd envmap dfg`: the split-sum DFG table.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Result, bail};
+use clap::Args;
+use serde_json::json;
+
+use crate::options::ReportOptions;
+
+/// Writes the split-sum DFG table: texel (i, j) holds N.V = (i + 0.5)/size
+/// (left to right) and perceptual roughness (j + 0.5)/size (top to bottom,
+/// alpha = roughness^2), R = scale A, G = bias B (specular = F0 A + B), B = 0.
+/// Computed by deterministic quadrature (docs/ibl.md). EXR keeps floats; PNG
+/// is written with 16 bits.
+#[derive(Debug, Args)]
+pub(super) struct DfgCmd {
+    /// Table side N (the table is N x N).
+    #[arg(long, value_name = "N", default_value_t = 128)]
+    table_size: usize,
+    /// Renamed: --table-size N (--size is always WxH).
+    #[arg(long, hide = true)]
+    size: Option<String>,
+    /// Output image (.exr, .png, .npy, ...).
+    #[arg(short, long)]
+    output: PathBuf,
+    #[command(flatten)]
+    report: ReportOptions,
+}
+
+impl DfgCmd {
+    pub(super) fn run(self) -> Result<()> {
+        if self.size.is_some() {
+            bail!("--size is always WxH; the DFG table's side is --table-size N");
+        }
+        let size = self.table_size;
+        if !(2..=4096).contains(&size) {
+            bail!("--table-size {size}: must lie in 2..=4096");
+        }
+        let t = Instant::now();
+        let table = ifd_ibl::dfg::dfg_table(size);
+        let data: Vec<f32> = table.iter().flat_map(|[a, b]| [*a, *b, 0.0]).collect();
+        let img = ifd_image::Image::from_vec(size, size, 3, data)?;
+        let opts = ifd_image::WriteOptions {
+            bit_depth: ifd_image::BitDepth::Sixteen,
+            ..ifd_image::WriteOptions::default()
+        };
+        crate::output::write_output(&self.output, &img, &opts)?;
+        self.report.emit(
+            &json!({"size": size, "output": self.output.display().to_string(),
+                   "seconds": t.elapsed().as_secs_f64()}),
+        )?;
+        Ok(())
+    }
+}

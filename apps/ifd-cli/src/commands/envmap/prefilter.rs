@@ -1,0 +1,382 @@
+//! `ifd envmap prefilter`: bake the IBL assets engines load.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use ifd_ibl::chain::{RoughnessMapping, check_chain};
+use ifd_ibl::cube::{CubeLevel, FACE_FILE_NAMES, strip_to_equirect};
+use ifd_ibl::lobe::Lobe;
+use ifd_ibl::{BakeOptions, Baker};
+use serde_json::json;
+
+use crate::input::InputOptions;
+use crate::options::ReportOptions;
+
+/// Bakes what engines load for image-based lighting, from an equirectangular
+/// (2:1) map or a cube strip (6:1, faces +X,-X,+Y,-Y,+Z,-Z, y up):
+///
+///   DIR/radiance.ktx2    RGBA16F cube, mip m = GGX with roughness m/(M-1)
+///   DIR/irradiance.ktx2  RGBA16F cube, one level, E/pi (what glTF/Bevy hold)
+///   DIR/sh.json, sh.npy  SH of the radiance (ifd's frame and basis, stated in the JSON)
+///
+/// With --format exr the cubes are EXR faces instead: radiance_m{m}_{px,nx,py,ny,pz,nz}.exr
+/// and irradiance_{face}.exr. Faces are in the order and orientation engines expect
+/// (y up); the map is read as glTF-IBL-Sampler reads it. The prefilter runs in
+/// frequency space (SH convolution with the lobe's zonal factors) with the
+/// brightest texels summed exactly, so suns do not ring; see docs/ibl.md.
+#[derive(Debug, Args)]
+pub(super) struct PrefilterCmd {
+    /// Environment map (HDR, EXR, ...): 2:1 equirectangular or a 6:1 cube strip.
+    envmap: PathBuf,
+    /// Radiance face size, a power of two.
+    #[arg(long, default_value_t = 256, value_name = "N")]
+    face_size: usize,
+    /// Number of radiance mip levels (default: floor(log2 N) for linear, down to 16 texels for cmgen).
+    #[arg(long, value_name = "M")]
+    mips: Option<usize>,
+    /// Mip-to-roughness mapping: linear (m/(M-1), glTF-IBL-Sampler, Bevy) or cmgen (Filament).
+    #[arg(long, default_value = "linear", value_parser = ["linear", "cmgen"])]
+    roughness: String,
+    /// Lobe: ggx (the split-sum GGX lobe), phong (the Phong lobe matching each mip's GGX
+    /// width, s = 1/(2 alpha^2) - 1/2), or phong:s=S (one level filtered with exponent S).
+    #[arg(long, value_name = "ggx|phong|phong:s=S", default_value = "ggx")]
+    lobe: String,
+    /// Renamed: --lobe.
+    #[arg(long, hide = true)]
+    brdf: Option<String>,
+    /// Irradiance face size (0: no irradiance map).
+    #[arg(long, default_value_t = 32, value_name = "N")]
+    irradiance_size: usize,
+    /// Maximum SH degree of sh.json / sh.npy.
+    #[arg(long, default_value_t = 2, value_name = "L")]
+    sh_lmax: usize,
+    /// Output format of the cubes: ktx2 or exr.
+    #[arg(long, default_value = "ktx2", value_parser = ["ktx2", "exr"])]
+    format: String,
+    /// Band truncation: each lobe keeps the bands whose zonal factor is at least eps.
+    #[arg(long, default_value_t = 1e-3)]
+    eps: f64,
+    /// Output folder (created if missing; files in it are replaced).
+    #[arg(long, value_name = "DIR")]
+    out_dir: PathBuf,
+    /// Renamed: the output folder is --out-dir (-o is always one file).
+    #[arg(short, long, hide = true)]
+    output: Option<PathBuf>,
+    #[command(flatten)]
+    input: InputOptions,
+    #[command(flatten)]
+    report: ReportOptions,
+}
+
+/// The lobes of the radiance chain and what each mip reports.
+fn chain_lobes(brdf: &str, mapping: RoughnessMapping, levels: usize) -> Result<Vec<(f64, Lobe)>> {
+    let mut out = Vec::with_capacity(levels);
+    if let Some(rest) = brdf.strip_prefix("phong:") {
+        let s = rest
+            .strip_prefix("s=")
+            .and_then(|v| v.parse::<f64>().ok())
+            .filter(|s| s.is_finite() && *s > 0.0 && *s <= 1e6)
+            .with_context(|| {
+                format!("--brdf {brdf:?}: expected phong:s=S with 0 < S <= 1e6, e.g. phong:s=64")
+            })?;
+        out.push((f64::NAN, Lobe::Phong { s }));
+        return Ok(out);
+    }
+    for m in 0..levels {
+        let r = mapping.roughness(m, levels);
+        let ggx = Lobe::ggx_from_roughness(r)?;
+        let lobe = match (brdf, ggx) {
+            ("phong", Lobe::Ggx { alpha }) => Lobe::phong_matching_ggx(alpha),
+            ("ggx" | "phong", l) => l,
+            _ => bail!("--brdf {brdf:?}: unknown lobe; use ggx, phong or phong:s=S"),
+        };
+        out.push((r, lobe));
+    }
+    Ok(out)
+}
+
+impl PrefilterCmd {
+    #[expect(
+        clippy::too_many_lines,
+        reason = "one linear bake: read, plan, filter, write"
+    )]
+    pub(super) fn run(self) -> Result<()> {
+        use indicatif::{ProgressBar, ProgressStyle};
+        if self.output.is_some() {
+            bail!("-o/--output names one file; the output folder is --out-dir DIR");
+        }
+        if self.brdf.is_some() {
+            bail!(
+                "--brdf is a BRDF spec elsewhere; the prefilter's lobe is --lobe ggx|phong|phong:s=S"
+            );
+        }
+        let mapping = RoughnessMapping::parse(&self.roughness)?;
+        let n = self.face_size;
+        let single = self.lobe.starts_with("phong:");
+        let levels = if single {
+            if self.mips.is_some_and(|m| m != 1) {
+                bail!("--mips: --lobe {} writes one level", self.lobe);
+            }
+            1
+        } else {
+            self.mips.unwrap_or_else(|| mapping.default_levels(n))
+        };
+        check_chain(n, levels)?;
+        if self.irradiance_size > 0
+            && (!self.irradiance_size.is_power_of_two() || self.irradiance_size > 4096)
+        {
+            bail!(
+                "--irradiance-size {}: must be 0 (none) or a power of two up to 4096",
+                self.irradiance_size
+            );
+        }
+        if self.sh_lmax > 64 {
+            bail!("--sh-lmax {}: at most 64", self.sh_lmax);
+        }
+        let exr = match self.format.as_str() {
+            "ktx2" => false,
+            "exr" => true,
+            f => bail!("--format {f:?}: use ktx2 or exr"),
+        };
+        if !(self.eps > 0.0 && self.eps < 1.0) {
+            bail!("--eps {}: must lie in (0, 1)", self.eps);
+        }
+        let lobes = chain_lobes(&self.lobe, mapping, levels)?;
+        // the outputs against the memory budget, before any work: f32 RGB
+        // levels plus their 8-byte RGBA16F encoding
+        let texels: u64 = (0..levels)
+            .map(|m| 6 * ((n >> m).max(1) as u64).pow(2))
+            .sum::<u64>()
+            + 6 * (self.irradiance_size as u64).pow(2);
+        self.input
+            .budget()
+            .check(texels.saturating_mul(12 + 8))
+            .with_context(|| format!("--face-size {n} with {levels} levels"))?;
+        let start = Instant::now();
+        let img = self.input.read(&self.envmap)?.image;
+        let (w, h) = (img.width(), img.height());
+        let env = if w == 2 * h && h >= 2 {
+            img
+        } else if w == 6 * h && h >= 1 {
+            strip_to_equirect(&img).with_context(|| format!("{}", self.envmap.display()))?
+        } else {
+            bail!(
+                "{}: a map must be 2:1 (equirectangular) or 6:1 (cube strip +X,-X,+Y,-Y,+Z,-Z); got {w}x{h}",
+                self.envmap.display()
+            );
+        };
+        let read_s = start.elapsed().as_secs_f64();
+        let mut all: Vec<Lobe> = lobes.iter().map(|(_, l)| *l).collect();
+        if self.irradiance_size > 0 {
+            all.push(Lobe::Lambert);
+        }
+        let opts = BakeOptions {
+            eps: self.eps,
+            ..BakeOptions::default()
+        };
+        let t0 = Instant::now();
+        let baker =
+            Baker::new(&env, &opts, &all).with_context(|| format!("{}", self.envmap.display()))?;
+        let analysis_s = t0.elapsed().as_secs_f64();
+        if baker.input_negatives() > 0 {
+            eprintln!(
+                "note: {}: clamped {} negative samples to 0",
+                self.envmap.display(),
+                baker.input_negatives()
+            );
+        }
+        let bar = ProgressBar::new(all.len() as u64);
+        bar.set_style(
+            ProgressStyle::with_template("prefiltering {bar:30} {pos}/{len} levels [{elapsed}]")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        let mut chain = Vec::with_capacity(levels);
+        let mut report = Vec::with_capacity(levels);
+        for (m, (r, lobe)) in lobes.iter().enumerate() {
+            let t = Instant::now();
+            let size = (n >> m).max(1);
+            let (level, stats) = baker.level(lobe, size)?;
+            if stats.capped {
+                eprintln!(
+                    "warning: mip {m}: the lobe needs more than degree {} for --eps {}; its sharpest detail is truncated",
+                    stats.l_max, self.eps
+                );
+            }
+            report.push(json!({
+                "mip": m, "size": size,
+                "roughness": if r.is_nan() { None } else { Some(r) },
+                "lobe": lobe_json(lobe),
+                "lmax": stats.l_max, "capped": stats.capped,
+                "bright_samples": stats.bright_samples,
+                "negatives_clamped": stats.negatives_clamped,
+                "seconds": t.elapsed().as_secs_f64(),
+            }));
+            chain.push(level);
+            bar.inc(1);
+        }
+        let irradiance = if self.irradiance_size > 0 {
+            let t = Instant::now();
+            let (level, stats) = baker.level(&Lobe::Lambert, self.irradiance_size)?;
+            bar.inc(1);
+            Some((level, stats, t.elapsed().as_secs_f64()))
+        } else {
+            None
+        };
+        bar.finish_and_clear();
+        let sh = baker.source_sh(self.sh_lmax)?;
+        let bake_s = t0.elapsed().as_secs_f64();
+        // write everything into a staging folder, then move it into place
+        let files = Staging::new(&self.out_dir)?;
+        let mut half_clamped = 0;
+        if exr {
+            for (m, level) in chain.iter().enumerate() {
+                for (f, name) in FACE_FILE_NAMES.iter().enumerate() {
+                    files.write_exr(&format!("radiance_m{m}_{name}.exr"), level, f)?;
+                }
+            }
+            if let Some((level, _, _)) = &irradiance {
+                for (f, name) in FACE_FILE_NAMES.iter().enumerate() {
+                    files.write_exr(&format!("irradiance_{name}.exr"), level, f)?;
+                }
+            }
+        } else {
+            half_clamped += files.write_ktx2("radiance.ktx2", &chain)?;
+            if let Some((level, _, _)) = &irradiance {
+                half_clamped += files.write_ktx2("irradiance.ktx2", std::slice::from_ref(level))?;
+            }
+        }
+        if half_clamped > 0 {
+            eprintln!(
+                "note: clamped {half_clamped} values beyond the half-float range (65504) to it"
+            );
+        }
+        let lam = Lobe::Lambert.zonal(self.sh_lmax);
+        let bands = |irr: bool| -> Vec<[f64; 3]> {
+            (0..sh.data().len() / 3)
+                .map(|k| {
+                    let l = (k as f64).sqrt() as usize;
+                    let f = if irr { lam[l] } else { 1.0 };
+                    [0, 1, 2].map(|c| sh.data()[k * 3 + c] * f)
+                })
+                .collect()
+        };
+        let sh_json = json!({
+            "lmax": self.sh_lmax,
+            "basis": "real orthonormal SH, Condon-Shortley phase, flat index l(l+1)+m (ifd_sphere::sh; pyshtools 'ortho', csphase=-1); rows are coefficients, columns R, G, B",
+            "frame": "ifd's equirectangular frame: z up, azimuth 2 pi (u + 0.5) / W from +x towards +y; a world (glTF, y up) direction (x, y, z) is (-x, -z, y) here",
+            "quadrature": "exact for the map read as piecewise constant over its texels",
+            "radiance": bands(false),
+            "irradiance_over_pi": bands(true),
+        });
+        files.write_bytes(
+            "sh.json",
+            serde_json::to_string_pretty(&sh_json)?.as_bytes(),
+        )?;
+        files.write_sh_npy("sh.npy", &sh)?;
+        let written = files.commit()?;
+        let (bright, threshold) = baker.bright_texels();
+        self.report.emit(&json!({
+            "input": self.envmap.display().to_string(),
+            "width": env.width(), "height": env.height(),
+            "face_size": n, "mips": levels,
+            "roughness_mapping": self.roughness,
+            "lobe": self.lobe, "eps": self.eps,
+            "bright_texels": bright, "bright_threshold": threshold,
+            "levels": report,
+            "irradiance": irradiance.as_ref().map(|(l, s, secs)| json!({
+                "size": l.size, "lmax": s.l_max,
+                "negatives_clamped": s.negatives_clamped, "seconds": secs,
+            })),
+            "half_clamped": half_clamped,
+            "files": written,
+            "seconds": {
+                "read": read_s, "analysis": analysis_s, "bake": bake_s,
+                "total": start.elapsed().as_secs_f64(),
+            },
+        }))?;
+        Ok(())
+    }
+}
+
+fn lobe_json(lobe: &Lobe) -> serde_json::Value {
+    match *lobe {
+        Lobe::Mirror => json!({"kind": "mirror"}),
+        Lobe::Ggx { alpha } => json!({"kind": "ggx", "alpha": alpha}),
+        Lobe::Phong { s } => json!({"kind": "phong", "s": s}),
+        Lobe::Lambert => json!({"kind": "lambert"}),
+    }
+}
+
+/// Output files written into a hidden staging folder inside the output
+/// folder, moved into place only when all are complete.
+struct Staging {
+    out: PathBuf,
+    dir: PathBuf,
+    names: std::cell::RefCell<Vec<String>>,
+}
+
+impl Staging {
+    fn new(out: &Path) -> Result<Self> {
+        if out.exists() && !out.is_dir() {
+            bail!("{}: exists and is not a folder", out.display());
+        }
+        std::fs::create_dir_all(out)
+            .with_context(|| format!("{}: cannot create the output folder", out.display()))?;
+        let dir = out.join(format!(".ifd-staging-{}", std::process::id()));
+        std::fs::create_dir_all(&dir)
+            .with_context(|| format!("{}: cannot write into the output folder", out.display()))?;
+        Ok(Self {
+            out: out.to_path_buf(),
+            dir,
+            names: std::cell::RefCell::new(Vec::new()),
+        })
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.names.borrow_mut().push(name.to_string());
+        self.dir.join(name)
+    }
+
+    fn write_bytes(&self, name: &str, bytes: &[u8]) -> Result<()> {
+        let p = self.path(name);
+        std::fs::write(&p, bytes).with_context(|| format!("{}: cannot write", p.display()))
+    }
+
+    fn write_ktx2(&self, name: &str, levels: &[CubeLevel]) -> Result<usize> {
+        let p = self.path(name);
+        Ok(ifd_ibl::ktx2::write_cube(&p, levels)?)
+    }
+
+    fn write_exr(&self, name: &str, level: &CubeLevel, face: usize) -> Result<()> {
+        let p = self.path(name);
+        let img = level.face_image(face)?;
+        ifd_image::write_image(&p, &img, &ifd_image::WriteOptions::default())?;
+        Ok(())
+    }
+
+    fn write_sh_npy(&self, name: &str, sh: &ifd_sphere::ShCoeffs) -> Result<()> {
+        let p = self.path(name);
+        sh.write_npy(&p)
+            .with_context(|| format!("{}: cannot write", p.display()))
+    }
+
+    /// Moves every staged file into the output folder; returns their names.
+    fn commit(self) -> Result<Vec<String>> {
+        let names = self.names.borrow().clone();
+        for name in &names {
+            let to = self.out.join(name);
+            std::fs::rename(self.dir.join(name), &to)
+                .with_context(|| format!("{}: cannot move into place", to.display()))?;
+        }
+        Ok(names)
+    }
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        // on success only the empty folder is left; on failure its partial files
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
