@@ -391,7 +391,7 @@ def test_dfg_table_matches_brute_force(run_ifd, tmp_path):
 @pytest.mark.parametrize("args,needle", [
     (["--face-size", 100], "power of two"),
     (["--face-size", 16, "--mips", 9], "--mips"),
-    (["--brdf", "cooktorrance"], "unknown lobe"),
+    (["--lobe", "cooktorrance"], "unknown lobe"),
     (["--lobe", "phong:s=-3"], "phong:s=S"),
     (["--brdf", "ggx"], "--lobe"),
     (["-o", "x"], "--out-dir"),

@@ -105,7 +105,7 @@ def test_conversion_is_the_frame_change():
 
 def test_radiance_sh9_matches_cmgen(run_ifd, tmp_path):
     run_ifd("envmap", "prefilter", TESTDATA / "forest.hdr", "--face-size", 16, "--sh-lmax", 2,
-            "-o", tmp_path / "o")
+            "--out-dir", tmp_path / "o")
     c = np.load(tmp_path / "o" / "sh.npy")
     assert c.shape == (9, 3)
     ref = read_cmgen_sh(FIXTURE)
