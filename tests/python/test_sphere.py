@@ -112,8 +112,9 @@ def test_equirect_analysis_matches_ducc0(run_ifd, tmp_path):
     rng = np.random.default_rng(1)
     img = rng.random((H, W, 3)).astype(np.float32)
     np.save(tmp_path / "map.npy", img)
-    out = json.loads(run_ifd("sphere", "sh", "--json", tmp_path / "map.npy", "--lmax", L, "-o", tmp_path / "c.npy").stdout)
-    assert out["negatives"] == 0
+    out = json.loads(run_ifd("sphere", "sh", "--json", tmp_path / "map.npy", "--lmax", L, "--projection", "centre",
+                             "-o", tmp_path / "c.npy").stdout)
+    assert out["negatives"] == 0 and out["projection"] == "centre"
     c = np.load(tmp_path / "c.npy")
     assert c.shape == ((L + 1) ** 2, 3)
     v = np.arange(H)
@@ -122,6 +123,63 @@ def test_equirect_analysis_matches_ducc0(run_ifd, tmp_path):
         mp = (img[:, :, ch].astype(np.float64) * dA[:, None])[None]
         alm = ducc0.sht.experimental.adjoint_synthesis_2d(map=mp, spin=0, lmax=L, geometry="F1", phi0=np.pi / W)[0]
         np.testing.assert_allclose(c[:, ch], alm_to_real(alm, L), rtol=0, atol=1e-10)
+
+
+def real_sh(lmax: int, z: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Real SH (Sloan's convention, flat index l(l+1)+m) at (cos theta, phi), from scipy."""
+    theta = np.arccos(np.clip(z, -1, 1))
+    out = np.empty(z.shape + ((lmax + 1) ** 2,))
+    for l in range(lmax + 1):
+        for m in range(-l, l + 1):
+            Y = scipy_special.sph_harm_y(l, abs(m), theta, phi)
+            out[..., l * (l + 1) + m] = Y.real if m == 0 else np.sqrt(2) * (Y.real if m > 0 else Y.imag)
+    return out
+
+
+def test_texel_projection_integrates_each_texel(run_ifd, tmp_path):
+    """The default projection of a 2:1 map is the exact integral of the map read
+    as piecewise constant over its texels (what `ifd render`'s oracle and the IBL
+    baker integrate): checked against Gauss-Legendre quadrature over every texel
+    in (cos theta, phi), written here with scipy's SH. The pixel-centre rule
+    misses it by far more than the tolerance, so the check cannot pass by
+    accident; a cube strip has no texel-exact projection and says so."""
+    H, W, L = 8, 16, 6
+    rng = np.random.default_rng(11)
+    img = rng.random((H, W)).astype(np.float32)
+    np.save(tmp_path / "map.npy", img)
+    rep = json.loads(run_ifd("sphere", "sh", tmp_path / "map.npy", "--lmax", L, "-o", tmp_path / "t.npy",
+                             "--json").stdout)
+    assert rep["projection"] == "texel"
+    run_ifd("sphere", "sh", tmp_path / "map.npy", "--lmax", L, "--projection", "centre", "-o", tmp_path / "c.npy")
+    texel, centre = np.load(tmp_path / "t.npy")[:, 0], np.load(tmp_path / "c.npy")[:, 0]
+    x, w = np.polynomial.legendre.leggauss(10)
+    want = np.zeros((L + 1) ** 2)
+    for v in range(H):
+        z0, z1 = np.cos(np.pi * (v + 1) / H), np.cos(np.pi * v / H)
+        zs, wz = 0.5 * (z1 - z0) * x + 0.5 * (z1 + z0), 0.5 * (z1 - z0) * w
+        for u in range(W):
+            p0, p1 = 2 * np.pi * u / W, 2 * np.pi * (u + 1) / W
+            ps, wp = 0.5 * (p1 - p0) * x + 0.5 * (p1 + p0), 0.5 * (p1 - p0) * w
+            Z, P = np.meshgrid(zs, ps, indexing="ij")
+            Y = real_sh(L, Z, P)
+            want += float(img[v, u]) * np.einsum("ij,ijk->k", np.outer(wz, wp), Y)
+    tol = 1e-5 * np.abs(want).max()
+    assert np.abs(texel - want).max() < tol, np.abs(texel - want).max()
+    assert np.abs(centre - want).max() > 10 * tol
+    # the Python module projects the same way
+    assert np.array_equal(np.asarray(ifd_sh(img, L)).reshape(-1), texel)
+    strip = np.ones((4, 24), dtype=np.float32)
+    np.save(tmp_path / "strip.npy", strip)
+    p = run_ifd("sphere", "sh", tmp_path / "strip.npy", "--lmax", 2, "--projection", "texel", "-o", tmp_path / "s.npy",
+                check=False)
+    assert p.returncode == 2 and "texel-exact cube projection is not implemented" in p.stderr, p.stderr
+    assert not (tmp_path / "s.npy").exists()
+
+
+def ifd_sh(img, lmax):
+    import ifd
+
+    return ifd.sphere.sh(img, lmax)
 
 
 def test_synthesis_matches_ducc0(run_ifd, tmp_path):
@@ -253,15 +311,17 @@ def equirect_dirs(H, W):
 @pytest.mark.parametrize("spec,lmax,directions", [("vmf:kappa=10", 16, "fibonacci"),
                                                    ("aniso-gauss:s1=0.6,s2=0.25", 10, "shared")])
 def test_sphere_filter_matches_quadrature(run_ifd, tmp_path, spec, lmax, directions):
-    """`ifd sphere filter` = sum over input texels of E(w') k_L(R(w)^T w') dA', R(w) = Rz(phi) Ry(theta)."""
+    """`ifd sphere filter --projection centre` = sum over input texels of E(w') k_L(R(w)^T w') dA'
+    (texel centres w'), R(w) = Rz(phi) Ry(theta). The default texel projection differs from it only in
+    the analysis, checked by test_texel_projection_integrates_each_texel."""
     H, W = 24, 48
     rng = np.random.default_rng(5)
     env = rng.random((H, W, 2)).astype(np.float32) ** 4  # a few bright texels
     np.save(tmp_path / "env.npy", env)
     run_ifd("sphere", "decompose", spec, "--lmax", lmax, "--directions", directions, "-o", tmp_path / "d.json")
     out = json.loads(run_ifd("sphere", "filter", "--json", tmp_path / "env.npy", "--decomp", tmp_path / "d.json",
-                             "--raw", "--size", "32x16", "-o", tmp_path / "f.npy").stdout)
-    assert out["layout"] == "equirect" and out["scale"] == 1.0
+                             "--raw", "--size", "32x16", "--projection", "centre", "-o", tmp_path / "f.npy").stdout)
+    assert out["layout"] == "equirect" and out["scale"] == 1.0 and out["projection"] == "centre"
     got = np.load(tmp_path / "f.npy").astype(np.float64)
     assert got.shape == (16, 32, 2)
     k = kernel_fn(spec)

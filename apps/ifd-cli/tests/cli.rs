@@ -940,3 +940,52 @@ mod grammar {
         }
     }
 }
+
+/// `ifd paper all --quick` (what CI runs of the studies): every study runs at
+/// small sizes and leaves its page, with the paper's account, the command and
+/// the report, and its figures.
+#[test]
+fn paper_all_quick_writes_every_page() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let out = common::run(
+        common::ifd_command()
+            .current_dir(&root)
+            .args(["paper", "all", "--quick", "--out-dir"])
+            .arg(dir.path()),
+    );
+    assert_eq!(out.0, 0, "{}", out.2);
+    let (_, list, _) = ifd(&["paper", "list"]);
+    for name in [
+        "isd-convergence",
+        "isd-condition",
+        "isd-mirror",
+        "isd-visibility",
+        "shrm-table4",
+        "shrm-table5",
+        "zhf-sparsity",
+    ] {
+        let page = std::fs::read_to_string(dir.path().join(format!("{name}.md")))
+            .unwrap_or_else(|e| panic!("{name}.md: {e}"));
+        assert!(page.contains("## What the paper reports"), "{name}: {page}");
+        assert!(
+            page.contains(&format!("ifd paper {name} ")),
+            "{name}: {page}"
+        );
+        assert!(
+            list.contains(name),
+            "{name} not in `ifd paper list`: {list}"
+        );
+    }
+    // figures are written and linked
+    assert!(dir.path().join("isd-condition/cond.png").is_file());
+    let cond = std::fs::read_to_string(dir.path().join("isd-condition.md")).unwrap();
+    assert!(cond.contains("](isd-condition/cond.png)"), "{cond}");
+    // the paper's numbers sit beside ours where the paper gives numbers
+    let t5 = std::fs::read_to_string(dir.path().join("shrm-table5.md")).unwrap();
+    assert!(t5.contains("| sigma |") && t5.contains("paper"), "{t5}");
+    // a name that is not a study is refused with the list
+    let (code, _, err) = ifd(&["paper", "all", "--only", "nope"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("isd-mirror"), "{err}");
+}

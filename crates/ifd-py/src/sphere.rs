@@ -4,7 +4,7 @@
 use ifd_sphere::filter::Decomposition;
 use ifd_sphere::kernel::{Kernel, project_function};
 use ifd_sphere::profile::{IsdBasis, Profile, check_isd_degree};
-use ifd_sphere::transform::{Negatives, analyze_cubemap};
+use ifd_sphere::transform::{Negatives, Projection, analyze_map};
 use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, Sharing};
 use ifd_sphere::{EquirectTransform, Rotation, ShCoeffs, ShRotation};
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
@@ -44,16 +44,32 @@ fn coeffs_array(py: Python<'_>, c: ShCoeffs, flat: bool) -> Bound<'_, PyArrayDyn
     arrays::array_f64(py, &shape, c.data().to_vec())
 }
 
+/// `projection`: `"texel"`, `"centre"` or `None` (texel for 2:1 maps, centre
+/// for cube strips), as `ifd sphere sh --projection`.
+fn parse_projection(projection: Option<&str>) -> PyResult<Option<Projection>> {
+    match projection {
+        None => Ok(None),
+        Some("texel") => Ok(Some(Projection::Texel)),
+        Some("centre") => Ok(Some(Projection::Centre)),
+        Some(other) => Err(errors::value(
+            "projection",
+            format!("{other:?}: use \"texel\" or \"centre\""),
+        )),
+    }
+}
+
 /// The SH coefficients `((L+1)^2, C)` of an equirectangular (2:1) or
 /// cubemap-strip (6:1) map: `ifd sphere sh`.
 #[pyfunction]
-#[pyo3(signature = (env, lmax, *, keep_negatives=false))]
+#[pyo3(signature = (env, lmax, *, keep_negatives=false, projection=None))]
 fn sphere_sh<'py>(
     py: Python<'py>,
     env: PyReadonlyArrayDyn<'py, f32>,
     lmax: usize,
     keep_negatives: bool,
+    projection: Option<&str>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let projection = parse_projection(projection)?;
     let img = arrays::image_view("env", &env)?.to_image();
     let (w, h) = (img.width(), img.height());
     let neg = if keep_negatives {
@@ -62,13 +78,7 @@ fn sphere_sh<'py>(
         Negatives::Clamp
     };
     let analysis = py
-        .detach(|| {
-            if w == 6 * h {
-                analyze_cubemap(&img, lmax, neg)
-            } else {
-                EquirectTransform::new(lmax, w, h)?.analyze(&img, neg)
-            }
-        })
+        .detach(|| analyze_map(&img, lmax, neg, projection).map(|(a, _)| a))
         .map_err(|e| match e {
             ifd_sphere::SphereError::NotEquirect { .. } => errors::value(
                 "env",
@@ -280,7 +290,7 @@ fn sphere_decompose(
 /// unless `raw`; `size` is the output's `(width, height)` (2:1 or 6:1;
 /// default the input's).
 #[pyfunction]
-#[pyo3(signature = (env, decomposition, *, size=None, raw=false, keep_negatives=false))]
+#[pyo3(signature = (env, decomposition, *, size=None, raw=false, keep_negatives=false, projection=None))]
 fn sphere_filter<'py>(
     py: Python<'py>,
     env: PyReadonlyArrayDyn<'py, f32>,
@@ -288,11 +298,13 @@ fn sphere_filter<'py>(
     size: Option<(usize, usize)>,
     raw: bool,
     keep_negatives: bool,
+    projection: Option<&str>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
     use ifd_sphere::filter::{MapLayout, Prefiltered};
+    let projection = parse_projection(projection)?;
     let img = arrays::image_view("env", &env)?.to_image();
     let (w, h) = (img.width(), img.height());
-    let layout = MapLayout::from_size(w, h).map_err(|_| {
+    MapLayout::from_size(w, h).map_err(|_| {
         errors::value(
             "env",
             format!(
@@ -319,13 +331,7 @@ fn sphere_filter<'py>(
         Negatives::Clamp
     };
     let out = py.detach(|| -> PyResult<ifd_image::Image> {
-        let a = match layout {
-            MapLayout::Equirect => {
-                EquirectTransform::new(l, w, h).and_then(|t| t.analyze(&img, neg))
-            }
-            MapLayout::CubemapStrip => analyze_cubemap(&img, l, neg),
-        }
-        .map_err(|e| errors::value("env", e))?;
+        let (a, _) = analyze_map(&img, l, neg, projection).map_err(|e| errors::value("env", e))?;
         let integral = dec.kernel_integral().map_err(|e| errors::value("", e))?;
         let l1: f64 = dec.weights.data.iter().map(|v| v.abs()).sum();
         let scale = if raw {

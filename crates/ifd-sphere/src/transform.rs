@@ -823,6 +823,83 @@ pub fn cube_texel(face: usize, i: usize, j: usize, n: usize) -> ([f64; 3], f64) 
     (d, sa)
 }
 
+/// How a map's texels are projected onto SH.
+///
+/// One rule for every front end (`ifd sphere sh`, `ifd sphere filter`, the
+/// Python module), chosen by [`analyze_map`]: an equirectangular map is
+/// projected texel-exactly by default, the very function `ifd render`'s oracle
+/// and the IBL baker integrate, so SH read from `ifd sphere sh` agree with
+/// them up to the band limit; the pixel-centre rule is there for comparison
+/// with SH transforms that sample at pixel centres (ducc0, HEALPix-style
+/// codes). A cubemap strip is projected at its texel centres with each
+/// texel's exact solid angle: a texel-exact cube projection is not
+/// implemented, and asking for one is an error.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Projection {
+    /// The map read as piecewise constant over its texels, each texel's
+    /// integral exact ([`EquirectTransform::analyze_texels`]).
+    Texel,
+    /// Pixel-centre quadrature with each texel's exact solid angle
+    /// ([`EquirectTransform::analyze`], [`analyze_cubemap`]).
+    Centre,
+}
+
+impl Projection {
+    /// The rule's name, as the CLI spells it.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Texel => "texel",
+            Self::Centre => "centre",
+        }
+    }
+}
+
+/// Projects a map onto SH up to `l_max`: a 2:1 equirectangular map or a 6:1
+/// cubemap strip, told apart by shape, with `projection` (`None`: texel for
+/// an equirectangular map, centre for a cube strip; see [`Projection`]).
+/// Returns the analysis and the projection used.
+///
+/// ```
+/// use ifd_sphere::transform::{Negatives, Projection, analyze_map};
+/// let img = ifd_image::Image::from_vec(16, 8, 1, vec![1.0; 128])?;
+/// let (a, used) = analyze_map(&img, 4, Negatives::Keep, None)?;
+/// assert_eq!(used, Projection::Texel);
+/// assert!((a.coeffs.get(0, 0, 0) - (4.0 * std::f64::consts::PI).sqrt()).abs() < 1e-8);
+/// // a cube strip has no texel-exact projection
+/// let strip = ifd_image::Image::from_vec(24, 4, 1, vec![1.0; 96])?;
+/// assert!(analyze_map(&strip, 4, Negatives::Keep, Some(Projection::Texel)).is_err());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// [`SphereError::NotEquirect`] for other shapes, [`SphereError::Parameter`]
+/// for a texel projection of a cube strip, and the errors of the transforms.
+pub fn analyze_map(
+    img: &Image,
+    l_max: usize,
+    negatives: Negatives,
+    projection: Option<Projection>,
+) -> Result<(Analysis, Projection)> {
+    let (w, h) = (img.width(), img.height());
+    if h >= 1 && w == 6 * h {
+        if projection == Some(Projection::Texel) {
+            return Err(SphereError::Parameter {
+                name: "projection",
+                value: "texel".into(),
+                reason: "a cube strip is projected at its texel centres (exact solid angles); \
+                         a texel-exact cube projection is not implemented",
+            });
+        }
+        return Ok((analyze_cubemap(img, l_max, negatives)?, Projection::Centre));
+    }
+    let t = EquirectTransform::new(l_max, w, h)?;
+    match projection.unwrap_or(Projection::Texel) {
+        Projection::Texel => Ok((t.analyze_texels(img, negatives)?, Projection::Texel)),
+        Projection::Centre => Ok((t.analyze(img, negatives)?, Projection::Centre)),
+    }
+}
+
 /// Projects a cubemap strip (`W = 6H`, faces `+X, -X, +Y, -Y, +Z, -Z`) onto SH.
 ///
 /// # Errors

@@ -113,7 +113,9 @@ def smooth(
 def compare(
     a: F32, b: F32, *, data_range: Optional[float] = None, crop_border: int = 0
 ) -> dict[str, Any]: ...
-def sphere_sh(env: F32, lmax: int, *, keep_negatives: bool = False) -> F64: ...
+def sphere_sh(
+    env: F32, lmax: int, *, keep_negatives: bool = False, projection: Optional[str] = None
+) -> F64: ...
 def sphere_synthesize(coeffs: F64, width: int, height: int) -> F32: ...
 def sphere_rotate(
     coeffs: F64, zyz: tuple[float, float, float], *, method: str = "zhf"
@@ -134,6 +136,7 @@ def sphere_filter(
     size: Optional[tuple[int, int]] = None,
     raw: bool = False,
     keep_negatives: bool = False,
+    projection: Optional[str] = None,
 ) -> F32: ...
 def sphere_shade(
     coeffs: F64,

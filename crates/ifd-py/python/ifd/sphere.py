@@ -37,16 +37,21 @@ def _coeffs(c, name: str) -> _np.ndarray:
     return arr
 
 
-def sh(env, lmax: int, *, keep_negatives: bool = False) -> _np.ndarray:
+def sh(env, lmax: int, *, keep_negatives: bool = False, projection=None) -> _np.ndarray:
     """SH coefficients ``((L+1)^2, C)`` of an environment map (``ifd sphere sh``).
 
     ``env`` is equirectangular (``W = 2H``) or a cubemap strip (``W = 6H``,
     faces +X,-X,+Y,-Y,+Z,-Z), with the planar module's dtype rules. Negative
-    samples are clamped to 0 unless ``keep_negatives``.
+    samples are clamped to 0 unless ``keep_negatives``. ``projection``:
+    ``"texel"`` (each texel integrated exactly, what the renderer and the IBL
+    baker integrate; the default for 2:1 maps) or ``"centre"`` (pixel-centre
+    quadrature with exact solid angles; the only rule for cube strips).
     """
     from . import _image
 
-    return _ifd.sphere_sh(_image(env, "env"), int(lmax), keep_negatives=keep_negatives)
+    return _ifd.sphere_sh(
+        _image(env, "env"), int(lmax), keep_negatives=keep_negatives, projection=projection
+    )
 
 
 def synthesize(coeffs, width: int, height: int) -> _np.ndarray:
@@ -89,7 +94,13 @@ def decompose(
 
 
 def filter(  # noqa: A001
-    env, decomposition: Decomposition, size=None, *, raw: bool = False, keep_negatives: bool = False
+    env,
+    decomposition: Decomposition,
+    size=None,
+    *,
+    raw: bool = False,
+    keep_negatives: bool = False,
+    projection=None,
 ) -> _np.ndarray:
     """Filter an environment map with a spherical decomposition (``ifd sphere filter``).
 
@@ -98,14 +109,20 @@ def filter(  # noqa: A001
     meridian; singular at the poles for anisotropic kernels) applied to the
     map, by the decomposition's rotated lobes (ISD Eq. 6/13/14). The kernel
     is normalised to unit integral unless ``raw``. ``size`` is the output's
-    ``(width, height)``, 2:1 or 6:1 (default the input's). Returns
-    ``(H, W, C)`` float32; band-limited results may ring below zero.
+    ``(width, height)``, 2:1 or 6:1 (default the input's). ``projection`` as
+    in :func:`sh`. Returns ``(H, W, C)`` float32; band-limited results may
+    ring below zero.
     """
     from . import _image
 
     sz = None if size is None else (int(size[0]), int(size[1]))
     return _ifd.sphere_filter(
-        _image(env, "env"), decomposition, size=sz, raw=raw, keep_negatives=keep_negatives
+        _image(env, "env"),
+        decomposition,
+        size=sz,
+        raw=raw,
+        keep_negatives=keep_negatives,
+        projection=projection,
     )
 
 

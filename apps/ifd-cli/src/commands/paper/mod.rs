@@ -6,6 +6,7 @@
 use anyhow::{Result, bail};
 use clap::{Args, Subcommand};
 
+pub mod all;
 pub mod isd_condition;
 pub mod isd_convergence;
 pub mod isd_mirror;
@@ -25,6 +26,8 @@ pub struct Paper {
 enum PaperCommand {
     /// List the studies, what each regenerates, and the scripted ones with their commands.
     List,
+    /// Run every study (or --only some) into one Markdown page each, the paper beside this run.
+    All(all::All),
     /// ISD Fig. 4: error of ISD and its SH reference against the exact oracle as L grows.
     IsdConvergence(Box<isd_convergence::IsdConvergence>),
     /// ISD Fig. 13: condition number of M against L for every profile, per-band and shared directions.
@@ -73,6 +76,7 @@ impl Paper {
                 list();
                 Ok(())
             }
+            PaperCommand::All(c) => c.run(),
             PaperCommand::IsdConvergence(c) => c.run(),
             PaperCommand::IsdCondition(c) => c.run(),
             PaperCommand::IsdMirror(c) => c.run(),
@@ -98,7 +102,7 @@ fn list() {
     for sub in paper
         .into_iter()
         .flat_map(clap::Command::get_subcommands)
-        .filter(|s| !matches!(s.get_name(), "list" | "help"))
+        .filter(|s| !matches!(s.get_name(), "list" | "all" | "help"))
     {
         println!(
             "  {:<18} {}",
@@ -106,6 +110,10 @@ fn list() {
             sub.get_about().map(ToString::to_string).unwrap_or_default()
         );
     }
+    println!(
+        "\n`ifd paper all [--quick]` runs {} into one page each (docs/papers/NAME.md)",
+        all::names().collect::<Vec<_>>().join(", ")
+    );
     println!("\nscripted studies (run from the repository root):");
     for (name, what, script) in SCRIPTED {
         println!("  {name:<24} {what}\n  {:<24} {script}", "");

@@ -6,10 +6,13 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 
 use ifd_sphere::filter::{MapLayout, Prefiltered};
-use ifd_sphere::transform::{Negatives, analyze_cubemap, analyze_equirect};
+use ifd_sphere::transform::{Negatives, analyze_map};
 use serde_json::json;
 
-use super::{clamp_output_negatives, note_input_negatives, read_decomposition, stores_negatives};
+use super::{
+    ProjectionArg, clamp_output_negatives, note_input_negatives, read_decomposition,
+    stores_negatives,
+};
 use crate::input::{InputOptions, parse_size};
 use crate::options::ReportOptions;
 
@@ -46,6 +49,12 @@ pub(super) struct FilterCmd {
     /// Keep negative input samples (default: clamp them to 0 and report how many).
     #[arg(long)]
     keep_negatives: bool,
+    /// How the map's texels are projected onto SH: texel (each texel integrated exactly, the
+    /// function `ifd render` and `ifd envmap prefilter` integrate; the default for 2:1 maps) or
+    /// centre (pixel-centre quadrature with exact solid angles, as ducc0; the only rule for
+    /// cube strips).
+    #[arg(long, value_enum)]
+    projection: Option<ProjectionArg>,
     /// Output map.
     #[arg(short, long)]
     output: PathBuf,
@@ -63,7 +72,7 @@ impl FilterCmd {
         stores_negatives(&self.output)?;
         let img = self.input.read(&self.envmap)?.image;
         let (w, h) = (img.width(), img.height());
-        let in_layout = MapLayout::from_size(w, h).map_err(|_| {
+        MapLayout::from_size(w, h).map_err(|_| {
             anyhow::anyhow!(
                 "{}: a map must be 2:1 (equirectangular, W = 2H, H >= 2) or 6:1 (cubemap \
                  strip +X,-X,+Y,-Y,+Z,-Z); got {w}x{h}",
@@ -94,11 +103,9 @@ impl FilterCmd {
             Negatives::Clamp
         };
         let start = std::time::Instant::now();
-        let a = match in_layout {
-            MapLayout::Equirect => analyze_equirect(&img, l, neg),
-            MapLayout::CubemapStrip => analyze_cubemap(&img, l, neg),
-        }
-        .with_context(|| format!("{}", self.envmap.display()))?;
+        let (a, projection) =
+            analyze_map(&img, l, neg, self.projection.map(ProjectionArg::projection))
+                .with_context(|| format!("{}", self.envmap.display()))?;
         note_input_negatives(&self.envmap, a.negatives_clamped, self.keep_negatives);
         let integral = dec.kernel_integral()?;
         let l1: f64 = dec.weights.data.iter().map(|v| v.abs()).sum();
@@ -127,7 +134,7 @@ impl FilterCmd {
         let clamped = clamp_output_negatives(&self.output, &mut out, "result")?;
         crate::output::write_output(&self.output, &out, &ifd_image::WriteOptions::default())?;
         self.report.emit(&json!({
-            "lmax": l, "channels": out.channels(),
+            "lmax": l, "channels": out.channels(), "projection": projection.name(),
             "layout": match MapLayout::from_size(ow, oh)? {
                 MapLayout::Equirect => "equirect",
                 MapLayout::CubemapStrip => "cubemap-strip",

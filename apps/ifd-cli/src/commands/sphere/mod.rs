@@ -134,3 +134,21 @@ pub(super) fn read_decomposition(path: &Path) -> Result<Decomposition> {
         .with_context(|| format!("{}: cannot read the decomposition", path.display()))?;
     Decomposition::from_json(&text).with_context(|| format!("{}", path.display()))
 }
+
+/// `--projection` values of `sphere sh` and `sphere filter`.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub(super) enum ProjectionArg {
+    /// Each texel integrated exactly (the map read as piecewise constant).
+    Texel,
+    /// Pixel-centre quadrature with each texel's exact solid angle.
+    Centre,
+}
+
+impl ProjectionArg {
+    fn projection(self) -> ifd_sphere::transform::Projection {
+        match self {
+            Self::Texel => ifd_sphere::transform::Projection::Texel,
+            Self::Centre => ifd_sphere::transform::Projection::Centre,
+        }
+    }
+}

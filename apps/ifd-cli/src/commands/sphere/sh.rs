@@ -6,10 +6,10 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 
 use ifd_sphere::EquirectTransform;
-use ifd_sphere::transform::{Negatives, analyze_cubemap};
+use ifd_sphere::transform::{Negatives, analyze_map};
 use serde_json::json;
 
-use super::{clamp_output_negatives, note_input_negatives, stores_negatives};
+use super::{ProjectionArg, clamp_output_negatives, note_input_negatives, stores_negatives};
 use crate::input::InputOptions;
 use crate::options::ReportOptions;
 
@@ -38,6 +38,12 @@ pub(super) struct ShCmd {
     /// Keep negative samples (default: clamp them to 0 and report how many).
     #[arg(long)]
     keep_negatives: bool,
+    /// How the map's texels are projected onto SH: texel (each texel integrated exactly, the
+    /// function `ifd render` and `ifd envmap prefilter` integrate; the default for 2:1 maps) or
+    /// centre (pixel-centre quadrature with exact solid angles, as ducc0; the only rule for
+    /// cube strips).
+    #[arg(long, value_enum)]
+    projection: Option<ProjectionArg>,
     #[command(flatten)]
     input: InputOptions,
     #[command(flatten)]
@@ -82,11 +88,12 @@ impl ShCmd {
             Negatives::Clamp
         };
         let start = std::time::Instant::now();
-        let a = if cube {
-            analyze_cubemap(&img, self.lmax, neg)
-        } else {
-            t.analyze(&img, neg)
-        }
+        let (a, projection) = analyze_map(
+            &img,
+            self.lmax,
+            neg,
+            self.projection.map(ProjectionArg::projection),
+        )
         .with_context(|| format!("{}", self.envmap.display()))?;
         let secs = start.elapsed().as_secs_f64();
         note_input_negatives(&self.envmap, a.negatives_clamped, self.keep_negatives);
@@ -100,6 +107,7 @@ impl ShCmd {
         self.report.emit(&json!({
             "lmax": self.lmax, "channels": a.coeffs.channels(),
             "layout": if cube { "cubemap-strip" } else { "equirect" },
+            "projection": projection.name(),
             "width": w, "height": h,
             "negatives": a.negatives_clamped, "seconds": secs,
             "reconstruct_negatives_clamped": rec_clamped,
