@@ -926,20 +926,22 @@ mod grammar {
     fn paper_list_names_every_study() {
         let (code, out, err) = ifd(&["paper", "list"]);
         assert_eq!(code, 0, "{err}");
-        for name in [
-            "isd-convergence",
-            "isd-condition",
-            "isd-mirror",
-            "isd-visibility",
-            "shrm-table4",
-            "shrm-table5",
-            "zhf-sparsity",
-            "tests/bench/zhf_table2.py",
-        ] {
+        for name in STUDIES.iter().chain(&["tests/bench/zhf_table2.py"]) {
             assert!(out.contains(name), "{name}: {out}");
         }
     }
 }
+
+/// The studies of `ifd paper`.
+const STUDIES: [&str; 7] = [
+    "isd-convergence",
+    "isd-condition",
+    "isd-mirror",
+    "isd-visibility",
+    "shrm-table4",
+    "shrm-table5",
+    "zhf-sparsity",
+];
 
 /// `ifd paper all --quick` (what CI runs of the studies): every study runs at
 /// small sizes and leaves its page, with the paper's account, the command and
@@ -956,15 +958,7 @@ fn paper_all_quick_writes_every_page() {
     );
     assert_eq!(out.0, 0, "{}", out.2);
     let (_, list, _) = ifd(&["paper", "list"]);
-    for name in [
-        "isd-convergence",
-        "isd-condition",
-        "isd-mirror",
-        "isd-visibility",
-        "shrm-table4",
-        "shrm-table5",
-        "zhf-sparsity",
-    ] {
+    for name in STUDIES {
         let page = std::fs::read_to_string(dir.path().join(format!("{name}.md")))
             .unwrap_or_else(|e| panic!("{name}.md: {e}"));
         assert!(page.contains("## What the paper reports"), "{name}: {page}");

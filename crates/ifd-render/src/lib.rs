@@ -24,7 +24,6 @@
 //!
 //! # Modules
 //! - [`camera`]: the pinhole camera.
-//! - [`convergence`]: error against the oracle as `L` grows (ISD Fig. 4), CSV and plot.
 //! - [`scene`]: sphere, torus, plane, meshes.
 //! - [`mesh`]: OBJ meshes and their BVH.
 //! - [`gbuffer`]: what each pixel's ray sees (frame, view, map values), for the CPU and GPU shaders.
@@ -40,7 +39,6 @@
 mod error;
 
 pub mod camera;
-pub mod convergence;
 pub mod envmap;
 pub mod gbuffer;
 pub mod hit;

@@ -12,8 +12,8 @@ use clap::Args;
 /// DIR/NAME.md, with what the paper reports, the command, its run time, its
 /// report and its figures (DIR/NAME/). Run from the repository root (the
 /// studies read testdata/forest.hdr). With --quick the studies run at small
-/// sizes (about a minute in all; what CI runs); without it, at the sizes of
-/// the documentation (tens of minutes on 2 cores).
+/// sizes (seconds in all; what CI runs); without it, at the sizes of the
+/// documentation (about 9 minutes on 2 cores).
 #[derive(Debug, Args)]
 pub struct All {
     /// Small sizes: checks that every study runs, not the papers' numbers.
@@ -28,8 +28,8 @@ pub struct All {
 }
 
 /// One study: its name, the paper's account, its arguments at small and at
-/// full size (`{out}` stands for the study's folder), and a file of its
-/// output to inline in the page.
+/// full size (`{out}` stands for the study's folder), a file of its output to
+/// inline in the page, and the figures the page shows.
 struct Study {
     name: &'static str,
     title: &'static str,
@@ -37,6 +37,7 @@ struct Study {
     quick: &'static str,
     full: &'static str,
     inline: Option<&'static str>,
+    figures: &'static [&'static str],
 }
 
 const STUDIES: &[Study] = &[
@@ -54,6 +55,7 @@ const STUDIES: &[Study] = &[
                --size 128x128 --no-sh --csv {out}/errors.csv --plot {out}/errors.png \
                --grid {out}/grid.png",
         inline: None,
+        figures: &["errors.png", "grid.png"],
     },
     Study {
         name: "isd-condition",
@@ -65,6 +67,7 @@ const STUDIES: &[Study] = &[
         quick: "--lmax 6 --csv {out}/cond.csv --plot {out}/cond.png",
         full: "--lmax 16 --csv {out}/cond.csv --plot {out}/cond.png",
         inline: None,
+        figures: &["cond.png"],
     },
     Study {
         name: "isd-mirror",
@@ -76,6 +79,7 @@ const STUDIES: &[Study] = &[
                 --out-dir {out}",
         full: "--env testdata/forest.hdr --out-dir {out}",
         inline: Some("table.md"),
+        figures: &["strip.png"],
     },
     Study {
         name: "isd-visibility",
@@ -87,6 +91,7 @@ const STUDIES: &[Study] = &[
                 --rays 512 --out-dir {out}",
         full: "--env testdata/forest.hdr --brdf phong:s=8 --degrees 2..14:2 --out-dir {out}",
         inline: None,
+        figures: &["strip.png", "error.png"],
     },
     Study {
         name: "shrm-table4",
@@ -98,6 +103,7 @@ const STUDIES: &[Study] = &[
                 --csv {out}/table4.csv --plot {out}/table4.png",
         full: "testdata/forest.hdr --csv {out}/table4.csv --plot {out}/table4.png",
         inline: None,
+        figures: &["table4.png"],
     },
     Study {
         name: "shrm-table5",
@@ -107,6 +113,7 @@ const STUDIES: &[Study] = &[
         quick: "testdata/forest.hdr --size 32x16 --sigmas 0.2,0.4 --maps 1 --csv {out}/table5.csv",
         full: "testdata/forest.hdr --csv {out}/table5.csv",
         inline: None,
+        figures: &[],
     },
     Study {
         name: "zhf-sparsity",
@@ -119,6 +126,7 @@ const STUDIES: &[Study] = &[
                 --random 200 --markdown {out}/table1.md",
         full: "--bands 2..12 --orders 2..8 --markdown {out}/table1.md",
         inline: Some("table1.md"),
+        figures: &[],
     },
 ];
 
@@ -195,6 +203,7 @@ impl All {
             .with_context(|| format!("{}: cannot write", path.display()))?;
             eprintln!("      {secs:.1} s -> {}", path.display());
         }
+        self.write_index()?;
         eprintln!(
             "{} studies in {:.1} s; pages in {}",
             chosen.len(),
@@ -202,6 +211,39 @@ impl All {
             self.out_dir.display()
         );
         Ok(())
+    }
+
+    /// DIR/README.md: every study with its page, and the scripted studies
+    /// with their commands.
+    fn write_index(&self) -> Result<()> {
+        let mut index = String::from(
+            "# The papers' tables and figures, regenerated\n\n\
+             Written by `ifd paper all` (run from the repository root; `--quick` for small \
+             sizes). Each page has what the paper reports, the command and its run time, the \
+             report, and the figures.\n\n| study | page |\n|---|---|\n",
+        );
+        for s in STUDIES {
+            let page = self.out_dir.join(format!("{}.md", s.name));
+            let link = if page.is_file() {
+                format!("[{0}.md]({0}.md)", s.name)
+            } else {
+                "not run yet".to_owned()
+            };
+            let _ = writeln!(index, "| {} | {link} |", s.title);
+        }
+        index.push_str(
+            "\nStudies that need a Python peer or `cargo bench` stay scripts:\n\n\
+             | study | command |\n|---|---|\n",
+        );
+        for (_, what, script) in super::SCRIPTED {
+            let _ = writeln!(index, "| {what} | `.venv/bin/python {script}` |");
+        }
+        let path = self.out_dir.join("README.md");
+        ifd_image::atomic_write(&path, |w| {
+            use std::io::Write as _;
+            w.write_all(index.as_bytes()).map_err(|e| e.to_string())
+        })
+        .with_context(|| format!("{}: cannot write", path.display()))
     }
 
     fn page(
@@ -227,29 +269,22 @@ impl All {
             study.name,
             args.join(" ")
         );
-        if stdout.contains("\n|---") {
-            let _ = writeln!(page, "{}\n", stdout.trim_end());
-        } else {
-            let _ = writeln!(page, "```text\n{}\n```\n", stdout.trim_end());
-        }
+        // a study that writes its own table (the paper beside ours) is shown
+        // by it; the others by their report
         if let Some(name) = study.inline {
             let text = std::fs::read_to_string(dir.join(name))
                 .with_context(|| format!("{}: not written", dir.join(name).display()))?;
             let _ = writeln!(page, "{}\n", text.trim_end());
+        } else if stdout.contains("\n|---") {
+            let _ = writeln!(page, "{}\n", stdout.trim_end());
+        } else {
+            let _ = writeln!(page, "```text\n{}\n```\n", stdout.trim_end());
         }
-        let mut figures: Vec<String> = std::fs::read_dir(dir)
-            .with_context(|| format!("{}", dir.display()))?
-            .filter_map(Result::ok)
-            .map(|e| e.file_name().to_string_lossy().into_owned())
-            .filter(|n| {
-                Path::new(n)
-                    .extension()
-                    .is_some_and(|x| x.eq_ignore_ascii_case("png"))
-            })
-            .collect();
-        figures.sort();
-        for f in figures {
-            let _ = writeln!(page, "![{f}]({}/{f})\n", study.name);
+        for f in study.figures {
+            // a figure the study did not write (the quick sizes skip some) is left out
+            if dir.join(f).is_file() {
+                let _ = writeln!(page, "![{f}]({}/{f})\n", study.name);
+            }
         }
         Ok(page)
     }

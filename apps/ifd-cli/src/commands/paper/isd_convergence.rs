@@ -53,7 +53,7 @@ pub struct IsdConvergence {
 impl IsdConvergence {
     /// Runs the study.
     pub fn run(self) -> Result<()> {
-        use ifd_render::convergence::{Study, csv, plot, run};
+        use ifd_paper::convergence::{Study, csv, plot, run};
         let text = self.degrees.as_str();
         let bad = || {
             anyhow::anyhow!(
