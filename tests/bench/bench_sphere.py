@@ -8,8 +8,8 @@ criterion bench `cargo bench -p ifd-sphere --bench sphere` gives the same
 analysis without the CLI.
 
 Tasks: SH analysis of a 1024x512 RGB equirectangular map at L = 8, 16, 32, 64
-(ducc0: adjoint_synthesis_2d on the F1 grid with the exact pixel solid angles,
-which reproduces ifd's coefficients to 1e-15; pyshtools: SHExpandDH on the
+(ifd with `--projection centre`; ducc0: adjoint_synthesis_2d on the F1 grid with
+the exact pixel solid angles, which reproduces those coefficients to 1e-15; pyshtools: SHExpandDH on the
 512x1024 Driscoll-Healy grid, the closest equivalent it offers), and SH rotation
 at orders N = 3..20 (ducc0.sht.rotate_alm), all single-threaded.
 """
@@ -72,7 +72,8 @@ def main():
                 ts = []
                 for _ in range(5):
                     out = subprocess.run([str(ifd), "sphere", "sh", f"{tmp}/map.npy", "--lmax", str(L),
-                                          "--keep-negatives", "-o", f"{tmp}/c.npy", "--json"],
+                                          "--keep-negatives", "--projection", "centre", "-o", f"{tmp}/c.npy",
+                                          "--json"],
                                          capture_output=True, text=True, check=True, env=env)
                     ts.append(json.loads(out.stdout)["seconds"])
                 t_ifd = min(ts)

@@ -87,6 +87,9 @@ def test_bad_input_exits_2_with_a_message(tmp_path):
     assert p.returncode == 2 and "bad.hdr" in p.stderr and "panicked" not in p.stderr, p.stderr
     p = run_window(tmp_path, "--reset", "--brdf", "velvet", "--exit", check=False)
     assert p.returncode == 2 and "velvet" in p.stderr, p.stderr
+    # the old spelling of --device is refused with the new one, not reinterpreted
+    p = run_window(tmp_path, "--reset", "--gpu", "on", "--exit", check=False)
+    assert p.returncode == 2 and "--device auto|gpu|cpu" in p.stderr, p.stderr
 
 
 def test_monte_carlo_reference_and_error_against_l(tmp_path):

@@ -394,7 +394,7 @@ def test_dfg_table_matches_brute_force(run_ifd, tmp_path):
     (["--lobe", "cooktorrance"], "unknown lobe"),
     (["--lobe", "phong:s=-3"], "phong:s=S"),
     (["--brdf", "ggx"], "--lobe"),
-    (["-o", "x"], "--out-dir"),
+    (["-o", "x"], "names one file"),
     (["--format", "dds"], "--format"),
     (["--roughness", "quadratic"], "--roughness"),
     (["--eps", "2"], "--eps"),

@@ -75,7 +75,7 @@ def test_radial_bad_input(run_ifd, tmp_path):
         (["--light-profile", "overcast", "--radiance", "-1"], "--radiance"),
         (["--light-profile", "overcast", "--cells", "4x0x5"], "--cells"),
         (["--light-profile", "overcast", "--cells", "4x5"], "--cells"),
-        (["--light", "overcast"], "--light-profile"),
+        (["--light", "overcast"], "a radial profile is --light-profile"),
         (["--light-profile", "overcast", "--size", "4x5x5"], "--cells"),
         (["--env", tmp_path / "missing.hdr"], "missing.hdr"),
     ]

@@ -367,7 +367,7 @@ impl Engine {
             Ok((ctx, _)) if ctx.is_software() && choice == GpuChoice::Auto => (
                 "CPU".into(),
                 Some(format!(
-                    "the GPU adapter ({}) is software; the CPU path is faster (--gpu on forces it)",
+                    "the GPU adapter ({}) is software; the CPU path is faster (--device gpu forces it)",
                     ctx.adapter_info().name
                 )),
             ),

@@ -185,9 +185,9 @@ fn headless(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The window journals edits in `--journal DIR`, or by default in
+/// The window journals edits in `--journal-dir DIR`, or by default in
 /// [`ifd_brush::journal::default_dir`]; automated runs (`--replay`, `--save`,
-/// `--screenshot`, `--exit`) only with `--journal`, so that a test never
+/// `--screenshot`, `--exit`) only with `--journal-dir`, so that a test never
 /// finds a recovery dialog in its way.
 fn window_journal_dir(args: &Args) -> Option<PathBuf> {
     let automated =

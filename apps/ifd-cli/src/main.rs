@@ -120,12 +120,16 @@ fn main() -> ExitCode {
         Command::Sphere(c) => c.run(),
         Command::Render(c) => c.run(),
         Command::Paper(c) => c.run(),
-        Command::Mirror(_) => {
-            crate::commands::paper::Moved::refuse("ifd mirror", "ifd paper isd-mirror")
-        }
-        Command::Visibility(_) => {
-            crate::commands::paper::Moved::refuse("ifd visibility", "ifd paper isd-visibility")
-        }
+        Command::Mirror(_) => crate::commands::paper::Moved::refuse(
+            "ifd mirror",
+            "ifd paper isd-mirror",
+            "--reference is now --reference-grid",
+        ),
+        Command::Visibility(_) => crate::commands::paper::Moved::refuse(
+            "ifd visibility",
+            "ifd paper isd-visibility",
+            "--dirs is now --rays",
+        ),
         Command::Envmap(c) => c.run(),
         Command::Convert(c) => c.run(),
         Command::Info(c) => c.run(),

@@ -876,7 +876,10 @@ mod grammar {
                 vec!["envmap", "shrm", &forest, "--table", "5"],
                 "ifd paper shrm-table",
             ),
-            (vec!["envmap", "prefilter", &forest, "-o", o], "--out-dir"),
+            (
+                vec!["envmap", "prefilter", &forest, "-o", o],
+                "names one file",
+            ),
             (
                 vec![
                     "envmap",
@@ -912,7 +915,7 @@ mod grammar {
                     "sphere", "radial", "--brdf", "lambert", "--lmax", "2", "--light", "overcast",
                     "-o", o,
                 ],
-                "--light-profile",
+                "a radial profile is --light-profile",
             ),
         ] {
             let (code, _, err) = ifd(&args);
@@ -977,7 +980,14 @@ fn paper_all_quick_writes_every_page() {
     assert!(cond.contains("](isd-condition/cond.png)"), "{cond}");
     // the paper's numbers sit beside ours where the paper gives numbers
     let t5 = std::fs::read_to_string(dir.path().join("shrm-table5.md")).unwrap();
-    assert!(t5.contains("| sigma |") && t5.contains("paper"), "{t5}");
+    assert!(
+        t5.contains("| sigma |") && t5.contains("paper ratio"),
+        "{t5}"
+    );
+    // a quick run is not written over the documentation's pages
+    let (code, _, err) = ifd(&["paper", "all", "--quick"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--out-dir"), "{err}");
     // a name that is not a study is refused with the list
     let (code, _, err) = ifd(&["paper", "all", "--only", "nope"]);
     assert_eq!(code, 2);

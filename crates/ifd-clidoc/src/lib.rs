@@ -344,7 +344,8 @@ fn compare_or_bless(schema: &Value, path: &Path, bless: bool) -> Result<(), Stri
     }
     Err(format!(
         "{} is not what the binary defines (commands that differ: {}); if the change is meant, \
-         regenerate it with IFD_BLESS=1 and the same test, and regenerate docs/reference/cli.md",
+         regenerate it with IFD_BLESS=1 and the same test, then docs/reference/cli.md with \
+         IFD_BLESS=1 cargo test -p ifd-clidoc",
         path.display(),
         if differ.is_empty() {
             "formatting only".to_owned()
@@ -389,8 +390,10 @@ fn diff_commands(old: &Value, new: &Value, prefix: &str, out: &mut Vec<String>) 
 pub fn markdown(trees: &[&Value]) -> String {
     let mut out = String::from(
         "# Command-line reference\n\n\
-         Generated from the binaries' definitions (`docs/reference/cli/*.json`) by \
-         `IFD_BLESS=1 cargo test -p ifd-clidoc`; do not edit by hand. Every flag has one \
+         Generated from the binaries' definitions (`docs/reference/cli/*.json`); do not edit \
+         by hand. To regenerate: `IFD_BLESS=1 cargo test -p ifd-cli -p ifd-brush -p \
+         ifd-envrender --bins` (the schemas), then `IFD_BLESS=1 cargo test -p ifd-clidoc` \
+         (this page). Every flag has one \
          meaning across the three binaries (checked by `ifd-clidoc`'s grammar test).\n\n",
     );
     let mut sections = Vec::new();
@@ -582,7 +585,9 @@ mod workspace {
         let old = std::fs::read_to_string(&path).unwrap_or_default();
         assert!(
             old == text,
-            "{} is stale: regenerate it with IFD_BLESS=1 cargo test -p ifd-clidoc",
+            "{} is stale: regenerate the schemas with IFD_BLESS=1 cargo test -p ifd-cli -p \
+             ifd-brush -p ifd-envrender --bins, then this page with IFD_BLESS=1 cargo test -p \
+             ifd-clidoc",
             path.display()
         );
     }

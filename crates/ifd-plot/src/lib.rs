@@ -7,7 +7,7 @@
 //! - [`log_line_plot`]: curves on a logarithmic `y` axis (convergence and
 //!   timing studies, `ifd envmap`, `ifd-render`).
 //! - [`condition_plot`]: the ISD condition study of Fig. 13
-//!   (`ifd sphere condition`, data from `ifd_sphere::condition`).
+//!   (`ifd paper isd-condition`, data from `ifd_sphere::condition`).
 //! - [`draw`]: the primitives (lines, a 5x7 bitmap font, colour maps).
 //!
 //! ```

@@ -58,6 +58,17 @@ fn parse_projection(projection: Option<&str>) -> PyResult<Option<Projection>> {
     }
 }
 
+/// An analysis error as a `ValueError` naming `projection` (a texel
+/// projection asked of a cube strip) or else `env`.
+fn projection_or_env(e: ifd_sphere::SphereError) -> PyErr {
+    match e {
+        ifd_sphere::SphereError::Parameter {
+            name: "projection", ..
+        } => errors::value("projection", e),
+        e => errors::value("env", e),
+    }
+}
+
 /// The SH coefficients `((L+1)^2, C)` of an equirectangular (2:1) or
 /// cubemap-strip (6:1) map: `ifd sphere sh`.
 #[pyfunction]
@@ -87,7 +98,7 @@ fn sphere_sh<'py>(
                      +X,-X,+Y,-Y,+Z,-Z); got {w}x{h}"
                 ),
             ),
-            e => errors::value("env", e),
+            e => projection_or_env(e),
         })?;
     Ok(coeffs_array(py, analysis.coeffs, false))
 }
@@ -331,7 +342,7 @@ fn sphere_filter<'py>(
         Negatives::Clamp
     };
     let out = py.detach(|| -> PyResult<ifd_image::Image> {
-        let (a, _) = analyze_map(&img, l, neg, projection).map_err(|e| errors::value("env", e))?;
+        let (a, _) = analyze_map(&img, l, neg, projection).map_err(projection_or_env)?;
         let integral = dec.kernel_integral().map_err(|e| errors::value("", e))?;
         let l1: f64 = dec.weights.data.iter().map(|v| v.abs()).sum();
         let scale = if raw {

@@ -232,7 +232,7 @@ impl Render {
         let gpu = if self.gpu {
             let ctx = ifd_gpu::GpuContext::new().context("--gpu")?;
             eprintln!(
-                "note: --gpu on {} ({:?})",
+                "note: --gpu: shading on {} ({:?})",
                 ctx.adapter_info().name,
                 ctx.adapter_info().device_type
             );

@@ -405,13 +405,14 @@ fn gpu_view(rs: Option<RenderState>, choice: GpuChoice) -> GpuStart {
     let info = rs.adapter.get_info();
     let adapter = format!("{} ({:?}, {:?})", info.name, info.device_type, info.backend);
     if choice == GpuChoice::Off {
-        return (None, Some("--gpu off".into()), adapter);
+        return (None, Some("--device cpu".into()), adapter);
     }
     if choice == GpuChoice::Auto && info.device_type == eframe::wgpu::DeviceType::Cpu {
         return (
             None,
             Some(
-                "a software adapter, slower than the CPU renderer here (--gpu on to use it)".into(),
+                "a software adapter, slower than the CPU renderer here (--device gpu to use it)"
+                    .into(),
             ),
             adapter,
         );

@@ -1,7 +1,7 @@
 """Type stubs of the compiled extension ``ifd._ifd`` (strict types; ``ifd`` converts)."""
 
 from os import PathLike
-from typing import Any, Optional, Union
+from typing import Any, Literal, Optional, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -114,7 +114,7 @@ def compare(
     a: F32, b: F32, *, data_range: Optional[float] = None, crop_border: int = 0
 ) -> dict[str, Any]: ...
 def sphere_sh(
-    env: F32, lmax: int, *, keep_negatives: bool = False, projection: Optional[str] = None
+    env: F32, lmax: int, *, keep_negatives: bool = False, projection: Optional[Literal["texel", "centre"]] = None
 ) -> F64: ...
 def sphere_synthesize(coeffs: F64, width: int, height: int) -> F32: ...
 def sphere_rotate(
@@ -136,7 +136,7 @@ def sphere_filter(
     size: Optional[tuple[int, int]] = None,
     raw: bool = False,
     keep_negatives: bool = False,
-    projection: Optional[str] = None,
+    projection: Optional[Literal["texel", "centre"]] = None,
 ) -> F32: ...
 def sphere_shade(
     coeffs: F64,

@@ -39,7 +39,7 @@ from typing import Optional as _Optional, Union as _Union
 
 import numpy as _np
 
-from . import Decomposition, _ifd, _image
+from . import Decomposition as _Decomposition, _ifd, _image
 
 # the __future__ import binds `annotations`: not part of the API
 del annotations
@@ -78,7 +78,7 @@ def _range(a) -> tuple[float, float]:
 
 def plan(
     shape: tuple,
-    decomposition: Decomposition,
+    decomposition: _Decomposition,
     angle_varies: bool,
     scale_range: tuple[float, float],
     border: str = "reflect101",
@@ -107,7 +107,7 @@ def plan(
 
 def filter(  # noqa: A001
     image,
-    decomposition: Decomposition,
+    decomposition: _Decomposition,
     angle: _Union[float, _np.ndarray, "dask.array.Array"] = 0.0,  # noqa: F821
     scale: _Union[float, _np.ndarray, "dask.array.Array"] = 1.0,  # noqa: F821
     border: str = "reflect101",

@@ -32,7 +32,8 @@ impl Envmap {
             EnvmapCommand::Dfg(c) => c.run(),
             EnvmapCommand::Shrm(_) => crate::commands::paper::Moved::refuse(
                 "ifd envmap shrm --table N",
-                "ifd paper shrm-tableN",
+                "ifd paper shrm-table4 or shrm-table5",
+                "--table is gone",
             ),
         }
     }

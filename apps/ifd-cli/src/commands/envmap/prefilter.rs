@@ -59,8 +59,8 @@ pub(super) struct PrefilterCmd {
     #[arg(long, default_value_t = 1e-3)]
     eps: f64,
     /// Output folder (created if missing; files in it are replaced).
-    #[arg(long, value_name = "DIR")]
-    out_dir: PathBuf,
+    #[arg(long, value_name = "DIR", required_unless_present = "output")]
+    out_dir: Option<PathBuf>,
     /// Renamed: the output folder is --out-dir (-o is always one file).
     #[arg(short, long, hide = true)]
     output: Option<PathBuf>,
@@ -79,7 +79,7 @@ fn chain_lobes(brdf: &str, mapping: RoughnessMapping, levels: usize) -> Result<V
             .and_then(|v| v.parse::<f64>().ok())
             .filter(|s| s.is_finite() && *s > 0.0 && *s <= 1e6)
             .with_context(|| {
-                format!("--brdf {brdf:?}: expected phong:s=S with 0 < S <= 1e6, e.g. phong:s=64")
+                format!("--lobe {brdf:?}: expected phong:s=S with 0 < S <= 1e6, e.g. phong:s=64")
             })?;
         out.push((f64::NAN, Lobe::Phong { s }));
         return Ok(out);
@@ -90,7 +90,7 @@ fn chain_lobes(brdf: &str, mapping: RoughnessMapping, levels: usize) -> Result<V
         let lobe = match (brdf, ggx) {
             ("phong", Lobe::Ggx { alpha }) => Lobe::phong_matching_ggx(alpha),
             ("ggx" | "phong", l) => l,
-            _ => bail!("--brdf {brdf:?}: unknown lobe; use ggx, phong or phong:s=S"),
+            _ => bail!("--lobe {brdf:?}: unknown lobe; use ggx, phong or phong:s=S"),
         };
         out.push((r, lobe));
     }
@@ -107,6 +107,9 @@ impl PrefilterCmd {
         if self.output.is_some() {
             bail!("-o/--output names one file; the output folder is --out-dir DIR");
         }
+        let Some(out_dir) = self.out_dir.clone() else {
+            bail!("the output folder is required: --out-dir DIR");
+        };
         if self.brdf.is_some() {
             bail!(
                 "--brdf is a BRDF spec elsewhere; the prefilter's lobe is --lobe ggx|phong|phong:s=S"
@@ -228,7 +231,7 @@ impl PrefilterCmd {
         let sh = baker.source_sh(self.sh_lmax)?;
         let bake_s = t0.elapsed().as_secs_f64();
         // write everything into a staging folder, then move it into place
-        let files = Staging::new(&self.out_dir)?;
+        let files = Staging::new(&out_dir)?;
         let mut half_clamped = 0;
         if exr {
             for (m, level) in chain.iter().enumerate() {

@@ -19,9 +19,11 @@ pub struct All {
     /// Small sizes: checks that every study runs, not the papers' numbers.
     #[arg(long)]
     quick: bool,
-    /// Folder of the pages and their figures (created if missing).
-    #[arg(long, value_name = "DIR", default_value = "docs/papers")]
-    out_dir: PathBuf,
+    /// Folder of the pages and their figures (created if missing); default
+    /// docs/papers, which holds the pages at the documentation's sizes (a
+    /// --quick run needs a folder of its own).
+    #[arg(long, value_name = "DIR")]
+    out_dir: Option<PathBuf>,
     /// Run only this study (a name from `ifd paper list`); repeatable.
     #[arg(long, value_name = "NAME")]
     only: Vec<String>,
@@ -138,6 +140,14 @@ pub fn names() -> impl Iterator<Item = &'static str> {
 impl All {
     /// Runs the studies and writes their pages.
     pub fn run(self) -> Result<()> {
+        let out_dir = match (&self.out_dir, self.quick) {
+            (Some(d), _) => d.clone(),
+            (None, false) => PathBuf::from("docs/papers"),
+            (None, true) => bail!(
+                "--quick needs --out-dir DIR: docs/papers holds the pages at the documentation's \
+                 sizes"
+            ),
+        };
         if let Some(bad) = self
             .only
             .iter()
@@ -152,17 +162,26 @@ impl All {
             bail!("testdata/forest.hdr not found: run `ifd paper all` from the repository root");
         }
         let exe = std::env::current_exe().context("locating the ifd binary")?;
-        std::fs::create_dir_all(&self.out_dir)
-            .with_context(|| format!("--out-dir {}", self.out_dir.display()))?;
+        std::fs::create_dir_all(&out_dir)
+            .with_context(|| format!("--out-dir {}", out_dir.display()))?;
         let chosen: Vec<&Study> = STUDIES
             .iter()
             .filter(|s| self.only.is_empty() || self.only.iter().any(|n| n == s.name))
             .collect();
         let total = Instant::now();
         for (i, study) in chosen.iter().enumerate() {
-            let dir = self.out_dir.join(study.name);
+            let dir = out_dir.join(study.name);
             std::fs::create_dir_all(&dir)
                 .with_context(|| format!("{}: cannot create", dir.display()))?;
+            // the page shows only what this run writes: figures of an earlier
+            // run (another size) go first
+            for f in study.figures.iter().chain(study.inline.iter()) {
+                let old = dir.join(f);
+                if old.is_file() {
+                    std::fs::remove_file(&old)
+                        .with_context(|| format!("{}: cannot replace", old.display()))?;
+                }
+            }
             let template = if self.quick { study.quick } else { study.full };
             let dir_text = dir.to_string_lossy();
             let args: Vec<String> = template
@@ -195,7 +214,7 @@ impl All {
                 &String::from_utf8_lossy(&out.stdout),
                 &dir,
             )?;
-            let path = self.out_dir.join(format!("{}.md", study.name));
+            let path = out_dir.join(format!("{}.md", study.name));
             ifd_image::atomic_write(&path, |w| {
                 use std::io::Write as _;
                 w.write_all(page.as_bytes()).map_err(|e| e.to_string())
@@ -203,19 +222,19 @@ impl All {
             .with_context(|| format!("{}: cannot write", path.display()))?;
             eprintln!("      {secs:.1} s -> {}", path.display());
         }
-        self.write_index()?;
+        Self::write_index(&out_dir)?;
         eprintln!(
             "{} studies in {:.1} s; pages in {}",
             chosen.len(),
             total.elapsed().as_secs_f64(),
-            self.out_dir.display()
+            out_dir.display()
         );
         Ok(())
     }
 
     /// DIR/README.md: every study with its page, and the scripted studies
     /// with their commands.
-    fn write_index(&self) -> Result<()> {
+    fn write_index(out_dir: &Path) -> Result<()> {
         let mut index = String::from(
             "# The papers' tables and figures, regenerated\n\n\
              Written by `ifd paper all` (run from the repository root; `--quick` for small \
@@ -223,7 +242,7 @@ impl All {
              report, and the figures.\n\n| study | page |\n|---|---|\n",
         );
         for s in STUDIES {
-            let page = self.out_dir.join(format!("{}.md", s.name));
+            let page = out_dir.join(format!("{}.md", s.name));
             let link = if page.is_file() {
                 format!("[{0}.md]({0}.md)", s.name)
             } else {
@@ -238,7 +257,7 @@ impl All {
         for (_, what, script) in super::SCRIPTED {
             let _ = writeln!(index, "| {what} | `.venv/bin/python {script}` |");
         }
-        let path = self.out_dir.join("README.md");
+        let path = out_dir.join("README.md");
         ifd_image::atomic_write(&path, |w| {
             use std::io::Write as _;
             w.write_all(index.as_bytes()).map_err(|e| e.to_string())

@@ -145,7 +145,11 @@ impl Mirror {
             let named: Vec<(&str, &ifd_image::Image)> =
                 images.iter().map(|(n, im)| (n.as_str(), im)).collect();
             crate::output::write_figure(dir, &named, self.exposure)?;
-            std::fs::write(dir.join("table.md"), markdown(&rows, ss4))?;
+            let table = markdown(&rows, ss4);
+            ifd_image::atomic_write(&dir.join("table.md"), |w| {
+                use std::io::Write as _;
+                w.write_all(table.as_bytes()).map_err(|e| e.to_string())
+            })?;
         }
         self.report.emit(&json!({
             "env": self.env, "width": w, "height": h, "lmax": self.lmax,

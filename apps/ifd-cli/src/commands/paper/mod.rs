@@ -130,8 +130,12 @@ pub struct Moved {
 }
 
 impl Moved {
-    /// Refuses to run, naming the new spelling.
-    pub fn refuse(old: &str, new: &str) -> Result<()> {
-        bail!("`{old}` has moved: use `{new}` (see `ifd paper list`)")
+    /// Refuses to run, naming the new spelling (and `renamed`, the flags
+    /// renamed in the move, if any).
+    pub fn refuse(old: &str, new: &str, renamed: &str) -> Result<()> {
+        if renamed.is_empty() {
+            bail!("`{old}` has moved: use `{new}` (see `ifd paper list`)")
+        }
+        bail!("`{old}` has moved: use `{new}` ({renamed}; see `ifd paper list`)")
     }
 }

@@ -17,7 +17,7 @@ use crate::options::ReportOptions;
 /// Sec. 5): candidates at the zeros of the associated Legendre functions and
 /// of the sinusoids, a genetic search per band (--bands) and for shared,
 /// nested sets of 2N-1 directions per order (--orders, Sec. 6), beside random
-/// draws from the same candidates (Fig. 3). Prints a summary (--json: the report, directions
+/// draws from the same candidates (Fig. 3). Prints the report (every set's directions
 /// included) and, with --markdown, a table against the paper's Table I.
 ///
 /// Example: `ifd paper zhf-sparsity --bands 2..12 --orders 2..8 --markdown sparsity.md` (minutes:

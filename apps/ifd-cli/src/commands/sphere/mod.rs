@@ -68,10 +68,12 @@ impl Sphere {
             SphereCommand::Condition(_) => crate::commands::paper::Moved::refuse(
                 "ifd sphere condition",
                 "ifd paper isd-condition",
+                "",
             ),
             SphereCommand::Sparsity(_) => crate::commands::paper::Moved::refuse(
                 "ifd sphere sparsity",
                 "ifd paper zhf-sparsity",
+                "",
             ),
         }
     }
