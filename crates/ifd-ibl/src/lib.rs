@@ -36,8 +36,6 @@ mod error;
 pub mod ktx2;
 pub mod lobe;
 mod prefilter;
-pub mod shrm;
-pub mod shrm_general;
 
 pub use crate::error::{IblError, Result};
 pub use crate::prefilter::{BakeOptions, Baker, LevelStats};

@@ -4,8 +4,21 @@
 //! - [`convergence`]: ISD Fig. 4, the error of ISD shading and of its SH
 //!   reference against the exact texel quadrature as `L` grows, as CSV and a
 //!   plot.
+//! - [`shrm`], [`shrm_general`]: SHRM Tables 4 and 5, prefiltering in angular
+//!   against frequency space (Phong; the microfacet BRDF of its Eq. 11), timed
+//!   side by side.
 //!
 //! The product crates do not depend on this crate, nor on `ifd-plot` for a
 //! study's figure.
 
 pub mod convergence;
+pub mod shrm;
+pub mod shrm_general;
+
+/// An invalid parameter of a study, as `ifd-ibl` reports its own.
+pub(crate) fn param(what: &'static str, why: impl Into<String>) -> ifd_ibl::IblError {
+    ifd_ibl::IblError::Param {
+        what,
+        why: why.into(),
+    }
+}

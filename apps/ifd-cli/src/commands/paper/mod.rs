@@ -37,9 +37,9 @@ enum PaperCommand {
     /// ISD Eq. 25, App. A: self-shadowed shading on a mesh against a ray-traced reference.
     IsdVisibility(isd_visibility::Visibility),
     /// SHRM Table 4: Phong prefiltering, angular against frequency space.
-    ShrmTable4(shrm::Shrm),
+    ShrmTable4(shrm::ShrmTable4),
     /// SHRM Table 5: the microfacet BRDF of Eq. 11, SHRM against angular reflection maps.
-    ShrmTable5(shrm::Shrm),
+    ShrmTable5(shrm::ShrmTable5),
     /// ZHF Sec. 5-6, Table I, Fig. 3: lobe directions that make the ZHF matrix sparse.
     ZhfSparsity(zhf_sparsity::SparsityCmd),
 }
@@ -81,14 +81,8 @@ impl Paper {
             PaperCommand::IsdCondition(c) => c.run(),
             PaperCommand::IsdMirror(c) => c.run(),
             PaperCommand::IsdVisibility(c) => c.run(),
-            PaperCommand::ShrmTable4(mut c) => {
-                c.table = 4;
-                c.run()
-            }
-            PaperCommand::ShrmTable5(mut c) => {
-                c.table = 5;
-                c.run()
-            }
+            PaperCommand::ShrmTable4(c) => c.run(),
+            PaperCommand::ShrmTable5(c) => c.run(),
             PaperCommand::ZhfSparsity(c) => c.run(),
         }
     }

@@ -39,31 +39,30 @@ fn write_text(path: &std::path::Path, text: &str) -> Result<()> {
 pub struct Shrm {
     /// Environment map (2:1), averaged down to --size by solid angle.
     envmap: PathBuf,
-    /// Which table (set by the subcommand).
-    #[arg(skip)]
-    pub table: u32,
     #[command(flatten)]
     report: ReportOptions,
     /// Working size WxH (2:1; default 256x128 for Table 4, whose S_L = S_B = 128 is the
     /// number of rows here, and 128x64 for Table 5, whose angular side is slow).
     #[arg(long, value_name = "WxH")]
     size: Option<String>,
-    /// Table 5: roughness values sigma.
-    #[arg(long, value_delimiter = ',', default_value = "0.1,0.2,0.3,0.4,0.5")]
-    sigmas: Vec<f64>,
-    /// Table 5: the angular side computes T x T of the paper's T_B x T_B = 10 x 10 maps
-    /// and its time is extrapolated to 100 (the frequency side makes all 100).
-    #[arg(long, default_value_t = 3)]
-    maps: usize,
-    /// Table 5: the BRDF energy tolerance choosing F_B, P_B (the paper: 0.03).
-    #[arg(long, default_value_t = 0.03)]
-    eps: f64,
-    /// Phong exponents.
-    #[arg(long, value_delimiter = ',', default_value = "8,16,32,64,128,256,512")]
-    exponents: Vec<f64>,
     /// The angular side's support tolerance (the paper: 0.05).
     #[arg(long, default_value_t = 0.05)]
     eps_angular: f64,
+    /// Also write the rows as CSV.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    #[command(flatten)]
+    input: InputOptions,
+}
+
+/// `ifd paper shrm-table4`: the Phong lobe, angular against frequency space.
+#[derive(Debug, Args)]
+pub struct ShrmTable4 {
+    #[command(flatten)]
+    common: Shrm,
+    /// Phong exponents.
+    #[arg(long, value_delimiter = ',', default_value = "8,16,32,64,128,256,512")]
+    exponents: Vec<f64>,
     /// Measurements per side and exponent (medians); each repeats the work for at least
     /// --min-seconds and takes the mean per run.
     #[arg(long, value_name = "N", default_value_t = 5)]
@@ -71,14 +70,27 @@ pub struct Shrm {
     /// Minimum time of one measurement.
     #[arg(long, default_value_t = 0.2)]
     min_seconds: f64,
-    /// Also write the rows as CSV.
-    #[arg(long)]
-    csv: Option<PathBuf>,
     /// Also write a log-log plot of both times against s (PNG).
     #[arg(long)]
     plot: Option<PathBuf>,
+}
+
+/// `ifd paper shrm-table5`: the microfacet BRDF of Eq. 11, SHRM against
+/// angular reflection maps.
+#[derive(Debug, Args)]
+pub struct ShrmTable5 {
     #[command(flatten)]
-    input: InputOptions,
+    common: Shrm,
+    /// Roughness values sigma.
+    #[arg(long, value_delimiter = ',', default_value = "0.1,0.2,0.3,0.4,0.5")]
+    sigmas: Vec<f64>,
+    /// The angular side computes T x T of the paper's T_B x T_B = 10 x 10 maps and its time
+    /// is extrapolated to 100 (the frequency side makes all 100).
+    #[arg(long, default_value_t = 3)]
+    maps: usize,
+    /// The BRDF energy tolerance choosing F_B, P_B (the paper: 0.03).
+    #[arg(long, default_value_t = 0.03)]
+    eps: f64,
 }
 
 /// SHRM Table 4 (1.4 GHz Pentium IV): (s, angular, frequency).
@@ -95,6 +107,9 @@ const PAPER_TABLE4: [(f64, f64, f64); 7] = [
 impl Shrm {
     /// The map averaged down to `--size` (else `default`) by solid angle.
     fn load(&self, default: &str) -> Result<(ifd_image::Image, usize, usize)> {
+        if !(self.eps_angular > 0.0 && self.eps_angular < 1.0) {
+            bail!("--eps-angular {}: must lie in (0, 1)", self.eps_angular);
+        }
         let (w, h) = crate::input::parse_size(self.size.as_deref().unwrap_or(default), "--size")?;
         let img = self.input.read(&self.envmap)?.image;
         if img.channels() != 3 {
@@ -112,17 +127,13 @@ impl Shrm {
         })?;
         Ok((src, w, h))
     }
+}
 
-    /// Runs the study of `self.table`.
+impl ShrmTable4 {
+    /// Runs the study.
     pub fn run(self) -> Result<()> {
-        use ifd_ibl::shrm::{loglog_fit, paper_order, time_phong};
+        use ifd_paper::shrm::{loglog_fit, paper_order, time_phong};
         let mut out = String::new();
-        if !(self.eps_angular > 0.0 && self.eps_angular < 1.0) {
-            bail!("--eps-angular {}: must lie in (0, 1)", self.eps_angular);
-        }
-        if self.table == 5 {
-            return self.run_table5();
-        }
         if self.exponents.is_empty()
             || self
                 .exponents
@@ -137,7 +148,7 @@ impl Shrm {
         if !(self.min_seconds >= 0.0 && self.min_seconds <= 60.0) {
             bail!("--min-seconds {}: must lie in 0..=60", self.min_seconds);
         }
-        let (src, w, h) = self.load("256x128")?;
+        let (src, w, h) = self.common.load("256x128")?;
         let max_order = self
             .exponents
             .iter()
@@ -154,7 +165,7 @@ impl Shrm {
             rows.push(time_phong(
                 &src,
                 s,
-                self.eps_angular,
+                self.common.eps_angular,
                 self.runs,
                 self.min_seconds,
             )?);
@@ -162,7 +173,7 @@ impl Shrm {
         let _ = writeln!(
             out,
             "SHRM Table 4 on this machine: {w}x{h} in and out, {threads} threads, medians of {} measurements of at least {} s each, angular eps {}",
-            self.runs, self.min_seconds, self.eps_angular
+            self.runs, self.min_seconds, self.common.eps_angular
         );
         out.push('\n');
         let _ = writeln!(
@@ -180,7 +191,7 @@ impl Shrm {
                 "| {} | {} | {} | {:.4} | {:.4} | {:.1} | {:.0} | {:.2e} | {:.1e} | {} |",
                 r.s,
                 r.order,
-                ifd_ibl::shrm::phong_order(r.s, 0.01),
+                ifd_paper::shrm::phong_order(r.s, 0.01),
                 r.angular,
                 r.frequency,
                 r.angular / r.frequency,
@@ -212,12 +223,12 @@ impl Shrm {
                 r.s, r.order, r.angular, r.frequency, r.support, r.rel_diff, r.residual_bound
             );
         }
-        if let Some(path) = &self.csv {
+        if let Some(path) = &self.common.csv {
             write_text(path, &text)?;
         }
         if let Some(path) = &self.plot {
             use ifd_plot::{Series, log_line_plot};
-            let pts = |f: &dyn Fn(&ifd_ibl::shrm::PhongTiming) -> f64| -> Vec<(f64, f64)> {
+            let pts = |f: &dyn Fn(&ifd_paper::shrm::PhongTiming) -> f64| -> Vec<(f64, f64)> {
                 rows.iter().map(|r| (r.s.log2(), f(r))).collect()
             };
             let series = vec![
@@ -252,7 +263,7 @@ impl Shrm {
         let mut report = csv_report(&text);
         report["slopes"] =
             serde_json::json!({"angular": fa, "frequency": ff, "crossover_s": crossover});
-        self.report.emit_with(&report, || out)
+        self.common.report.emit_with(&report, || out)
     }
 }
 
@@ -266,9 +277,10 @@ const PAPER_TABLE5: [(f64, usize, usize, f64, f64, f64); 5] = [
     (0.5, 5, 2, 12580.0, 1.45, 0.64),
 ];
 
-impl Shrm {
-    fn run_table5(&self) -> Result<()> {
-        use ifd_ibl::shrm_general::{time_microfacet, view_grid};
+impl ShrmTable5 {
+    /// Runs the study.
+    pub fn run(self) -> Result<()> {
+        use ifd_paper::shrm_general::{time_microfacet, view_grid};
         let mut out = String::new();
         if self.sigmas.is_empty()
             || self
@@ -284,7 +296,7 @@ impl Shrm {
         if !(self.eps > 0.0 && self.eps < 1.0) {
             bail!("--eps {}: must lie in (0, 1)", self.eps);
         }
-        let (src, w, h) = self.load("128x64")?;
+        let (src, w, h) = self.common.load("128x64")?;
         let views = view_grid(self.maps);
         let mut rows = Vec::new();
         for &sigma in &self.sigmas {
@@ -296,7 +308,7 @@ impl Shrm {
                 &src,
                 sigma,
                 self.eps,
-                self.eps_angular,
+                self.common.eps_angular,
                 10,
                 &views,
             )?);
@@ -307,7 +319,7 @@ impl Shrm {
              angular time measured on {} of the 10 x 10 maps and extrapolated to 100",
             rayon::current_num_threads(),
             self.eps,
-            self.eps_angular,
+            self.common.eps_angular,
             views.len()
         );
         out.push('\n');
@@ -356,12 +368,9 @@ impl Shrm {
                 ),
             );
         }
-        if let Some(path) = &self.csv {
+        if let Some(path) = &self.common.csv {
             write_text(path, &csv)?;
         }
-        if self.plot.is_some() {
-            eprintln!("note: --plot draws Table 4 only");
-        }
-        self.report.emit_with(&csv_report(&csv), || out)
+        self.common.report.emit_with(&csv_report(&csv), || out)
     }
 }

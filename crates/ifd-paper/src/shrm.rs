@@ -30,8 +30,10 @@ use ifd_image::Image;
 use ifd_sphere::{EquirectTransform, Negatives};
 use rayon::prelude::*;
 
-use crate::error::{Result, param};
-use crate::lobe::Lobe;
+use ifd_ibl::Result;
+
+use crate::param;
+use ifd_ibl::lobe::Lobe;
 
 /// The paper's frequency-space order for Phong exponent `s`: `1 + sqrt(6 s)`.
 #[must_use]
@@ -45,7 +47,7 @@ pub fn paper_order(s: f64) -> usize {
 ///
 /// ```
 /// // s = 64, eps = 0.01: sqrt(64 ln 100) = 17.2
-/// assert_eq!(ifd_ibl::shrm::phong_order(64.0, 0.01), 18);
+/// assert_eq!(ifd_paper::shrm::phong_order(64.0, 0.01), 18);
 /// ```
 #[must_use]
 pub fn phong_order(s: f64, eps: f64) -> usize {

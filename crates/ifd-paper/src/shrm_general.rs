@@ -45,7 +45,9 @@ use ifd_sphere::sh::{ShEvaluator, gauss_legendre, sh_count};
 use ifd_sphere::{EquirectTransform, Negatives, Rotation, ShRotation};
 use rayon::prelude::*;
 
-use crate::error::{Result, param};
+use ifd_ibl::Result;
+
+use crate::param;
 
 /// The simplified microfacet BRDF of SHRM Eq. 11, reparameterised by `R`.
 #[derive(Clone, Copy, Debug, PartialEq)]
