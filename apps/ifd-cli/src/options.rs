@@ -7,13 +7,11 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use anyhow::{Result, bail};
+use anyhow::{Context as _, Result, bail};
 use clap::{Args, ValueEnum};
 use glam::DVec3;
-use serde_json::Value;
-
-use anyhow::Context as _;
 use ifd_render::envmap::EnvMap;
+use serde_json::Value;
 
 use crate::input::{InputOptions, parse_size};
 
@@ -31,12 +29,7 @@ impl ReportOptions {
     /// Prints `report`: pretty JSON with `--json`, else the human summary made
     /// from it by [`human`].
     pub fn emit(self, report: &Value) -> Result<()> {
-        if self.json {
-            println!("{}", serde_json::to_string_pretty(report)?);
-        } else {
-            print!("{}", human(report));
-        }
-        Ok(())
+        self.emit_with(report, || human(report))
     }
 
     /// Prints `report` with `--json`, else the summary `summary` writes.

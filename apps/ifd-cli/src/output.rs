@@ -53,6 +53,16 @@ impl ImageOutput {
     }
 }
 
+/// Writes a text file (a table, a report, a page) atomically: on failure the
+/// error names the file and nothing is left at `path`.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    use std::io::Write as _;
+    ifd_image::atomic_write(path, |w| {
+        w.write_all(text.as_bytes()).map_err(|e| e.to_string())
+    })?;
+    Ok(())
+}
+
 /// Writes an image atomically, reporting clipped samples on stderr.
 #[expect(
     clippy::trivially_copy_pass_by_ref,

@@ -312,6 +312,30 @@ pub fn check_grammar(trees: &[&Value], exceptions: &[Exception]) -> Vec<String> 
     problems
 }
 
+/// The test each binary runs on its own command line: the tree follows the
+/// grammar on its own, and equals the checked-in
+/// `docs/reference/cli/<name>.json` (`name` is the command's; with
+/// `IFD_BLESS=1` the file is rewritten instead, as by [`check_file`]).
+///
+/// # Errors
+/// The grammar problems, or how the file differs.
+pub fn check_binary(cmd: Command) -> Result<(), String> {
+    let path = reference_dir()
+        .join("cli")
+        .join(format!("{}.json", cmd.get_name()));
+    let schema = schema(cmd);
+    let problems = check_grammar(&[&schema], EXCEPTIONS);
+    if !problems.is_empty() {
+        return Err(problems.join("\n"));
+    }
+    check_file(&schema, &path)
+}
+
+/// `docs/reference/` of the workspace.
+fn reference_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/reference")
+}
+
 /// Compares `schema` with the checked-in JSON at `path`; with `IFD_BLESS=1`
 /// in the environment, (re)writes the file instead. The error says how to
 /// regenerate it and which commands differ.
@@ -548,15 +572,11 @@ mod workspace {
     //! is the one they generate.
     use super::*;
 
-    fn docs() -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/reference")
-    }
-
     fn schemas() -> Vec<Value> {
         BINARIES
             .iter()
             .map(|bin| {
-                let path = docs().join("cli").join(format!("{bin}.json"));
+                let path = reference_dir().join("cli").join(format!("{bin}.json"));
                 let text = std::fs::read_to_string(&path)
                     .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
                 serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
@@ -577,7 +597,7 @@ mod workspace {
         let schemas = schemas();
         let refs: Vec<&Value> = schemas.iter().collect();
         let text = markdown(&refs);
-        let path = docs().join("cli.md");
+        let path = reference_dir().join("cli.md");
         if std::env::var_os("IFD_BLESS").is_some_and(|v| v == "1") {
             std::fs::write(&path, &text).expect("write cli.md");
             return;

@@ -215,11 +215,7 @@ impl All {
                 &dir,
             )?;
             let path = out_dir.join(format!("{}.md", study.name));
-            ifd_image::atomic_write(&path, |w| {
-                use std::io::Write as _;
-                w.write_all(page.as_bytes()).map_err(|e| e.to_string())
-            })
-            .with_context(|| format!("{}: cannot write", path.display()))?;
+            crate::output::write_text(&path, &page)?;
             eprintln!("      {secs:.1} s -> {}", path.display());
         }
         Self::write_index(&out_dir)?;
@@ -258,11 +254,7 @@ impl All {
             let _ = writeln!(index, "| {what} | `.venv/bin/python {script}` |");
         }
         let path = out_dir.join("README.md");
-        ifd_image::atomic_write(&path, |w| {
-            use std::io::Write as _;
-            w.write_all(index.as_bytes()).map_err(|e| e.to_string())
-        })
-        .with_context(|| format!("{}: cannot write", path.display()))
+        crate::output::write_text(&path, &index)
     }
 
     fn page(

@@ -62,10 +62,7 @@ impl IsdCondition {
             .collect();
         let csv = format!("L,profile,sharing,cond,singular\n{}", lines.concat());
         if let Some(path) = &self.csv {
-            ifd_image::atomic_write(path, |w| {
-                use std::io::Write;
-                w.write_all(csv.as_bytes()).map_err(|e| e.to_string())
-            })?;
+            crate::output::write_text(path, &csv)?;
         }
         if let Some(path) = &self.plot {
             let img = condition_plot(&rows)?;

@@ -95,10 +95,7 @@ impl IsdConvergence {
         let outcome = run(&study, &|m| eprintln!("{m}"))?;
         let table = csv(&outcome.rows);
         if let Some(p) = &self.csv {
-            ifd_image::atomic_write(p, |w| {
-                use std::io::Write;
-                w.write_all(table.as_bytes()).map_err(|e| e.to_string())
-            })?;
+            crate::output::write_text(p, &table)?;
         }
         if let Some(p) = &self.plot {
             crate::output::write_output(

@@ -146,10 +146,7 @@ impl Mirror {
                 images.iter().map(|(n, im)| (n.as_str(), im)).collect();
             crate::output::write_figure(dir, &named, self.exposure)?;
             let table = markdown(&rows, ss4);
-            ifd_image::atomic_write(&dir.join("table.md"), |w| {
-                use std::io::Write as _;
-                w.write_all(table.as_bytes()).map_err(|e| e.to_string())
-            })?;
+            crate::output::write_text(&dir.join("table.md"), &table)?;
         }
         self.report.emit(&json!({
             "env": self.env, "width": w, "height": h, "lmax": self.lmax,

@@ -133,10 +133,7 @@ impl Visibility {
             for (l, a, b) in &s.rows {
                 let _ = writeln!(csv, "{l},{a},{b}");
             }
-            ifd_image::atomic_write(&dir.join("error.csv"), |w| {
-                use std::io::Write as _;
-                w.write_all(csv.as_bytes()).map_err(|e| e.to_string())
-            })?;
+            crate::output::write_text(&dir.join("error.csv"), &csv)?;
             let series = [
                 ("with visibility", [0.1, 0.3, 0.9], false, 1),
                 ("unshadowed", [0.85, 0.1, 0.1], true, 2),

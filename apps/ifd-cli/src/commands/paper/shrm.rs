@@ -1,24 +1,14 @@
 //! `ifd paper shrm-table4` and `shrm-table5`: Ramamoorthi and Hanrahan
 //! (2002), Tables 4 and 5.
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
 
-use std::fmt::Write as _;
-
 use crate::input::InputOptions;
 use crate::options::{ReportOptions, csv_report};
-
-/// Writes a text file atomically (no half-written file on failure).
-fn write_text(path: &std::path::Path, text: &str) -> Result<()> {
-    ifd_image::atomic_write(path, |w| {
-        use std::io::Write as _;
-        w.write_all(text.as_bytes()).map_err(|e| e.to_string())
-    })
-    .with_context(|| format!("{}: cannot write", path.display()))
-}
 
 /// Reproduces Tables 4 and 5 of Ramamoorthi and Hanrahan (2002).
 ///
@@ -224,7 +214,7 @@ impl ShrmTable4 {
             );
         }
         if let Some(path) = &self.common.csv {
-            write_text(path, &text)?;
+            crate::output::write_text(path, &text)?;
         }
         if let Some(path) = &self.plot {
             use ifd_plot::{Series, log_line_plot};
@@ -369,7 +359,7 @@ impl ShrmTable5 {
             );
         }
         if let Some(path) = &self.common.csv {
-            write_text(path, &csv)?;
+            crate::output::write_text(path, &csv)?;
         }
         self.common.report.emit_with(&csv_report(&csv), || out)
     }

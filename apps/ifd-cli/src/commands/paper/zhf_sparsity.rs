@@ -148,9 +148,7 @@ impl SparsityCmd {
             }));
         }
         if let Some(p) = &self.markdown {
-            ifd_image::atomic_write(p, |w| {
-                std::io::Write::write_all(w, md.as_bytes()).map_err(|e| e.to_string())
-            })?;
+            crate::output::write_text(p, &md)?;
         }
         self.report.emit(
             &json!({"bands": band_rows, "orders": order_rows, "population": self.population,

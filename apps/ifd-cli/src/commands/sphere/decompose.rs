@@ -164,10 +164,7 @@ impl DecomposeCmd {
         })?;
         let dec = Decomposition::new(&basis, &kc)?;
         let text = dec.to_json()?;
-        ifd_image::atomic_write(&self.output, |w| {
-            use std::io::Write;
-            w.write_all(text.as_bytes()).map_err(|e| e.to_string())
-        })?;
+        crate::output::write_text(&self.output, &text)?;
         let channels = dec.weights.channels;
         self.report
             .emit(&json!({"lmax": self.lmax, "profile": profile.name(),
