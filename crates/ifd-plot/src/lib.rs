@@ -6,8 +6,6 @@
 //!   pixels and colour bars.
 //! - [`log_line_plot`]: curves on a logarithmic `y` axis (convergence and
 //!   timing studies, `ifd envmap`, `ifd-render`).
-//! - [`condition_plot`]: the ISD condition study of Fig. 13
-//!   (`ifd paper isd-condition`, data from `ifd_sphere::condition`).
 //! - [`draw`]: the primitives (lines, a 5x7 bitmap font, colour maps).
 //!
 //! ```
@@ -23,4 +21,4 @@ pub mod draw;
 pub mod lines;
 
 pub use decomposition::decomposition_plot;
-pub use lines::{PLOT_SIZE, Series, condition_plot, log_line_plot, profile_colour};
+pub use lines::{PLOT_SIZE, Series, log_line_plot, profile_colour};

@@ -43,7 +43,6 @@
 //!   cubemap and sample projection.
 //! - [`rotation`]: rotations and the Ivanic-Ruedenberg reference SH rotation.
 //! - [`zhf`]: direction sets, `M_l`, ZHF/ZHE, ZHF rotation (Eq. 10, 11).
-//! - [`sparsity`]: the ZHF paper's sparsity search (its Table I, Fig. 3).
 //! - [`tabulated`]: pre-tabulated band expansions for the signal-tailored
 //!   rotation (ZHF Eq. 11 with lookups).
 //! - [`zhf_plane`]: `l + 1` in-plane lobes per band for functions even in
@@ -51,20 +50,16 @@
 //! - [`profile`]: mother functions, `beta_{l l'}`, the general `M` (Eq. 15-19).
 //! - [`kernel`]: closed-form spherical filters and their projection.
 //! - [`filter`]: prefiltering (Eq. 13) and evaluation of `fhat(R)` (Eq. 6, 14).
-//! - [`condition`]: the condition-number study of Fig. 13 (its plot is
-//!   `ifd_plot::condition_plot`).
 //! - [`coeffs`]: [`ShCoeffs`] and their `.npy` format.
 
 mod error;
 
 pub mod coeffs;
-pub mod condition;
 pub mod filter;
 pub mod kernel;
 pub mod profile;
 pub mod rotation;
 pub mod sh;
-pub mod sparsity;
 pub mod tabulated;
 pub mod transform;
 pub mod zhf;

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::Args;
-use ifd_plot::condition_plot;
-use ifd_sphere::condition::{condition_study, is_singular};
+use ifd_paper::condition::condition_plot;
+use ifd_paper::condition::{condition_study, is_singular};
 use ifd_sphere::profile::MAX_ISD_DEGREE;
 use serde_json::json;
 

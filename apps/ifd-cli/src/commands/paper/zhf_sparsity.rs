@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::Args;
-use ifd_sphere::sparsity::{
+use ifd_paper::sparsity::{
     PAPER_TABLE_I, SearchOptions, random_shared, search_band, search_shared,
 };
 use serde_json::json;
@@ -21,7 +21,7 @@ use crate::options::ReportOptions;
 /// included) and, with --markdown, a table against the paper's Table I.
 ///
 /// Example: `ifd paper zhf-sparsity --bands 2..12 --orders 2..8 --markdown sparsity.md` (minutes:
-/// the search is long on purpose, see `ifd_sphere::sparsity`)
+/// the search is long on purpose, see `ifd_paper::sparsity`)
 #[derive(Debug, Args)]
 pub struct SparsityCmd {
     /// Bands A..B searched one by one (1 <= A <= B <= 30); "none" to skip.
