@@ -993,3 +993,127 @@ fn paper_all_quick_writes_every_page() {
     assert_eq!(code, 2);
     assert!(err.contains("isd-mirror"), "{err}");
 }
+
+/// `ifd render` options for what the papers' studies measure: self-shadowing
+/// on meshes and anti-aliased mirror reflections.
+mod render_options {
+    use super::{ifd, testdata};
+    use std::fmt::Write as _;
+    use std::path::Path;
+
+    /// A torus (radii 1 and 0.4, z up) as an OBJ file of 32 x 16 quads.
+    fn torus_obj(dir: &Path) -> String {
+        let (nu, nv) = (32, 16);
+        let mut s = String::new();
+        for i in 0..nu {
+            let a = std::f64::consts::TAU * f64::from(i) / f64::from(nu);
+            for j in 0..nv {
+                let b = std::f64::consts::TAU * f64::from(j) / f64::from(nv);
+                let r = 1.0 + 0.4 * b.cos();
+                let _ = writeln!(s, "v {} {} {}", r * a.cos(), r * a.sin(), 0.4 * b.sin());
+            }
+        }
+        let id = |i: u32, j: u32| (i % nu) * nv + (j % nv) + 1;
+        for i in 0..nu {
+            for j in 0..nv {
+                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+                let _ = writeln!(s, "f {a} {b} {c}\nf {a} {c} {d}");
+            }
+        }
+        let path = dir.join("torus.obj");
+        std::fs::write(&path, s).expect("write the OBJ");
+        path.to_string_lossy().into_owned()
+    }
+
+    fn mean(path: &Path) -> f64 {
+        let img = ifd_image::read(path).expect("a rendered image");
+        img.data().iter().map(|v| f64::from(*v)).sum::<f64>() / img.data().len() as f64
+    }
+
+    #[test]
+    fn shadows_darken_a_mesh_and_are_refused_where_they_do_not_apply() {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = torus_obj(dir.path());
+        let forest = testdata("forest.hdr");
+        let out = |name: &str| dir.path().join(name);
+        let base = [
+            "render",
+            "--env",
+            &forest,
+            "--env-size",
+            "32x16",
+            "--brdf",
+            "lambert",
+            "--scene",
+            &obj,
+            "--obj-up",
+            "z",
+            "--eye",
+            "0,-2.4,1.7",
+            "--size",
+            "24x24",
+            "--no-background",
+        ];
+        let run = |extra: &[&str], name: &str| {
+            let mut args = base.to_vec();
+            args.extend_from_slice(extra);
+            let o = out(name);
+            let o = o.to_str().unwrap().to_owned();
+            args.extend_from_slice(&["-o", &o]);
+            ifd(&args)
+        };
+        let (code, _, err) = run(
+            &["--lmax", "6", "--shadows", "--shadow-rays", "512"],
+            "s.exr",
+        );
+        assert_eq!(code, 0, "{err}");
+        let (code, _, err) = run(&["--lmax", "6"], "u.exr");
+        assert_eq!(code, 0, "{err}");
+        let (code, _, err) = run(&["--method", "quadrature", "--shadows"], "r.exr");
+        assert_eq!(code, 0, "{err}");
+        let (s, u, r) = (
+            mean(&out("s.exr")),
+            mean(&out("u.exr")),
+            mean(&out("r.exr")),
+        );
+        assert!(
+            s < 0.99 * u && r < 0.99 * u,
+            "shadowed {s}, unshadowed {u}, reference {r}"
+        );
+        assert!(
+            (s - r).abs() < (u - r).abs(),
+            "isd {s}, reference {r}, open {u}"
+        );
+        // refusals, each naming the problem
+        for (extra, needle) in [
+            (
+                vec!["--lmax", "6", "--shadows", "--method", "sh"],
+                "--method isd",
+            ),
+            (
+                vec!["--lmax", "6", "--shadows", "--shadow-rays", "10"],
+                "(L+1)^2",
+            ),
+            (vec!["--lmax", "6", "--shadow-rays", "100"], "--shadows"),
+        ] {
+            let (code, _, err) = run(&extra, "x.exr");
+            assert_eq!(code, 2, "{extra:?}: {err}");
+            assert!(err.contains(needle), "{extra:?}: {err}");
+        }
+        let (code, _, err) = ifd(&[
+            "render",
+            "--env",
+            &forest,
+            "--brdf",
+            "lambert",
+            "--lmax",
+            "4",
+            "--shadows",
+            "-o",
+            out("y.exr").to_str().unwrap(),
+        ]);
+        assert_eq!(code, 2, "{err}");
+        assert!(err.contains("triangle mesh"), "{err}");
+        assert!(!out("x.exr").exists() && !out("y.exr").exists());
+    }
+}

@@ -53,6 +53,7 @@ fn job<'a>(
         maps: None,
         family: None,
         lights: &[],
+        shadows: None,
     }
 }
 

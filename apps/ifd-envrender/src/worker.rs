@@ -392,6 +392,7 @@ impl Worker {
             maps: Some(surface),
             family,
             lights: &[],
+            shadows: None,
         };
         let r = render(&job, &|_, _| {})?;
         let tm = Tonemap::parse(&s.tonemap)?;

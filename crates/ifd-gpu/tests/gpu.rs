@@ -1315,6 +1315,7 @@ mod shading {
             maps: case.maps,
             family: case.family,
             lights: &[],
+            shadows: None,
         };
         let cpu = render(&job, &|_, _| {}).expect("cpu render");
         let px = gbuffer::pixels(&case.scene, &camera, case.maps).expect("pixels");

@@ -150,6 +150,7 @@ fn job<'b>(
         maps: None,
         family: None,
         lights: &[],
+        shadows: None,
     }
 }
 

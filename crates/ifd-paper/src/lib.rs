@@ -8,6 +8,8 @@
 //!   per profile and degree, and its plot.
 //! - [`sparsity`]: ZHF Table I and Fig. 3, the genetic search for lobe
 //!   directions that make the factorisation sparse.
+//! - [`visibility`]: ISD Fig. 7, self-shadowed ISD on a mesh against its
+//!   ray-traced reference as `L` grows.
 //! - [`shrm`], [`shrm_general`]: SHRM Tables 4 and 5, prefiltering in angular
 //!   against frequency space (Phong; the microfacet BRDF of its Eq. 11), timed
 //!   side by side.
@@ -20,6 +22,7 @@ pub mod convergence;
 pub mod shrm;
 pub mod shrm_general;
 pub mod sparsity;
+pub mod visibility;
 
 /// An invalid parameter of a study, as `ifd-ibl` reports its own.
 pub(crate) fn param(what: &'static str, why: impl Into<String>) -> ifd_ibl::IblError {

@@ -17,6 +17,7 @@ use crate::mc::{EnvSampler, estimate, pixel_seed};
 use crate::oracle::Oracle;
 use crate::scene::Scene;
 use crate::textures::{RoughnessFamily, SurfaceMaps, alpha_of};
+use crate::visibility::Shadows;
 
 /// How object pixels are shaded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,6 +86,11 @@ pub struct Job<'a> {
     /// cap's quadrature for `quadrature`; refused by `mc`. Pixels whose ray
     /// meets a light before the object show its radiance.
     pub lights: &'a [SphericalLight],
+    /// Self-shadowing of the mesh (ISD Eq. 25, Appendix A): `isd` shades by
+    /// the three steps with the per-vertex visibility, `quadrature` traces
+    /// the visibility of every node (the reference); other methods, lights
+    /// and roughness maps are refused. `None`: unshadowed.
+    pub shadows: Option<&'a Shadows>,
 }
 
 /// A rendered image with what a caller needs to measure it.
@@ -158,6 +164,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             reason: "ISD methods need a RoughnessFamily for a roughness map".into(),
         });
     }
+    check_shadows(job, rough_map.is_some())?;
     let degree = match (job.material, job.family) {
         (_, Some(f)) if rough_map.is_some() => Some(f.l_max()),
         (Some(m), _) => Some(m.l_max()),
@@ -222,6 +229,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             let mut tmp = vec![0.0; ch.max(3)];
             let l = degree.unwrap_or(0);
             let mut scratch = Scratch::new(l, ch);
+            let mut vis = vec![0.0; job.shadows.map_or(0, |s| (s.l_max() + 1).pow(2))];
             for x in 0..w {
                 let Pixel { dir: d, surface } = pixel(&job.scene, &job.camera, job.maps, x, y);
                 out.fill(0.0);
@@ -259,6 +267,18 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                                 for c in 0..ch {
                                     out[c] = (1.0 - t) * out[c] + t * out2[c];
                                 }
+                            } else if let (Some(m), Some(sh)) = (job.material, job.shadows) {
+                                let (o, d) = job.camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                                sh.shade_isd(
+                                    m,
+                                    o,
+                                    d,
+                                    &frame,
+                                    wo,
+                                    &mut scratch,
+                                    &mut vis,
+                                    &mut out[..ch],
+                                )?;
                             } else if let Some(m) = job.material {
                                 shade(m, &surface, &mut scratch, &mut tmp, &mut out)?;
                             }
@@ -279,6 +299,14 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                             let Some(or) = &oracle else {
                                 unreachable!("the oracle exists for quadrature")
                             };
+                            if let Some(sh) = job.shadows {
+                                let p = glam::DVec3::from_array(p);
+                                sh.shade_reference(job.env, brdf, p, &frame, wo, &mut out);
+                                for c in 0..ch {
+                                    px[x * ch + c] = out[c] as f32;
+                                }
+                                continue;
+                            }
                             let (k, ok, r) = or.shade(job.env, brdf, &frame, wo, &mut out);
                             max_k = max_k.max(k);
                             bad += usize::from(!ok);
@@ -351,6 +379,47 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             None
         },
     })
+}
+
+/// Shadows need their mesh, `isd` or `quadrature`, a material of at most
+/// their degree, and neither lights nor a roughness map.
+fn check_shadows(job: &Job<'_>, roughness_map: bool) -> Result<()> {
+    let Some(sh) = job.shadows else {
+        return Ok(());
+    };
+    let bad = |reason: String| {
+        Err(RenderError::Parameter {
+            name: "--shadows",
+            value: format!("{:?}", job.method),
+            reason,
+        })
+    };
+    match &job.scene {
+        Scene::Mesh(m) if sh.is_of(m) => {}
+        Scene::Mesh(_) => return bad("the shadows were computed for another mesh".into()),
+        s => {
+            return bad(format!(
+                "self-shadowing needs a triangle mesh (an .obj scene), not the {s:?}"
+            ));
+        }
+    }
+    if !matches!(job.method, Method::Isd | Method::Quadrature) {
+        return bad("shadows are shaded by isd (Eq. 25) and quadrature (ray traced)".into());
+    }
+    if !job.lights.is_empty() {
+        return bad("spherical lights are not shadowed; drop --light".into());
+    }
+    if roughness_map {
+        return bad("a roughness map is not shadowed; drop --roughness-map".into());
+    }
+    if let Some(m) = job.material.filter(|m| m.l_max() > sh.l_max()) {
+        return bad(format!(
+            "the material's L = {} exceeds the visibility's L = {}",
+            m.l_max(),
+            sh.l_max()
+        ));
+    }
+    Ok(())
 }
 
 /// The light the ray `d` from the camera meets before the surface, if any.

@@ -25,6 +25,11 @@
 //! The reference ([`reference()`]) traces the visibility of every quadrature
 //! direction at the pixel's own point: `2 x 2` Gauss-Legendre nodes per
 //! texel of the (piecewise-constant) map.
+//!
+//! [`Shadows`] holds what a frame needs (the visibility per vertex, the
+//! product matrix, the reference's nodes); [`crate::render::Job::shadows`]
+//! renders with it (`ifd render --shadows`): `isd` by the three steps,
+//! `quadrature` by the ray-traced reference.
 
 use glam::DVec3;
 use ifd_shade::Brdf;
@@ -332,182 +337,109 @@ pub fn reference(
     }
 }
 
-/// A pixel's point on the mesh: position, vertices, barycentric weights,
-/// shading frame, direction to the viewer.
-type MeshPoint = (DVec3, [usize; 3], [f64; 3], Frame, [f64; 3]);
-
-/// What the study renders: a mesh seen by a camera under a map.
-#[derive(Debug)]
-pub struct VisibilityScene<'a> {
-    /// The mesh.
-    pub mesh: &'a Mesh,
-    /// The camera.
-    pub camera: crate::camera::Camera,
-    /// The environment (piecewise constant; its texels are the reference's
-    /// quadrature).
-    pub env: &'a EnvMap,
-    /// The BRDF.
-    pub brdf: &'a Brdf,
+/// What self-shadowed shading of one mesh under one map needs, built once
+/// for every frame: the visibility per vertex, the product matrix, and the
+/// quadrature nodes of the ray-traced reference.
+#[derive(Clone, Debug)]
+pub struct Shadows {
+    mesh: std::sync::Arc<Mesh>,
+    visibility: VertexVisibility,
+    product: ProductMatrix,
+    nodes: Vec<TexelNode>,
 }
 
-/// The study's images and errors (ISD Fig. 7).
-#[derive(Debug)]
-pub struct VisibilityStudy {
-    /// Per degree: `(L, relative RMS of ISD with visibility, of ISD
-    /// without)` against the reference.
-    pub rows: Vec<(usize, f64, f64)>,
-    /// The reference.
-    pub reference: ifd_image::Image,
-    /// ISD with visibility at the highest degree.
-    pub shadowed: ifd_image::Image,
-    /// ISD without visibility at the highest degree.
-    pub unshadowed: ifd_image::Image,
-    /// Object pixels.
-    pub mask: Vec<bool>,
-    /// Seconds: reference, visibility projection, product matrix, ISD frame
-    /// at the highest degree.
-    pub seconds: [f64; 4],
-}
+impl Shadows {
+    /// Projects the visibility of every vertex of `mesh` on SH up to `l_max`
+    /// with `rays` rays (at least `(L + 1)^2`) and the product matrix of
+    /// `env`; `progress(done, total)` over the vertices.
+    ///
+    /// # Errors
+    /// [`RenderError::Parameter`] for fewer rays than `(L + 1)^2`; degrees
+    /// beyond the SH code's limit.
+    pub fn new(
+        mesh: std::sync::Arc<Mesh>,
+        env: &EnvMap,
+        l_max: usize,
+        rays: usize,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Self> {
+        let visibility = VertexVisibility::compute(&mesh, l_max, rays, progress)?;
+        let product = ProductMatrix::new(env, l_max)?;
+        Ok(Self {
+            mesh,
+            visibility,
+            product,
+            nodes: texel_nodes(env),
+        })
+    }
 
-/// Renders the reference once, then ISD with and without visibility at each
-/// degree of `degrees` (the material and the visibility are built at the
-/// highest and truncated), and measures them over the object.
-///
-/// # Errors
-/// Shading and SH errors; [`RenderError::NothingVisible`].
-pub fn study(
-    scene: &VisibilityScene<'_>,
-    material: &Material,
-    n_dirs: usize,
-    degrees: &[usize],
-    progress: &dyn Fn(&str),
-) -> Result<VisibilityStudy> {
-    let (w, h) = (scene.camera.width(), scene.camera.height());
-    let ch = scene.env.channels();
-    let l_max = material.l_max();
-    if degrees.iter().any(|l| *l > l_max) {
-        return Err(RenderError::Parameter {
-            name: "degrees",
-            value: format!("{degrees:?}"),
-            reason: format!("at most the material's L = {l_max}"),
-        });
+    /// What the ray-traced reference alone needs (`quadrature`): the
+    /// quadrature nodes, with a visibility and product matrix of degree 0
+    /// (one ray per vertex), so `isd` cannot shade with it above `L = 0`.
+    ///
+    /// # Errors
+    /// As [`Self::new`].
+    pub fn traced(mesh: std::sync::Arc<Mesh>, env: &EnvMap) -> Result<Self> {
+        Self::new(mesh, env, 0, 1, &|_, _| {})
     }
-    // the G-buffer: hit, vertices, weights, frame
-    let hits: Vec<Option<MeshPoint>> = (0..h)
-        .into_par_iter()
-        .flat_map_iter(|y| {
-            (0..w).map(move |x| {
-                let (o, d) = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5);
-                scene.mesh.intersect_vertices(o, d).map(|(hit, v, b)| {
-                    (
-                        hit.p,
-                        v,
-                        b,
-                        Frame::new(hit.n.to_array(), hit.dpdu.to_array()),
-                        (-d).to_array(),
-                    )
-                })
-            })
-        })
-        .collect();
-    let mask: Vec<bool> = hits.iter().map(Option::is_some).collect();
-    if !mask.iter().any(|m| *m) {
-        return Err(RenderError::NothingVisible(
-            "no ray hits the mesh (check the camera)".into(),
-        ));
+
+    /// The degree of the visibility and the product matrix.
+    #[must_use]
+    pub fn l_max(&self) -> usize {
+        self.visibility.l_max()
     }
-    let img = |data: Vec<f64>| {
-        ifd_image::Image::from_vec(w, h, ch, data.into_iter().map(|v| v as f32).collect())
-    };
-    progress("reference (ray-traced visibility)");
-    let t = std::time::Instant::now();
-    let nodes = texel_nodes(scene.env);
-    let reference: Vec<f64> = hits
-        .par_iter()
-        .flat_map_iter(|hit| {
-            let mut out = vec![0.0; ch];
-            if let Some((p, _, _, frame, wo)) = hit {
-                reference(
-                    scene.env, &nodes, scene.brdf, scene.mesh, *p, frame, *wo, &mut out,
-                );
-            }
-            out
-        })
-        .collect();
-    let t_ref = t.elapsed().as_secs_f64();
-    progress("visibility per vertex");
-    let t = std::time::Instant::now();
-    let vis = VertexVisibility::compute(
-        scene.mesh,
-        l_max,
-        n_dirs.max((l_max + 1) * (l_max + 1)),
-        &|_, _| {},
-    )?;
-    let t_vis = t.elapsed().as_secs_f64();
-    progress("product matrix");
-    let t = std::time::Instant::now();
-    let product = ProductMatrix::new(scene.env, l_max)?;
-    let t_prod = t.elapsed().as_secs_f64();
-    let n = (l_max + 1) * (l_max + 1);
-    let mut rows = Vec::new();
-    let (mut shadowed, mut unshadowed) = (Vec::new(), Vec::new());
-    let mut t_frame = 0.0;
-    for &l in degrees {
-        progress(&format!("ISD at L = {l}"));
-        let t = std::time::Instant::now();
-        let with: Vec<Result<Vec<f64>>> = hits
-            .par_iter()
-            .map_init(
-                || (material.scratch(ch), vec![0.0; n]),
-                |(s, v), hit| {
-                    let mut out = vec![0.0; ch];
-                    if let Some((_, verts, bary, frame, wo)) = hit {
-                        vis.interpolate(*verts, *bary, l, v);
-                        shade_visible(material, &product, v, frame, *wo, l, s, &mut out)?;
-                    }
-                    Ok(out)
-                },
-            )
-            .collect();
-        let with: Vec<f64> = with.into_iter().collect::<Result<Vec<_>>>()?.concat();
-        t_frame = t.elapsed().as_secs_f64();
-        // without visibility: the same truncated product with v = 1
-        // (its SH: sqrt(4 pi) in y_0^0), i.e. int k_l E_l
-        let mut one = vec![0.0; n];
-        one[0] = (4.0 * std::f64::consts::PI).sqrt();
-        let without: Vec<Result<Vec<f64>>> = hits
-            .par_iter()
-            .map_init(
-                || material.scratch(ch),
-                |s, hit| {
-                    let mut out = vec![0.0; ch];
-                    if let Some((_, _, _, frame, wo)) = hit {
-                        shade_visible(material, &product, &one, frame, *wo, l, s, &mut out)?;
-                    }
-                    Ok(out)
-                },
-            )
-            .collect();
-        let without: Vec<f64> = without.into_iter().collect::<Result<Vec<_>>>()?.concat();
-        let (a, b, r) = (
-            img(with.clone())?,
-            img(without.clone())?,
-            img(reference.clone())?,
-        );
-        rows.push((
-            l,
-            crate::render::relative_rms(&a, &r, &mask),
-            crate::render::relative_rms(&b, &r, &mask),
-        ));
-        shadowed = with;
-        unshadowed = without;
+
+    /// The mesh the visibility belongs to.
+    #[must_use]
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
     }
-    Ok(VisibilityStudy {
-        rows,
-        reference: img(reference)?,
-        shadowed: img(shadowed)?,
-        unshadowed: img(unshadowed)?,
-        mask,
-        seconds: [t_ref, t_vis, t_prod, t_frame],
-    })
+
+    /// Whether these are the shadows of `mesh` (the same mesh, not a copy).
+    #[must_use]
+    pub fn is_of(&self, mesh: &std::sync::Arc<Mesh>) -> bool {
+        std::sync::Arc::ptr_eq(&self.mesh, mesh)
+    }
+
+    /// Eq. 25 by the three steps at the point of the ray `o + t d`, truncated
+    /// at the material's degree (`<=` [`Self::l_max`]); `vis` holds
+    /// `(L + 1)^2` values of scratch. Zero where the ray misses the mesh.
+    ///
+    /// # Errors
+    /// Shading errors of [`Material::world_sh`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn shade_isd(
+        &self,
+        material: &Material,
+        o: DVec3,
+        d: DVec3,
+        frame: &Frame,
+        wo: [f64; 3],
+        s: &mut Scratch,
+        vis: &mut [f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        let l = material.l_max().min(self.l_max());
+        if let Some((_, v, b)) = self.mesh.intersect_vertices(o, d) {
+            self.visibility.interpolate(v, b, l, vis);
+            shade_visible(material, &self.product, vis, frame, wo, l, s, out)
+        } else {
+            out.fill(0.0);
+            Ok(())
+        }
+    }
+
+    /// The ray-traced reference of Eq. 25 at point `p` ([`reference()`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn shade_reference(
+        &self,
+        env: &EnvMap,
+        brdf: &Brdf,
+        p: DVec3,
+        frame: &Frame,
+        wo: [f64; 3],
+        out: &mut [f64],
+    ) {
+        reference(env, &self.nodes, brdf, &self.mesh, p, frame, wo, out);
+    }
 }

@@ -8,6 +8,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use ifd_render::render::{Job, Method, render};
 use ifd_render::textures::{RoughnessFamily, SurfaceMaps, Texture};
+use ifd_render::visibility::Shadows;
 use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
 use ifd_shade::table::{LobeTable, default_theta_entries};
@@ -98,6 +99,17 @@ pub struct Render {
     /// drawn where the camera sees it.
     #[arg(long, value_name = "X,Y,Z,R,L", allow_hyphen_values = true)]
     light: Vec<String>,
+    /// Self-shadowing of a mesh scene (ISD Eq. 25, Appendix A): the visibility of every vertex
+    /// is cast with --shadow-rays rays and projected on SH up to --lmax; isd shades by the
+    /// three steps of Appendix A (the visibility interpolated over each triangle), quadrature
+    /// traces the visibility of 2x2 nodes per texel from each pixel's point (the reference).
+    /// Not with other methods, --light, --roughness-map or --gpu.
+    #[arg(long)]
+    shadows: bool,
+    /// Rays per vertex for the visibility of --shadows (at least (L+1)^2).
+    #[arg(long, value_name = "N", default_value_t = 4096, requires = "shadows",
+          value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    shadow_rays: u32,
     /// Also write the object mask (1 on the object, 0 elsewhere).
     #[arg(long, value_name = "FILE")]
     mask: Option<PathBuf>,
@@ -219,6 +231,41 @@ impl Render {
                  --method quadrature for their reference"
             );
         }
+        if self.shadows {
+            if !matches!(scene, ifd_render::scene::Scene::Mesh(_)) {
+                bail!(
+                    "--shadows: self-shadowing needs a triangle mesh (--scene FILE.obj), not {}",
+                    self.scene.scene
+                );
+            }
+            if !matches!(method, Method::Isd | Method::Quadrature) {
+                bail!(
+                    "--shadows is shaded by --method isd (Eq. 25) or quadrature (ray traced), \
+                     not {}",
+                    self.method.name()
+                );
+            }
+            for (set, flag) in [
+                (self.gpu, "--gpu"),
+                (!lights.is_empty(), "--light"),
+                (self.roughness_map.is_some(), "--roughness-map"),
+            ] {
+                if set {
+                    bail!(
+                        "--shadows: not with {flag} (shadows are shaded on the CPU, for the environment, with one material)"
+                    );
+                }
+            }
+            if let Some(l) = l_max
+                && (self.shadow_rays as usize) < (l + 1) * (l + 1)
+            {
+                bail!(
+                    "--shadow-rays {}: the visibility at L = {l} needs at least (L+1)^2 = {}",
+                    self.shadow_rays,
+                    (l + 1) * (l + 1)
+                );
+            }
+        }
         if self.gpu && !matches!(method, Method::Isd | Method::IsdMaps) {
             bail!(
                 "--gpu shades --method isd or isd-maps, not {}",
@@ -298,6 +345,22 @@ impl Render {
             }
             _ => None,
         };
+        let shadows = match (&scene, self.shadows) {
+            (ifd_render::scene::Scene::Mesh(mesh), true) => Some(match l_max {
+                Some(l) if method == Method::Isd => {
+                    let bar = progress_bar("visibility");
+                    let s =
+                        Shadows::new(mesh.clone(), &env, l, self.shadow_rays as usize, &|d, n| {
+                            bar.set_length(n as u64);
+                            bar.set_position(d as u64);
+                        })?;
+                    bar.finish_and_clear();
+                    s
+                }
+                _ => Shadows::traced(mesh.clone(), &env)?,
+            }),
+            _ => None,
+        };
         let job = Job {
             scene,
             camera,
@@ -311,6 +374,7 @@ impl Render {
             maps: Some(&surface),
             family: family.as_ref(),
             lights: &lights,
+            shadows: shadows.as_ref(),
         };
         let t_render = std::time::Instant::now();
         let (r, gpu_report) = if let Some(ctx) = &gpu {
@@ -344,7 +408,7 @@ impl Render {
         crate::output::write_output(&output, &img, &ifd_image::WriteOptions::default())?;
         self.report.emit(&json!({
                 "method": self.method.name(), "brdf": brdf.spec(), "lmax": l_max,
-                "scene": self.scene.scene, "width": w, "height": h,
+                "scene": self.scene.scene, "width": w, "height": h, "shadows": self.shadows,
                 "env_size": [ew, eh], "object_pixels": r.object_pixels,
                 "closed_form": material.as_ref().map(Material::is_closed_form),
                 "quadrature_max_k": (method == Method::Quadrature).then_some(r.max_k),

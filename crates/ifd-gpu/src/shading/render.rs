@@ -29,8 +29,8 @@ impl GpuRender {
     /// the material (or the roughness family, with a roughness map).
     ///
     /// # Errors
-    /// [`GpuError::Unsupported`] for the other methods and for jobs without a
-    /// material; render errors (nothing visible, maps on a mesh without
+    /// [`GpuError::Unsupported`] for the other methods, for jobs without a
+    /// material and for shadows or spherical lights; render errors (nothing visible, maps on a mesh without
     /// texture coordinates); device limits.
     pub fn new(ctx: &GpuContext, job: &Job<'_>) -> Result<Self, GpuError> {
         if !matches!(job.method, Method::Isd | Method::IsdMaps) {
@@ -38,6 +38,11 @@ impl GpuRender {
                 "the {:?} method (the GPU shades isd and isd-maps)",
                 job.method
             )));
+        }
+        if job.shadows.is_some() || !job.lights.is_empty() {
+            return Err(GpuError::Unsupported(
+                "self-shadowing and spherical lights (shaded on the CPU only)".into(),
+            ));
         }
         let rough = job.maps.is_some_and(|m| m.roughness.is_some());
         let material = match (job.family, job.material) {

@@ -6,8 +6,9 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::Args;
+use ifd_paper::visibility::{VisibilityScene, study};
 use ifd_render::envmap::EnvMap;
-use ifd_render::visibility::{VisibilityScene, study, torus_mesh};
+use ifd_render::visibility::torus_mesh;
 use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
 use ifd_shade::table::{LobeTable, default_theta_entries};
@@ -17,10 +18,11 @@ use crate::input::parse_size;
 use crate::options::CameraOptions;
 use crate::options::ReportOptions;
 
-/// Shading with visibility (ISD Eq. 25, Appendix A): per-vertex SH visibility
-/// by ray casting, the product matrix of the lighting (the paper's gamma)
-/// and the three-step shader, against a ray-traced reference with the same
-/// occlusion, for increasing L (Fig. 7).
+/// Shading with visibility (ISD Eq. 25, Appendix A): `ifd render --shadows`
+/// (per-vertex SH visibility by ray casting, the product matrix of the
+/// lighting, the paper's gamma, and the three-step shader) against its
+/// ray-traced reference (`--method quadrature --shadows`), for increasing L
+/// (Fig. 7), beside unshadowed ISD.
 ///
 /// The scene is a torus mesh (`torus`, 96 x 48 quads) or an OBJ file,
 /// centred and scaled to the unit bounding sphere. The reference integrates
@@ -83,7 +85,6 @@ impl Visibility {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
         let degrees = parse_degrees(&self.degrees)?;
-        let l_max = *degrees.last().unwrap_or(&1);
         let camera = self.camera.camera()?;
         let (w, h) = (camera.width(), camera.height());
         let (ew, eh) = parse_size(&self.env_size, "--env-size")?;
@@ -98,25 +99,30 @@ impl Visibility {
             .map_err(|e| anyhow::anyhow!("--env {}: {e}", self.env.display()))?;
         let env = EnvMap::new(img, 0.0)?.downsampled(ew, eh)?;
         let brdf = Brdf::parse(&self.brdf)?;
-        let mesh = match self.scene.as_str() {
+        let mesh = std::sync::Arc::new(match self.scene.as_str() {
             "torus" => torus_mesh(1.0, 0.4, 96, 48)?,
             s if s.to_lowercase().ends_with(".obj") => {
                 ifd_render::mesh::Mesh::load(std::path::Path::new(s), false)?
             }
             s => bail!("--scene {s:?}: use torus or an .obj file"),
-        };
-        let table = Material::new(&brdf, l_max, None).is_err().then(|| {
-            eprintln!("building a lobe table at L = {l_max}...");
-            LobeTable::build(&brdf, l_max, default_theta_entries(&brdf), 32, &|_, _| {})
         });
-        let material = Material::new(&brdf, l_max, table.transpose()?)?;
+        let materials = degrees
+            .iter()
+            .map(|&l| {
+                let table = Material::new(&brdf, l, None).is_err().then(|| {
+                    eprintln!("building a lobe table at L = {l}...");
+                    LobeTable::build(&brdf, l, default_theta_entries(&brdf), 32, &|_, _| {})
+                });
+                Ok(Material::new(&brdf, l, table.transpose()?)?)
+            })
+            .collect::<Result<Vec<_>>>()?;
         let scene = VisibilityScene {
-            mesh: &mesh,
+            mesh: mesh.clone(),
             camera,
             env: &env,
             brdf: &brdf,
         };
-        let s = study(&scene, &material, self.rays, &degrees, &|m| {
+        let s = study(&scene, &materials, self.rays, &|m| {
             eprintln!("{m}");
         })?;
         if let Some(dir) = &self.out_dir {
@@ -164,8 +170,8 @@ impl Visibility {
                 "env_size": [ew, eh], "rays": self.rays, "triangles": mesh.triangles(),
                 "vertices": mesh.positions().len(),
                 "rows": s.rows.iter().map(|(l, a, b)| json!({"l": l, "isd_visibility": a, "isd_unshadowed": b})).collect::<Vec<_>>(),
-                "seconds": {"reference": s.seconds[0], "visibility": s.seconds[1],
-                            "product_matrix": s.seconds[2], "isd_frame": s.seconds[3]},
+                "seconds": {"reference": s.seconds[0], "visibility_and_product_matrix": s.seconds[1],
+                            "isd_frame": s.seconds[2]},
             }))?;
         Ok(())
     }
