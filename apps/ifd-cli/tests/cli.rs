@@ -541,6 +541,103 @@ mod sphere {
         assert!(err.contains("1..=40"), "{err}");
     }
 
+    /// A kernel image is projected at pixel centres by default: an image
+    /// whose texels hold a smooth kernel's mean over each texel (64 x 64
+    /// sub-samples, uniform in `cos theta` and `phi`, so area-weighted) gives
+    /// the closed form's weights to 0.1% (the texel-exact rule, which
+    /// projects the piecewise-constant map, to 1%: it keeps the box blur of
+    /// the texels); `--projection` is refused for a closed-form spec.
+    #[test]
+    fn decompose_projects_kernel_images_at_pixel_centres() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let spec = "vmf:kappa=10";
+        let (code, _, err) = ifd(&[
+            "sphere",
+            "decompose",
+            spec,
+            "--lmax",
+            "6",
+            "-o",
+            &p(d, "spec.json"),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let (_, want) = weights(&p(d, "spec.json"));
+        let k = Kernel::parse(spec).unwrap();
+        let (w, h, n) = (64usize, 32usize, 64usize);
+        let mut data = Vec::with_capacity(w * h);
+        for y in 0..h {
+            let (z0, z1) = (
+                (PI * y as f64 / h as f64).cos(),
+                (PI * (y + 1) as f64 / h as f64).cos(),
+            );
+            for x in 0..w {
+                let mut sum = 0.0;
+                for j in 0..n {
+                    let z = z0 + (z1 - z0) * (j as f64 + 0.5) / n as f64;
+                    for i in 0..n {
+                        let phi = 2.0 * PI * (x as f64 + (i as f64 + 0.5) / n as f64) / w as f64;
+                        sum += k.eval(direction(z.clamp(-1.0, 1.0).acos(), phi));
+                    }
+                }
+                data.push((sum / (n * n) as f64) as f32);
+            }
+        }
+        let img = ifd_image::Image::from_vec(w, h, 1, data).unwrap();
+        let path = p(d, "kernel.exr");
+        ifd_image::write(&path, &img).unwrap();
+        let mut errors = Vec::new();
+        for proj in ["texel", "centre"] {
+            let out = p(d, &format!("{proj}.json"));
+            let (code, _, err) = ifd(&[
+                "sphere",
+                "decompose",
+                &path,
+                "--lmax",
+                "6",
+                "--projection",
+                proj,
+                "-o",
+                &out,
+            ]);
+            assert_eq!(code, 0, "{err}");
+            errors.push(rel_diff(&weights(&out).1, &want));
+        }
+        let (code, _, err) = ifd(&[
+            "sphere",
+            "decompose",
+            &path,
+            "--lmax",
+            "6",
+            "-o",
+            &p(d, "default.json"),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        assert!(
+            rel_diff(
+                &weights(&p(d, "default.json")).1,
+                &weights(&p(d, "centre.json")).1
+            ) == 0.0
+        );
+        assert!(
+            errors[1] < 2e-3 && errors[0] < 2e-2 && errors[1] < 0.5 * errors[0],
+            "texel, centre: {errors:?}"
+        );
+        let (code, _, err) = ifd(&[
+            "sphere",
+            "decompose",
+            spec,
+            "--lmax",
+            "6",
+            "--projection",
+            "texel",
+            "-o",
+            &p(d, "x.json"),
+        ]);
+        assert_eq!(code, 2, "{err}");
+        assert!(err.contains("--projection"), "{err}");
+    }
+
     #[test]
     fn decompose_from_samples_and_from_sh_coefficients() {
         let dir = tempfile::tempdir().unwrap();
@@ -1115,5 +1212,156 @@ mod render_options {
         assert_eq!(code, 2, "{err}");
         assert!(err.contains("triangle mesh"), "{err}");
         assert!(!out("x.exr").exists() && !out("y.exr").exists());
+    }
+
+    /// A tangent-space normal map (RGB, `(n + 1) / 2`) of `w x h`: slopes
+    /// `s(u, v)` tilt the normal to `(-sx, -sy, 1)`, normalised.
+    fn normal_map(
+        dir: &Path,
+        name: &str,
+        w: usize,
+        h: usize,
+        s: impl Fn(f64, f64) -> (f64, f64),
+    ) -> String {
+        let mut data = Vec::with_capacity(w * h * 3);
+        for y in 0..h {
+            for x in 0..w {
+                let (u, v) = ((x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64);
+                let (sx, sy) = s(u, v);
+                let l = (sx * sx + sy * sy + 1.0).sqrt();
+                data.extend([-sx / l, -sy / l, 1.0 / l].map(|c| f64::midpoint(c, 1.0) as f32));
+            }
+        }
+        let img = ifd_image::Image::from_vec(w, h, 3, data).expect("a map");
+        let path = dir.join(name);
+        ifd_image::write(&path, &img).expect("write the map");
+        path.to_string_lossy().into_owned()
+    }
+
+    /// Mean absolute difference over the pixels where `mask` is 1.
+    fn masked_error(a: &Path, b: &Path, mask: &Path) -> f64 {
+        let (a, b, m) = (
+            ifd_image::read(a).expect("a"),
+            ifd_image::read(b).expect("b"),
+            ifd_image::read(mask).expect("mask"),
+        );
+        let ch = a.channels();
+        let (mut sum, mut n) = (0.0, 0.0);
+        for (i, mv) in m.data().iter().step_by(m.channels()).enumerate() {
+            if *mv > 0.5 {
+                for c in 0..ch {
+                    sum += f64::from((a.data()[i * ch + c] - b.data()[i * ch + c]).abs());
+                    n += 1.0;
+                }
+            }
+        }
+        sum / n
+    }
+
+    #[test]
+    fn a_normal_mapped_mirror_is_anti_aliased_by_isd() {
+        let dir = tempfile::tempdir().unwrap();
+        let forest = testdata("forest.hdr");
+        let out = |name: &str| dir.path().join(name).to_string_lossy().into_owned();
+        let flat = normal_map(dir.path(), "flat.exr", 16, 8, |_, _| (0.0, 0.0));
+        let bumps = normal_map(dir.path(), "bumps.exr", 256, 128, |u, v| {
+            let a = 0.35 * f64::from(u8::from(v < 0.5));
+            (
+                a * (std::f64::consts::TAU * 24.0 * u).cos(),
+                a * (std::f64::consts::TAU * 12.0 * v).cos(),
+            )
+        });
+        let run = |extra: &[&str], name: &str| {
+            let o = out(name);
+            let mut args = vec![
+                "render",
+                "--env",
+                &forest,
+                "--brdf",
+                "mirror",
+                "--size",
+                "64x64",
+                "--eye",
+                "0,-3.2,1.1",
+                "-o",
+                &o,
+            ];
+            args.extend_from_slice(extra);
+            let (code, _, err) = ifd(&args);
+            assert_eq!(code, 0, "{extra:?}: {err}");
+        };
+        // a flat normal map changes nothing
+        run(
+            &[
+                "--method",
+                "quadrature",
+                "--spp",
+                "1",
+                "--mask",
+                &out("mask.exr"),
+            ],
+            "plain.exr",
+        );
+        run(
+            &[
+                "--method",
+                "quadrature",
+                "--spp",
+                "1",
+                "--normal-map",
+                &flat,
+            ],
+            "flat.exr",
+        );
+        let mask = dir.path().join("mask.exr");
+        let p = |n: &str| dir.path().join(n);
+        assert!(masked_error(&p("plain.exr"), &p("flat.exr"), &mask) < 1e-6);
+        // bumps: ISD's filter is closer to the jittered reference than the
+        // centre sample, and than 2x2 supersampling
+        let nm = ["--normal-map", bumps.as_str()];
+        run(
+            &[&nm[..], &["--method", "mc", "--spp", "1024"]].concat(),
+            "ref.exr",
+        );
+        run(
+            &[&nm[..], &["--method", "quadrature", "--spp", "1"]].concat(),
+            "none.exr",
+        );
+        run(
+            &[&nm[..], &["--method", "quadrature", "--spp", "4"]].concat(),
+            "ss2.exr",
+        );
+        run(
+            &[&nm[..], &["--method", "isd", "--lmax", "32"]].concat(),
+            "isd.exr",
+        );
+        let e = |n: &str| masked_error(&p(n), &p("ref.exr"), &mask);
+        let (none, ss2, isd) = (e("none.exr"), e("ss2.exr"), e("isd.exr"));
+        assert!(
+            isd < 0.6 * none && isd < ss2,
+            "isd {isd}, 2x2 {ss2}, none {none}"
+        );
+        assert!(masked_error(&p("plain.exr"), &p("none.exr"), &mask) > 2.0 * none.min(isd));
+        // refusals
+        for (extra, needle) in [
+            (
+                vec!["--method", "sh", "--lmax", "4"],
+                "isd, quadrature or mc",
+            ),
+            (vec!["--method", "mc", "--spp", "10"], "square number"),
+            (vec!["--method", "isd"], "--lmax"),
+            (
+                vec!["--method", "isd", "--lmax", "8", "--light", "0,0,3,0.5,10"],
+                "--light",
+            ),
+        ] {
+            let o = out("x.exr");
+            let mut args = vec!["render", "--env", &forest, "--brdf", "mirror", "-o", &o];
+            args.extend_from_slice(&extra);
+            let (code, _, err) = ifd(&args);
+            assert_eq!(code, 2, "{extra:?}: {err}");
+            assert!(err.contains(needle), "{extra:?}: {err}");
+            assert!(!dir.path().join("x.exr").exists());
+        }
     }
 }

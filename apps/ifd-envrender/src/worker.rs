@@ -175,6 +175,7 @@ fn load_maps((albedo, roughness): &MapKey) -> Result<SurfaceMaps> {
             .as_ref()
             .map(|p| read(p, false, "roughness map"))
             .transpose()?,
+        normal: None,
     })
 }
 

@@ -1482,6 +1482,7 @@ mod shading {
                 Texture::new(Image::from_vec(w, h, 3, albedo).expect("img"), "albedo")
                     .expect("texture"),
             ),
+            normal: None,
         };
         let l = 6;
         let range = maps.roughness.as_ref().expect("set").range();

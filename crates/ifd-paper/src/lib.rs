@@ -10,6 +10,8 @@
 //!   directions that make the factorisation sparse.
 //! - [`visibility`]: ISD Fig. 7, self-shadowed ISD on a mesh against its
 //!   ray-traced reference as `L` grows.
+//! - [`mirror`]: ISD Fig. 6, anti-aliased reflections off a bumpy mirror
+//!   sphere, ISD's filter against supersampling.
 //! - [`shrm`], [`shrm_general`]: SHRM Tables 4 and 5, prefiltering in angular
 //!   against frequency space (Phong; the microfacet BRDF of its Eq. 11), timed
 //!   side by side.
@@ -19,6 +21,7 @@
 
 pub mod condition;
 pub mod convergence;
+pub mod mirror;
 pub mod shrm;
 pub mod shrm_general;
 pub mod sparsity;

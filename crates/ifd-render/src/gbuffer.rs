@@ -59,8 +59,12 @@ pub fn pixel(
             Some(a) => [a.sample(uv, 0), a.sample(uv, 1), a.sample(uv, 2)],
             None => [1.0; 3],
         };
+        let n = match maps.and_then(|m| m.normal.as_ref()) {
+            Some(t) => crate::textures::perturb_normal(hit.n, hit.dpdu, uv, t),
+            None => hit.n,
+        };
         Surface {
-            frame: Frame::new(hit.n.to_array(), hit.dpdu.to_array()),
+            frame: Frame::new(n.to_array(), hit.dpdu.to_array()),
             p: hit.p.to_array(),
             wo: (-d).to_array(),
             uv,
@@ -94,7 +98,8 @@ pub fn pixels(scene: &Scene, camera: &Camera, maps: Option<&SurfaceMaps>) -> Res
 
 /// Texture maps need texture coordinates.
 pub(crate) fn check_maps(scene: &Scene, maps: Option<&SurfaceMaps>) -> Result<()> {
-    let any = maps.is_some_and(|m| m.roughness.is_some() || m.albedo.is_some());
+    let any =
+        maps.is_some_and(|m| m.roughness.is_some() || m.albedo.is_some() || m.normal.is_some());
     if any && !scene.has_tangents() {
         return Err(RenderError::Parameter {
             name: "--scene",

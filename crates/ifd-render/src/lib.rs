@@ -2,8 +2,10 @@
 //! shading (ISD Sec. 6.1, Eq. 20-22): analytic scenes ray cast through a
 //! pinhole camera (world `z` up), shaded per pixel centre by ISD, by its SH
 //! reference, by Monte Carlo, or by an exact texel quadrature of the same (downsampled,
-//! piecewise-constant) environment. Unshadowed (no visibility, no
-//! interreflection).
+//! piecewise-constant) environment. Unshadowed unless the job carries
+//! [`visibility::Shadows`] (self-shadowing of a mesh, Eq. 25); no
+//! interreflection. Mirrors, anti-aliased by ISD's filter (Eq. 26-29), are
+//! [`mirror`]'s.
 //!
 //! ```
 //! use glam::DVec3;
@@ -29,10 +31,10 @@
 //! - [`gbuffer`]: what each pixel's ray sees (frame, view, map values), for the CPU and GPU shaders.
 //! - [`envmap`]: environment maps (rotation, downsampling, lookups, exact SH, texel samples).
 //! - [`oracle`]: the exact texel quadrature.
-//! - [`mirror`]: anti-aliased mirror reflections on a bumpy mirror (Eq. 26-29).
+//! - [`mirror`]: anti-aliased mirror reflections off a scene, bumpy through a normal map (Eq. 26-29).
 //! - [`mc`]: the Monte Carlo reference (environment and BRDF sampling, MIS).
 //! - [`render`]: the render loop and error measures.
-//! - [`textures`]: albedo and roughness maps (spatially varying BRDFs).
+//! - [`textures`]: albedo, roughness and normal maps (spatially varying BRDFs).
 //! - [`tonemap`]: exposure, tone curves, sRGB.
 //! - [`visibility`]: self-shadowed shading on meshes (Eq. 25, Appendix A).
 

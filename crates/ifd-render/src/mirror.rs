@@ -1,13 +1,16 @@
 //! Anti-aliased mirror reflections of an environment map (ISD Sec. 6.2,
-//! Eq. 26-29), on a bumpy mirror sphere.
+//! Eq. 26-29) off any [`Reflector`]: a scene's surface, bumpy through a
+//! normal map ([`SceneMirror`], `ifd render --brdf mirror`), or the studies'
+//! procedural bumps (`ifd paper isd-mirror`).
 //!
 //! # What a pixel integrates
 //! Eq. 26: `I(p) = int g(dp) E(r(n(p + dp), wo)) ddp`, the environment seen
 //! by mirror reflection over the pixel's footprint, weighted by the pixel
 //! filter `g`. Here `g` is a Gaussian of `sigma = 0.5` pixel truncated to the
 //! square `|dx|, |dy| <= 1` and normalised ([`PixelFilter`]); the reference
-//! integrates it with `64 x 64` jittered stratified samples, supersampling
-//! with `N x N` cell centres, both weighted by `g`.
+//! integrates it with `N x N` jittered stratified samples
+//! ([`AaMethod::Reference`]), supersampling with `N x N` cell centres
+//! ([`AaMethod::Supersample`]), both weighted by `g`.
 //!
 //! # ISD's filter (Eq. 27-29)
 //! To first order the reflected direction is `r(p + dp) = r(p) + J dp`, with
@@ -44,92 +47,42 @@ use rayon::prelude::*;
 use crate::camera::Camera;
 use crate::envmap::EnvMap;
 use crate::error::{RenderError, Result};
+use crate::scene::Scene;
+use crate::textures::{Texture, perturb_normal};
 
-/// The unit sphere as a mirror, its normals perturbed by sinusoidal bumps
-/// above a latitude band (`z` from `band.0` to `band.1`, smoothstep), flat
-/// below: a normal-mapped mirror with a bumpy and a smooth region.
-#[derive(Clone, Debug, PartialEq)]
-pub struct BumpyMirror {
-    /// Wave vectors (world, per unit length) and phases of the height field
-    /// `h(p) = amplitude sum sin(k . p + phase)`.
-    pub waves: Vec<([f64; 3], f64)>,
-    /// Height amplitude (the slopes are `amplitude |k|`).
-    pub amplitude: f64,
-    /// The latitude band over which the bumps fade in.
-    pub band: (f64, f64),
-}
-
-impl Default for BumpyMirror {
-    /// Three waves of `|k| = 60` (wavelength 0.105: about 10 pixels on a
-    /// 256-pixel view of the sphere), slopes up to `0.3`, bumps above `z =
-    /// 0.35`, smooth below `z = 0.15`.
-    fn default() -> Self {
-        let dirs = [[0.8, 0.6, 0.0], [-0.36, 0.48, 0.8], [0.0, -0.6, 0.8]];
-        let phases = [0.3, 1.9, 4.1];
-        Self {
-            waves: dirs
-                .iter()
-                .zip(phases)
-                .map(|(d, p)| ([60.0 * d[0], 60.0 * d[1], 60.0 * d[2]], p))
-                .collect(),
-            amplitude: 0.3 / 60.0,
-            band: (0.15, 0.35),
-        }
-    }
-}
-
-impl BumpyMirror {
-    /// How bumpy the surface is at `p`: 0 (smooth) to 1.
-    #[must_use]
-    pub fn bumpiness(&self, p: DVec3) -> f64 {
-        let t = ((p.z - self.band.0) / (self.band.1 - self.band.0)).clamp(0.0, 1.0);
-        t * t * (3.0 - 2.0 * t)
-    }
-
-    /// The perturbed unit normal at a point `p` of the unit sphere: the
-    /// sphere's normal tilted against the tangential gradient of the height.
-    #[must_use]
-    pub fn normal(&self, p: DVec3) -> DVec3 {
-        let n = p.normalize();
-        let w = self.bumpiness(p);
-        if w == 0.0 {
-            return n;
-        }
-        let mut g = DVec3::ZERO;
-        for (k, phase) in &self.waves {
-            let k = DVec3::from_array(*k);
-            g += k * (k.dot(p) + phase).cos();
-        }
-        g *= self.amplitude * w;
-        (n - (g - g.dot(n) * n)).normalize()
-    }
-
-    /// The ray through image point `(x, y)` (pixels, not centres): the
-    /// mirror-reflected direction and the hit point, or `Err(d)` with the ray's
-    /// own direction when it misses the sphere.
+/// What a mirror reflects at image point `(x, y)` (pixels, not centres).
+pub trait Reflector: Sync {
+    /// The mirror-reflected direction and the hit point, or `Err(d)` with
+    /// the ray's own direction when it misses the mirror.
     ///
     /// # Errors
     /// `Err(d)`, the ray's direction, when the ray misses (not a failure:
     /// the pixel sees the environment).
-    pub fn trace(
-        &self,
-        camera: &Camera,
-        x: f64,
-        y: f64,
-    ) -> std::result::Result<(DVec3, DVec3), DVec3> {
+    fn trace(&self, camera: &Camera, x: f64, y: f64) -> std::result::Result<(DVec3, DVec3), DVec3>;
+}
+
+/// A scene's surface as a perfect mirror, its normals perturbed by a
+/// tangent-space normal map when there is one
+/// ([`crate::textures::perturb_normal`]).
+#[derive(Clone, Copy, Debug)]
+pub struct SceneMirror<'a> {
+    /// The surface.
+    pub scene: &'a Scene,
+    /// Tangent-space normals over the surface's texture coordinates.
+    pub normal_map: Option<&'a Texture>,
+}
+
+impl Reflector for SceneMirror<'_> {
+    fn trace(&self, camera: &Camera, x: f64, y: f64) -> std::result::Result<(DVec3, DVec3), DVec3> {
         let (o, d) = camera.ray(x, y);
-        let b = o.dot(d);
-        let disc = b * b - (o.length_squared() - 1.0);
-        if disc < 0.0 {
+        let Some(hit) = self.scene.intersect(o, d) else {
             return Err(d);
-        }
-        let t = -b - disc.sqrt();
-        if t <= 1e-9 {
-            return Err(d);
-        }
-        let p = o + t * d;
-        let n = self.normal(p);
-        Ok((d - 2.0 * d.dot(n) * n, p))
+        };
+        let n = match (self.normal_map, hit.uv) {
+            (Some(t), Some(uv)) => perturb_normal(hit.n, hit.dpdu, uv, t),
+            _ => hit.n,
+        };
+        Ok((d - 2.0 * d.dot(n) * n, hit.p))
     }
 }
 
@@ -337,54 +290,14 @@ pub struct AaImage {
     pub image: Image,
     /// Pixels ISD filtered by Eq. 29 (the others were direct lookups).
     pub filtered: usize,
-}
-
-/// The pixel sets errors are measured over (row-major masks).
-#[derive(Debug)]
-pub struct Regions {
-    /// Pixels whose whole filter footprint lies on the sphere.
-    pub interior: Vec<bool>,
-    /// Interior pixels in the bumpy region (bumpiness 1 at the centre).
-    pub bumpy: Vec<bool>,
-    /// Interior pixels in the smooth region (bumpiness 0 at the centre).
-    pub smooth: Vec<bool>,
-}
-
-/// The regions of the scene's image: a pixel is interior when the four
-/// corners of its filter's square see the sphere (its image is convex).
-#[must_use]
-pub fn regions(scene: &MirrorScene<'_>) -> Regions {
-    let (w, h) = (scene.camera.width(), scene.camera.height());
-    let rad = scene.filter.radius;
-    let mut r = Regions {
-        interior: vec![false; w * h],
-        bumpy: vec![false; w * h],
-        smooth: vec![false; w * h],
-    };
-    for yi in 0..h {
-        for xi in 0..w {
-            let (cx, cy) = (xi as f64 + 0.5, yi as f64 + 0.5);
-            let trace = |dx: f64, dy: f64| scene.mirror.trace(&scene.camera, cx + dx, cy + dy);
-            let interior = [(-rad, -rad), (rad, -rad), (-rad, rad), (rad, rad)]
-                .iter()
-                .all(|(dx, dy)| trace(*dx, *dy).is_ok());
-            if interior && let Ok((_, p)) = trace(0.0, 0.0) {
-                let b = scene.mirror.bumpiness(p);
-                let i = yi * w + xi;
-                r.interior[i] = true;
-                r.bumpy[i] = b >= 1.0;
-                r.smooth[i] = b <= 0.0;
-            }
-        }
-    }
-    r
+    /// Whether each pixel's centre ray meets the mirror (row-major).
+    pub mask: Vec<bool>,
 }
 
 /// What to render.
-#[derive(Debug)]
 pub struct MirrorScene<'a> {
     /// The mirror.
-    pub mirror: BumpyMirror,
+    pub mirror: &'a dyn Reflector,
     /// The camera.
     pub camera: Camera,
     /// The environment (full resolution: looked up bilinearly).
@@ -435,10 +348,11 @@ pub fn render(
         _ => {}
     }
     let var = scene.filter.variance();
-    let rows: Vec<(Vec<f32>, usize)> = (0..h)
+    let rows: Vec<(Vec<f32>, usize, Vec<bool>)> = (0..h)
         .into_par_iter()
         .map(|yi| {
             let mut px = vec![0.0f32; w * ch];
+            let mut mask = vec![false; w];
             let mut filtered = 0;
             let mut out = vec![0.0; ch];
             let mut acc = vec![0.0; ch];
@@ -452,6 +366,7 @@ pub fn render(
                 let sample = |dx: f64, dy: f64, out: &mut [f64]| match trace(dx, dy) {
                     Ok((r, _)) | Err(r) => look(r, out),
                 };
+                mask[xi] = trace(0.0, 0.0).is_ok();
                 match method {
                     AaMethod::Centre => sample(0.0, 0.0, &mut out),
                     AaMethod::Supersample(n) | AaMethod::Reference(n) => {
@@ -523,108 +438,20 @@ pub fn render(
                     px[xi * ch + c] = out[c] as f32;
                 }
             }
-            (px, filtered)
+            (px, filtered, mask)
         })
         .collect();
     let mut data = Vec::with_capacity(w * h * ch);
+    let mut mask = Vec::with_capacity(w * h);
     let mut filtered = 0;
-    for (p, f) in rows {
+    for (p, f, m) in rows {
         data.extend(p);
+        mask.extend(m);
         filtered += f;
     }
     Ok(AaImage {
         image: Image::from_vec(w, h, ch, data)?,
         filtered,
-    })
-}
-
-/// Relative RMS error of `a` against `b` over `mask` (all channels), and
-/// the pixel count.
-#[must_use]
-pub fn region_error(a: &Image, b: &Image, mask: &[bool]) -> (f64, usize) {
-    let n = mask.iter().filter(|m| **m).count();
-    (crate::render::relative_rms(a, b, mask), n)
-}
-
-/// One method's row of the comparison.
-#[derive(Clone, Debug, PartialEq)]
-pub struct StudyRow {
-    /// Method name ([`AaMethod::name`]).
-    pub method: String,
-    /// Median seconds per image over the runs (rendering only).
-    pub seconds: f64,
-    /// Every run's seconds.
-    pub runs: Vec<f64>,
-    /// Relative RMS error against the reference over interior, bumpy and
-    /// smooth pixels.
-    pub errors: [f64; 3],
-    /// Pixels ISD filtered by Eq. 29.
-    pub filtered: usize,
-}
-
-/// What [`study`] measured.
-#[derive(Debug)]
-pub struct Study {
-    /// One row per method.
-    pub rows: Vec<StudyRow>,
-    /// Each method's image, named, then the reference's.
-    pub images: Vec<(String, Image)>,
-    /// The regions the errors are measured over.
-    pub regions: Regions,
-}
-
-/// The comparison of Fig. 6: the reference once, then every method `runs`
-/// times, interleaved (method after method within a run, so that the
-/// machine's drift hits them alike), with the median time and the errors.
-///
-/// # Errors
-/// As [`render`].
-pub fn study(
-    scene: &MirrorScene<'_>,
-    methods: &[AaMethod],
-    reference: AaMethod,
-    isd: Option<&IsdFilter>,
-    runs: usize,
-    progress: &dyn Fn(&str),
-) -> Result<Study> {
-    progress("regions");
-    let reg = regions(scene);
-    progress(&format!("reference ({})", reference.name()));
-    let refimg = render(scene, reference, isd)?.image;
-    let mut times = vec![Vec::new(); methods.len()];
-    let mut images: Vec<Option<AaImage>> = methods.iter().map(|_| None).collect();
-    for run in 0..runs.max(1) {
-        for (i, m) in methods.iter().enumerate() {
-            progress(&format!("run {}/{}: {}", run + 1, runs.max(1), m.name()));
-            let t = std::time::Instant::now();
-            let img = render(scene, *m, isd)?;
-            times[i].push(t.elapsed().as_secs_f64());
-            images[i] = Some(img);
-        }
-    }
-    let mut rows = Vec::new();
-    let mut out = Vec::new();
-    for ((m, t), img) in methods.iter().zip(times).zip(images) {
-        let Some(img) = img else {
-            unreachable!("every method ran at least once")
-        };
-        let mut sorted = t.clone();
-        sorted.sort_by(f64::total_cmp);
-        let errors = [&reg.interior, &reg.bumpy, &reg.smooth]
-            .map(|mask| region_error(&img.image, &refimg, mask).0);
-        rows.push(StudyRow {
-            method: m.name(),
-            seconds: sorted[sorted.len() / 2],
-            runs: t,
-            errors,
-            filtered: img.filtered,
-        });
-        out.push((m.name(), img.image));
-    }
-    out.push((reference.name(), refimg));
-    Ok(Study {
-        rows,
-        images: out,
-        regions: reg,
+        mask,
     })
 }

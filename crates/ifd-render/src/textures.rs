@@ -14,6 +14,12 @@
 //!   roughness (the result is linear in the weights, so this is the weights'
 //!   interpolation; its error is measured against the oracle in the tests).
 //!
+//! - **Normals** (RGB, linear: tangent-space normals encoded as `(n + 1) / 2`,
+//!   glTF's and OpenGL's convention): `x` along the tangent `T` (`dP/du`
+//!   made orthogonal to the normal `N`), `y` along `B = N x T`, `z` along
+//!   `N`. The shading frame of every method (and the mirror's reflection)
+//!   uses the perturbed normal ([`perturb_normal`]).
+//!
 //! Lookups are bilinear, wrapping in `u` and clamped in `v` (`v = 0` at the top
 //! row of the image).
 
@@ -86,6 +92,29 @@ pub struct SurfaceMaps {
     pub albedo: Option<Texture>,
     /// Roughness (channel 0).
     pub roughness: Option<Texture>,
+    /// Tangent-space normals (RGB).
+    pub normal: Option<Texture>,
+}
+
+/// The normal `n` (unit) of a surface with tangent `dpdu` perturbed by the
+/// normal map at `uv` (see the module docs). Falls back to `n` where the
+/// tangent is parallel to the normal or zero (a pole) or the map's normal
+/// has no length.
+#[must_use]
+pub fn perturb_normal(
+    n: glam::DVec3,
+    dpdu: glam::DVec3,
+    uv: [f64; 2],
+    map: &Texture,
+) -> glam::DVec3 {
+    let Some(t) = (dpdu - dpdu.dot(n) * n).try_normalize() else {
+        return n;
+    };
+    let b = n.cross(t);
+    let m = [0, 1, 2].map(|c| 2.0 * map.sample(uv, c) - 1.0);
+    (m[0] * t + m[1] * b + m[2] * n)
+        .try_normalize()
+        .unwrap_or(n)
 }
 
 /// `alpha` of a roughness value.

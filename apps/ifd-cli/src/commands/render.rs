@@ -18,8 +18,8 @@ use serde_json::json;
 use crate::input::InputOptions;
 use crate::options::{CameraOptions, DisplayOptions, EnvOptions, ReportOptions, SceneOptions};
 
-/// Render an analytic object lit by an environment map (unshadowed, one ray
-/// per pixel centre).
+/// Render an analytic object or a mesh lit by an environment map (one ray per
+/// pixel centre; unshadowed unless --shadows).
 ///
 /// Frames: world z up, as the SH code and the equirectangular convention.
 /// Every method integrates the same environment, averaged down to --env-size
@@ -39,7 +39,13 @@ pub struct Render {
     #[command(flatten)]
     env: EnvOptions,
     /// BRDF spec: lambert, phong:s=.., blinn:s=.., blinn-exact:s=.., ggx:alpha=.. or
-    /// ggx:ax=..,ay=.., ward:.., merl:FILE.
+    /// ggx:ax=..,ay=.., ward:.., merl:FILE; or mirror, a perfect mirror reflecting the full
+    /// resolution map (bilinear), anti-aliased over the pixel filter (a Gaussian of 0.5 pixel
+    /// over [-1, 1]^2) by --method: isd filters the footprint's reflected directions as one
+    /// spherical Gaussian (ISD Eq. 26-29, from the map's SH up to --lmax; a mip lookup where
+    /// the footprint is narrower than pi/L), quadrature averages a regular sqrt(N)xsqrt(N)
+    /// grid of --spp N samples (--spp 1: the pixel centre, no anti-aliasing), mc a jittered
+    /// stratified one (the reference).
     #[arg(long, value_name = "SPEC")]
     brdf: String,
     /// Maximum SH degree L (isd, isd-maps, sh).
@@ -67,7 +73,8 @@ pub struct Render {
     /// frame and frames per second (benchmarks; the image is the last frame).
     #[arg(long, value_name = "N", default_value_t = 1, requires = "gpu")]
     frames: usize,
-    /// Monte Carlo samples per pixel (each: one environment and one BRDF sample).
+    /// Monte Carlo samples per pixel (each: one environment and one BRDF sample); with --brdf
+    /// mirror, the samples of the pixel filter (a square number).
     #[arg(long, value_name = "N", default_value_t = 64)]
     spp: usize,
     /// Random seed.
@@ -89,6 +96,11 @@ pub struct Render {
     /// or Ward BRDF; ISD blends lobe tables at --roughness-tables values over the map's range.
     #[arg(long, value_name = "IMAGE")]
     roughness_map: Option<PathBuf>,
+    /// Tangent-space normal map over the surface's texture coordinates (RGB, linear, glTF's
+    /// convention: x along dP/du, y along N x T, z along the normal, encoded as (n + 1) / 2);
+    /// perturbs the shading frame of every method and the reflection of --brdf mirror.
+    #[arg(long, value_name = "IMAGE")]
+    normal_map: Option<PathBuf>,
     /// Lobe tables across the roughness map's range (ISD methods).
     #[arg(long, value_name = "K", default_value_t = 8)]
     roughness_tables: usize,
@@ -186,6 +198,9 @@ impl Render {
             .budget()
             .check(bytes)
             .with_context(|| format!("--size {w}x{h}"))?;
+        if self.brdf == "mirror" {
+            return self.run_mirror(&scene, camera, tonemap, display);
+        }
         let brdf = Brdf::parse(&self.brdf)?;
         if !brdf.is_isotropic() && !scene.has_tangents() {
             bail!(
@@ -476,6 +491,127 @@ impl Render {
         ))
     }
 
+    /// `--brdf mirror`: the surface as a perfect mirror, anti-aliased by
+    /// ISD's filter (Eq. 26-29) or by supersampling the pixel filter.
+    fn run_mirror(
+        &self,
+        scene: &ifd_render::scene::Scene,
+        camera: ifd_render::camera::Camera,
+        tonemap: ifd_render::tonemap::Tonemap,
+        display: bool,
+    ) -> Result<()> {
+        use ifd_render::mirror::{AaMethod, IsdFilter, MirrorScene, PixelFilter, SceneMirror};
+        for (set, flag) in [
+            (self.table.is_some(), "--table"),
+            (self.albedo_map.is_some(), "--albedo-map"),
+            (self.roughness_map.is_some(), "--roughness-map"),
+            (!self.light.is_empty(), "--light"),
+            (self.shadows, "--shadows"),
+            (self.gpu, "--gpu"),
+            (self.stderr.is_some(), "--stderr"),
+        ] {
+            if set {
+                bail!("--brdf mirror: not with {flag} (a mirror reflects the environment only)");
+            }
+        }
+        let grid = |what: &str| -> Result<usize> {
+            let n = (self.spp as f64).sqrt().round() as usize;
+            if n * n != self.spp || !(1..=256).contains(&n) {
+                bail!(
+                    "--spp {}: --brdf mirror with --method {what} takes a square number of \
+                     samples per pixel, 1 to 65536 (N x N)",
+                    self.spp
+                );
+            }
+            Ok(n)
+        };
+        let method = match self.method {
+            RenderMethod::Isd => AaMethod::Isd,
+            RenderMethod::Quadrature => AaMethod::Supersample(grid("quadrature")?),
+            RenderMethod::Mc => AaMethod::Reference(grid("mc")?),
+            m => bail!(
+                "--brdf mirror is anti-aliased by --method isd, quadrature or mc, not {}",
+                m.name()
+            ),
+        };
+        let l_max = match (method, self.lmax) {
+            (AaMethod::Isd, None) => bail!("--lmax L is needed for --method isd"),
+            (AaMethod::Isd, Some(l)) if !(1..=ifd_sphere::MAX_DEGREE).contains(&l) => {
+                bail!("--lmax {l}: use 1..={}", ifd_sphere::MAX_DEGREE)
+            }
+            (_, l) => l,
+        };
+        let maps = self.surface_maps()?;
+        if maps.normal.is_some() && !scene.has_tangents() {
+            bail!(
+                "--normal-map: {} has no texture coordinates to map it with",
+                self.scene.scene
+            );
+        }
+        let (full, _) = self.env.environments(&self.input)?;
+        let start = std::time::Instant::now();
+        let isd = match (method, l_max) {
+            (AaMethod::Isd, Some(l)) => {
+                eprintln!("projecting the map on SH up to L = {l}...");
+                Some(IsdFilter::new(&full, l)?)
+            }
+            _ => None,
+        };
+        let reflector = SceneMirror {
+            scene,
+            normal_map: maps.normal.as_ref(),
+        };
+        let job = MirrorScene {
+            mirror: &reflector,
+            camera,
+            env: &full,
+            filter: PixelFilter::default(),
+        };
+        let t_render = std::time::Instant::now();
+        let r = ifd_render::mirror::render(&job, method, isd.as_ref())?;
+        let render_secs = t_render.elapsed().as_secs_f64();
+        let object_pixels = r.mask.iter().filter(|m| **m).count();
+        if object_pixels == 0 {
+            bail!(
+                "no ray of the {}x{} image hits the {} (check --eye, --target, --fov)",
+                camera.width(),
+                camera.height(),
+                self.scene.scene
+            );
+        }
+        let mut img = r.image;
+        let ch = img.channels();
+        if self.no_background {
+            for (i, m) in r.mask.iter().enumerate() {
+                if !m {
+                    img.data_mut()[i * ch..(i + 1) * ch].fill(0.0);
+                }
+            }
+        }
+        if display {
+            for v in img.data_mut() {
+                *v = tonemap.display(*v, self.display.exposure);
+            }
+        }
+        if let Some(m) = &self.mask {
+            let data = r.mask.iter().map(|x| f32::from(u8::from(*x))).collect();
+            let mask = ifd_image::Image::from_vec(camera.width(), camera.height(), 1, data)?;
+            crate::output::write_output(m, &mask, &ifd_image::WriteOptions::default())?;
+        }
+        crate::output::write_output(&self.output, &img, &ifd_image::WriteOptions::default())?;
+        self.report.emit(&json!({
+            "method": self.method.name(), "brdf": "mirror", "lmax": l_max,
+            "scene": self.scene.scene, "width": camera.width(), "height": camera.height(),
+            "env_size": [full.image().width(), full.image().height()],
+            "object_pixels": object_pixels,
+            "eq29_pixels": isd.as_ref().map(|_| r.filtered),
+            "isd_threshold_radians": isd.as_ref().map(IsdFilter::threshold),
+            "samples_per_pixel": match method { AaMethod::Isd => None, _ => Some(self.spp) },
+            "seconds": start.elapsed().as_secs_f64(), "render_seconds": render_secs,
+        }))?;
+        Ok(())
+    }
+
     /// The albedo and roughness maps.
     fn surface_maps(&self) -> Result<SurfaceMaps> {
         let read = |p: &PathBuf, srgb: bool, what: &'static str| -> Result<Texture> {
@@ -496,6 +632,11 @@ impl Render {
                 .roughness_map
                 .as_ref()
                 .map(|p| read(p, false, "--roughness-map"))
+                .transpose()?,
+            normal: self
+                .normal_map
+                .as_ref()
+                .map(|p| read(p, false, "--normal-map"))
                 .transpose()?,
         })
     }

@@ -6,8 +6,9 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::Args;
+use ifd_paper::mirror::{BumpyMirror, BumpyScene, Study, StudyRow, study};
 use ifd_render::envmap::EnvMap;
-use ifd_render::mirror::{AaMethod, BumpyMirror, IsdFilter, MirrorScene, PixelFilter, study};
+use ifd_render::mirror::{AaMethod, IsdFilter, PixelFilter};
 use serde_json::json;
 
 use crate::options::CameraOptions;
@@ -101,7 +102,7 @@ impl Mirror {
         let img = ifd_image::read(&self.env)
             .map_err(|e| anyhow::anyhow!("--env {}: {e}", self.env.display()))?;
         let env = EnvMap::new(img, self.env_rotate)?;
-        let scene = MirrorScene {
+        let scene = BumpyScene {
             mirror: BumpyMirror::default(),
             camera,
             env: &env,
@@ -115,7 +116,7 @@ impl Mirror {
         methods.extend(self.supersample.iter().map(|n| AaMethod::Supersample(*n)));
         methods.push(AaMethod::IsdDirect);
         methods.push(AaMethod::Isd);
-        let ifd_render::mirror::Study {
+        let Study {
             rows,
             images,
             regions,
@@ -161,7 +162,7 @@ impl Mirror {
     }
 }
 
-fn markdown(rows: &[ifd_render::mirror::StudyRow], ss4: Option<f64>) -> String {
+fn markdown(rows: &[StudyRow], ss4: Option<f64>) -> String {
     let mut s = String::from(
         "| method | rel. RMS interior | bumpy | smooth | median s | time / 4x4 |\n|---|---|---|---|---|---|\n",
     );

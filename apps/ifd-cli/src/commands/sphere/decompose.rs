@@ -10,7 +10,7 @@ use ifd_sphere::ShCoeffs;
 use ifd_sphere::filter::Decomposition;
 use ifd_sphere::kernel::{Kernel, project_function};
 use ifd_sphere::profile::{IsdBasis, Profile, check_isd_degree};
-use ifd_sphere::transform::{Negatives, analyze_equirect, project_samples};
+use ifd_sphere::transform::{Negatives, analyze_map, project_samples};
 use ifd_sphere::zhf::{DirectionSet, Sharing};
 use serde_json::json;
 
@@ -49,7 +49,8 @@ impl Directions {
 /// .npy of samples x,y,z,value (equal weights 4 pi / N), an (N, 5) .npy with a
 /// quadrature weight in the last column, a ((L+1)^2, C) or ((L+1)^2,) .npy of SH
 /// coefficients (name ending in `.sh.npy`; one set of weights per column), or an
-/// equirectangular image (first channel).
+/// image of the kernel, 2:1 equirectangular or a 6:1 cube strip (first channel,
+/// projected as --projection says).
 ///
 /// M is dense, (L+1)^2 square, and factorised with an SVD: L is limited to 40.
 #[derive(Debug, Args)]
@@ -76,6 +77,13 @@ pub(super) struct DecomposeCmd {
     /// Largest accepted condition number of M.
     #[arg(long, default_value_t = 1e10)]
     max_cond: f64,
+    /// How a kernel image's texels are projected onto SH: centre (the default: pixel-centre
+    /// quadrature with exact solid angles; a kernel image samples a smooth function, whose
+    /// weights it recovers to 0.1% on a 64x32 vMF image) or texel (each texel integrated
+    /// exactly, the map read as piecewise constant as `ifd sphere sh` and the renderer read
+    /// environment maps; 1% on the same image, the texels' box blur kept; 2:1 maps only).
+    #[arg(long, value_enum)]
+    projection: Option<super::ProjectionArg>,
     /// Output JSON file.
     #[arg(short, long)]
     output: PathBuf,
@@ -88,6 +96,14 @@ pub(super) struct DecomposeCmd {
 impl DecomposeCmd {
     fn kernel_coeffs(&self) -> Result<ShCoeffs> {
         let p = Path::new(&self.spec);
+        let npy = p.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy"));
+        if self.projection.is_some() && (npy || !p.exists()) {
+            anyhow::bail!(
+                "--projection applies to a kernel image, not to {:?} (a closed-form spec or \
+                 an .npy)",
+                self.spec
+            );
+        }
         if p.exists() {
             let name = p.to_string_lossy().to_lowercase();
             if name.ends_with(".sh.npy") {
@@ -111,8 +127,16 @@ impl DecomposeCmd {
                 }
             }
             let img = self.input.read(p)?.image;
-            let a = analyze_equirect(&img, self.lmax, Negatives::Keep)
-                .with_context(|| format!("{}", p.display()))?;
+            let (a, _) = analyze_map(
+                &img,
+                self.lmax,
+                Negatives::Keep,
+                Some(self.projection.map_or(
+                    ifd_sphere::transform::Projection::Centre,
+                    super::ProjectionArg::projection,
+                )),
+            )
+            .with_context(|| format!("{}", p.display()))?;
             return Ok(ShCoeffs::from_vec(self.lmax, 1, a.coeffs.channel(0))?);
         }
         let k = Kernel::parse(&self.spec)?;

@@ -137,7 +137,7 @@ pub(super) fn read_decomposition(path: &Path) -> Result<Decomposition> {
     Decomposition::from_json(&text).with_context(|| format!("{}", path.display()))
 }
 
-/// `--projection` values of `sphere sh` and `sphere filter`.
+/// `--projection` values of `sphere sh`, `sphere filter` and `sphere decompose`.
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
 pub(super) enum ProjectionArg {
     /// Each texel integrated exactly (the map read as piecewise constant).
