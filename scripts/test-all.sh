@@ -13,7 +13,9 @@
 #      cargo fmt --check, cargo clippy --all-targets -D warnings, cargo doc
 #      with warnings denied, cargo machete (unused dependencies; installed
 #      with cargo install when missing), the module-cycle check
-#      (scripts/module_cycles.py), cargo test.
+#      (scripts/module_cycles.py), the public API lists
+#      (scripts/public_api.py, rustdoc JSON), the architecture check
+#      (scripts/check_architecture.py), cargo test.
 #   4. The Python module `ifd` (crates/ifd-py) built and installed into .venv
 #      (maturin develop, the test profile), then the reference comparisons in
 #      tests/python (pytest; scikit-image, OpenCV, SciPy, pyshtools, ducc0
@@ -164,6 +166,22 @@ if python3 scripts/module_cycles.py >"$LOG_DIR/module-cycles.log" 2>&1; then
 else
   cat "$LOG_DIR/module-cycles.log"
   fail "module cycles"
+fi
+
+step "public APIs against docs/reference/api (scripts/public_api.py)"
+if python3 scripts/public_api.py >"$LOG_DIR/public-api.log" 2>&1; then
+  ok "public APIs as listed"
+else
+  cat "$LOG_DIR/public-api.log"
+  fail "a public API changed without its list (scripts/public_api.py --bless)"
+fi
+
+step "ARCHITECTURE.md against the code (scripts/check_architecture.py)"
+if python3 scripts/check_architecture.py >"$LOG_DIR/architecture.log" 2>&1; then
+  ok "ARCHITECTURE.md matches the manifests, modules and unsafe code"
+else
+  cat "$LOG_DIR/architecture.log"
+  fail "ARCHITECTURE.md has drifted from the code"
 fi
 
 step "cargo test"

@@ -60,7 +60,7 @@ def test_screenshot_viewport_matches_ifd_render(run_ifd, tmp_path, gpu, variant,
     view = ["--brdf", brdf, "--lmax", lmax, "--size", "200x150", *extra]
     shot = tmp_path / "shot.png"
     p = run_window(tmp_path, "--reset", *view, "--variant", variant, "--device", gpu,
-                   "--screenshot", shot, "--exit")
+                   "--screenshot", shot, "--exit", "--json")
     vp = json.loads(p.stdout.strip().splitlines()[-1])["viewport"]
     assert (vp["width"], vp["height"]) == (200, 150), vp
     method = "isd" if variant == "sh" else "isd-maps"
@@ -97,7 +97,7 @@ def test_monte_carlo_reference_and_error_against_l(tmp_path):
     against it reported, and the error-against-L curve of the view falling with L (at 64 spp the
     reference's own noise, about 5%, is the floor)."""
     p = run_window(tmp_path, "--reset", "--brdf", "ggx:alpha=0.3", "--lmax", 8, "--size", "96x72",
-                   "--device", "gpu", "--reference", "--reference-spp", 64, "--exit")
+                   "--device", "gpu", "--reference", "--reference-spp", 64, "--exit", "--json")
     r = json.loads(p.stdout.strip().splitlines()[-1])["reference"]
     assert r["spp"] >= 64 and 0.0 < r["rel_rms"] < 0.25 and r["psnr_db"] > 20, r
     curve = [c["rel_rms"] for c in r["curve"]]

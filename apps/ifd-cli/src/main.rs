@@ -48,7 +48,7 @@ enum Command {
     Smooth(commands::smooth::Smooth),
     /// Spherical harmonics, SH rotation and isotropic spherical decompositions.
     Sphere(commands::sphere::Sphere),
-    /// Render an object lit by an environment map: ISD shading (Eq. 22), its SH reference or the exact quadrature.
+    /// Render an object lit by an environment map: ISD shading (Eq. 22; self-shadowed meshes, Eq. 25; anti-aliased mirrors, Eq. 29), its SH reference, the exact quadrature or Monte Carlo.
     Render(Box<commands::render::Render>),
     /// Image-based lighting for engines: prefiltered GGX radiance mips, irradiance, SH (KTX2), the DFG table.
     Envmap(commands::envmap::Envmap),

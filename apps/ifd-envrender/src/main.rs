@@ -75,7 +75,7 @@ struct Args {
     #[arg(long, hide = true)]
     gpu: Option<String>,
     /// Save a screenshot of the window (PNG) once the frame is shown; prints
-    /// the viewport's rectangle in it as JSON.
+    /// the viewport's rectangle in it (JSON with --json).
     #[arg(long, value_name = "PATH.png")]
     screenshot: Option<PathBuf>,
     /// Exit when done (after --screenshot, or after the first frame).
@@ -88,9 +88,13 @@ struct Args {
     #[arg(long)]
     reference: bool,
     /// With --exit: wait for the reference to reach N samples per pixel (and,
-    /// from 64, the error-against-L curve); the errors are printed as JSON.
+    /// from 64, the error-against-L curve); prints the errors (JSON with --json).
     #[arg(long, value_name = "N", requires = "reference")]
     reference_spp: Option<usize>,
+    /// Print the report of --screenshot and --reference-spp as JSON (machine-readable)
+    /// instead of a human summary.
+    #[arg(long)]
+    json: bool,
 }
 
 /// `--device` values.
@@ -349,9 +353,45 @@ fn run(args: &Args) -> anyhow::Result<()> {
         });
     }
     if report.as_object().is_some_and(|o| !o.is_empty()) {
-        println!("{report}");
+        if args.json {
+            println!("{report}");
+        } else {
+            print!("{}", human(&report));
+        }
     }
     Ok(())
+}
+
+/// The report as aligned `name  value` lines (the viewport, the reference's
+/// errors and its error-against-L curve).
+fn human(report: &serde_json::Value) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    if let Some(v) = report.get("viewport") {
+        let _ = writeln!(
+            s,
+            "viewport   {}x{} at {},{}",
+            v["width"], v["height"], v["x"], v["y"]
+        );
+    }
+    if let Some(r) = report.get("reference") {
+        let _ = writeln!(
+            s,
+            "reference  {} spp: relative RMS {:.4e}, PSNR {:.2} dB",
+            r["spp"],
+            r["rel_rms"].as_f64().unwrap_or(f64::NAN),
+            r["psnr_db"].as_f64().unwrap_or(f64::NAN)
+        );
+        for p in r["curve"].as_array().into_iter().flatten() {
+            let _ = writeln!(
+                s,
+                "  L = {:<3} relative RMS {:.4e}",
+                p["lmax"],
+                p["rel_rms"].as_f64().unwrap_or(f64::NAN)
+            );
+        }
+    }
+    s
 }
 
 fn main() -> ExitCode {

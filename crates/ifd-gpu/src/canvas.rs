@@ -362,3 +362,19 @@ impl GpuCanvas {
         read_rgba8(ctx, &t.texture, "a display tile")
     }
 }
+
+#[cfg(test)]
+mod layout_tests {
+    use super::BlendParams;
+    use crate::layout::mirror;
+
+    #[test]
+    fn the_mirror_matches_dab_blend_wgsl() {
+        mirror!(crate::shaders::DAB_BLEND, "Params", BlendParams, [
+            "x0" => x0, "y0" => y0, "w" => w, "h" => h, "width" => width,
+            "channels" => channels, "pad0" => pad0, "pad1" => pad0 + 4, "cx" => cx,
+            "cy" => cy, "radius" => radius, "falloff" => falloff, "strength" => strength,
+            "pad2" => pad1, "pad3" => pad1 + 4, "pad4" => pad1 + 8,
+        ]);
+    }
+}

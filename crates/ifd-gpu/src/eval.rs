@@ -834,3 +834,30 @@ impl GpuContext {
         })
     }
 }
+
+#[cfg(test)]
+mod layout_tests {
+    use super::{GpuTerm, GpuTermLevel, Params};
+    use crate::layout::mirror;
+
+    #[test]
+    fn the_mirrors_match_ifd_eval_wgsl() {
+        let src = crate::shaders::ifd_eval_source();
+        mirror!(src, "Params", Params, [
+            "region_x0" => region_x0, "region_y0" => region_y0, "region_w" => region_w,
+            "region_h" => region_h, "width" => width, "height" => height,
+            "channels" => channels, "chunk_c0" => chunk_c0, "chunk_nc" => chunk_nc,
+            "n_levels" => n_levels, "border_mode" => border_mode,
+            "border_value" => border_value, "inv_ln_ratio" => inv_ln_ratio,
+            "cos_t" => cos_t, "sin_t" => sin_t, "scale" => scale, "u_offset" => u_offset,
+            "entry" => entry, "flags" => flags, "rot_off" => rot_off,
+            "scale_off" => scale_off, "entry_off" => entry_off, "n_entries" => n_entries,
+            "interpolation" => interpolation, "sampling" => sampling,
+            "_pad0" => pad, "_pad1" => pad + 4, "_pad2" => pad + 8,
+        ]);
+        mirror!(src, "Term", GpuTerm, [
+            "weight" => weight, "cx" => cx, "cy" => cy, "ln_sigma" => ln_sigma,
+        ]);
+        mirror!(src, "TermLevel", GpuTermLevel, ["a" => a, "b" => b, "wa" => wa, "wb" => wb]);
+    }
+}

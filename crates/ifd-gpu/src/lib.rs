@@ -99,6 +99,8 @@ mod canvas;
 mod context;
 mod error;
 mod eval;
+#[cfg(test)]
+mod layout;
 mod pipelines;
 pub mod shaders;
 pub mod shading;

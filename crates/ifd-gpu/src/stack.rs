@@ -371,3 +371,17 @@ fn upload_chunk(
         metas,
     })
 }
+
+#[cfg(test)]
+mod layout_tests {
+    use super::LevelMeta;
+    use crate::layout::mirror;
+
+    #[test]
+    fn the_level_mirror_matches_ifd_eval_wgsl() {
+        mirror!(crate::shaders::ifd_eval_source(), "Level", LevelMeta, [
+            "origin" => origin, "inv_step" => inv_step, "step" => step, "nx" => nx,
+            "ny" => ny, "offset" => offset, "plane" => plane, "_pad" => pad,
+        ]);
+    }
+}

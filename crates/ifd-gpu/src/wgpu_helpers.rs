@@ -312,3 +312,19 @@ pub(crate) fn read_gpu_time(
     let ns = ticks as f64 * f64::from(ctx.queue().get_timestamp_period());
     Ok(Some(std::time::Duration::from_secs_f64(ns * 1e-9)))
 }
+
+#[cfg(test)]
+mod layout_tests {
+    use super::Rgba8Params;
+    use crate::layout::mirror;
+
+    #[test]
+    fn the_mirror_matches_to_rgba8_wgsl() {
+        mirror!(crate::shaders::TO_RGBA8, "Params", Rgba8Params, [
+            "width" => width, "height" => height, "channels" => channels, "srgb" => srgb,
+            "src_x0" => src_x0, "src_y0" => src_y0, "src_stride" => src_stride,
+            "opaque" => opaque, "dst_x0" => dst_x0, "dst_y0" => dst_y0,
+            "pad0" => pad, "pad1" => pad + 4,
+        ]);
+    }
+}

@@ -50,6 +50,7 @@
 
 use std::f64::consts::PI;
 
+use glam::DVec3;
 use ifd_image::Image;
 use ifd_sphere::{EquirectTransform, Negatives, ShCoeffs};
 use rayon::prelude::*;
@@ -464,7 +465,7 @@ impl Baker {
             };
             let radius = cs
                 .iter()
-                .map(|s| angle(dot(s.d, centre)))
+                .map(|s| angle(DVec3::from(s.d).dot(DVec3::from(centre))))
                 .fold(0.0, f64::max)
                 + 0.5 * dp.max(dt);
             let far = (16.0 * radius).max(2.0 * lobe.width());
@@ -567,10 +568,6 @@ fn truncation_degree(lam: &[f64], power: &[f64], tol: f64) -> usize {
     0
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 fn angle(c: f64) -> f64 {
     c.clamp(-1.0, 1.0).acos()
 }
@@ -581,7 +578,7 @@ fn angle(c: f64) -> f64 {
 fn direct_sum(lobe: &Lobe, samples: &[Sample], cells: &[Cell], d: [f64; 3]) -> [f64; 3] {
     let mut acc = [0.0; 3];
     for cell in cells {
-        let c = dot(d, cell.centre);
+        let c = DVec3::from(d).dot(DVec3::from(cell.centre));
         if c <= cell.cos_behind {
             continue;
         }
@@ -592,7 +589,7 @@ fn direct_sum(lobe: &Lobe, samples: &[Sample], cells: &[Cell], d: [f64; 3]) -> [
             }
         } else {
             for s in &samples[cell.samples.clone()] {
-                let k = lobe.eval(dot(d, s.d));
+                let k = lobe.eval(DVec3::from(d).dot(DVec3::from(s.d)));
                 for (a, w) in acc.iter_mut().zip(s.w) {
                     *a += k * w;
                 }

@@ -60,21 +60,18 @@ impl Microfacet {
     /// `rho^(w_i, w_o)` in the frame whose `z` is the reflection vector.
     #[must_use]
     pub fn eval(&self, wi: [f64; 3], wo: [f64; 3]) -> f64 {
-        let n = [wo[0], wo[1], wo[2] + 1.0];
-        let nn = dot(n, n).sqrt();
-        let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
-        let hn = dot(h, h).sqrt();
-        if nn < 1e-12 || hn < 1e-12 || dot(n, wi) <= 0.0 {
+        let (wi, wo) = (glam::DVec3::from(wi), glam::DVec3::from(wo));
+        let n = wo + glam::DVec3::Z;
+        let nn = n.length();
+        let h = wi + wo;
+        let hn = h.length();
+        if nn < 1e-12 || hn < 1e-12 || n.dot(wi) <= 0.0 {
             return 0.0;
         }
-        let c = (dot(n, h) / (nn * hn)).clamp(-1.0, 1.0);
+        let c = (n.dot(h) / (nn * hn)).clamp(-1.0, 1.0);
         let th = c.acos() / self.sigma;
         (-th * th).exp() / (4.0 * PI * self.sigma * self.sigma)
     }
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 fn dir(theta: f64, phi: f64) -> [f64; 3] {

@@ -47,7 +47,17 @@ use std::sync::Arc;
 
 use crate::error::{Result, ShadeError};
 use crate::merl::Merl;
-use crate::vec3::half;
+
+/// `v` normalised, or `+z` for the zero vector (never NaN).
+pub(crate) fn unit_or_z(v: glam::DVec3) -> glam::DVec3 {
+    let n = v.length();
+    if n > 0.0 { v / n } else { glam::DVec3::Z }
+}
+
+/// The normalised half vector of two unit vectors (`+z` when they cancel).
+pub(crate) fn half(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    unit_or_z(glam::DVec3::from(a) + glam::DVec3::from(b)).to_array()
+}
 
 /// A BRDF model with its parameters.
 #[derive(Clone, Debug)]

@@ -43,7 +43,6 @@ pub mod sample;
 pub mod shade;
 pub mod slice;
 pub mod table;
-mod vec3;
 pub mod zonal;
 
 pub use crate::brdf::Brdf;

@@ -48,7 +48,7 @@ use ifd_sphere::sh::{ShEvaluator, gauss_legendre, legendre_all, pi_l};
 use crate::brdf::Brdf;
 use crate::error::{Result, ShadeError};
 use crate::shade::{Bands, Frame};
-use crate::vec3::dot;
+use glam::DVec3;
 
 /// Lighting `sum_l e_l y_l^0(a . w)` about a unit axis `a`, per channel.
 #[derive(Clone, Debug, PartialEq)]
@@ -186,7 +186,11 @@ impl ZonalLighting {
     pub fn eval(&self, w: [f64; 3], out: &mut [f64]) {
         let ch = self.channels;
         let mut p = vec![0.0; self.l_max + 1];
-        legendre_all(self.l_max, dot(self.axis, w).clamp(-1.0, 1.0), &mut p);
+        legendre_all(
+            self.l_max,
+            DVec3::from(self.axis).dot(DVec3::from(w)).clamp(-1.0, 1.0),
+            &mut p,
+        );
         out[..ch].fill(0.0);
         for (l, pl) in p.iter().enumerate() {
             let y = ((2 * l + 1) as f64 / (4.0 * std::f64::consts::PI)).sqrt() * pl;
@@ -226,7 +230,11 @@ impl Bands for ZonalLighting {
     /// `Ehat_l(d) = e_l P_l(a . d)` (module docs); `y` holds the Legendre values.
     fn bands_from(&self, l0: usize, d: [f64; 3], y: &mut [f64], out: &mut [f64]) {
         let ch = self.channels;
-        legendre_all(self.l_max, dot(self.axis, d).clamp(-1.0, 1.0), y);
+        legendre_all(
+            self.l_max,
+            DVec3::from(self.axis).dot(DVec3::from(d)).clamp(-1.0, 1.0),
+            y,
+        );
         for l in l0..=self.l_max {
             for c in 0..ch {
                 out[l * ch + c] = self.coeffs[l * ch + c] * y[l];
@@ -354,12 +362,8 @@ impl SphericalLight {
     /// [`ShadeError::Parameter`] when `x` lies inside the light (the light
     /// intersects the object).
     pub fn cap_at(&self, x: [f64; 3]) -> Result<([f64; 3], f64)> {
-        let v = [
-            self.centre[0] - x[0],
-            self.centre[1] - x[1],
-            self.centre[2] - x[2],
-        ];
-        let d = dot(v, v).sqrt();
+        let v = DVec3::from(self.centre) - DVec3::from(x);
+        let d = v.length();
         if d <= self.radius * (1.0 + 1e-9) {
             return Err(ShadeError::Parameter {
                 name: "light",
@@ -387,13 +391,9 @@ impl SphericalLight {
     /// Where the ray `o + t d` (unit `d`) enters the light, if it does.
     #[must_use]
     pub fn intersect(&self, o: [f64; 3], d: [f64; 3]) -> Option<f64> {
-        let oc = [
-            o[0] - self.centre[0],
-            o[1] - self.centre[1],
-            o[2] - self.centre[2],
-        ];
-        let b = dot(oc, d);
-        let c = dot(oc, oc) - self.radius * self.radius;
+        let oc = DVec3::from(o) - DVec3::from(self.centre);
+        let b = oc.dot(DVec3::from(d));
+        let c = oc.length_squared() - self.radius * self.radius;
         let disc = b * b - c;
         if disc < 0.0 {
             return None;
@@ -531,7 +531,7 @@ pub fn zonal_projection(
 }
 
 fn unit(v: [f64; 3], what: &'static str) -> Result<[f64; 3]> {
-    let n = dot(v, v).sqrt();
+    let n = DVec3::from(v).length();
     if !(n.is_finite() && n > 1e-300) {
         return Err(ShadeError::Parameter {
             name: what,

@@ -13,7 +13,15 @@
 use std::f64::consts::PI;
 
 use crate::brdf::{Brdf, Model};
-use crate::vec3::{dot, half, normalize, reflect};
+use glam::DVec3;
+
+use crate::brdf::{half, unit_or_z};
+
+/// `wo` mirrored about `h`: `2 (wo . h) h - wo`.
+fn reflect(wo: [f64; 3], h: [f64; 3]) -> [f64; 3] {
+    let (wo, h) = (DVec3::from(wo), DVec3::from(h));
+    (2.0 * wo.dot(h) * h - wo).to_array()
+}
 
 /// A direction at angle `acos(c)` from `axis`, azimuth `phi` around it.
 fn around(axis: [f64; 3], c: f64, phi: f64) -> [f64; 3] {
@@ -68,7 +76,7 @@ impl Brdf {
                 if wo[2] <= 0.0 {
                     return None;
                 }
-                let vh = normalize([ax * wo[0], ay * wo[1], wo[2]]);
+                let vh = unit_or_z(DVec3::new(ax * wo[0], ay * wo[1], wo[2])).to_array();
                 let lensq = vh[0] * vh[0] + vh[1] * vh[1];
                 let t1 = if lensq > 0.0 {
                     let l = lensq.sqrt();
@@ -91,7 +99,7 @@ impl Brdf {
                     a * t1[1] + b * t2[1] + c * vh[1],
                     a * t1[2] + b * t2[2] + c * vh[2],
                 ];
-                let h = normalize([ax * nh[0], ay * nh[1], nh[2].max(0.0)]);
+                let h = unit_or_z(DVec3::new(ax * nh[0], ay * nh[1], nh[2].max(0.0))).to_array();
                 reflect(wo, h)
             }
             Model::Ward { ax, ay } => {
@@ -114,7 +122,7 @@ impl Brdf {
     pub fn pdf(&self, wi: [f64; 3], wo: [f64; 3]) -> f64 {
         let h_and_oh = || {
             let h = half(wi, wo);
-            (h, dot(wo, h))
+            (h, DVec3::from(wo).dot(DVec3::from(h)))
         };
         match *self.model() {
             Model::Lambert | Model::Merl(_) => wi[2].max(0.0) / PI,

@@ -29,8 +29,8 @@ use crate::brdf::Brdf;
 use crate::error::{Result, ShadeError};
 use crate::slice::project_slice;
 use crate::table::{LobeTable, view_frame_angle};
-use crate::vec3::{cross, dot};
 use crate::zonal::zonal_slice;
+use glam::DVec3;
 
 /// A source of the per-band prefiltered environment `Ehat_l(d)` of Eq. 22.
 pub trait Bands: Sync {
@@ -269,27 +269,19 @@ impl Frame {
     /// normal; any perpendicular direction when the hint is parallel to it).
     #[must_use]
     pub fn new(n: [f64; 3], tangent_hint: [f64; 3]) -> Self {
-        let d = dot(tangent_hint, n);
-        let mut t = [
-            tangent_hint[0] - d * n[0],
-            tangent_hint[1] - d * n[1],
-            tangent_hint[2] - d * n[2],
-        ];
-        let mut len = dot(t, t).sqrt();
+        let (nv, hint) = (DVec3::from(n), DVec3::from(tangent_hint));
+        let mut t = hint - hint.dot(nv) * nv;
+        let mut len = t.length();
         if len.is_nan() || len <= 1e-12 {
             // any perpendicular: cross with the axis least aligned with n
-            let a = if n[0].abs() < 0.6 {
-                [1.0, 0.0, 0.0]
-            } else {
-                [0.0, 1.0, 0.0]
-            };
-            t = cross(cross(n, a), n);
-            len = dot(t, t).sqrt();
+            let a = if n[0].abs() < 0.6 { DVec3::X } else { DVec3::Y };
+            t = nv.cross(a).cross(nv);
+            len = t.length();
         }
-        let t = [t[0] / len, t[1] / len, t[2] / len];
+        let t = t / len;
         Self {
-            t,
-            b: cross(n, t),
+            t: t.to_array(),
+            b: nv.cross(t).to_array(),
             n,
         }
     }
@@ -297,7 +289,12 @@ impl Frame {
     /// World to local: `(t . w, b . w, n . w)`.
     #[must_use]
     pub fn to_local(&self, w: [f64; 3]) -> [f64; 3] {
-        [dot(self.t, w), dot(self.b, w), dot(self.n, w)]
+        let w = DVec3::from(w);
+        [
+            DVec3::from(self.t).dot(w),
+            DVec3::from(self.b).dot(w),
+            DVec3::from(self.n).dot(w),
+        ]
     }
 
     /// The rotation local to world (columns `t, b, n`).

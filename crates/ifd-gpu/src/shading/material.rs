@@ -255,3 +255,17 @@ impl GpuMaterial {
         self.consts.size() + self.lobes.size() + self.weights.size() + self.tables.size()
     }
 }
+
+#[cfg(test)]
+mod layout_tests {
+    use super::TableInfo;
+    use crate::layout::mirror;
+
+    #[test]
+    fn the_table_mirror_matches_isd_shade_wgsl() {
+        mirror!(crate::shaders::isd_shade_source(7), "Table", TableInfo, [
+            "offset" => offset, "n_theta" => n_theta, "n_phi" => n_phi,
+            "roughness" => roughness,
+        ]);
+    }
+}

@@ -515,3 +515,26 @@ impl GpuShaded {
         read_gpu_time(ctx, self.timestamps.as_ref())
     }
 }
+
+#[cfg(test)]
+mod layout_tests {
+    use super::{DisplayParams, Params};
+    use crate::layout::mirror;
+
+    #[test]
+    fn the_mirrors_match_isd_shade_and_tonemap_wgsl() {
+        for l in [0, 7, 100] {
+            mirror!(crate::shaders::isd_shade_source(l), "Params", Params, [
+                "width" => width, "height" => height, "variant" => variant,
+                "material" => material, "isotropic" => isotropic, "in_plane" => in_plane,
+                "n_lobes" => n_lobes, "count" => count, "kc" => kc, "n_tables" => n_tables,
+                "map_w" => map_w, "map_h" => map_h, "row0" => row0,
+                "pad0" => pad, "pad1" => pad + 4, "pad2" => pad + 8,
+            ]);
+        }
+        mirror!(crate::shaders::TONEMAP, "Params", DisplayParams, [
+            "width" => width, "height" => height, "curve" => curve, "row0" => row0,
+            "scale" => scale, "pad1" => pad1, "pad2" => pad1 + 4, "pad3" => pad1 + 8,
+        ]);
+    }
+}
