@@ -7,7 +7,7 @@
    library call). Median and 90th percentile.
 2. Throughput: `ifd.filter` on a 1024x1024 image with a per-pixel angle
    (gauss sx=16, sy=2, 52 terms) against the Rust API
-   (`ifd_planar::pipeline::filter_image`, the same call, timed inside the
+   (`ifd_planar::filter_image`, the same call, timed inside the
    `filter_timing` example), interleaved: one Python call, then one Rust
    process, --rounds times; medians. Both use --threads=N rayon threads
    (default 1) on the same cores.

@@ -104,7 +104,7 @@ fn eval(c: &mut Criterion) {
         .expect("stack");
         let exact_stack = ScaleStack::with_sigmas(
             &img,
-            &ifd_planar::filter::level_sigmas(&d, 1.0, 0.0),
+            &ifd_planar::level_sigmas(&d, 1.0, 0.0),
             Border::Reflect101,
             StackOptions {
                 margin: 32,

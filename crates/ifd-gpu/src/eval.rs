@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use bytemuck::{Pod, Zeroable};
 use ifd_image::Image;
-use ifd_planar::kernel::Sampling;
+use ifd_planar::Sampling;
 use ifd_planar::{
     Border, CheckField, Field, FieldKind, FilterError, Prepare, PreparedDecomposition,
 };
@@ -658,7 +658,7 @@ impl GpuContext {
         let (min, max) = stack.sigma_range;
         let (slo, shi) = decomposition.sigma_range;
         let (s_lo, s_hi) = pose.scale_range;
-        let (need_lo, need_hi) = ifd_planar::filter::sigma_bounds(
+        let (need_lo, need_hi) = ifd_planar::sigma_bounds(
             decomposition.sampling,
             (slo, shi),
             (f64::from(s_lo), f64::from(s_hi)),

@@ -246,7 +246,7 @@ fn stacks_at_the_terms_sigmas_match_cpu() {
         .map(|i| ((i % w) as f32 * 0.6 - (i / w) as f32 * 0.35) % 360.0)
         .collect();
     let scale = 1.4;
-    let sigmas = ifd_planar::filter::level_sigmas(&d, scale, 0.0);
+    let sigmas = ifd_planar::level_sigmas(&d, scale, 0.0);
     assert!(sigmas.len() > 3, "{sigmas:?}");
     for interpolation in [
         ifd_planar::Interpolation::Linear,

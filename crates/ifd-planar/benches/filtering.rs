@@ -38,7 +38,7 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use ifd_image::Image;
-use ifd_planar::reference::correlate_varying_rows;
+use ifd_planar::internals::reference::correlate_varying_rows;
 use ifd_planar::{
     Border, Decomposition, Field, Filter, Interpolation, ScaleStack, StackOptions, Term,
     stack_for_decomposition, stack_plan_for_decomposition,
@@ -334,7 +334,7 @@ fn throughput(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(10))
         .warm_up_time(Duration::from_millis(500));
     g.throughput(Throughput::Elements((w * h * n) as u64));
-    let sigmas = ifd_planar::filter::level_sigmas(&d, s, 0.0);
+    let sigmas = ifd_planar::level_sigmas(&d, s, 0.0);
     for interpolation in [Interpolation::Linear, Interpolation::Cubic] {
         // The stored margin `ifd filter` plans (covering the kernel's reach
         // where memory allows, so lookups near the border stay on the fast

@@ -14,7 +14,7 @@
 use std::fmt::Write as _;
 use std::io::Write as _;
 
-use ifd_planar::dictionary::{DictionaryOptions, DictionaryParams};
+use ifd_planar::internals::dictionary::{DictionaryOptions, DictionaryParams};
 use ifd_planar::{DecomposeOptions, Kernel, decompose};
 
 struct Config {

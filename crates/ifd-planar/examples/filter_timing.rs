@@ -1,4 +1,4 @@
-//! Times [`ifd_planar::pipeline::filter_image`], the call `ifd filter` and
+//! Times [`ifd_planar::filter_image`], the call `ifd filter` and
 //! the Python module's `ifd.filter` make, from Rust: the other side of the
 //! module's throughput benchmark (`tests/bench/bench_python.py`).
 //!
@@ -11,8 +11,8 @@
 //! the page cache settle as in a long-lived process), then `RUNS` times
 //! (default 1), printing one line per run: the seconds of that call.
 
-use ifd_planar::pipeline::{FilterOptions, filter_image};
 use ifd_planar::{CheckField, Decomposition, Field, FieldKind};
+use ifd_planar::{FilterOptions, filter_image};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -1,53 +1,5 @@
 //! How accurately a decomposition is applied, and the stack that applies it
 //! accurately enough: the evaluation plan.
-//!
-//! # Where the evaluation error comes from
-//! Through the stack, term `t` is one lookup of level `s sigma_t` at the
-//! displaced point `p + s R_theta c_t`, which is rarely a stored sample. The
-//! level is the image correlated with a Gaussian of `r = s sigma_t / step`
-//! stored samples (`step = 2^j`, the pyramid subsampling), and reading it at
-//! a fractional position is a filter that only approximates the ideal shift.
-//! For white-noise input and a fractional phase `phi`, the relative error of
-//! one lookup along one axis is
-//!
-//! ```text
-//! e(r)^2 = mean_phi  int |I(nu, phi) - exp(2 pi i nu phi)|^2 G_r(nu)^2 dnu / int G_r(nu)^2 dnu
-//! ```
-//!
-//! with `G_r` the transfer of the sampled Gaussian (`nu` in cycles per
-//! sample, `|nu| <= 1/2`) and `I` the interpolator's response:
-//! `1 - phi + phi e^{2 pi i nu}` for bilinear, `B(nu, phi) / B(nu, 0)` for the
-//! interpolating cubic B-spline (`B(nu, phi) = sum_k beta3(k - phi) e^{2 pi i nu k}`).
-//! [`lookup_error`] integrates this numerically. It falls as `r^-2` for
-//! bilinear and `r^-4` for the cubic B-spline (1.95% and 0.037% at `r = 2`).
-//!
-//! # The bound
-//! In 2D both axes are interpolated: `sqrt(2) e(r)` per lookup. Term errors
-//! add at most linearly, so relative to the filtered result
-//!
-//! ```text
-//! error <= sum_t |w_t| ||g_{s sigma_t}|| sqrt(2) e(r_t) / ||k_s||
-//! ```
-//!
-//! (L2 norms, white noise; `||g_sigma|| = 1 / (2 sqrt(pi) sigma)`, and
-//! `||k_s||^2 = sum_{t,u} w_t w_u g_{sqrt(sigma_t^2 + sigma_u^2)}(c_t - c_u) / s^2`
-//! in closed form). The ratio `A = sum_t |w_t| ||g_t|| / ||k||` is the
-//! decomposition's *amplification*: about 1-4 for positive kernels, 10-60
-//! for derivative and band-pass kernels whose weights cancel, and hundreds
-//! for hard-edged kernels fitted with sub-pixel atoms. The bound is a bound:
-//! measured errors are 2-5 times lower (`docs/planar-accuracy.md`).
-//!
-//! # The rule
-//! [`EvalPlan::choose`] takes the first of bilinear at pyramid factor 2 and
-//! 4, then the cubic B-spline at factor 2, 4, 8 and unsubsampled, whose
-//! bound is within the budget (default [`EvalPlan::DEFAULT_BUDGET`]) at
-//! every scale used; when none is, the one with the lowest bound (its
-//! smallest factor). Memory, for 4 levels per octave: about 5.3 image-sized
-//! levels at factor 2, 8.5 at 4, 14 at 8 (every level below `factor` pixels
-//! is stored at full resolution); a cubic lookup costs four times the
-//! arithmetic of a bilinear one. Terms narrower than about 1.5 px are the
-//! floor: no interpolation of integer-sampled levels reproduces a Gaussian
-//! that narrow at a fractional position, and the bound says so.
 
 use crate::decomposition::Decomposition;
 use crate::error::FilterError;
@@ -59,7 +11,7 @@ use crate::stack::{Interpolation, StackOptions, pyramid_step};
 /// averaged over the fractional phase, for white-noise input.
 ///
 /// ```
-/// use ifd_planar::{Interpolation, accuracy::lookup_error};
+/// use ifd_planar::{Interpolation, internals::accuracy::lookup_error};
 /// let lin = lookup_error(Interpolation::Linear, 2.0);
 /// let cub = lookup_error(Interpolation::Cubic, 2.0);
 /// assert!((lin - 0.0195).abs() < 5e-4 && (cub - 3.7e-4).abs() < 3e-5);
@@ -118,6 +70,57 @@ pub fn lookup_error(interpolation: Interpolation, r: f64) -> f64 {
 /// assert!(plan.error_bound <= EvalPlan::DEFAULT_BUDGET);
 /// # Ok::<(), ifd_planar::FilterError>(())
 /// ```
+///
+/// How accurately a decomposition is applied, and the stack that applies it
+/// accurately enough: the evaluation plan.
+///
+/// # Where the evaluation error comes from
+/// Through the stack, term `t` is one lookup of level `s sigma_t` at the
+/// displaced point `p + s R_theta c_t`, which is rarely a stored sample. The
+/// level is the image correlated with a Gaussian of `r = s sigma_t / step`
+/// stored samples (`step = 2^j`, the pyramid subsampling), and reading it at
+/// a fractional position is a filter that only approximates the ideal shift.
+/// For white-noise input and a fractional phase `phi`, the relative error of
+/// one lookup along one axis is
+///
+/// ```text
+/// e(r)^2 = mean_phi  int |I(nu, phi) - exp(2 pi i nu phi)|^2 G_r(nu)^2 dnu / int G_r(nu)^2 dnu
+/// ```
+///
+/// with `G_r` the transfer of the sampled Gaussian (`nu` in cycles per
+/// sample, `|nu| <= 1/2`) and `I` the interpolator's response:
+/// `1 - phi + phi e^{2 pi i nu}` for bilinear, `B(nu, phi) / B(nu, 0)` for the
+/// interpolating cubic B-spline (`B(nu, phi) = sum_k beta3(k - phi) e^{2 pi i nu k}`).
+/// `lookup_error` integrates this numerically. It falls as `r^-2` for
+/// bilinear and `r^-4` for the cubic B-spline (1.95% and 0.037% at `r = 2`).
+///
+/// # The bound
+/// In 2D both axes are interpolated: `sqrt(2) e(r)` per lookup. Term errors
+/// add at most linearly, so relative to the filtered result
+///
+/// ```text
+/// error <= sum_t |w_t| ||g_{s sigma_t}|| sqrt(2) e(r_t) / ||k_s||
+/// ```
+///
+/// (L2 norms, white noise; `||g_sigma|| = 1 / (2 sqrt(pi) sigma)`, and
+/// `||k_s||^2 = sum_{t,u} w_t w_u g_{sqrt(sigma_t^2 + sigma_u^2)}(c_t - c_u) / s^2`
+/// in closed form). The ratio `A = sum_t |w_t| ||g_t|| / ||k||` is the
+/// decomposition's *amplification*: about 1-4 for positive kernels, 10-60
+/// for derivative and band-pass kernels whose weights cancel, and hundreds
+/// for hard-edged kernels fitted with sub-pixel atoms. The bound is a bound:
+/// measured errors are 2-5 times lower (`docs/planar-accuracy.md`).
+///
+/// # The rule
+/// [`EvalPlan::choose`] takes the first of bilinear at pyramid factor 2 and
+/// 4, then the cubic B-spline at factor 2, 4, 8 and unsubsampled, whose
+/// bound is within the budget (default [`EvalPlan::DEFAULT_BUDGET`]) at
+/// every scale used; when none is, the one with the lowest bound (its
+/// smallest factor). Memory, for 4 levels per octave: about 5.3 image-sized
+/// levels at factor 2, 8.5 at 4, 14 at 8 (every level below `factor` pixels
+/// is stored at full resolution); a cubic lookup costs four times the
+/// arithmetic of a bilinear one. Terms narrower than about 1.5 px are the
+/// floor: no interpolation of integer-sampled levels reproduces a Gaussian
+/// that narrow at a fractional position, and the bound says so.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EvalPlan {
     /// How levels are read.

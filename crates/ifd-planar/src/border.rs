@@ -1,18 +1,4 @@
 //! Border modes: how an image is extended beyond its edges.
-//!
-//! The names and semantics follow `OpenCV`'s `BorderTypes`. For an image row
-//! `abcdefgh` the extensions are:
-//!
-//! | mode | left extension | `|` image `|` | right extension |
-//! |---|---|---|---|
-//! | [`Border::Reflect101`] (default, `BORDER_DEFAULT`) | `gfedcb` | `abcdefgh` | `gfedcba` |
-//! | [`Border::Replicate`] | `aaaaaa` | `abcdefgh` | `hhhhhhh` |
-//! | [`Border::Wrap`] | `cdefgh` | `abcdefgh` | `abcdefg` |
-//! | [`Border::Constant`]`(v)` | `vvvvvv` | `abcdefgh` | `vvvvvvv` |
-//!
-//! Reflection repeats for offsets further than one image width outside
-//! (the extension is periodic with period `2 (n - 1)`), so any integer index
-//! resolves.
 
 use std::fmt;
 use std::str::FromStr;
@@ -35,6 +21,22 @@ use crate::error::FilterError;
 /// assert_eq!(Border::Constant(0.0).resolve(-1, 8), None);
 /// # Ok::<(), ifd_planar::FilterError>(())
 /// ```
+///
+/// Border modes: how an image is extended beyond its edges.
+///
+/// The names and semantics follow `OpenCV`'s `BorderTypes`. For an image row
+/// `abcdefgh` the extensions are:
+///
+/// | mode | left extension | `|` image `|` | right extension |
+/// |---|---|---|---|
+/// | [`Border::Reflect101`] (default, `BORDER_DEFAULT`) | `gfedcb` | `abcdefgh` | `gfedcba` |
+/// | [`Border::Replicate`] | `aaaaaa` | `abcdefgh` | `hhhhhhh` |
+/// | [`Border::Wrap`] | `cdefgh` | `abcdefgh` | `abcdefg` |
+/// | [`Border::Constant`]`(v)` | `vvvvvv` | `abcdefgh` | `vvvvvvv` |
+///
+/// Reflection repeats for offsets further than one image width outside
+/// (the extension is periodic with period `2 (n - 1)`), so any integer index
+/// resolves.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Border {
     /// Mirror without repeating the edge pixel: `gfedcb|abcdefgh|gfedcba`

@@ -1,47 +1,5 @@
 //! The result of decomposing a filter: a list of weighted, displaced isotropic
 //! Gaussians (Eq. 2 of the IFD paper), and its file format.
-//!
-//! # Why rotated and scaled filters cost one lookup per term
-//! Let `k(d) = sum_t w_t g_{sigma_t}(d - c_t)` and
-//! `k_{theta,s}(d) = k(R_{-theta} d / s) / s^2` (the crate convention). For one term,
-//! using `R_{-theta} d / s - c = R_{-theta} (d - s R_theta c) / s`, the isotropy
-//! `g_sigma(R u) = g_sigma(u)` and the scaling `g_sigma(u / s) / s^2 = g_{s sigma}(u)`:
-//!
-//! ```text
-//! g_sigma(R_{-theta} d / s - c) / s^2 = g_sigma((d - s R_theta c) / s) / s^2
-//!                                     = g_{s sigma}(d - s R_theta c),
-//! ```
-//!
-//! so `k_{theta,s}(d) = sum_t w_t g_{s sigma_t}(d - s R_theta c_t)`: the same
-//! weights, atoms widened by `s`, centres rotated and scaled. Correlating an
-//! image `f` with it, and using the symmetry `g(-u) = g(u)`,
-//!
-//! ```text
-//! out(p) = sum_q k_{theta,s}(q - p) f(q)
-//!        = sum_t w_t sum_q g_{s sigma_t}(q - p - s R_theta c_t) f(q)
-//!        = sum_t w_t fhat_{s sigma_t}(p + s R_theta c_t),   fhat_sigma = f (*) g_sigma,
-//! ```
-//!
-//! one lookup per term into the scale stack `fhat` (Eq. 3 of the paper).
-//!
-//! # File format
-//! JSON, versioned and self-describing:
-//!
-//! ```json
-//! {
-//!   "format": "ifd-decomposition",
-//!   "version": 1,
-//!   "kernel": { "width": 193, "height": 193, "spec": "gauss:sx=24,sy=3,theta=30" },
-//!   "dictionary": { "levels": 6, "ratio": 0.5, "sigmas_per_octave": 4, "oversampling": 1, "half_width": 96.0 },
-//!   "report": { "terms": 180, "rel_l2_error": 0.0098, "max_error": 0.01, "dc_error": 1e-4,
-//!               "iterations": 400, "seconds": 1.2, "dictionary_atoms": 20000, "tau": 1e-5 },
-//!   "terms": [ { "weight": 0.01, "x": -3.0, "y": 6.0, "sigma": 1.5 } ]
-//! }
-//! ```
-//!
-//! `kernel`, `dictionary`, `report` and `kernel.spec` may be `null` (a
-//! hand-made decomposition); `format`, `version` and `terms` are required.
-//! [`Decomposition::load`] rejects anything else with a [`DecompositionFileError`].
 
 use std::path::{Path, PathBuf};
 
@@ -72,6 +30,51 @@ pub struct Term {
 }
 
 /// A filter decomposed into displaced isotropic Gaussians.
+///
+/// The result of decomposing a filter: a list of weighted, displaced isotropic
+/// Gaussians (Eq. 2 of the IFD paper), and its file format.
+///
+/// # Why rotated and scaled filters cost one lookup per term
+/// Let `k(d) = sum_t w_t g_{sigma_t}(d - c_t)` and
+/// `k_{theta,s}(d) = k(R_{-theta} d / s) / s^2` (the crate convention). For one term,
+/// using `R_{-theta} d / s - c = R_{-theta} (d - s R_theta c) / s`, the isotropy
+/// `g_sigma(R u) = g_sigma(u)` and the scaling `g_sigma(u / s) / s^2 = g_{s sigma}(u)`:
+///
+/// ```text
+/// g_sigma(R_{-theta} d / s - c) / s^2 = g_sigma((d - s R_theta c) / s) / s^2
+///                                     = g_{s sigma}(d - s R_theta c),
+/// ```
+///
+/// so `k_{theta,s}(d) = sum_t w_t g_{s sigma_t}(d - s R_theta c_t)`: the same
+/// weights, atoms widened by `s`, centres rotated and scaled. Correlating an
+/// image `f` with it, and using the symmetry `g(-u) = g(u)`,
+///
+/// ```text
+/// out(p) = sum_q k_{theta,s}(q - p) f(q)
+///        = sum_t w_t sum_q g_{s sigma_t}(q - p - s R_theta c_t) f(q)
+///        = sum_t w_t fhat_{s sigma_t}(p + s R_theta c_t),   fhat_sigma = f (*) g_sigma,
+/// ```
+///
+/// one lookup per term into the scale stack `fhat` (Eq. 3 of the paper).
+///
+/// # File format
+/// JSON, versioned and self-describing:
+///
+/// ```json
+/// {
+///   "format": "ifd-decomposition",
+///   "version": 1,
+///   "kernel": { "width": 193, "height": 193, "spec": "gauss:sx=24,sy=3,theta=30" },
+///   "dictionary": { "levels": 6, "ratio": 0.5, "sigmas_per_octave": 4, "oversampling": 1, "half_width": 96.0 },
+///   "report": { "terms": 180, "rel_l2_error": 0.0098, "max_error": 0.01, "dc_error": 1e-4,
+///               "iterations": 400, "seconds": 1.2, "dictionary_atoms": 20000, "tau": 1e-5 },
+///   "terms": [ { "weight": 0.01, "x": -3.0, "y": 6.0, "sigma": 1.5 } ]
+/// }
+/// ```
+///
+/// `kernel`, `dictionary`, `report` and `kernel.spec` may be `null` (a
+/// hand-made decomposition); `format`, `version` and `terms` are required.
+/// [`Decomposition::load`] rejects anything else with a [`DecompositionFileError`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Decomposition {
     /// The non-zero terms.
@@ -188,7 +191,7 @@ impl Decomposition {
     /// let back = Decomposition::from_json_str(&d.to_json_string())?;
     /// assert_eq!(back, d);
     /// assert!(Decomposition::from_json_str("{\"format\": \"ifd-decomposition\", \"version\": 2}").is_err());
-    /// # Ok::<(), ifd_planar::decomposition::DecompositionFileError>(())
+    /// # Ok::<(), ifd_planar::DecompositionFileError>(())
     /// ```
     #[must_use]
     pub fn to_json_string(&self) -> String {
@@ -382,7 +385,7 @@ pub struct FitReport {
     /// The final absolute `tau`.
     pub tau: f64,
     /// The fit's grid was this many times finer than the pixels
-    /// ([`crate::fit::decompose_oversampled`]); 1 for the pixel grid.
+    /// (`decompose_oversampled`); 1 for the pixel grid.
     #[serde(default = "one")]
     pub oversample: usize,
     /// With `oversample > 1`, the relative L2 error on the fine grid (the
@@ -400,7 +403,7 @@ pub struct FitReport {
     pub kernel_sum: Option<f64>,
     /// The DC gain of the filter as applied at the fitted pose: the sum over
     /// the whole plane of the sum of Gaussians sampled at pixel centres
-    /// ([`crate::fit::sampled_dc_gain`]), what a constant image is multiplied by;
+    /// (`sampled_dc_gain`), what a constant image is multiplied by;
     /// `None` in files written before it existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dc_gain: Option<f64>,

@@ -177,7 +177,7 @@ impl DictionaryParams {
     /// Resolves `opts` for `kernel`.
     ///
     /// ```
-    /// use ifd_planar::{Kernel, dictionary::{DictionaryOptions, DictionaryParams}};
+    /// use ifd_planar::{Kernel, internals::dictionary::{DictionaryOptions, DictionaryParams}};
     /// let k: Kernel = "gauss:sx=12,sy=3,theta=30".parse()?;
     /// let p = DictionaryParams::for_kernel(&k, &DictionaryOptions::default())?;
     /// assert_eq!(p.half_width, 48.0);
@@ -418,7 +418,7 @@ impl Dictionary {
     /// The dictionary for a `width x height` kernel (odd sizes).
     ///
     /// ```
-    /// use ifd_planar::dictionary::{Dictionary, DictionaryParams};
+    /// use ifd_planar::internals::dictionary::{Dictionary, DictionaryParams};
     /// let p = DictionaryParams { levels: 2, ratio: 0.5, sigmas_per_octave: 1, oversampling: 1, half_width: 8.0, min_width: 0.0 };
     /// let d = Dictionary::new(&p, 17, 17);
     /// assert_eq!(d.len(), 9 + 25); // 3x3 then 5x5 centred grids
@@ -434,7 +434,7 @@ impl Dictionary {
     /// fit sees, and suppresses, what they add outside the window).
     ///
     /// ```
-    /// use ifd_planar::dictionary::{Dictionary, DictionaryParams};
+    /// use ifd_planar::internals::dictionary::{Dictionary, DictionaryParams};
     /// let p = DictionaryParams { levels: 2, ratio: 0.5, sigmas_per_octave: 1, oversampling: 1, half_width: 8.0, min_width: 0.0 };
     /// assert_eq!(Dictionary::with_margin(&p, 21, 21, 2).len(), Dictionary::new(&p, 17, 17).len());
     /// ```

@@ -1,30 +1,6 @@
 //! Per-pixel parameters of a filter (angle, scale, bank entry): the raw
 //! [`Field`] a caller gives, and the [`CheckedField`] that knows its size,
 //! kind and range, built once with its checks.
-//!
-//! A map is scanned once, when it is checked: the range it reports sizes
-//! the scale stack, its checks make the CPU and the GPU evaluations refuse
-//! the same values with the same messages, and the positions of its
-//! extremes name the pixel when a scale falls outside the stack. Every
-//! entry point that takes a field ([`crate::Filter::apply`], the
-//! references, `ifd_gpu::GpuPose::new`) takes anything that is
-//! [`CheckField`]: a raw [`Field`] is checked there, a [`CheckedField`]
-//! only compared with the image's size.
-//!
-//! ```
-//! use ifd_planar::{CheckField, CheckedField, Field, FieldKind};
-//! let scales = [1.5f32, 0.5, 2.0, 1.0];
-//! let scale = CheckedField::new(Field::Map(&scales), FieldKind::Scale, 2, 2)?;
-//! assert_eq!(scale.range(), (0.5, 2.0));
-//! assert_eq!(scale.location_of_min(), " at pixel (1, 0)");
-//! // Checked once: passing it on costs a size comparison.
-//! assert!(scale.check(FieldKind::Scale, 2, 2).is_ok());
-//! assert!(scale.check(FieldKind::Scale, 4, 1).is_err());
-//! // Scales must be positive; angles need only be finite.
-//! assert!(Field::Map(&[1.0, -1.0]).check(FieldKind::Scale, 2, 1).is_err());
-//! assert!(Field::Map(&[1.0, -1.0]).check(FieldKind::Angle, 2, 1).is_ok());
-//! # Ok::<(), ifd_planar::FilterError>(())
-//! ```
 
 use crate::error::FilterError;
 
@@ -39,6 +15,34 @@ pub const MIN_FIELD_SCALE: f32 = 1e-3;
 
 /// A per-pixel parameter (angle in degrees, or scale): a constant or a
 /// row-major map of `width * height` values. Unchecked: see [`CheckedField`].
+///
+/// Per-pixel parameters of a filter (angle, scale, bank entry): the raw
+/// [`Field`] a caller gives, and the [`CheckedField`] that knows its size,
+/// kind and range, built once with its checks.
+///
+/// A map is scanned once, when it is checked: the range it reports sizes
+/// the scale stack, its checks make the CPU and the GPU evaluations refuse
+/// the same values with the same messages, and the positions of its
+/// extremes name the pixel when a scale falls outside the stack. Every
+/// entry point that takes a field ([`crate::Filter::apply`], the
+/// references, `ifd_gpu::GpuPose::new`) takes anything that is
+/// [`CheckField`]: a raw [`Field`] is checked there, a [`CheckedField`]
+/// only compared with the image's size.
+///
+/// ```
+/// use ifd_planar::{CheckField, CheckedField, Field, FieldKind};
+/// let scales = [1.5f32, 0.5, 2.0, 1.0];
+/// let scale = CheckedField::new(Field::Map(&scales), FieldKind::Scale, 2, 2)?;
+/// assert_eq!(scale.range(), (0.5, 2.0));
+/// assert_eq!(scale.location_of_min(), " at pixel (1, 0)");
+/// // Checked once: passing it on costs a size comparison.
+/// assert!(scale.check(FieldKind::Scale, 2, 2).is_ok());
+/// assert!(scale.check(FieldKind::Scale, 4, 1).is_err());
+/// // Scales must be positive; angles need only be finite.
+/// assert!(Field::Map(&[1.0, -1.0]).check(FieldKind::Scale, 2, 1).is_err());
+/// assert!(Field::Map(&[1.0, -1.0]).check(FieldKind::Angle, 2, 1).is_ok());
+/// # Ok::<(), ifd_planar::FilterError>(())
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub enum Field<'a> {
     /// The same value at every pixel.

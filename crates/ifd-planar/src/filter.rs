@@ -1,25 +1,5 @@
 //! IFD filtering (Eq. 3): `out(p) = sum_t w_t fhat_{s sigma_t}(p + s R_theta c_t)`
 //! with one trilinear scale-stack lookup per term and pixel.
-//!
-//! ```
-//! use ifd_image::{Image, ImageView};
-//! use ifd_planar::{Border, Decomposition, Field, Filter, StackOptions, Term, stack_for_decomposition};
-//! // An anisotropic kernel: two displaced Gaussians along x.
-//! let d = Decomposition::from_terms(vec![
-//!     Term { weight: 0.5, x: -6.0, y: 0.0, sigma: 1.5 },
-//!     Term { weight: 0.5, x: 6.0, y: 0.0, sigma: 1.5 },
-//! ]);
-//! let mut img = Image::new(64, 48, 1)?;
-//! img.set(32, 24, 0, 1.0);
-//! let stack = stack_for_decomposition(&img, &d, 1.0, 1.0, Border::Reflect101, StackOptions::default())?;
-//! let filter = Filter::new(&stack, &d)?;
-//! // Rotated by 90 degrees (counter-clockwise on screen) the lobes lie along
-//! // y: the impulse response has its peaks 6 px above and below the impulse.
-//! let out = filter.apply(Field::Constant(90.0), Field::Constant(1.0))?;
-//! assert!(out.get(32, 18, 0) > 10.0 * out.get(38, 24, 0));
-//! assert!(out.get(32, 30, 0) > 10.0 * out.get(26, 24, 0));
-//! # Ok::<(), Box<dyn std::error::Error>>(())
-//! ```
 
 use ifd_image::{Image, ImageView};
 use rayon::prelude::*;
@@ -45,6 +25,29 @@ struct Prepared {
 }
 
 /// A decomposition bound to a scale stack, ready to filter.
+///
+/// IFD filtering (Eq. 3): `out(p) = sum_t w_t fhat_{s sigma_t}(p + s R_theta c_t)`
+/// with one trilinear scale-stack lookup per term and pixel.
+///
+/// ```
+/// use ifd_image::{Image, ImageView};
+/// use ifd_planar::{Border, Decomposition, Field, Filter, StackOptions, Term, stack_for_decomposition};
+/// // An anisotropic kernel: two displaced Gaussians along x.
+/// let d = Decomposition::from_terms(vec![
+///     Term { weight: 0.5, x: -6.0, y: 0.0, sigma: 1.5 },
+///     Term { weight: 0.5, x: 6.0, y: 0.0, sigma: 1.5 },
+/// ]);
+/// let mut img = Image::new(64, 48, 1)?;
+/// img.set(32, 24, 0, 1.0);
+/// let stack = stack_for_decomposition(&img, &d, 1.0, 1.0, Border::Reflect101, StackOptions::default())?;
+/// let filter = Filter::new(&stack, &d)?;
+/// // Rotated by 90 degrees (counter-clockwise on screen) the lobes lie along
+/// // y: the impulse response has its peaks 6 px above and below the impulse.
+/// let out = filter.apply(Field::Constant(90.0), Field::Constant(1.0))?;
+/// assert!(out.get(32, 18, 0) > 10.0 * out.get(38, 24, 0));
+/// assert!(out.get(32, 30, 0) > 10.0 * out.get(26, 24, 0));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct Filter<'a> {
     stack: &'a ScaleStack,
@@ -155,7 +158,7 @@ impl<'a> Filter<'a> {
     /// ```
     /// use ifd_image::{Image, ImageView};
     /// use ifd_planar::{Border, Decomposition, DIRECT_SIGMA, Field, Filter, StackOptions, Term};
-    /// use ifd_planar::{reference, stack_for_decomposition};
+    /// use ifd_planar::{internals::reference, stack_for_decomposition};
     /// // A narrow atom at a fractional offset: interpolating the stack misses it.
     /// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 0.5, y: 0.25, sigma: 0.7 }]);
     /// let img = Image::from_vec(32, 32, 1, (0..1024).map(|i| ((i * 7919) % 101) as f32).collect())?;
@@ -1083,7 +1086,7 @@ pub(crate) fn check_scale_range(scale_min: f32, scale_max: f32) -> Result<(), Fi
 /// (at least one level).
 ///
 /// ```
-/// use ifd_planar::{Decomposition, Term, filter::level_sigmas};
+/// use ifd_planar::{Decomposition, Term, level_sigmas};
 /// let t = |sigma| Term { weight: 1.0, x: 0.0, y: 0.0, sigma };
 /// let d = Decomposition::from_terms(vec![t(2.0), t(3.0), t(2.0), t(0.5)]);
 /// assert_eq!(level_sigmas(&d, 2.0, 1.5), vec![4.0, 6.0]);
@@ -1113,7 +1116,7 @@ pub fn level_sigmas(decomposition: &Decomposition, scale: f32, direct_below: f64
 /// s_hi]`: the range a stack must cover.
 ///
 /// ```
-/// use ifd_planar::{filter::sigma_bounds, kernel::Sampling};
+/// use ifd_planar::{Sampling, sigma_bounds};
 /// assert_eq!(sigma_bounds(Sampling::Continuous, (1.0, 4.0), (0.5, 2.0)), (0.5, 8.0));
 /// // Below scale 1 a point-sampled kernel is averaged over the pixel.
 /// let (lo, hi) = sigma_bounds(Sampling::Point, (1.0, 4.0), (0.5, 0.5));

@@ -1,56 +1,5 @@
 //! Fitting a [`Decomposition`] to a [`Kernel`]: Eq. 4 of the IFD paper solved by
 //! `SpaRSA` over the `MoG` [`Dictionary`].
-//!
-//! # Choosing the regularisation
-//! With `alpha` unset (the default), [`decompose`] walks the continuation path
-//! `tau_k = tau_max 2^-k` (`tau_max = ||A^T y||_inf`, the smallest weight whose
-//! solution is zero), solving each stage warm-started to a loose relative
-//! duality gap (`stage_gap`, 0.1: only the support is used), and after each
-//! stage *debiases* — exact least squares on the support, from the Cholesky
-//! factor of the support's Gram matrix `G = A_S^T A_S`, which the separable
-//! atoms give cheaply — and measures the relative L2 error
-//! `sqrt(||y||^2 - 2 z.b + z^T G z) / ||y||`.
-//!
-//! The first stage whose refit reaches `tol`, and `extra_stages` (1) more, are
-//! then *pruned* by backward elimination: the atoms whose removal costs least
-//! (`z_k^2 / (G^-1)_kk`, the exact increase of the squared residual when atom
-//! `k` is dropped and the rest refitted) are removed in batches while the
-//! error stays within `tol`. The sparsest result wins. The path stops early when
-//! the refitted error stagnates (less than 30% better over three stages: the
-//! dictionary is too coarse for `tol`).
-//!
-//! `max_terms` caps the support: once a stage exceeds it before `tol` was
-//! reached, the stage's support (and richer ones, up to twice the cap) is cut
-//! down to the cap by the same backward elimination, and the lowest error wins.
-//!
-//! With `alpha` set, `tau = alpha ||A^T y||_inf` is solved (with continuation)
-//! and refitted on its support (cut to `max_terms` if needed); `tol` is then
-//! only reported against.
-//!
-//! # Exact DC
-//! A filter's error on an image is not its L2 error alone: on flat regions
-//! the output is the input times the DC gain, so a 0.2% DC error caps the
-//! PSNR of a mid-grey image near 60 dB whatever the L2 error. With
-//! [`DecomposeOptions::exact_dc`] (the default) every refit is the
-//! equality-constrained least squares
-//! `min ||y - A z||^2` subject to `c^T z = s`, where `s` is the kernel's sum
-//! and `c_k` the DC gain of unit-norm atom `k` as [`sampled_dc_gain`]
-//! measures it (`Sx Sy / ||a_k||`, 1D sums of the sampled Gaussian). With
-//! `H = G^-1`, `z0 = H b` the free solution and `u = H c`:
-//!
-//! `z = z0 + u (s - c^T z0) / (c^T u)`, and the squared residual grows by
-//! `(s - c^T z0)^2 / (c^T u)`.
-//!
-//! Removing atom `k` from a constrained fit is again a rank-one downdate,
-//! of the constrained inverse `P = H - u u^T / (c^T u)` (the upper-left
-//! block of the inverse of the KKT matrix `[G c; c^T 0]`) instead of `H`:
-//! the residual grows by `z_k^2 / P_kk` and `P' = P - p_k p_k^T / P_kk`,
-//! `z' = z - z_k p_k / P_kk`, the same formulas as without the constraint.
-//! (Forcing `z_k = 0` is one more equality constraint `e_k^T z = 0`; the
-//! growth of a quadratic under an added constraint `a^T z = 0` is
-//! `(a^T z)^2 / (a^T P a)`.) So pruning keeps the constraint at no extra
-//! cost. Supports above 2500 atoms, refitted by conjugate gradients, are
-//! not constrained.
 
 use std::time::Instant;
 
@@ -84,11 +33,11 @@ pub struct DecomposeOptions {
     /// reaches `tol`; the sparsest result wins.
     pub extra_stages: usize,
     /// Pixels of zeros fitted around the kernel's window; `None`:
-    /// [`default_margin`].
+    /// `default_margin`.
     pub margin: Option<usize>,
     /// Constrain every least-squares refit so that the decomposition's DC
-    /// gain ([`sampled_dc_gain`]) equals the kernel's sum exactly (see the
-    /// [module docs](self)); `false` fits the L2 error alone.
+    /// gain (`sampled_dc_gain`) equals the kernel's sum exactly (see the
+    /// documentation of [`decompose`]); `false` fits the L2 error alone.
     #[serde(default = "yes")]
     pub exact_dc: bool,
 }
@@ -162,7 +111,7 @@ impl Default for DecomposeOptions {
 /// `sigma = 0.3` on a sample, 0.66 half-way).
 ///
 /// ```
-/// use ifd_planar::{Decomposition, Term, fit::sampled_dc_gain};
+/// use ifd_planar::{Decomposition, Term, internals::fit::sampled_dc_gain};
 /// let t = |weight, x, sigma| Term { weight, x, y: 0.0, sigma };
 /// assert!((sampled_dc_gain(&Decomposition::from_terms(vec![t(2.0, 0.3, 3.0)])) - 2.0).abs() < 1e-9);
 /// assert!(sampled_dc_gain(&Decomposition::from_terms(vec![t(1.0, 0.0, 0.3)])) > 1.3);
@@ -626,12 +575,12 @@ impl Fitter<'_> {
     }
 }
 
-/// Decomposes `kernel` into displaced isotropic Gaussians (see the [module docs](self)).
+/// Decomposes `kernel` into displaced isotropic Gaussians (see the documentation of [`decompose`]).
 ///
 /// `progress(iteration, objective, nnz)` is called after every `SpaRSA` iteration.
 ///
 /// ```
-/// use ifd_planar::{Kernel, fit::{decompose, DecomposeOptions}};
+/// use ifd_planar::{DecomposeOptions, Kernel, decompose};
 /// let k: Kernel = "gauss:sx=6,sy=2,theta=30".parse()?;
 /// let d = decompose(&k, &DecomposeOptions::default(), |_, _, _| {})?;
 /// let report = d.report.as_ref().expect("decompose fills the report");
@@ -642,6 +591,60 @@ impl Fitter<'_> {
 ///
 /// # Errors
 /// [`DecomposeError`] for out-of-range options or dictionary parameters.
+///
+/// Fitting a [`Decomposition`] to a [`Kernel`]: Eq. 4 of the IFD paper solved by
+/// `SpaRSA` over the `MoG` [`Dictionary`].
+///
+/// # Choosing the regularisation
+/// With `alpha` unset (the default), [`decompose`] walks the continuation path
+/// `tau_k = tau_max 2^-k` (`tau_max = ||A^T y||_inf`, the smallest weight whose
+/// solution is zero), solving each stage warm-started to a loose relative
+/// duality gap (`stage_gap`, 0.1: only the support is used), and after each
+/// stage *debiases* — exact least squares on the support, from the Cholesky
+/// factor of the support's Gram matrix `G = A_S^T A_S`, which the separable
+/// atoms give cheaply — and measures the relative L2 error
+/// `sqrt(||y||^2 - 2 z.b + z^T G z) / ||y||`.
+///
+/// The first stage whose refit reaches `tol`, and `extra_stages` (1) more, are
+/// then *pruned* by backward elimination: the atoms whose removal costs least
+/// (`z_k^2 / (G^-1)_kk`, the exact increase of the squared residual when atom
+/// `k` is dropped and the rest refitted) are removed in batches while the
+/// error stays within `tol`. The sparsest result wins. The path stops early when
+/// the refitted error stagnates (less than 30% better over three stages: the
+/// dictionary is too coarse for `tol`).
+///
+/// `max_terms` caps the support: once a stage exceeds it before `tol` was
+/// reached, the stage's support (and richer ones, up to twice the cap) is cut
+/// down to the cap by the same backward elimination, and the lowest error wins.
+///
+/// With `alpha` set, `tau = alpha ||A^T y||_inf` is solved (with continuation)
+/// and refitted on its support (cut to `max_terms` if needed); `tol` is then
+/// only reported against.
+///
+/// # Exact DC
+/// A filter's error on an image is not its L2 error alone: on flat regions
+/// the output is the input times the DC gain, so a 0.2% DC error caps the
+/// PSNR of a mid-grey image near 60 dB whatever the L2 error. With
+/// [`DecomposeOptions::exact_dc`] (the default) every refit is the
+/// equality-constrained least squares
+/// `min ||y - A z||^2` subject to `c^T z = s`, where `s` is the kernel's sum
+/// and `c_k` the DC gain of unit-norm atom `k` as `sampled_dc_gain`
+/// measures it (`Sx Sy / ||a_k||`, 1D sums of the sampled Gaussian). With
+/// `H = G^-1`, `z0 = H b` the free solution and `u = H c`:
+///
+/// `z = z0 + u (s - c^T z0) / (c^T u)`, and the squared residual grows by
+/// `(s - c^T z0)^2 / (c^T u)`.
+///
+/// Removing atom `k` from a constrained fit is again a rank-one downdate,
+/// of the constrained inverse `P = H - u u^T / (c^T u)` (the upper-left
+/// block of the inverse of the KKT matrix `[G c; c^T 0]`) instead of `H`:
+/// the residual grows by `z_k^2 / P_kk` and `P' = P - p_k p_k^T / P_kk`,
+/// `z' = z - z_k p_k / P_kk`, the same formulas as without the constraint.
+/// (Forcing `z_k = 0` is one more equality constraint `e_k^T z = 0`; the
+/// growth of a quadratic under an added constraint `a^T z = 0` is
+/// `(a^T z)^2 / (a^T P a)`.) So pruning keeps the constraint at no extra
+/// cost. Supports above 2500 atoms, refitted by conjugate gradients, are
+/// not constrained.
 pub fn decompose(
     kernel: &Kernel,
     opts: &DecomposeOptions,
@@ -822,10 +825,10 @@ pub const PIXEL_BLUR_FLOOR: f64 = 0.3;
 /// measured on the pixel grid; `tol` bounds the fine grid's error. The
 /// dictionary parameters recorded are the fine grid's. For a pixel-averaged
 /// kernel ([`crate::kernel::Sampling::Area`]) the levels go down to
-/// [`PIXEL_BLUR_WIDTH`] unless `opts` fixes them.
+/// `PIXEL_BLUR_WIDTH` unless `opts` fixes them.
 ///
 /// ```
-/// use ifd_planar::{DecomposeOptions, KernelSpec, fit::decompose_oversampled};
+/// use ifd_planar::{DecomposeOptions, KernelSpec, internals::fit::decompose_oversampled};
 /// let spec: KernelSpec = "box:w=9,h=3".parse()?;
 /// let (k, fine) = (spec.to_kernel()?, spec.to_kernel_fine(2)?);
 /// let d = decompose_oversampled(&k, &fine, 2, &DecomposeOptions::default(), |_, _, _| {})?;
@@ -910,13 +913,13 @@ pub fn decompose_oversampled(
 
 /// Decomposes a built-in filter spec, sampled on the pixel grid and, when
 /// `oversample` (the factor `q`, `1..=8`) is above 1, fitted on a grid `q`
-/// times finer ([`decompose_oversampled`]) so that the sum of Gaussians also
+/// times finer (`decompose_oversampled`) so that the sum of Gaussians also
 /// matches the filter between pixel centres, which rotated and scaled copies
 /// sample. `None` chooses: 2 for the hard-edged specs (box, line, disk:
 /// [`Sampling::Area`]), 1 otherwise. The spec is recorded in the result.
 ///
 /// ```
-/// use ifd_planar::{DecomposeOptions, KernelSpec, fit::decompose_spec};
+/// use ifd_planar::{DecomposeOptions, KernelSpec, decompose_spec};
 /// let spec: KernelSpec = "box:w=9,h=3".parse()?;
 /// let d = decompose_spec(&spec, &DecomposeOptions::default(), None, |_, _, _| {})?;
 /// assert_eq!(d.report.as_ref().map(|r| r.oversample), Some(2));
@@ -926,7 +929,7 @@ pub fn decompose_oversampled(
 ///
 /// # Errors
 /// [`DecomposeError::Kernel`] when the spec cannot be sampled, and as
-/// [`decompose_oversampled`].
+/// `decompose_oversampled`.
 pub fn decompose_spec(
     spec: &KernelSpec,
     opts: &DecomposeOptions,

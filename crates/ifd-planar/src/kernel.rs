@@ -1,40 +1,4 @@
 //! Sampled 2D filters ([`Kernel`]) and the built-in filter specs ([`KernelSpec`]).
-//!
-//! A kernel has odd width and height; its centre is the middle pixel and it is
-//! addressed by offset from the centre, `x` = column (right), `y` = row (down).
-//!
-//! # Spec strings
-//! `name:key=value,key=value`, parsed by [`KernelSpec`]'s `FromStr` (and by
-//! [`Kernel`]'s, which also samples it):
-//!
-//! | spec | keys (defaults) | filter |
-//! |---|---|---|
-//! | `gauss` | `sx`, `sy` (= `sx`), `theta` (0) | anisotropic Gaussian, std devs in px along the rotated axes, normalised to sum 1 |
-//! | `dgauss` | `order` = `xx`/`xy`/`yy`, `sigma`, `theta` (0) | second derivative of the normalised Gaussian `g_sigma` |
-//! | `log` | `sigma` | Laplacian of `g_sigma` (`g_xx + g_yy`) |
-//! | `gabor` | `sigma`, `freq` (cycles/px), `theta` (0) | `g_sigma(d) cos(2 pi freq u)`, `u` along the rotated `x` axis |
-//! | `box` | `w`, `h` (= `w`), `theta` (0) | rectangle `w x h` px, area-sampled, sum 1 |
-//! | `disk` | `r` | disk of radius `r` px, area-sampled, sum 1 |
-//! | `line` | `len`, `width` (1), `theta` (0) | motion blur: a `len x width` rectangle along `theta`, area-sampled, sum 1 |
-//!
-//! Every spec also takes `radius=` (alias `r=` except for `disk`, where `r` is
-//! the disk radius): the half-size `R` of the `(2R+1) x (2R+1)` grid. By default
-//! `R = ceil(4 * largest sigma)` for the smooth filters and the smallest `R`
-//! holding the shape for the hard-edged ones.
-//!
-//! Angles are degrees, counter-clockwise on screen. With
-//! `R_theta = [[cos, sin], [-sin, cos]]` in `(x right, y down)` coordinates, a
-//! filter rotated by `theta` is `k_theta(d) = k(R_{-theta} d)`: its local
-//! coordinates are `(u, v) = R_{-theta} d = (cos x - sin y, sin x + cos y)`.
-//!
-//! ```
-//! use ifd_planar::Kernel;
-//! let k: Kernel = "gauss:sx=6,sy=2,theta=30".parse()?;
-//! assert_eq!((k.width(), k.height()), (49, 49)); // R = ceil(4 * 6) = 24
-//! assert!((k.sum() - 1.0).abs() < 1e-12);
-//! assert!(k.get(0, 0) > k.get(0, 3));
-//! # Ok::<(), ifd_planar::KernelError>(())
-//! ```
 
 use std::fmt;
 use std::str::FromStr;
@@ -156,7 +120,45 @@ pub enum DerivOrder {
 /// A built-in filter, parsed from a spec string such as `gauss:sx=24,sy=3,theta=30`.
 ///
 /// `radius` is the grid half-size `R` when given; `None` picks the default.
-/// Lengths are in pixels, angles in degrees (see the [module docs](self)).
+/// Lengths are in pixels, angles in degrees (see the spec strings below).
+///
+/// Sampled 2D filters ([`Kernel`]) and the built-in filter specs ([`KernelSpec`]).
+///
+/// A kernel has odd width and height; its centre is the middle pixel and it is
+/// addressed by offset from the centre, `x` = column (right), `y` = row (down).
+///
+/// # Spec strings
+/// `name:key=value,key=value`, parsed by [`KernelSpec`]'s `FromStr` (and by
+/// [`Kernel`]'s, which also samples it):
+///
+/// | spec | keys (defaults) | filter |
+/// |---|---|---|
+/// | `gauss` | `sx`, `sy` (= `sx`), `theta` (0) | anisotropic Gaussian, std devs in px along the rotated axes, normalised to sum 1 |
+/// | `dgauss` | `order` = `xx`/`xy`/`yy`, `sigma`, `theta` (0) | second derivative of the normalised Gaussian `g_sigma` |
+/// | `log` | `sigma` | Laplacian of `g_sigma` (`g_xx + g_yy`) |
+/// | `gabor` | `sigma`, `freq` (cycles/px), `theta` (0) | `g_sigma(d) cos(2 pi freq u)`, `u` along the rotated `x` axis |
+/// | `box` | `w`, `h` (= `w`), `theta` (0) | rectangle `w x h` px, area-sampled, sum 1 |
+/// | `disk` | `r` | disk of radius `r` px, area-sampled, sum 1 |
+/// | `line` | `len`, `width` (1), `theta` (0) | motion blur: a `len x width` rectangle along `theta`, area-sampled, sum 1 |
+///
+/// Every spec also takes `radius=` (alias `r=` except for `disk`, where `r` is
+/// the disk radius): the half-size `R` of the `(2R+1) x (2R+1)` grid. By default
+/// `R = ceil(4 * largest sigma)` for the smooth filters and the smallest `R`
+/// holding the shape for the hard-edged ones.
+///
+/// Angles are degrees, counter-clockwise on screen. With
+/// `R_theta = [[cos, sin], [-sin, cos]]` in `(x right, y down)` coordinates, a
+/// filter rotated by `theta` is `k_theta(d) = k(R_{-theta} d)`: its local
+/// coordinates are `(u, v) = R_{-theta} d = (cos x - sin y, sin x + cos y)`.
+///
+/// ```
+/// use ifd_planar::Kernel;
+/// let k: Kernel = "gauss:sx=6,sy=2,theta=30".parse()?;
+/// assert_eq!((k.width(), k.height()), (49, 49)); // R = ceil(4 * 6) = 24
+/// assert!((k.sum() - 1.0).abs() < 1e-12);
+/// assert!(k.get(0, 0) > k.get(0, 3));
+/// # Ok::<(), ifd_planar::KernelError>(())
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub enum KernelSpec {
     /// Anisotropic Gaussian normalised to sum 1.
@@ -818,7 +820,7 @@ impl Sampling {
     /// at every scale for `Averaged`, and `0` otherwise.
     ///
     /// ```
-    /// use ifd_planar::kernel::Sampling;
+    /// use ifd_planar::Sampling;
     /// assert_eq!(Sampling::Point.footprint_variance(2.0), 0.0);
     /// assert_eq!(Sampling::Point.footprint_variance(0.5), 1.0 / 12.0);
     /// assert_eq!(Sampling::Area.footprint_variance(1.0), 0.0);

@@ -25,38 +25,112 @@
 //! - Default border: reflect-101 (OpenCV's `BORDER_DEFAULT`, scipy's
 //!   `'mirror'`); also constant, replicate and wrap.
 
-pub mod accuracy;
-pub mod decomposition;
-pub mod dictionary;
-pub mod fit;
-pub mod kernel;
-pub mod prepared;
-pub mod sparsa;
+//! # The API
+//! The crate's modules are private; what a user applies is re-exported here,
+//! by task:
+//! - **describe a filter**: [`KernelSpec`] (parsed specs such as
+//!   `gauss:s=3`, `box:w=9`, `motion:l=21,a=30`, files), [`Kernel`] (the
+//!   rasterised filter), [`Sampling`] (how it was sampled);
+//! - **decompose it**: [`decompose`], [`decompose_spec`] (spec to
+//!   decomposition, as every front end does), [`DecomposeOptions`],
+//!   [`measure`] (a decomposition's error against its kernel),
+//!   [`FIT_REVISION`] (bumped when fits change, so cached banks are refitted);
+//!   the result is a [`Decomposition`] of [`Term`]s with its [`FitReport`],
+//!   read and written as JSON ([`DECOMPOSITION_FORMAT`],
+//!   [`DECOMPOSITION_VERSION`], [`DecompositionFileError`]);
+//! - **filter an image**: [`filter_image`] with [`FilterOptions`] (the whole
+//!   pipeline), or its steps: [`FilterPlan`], [`EvalPlan`]/[`PlanOptions`],
+//!   [`PreparedDecomposition`] ([`Prepare`]), the scale stack
+//!   ([`ScaleStack`], [`StackOptions`], [`StackPlan`], [`StackLayout`],
+//!   [`LevelLayout`], [`LevelLocator`], [`Interpolation`],
+//!   [`stack_for_decomposition`], [`stack_plan_for_decomposition`]) and the
+//!   evaluator ([`Filter`], [`Rotation`]); per-pixel angle, scale and bank
+//!   fields ([`Field`], [`FieldKind`], [`CheckField`], [`CheckedField`]);
+//!   borders ([`Border`]); errors ([`FilterError`]);
+//! - **dabs** (the brush): [`ScaledFilter`] and its [`Taps`], the
+//!   rectangle refresh of a stack ([`PixelRect`], [`FixedTap`],
+//!   [`RefreshReport`]), [`sigma_bounds`], [`level_sigmas`],
+//!   [`evaluated_directly`], [`DIRECT_SIGMA`];
+//! - **images larger than memory**: [`Tiling`], [`TileGrid`],
+//!   [`TiledField`], [`RegionReader`], [`RegionWriter`], [`filter_tiled`],
+//!   [`tile_halo`];
+//! - the CPU's vector kernels: [`vector_kernels`].
+//!
+//! What tests, benches and studies need beyond that (the brute-force
+//! reference correlation, the SpaRSA solver, the dictionary) is in
+//! [`internals`]: not part of the API.
 
-pub mod border;
-pub mod error;
-pub mod field;
-pub mod filter;
-pub mod pipeline;
-pub mod reference;
-pub mod stack;
-pub mod tiled;
+mod accuracy;
+mod border;
+mod decomposition;
+mod dictionary;
+mod error;
+mod field;
+mod filter;
+mod fit;
+mod kernel;
+mod pipeline;
+mod prepared;
+mod reference;
+mod sparsa;
+mod stack;
+mod tiled;
 
 pub use accuracy::{EvalPlan, PlanOptions};
-pub use decomposition::{Decomposition, FitReport, Term};
-pub use fit::{DecomposeError, DecomposeOptions, decompose};
-pub use kernel::{Kernel, KernelError, KernelSpec};
-pub use prepared::{Prepare, PreparedDecomposition};
-
 pub use border::Border;
-pub use error::FilterError;
-pub use field::{CheckField, CheckedField, Field, FieldKind};
-pub use filter::{
-    DIRECT_SIGMA, Filter, Rotation, ScaledFilter, Taps, stack_for_decomposition,
-    stack_plan_for_decomposition,
+pub use decomposition::{
+    Decomposition, DecompositionFileError, FORMAT as DECOMPOSITION_FORMAT, FitReport, Term,
+    VERSION as DECOMPOSITION_VERSION,
 };
+pub use error::FilterError;
+pub use field::{CheckField, CheckedField, Field, FieldKind, MAX_FIELD_VALUE, MIN_FIELD_SCALE};
+pub use filter::{
+    DIRECT_SIGMA, Filter, Rotation, ScaledFilter, Taps, evaluated_directly, level_sigmas,
+    sigma_bounds, stack_for_decomposition, stack_plan_for_decomposition,
+};
+pub use fit::{DecomposeError, DecomposeOptions, FIT_REVISION, decompose, decompose_spec, measure};
+pub use kernel::{Kernel, KernelError, KernelSpec, MAX_RADIUS as MAX_KERNEL_RADIUS, Sampling};
+pub use pipeline::{FilterOptions, FilterPlan, filter_image};
+pub use prepared::{Prepare, PreparedDecomposition};
 pub use stack::gather::vector_kernels;
 pub use stack::refresh::{FixedTap, PixelRect, RefreshReport};
 pub use stack::{
     Interpolation, LevelLayout, LevelLocator, ScaleStack, StackLayout, StackOptions, StackPlan,
 };
+pub use tiled::{
+    RegionReader, RegionWriter, TileGrid, TiledField, Tiling, filter_tiled, halo as tile_halo,
+};
+
+/// Not the API: what tests, benches, examples and studies need beyond it.
+/// Paths here may change without notice.
+pub mod internals {
+    /// The brute-force references the fast paths are tested against.
+    pub mod reference {
+        pub use crate::reference::{
+            correlate, correlate_varying, correlate_varying_rows, sample_kernel,
+        };
+    }
+    /// The SpaRSA solver behind [`crate::decompose`].
+    pub mod sparsa {
+        pub use crate::sparsa::{
+            DenseOperator, LinearOperator, Sparsa, SparsaOptions, SparsaOutput, StopCriterion,
+            debias, nnz, sparsa,
+        };
+    }
+    /// Fitting's parts: the oversampled fit, the sampled DC gain, the default
+    /// margin.
+    pub mod fit {
+        pub use crate::fit::{decompose_oversampled, default_margin, sampled_dc_gain};
+    }
+    /// The lookup error of a stack level against the exact convolution.
+    pub mod accuracy {
+        pub use crate::accuracy::lookup_error;
+    }
+    /// The Mixture-of-Gaussians dictionary behind [`crate::decompose`].
+    pub mod dictionary {
+        pub use crate::dictionary::{
+            Atom, Dictionary, DictionaryError, DictionaryOptions, DictionaryParams, MAX_ATOMS,
+            MAX_LEVELS, feature_width,
+        };
+    }
+}

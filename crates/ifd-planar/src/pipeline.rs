@@ -1,30 +1,6 @@
 //! From an image and a decomposition to the filtered image in one call: the
 //! steps that `ifd filter`, the Python module and any other front end share,
 //! so that they give the same pixels.
-//!
-//! 1. [`FilterPlan::new`] checks that the kernel fits the image, prepares the
-//!    decomposition, chooses how levels are read ([`EvalPlan::choose`]) and
-//!    plans the scale stack: at a constant scale, levels at exactly the sigmas
-//!    the terms read (one lookup per term), else log-uniform levels; at a
-//!    constant pose, terms narrower than [`DIRECT_SIGMA`] are evaluated
-//!    directly.
-//! 2. [`FilterPlan::build_stack`] prefilters the image (FFT).
-//! 3. [`FilterPlan::evaluate`] sums the terms at every pixel.
-//!
-//! [`filter_image`] runs the three.
-//!
-//! ```
-//! use ifd_image::Image;
-//! use ifd_planar::pipeline::{FilterOptions, filter_image};
-//! use ifd_planar::{CheckField, Decomposition, Field, FieldKind, Term};
-//! let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 2.0, y: 0.0, sigma: 3.0 }]);
-//! let img = Image::from_vec(64, 48, 1, (0..64 * 48).map(|i| (i % 13) as f32).collect())?;
-//! let angle = Field::Constant(30.0).check(FieldKind::Angle, 64, 48)?;
-//! let scale = Field::Constant(1.0).check(FieldKind::Scale, 64, 48)?;
-//! let out = filter_image(&img, &d, angle, scale, &FilterOptions::default())?;
-//! assert_eq!((out.width(), out.height()), (64, 48));
-//! # Ok::<(), Box<dyn std::error::Error>>(())
-//! ```
 
 use ifd_image::{Image, ImageView};
 
@@ -289,6 +265,34 @@ impl FilterPlan {
 ///
 /// # Errors
 /// As those three.
+///
+/// From an image and a decomposition to the filtered image in one call: the
+/// steps that `ifd filter`, the Python module and any other front end share,
+/// so that they give the same pixels.
+///
+/// 1. [`FilterPlan::new`] checks that the kernel fits the image, prepares the
+///    decomposition, chooses how levels are read ([`EvalPlan::choose`]) and
+///    plans the scale stack: at a constant scale, levels at exactly the sigmas
+///    the terms read (one lookup per term), else log-uniform levels; at a
+///    constant pose, terms narrower than [`DIRECT_SIGMA`] are evaluated
+///    directly.
+/// 2. [`FilterPlan::build_stack`] prefilters the image (FFT).
+/// 3. [`FilterPlan::evaluate`] sums the terms at every pixel.
+///
+/// [`filter_image`] runs the three.
+///
+/// ```
+/// use ifd_image::Image;
+/// use ifd_planar::{FilterOptions, filter_image};
+/// use ifd_planar::{CheckField, Decomposition, Field, FieldKind, Term};
+/// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 2.0, y: 0.0, sigma: 3.0 }]);
+/// let img = Image::from_vec(64, 48, 1, (0..64 * 48).map(|i| (i % 13) as f32).collect())?;
+/// let angle = Field::Constant(30.0).check(FieldKind::Angle, 64, 48)?;
+/// let scale = Field::Constant(1.0).check(FieldKind::Scale, 64, 48)?;
+/// let out = filter_image(&img, &d, angle, scale, &FilterOptions::default())?;
+/// assert_eq!((out.width(), out.height()), (64, 48));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn filter_image<'a>(
     image: impl Into<ImageView<'a>>,
     decomposition: &Decomposition,

@@ -2,25 +2,6 @@
 //! path: the CPU [`crate::Filter`], the stack plan
 //! ([`crate::stack_plan_for_decomposition`]), the evaluation plan
 //! ([`crate::EvalPlan::choose`]) and the GPU's `GpuDecomposition`.
-//!
-//! Each of them takes anything that is [`Prepare`]: a [`Decomposition`] is
-//! checked where it is passed, a [`PreparedDecomposition`] is borrowed as it
-//! is. A program that filters with one decomposition on several paths
-//! prepares it once.
-//!
-//! ```
-//! use ifd_planar::{Decomposition, Prepare, PreparedDecomposition, Term};
-//! let d = Decomposition::from_terms(vec![
-//!     Term { weight: 0.5, x: 3.0, y: -4.0, sigma: 1.0 },
-//!     Term { weight: 0.5, x: 0.0, y: 0.0, sigma: 2.0 },
-//! ]);
-//! let p = PreparedDecomposition::new(&d)?;
-//! assert_eq!((p.len(), p.sigma_range(), p.reach()), (2, (1.0, 2.0), 5.0));
-//! // A bad term is refused once, with its index.
-//! let bad = Decomposition::from_terms(vec![Term { weight: 1.0, x: 0.0, y: 0.0, sigma: 0.0 }]);
-//! assert!(bad.prepare().unwrap_err().to_string().contains("term 0"));
-//! # Ok::<(), ifd_planar::FilterError>(())
-//! ```
 
 use std::borrow::Cow;
 
@@ -30,6 +11,30 @@ use crate::kernel::Sampling;
 
 /// A decomposition whose terms are all finite with positive sigmas, with at
 /// least one term, and the numbers every evaluation path needs from them.
+///
+/// A decomposition checked once for filtering, shared by every evaluation
+/// path: the CPU [`crate::Filter`], the stack plan
+/// ([`crate::stack_plan_for_decomposition`]), the evaluation plan
+/// ([`crate::EvalPlan::choose`]) and the GPU's `GpuDecomposition`.
+///
+/// Each of them takes anything that is [`Prepare`]: a [`Decomposition`] is
+/// checked where it is passed, a [`PreparedDecomposition`] is borrowed as it
+/// is. A program that filters with one decomposition on several paths
+/// prepares it once.
+///
+/// ```
+/// use ifd_planar::{Decomposition, Prepare, PreparedDecomposition, Term};
+/// let d = Decomposition::from_terms(vec![
+///     Term { weight: 0.5, x: 3.0, y: -4.0, sigma: 1.0 },
+///     Term { weight: 0.5, x: 0.0, y: 0.0, sigma: 2.0 },
+/// ]);
+/// let p = PreparedDecomposition::new(&d)?;
+/// assert_eq!((p.len(), p.sigma_range(), p.reach()), (2, (1.0, 2.0), 5.0));
+/// // A bad term is refused once, with its index.
+/// let bad = Decomposition::from_terms(vec![Term { weight: 1.0, x: 0.0, y: 0.0, sigma: 0.0 }]);
+/// assert!(bad.prepare().unwrap_err().to_string().contains("term 0"));
+/// # Ok::<(), ifd_planar::FilterError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct PreparedDecomposition {
     terms: Vec<Term>,

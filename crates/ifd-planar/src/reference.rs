@@ -6,7 +6,7 @@
 //!
 //! ```
 //! use ifd_image::Image;
-//! use ifd_planar::{Border, reference};
+//! use ifd_planar::{Border, internals::reference};
 //! let mut img = Image::new(5, 5, 1)?;
 //! img.set(2, 2, 0, 1.0);
 //! // Correlation with a kernel that is 1 at offset (+1, 0) fetches the right neighbour.

@@ -48,7 +48,7 @@ pub trait LinearOperator: Sync {
 /// A small dense row-major matrix as a [`LinearOperator`] (tests, small problems).
 ///
 /// ```
-/// use ifd_planar::sparsa::{DenseOperator, LinearOperator};
+/// use ifd_planar::internals::sparsa::{DenseOperator, LinearOperator};
 /// let a = DenseOperator::new(2, 2, vec![1.0, 2.0, 3.0, 4.0]);
 /// let mut y = [0.0; 2];
 /// a.apply(&[1.0, 1.0], &mut y);
@@ -393,10 +393,10 @@ pub fn debias<A: LinearOperator + ?Sized>(
     iters
 }
 
-/// `SpaRSA` with continuation and optional debiasing (see the [module docs](self)).
+/// `SpaRSA` with continuation and optional debiasing (see the source's module documentation).
 ///
 /// ```
-/// use ifd_planar::sparsa::{sparsa, DenseOperator, SparsaOptions};
+/// use ifd_planar::internals::sparsa::{sparsa, DenseOperator, SparsaOptions};
 /// // An orthogonal A: the exact answer is soft-thresholding of A^T y.
 /// let a = DenseOperator::new(2, 2, vec![0.6, 0.8, -0.8, 0.6]);
 /// let y = [1.0, 2.0]; // A^T y = (-1.0, 2.0)

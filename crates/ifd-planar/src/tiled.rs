@@ -1,54 +1,5 @@
 //! Filtering an image far larger than memory, tile by tile, with the
 //! result of filtering it whole.
-//!
-//! Every output pixel reads a bounded neighbourhood: the filter's terms reach
-//! at most `s * reach` from it (`reach`: the farthest term centre), and
-//! their Gaussians are below 4e-6 of their peak beyond 5 sigma. So a tile
-//! of the output needs the input tile grown by a halo of
-//! `ceil(s_max * reach + 5 * sigma_max(s_max))` pixels ([`halo`]). Two more
-//! things make a tile's result equal the whole image's:
-//!
-//! - the scale stack samples each level at multiples of its subsampling step
-//!   from the image origin, so every tile read (halo included) starts at a
-//!   multiple of the coarsest step ([`crate::pipeline::FilterPlan::alignment`]):
-//!   tile sizes and the halo are rounded up to multiples of it;
-//! - every tile plans with the whole image's scale range
-//!   ([`crate::pipeline::FilterOptions::scale_range`]), so that all read the
-//!   same levels.
-//!
-//! At the image's true edges a tile's read stops at the edge and the border
-//! rule acts there, as for the whole image; inside, the halo is wide enough
-//! that the tile's own border never reaches its output pixels.
-//!
-//! Pixels come from and go to [`RegionReader`] and [`RegionWriter`]
-//! (implemented by [`ifd_image::NpyReader`] and [`ifd_image::NpyWriter`],
-//! which stream `.npy` files with positioned reads and writes, and by
-//! closures), so peak memory is about one grown tile's stack, not the image.
-//!
-//! ```
-//! use ifd_image::Image;
-//! use ifd_planar::pipeline::{FilterOptions, filter_image};
-//! use ifd_planar::tiled::{TileGrid, TiledField, filter_tiled};
-//! use ifd_planar::{CheckField, Decomposition, Field, FieldKind, PixelRect, Term};
-//! let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 3.0, y: 0.0, sigma: 2.0 }]);
-//! let img = Image::from_vec(90, 70, 1, (0..90 * 70).map(|i| ((i * 7) % 31) as f32).collect())?;
-//! let opts = FilterOptions::default();
-//! let grid = TileGrid::new(&d, (90, 70, 1), false, (1.0, 1.0), &opts, 32)?;
-//! let mut out = Image::new(90, 70, 1)?;
-//! filter_tiled(
-//!     &d, &grid,
-//!     &mut |r: PixelRect| Ok(img.crop(r.x0, r.y0, r.width, r.height)),
-//!     TiledField::Constant(20.0), TiledField::Constant(1.0),
-//!     &mut |x0, y0, t: &Image| { out.paste(x0, y0, t); Ok(()) },
-//!     |_, _| {},
-//! )?;
-//! let angle = Field::Constant(20.0).check(FieldKind::Angle, 90, 70)?;
-//! let scale = Field::Constant(1.0).check(FieldKind::Scale, 90, 70)?;
-//! let whole = filter_image(&img, &d, angle, scale, &opts)?;
-//! let diff = out.data().iter().zip(whole.data()).fold(0f32, |m, (a, b)| m.max((a - b).abs()));
-//! assert!(diff < 1e-4);
-//! # Ok::<(), Box<dyn std::error::Error>>(())
-//! ```
 
 use ifd_image::{Image, NpyReader, NpyWriter};
 
@@ -135,7 +86,7 @@ pub fn halo(decomposition: &Decomposition, scale_max: f32) -> Result<usize, Filt
 /// (filtering here, smoothing in `ifd_smooth::tiled`).
 ///
 /// ```
-/// use ifd_planar::tiled::Tiling;
+/// use ifd_planar::Tiling;
 /// let t = Tiling::new((100, 70, 3), 30, 7, 4)?;
 /// assert_eq!((t.tile, t.halo), (32, 8));
 /// let tiles = t.tiles();
@@ -341,6 +292,58 @@ impl TileGrid {
 /// # Errors
 /// The readers' and writer's errors, bad field values (as
 /// [`CheckedField::new`]), and the errors of filtering a tile.
+///
+/// Filtering an image far larger than memory, tile by tile, with the
+/// result of filtering it whole.
+///
+/// Every output pixel reads a bounded neighbourhood: the filter's terms reach
+/// at most `s * reach` from it (`reach`: the farthest term centre), and
+/// their Gaussians are below 4e-6 of their peak beyond 5 sigma. So a tile
+/// of the output needs the input tile grown by a halo of
+/// `ceil(s_max * reach + 5 * sigma_max(s_max))` pixels ([`halo`]). Two more
+/// things make a tile's result equal the whole image's:
+///
+/// - the scale stack samples each level at multiples of its subsampling step
+///   from the image origin, so every tile read (halo included) starts at a
+///   multiple of the coarsest step ([`crate::pipeline::FilterPlan::alignment`]):
+///   tile sizes and the halo are rounded up to multiples of it;
+/// - every tile plans with the whole image's scale range
+///   ([`crate::pipeline::FilterOptions::scale_range`]), so that all read the
+///   same levels.
+///
+/// At the image's true edges a tile's read stops at the edge and the border
+/// rule acts there, as for the whole image; inside, the halo is wide enough
+/// that the tile's own border never reaches its output pixels.
+///
+/// Pixels come from and go to [`RegionReader`] and [`RegionWriter`]
+/// (implemented by [`ifd_image::NpyReader`] and [`ifd_image::NpyWriter`],
+/// which stream `.npy` files with positioned reads and writes, and by
+/// closures), so peak memory is about one grown tile's stack, not the image.
+///
+/// ```
+/// use ifd_image::Image;
+/// use ifd_planar::{FilterOptions, filter_image};
+/// use ifd_planar::{TileGrid, TiledField, filter_tiled};
+/// use ifd_planar::{CheckField, Decomposition, Field, FieldKind, PixelRect, Term};
+/// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 3.0, y: 0.0, sigma: 2.0 }]);
+/// let img = Image::from_vec(90, 70, 1, (0..90 * 70).map(|i| ((i * 7) % 31) as f32).collect())?;
+/// let opts = FilterOptions::default();
+/// let grid = TileGrid::new(&d, (90, 70, 1), false, (1.0, 1.0), &opts, 32)?;
+/// let mut out = Image::new(90, 70, 1)?;
+/// filter_tiled(
+///     &d, &grid,
+///     &mut |r: PixelRect| Ok(img.crop(r.x0, r.y0, r.width, r.height)),
+///     TiledField::Constant(20.0), TiledField::Constant(1.0),
+///     &mut |x0, y0, t: &Image| { out.paste(x0, y0, t); Ok(()) },
+///     |_, _| {},
+/// )?;
+/// let angle = Field::Constant(20.0).check(FieldKind::Angle, 90, 70)?;
+/// let scale = Field::Constant(1.0).check(FieldKind::Scale, 90, 70)?;
+/// let whole = filter_image(&img, &d, angle, scale, &opts)?;
+/// let diff = out.data().iter().zip(whole.data()).fold(0f32, |m, (a, b)| m.max((a - b).abs()));
+/// assert!(diff < 1e-4);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn filter_tiled(
     decomposition: &Decomposition,
     grid: &TileGrid,

@@ -3,7 +3,7 @@
 //! Run with `--nocapture` to see the measured PSNRs.
 
 use ifd_image::Image;
-use ifd_planar::reference::{correlate, correlate_varying, sample_kernel};
+use ifd_planar::internals::reference::{correlate, correlate_varying, sample_kernel};
 use ifd_planar::{
     Border, Decomposition, Field, Filter, FilterError, Interpolation, ScaleStack, StackOptions,
     Term, stack_for_decomposition,
@@ -793,7 +793,7 @@ fn direct_terms_need_no_level_at_a_constant_pose_only() {
         sigma,
     };
     let d = Decomposition::from_terms(vec![t(0.6, 0.0, 3.0), t(0.4, 2.5, 0.6)]);
-    let sigmas = ifd_planar::filter::level_sigmas(&d, 1.0, ifd_planar::DIRECT_SIGMA);
+    let sigmas = ifd_planar::level_sigmas(&d, 1.0, ifd_planar::DIRECT_SIGMA);
     assert_eq!(sigmas, vec![3.0]);
     let stack = ScaleStack::with_sigmas(&img, &sigmas, Border::Reflect101, StackOptions::default())
         .expect("stack");

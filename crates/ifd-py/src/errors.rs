@@ -23,10 +23,8 @@ pub(crate) fn os(error: impl Display) -> PyErr {
 
 /// A decomposition file error: `OSError` when the file could not be read or
 /// written, `ValueError` when its contents are wrong.
-pub(crate) fn decomposition_file(
-    error: &ifd_planar::decomposition::DecompositionFileError,
-) -> PyErr {
-    use ifd_planar::decomposition::DecompositionFileError as E;
+pub(crate) fn decomposition_file(error: &ifd_planar::DecompositionFileError) -> PyErr {
+    use ifd_planar::DecompositionFileError as E;
     match error {
         E::Io { .. } => os(error),
         _ => value("", error),

@@ -5,12 +5,12 @@ use std::fmt::Write as _;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use ifd_image::metrics;
-use ifd_planar::fit::decompose_spec;
-use ifd_planar::pipeline::{FilterOptions, FilterPlan};
+use ifd_planar::decompose_spec;
 use ifd_planar::{
     Border, CheckedField, DecomposeOptions, Decomposition, Field, FieldKind, Interpolation, Kernel,
     KernelSpec, PreparedDecomposition, Term, decompose,
 };
+use ifd_planar::{FilterOptions, FilterPlan};
 use ifd_smooth::{AnisoParams, AspectBank, HessianBank, Mode, SmoothOptions, Smoother};
 use numpy::{PyArrayDyn, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -146,7 +146,7 @@ impl PyDecomposition {
                 format!("{scale} must be finite and positive"),
             ));
         }
-        ifd_planar::tiled::halo(&self.inner, scale as f32).map_err(|e| errors::value("", e))
+        ifd_planar::tile_halo(&self.inner, scale as f32).map_err(|e| errors::value("", e))
     }
 
     fn __len__(&self) -> usize {

@@ -16,7 +16,7 @@
 
 use std::path::Path;
 
-use ifd_planar::kernel::Sampling;
+use ifd_planar::Sampling;
 use ifd_planar::{DecomposeOptions, Decomposition, KernelSpec, Term, decompose};
 use serde::{Deserialize, Serialize};
 
@@ -103,7 +103,7 @@ pub struct AspectBank {
     pub aspects: Vec<f64>,
     /// One decomposition per aspect ratio (terms only).
     pub terms: Vec<Vec<Term>>,
-    /// [`ifd_planar::fit::FIT_REVISION`] of the code that fitted it (0 in
+    /// [`ifd_planar::FIT_REVISION`] of the code that fitted it (0 in
     /// files written before it was recorded): a cached bank fitted by
     /// older code is refitted.
     #[serde(default)]
@@ -164,7 +164,7 @@ impl AspectBank {
             options,
             aspects,
             terms,
-            fit_revision: ifd_planar::fit::FIT_REVISION,
+            fit_revision: ifd_planar::FIT_REVISION,
         })
     }
 
@@ -265,7 +265,7 @@ impl AspectBank {
 
     /// The bank with `options` from the cache file `cache` when it holds a
     /// valid one built with them by the current fitting code
-    /// ([`ifd_planar::fit::FIT_REVISION`]), else fitted (a few seconds;
+    /// ([`ifd_planar::FIT_REVISION`]), else fitted (a few seconds;
     /// `progress(done, total)` after each entry) and written there (best
     /// effort: a cache that cannot be written is reported on stderr, not an
     /// error). Returns the bank and where it came from (the file, or
@@ -281,7 +281,7 @@ impl AspectBank {
         if let Some(p) = cache
             && let Ok(b) = Self::load(p)
             && b.options == options
-            && b.fit_revision == ifd_planar::fit::FIT_REVISION
+            && b.fit_revision == ifd_planar::FIT_REVISION
             && b.aspects == log_spaced_aspects(options.max_aspect, options.steps_per_octave as f64)
         {
             return Ok((b, p.display().to_string()));

@@ -81,7 +81,7 @@ impl HessianBank {
             // The Hessian at scale sigma samples the derivatives of the
             // continuous Gaussian at pixel centres at every scale, as
             // scikit-image computes it: no pixel averaging below sigma0.
-            d.sampling = ifd_planar::kernel::Sampling::Continuous;
+            d.sampling = ifd_planar::Sampling::Continuous;
             Ok(d)
         };
         Ok(Self {

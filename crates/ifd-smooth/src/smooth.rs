@@ -309,7 +309,7 @@ impl Smoother {
             return None;
         }
         let s = opts.scale / bank.options.sigma_ref;
-        Some(ifd_planar::filter::sigma_bounds(
+        Some(ifd_planar::sigma_bounds(
             BANK_SAMPLING,
             bank.sigma_range(),
             (s, s),

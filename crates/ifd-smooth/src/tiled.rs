@@ -68,8 +68,8 @@
 use std::sync::Arc;
 
 use ifd_image::Image;
-use ifd_planar::tiled::{RegionReader, Tiling};
 use ifd_planar::{PixelRect, StackLayout};
+use ifd_planar::{RegionReader, Tiling};
 
 use crate::bank::AspectBank;
 use crate::direct::DirectKernels;

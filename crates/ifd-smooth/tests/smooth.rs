@@ -147,8 +147,9 @@ fn smoothing_runs_along_edges() {
     assert!(o.aspect > 4.0, "{o:?}");
     let out = s.smooth_image(Mode::PerPixel).unwrap();
     let gauss = |u: f64, v: f64| (-(u * u + v * v) / 32.0).exp() / (32.0 * std::f64::consts::PI);
-    let k = ifd_planar::reference::sample_kernel(gauss, 0.0, 1.0, 16);
-    let iso = ifd_planar::reference::correlate(&img, &k, 33, 33, Border::Reflect101).unwrap();
+    let k = ifd_planar::internals::reference::sample_kernel(gauss, 0.0, 1.0, 16);
+    let iso =
+        ifd_planar::internals::reference::correlate(&img, &k, 33, 33, Border::Reflect101).unwrap();
     // The anisotropic result keeps more contrast across the edge than an isotropic Gaussian.
     let contrast = |im: &Image| im.get(34, 32, 0) - im.get(29, 32, 0);
     assert!(
@@ -386,7 +387,7 @@ fn a_cached_bank_from_older_fitting_code_is_refitted() {
     old.save(&path).unwrap();
     let (fresh, source) = AspectBank::load_or_build(bank.options, Some(&path), |_, _| {}).unwrap();
     assert_eq!(source, "fitted");
-    assert_eq!(fresh.fit_revision, ifd_planar::fit::FIT_REVISION);
+    assert_eq!(fresh.fit_revision, ifd_planar::FIT_REVISION);
     assert_eq!(&fresh, bank.as_ref());
     assert_eq!(&AspectBank::load(&path).unwrap(), bank.as_ref());
     std::fs::remove_dir_all(&dir).ok();

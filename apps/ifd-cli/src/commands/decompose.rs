@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use ifd_planar::fit::decompose_spec;
+use ifd_planar::decompose_spec;
 use ifd_planar::{DecomposeOptions, Decomposition, Kernel, KernelSpec, decompose};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;

@@ -5,11 +5,11 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use ifd_planar::pipeline::{FilterOptions, FilterPlan};
 use ifd_planar::{
     Border, CheckedField, Decomposition, EvalPlan, Field, FieldKind, Interpolation,
     PreparedDecomposition,
 };
+use ifd_planar::{FilterOptions, FilterPlan};
 
 use crate::input::InputOptions;
 use crate::output::ImageOutput;
@@ -125,7 +125,7 @@ impl Filter {
             let s = self.scale.unwrap_or(1.0);
             (s, s)
         };
-        let Ok(grid) = ifd_planar::tiled::TileGrid::new(
+        let Ok(grid) = ifd_planar::TileGrid::new(
             decomposition,
             (w, h, c),
             self.angle_map.is_some(),

@@ -6,9 +6,9 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use ifd_image::{FileFormat, NpyReader, NpyWriter};
-use ifd_planar::pipeline::FilterOptions;
-use ifd_planar::tiled::{TileGrid, TiledField, filter_tiled};
+use ifd_planar::FilterOptions;
 use ifd_planar::{Decomposition, FieldKind};
+use ifd_planar::{TileGrid, TiledField, filter_tiled};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// The formats that stream, for messages.
@@ -88,7 +88,7 @@ pub fn choose_tiles<T, E>(
     forced: Option<usize>,
     budget: u64,
     plan: impl Fn(usize) -> Result<T, E>,
-    tiling: impl Fn(&T) -> ifd_planar::tiled::Tiling,
+    tiling: impl Fn(&T) -> ifd_planar::Tiling,
     bytes: impl Fn(&T) -> Result<u64>,
 ) -> Result<T>
 where

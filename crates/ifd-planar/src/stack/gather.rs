@@ -1,35 +1,6 @@
 //! Bilinear lookups for eight neighbouring pixels at once: the per-pixel
 //! paths' inner loop, vectorised across pixels with AVX2 gathers (detected at
 //! run time; other CPUs take the scalar loop).
-//!
-//! # Why vectors across pixels
-//! With a per-pixel angle (or scale) every term of every pixel reads its own
-//! displaced position, so nothing is shared between the lookups of one pixel;
-//! but the positions of eight neighbouring pixels for one term are a few
-//! multiply-adds apart. One term for eight pixels is then one vector of
-//! positions, one vector of indices and weights, and four gathers (two when
-//! the level has one channel: each gather reads the two horizontal
-//! neighbours as one 64-bit element). The scalar loop spends most of its
-//! instructions on exactly that address and weight arithmetic, one pixel at
-//! a time.
-//!
-//! # Same results as the scalar loop
-//! The kernels evaluate the scalar loop's expressions in the same order with
-//! separate multiplies and adds (no fused multiply-add), and a block with a
-//! lane whose stencil leaves the stored level hands that term's eight lookups
-//! to the scalar, border-resolving lookup in lane order. So the output is
-//! bit for bit the scalar loop's on every CPU (tested), whatever the thread
-//! count.
-//!
-//! # The `unsafe` in this module
-//! The workspace denies `unsafe`; this module is the one exception, for two
-//! things stable Rust only offers as `unsafe`: calling a function compiled
-//! for AVX2 (after `is_x86_feature_detected!` said the CPU has it), and the
-//! gather instructions, which take a raw pointer. Memory safety does not rest
-//! on the interior test that chooses the vector path: the gather indices are
-//! clamped (integer min/max) into the range every read of a stencil stays in,
-//! and the levels' sizes are checked once (`supports`) before any kernel
-//! runs.
 #![allow(
     unsafe_code,
     reason = "AVX2 gathers and run-time dispatch; see the module documentation"
@@ -60,6 +31,39 @@ pub(crate) struct FixedTerm {
 /// let isa = ifd_planar::vector_kernels();
 /// assert!(isa.is_none() || isa == Some("avx2"));
 /// ```
+///
+/// Bilinear lookups for eight neighbouring pixels at once: the per-pixel
+/// paths' inner loop, vectorised across pixels with AVX2 gathers (detected at
+/// run time; other CPUs take the scalar loop).
+///
+/// # Why vectors across pixels
+/// With a per-pixel angle (or scale) every term of every pixel reads its own
+/// displaced position, so nothing is shared between the lookups of one pixel;
+/// but the positions of eight neighbouring pixels for one term are a few
+/// multiply-adds apart. One term for eight pixels is then one vector of
+/// positions, one vector of indices and weights, and four gathers (two when
+/// the level has one channel: each gather reads the two horizontal
+/// neighbours as one 64-bit element). The scalar loop spends most of its
+/// instructions on exactly that address and weight arithmetic, one pixel at
+/// a time.
+///
+/// # Same results as the scalar loop
+/// The kernels evaluate the scalar loop's expressions in the same order with
+/// separate multiplies and adds (no fused multiply-add), and a block with a
+/// lane whose stencil leaves the stored level hands that term's eight lookups
+/// to the scalar, border-resolving lookup in lane order. So the output is
+/// bit for bit the scalar loop's on every CPU (tested), whatever the thread
+/// count.
+///
+/// # The `unsafe` in this module
+/// The workspace denies `unsafe`; this module is the one exception, for two
+/// things stable Rust only offers as `unsafe`: calling a function compiled
+/// for AVX2 (after `is_x86_feature_detected!` said the CPU has it), and the
+/// gather instructions, which take a raw pointer. Memory safety does not rest
+/// on the interior test that chooses the vector path: the gather indices are
+/// clamped (integer min/max) into the range every read of a stencil stays in,
+/// and the levels' sizes are checked once (`supports`) before any kernel
+/// runs.
 #[must_use]
 pub fn vector_kernels() -> Option<&'static str> {
     #[cfg(target_arch = "x86_64")]

@@ -1,44 +1,5 @@
 //! The scale stack: an image prefiltered with isotropic Gaussians at
 //! log-uniformly spaced standard deviations (the `fhat_l` of Eq. 3).
-//!
-//! # Which Gaussian
-//! Each level is the correlation of the border-extended image with the
-//! **sampled** normalised Gaussian
-//! `g_sigma(d) = exp(-|d|^2 / (2 sigma^2)) / (2 pi sigma^2)` at integer
-//! offsets `d` — exactly the atom that [`crate::Decomposition::eval`] evaluates, so a
-//! decomposition applied through the stack and the brute-force correlation
-//! with the kernel `Decomposition::eval` samples agree to interpolation error
-//! only. The transfer function used in the FFT is the exact DFT of that
-//! sampled kernel (computed by FFT of the periodised samples), not the
-//! analytic transform `exp(-2 pi^2 sigma^2 |nu|^2)`. The two differ by the
-//! aliases of the analytic transform: the DC gain of the sampled kernel is
-//! `(1 + 2 sum_k exp(-2 pi^2 sigma^2 k^2))^2`, i.e. `+2.9 %` at `sigma = 0.5`,
-//! `+5e-4` at `0.7` and `1e-8` at `1`, and at the Nyquist frequency the
-//! analytic transform is `exp(-pi^2 sigma^2 / 2)` (`0.29` at `sigma = 0.5`,
-//! `7e-3` at `1`, `3e-9` at `2`) while the sampled one is twice that. Using the
-//! analytic transform would therefore make small-sigma atoms disagree with
-//! their definition by up to a few percent; the sampled one costs nothing more.
-//!
-//! # Layout
-//! Levels are `sigma_i = sigma_min * r^i`, `r = (sigma_max / sigma_min)^(1/n)`
-//! with `n = ceil(octaves * samples_per_octave)`. A level whose sigma is at
-//! least `k * 2^j` pixels ([`StackOptions::pyramid_factor`] `k`, default 2) is
-//! stored subsampled by `2^j` (a Gaussian pyramid; the subsampling is exact —
-//! the coarse spectrum is the alias sum of the fine one — and a Gaussian with
-//! `sigma >= 2` coarse pixels has transfer below `3e-9` beyond the coarse
-//! Nyquist frequency). Every level also stores a margin of at least one sample
-//! (and [`StackOptions::margin`] full-resolution pixels) of the blurred
-//! *border-extended* image outside the image.
-//!
-//! # Lookup
-//! [`ScaleStack::sample`] interpolates bilinearly in space and linearly in
-//! `ln sigma` (trilinear). Outside the stored region, coordinates are resolved
-//! by the border mode: for reflect-101 and wrap this is exact (the blurred
-//! extension of a symmetric/periodic extension is the symmetric/periodic
-//! extension of the blurred image); for replicate and constant the stored
-//! margin is exact and beyond it the lookup is clamped (replicate) or returns
-//! the constant, so give a margin as large as the largest displacement you
-//! will look up (see [`crate::stack_for_decomposition`]).
 
 use std::sync::Arc;
 
@@ -594,6 +555,48 @@ pub(crate) struct Level {
 /// assert!((v[0] - 1.0 / (2.0 * std::f32::consts::PI * 4.0)).abs() < 1e-5);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
+///
+/// The scale stack: an image prefiltered with isotropic Gaussians at
+/// log-uniformly spaced standard deviations (the `fhat_l` of Eq. 3).
+///
+/// # Which Gaussian
+/// Each level is the correlation of the border-extended image with the
+/// **sampled** normalised Gaussian
+/// `g_sigma(d) = exp(-|d|^2 / (2 sigma^2)) / (2 pi sigma^2)` at integer
+/// offsets `d` — exactly the atom that [`crate::Decomposition::eval`] evaluates, so a
+/// decomposition applied through the stack and the brute-force correlation
+/// with the kernel `Decomposition::eval` samples agree to interpolation error
+/// only. The transfer function used in the FFT is the exact DFT of that
+/// sampled kernel (computed by FFT of the periodised samples), not the
+/// analytic transform `exp(-2 pi^2 sigma^2 |nu|^2)`. The two differ by the
+/// aliases of the analytic transform: the DC gain of the sampled kernel is
+/// `(1 + 2 sum_k exp(-2 pi^2 sigma^2 k^2))^2`, i.e. `+2.9 %` at `sigma = 0.5`,
+/// `+5e-4` at `0.7` and `1e-8` at `1`, and at the Nyquist frequency the
+/// analytic transform is `exp(-pi^2 sigma^2 / 2)` (`0.29` at `sigma = 0.5`,
+/// `7e-3` at `1`, `3e-9` at `2`) while the sampled one is twice that. Using the
+/// analytic transform would therefore make small-sigma atoms disagree with
+/// their definition by up to a few percent; the sampled one costs nothing more.
+///
+/// # Layout
+/// Levels are `sigma_i = sigma_min * r^i`, `r = (sigma_max / sigma_min)^(1/n)`
+/// with `n = ceil(octaves * samples_per_octave)`. A level whose sigma is at
+/// least `k * 2^j` pixels ([`StackOptions::pyramid_factor`] `k`, default 2) is
+/// stored subsampled by `2^j` (a Gaussian pyramid; the subsampling is exact —
+/// the coarse spectrum is the alias sum of the fine one — and a Gaussian with
+/// `sigma >= 2` coarse pixels has transfer below `3e-9` beyond the coarse
+/// Nyquist frequency). Every level also stores a margin of at least one sample
+/// (and [`StackOptions::margin`] full-resolution pixels) of the blurred
+/// *border-extended* image outside the image.
+///
+/// # Lookup
+/// [`ScaleStack::sample`] interpolates bilinearly in space and linearly in
+/// `ln sigma` (trilinear). Outside the stored region, coordinates are resolved
+/// by the border mode: for reflect-101 and wrap this is exact (the blurred
+/// extension of a symmetric/periodic extension is the symmetric/periodic
+/// extension of the blurred image); for replicate and constant the stored
+/// margin is exact and beyond it the lookup is clamped (replicate) or returns
+/// the constant, so give a margin as large as the largest displacement you
+/// will look up (see [`crate::stack_for_decomposition`]).
 #[derive(Clone, Debug)]
 pub struct ScaleStack {
     width: usize,

@@ -2,24 +2,6 @@
 //! (the brush app's strokes): every stored sample of every level whose value
 //! depends on a changed pixel is recomputed by direct separable correlation
 //! of the current, border-extended image with the level's sampled Gaussian.
-//!
-//! The FFT build and this refresh compute the same quantity (see the
-//! [`crate::stack`] docs: the sampled normalised Gaussian
-//! `exp(-d^2 / (2 sigma^2)) / (sqrt(2 pi) sigma)` per axis, not renormalised),
-//! here truncated at `ceil(5 sigma) + 1` samples, where the neglected tail
-//! mass is below `6e-7` per axis; the tests check agreement with a full
-//! rebuild to `1e-5` relative to the image range.
-//!
-//! Levels of cubic B-spline coefficients ([`Interpolation::Cubic`]) are
-//! refreshed the same way, then prefiltered: a coefficient is
-//! `sum_k sqrt 3 z^|k| s(i + k)` (`z = sqrt 3 - 2`, the inverse of the
-//! sampled B-spline `(1, 4, 1) / 6`), kept for `|k| <= 12` ([`CUBIC_TAPS`]),
-//! so a change rewrites 12 more samples on each side of the affected ones.
-//!
-//! Cost per level: `(rows + 2R) * cols / step * (2R + 1)` plus
-//! `rows / step * cols / step * (2R + 1)` multiply-adds per channel, with
-//! `R = 5 sigma` and `rows x cols` the changed rectangle dilated by `R`
-//! (clipped to the stored level).
 
 use ifd_image::Image;
 use rayon::prelude::*;
@@ -131,6 +113,29 @@ pub struct FixedTap {
 }
 
 /// What [`ScaleStack::refresh_region`] recomputed.
+///
+/// Refreshing part of a [`ScaleStack`] after the image changed in a rectangle
+/// (the brush app's strokes): every stored sample of every level whose value
+/// depends on a changed pixel is recomputed by direct separable correlation
+/// of the current, border-extended image with the level's sampled Gaussian.
+///
+/// The FFT build and this refresh compute the same quantity (see the
+/// [`ScaleStack`] docs: the sampled normalised Gaussian
+/// `exp(-d^2 / (2 sigma^2)) / (sqrt(2 pi) sigma)` per axis, not renormalised),
+/// here truncated at `ceil(5 sigma) + 1` samples, where the neglected tail
+/// mass is below `6e-7` per axis; the tests check agreement with a full
+/// rebuild to `1e-5` relative to the image range.
+///
+/// Levels of cubic B-spline coefficients ([`Interpolation::Cubic`]) are
+/// refreshed the same way, then prefiltered: a coefficient is
+/// `sum_k sqrt 3 z^|k| s(i + k)` (`z = sqrt 3 - 2`, the inverse of the
+/// sampled B-spline `(1, 4, 1) / 6`), kept for `|k| <= 12` (`CUBIC_TAPS`),
+/// so a change rewrites 12 more samples on each side of the affected ones.
+///
+/// Cost per level: `(rows + 2R) * cols / step * (2R + 1)` plus
+/// `rows / step * cols / step * (2R + 1)` multiply-adds per channel, with
+/// `R = 5 sigma` and `rows x cols` the changed rectangle dilated by `R`
+/// (clipped to the stored level).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RefreshReport {
     /// Stored samples recomputed (per channel), over all levels.
