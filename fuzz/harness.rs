@@ -174,7 +174,7 @@ pub fn merl(data: &[u8]) {
 /// `--scene FILE.obj`: Wavefront OBJ meshes.
 pub fn obj(data: &[u8]) {
     let f = Scratch::new("obj", "obj", data);
-    let _ = ifd_render::mesh::Mesh::load(f.path(), false);
+    let _ = ifd_render::Mesh::load(f.path(), false);
 }
 
 /// The smoothing decomposition banks cached by the brush app and the CLI.

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use anyhow::{Context as _, Result, bail};
 use clap::{Args, ValueEnum};
 use glam::DVec3;
-use ifd_render::envmap::EnvMap;
+use ifd_render::EnvMap;
 use serde_json::Value;
 
 use crate::input::{InputOptions, parse_size};
@@ -243,9 +243,9 @@ pub struct CameraOptions {
 
 impl CameraOptions {
     /// The camera the options describe.
-    pub fn camera(&self) -> Result<ifd_render::camera::Camera> {
+    pub fn camera(&self) -> Result<ifd_render::Camera> {
         let (w, h) = parse_size(&self.size, "--size")?;
-        Ok(ifd_render::camera::Camera::new(
+        Ok(ifd_render::Camera::new(
             parse_vec(&self.eye, "--eye")?,
             parse_vec(&self.target, "--target")?,
             parse_vec(&self.up, "--up")?,
@@ -267,7 +267,7 @@ pub enum ToneCurve {
     Aces,
 }
 
-impl From<ToneCurve> for ifd_render::tonemap::Tonemap {
+impl From<ToneCurve> for ifd_render::Tonemap {
     fn from(t: ToneCurve) -> Self {
         match t {
             ToneCurve::None => Self::None,
@@ -296,7 +296,7 @@ pub struct DisplayOptions {
 
 impl DisplayOptions {
     /// The tone curve, after checking the exposure.
-    pub fn tonemap(self) -> Result<ifd_render::tonemap::Tonemap> {
+    pub fn tonemap(self) -> Result<ifd_render::Tonemap> {
         if !self.exposure.is_finite() {
             bail!("--exposure {}: not finite", self.exposure);
         }
@@ -329,8 +329,8 @@ pub struct SceneOptions {
 
 impl SceneOptions {
     /// The scene the options name.
-    pub fn scene(&self) -> Result<ifd_render::scene::Scene> {
-        Ok(ifd_render::scene::Scene::parse(
+    pub fn scene(&self) -> Result<ifd_render::Scene> {
+        Ok(ifd_render::Scene::parse(
             &self.scene,
             self.obj_up == ObjUp::Z,
         )?)

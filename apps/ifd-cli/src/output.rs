@@ -102,7 +102,7 @@ pub fn check_output_folder(path: &Path) -> Result<()> {
 /// by side, 4 white pixels apart, as `strip.png` (the figures of the
 /// comparison commands). The images must share one size.
 pub fn write_figure(dir: &Path, images: &[(&str, &ifd_image::Image)], exposure: f32) -> Result<()> {
-    let tm = ifd_render::tonemap::Tonemap::Aces;
+    let tm = ifd_render::Tonemap::Aces;
     let opts = WriteOptions::default();
     let mut shown = Vec::new();
     for (name, im) in images {

@@ -2,7 +2,7 @@
 //! `z` up (the renderer's convention).
 
 use glam::DVec3;
-use ifd_render::camera::Camera;
+use ifd_render::Camera;
 use serde::{Deserialize, Serialize};
 
 /// An orbit around `target`.

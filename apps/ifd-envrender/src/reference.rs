@@ -10,9 +10,9 @@ use std::sync::mpsc::{Receiver, Sender};
 
 use anyhow::{Context, Result};
 use ifd_image::Image;
-use ifd_render::envmap::EnvMap;
-use ifd_render::render::{Job, Method, relative_rms, render};
-use ifd_render::scene::Scene;
+use ifd_render::EnvMap;
+use ifd_render::Scene;
+use ifd_render::{Job, Method, relative_rms, render};
 use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
 
@@ -26,7 +26,7 @@ type EnvCache = Option<((PathBuf, u64), Arc<(EnvMap, EnvMap)>)>;
 /// background, BRDF.
 type View<'a> = (
     &'a Scene,
-    ifd_render::camera::Camera,
+    ifd_render::Camera,
     &'a EnvMap,
     Option<&'a EnvMap>,
     &'a Brdf,

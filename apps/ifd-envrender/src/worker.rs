@@ -13,12 +13,11 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use ifd_gpu::GpuContext;
 use ifd_gpu::shading::{GpuEnvironment, GpuMaterial, GpuShader, GpuSurfaces, SurfacePoint};
-use ifd_render::envmap::EnvMap;
-use ifd_render::gbuffer;
-use ifd_render::render::{Job, Method, render};
-use ifd_render::scene::Scene;
-use ifd_render::textures::{RoughnessFamily, SurfaceMaps, Texture};
-use ifd_render::tonemap::Tonemap;
+use ifd_render::EnvMap;
+use ifd_render::Scene;
+use ifd_render::Tonemap;
+use ifd_render::{Job, Method, render};
+use ifd_render::{RoughnessFamily, SurfaceMaps, Texture};
 use ifd_shade::Brdf;
 use ifd_shade::shade::{BandMaps, Environment, Material};
 use ifd_shade::table::{LobeTable, default_theta_entries};
@@ -334,7 +333,7 @@ impl Worker {
             };
             // the kernel for this degree, compiled here rather than on the UI thread
             shader.pipeline(ctx, l)?;
-            let px = gbuffer::pixels(&scene, &camera, Some(&surface))?;
+            let px = ifd_render::pixels(&scene, &camera, Some(&surface))?;
             let points: Vec<SurfacePoint> = px
                 .iter()
                 .map(|p| SurfacePoint::from_pixel(p, background))
@@ -369,7 +368,7 @@ impl Worker {
     fn render_cpu(
         s: &Settings,
         scene: Scene,
-        camera: ifd_render::camera::Camera,
+        camera: ifd_render::Camera,
         env: &EnvMap,
         background: Option<&EnvMap>,
         brdf: &Brdf,

@@ -1255,13 +1255,12 @@ mod shading {
     use glam::DVec3;
     use ifd_gpu::shading::{GpuEnvironment, GpuMaterial, GpuShader, GpuSurfaces, SurfacePoint};
     use ifd_image::Image;
-    use ifd_render::camera::Camera;
-    use ifd_render::envmap::EnvMap;
-    use ifd_render::gbuffer;
-    use ifd_render::render::{Job, Method, render};
-    use ifd_render::scene::Scene;
-    use ifd_render::textures::{RoughnessFamily, SurfaceMaps, Texture};
-    use ifd_render::tonemap::Tonemap;
+    use ifd_render::Camera;
+    use ifd_render::EnvMap;
+    use ifd_render::Scene;
+    use ifd_render::Tonemap;
+    use ifd_render::{Job, Method, render};
+    use ifd_render::{RoughnessFamily, SurfaceMaps, Texture};
     use ifd_shade::Brdf;
     use ifd_shade::shade::{BandMaps, Environment, Material};
     use ifd_shade::table::{LobeKind, LobeTable};
@@ -1318,7 +1317,7 @@ mod shading {
             shadows: None,
         };
         let cpu = render(&job, &|_, _| {}).expect("cpu render");
-        let px = gbuffer::pixels(&case.scene, &camera, case.maps).expect("pixels");
+        let px = ifd_render::pixels(&case.scene, &camera, case.maps).expect("pixels");
         let points: Vec<SurfacePoint> = px
             .iter()
             .map(|p| SurfacePoint::from_pixel(p, Some(env)))
@@ -1535,7 +1534,7 @@ mod shading {
             22,
         )
         .expect("camera");
-        let px = gbuffer::pixels(&Scene::Sphere, &camera, None).expect("pixels");
+        let px = ifd_render::pixels(&Scene::Sphere, &camera, None).expect("pixels");
         let points: Vec<SurfacePoint> = px
             .iter()
             .map(|p| SurfacePoint::from_pixel(p, Some(&env)))

@@ -10,11 +10,11 @@ use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
 use ifd_shade::table::{LobeTable, default_theta_entries};
 
+use ifd_render::Camera;
+use ifd_render::EnvMap;
 use ifd_render::Result;
-use ifd_render::camera::Camera;
-use ifd_render::envmap::EnvMap;
-use ifd_render::render::{Job, Method, Rendered, relative_rms, render};
-use ifd_render::scene::Scene;
+use ifd_render::Scene;
+use ifd_render::{Job, Method, Rendered, relative_rms, render};
 
 /// One measurement.
 #[derive(Clone, Debug, PartialEq)]

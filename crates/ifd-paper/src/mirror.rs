@@ -1,15 +1,15 @@
 //! ISD Fig. 6 (`ifd paper isd-mirror`): anti-aliased reflections off a
-//! bumpy mirror sphere, ISD's filter (Eq. 26-29, [`ifd_render::mirror`])
+//! bumpy mirror sphere, ISD's filter (Eq. 26-29, [`ifd_render::render_mirror`])
 //! against supersampling and a jittered reference, timed side by side and
 //! measured over the bumpy and the smooth region.
 
 use glam::DVec3;
 use ifd_image::Image;
+use ifd_render::Camera;
+use ifd_render::EnvMap;
 use ifd_render::Result;
-use ifd_render::camera::Camera;
-use ifd_render::envmap::EnvMap;
-use ifd_render::mirror::{
-    AaImage, AaMethod, IsdFilter, MirrorScene, PixelFilter, Reflector, render,
+use ifd_render::{
+    AaImage, AaMethod, IsdFilter, MirrorScene, PixelFilter, Reflector, render_mirror,
 };
 
 /// What the study renders: the bumpy sphere seen by a camera under a map.
@@ -149,7 +149,7 @@ pub fn regions(scene: &BumpyScene<'_>) -> Regions {
 #[must_use]
 pub fn region_error(a: &Image, b: &Image, mask: &[bool]) -> (f64, usize) {
     let n = mask.iter().filter(|m| **m).count();
-    (ifd_render::render::relative_rms(a, b, mask), n)
+    (ifd_render::relative_rms(a, b, mask), n)
 }
 
 /// One method's row of the comparison.
@@ -184,7 +184,7 @@ pub struct Study {
 /// machine's drift hits them alike), with the median time and the errors.
 ///
 /// # Errors
-/// As [`render`].
+/// As [`render_mirror`].
 pub fn study(
     scene: &BumpyScene<'_>,
     methods: &[AaMethod],
@@ -202,14 +202,14 @@ pub fn study(
         filter: scene.filter,
     };
     progress(&format!("reference ({})", reference.name()));
-    let refimg = render(scene, reference, isd)?.image;
+    let refimg = render_mirror(scene, reference, isd)?.image;
     let mut times = vec![Vec::new(); methods.len()];
     let mut images: Vec<Option<AaImage>> = methods.iter().map(|_| None).collect();
     for run in 0..runs.max(1) {
         for (i, m) in methods.iter().enumerate() {
             progress(&format!("run {}/{}: {}", run + 1, runs.max(1), m.name()));
             let t = std::time::Instant::now();
-            let img = render(scene, *m, isd)?;
+            let img = render_mirror(scene, *m, isd)?;
             times[i].push(t.elapsed().as_secs_f64());
             images[i] = Some(img);
         }

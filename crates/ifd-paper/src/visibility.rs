@@ -2,7 +2,7 @@
 //! mesh (Eq. 25, Appendix A) against its ray-traced reference, as `L` grows,
 //! beside unshadowed ISD.
 //!
-//! Every image is an `ifd render` frame ([`ifd_render::render::render`]):
+//! Every image is an `ifd render` frame ([`ifd_render::render`]):
 //! the reference is `quadrature` with [`Shadows`] (the visibility of `2 x 2`
 //! nodes per texel traced from each pixel's point), the shadowed images
 //! `isd` with the visibility per vertex built once at the highest degree
@@ -13,13 +13,13 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use ifd_image::Image;
+use ifd_render::Camera;
+use ifd_render::EnvMap;
+use ifd_render::Mesh;
 use ifd_render::Result;
-use ifd_render::camera::Camera;
-use ifd_render::envmap::EnvMap;
-use ifd_render::mesh::Mesh;
-use ifd_render::render::{Job, Method, relative_rms, render};
-use ifd_render::scene::Scene;
-use ifd_render::visibility::Shadows;
+use ifd_render::Scene;
+use ifd_render::Shadows;
+use ifd_render::{Job, Method, relative_rms, render};
 use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
 
@@ -134,7 +134,7 @@ pub fn study(
 mod tests {
     use super::*;
     use glam::DVec3;
-    use ifd_render::visibility::torus_mesh;
+    use ifd_render::torus_mesh;
 
     /// On a torus the three-step shader converges to the ray-traced
     /// reference as L grows, while the unshadowed one stalls.

@@ -24,7 +24,7 @@ impl Camera {
     ///
     /// ```
     /// use glam::DVec3;
-    /// use ifd_render::camera::Camera;
+    /// use ifd_render::Camera;
     /// let c = Camera::new(DVec3::new(0.0, -4.0, 0.0), DVec3::ZERO, DVec3::Z, 40.0, 64, 64)?;
     /// let (o, d) = c.ray(32.0, 32.0); // the image centre looks at the target
     /// assert!((d - DVec3::Y).length() < 1e-12 && o == DVec3::new(0.0, -4.0, 0.0));

@@ -3,13 +3,13 @@
 //! pinhole camera (world `z` up), shaded per pixel centre by ISD, by its SH
 //! reference, by Monte Carlo, or by an exact texel quadrature of the same (downsampled,
 //! piecewise-constant) environment. Unshadowed unless the job carries
-//! [`visibility::Shadows`] (self-shadowing of a mesh, Eq. 25); no
+//! [`Shadows`] (self-shadowing of a mesh, Eq. 25); no
 //! interreflection. Mirrors, anti-aliased by ISD's filter (Eq. 26-29), are
-//! [`mirror`]'s.
+//! [`render_mirror`]'s.
 //!
 //! ```
 //! use glam::DVec3;
-//! use ifd_render::{camera::Camera, envmap::EnvMap, render::{Job, Method, render}, scene::Scene};
+//! use ifd_render::{Camera, EnvMap, Job, Method, Scene, render};
 //! use ifd_shade::{Brdf, shade::Material};
 //! let env = EnvMap::new(ifd_image::Image::from_vec(8, 4, 1, vec![1.0; 32])?, 0.0)?;
 //! let brdf = Brdf::parse("lambert")?;
@@ -24,34 +24,61 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! # Modules
-//! - [`camera`]: the pinhole camera.
-//! - [`scene`]: sphere, torus, plane, meshes.
-//! - [`mesh`]: OBJ meshes and their BVH.
-//! - [`gbuffer`]: what each pixel's ray sees (frame, view, map values), for the CPU and GPU shaders.
-//! - [`envmap`]: environment maps (rotation, downsampling, lookups, exact SH, texel samples).
-//! - [`oracle`]: the exact texel quadrature.
-//! - [`mirror`]: anti-aliased mirror reflections off a scene, bumpy through a normal map (Eq. 26-29).
-//! - [`mc`]: the Monte Carlo reference (environment and BRDF sampling, MIS).
-//! - [`render`]: the render loop and error measures.
-//! - [`textures`]: albedo, roughness and normal maps (spatially varying BRDFs).
-//! - [`tonemap`]: exposure, tone curves, sRGB.
-//! - [`visibility`]: self-shadowed shading on meshes (Eq. 25, Appendix A).
+//! # The API
+//! The modules are private; the API is re-exported here, by task:
+//! - **the scene**: [`Scene`] (sphere, torus, plane, OBJ [`Mesh`]es, their
+//!   [`Hit`]s), [`Camera`] (pinhole, `z` up), [`EnvMap`] (equirect maps read
+//!   as piecewise constant: rotation, downsampling, lookups, exact SH);
+//!   surface maps ([`SurfaceMaps`], [`Texture`], [`perturb_normal`],
+//!   [`RoughnessFamily`], [`alpha_of`]);
+//! - **rendering**: [`render`] a [`Job`] by a [`Method`] into a [`Rendered`]
+//!   image, measured by [`relative_rms`]; what each pixel's ray sees
+//!   ([`pixel`], [`pixels`], [`Pixel`], [`Surface`]: the G-buffer the GPU path
+//!   shades too); the references: the exact texel quadrature ([`Oracle`],
+//!   [`ORACLE_TOLERANCE`], [`ORACLE_MAX_K`]) and Monte Carlo ([`EnvSampler`],
+//!   [`estimate_mc`], [`pixel_seed`]);
+//! - **self-shadowing** (Eq. 25, Appendix A): [`Shadows`], built from
+//!   [`VertexVisibility`] and the lighting's [`ProductMatrix`]
+//!   ([`shade_visible`]), with its ray-traced reference
+//!   ([`shadowed_reference`], [`texel_nodes`], [`TexelNode`]); [`torus_mesh`];
+//! - **mirrors** (Eq. 26-29): [`render_mirror`] a [`MirrorScene`] of any
+//!   [`Reflector`] ([`SceneMirror`]: a scene's surface, bumpy through a
+//!   normal map) by an [`AaMethod`] ([`IsdFilter`] with its [`EnvPyramid`]
+//!   fallback, supersampling), over a [`PixelFilter`], into an [`AaImage`];
+//! - **display**: [`Tonemap`] (exposure, tone curves, sRGB).
 
+mod camera;
+mod envmap;
 mod error;
+mod gbuffer;
+mod hit;
+mod mc;
+mod mesh;
+mod mirror;
+mod oracle;
+mod render;
+mod scene;
+mod textures;
+mod tonemap;
+mod visibility;
 
-pub mod camera;
-pub mod envmap;
-pub mod gbuffer;
-pub mod hit;
-pub mod mc;
-pub mod mesh;
-pub mod mirror;
-pub mod oracle;
-pub mod render;
-pub mod scene;
-pub mod textures;
-pub mod tonemap;
-pub mod visibility;
-
+pub use crate::camera::Camera;
+pub use crate::envmap::EnvMap;
 pub use crate::error::{RenderError, Result};
+pub use crate::gbuffer::{Pixel, Surface, pixel, pixels};
+pub use crate::hit::Hit;
+pub use crate::mc::{EnvSampler, estimate as estimate_mc, pixel_seed};
+pub use crate::mesh::Mesh;
+pub use crate::mirror::{
+    AaImage, AaMethod, EnvPyramid, IsdFilter, MirrorScene, PixelFilter, Reflector, SceneMirror,
+    render as render_mirror,
+};
+pub use crate::oracle::{MAX_K as ORACLE_MAX_K, Oracle, TOLERANCE as ORACLE_TOLERANCE};
+pub use crate::render::{Job, Method, Rendered, relative_rms, render};
+pub use crate::scene::Scene;
+pub use crate::textures::{RoughnessFamily, SurfaceMaps, Texture, alpha_of, perturb_normal};
+pub use crate::tonemap::Tonemap;
+pub use crate::visibility::{
+    ProductMatrix, Shadows, TexelNode, VertexVisibility, reference as shadowed_reference,
+    shade_visible, texel_nodes, torus_mesh,
+};

@@ -6,13 +6,6 @@
 //! recurrence) low-discrepancy sequence, rotated per pixel by a hash of the
 //! pixel and the seed (Cranley-Patterson), so images are deterministic and do
 //! not depend on the thread count.
-//!
-//! The estimate of `I = int E(w) k_wo(w) dw` from sample `i` is
-//! `Y_i = sum_s w_s(x_s) E(x_s) k(x_s) / p_s(x_s)`,
-//! `w_s = p_s^2 / (p_env^2 + p_brdf^2)`; the standard error reported is the
-//! i.i.d. estimate `sqrt(var(Y) / N)` (needs `N >= 2`), an upper estimate
-//! for low-discrepancy points, whose error falls faster (measured: the actual
-//! error is 2.5-4x below it at 256 samples).
 
 use std::f64::consts::PI;
 
@@ -160,6 +153,22 @@ fn point(i: u64, shift: [f64; 4]) -> [f64; 4] {
 
 /// Estimates `I(wo)` with `spp` samples of each strategy; writes the mean to
 /// `out` and the standard error of the mean to `err` (per channel).
+///
+/// The Monte Carlo reference: environment importance sampling (a
+/// piecewise-constant 2D distribution over the map's texels, proportional to
+/// luminance times solid angle), BRDF sampling ([`ifd_shade::sample`]) and
+/// multiple importance sampling with the power heuristic, one sample of each
+/// strategy per path sample. Points come from a 4D Kronecker (additive
+/// recurrence) low-discrepancy sequence, rotated per pixel by a hash of the
+/// pixel and the seed (Cranley-Patterson), so images are deterministic and do
+/// not depend on the thread count.
+///
+/// The estimate of `I = int E(w) k_wo(w) dw` from sample `i` is
+/// `Y_i = sum_s w_s(x_s) E(x_s) k(x_s) / p_s(x_s)`,
+/// `w_s = p_s^2 / (p_env^2 + p_brdf^2)`; the standard error reported is the
+/// i.i.d. estimate `sqrt(var(Y) / N)` (needs `N >= 2`), an upper estimate
+/// for low-discrepancy points, whose error falls faster (measured: the actual
+/// error is 2.5-4x below it at 256 samples).
 #[allow(clippy::too_many_arguments)]
 pub fn estimate(
     env: &EnvMap,

@@ -1,18 +1,5 @@
 //! Triangle meshes from OBJ files (read by `tobj`), ray cast through a
 //! bounding volume hierarchy.
-//!
-//! - Axes: OBJ files are y-up by convention; they are rotated to ifd's z-up
-//!   (`(x, y, z) -> (x, -z, y)`) unless the file is declared z-up.
-//! - Placement: the mesh is centred on its bounding box and scaled so that its
-//!   bounding sphere has radius 1, like the analytic scenes (documented; the
-//!   camera defaults frame it).
-//! - Normals: the file's, interpolated (smooth shading); when the file has
-//!   none, area-weighted averages of the face normals at each position.
-//! - Tangents: `dP/du` of each triangle from its texture coordinates, for
-//!   anisotropic BRDFs; a mesh without texture coordinates has none (such a
-//!   BRDF on it is refused by the renderer).
-//! - BVH: binary, median split of the centroids along the widest axis, at most
-//!   4 triangles per leaf; slab tests for boxes, Moller-Trumbore for triangles.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -23,6 +10,22 @@ use crate::error::{RenderError, Result};
 use crate::hit::Hit;
 
 /// A triangle mesh ready for ray casting.
+///
+/// Triangle meshes from OBJ files (read by `tobj`), ray cast through a
+/// bounding volume hierarchy.
+///
+/// - Axes: OBJ files are y-up by convention; they are rotated to ifd's z-up
+///   (`(x, y, z) -> (x, -z, y)`) unless the file is declared z-up.
+/// - Placement: the mesh is centred on its bounding box and scaled so that its
+///   bounding sphere has radius 1, like the analytic scenes (documented; the
+///   camera defaults frame it).
+/// - Normals: the file's, interpolated (smooth shading); when the file has
+///   none, area-weighted averages of the face normals at each position.
+/// - Tangents: `dP/du` of each triangle from its texture coordinates, for
+///   anisotropic BRDFs; a mesh without texture coordinates has none (such a
+///   BRDF on it is refused by the renderer).
+/// - BVH: binary, median split of the centroids along the widest axis, at most
+///   4 triangles per leaf; slab tests for boxes, Moller-Trumbore for triangles.
 #[derive(Debug)]
 pub struct Mesh {
     pos: Vec<DVec3>,

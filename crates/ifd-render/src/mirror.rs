@@ -2,38 +2,6 @@
 //! Eq. 26-29) off any [`Reflector`]: a scene's surface, bumpy through a
 //! normal map ([`SceneMirror`], `ifd render --brdf mirror`), or the studies'
 //! procedural bumps (`ifd paper isd-mirror`).
-//!
-//! # What a pixel integrates
-//! Eq. 26: `I(p) = int g(dp) E(r(n(p + dp), wo)) ddp`, the environment seen
-//! by mirror reflection over the pixel's footprint, weighted by the pixel
-//! filter `g`. Here `g` is a Gaussian of `sigma = 0.5` pixel truncated to the
-//! square `|dx|, |dy| <= 1` and normalised ([`PixelFilter`]); the reference
-//! integrates it with `N x N` jittered stratified samples
-//! ([`AaMethod::Reference`]), supersampling with `N x N` cell centres
-//! ([`AaMethod::Supersample`]), both weighted by `g`.
-//!
-//! # ISD's filter (Eq. 27-29)
-//! To first order the reflected direction is `r(p + dp) = r(p) + J dp`, with
-//! `J = dr/dp` (3x2) the screen-space derivative of the reflection (the
-//! paper's `H grad(n)`), here by central differences of rays `h = 0.5` pixel
-//! apart, as a GPU's `dFdx`/`dFdy` would give. The pixel filter, a Gaussian
-//! of covariance `s^2 I` in the pixel (`s^2 = 0.1934`, the variance of the
-//! truncated `g` per axis), becomes on the sphere the anisotropic Gaussian of
-//! covariance `S = s^2 J J^T` about `r(p)` (Eq. 28). Option 3 of the paper:
-//! replace it by the isotropic Gaussian with the same second moment, `sigma_w^2
-//! = tr(S) / 2 = s^2 (|J_x|^2 + |J_y|^2) / 2`, i.e. a von Mises-Fisher lobe of
-//! `kappa = 1 / sigma_w^2`, whose convolution factors `Lambda_l`
-//! ([`ifd_sphere::kernel::vmf_factors`]) give Eq. 29:
-//!
-//! ```text
-//! I(p) = sum_l Lambda_l sum_m e_l^m y_l^m(r(p)) = sum_l (Lambda_l / pi_l) Ehat_l(r(p)).
-//! ```
-//!
-//! A band-limited lobe cannot be narrower than about `pi / L`: below that
-//! footprint ([`IsdFilter::threshold`]) the pixel is a direct (bilinear)
-//! lookup of the map, as without anti-aliasing. Above it the sum stops at the
-//! degree where `Lambda_l` has fallen below `1e-4` (`l ~ 4.3 / sigma_w`), so
-//! wide footprints cost less than `(L + 1)^2` terms.
 
 use std::f64::consts::PI;
 
@@ -323,6 +291,43 @@ fn unit_float(h: u64) -> f64 {
 /// # Errors
 /// [`RenderError::Parameter`] for `Isd` without a filter, or `N = 0`
 /// supersampling.
+///
+/// Anti-aliased mirror reflections of an environment map (ISD Sec. 6.2,
+/// Eq. 26-29) off any [`Reflector`]: a scene's surface, bumpy through a
+/// normal map ([`SceneMirror`], `ifd render --brdf mirror`), or the studies'
+/// procedural bumps (`ifd paper isd-mirror`).
+///
+/// # What a pixel integrates
+/// Eq. 26: `I(p) = int g(dp) E(r(n(p + dp), wo)) ddp`, the environment seen
+/// by mirror reflection over the pixel's footprint, weighted by the pixel
+/// filter `g`. Here `g` is a Gaussian of `sigma = 0.5` pixel truncated to the
+/// square `|dx|, |dy| <= 1` and normalised ([`PixelFilter`]); the reference
+/// integrates it with `N x N` jittered stratified samples
+/// ([`AaMethod::Reference`]), supersampling with `N x N` cell centres
+/// ([`AaMethod::Supersample`]), both weighted by `g`.
+///
+/// # ISD's filter (Eq. 27-29)
+/// To first order the reflected direction is `r(p + dp) = r(p) + J dp`, with
+/// `J = dr/dp` (3x2) the screen-space derivative of the reflection (the
+/// paper's `H grad(n)`), here by central differences of rays `h = 0.5` pixel
+/// apart, as a GPU's `dFdx`/`dFdy` would give. The pixel filter, a Gaussian
+/// of covariance `s^2 I` in the pixel (`s^2 = 0.1934`, the variance of the
+/// truncated `g` per axis), becomes on the sphere the anisotropic Gaussian of
+/// covariance `S = s^2 J J^T` about `r(p)` (Eq. 28). Option 3 of the paper:
+/// replace it by the isotropic Gaussian with the same second moment, `sigma_w^2
+/// = tr(S) / 2 = s^2 (|J_x|^2 + |J_y|^2) / 2`, i.e. a von Mises-Fisher lobe of
+/// `kappa = 1 / sigma_w^2`, whose convolution factors `Lambda_l`
+/// ([`ifd_sphere::kernel::vmf_factors`]) give Eq. 29:
+///
+/// ```text
+/// I(p) = sum_l Lambda_l sum_m e_l^m y_l^m(r(p)) = sum_l (Lambda_l / pi_l) Ehat_l(r(p)).
+/// ```
+///
+/// A band-limited lobe cannot be narrower than about `pi / L`: below that
+/// footprint ([`IsdFilter::threshold`]) the pixel is a direct (bilinear)
+/// lookup of the map, as without anti-aliasing. Above it the sum stops at the
+/// degree where `Lambda_l` has fallen below `1e-4` (`l ~ 4.3 / sigma_w`), so
+/// wide footprints cost less than `(L + 1)^2` terms.
 pub fn render(
     scene: &MirrorScene<'_>,
     method: AaMethod,

@@ -1,25 +1,5 @@
 //! The exact shading oracle: every texel of the (downsampled) environment
 //! integrated over its solid angle against the exact BRDF slice,
-//!
-//! ```text
-//! I(wo) = sum_texels E_t int_texel k_wo(F^T w) dw.
-//! ```
-//!
-//! Each texel's integral is a `k x k` Gauss-Legendre product rule in
-//! `(theta, phi)` over the texel (the `sin(theta)` of the solid angle in the
-//! integrand), `k` doubled from `k0` until that texel's value changes by less
-//! than [`TOLERANCE`] times the pixel's total (estimated at `k0`), up to
-//! [`MAX_K`]. `k0` (at least 2) puts about four nodes across the BRDF's lobe
-//! width ([`ifd_shade::Brdf::lobe_width`]) in a texel, so that a lobe narrower
-//! than a texel cannot fall between the nodes of both starting rules. The
-//! criterion is per texel: a pixel's error is bounded by about a third of the
-//! sum of its texels' last changes, at most `TOLERANCE / 3` times the number
-//! of refined texels (a few tens: those under the lobe). Texels far from the
-//! lobe stop at `k0`, those under it refine;
-//! the rule converges spectrally where the slice is smooth over the texel and
-//! as `1/k^2` across the horizon's kink. (A midpoint rule, tried first, needs
-//! `k > 64` for 1e-6 on a 0.2 rad texel under a Phong-8 lobe.) A pixel with a
-//! texel that reached [`MAX_K`] unconverged is counted.
 
 use std::f64::consts::PI;
 
@@ -35,6 +15,29 @@ pub const TOLERANCE: f64 = 1e-6;
 pub const MAX_K: usize = 64;
 
 /// The oracle over one environment.
+///
+/// The exact shading oracle: every texel of the (downsampled) environment
+/// integrated over its solid angle against the exact BRDF slice,
+///
+/// ```text
+/// I(wo) = sum_texels E_t int_texel k_wo(F^T w) dw.
+/// ```
+///
+/// Each texel's integral is a `k x k` Gauss-Legendre product rule in
+/// `(theta, phi)` over the texel (the `sin(theta)` of the solid angle in the
+/// integrand), `k` doubled from `k0` until that texel's value changes by less
+/// than [`TOLERANCE`] times the pixel's total (estimated at `k0`), up to
+/// [`MAX_K`]. `k0` (at least 2) puts about four nodes across the BRDF's lobe
+/// width ([`ifd_shade::Brdf::lobe_width`]) in a texel, so that a lobe narrower
+/// than a texel cannot fall between the nodes of both starting rules. The
+/// criterion is per texel: a pixel's error is bounded by about a third of the
+/// sum of its texels' last changes, at most `TOLERANCE / 3` times the number
+/// of refined texels (a few tens: those under the lobe). Texels far from the
+/// lobe stop at `k0`, those under it refine;
+/// the rule converges spectrally where the slice is smooth over the texel and
+/// as `1/k^2` across the horizon's kink. (A midpoint rule, tried first, needs
+/// `k > 64` for 1e-6 on a 0.2 rad texel under a Phong-8 lobe.) A pixel with a
+/// texel that reached [`MAX_K`] unconverged is counted.
 #[derive(Debug)]
 pub struct Oracle {
     width: usize,

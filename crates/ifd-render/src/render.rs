@@ -29,9 +29,9 @@ pub enum Method {
     IsdMaps,
     /// The rotated slice's SH dotted with the environment's (same weights).
     Sh,
-    /// The exact texel quadrature ([`crate::oracle`]).
+    /// The exact texel quadrature ([`crate::Oracle`]).
     Quadrature,
-    /// Monte Carlo with environment and BRDF sampling and MIS ([`crate::mc`]).
+    /// Monte Carlo with environment and BRDF sampling and MIS ([`crate::estimate_mc`]).
     Mc,
 }
 

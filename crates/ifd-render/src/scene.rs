@@ -6,7 +6,7 @@ use glam::DVec3;
 
 use crate::error::{RenderError, Result};
 
-pub use crate::hit::Hit;
+use crate::hit::Hit;
 
 /// A scene. Texture coordinates: the sphere's are equirectangular (`u =
 /// phi / 2 pi`, `v = theta / pi`), the torus' `u` around `z` and `v` around

@@ -1,27 +1,5 @@
 //! Spatially varying BRDFs (the ISD paper's Fig. 9): albedo and roughness
 //! maps over the surface's texture coordinates, as glTF reads them.
-//!
-//! - **Albedo** (RGB, an 8-bit PNG is sRGB-encoded, as glTF's base colour;
-//!   float formats are linear): multiplies the BRDF. The slice is linear in
-//!   its albedo, so every method multiplies its result per channel, exactly.
-//! - **Roughness** (the image's first channel, linear; `alpha = roughness^2`
-//!   as glTF defines it) of an isotropic GGX or Ward BRDF, clamped to
-//!   `[0.001, 1]`. glTF packs roughness into the green channel of its
-//!   metallic-roughness texture: extract that channel first.
-//!   The oracle and Monte Carlo evaluate the BRDF of each point's `alpha`;
-//!   ISD shades with a family of lobe tables at `K` roughness values spread
-//!   evenly over the map's range and blends the two nearest linearly in
-//!   roughness (the result is linear in the weights, so this is the weights'
-//!   interpolation; its error is measured against the oracle in the tests).
-//!
-//! - **Normals** (RGB, linear: tangent-space normals encoded as `(n + 1) / 2`,
-//!   glTF's and OpenGL's convention): `x` along the tangent `T` (`dP/du`
-//!   made orthogonal to the normal `N`), `y` along `B = N x T`, `z` along
-//!   `N`. The shading frame of every method (and the mirror's reflection)
-//!   uses the perturbed normal ([`perturb_normal`]).
-//!
-//! Lookups are bilinear, wrapping in `u` and clamped in `v` (`v = 0` at the top
-//! row of the image).
 
 use ifd_image::Image;
 use ifd_shade::Brdf;
@@ -86,6 +64,31 @@ impl Texture {
 }
 
 /// The maps of a spatially varying BRDF.
+///
+/// Spatially varying BRDFs (the ISD paper's Fig. 9): albedo and roughness
+/// maps over the surface's texture coordinates, as glTF reads them.
+///
+/// - **Albedo** (RGB, an 8-bit PNG is sRGB-encoded, as glTF's base colour;
+///   float formats are linear): multiplies the BRDF. The slice is linear in
+///   its albedo, so every method multiplies its result per channel, exactly.
+/// - **Roughness** (the image's first channel, linear; `alpha = roughness^2`
+///   as glTF defines it) of an isotropic GGX or Ward BRDF, clamped to
+///   `[0.001, 1]`. glTF packs roughness into the green channel of its
+///   metallic-roughness texture: extract that channel first.
+///   The oracle and Monte Carlo evaluate the BRDF of each point's `alpha`;
+///   ISD shades with a family of lobe tables at `K` roughness values spread
+///   evenly over the map's range and blends the two nearest linearly in
+///   roughness (the result is linear in the weights, so this is the weights'
+///   interpolation; its error is measured against the oracle in the tests).
+///
+/// - **Normals** (RGB, linear: tangent-space normals encoded as `(n + 1) / 2`,
+///   glTF's and OpenGL's convention): `x` along the tangent `T` (`dP/du`
+///   made orthogonal to the normal `N`), `y` along `B = N x T`, `z` along
+///   `N`. The shading frame of every method (and the mirror's reflection)
+///   uses the perturbed normal ([`perturb_normal`]).
+///
+/// Lookups are bilinear, wrapping in `u` and clamped in `v` (`v = 0` at the top
+/// row of the image).
 #[derive(Clone, Debug, Default)]
 pub struct SurfaceMaps {
     /// Albedo (linear RGB or grey).

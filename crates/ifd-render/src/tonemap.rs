@@ -35,7 +35,7 @@ impl Tonemap {
     /// Linear radiance times `2^exposure`, tone mapped, sRGB-encoded, in `[0, 1]`.
     ///
     /// ```
-    /// use ifd_render::tonemap::Tonemap;
+    /// use ifd_render::Tonemap;
     /// assert!((Tonemap::None.display(1.0, 0.0) - 1.0).abs() < 1e-6);
     /// assert!((Tonemap::Reinhard.display(1.0, 0.0) - 0.735_357).abs() < 1e-5); // srgb(0.5)
     /// ```

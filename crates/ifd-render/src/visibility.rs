@@ -1,35 +1,5 @@
 //! Shading with visibility (ISD Sec. 6.1, Eq. 25, Appendix A): self-shadowed
 //! environment lighting on a mesh.
-//!
-//! # The three steps
-//! Eq. 25 adds the visibility `v` to Eq. 20: `I = int E(w) v(w) k(w) dw`,
-//! `k` the cosine-weighted slice rotated to the world. Appendix A expresses
-//! it without SH rotations:
-//!
-//! 1. the slice's world SH coefficients `rho_l^m = pi_l sum_j lambda_l^j
-//!    y_l^m(R z_j)` from the rotated lobes
-//!    ([`ifd_shade::shade::Material::world_sh`]);
-//! 2. the product with the lighting, `(rho E)_b = sum_a rho_a T_ab` with the
-//!    precomputed matrix `T_ab = int y_a y_b E` ([`ProductMatrix`]; the paper's
-//!    `gamma` are the same numbers expressed on rotated zonal harmonics);
-//! 3. the inner product with the visibility's SH, `I = sum_b (rho E)_b v_b`
-//!    (the paper evaluates it as Eq. 22 with `e` replaced by `v` and the
-//!    lobe weights by `rho E`'s: the same sum, written on RZH).
-//!
-//! `v` is projected per vertex of the mesh by ray casting (spherical
-//! Fibonacci directions, [`VertexVisibility`]) in world coordinates and
-//! interpolated with the hit's barycentric weights. Everything is truncated at
-//! degree `L`: `I_L = int (k_L)(v_L) E`, which converges to Eq. 25 as `L`
-//! grows (up to the vertex interpolation of `v`).
-//!
-//! The reference ([`reference()`]) traces the visibility of every quadrature
-//! direction at the pixel's own point: `2 x 2` Gauss-Legendre nodes per
-//! texel of the (piecewise-constant) map.
-//!
-//! [`Shadows`] holds what a frame needs (the visibility per vertex, the
-//! product matrix, the reference's nodes); [`crate::render::Job::shadows`]
-//! renders with it (`ifd render --shadows`): `isd` by the three steps,
-//! `quadrature` by the ray-traced reference.
 
 use glam::DVec3;
 use ifd_shade::Brdf;
@@ -340,6 +310,39 @@ pub fn reference(
 /// What self-shadowed shading of one mesh under one map needs, built once
 /// for every frame: the visibility per vertex, the product matrix, and the
 /// quadrature nodes of the ray-traced reference.
+///
+/// Shading with visibility (ISD Sec. 6.1, Eq. 25, Appendix A): self-shadowed
+/// environment lighting on a mesh.
+///
+/// # The three steps
+/// Eq. 25 adds the visibility `v` to Eq. 20: `I = int E(w) v(w) k(w) dw`,
+/// `k` the cosine-weighted slice rotated to the world. Appendix A expresses
+/// it without SH rotations:
+///
+/// 1. the slice's world SH coefficients `rho_l^m = pi_l sum_j lambda_l^j
+///    y_l^m(R z_j)` from the rotated lobes
+///    ([`ifd_shade::shade::Material::world_sh`]);
+/// 2. the product with the lighting, `(rho E)_b = sum_a rho_a T_ab` with the
+///    precomputed matrix `T_ab = int y_a y_b E` ([`ProductMatrix`]; the paper's
+///    `gamma` are the same numbers expressed on rotated zonal harmonics);
+/// 3. the inner product with the visibility's SH, `I = sum_b (rho E)_b v_b`
+///    (the paper evaluates it as Eq. 22 with `e` replaced by `v` and the
+///    lobe weights by `rho E`'s: the same sum, written on RZH).
+///
+/// `v` is projected per vertex of the mesh by ray casting (spherical
+/// Fibonacci directions, [`VertexVisibility`]) in world coordinates and
+/// interpolated with the hit's barycentric weights. Everything is truncated at
+/// degree `L`: `I_L = int (k_L)(v_L) E`, which converges to Eq. 25 as `L`
+/// grows (up to the vertex interpolation of `v`).
+///
+/// The reference ([`reference()`]) traces the visibility of every quadrature
+/// direction at the pixel's own point: `2 x 2` Gauss-Legendre nodes per
+/// texel of the (piecewise-constant) map.
+///
+/// [`Shadows`] holds what a frame needs (the visibility per vertex, the
+/// product matrix, the reference's nodes); [`crate::render::Job::shadows`]
+/// renders with it (`ifd render --shadows`): `isd` by the three steps,
+/// `quadrature` by the ray-traced reference.
 #[derive(Clone, Debug)]
 pub struct Shadows {
     mesh: std::sync::Arc<Mesh>,

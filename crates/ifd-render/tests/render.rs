@@ -4,10 +4,10 @@
 
 use glam::DVec3;
 use ifd_image::Image;
-use ifd_render::camera::Camera;
-use ifd_render::envmap::EnvMap;
-use ifd_render::render::{Job, Method, Rendered, relative_rms, render};
-use ifd_render::scene::Scene;
+use ifd_render::Camera;
+use ifd_render::EnvMap;
+use ifd_render::Scene;
+use ifd_render::{Job, Method, Rendered, relative_rms, render};
 use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
 use ifd_shade::table::{LobeTable, default_theta_entries};
@@ -316,7 +316,7 @@ fn uv_sphere_obj(r: f64, seg: usize, with_n: bool, with_uv: bool) -> String {
 
 #[test]
 fn obj_meshes_render_like_the_analytic_surface() {
-    use ifd_render::scene::Scene;
+    use ifd_render::Scene;
     let dir = tempfile::tempdir().unwrap();
     let env = forest();
     let brdf = Brdf::parse("phong:s=16").unwrap();
@@ -409,7 +409,7 @@ fn obj_meshes_render_like_the_analytic_surface() {
 
 #[test]
 fn textured_sphere_matches_the_oracle() {
-    use ifd_render::textures::{RoughnessFamily, SurfaceMaps, Texture};
+    use ifd_render::{RoughnessFamily, SurfaceMaps, Texture};
     let env = forest();
     // roughness 0.55..0.8 across u (alpha 0.30..0.64), albedo stripes across v
     let (tw, th) = (32, 16);
@@ -588,7 +588,7 @@ fn spherical_lights_match_the_quadrature() {
 /// piecewise-constant map (every texel, at its centre, times its solid angle).
 #[test]
 fn mirror_filter_is_the_vmf_convolution() {
-    use ifd_render::mirror::{IsdFilter, PixelFilter};
+    use ifd_render::{IsdFilter, PixelFilter};
     let env = forest();
     let f = IsdFilter::new(&env, 40).unwrap();
     let img = env.image();
@@ -640,7 +640,7 @@ fn mirror_filter_is_the_vmf_convolution() {
 /// the ray-traced reference on a torus is `ifd-paper`'s visibility test.)
 #[test]
 fn visibility_three_steps_converge_to_the_ray_traced_reference() {
-    use ifd_render::visibility::ProductMatrix;
+    use ifd_render::ProductMatrix;
     use ifd_shade::shade::{Environment, Frame};
     let env = forest();
     let e = Environment::new(env.sh(10).unwrap()).unwrap();
@@ -693,7 +693,7 @@ fn visibility_three_steps_converge_to_the_ray_traced_reference() {
 /// the methods without a shadowed path are refused.
 #[test]
 fn shadows_darken_the_torus_and_isd_follows_the_traced_reference() {
-    use ifd_render::visibility::{Shadows, torus_mesh};
+    use ifd_render::{Shadows, torus_mesh};
     use std::sync::Arc;
     let env = forest();
     let mesh = Arc::new(torus_mesh(1.0, 0.4, 48, 24).unwrap());

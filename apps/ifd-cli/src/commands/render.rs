@@ -6,9 +6,9 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
-use ifd_render::render::{Job, Method, render};
-use ifd_render::textures::{RoughnessFamily, SurfaceMaps, Texture};
-use ifd_render::visibility::Shadows;
+use ifd_render::Shadows;
+use ifd_render::{Job, Method, render};
+use ifd_render::{RoughnessFamily, SurfaceMaps, Texture};
 use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
 use ifd_shade::table::{LobeTable, default_theta_entries};
@@ -247,7 +247,7 @@ impl Render {
             );
         }
         if self.shadows {
-            if !matches!(scene, ifd_render::scene::Scene::Mesh(_)) {
+            if !matches!(scene, ifd_render::Scene::Mesh(_)) {
                 bail!(
                     "--shadows: self-shadowing needs a triangle mesh (--scene FILE.obj), not {}",
                     self.scene.scene
@@ -361,7 +361,7 @@ impl Render {
             _ => None,
         };
         let shadows = match (&scene, self.shadows) {
-            (ifd_render::scene::Scene::Mesh(mesh), true) => Some(match l_max {
+            (ifd_render::Scene::Mesh(mesh), true) => Some(match l_max {
                 Some(l) if method == Method::Isd => {
                     let bar = progress_bar("visibility");
                     let s =
@@ -445,7 +445,7 @@ impl Render {
         &self,
         ctx: &ifd_gpu::GpuContext,
         job: &Job<'_>,
-    ) -> Result<(ifd_render::render::Rendered, serde_json::Value)> {
+    ) -> Result<(ifd_render::Rendered, serde_json::Value)> {
         use std::time::Instant;
         let t = Instant::now();
         let prepared = ifd_gpu::shading::GpuRender::new(ctx, job).context("--gpu")?;
@@ -495,12 +495,12 @@ impl Render {
     /// ISD's filter (Eq. 26-29) or by supersampling the pixel filter.
     fn run_mirror(
         &self,
-        scene: &ifd_render::scene::Scene,
-        camera: ifd_render::camera::Camera,
-        tonemap: ifd_render::tonemap::Tonemap,
+        scene: &ifd_render::Scene,
+        camera: ifd_render::Camera,
+        tonemap: ifd_render::Tonemap,
         display: bool,
     ) -> Result<()> {
-        use ifd_render::mirror::{AaMethod, IsdFilter, MirrorScene, PixelFilter, SceneMirror};
+        use ifd_render::{AaMethod, IsdFilter, MirrorScene, PixelFilter, SceneMirror};
         for (set, flag) in [
             (self.table.is_some(), "--table"),
             (self.albedo_map.is_some(), "--albedo-map"),
@@ -568,7 +568,7 @@ impl Render {
             filter: PixelFilter::default(),
         };
         let t_render = std::time::Instant::now();
-        let r = ifd_render::mirror::render(&job, method, isd.as_ref())?;
+        let r = ifd_render::render_mirror(&job, method, isd.as_ref())?;
         let render_secs = t_render.elapsed().as_secs_f64();
         let object_pixels = r.mask.iter().filter(|m| **m).count();
         if object_pixels == 0 {

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use eframe::egui_wgpu::RenderState;
 use ifd_gpu::GpuContext;
 use ifd_gpu::shading::GpuShader;
-use ifd_render::tonemap::Tonemap;
+use ifd_render::Tonemap;
 
 pub use automation::{Automation, ReferenceReport, write_screenshot};
 pub use gpu_view::GpuView;
@@ -467,7 +467,7 @@ fn errors(a: &ifd_image::Image, reference: &ifd_image::Image, mask: &[bool]) -> 
             peak = peak.max(y.abs());
         }
     }
-    let rel = ifd_render::render::relative_rms(a, reference, mask);
+    let rel = ifd_render::relative_rms(a, reference, mask);
     let psnr = ifd_image::metrics::psnr_from_mse(se / n.max(1) as f64, peak.max(1e-12));
     (rel, psnr)
 }

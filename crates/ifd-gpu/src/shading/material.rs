@@ -2,7 +2,7 @@
 //! or a roughness family), the lobe directions, and the constants of the SH
 //! recurrences at its degree.
 
-use ifd_render::textures::RoughnessFamily;
+use ifd_render::RoughnessFamily;
 use ifd_shade::brdf::Model;
 use ifd_shade::shade::Material;
 use ifd_shade::table::{LobeBasis, LobeTable};

@@ -6,11 +6,11 @@
 //! ```no_run
 //! use ifd_gpu::GpuContext;
 //! use ifd_gpu::shading::{GpuEnvironment, GpuMaterial, GpuShader, GpuSurfaces, SurfacePoint};
-//! use ifd_render::{camera::Camera, gbuffer, scene::Scene};
+//! use ifd_render::{Camera, Scene, pixels};
 //! use ifd_shade::{Brdf, shade::{Environment, Material}};
 //! let ctx = GpuContext::new()?;
 //! let camera = Camera::new(glam::DVec3::new(0.0, -4.0, 0.0), glam::DVec3::ZERO, glam::DVec3::Z, 40.0, 64, 64)?;
-//! let px = gbuffer::pixels(&Scene::Sphere, &camera, None)?;
+//! let px = pixels(&Scene::Sphere, &camera, None)?;
 //! let points: Vec<SurfacePoint> = px.iter().map(|p| SurfacePoint::from_pixel(p, None)).collect();
 //! let surfaces = GpuSurfaces::upload(&ctx, 64, 64, &points)?;
 //! let mut e = ifd_sphere::ShCoeffs::zeros(8, 3)?;
@@ -97,7 +97,7 @@ struct DisplayParams {
     pad1: [f32; 3],
 }
 
-/// The tone curve of [`GpuShader::display`] (as `ifd_render::tonemap::Tonemap`).
+/// The tone curve of [`GpuShader::display`] (as `ifd_render::Tonemap`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Curve {
     /// Clip to `[0, 1]`.
@@ -108,9 +108,9 @@ pub enum Curve {
     Aces,
 }
 
-impl From<ifd_render::tonemap::Tonemap> for Curve {
-    fn from(t: ifd_render::tonemap::Tonemap) -> Self {
-        use ifd_render::tonemap::Tonemap;
+impl From<ifd_render::Tonemap> for Curve {
+    fn from(t: ifd_render::Tonemap) -> Self {
+        use ifd_render::Tonemap;
         match t {
             Tonemap::None => Self::None,
             Tonemap::Reinhard => Self::Reinhard,

@@ -1,11 +1,10 @@
-//! A CPU render job (`ifd_render::render::Job`) shaded on the GPU: rays cast
+//! A CPU render job (`ifd_render::Job`) shaded on the GPU: rays cast
 //! on the CPU into a G-buffer, the environment, material and G-buffer
 //! uploaded once, then shaded as often as asked (benchmarks shade one frame
 //! many times).
 
 use ifd_image::Image;
-use ifd_render::gbuffer;
-use ifd_render::render::{Job, Method, Rendered};
+use ifd_render::{Job, Method, Rendered};
 use ifd_shade::shade::{BandMaps, Environment};
 
 use super::{GpuEnvironment, GpuMaterial, GpuShaded, GpuShader, GpuSurfaces, SurfacePoint};
@@ -68,7 +67,7 @@ impl GpuRender {
             GpuEnvironment::sh(ctx, &e)?
         };
         let (w, h) = (job.camera.width(), job.camera.height());
-        let px = gbuffer::pixels(&job.scene, &job.camera, job.maps)?;
+        let px = ifd_render::pixels(&job.scene, &job.camera, job.maps)?;
         let object_pixels = px.iter().filter(|p| p.surface.is_some()).count();
         let points: Vec<SurfacePoint> = px
             .iter()

@@ -1,8 +1,8 @@
 //! The per-pixel surface records the shading kernel reads (a G-buffer).
 
 use bytemuck::{Pod, Zeroable};
-use ifd_render::envmap::EnvMap;
-use ifd_render::gbuffer::Pixel;
+use ifd_render::EnvMap;
+use ifd_render::Pixel;
 
 use crate::context::GpuContext;
 use crate::error::GpuError;

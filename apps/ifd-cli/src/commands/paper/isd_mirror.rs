@@ -7,8 +7,8 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use clap::Args;
 use ifd_paper::mirror::{BumpyMirror, BumpyScene, Study, StudyRow, study};
-use ifd_render::envmap::EnvMap;
-use ifd_render::mirror::{AaMethod, IsdFilter, PixelFilter};
+use ifd_render::EnvMap;
+use ifd_render::{AaMethod, IsdFilter, PixelFilter};
 use serde_json::json;
 
 use crate::options::CameraOptions;

@@ -7,8 +7,8 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use clap::Args;
 use ifd_paper::visibility::{VisibilityScene, study};
-use ifd_render::envmap::EnvMap;
-use ifd_render::visibility::torus_mesh;
+use ifd_render::EnvMap;
+use ifd_render::torus_mesh;
 use ifd_shade::Brdf;
 use ifd_shade::shade::Material;
 use ifd_shade::table::{LobeTable, default_theta_entries};
@@ -102,7 +102,7 @@ impl Visibility {
         let mesh = std::sync::Arc::new(match self.scene.as_str() {
             "torus" => torus_mesh(1.0, 0.4, 96, 48)?,
             s if s.to_lowercase().ends_with(".obj") => {
-                ifd_render::mesh::Mesh::load(std::path::Path::new(s), false)?
+                ifd_render::Mesh::load(std::path::Path::new(s), false)?
             }
             s => bail!("--scene {s:?}: use torus or an .obj file"),
         });

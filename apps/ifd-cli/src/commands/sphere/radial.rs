@@ -144,7 +144,7 @@ impl RadialCmd {
             (None, Some(path)) => {
                 let img =
                     ifd_image::read(path).with_context(|| format!("--env {}", path.display()))?;
-                let env = ifd_render::envmap::EnvMap::new(img, 0.0)?;
+                let env = ifd_render::EnvMap::new(img, 0.0)?;
                 let axis = parse_vec(&self.axis, "--axis")?;
                 if axis.length() < 1e-12 {
                     bail!("--axis {:?}: a zero vector", self.axis);
