@@ -240,7 +240,7 @@ impl EvalPlan {
                 "the decomposition has no terms".into(),
             ));
         }
-        crate::filter::check_scale_range(scale_min, scale_max)?;
+        crate::stack::for_decomposition::check_scale_range(scale_min, scale_max)?;
         let norm = kernel_norm(decomposition);
         if !(norm.is_finite() && norm > 0.0) {
             return Err(FilterError::InvalidParameter(format!(

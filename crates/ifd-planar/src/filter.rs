@@ -5,14 +5,16 @@ use ifd_image::{Image, ImageView};
 use rayon::prelude::*;
 
 use crate::border::Border;
-use crate::decomposition::{Decomposition, Term};
+use crate::dab::Taps;
+use crate::decomposition::Term;
 use crate::error::FilterError;
 use crate::field::{CheckField, CheckedField, Field, FieldKind};
 use crate::kernel::Sampling;
 use crate::prepared::Prepare;
+use crate::stack::for_decomposition::sigma_bounds;
 use crate::stack::gather::{self, FixedTerm, ScaledTerm};
-use crate::stack::lookup::{Tap, row_constant};
-use crate::stack::{MIN_SIGMA, ScaleStack, StackLayout, StackOptions, StackPlan, snap_to_level};
+use crate::stack::lookup::Tap;
+use crate::stack::{ScaleStack, snap_to_level};
 
 /// One decomposition term, prepared for lookups.
 #[derive(Clone, Copy, Debug)]
@@ -50,7 +52,7 @@ struct Prepared {
 /// ```
 #[derive(Clone, Debug)]
 pub struct Filter<'a> {
-    stack: &'a ScaleStack,
+    pub(crate) stack: &'a ScaleStack,
     terms: Vec<Prepared>,
     sigma_lo: f64,
     sigma_hi: f64,
@@ -87,7 +89,7 @@ const MAX_DIRECT_REACH: f64 = 1024.0;
 /// of a decomposition sampled as `sampling` directly at the constant scale
 /// `s`: its effective sigma is below `below` and it lies within 1024 px of
 /// the centre (after scaling). The one rule for the filter, the levels it
-/// reads ([`level_sigmas`]) and the error bound ([`crate::EvalPlan`]).
+/// reads ([`level_sigmas`](crate::level_sigmas)) and the error bound ([`crate::EvalPlan`]).
 #[must_use]
 pub fn evaluated_directly(sampling: Sampling, t: &Term, s: f64, below: f64) -> bool {
     is_direct(sampling, t.sigma, t.x.hypot(t.y), s, below)
@@ -100,7 +102,7 @@ fn is_direct(sampling: Sampling, sigma: f64, reach: f64, s: f64, below: f64) -> 
 }
 
 impl<'a> Filter<'a> {
-    /// Prepares `decomposition` (a [`Decomposition`], checked here, or a
+    /// Prepares `decomposition` (a [`Decomposition`](crate::Decomposition), checked here, or a
     /// [`crate::PreparedDecomposition`]) for lookups into `stack`.
     ///
     /// # Errors
@@ -262,7 +264,7 @@ impl<'a> Filter<'a> {
     /// Checks that every effective sigma at scales in `[lo, hi]` is covered
     /// by the stack; at a constant pose (`constant_pose`, `lo == hi`), the
     /// terms evaluated directly read no level and are left out.
-    fn check_scales(
+    pub(crate) fn check_scales(
         &self,
         scale: &CheckedField<'_>,
         constant_pose: bool,
@@ -424,7 +426,7 @@ impl<'a> Filter<'a> {
     }
 
     /// Per term: `(level a, level b, weight a, weight b)` for scale `s`.
-    fn term_levels(&self, s: f32) -> Vec<(usize, usize, f32, f32)> {
+    pub(crate) fn term_levels(&self, s: f32) -> Vec<(usize, usize, f32, f32)> {
         let s = f64::from(s);
         self.terms
             .iter()
@@ -452,7 +454,7 @@ impl<'a> Filter<'a> {
 
     /// The lookups of every term for a constant pose, with the term levels
     /// of `s` given.
-    fn taps_with_levels(
+    pub(crate) fn taps_with_levels(
         &self,
         theta: f32,
         s: f32,
@@ -579,7 +581,7 @@ impl<'a> Filter<'a> {
     /// filtered value into `out`.
     #[inline]
     #[expect(clippy::too_many_arguments, reason = "hot inner call, all scalars")]
-    fn pixel_rotated<const C: usize>(
+    pub(crate) fn pixel_rotated<const C: usize>(
         &self,
         levels: &[(usize, usize, f32, f32)],
         x: f32,
@@ -794,346 +796,4 @@ fn direct_correlation(
         }
     });
     Image::from_vec(w, h, c, out).map_err(|e| FilterError::Shape(e.to_string()))
-}
-
-/// A [`Filter`] at one fixed scale: the stack levels of every term are
-/// resolved once, so a lookup at any point and rotation costs `s` bilinear
-/// samples (two per term when `scale * sigma_t` falls between stack
-/// levels) and no per-term setup. This is the per-pixel path of spatially
-/// varying smoothing, where the scale is fixed and the angle varies.
-///
-/// ```
-/// use ifd_image::{Image, ImageView};
-/// use ifd_planar::{Border, Decomposition, Filter, StackOptions, Term, stack_for_decomposition};
-/// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 3.0, y: 0.0, sigma: 1.0 }]);
-/// let img = Image::from_vec(64, 16, 1, (0..1024).map(|i| (i % 64) as f32).collect())?;
-/// let stack = stack_for_decomposition(&img, &d, 2.0, 2.0, Border::Reflect101, StackOptions::default())?;
-/// let filter = Filter::new(&stack, &d)?;
-/// let at2 = filter.at_scale(2.0)?;
-/// // The ramp value 6 px to the right of column 5 (the lobe at +3 px, scaled by 2).
-/// let mut v = [0.0f32];
-/// at2.accumulate(5.0, 8.0, 1.0, 0.0.into(), &mut v);
-/// assert!((v[0] - 11.0).abs() < 1e-3);
-/// // The same lookup through the checked point API.
-/// assert!((filter.filter_at(5.0, 8.0, 0.0, 2.0)?[0] - v[0]).abs() < 1e-5);
-/// # Ok::<(), Box<dyn std::error::Error>>(())
-/// ```
-#[derive(Clone, Debug)]
-pub struct ScaledFilter<'f, 'a> {
-    filter: &'f Filter<'a>,
-    scale: f32,
-    levels: Vec<(usize, usize, f32, f32)>,
-}
-
-/// The rotation of a lookup: `cos theta` and `sin theta` (theta in degrees,
-/// counter-clockwise on screen), computed once per pixel.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Rotation {
-    /// `cos theta`.
-    pub cos: f32,
-    /// `sin theta`.
-    pub sin: f32,
-}
-
-impl Rotation {
-    /// The rotation by `theta` degrees.
-    #[must_use]
-    pub fn degrees(theta: f32) -> Self {
-        let (sin, cos) = theta.to_radians().sin_cos();
-        Self { cos, sin }
-    }
-}
-
-impl From<f32> for Rotation {
-    /// The rotation by this many degrees.
-    fn from(theta: f32) -> Self {
-        Self::degrees(theta)
-    }
-}
-
-impl<'a> Filter<'a> {
-    /// Binds the filter to a constant `scale` for fast per-point lookups.
-    ///
-    /// # Errors
-    /// [`FilterError::InvalidValue`] for a non-finite or non-positive scale,
-    /// [`FilterError::ScaleOutOfRange`] when some `scale * sigma_t` is not covered.
-    pub fn at_scale(&self, scale: f32) -> Result<ScaledFilter<'_, 'a>, FilterError> {
-        let checked = Field::Constant(scale).check(FieldKind::Scale, 1, 1)?;
-        // Its lookups read every term from the stack.
-        self.check_scales(&checked, false)?;
-        Ok(ScaledFilter {
-            filter: self,
-            scale,
-            levels: self.term_levels(scale),
-        })
-    }
-}
-
-impl<'a> ScaledFilter<'_, 'a> {
-    /// The scale this filter is bound to.
-    #[must_use]
-    pub fn scale(&self) -> f32 {
-        self.scale
-    }
-
-    /// The underlying filter.
-    #[must_use]
-    pub fn filter(&self) -> &Filter<'a> {
-        self.filter
-    }
-
-    /// Adds `weight *` the filtered value at `(x, y)` with the kernel rotated
-    /// by `rotation` to `out` (one value per channel; `out.len()` must be
-    /// the stack's channel count, else nothing is added). Coordinates must
-    /// be finite; outside the image the border mode applies.
-    #[inline]
-    pub fn accumulate(&self, x: f32, y: f32, weight: f32, rotation: Rotation, out: &mut [f32]) {
-        let f = self.filter;
-        if out.len() != f.stack.channels() {
-            return;
-        }
-        let (cs, ss) = (rotation.cos * self.scale, rotation.sin * self.scale);
-        match out.len() {
-            1 => f.pixel_rotated::<1>(&self.levels, x, y, cs, ss, weight, out),
-            2 => f.pixel_rotated::<2>(&self.levels, x, y, cs, ss, weight, out),
-            3 => f.pixel_rotated::<3>(&self.levels, x, y, cs, ss, weight, out),
-            4 => f.pixel_rotated::<4>(&self.levels, x, y, cs, ss, weight, out),
-            _ => f.pixel_rotated::<0>(&self.levels, x, y, cs, ss, weight, out),
-        }
-    }
-
-    /// All lookups for the kernel rotated by `theta` degrees at this scale,
-    /// weighted by `weight`, for region evaluation ([`Taps::apply_region`]).
-    #[must_use]
-    pub fn taps(&self, theta: f32, weight: f32) -> Taps {
-        let mut taps = self
-            .filter
-            .taps_with_levels(theta, self.scale, &self.levels);
-        for t in &mut taps {
-            t.weight *= weight;
-        }
-        Taps { taps }
-    }
-}
-
-/// The lookups of one constant rotation and scale (possibly of several
-/// weighted filters on the same stack, e.g. a blend of two
-/// decompositions), applied over a rectangle with a vectorised 2x2 stencil
-/// per tap: the fast path for a brush dab whose filter is constant.
-#[derive(Clone, Debug, Default)]
-pub struct Taps {
-    taps: Vec<Tap>,
-}
-
-impl Taps {
-    /// The number of bilinear lookups per pixel.
-    #[must_use]
-    pub fn len(&self) -> usize {
-        self.taps.len()
-    }
-
-    /// No lookups.
-    #[must_use]
-    pub fn is_empty(&self) -> bool {
-        self.taps.is_empty()
-    }
-
-    /// Appends `other`'s lookups (their weights already include any blend weight).
-    pub fn extend(&mut self, other: Taps) {
-        self.taps.extend(other.taps);
-    }
-
-    /// Filters the rectangle `x0..x0 + width`, `y0..y0 + height` of `stack`
-    /// (which must be the stack the taps were made for): returns
-    /// `width * height * channels` values, row-major, interleaved.
-    ///
-    /// # Errors
-    /// [`FilterError::InvalidParameter`] when the rectangle leaves the image
-    /// or a tap refers to a level the stack does not have.
-    pub fn apply_region(
-        &self,
-        stack: &ScaleStack,
-        x0: usize,
-        y0: usize,
-        width: usize,
-        height: usize,
-    ) -> Result<Vec<f32>, FilterError> {
-        if x0 + width > stack.width() || y0 + height > stack.height() {
-            return Err(FilterError::InvalidParameter(format!(
-                "region {width}x{height} at ({x0}, {y0}) leaves the {}x{} image",
-                stack.width(),
-                stack.height()
-            )));
-        }
-        if self.taps.iter().any(|t| t.level >= stack.levels.len()) {
-            return Err(FilterError::InvalidParameter(
-                "the taps were made for another stack".into(),
-            ));
-        }
-        let c = stack.channels();
-        let mut out = vec![0.0f32; width * height * c];
-        if width == 0 {
-            return Ok(out);
-        }
-        out.par_chunks_mut(width * c)
-            .enumerate()
-            .for_each(|(j, row)| row_constant(stack, &self.taps, y0 + j, x0..x0 + width, row));
-        Ok(out)
-    }
-}
-
-/// Builds the scale stack a decomposition needs for scales in
-/// `[scale_min, scale_max]`: sigmas `[scale_min * min sigma_t, scale_max *
-/// max sigma_t]`, and for replicate/constant borders a margin covering the
-/// largest displacement `scale_max * max |c_t|`.
-///
-/// # Errors
-/// [`FilterError::InvalidTerm`]/[`FilterError::InvalidParameter`] for a bad
-/// decomposition or scale range, and the errors of [`ScaleStack::new`].
-pub fn stack_for_decomposition<'a>(
-    image: impl Into<ImageView<'a>>,
-    decomposition: &(impl Prepare + ?Sized),
-    scale_min: f32,
-    scale_max: f32,
-    border: Border,
-    options: StackOptions,
-) -> Result<ScaleStack, FilterError> {
-    let image = image.into();
-    stack_plan_for_decomposition(
-        (image.width(), image.height(), image.channels()),
-        decomposition,
-        scale_min,
-        scale_max,
-        border,
-        options,
-    )?
-    .build(image)
-}
-
-/// The plan of the stack [`stack_for_decomposition`] builds for a `(width,
-/// height, channels)` image, without building it (for memory budgets and
-/// device limits: [`StackPlan::layout`]).
-///
-/// ```
-/// use ifd_planar::{Border, Decomposition, StackOptions, Term};
-/// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 3.0, y: 0.0, sigma: 2.0 }]);
-/// let plan = ifd_planar::stack_plan_for_decomposition(
-///     (640, 480, 3), &d, 1.0, 4.0, Border::Reflect101, StackOptions::default())?;
-/// assert_eq!(plan.sigmas, (2.0, 8.0));
-/// let bytes = plan.layout()?.bytes();
-/// # Ok::<(), ifd_planar::FilterError>(())
-/// ```
-///
-/// # Errors
-/// As [`stack_for_decomposition`], except those of the image's samples.
-pub fn stack_plan_for_decomposition(
-    (width, height, channels): (usize, usize, usize),
-    decomposition: &(impl Prepare + ?Sized),
-    scale_min: f32,
-    scale_max: f32,
-    border: Border,
-    options: StackOptions,
-) -> Result<StackPlan, FilterError> {
-    let d = decomposition.prepare()?;
-    check_scale_range(scale_min, scale_max)?;
-    let (need_lo, need_hi) = sigma_bounds(
-        d.sampling(),
-        d.sigma_range(),
-        (f64::from(scale_min), f64::from(scale_max)),
-    );
-    let reach = d.reach();
-    let mut options = options;
-    let need = (f64::from(scale_max) * reach).ceil() as usize + 2;
-    if matches!(border, Border::Replicate | Border::Constant(_)) {
-        // Beyond the stored margin these borders are approximated: store
-        // every sample a lookup can reach.
-        options.margin = options.margin.max(need);
-    } else {
-        // Reflect-101 and wrap are exact beyond the margin too, but through
-        // the slow border-resolving lookup; with large kernels a wide band
-        // of pixels along the border would take it for most of its taps
-        // (43% of a 1024x1024 image for an extent-255 kernel, making it 1.6x
-        // slower than an extent-31 one). Store a margin covering the reach
-        // as far as memory allows (`StackLayout::affordable_margin`).
-        options.margin = StackLayout::affordable_margin(
-            width, height, channels, need_lo, need_hi, options, need,
-        )?;
-    }
-    Ok(StackPlan {
-        dims: (width, height, channels),
-        sigmas: (need_lo, need_hi),
-        border,
-        options,
-    })
-}
-
-/// [`FilterError::InvalidParameter`] unless `[scale_min, scale_max]` is a
-/// finite, positive, non-empty range.
-pub(crate) fn check_scale_range(scale_min: f32, scale_max: f32) -> Result<(), FilterError> {
-    if scale_min.is_finite() && scale_max.is_finite() && scale_min > 0.0 && scale_min <= scale_max {
-        Ok(())
-    } else {
-        Err(FilterError::InvalidParameter(format!(
-            "scale range [{scale_min}, {scale_max}] must be finite, positive and increasing"
-        )))
-    }
-}
-
-/// The sigmas of the levels that filtering with `decomposition` at the
-/// constant scale `scale` reads, the terms that [`evaluated_directly`] with
-/// `direct_below` being evaluated directly ([`Filter::with_direct`]): the distinct
-/// effective sigmas of the others, increasing, for [`ScaleStack::with_sigmas`]
-/// (at least one level).
-///
-/// ```
-/// use ifd_planar::{Decomposition, Term, level_sigmas};
-/// let t = |sigma| Term { weight: 1.0, x: 0.0, y: 0.0, sigma };
-/// let d = Decomposition::from_terms(vec![t(2.0), t(3.0), t(2.0), t(0.5)]);
-/// assert_eq!(level_sigmas(&d, 2.0, 1.5), vec![4.0, 6.0]);
-/// ```
-#[must_use]
-pub fn level_sigmas(decomposition: &Decomposition, scale: f32, direct_below: f64) -> Vec<f64> {
-    let s = f64::from(scale);
-    let sampling = decomposition.sampling;
-    let terms = &decomposition.terms;
-    let mut sigmas: Vec<f64> = terms
-        .iter()
-        .filter(|t| !evaluated_directly(sampling, t, s, direct_below))
-        .map(|t| sampling.effective_sigma(t.sigma, s))
-        .collect();
-    if sigmas.is_empty() {
-        // Every term is direct: one level, never read.
-        let widest = terms.iter().map(|t| sampling.effective_sigma(t.sigma, s));
-        sigmas.push(widest.fold(0.0, f64::max).max(MIN_SIGMA));
-    }
-    sigmas.sort_by(f64::total_cmp);
-    sigmas.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * *b);
-    sigmas
-}
-
-/// The smallest and largest effective sigma ([`Sampling::effective_sigma`])
-/// of atoms with sigmas in `[sigma_lo, sigma_hi]` at scales in `[s_lo,
-/// s_hi]`: the range a stack must cover.
-///
-/// ```
-/// use ifd_planar::{Sampling, sigma_bounds};
-/// assert_eq!(sigma_bounds(Sampling::Continuous, (1.0, 4.0), (0.5, 2.0)), (0.5, 8.0));
-/// // Below scale 1 a point-sampled kernel is averaged over the pixel.
-/// let (lo, hi) = sigma_bounds(Sampling::Point, (1.0, 4.0), (0.5, 0.5));
-/// assert!((lo - (0.25f64 + 1.0 / 12.0).sqrt()).abs() < 1e-12);
-/// ```
-#[must_use]
-pub fn sigma_bounds(
-    sampling: Sampling,
-    (sigma_lo, sigma_hi): (f64, f64),
-    (s_lo, s_hi): (f64, f64),
-) -> (f64, f64) {
-    // The effective sigma grows with sigma and with the scale, except that
-    // a point-sampled kernel drops its pixel average at scale 1.
-    let lo = sampling.effective_sigma(sigma_lo, s_lo);
-    let mut hi = sampling.effective_sigma(sigma_hi, s_hi);
-    if sampling == Sampling::Point && s_lo < 1.0 && s_hi >= 1.0 {
-        hi = hi.max((sigma_hi * sigma_hi + Sampling::Point.footprint_variance(0.5)).sqrt());
-    }
-    (lo, hi)
 }

@@ -5,7 +5,7 @@
 use ifd_image::{Image, ImageView};
 
 use crate::accuracy::{EvalPlan, PlanOptions};
-use crate::filter::{self, DIRECT_SIGMA, Filter, evaluated_directly};
+use crate::filter::{DIRECT_SIGMA, Filter, evaluated_directly};
 use crate::{
     Border, CheckedField, Decomposition, Field, FieldKind, FilterError, Interpolation,
     PreparedDecomposition, ScaleStack, StackOptions, StackPlan, stack_plan_for_decomposition,
@@ -127,8 +127,13 @@ impl FilterPlan {
         )?;
         // A constant scale reads levels at exactly its sigmas.
         let constant_scale = scale.range().0;
-        let level_sigmas = (!scale.is_map() && !options.log_uniform)
-            .then(|| filter::level_sigmas(decomposition, constant_scale, eval.direct_sigma));
+        let level_sigmas = (!scale.is_map() && !options.log_uniform).then(|| {
+            crate::stack::for_decomposition::level_sigmas(
+                decomposition,
+                constant_scale,
+                eval.direct_sigma,
+            )
+        });
         let direct_terms = decomposition
             .terms
             .iter()

@@ -1,6 +1,7 @@
 //! The scale stack: an image prefiltered with isotropic Gaussians at
 //! log-uniformly spaced standard deviations (the `fhat_l` of Eq. 3).
 
+pub(crate) mod for_decomposition;
 pub(crate) mod gather;
 pub(crate) mod lookup;
 pub mod refresh;
