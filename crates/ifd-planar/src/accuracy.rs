@@ -3,7 +3,7 @@
 
 use crate::decomposition::Decomposition;
 use crate::error::FilterError;
-use crate::filter::evaluated_directly;
+use crate::stack::for_decomposition::evaluated_directly;
 use crate::stack::{Interpolation, StackOptions, pyramid_step};
 
 /// Relative RMS error of one lookup along one axis (see the module docs) for
@@ -222,7 +222,7 @@ impl EvalPlan {
 
     /// The bound of a given interpolation and pyramid factor, for scales in
     /// `[scale_min, scale_max]`, terms that
-    /// [`crate::filter::evaluated_directly`] with `direct_sigma` being
+    /// [`crate::evaluated_directly`] with `direct_sigma` being
     /// evaluated exactly ([`crate::Filter::with_direct`]).
     ///
     /// # Errors

@@ -6,9 +6,7 @@
 use crate::error::FilterError;
 use crate::field::{CheckField, Field, FieldKind};
 use crate::filter::Filter;
-use crate::stack::ScaleStack;
-use crate::stack::lookup::{Tap, row_constant};
-use rayon::prelude::*;
+use crate::stack::lookup::Taps;
 
 /// A [`Filter`] at one fixed scale: the stack levels of every term are
 /// resolved once, so a lookup at any point and rotation costs `s` bilinear
@@ -127,71 +125,5 @@ impl<'a> ScaledFilter<'_, 'a> {
             t.weight *= weight;
         }
         Taps { taps }
-    }
-}
-
-/// The lookups of one constant rotation and scale (possibly of several
-/// weighted filters on the same stack, e.g. a blend of two
-/// decompositions), applied over a rectangle with a vectorised 2x2 stencil
-/// per tap: the fast path for a brush dab whose filter is constant.
-#[derive(Clone, Debug, Default)]
-pub struct Taps {
-    pub(crate) taps: Vec<Tap>,
-}
-
-impl Taps {
-    /// The number of bilinear lookups per pixel.
-    #[must_use]
-    pub fn len(&self) -> usize {
-        self.taps.len()
-    }
-
-    /// No lookups.
-    #[must_use]
-    pub fn is_empty(&self) -> bool {
-        self.taps.is_empty()
-    }
-
-    /// Appends `other`'s lookups (their weights already include any blend weight).
-    pub fn extend(&mut self, other: Taps) {
-        self.taps.extend(other.taps);
-    }
-
-    /// Filters the rectangle `x0..x0 + width`, `y0..y0 + height` of `stack`
-    /// (which must be the stack the taps were made for): returns
-    /// `width * height * channels` values, row-major, interleaved.
-    ///
-    /// # Errors
-    /// [`FilterError::InvalidParameter`] when the rectangle leaves the image
-    /// or a tap refers to a level the stack does not have.
-    pub fn apply_region(
-        &self,
-        stack: &ScaleStack,
-        x0: usize,
-        y0: usize,
-        width: usize,
-        height: usize,
-    ) -> Result<Vec<f32>, FilterError> {
-        if x0 + width > stack.width() || y0 + height > stack.height() {
-            return Err(FilterError::InvalidParameter(format!(
-                "region {width}x{height} at ({x0}, {y0}) leaves the {}x{} image",
-                stack.width(),
-                stack.height()
-            )));
-        }
-        if self.taps.iter().any(|t| t.level >= stack.levels.len()) {
-            return Err(FilterError::InvalidParameter(
-                "the taps were made for another stack".into(),
-            ));
-        }
-        let c = stack.channels();
-        let mut out = vec![0.0f32; width * height * c];
-        if width == 0 {
-            return Ok(out);
-        }
-        out.par_chunks_mut(width * c)
-            .enumerate()
-            .for_each(|(j, row)| row_constant(stack, &self.taps, y0 + j, x0..x0 + width, row));
-        Ok(out)
     }
 }

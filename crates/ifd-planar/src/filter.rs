@@ -5,15 +5,14 @@ use ifd_image::{Image, ImageView};
 use rayon::prelude::*;
 
 use crate::border::Border;
-use crate::dab::Taps;
-use crate::decomposition::Term;
 use crate::error::FilterError;
 use crate::field::{CheckField, CheckedField, Field, FieldKind};
 use crate::kernel::Sampling;
 use crate::prepared::Prepare;
-use crate::stack::for_decomposition::sigma_bounds;
+use crate::stack::for_decomposition::{is_direct, sigma_bounds};
 use crate::stack::gather::{self, FixedTerm, ScaledTerm};
 use crate::stack::lookup::Tap;
+use crate::stack::lookup::Taps;
 use crate::stack::{ScaleStack, snap_to_level};
 
 /// One decomposition term, prepared for lookups.
@@ -72,35 +71,6 @@ pub struct Filter<'a> {
     scaled_terms: Vec<ScaledTerm>,
 }
 
-/// Below this many pixels (after scaling), [`Filter::with_direct`] evaluates
-/// a term of a constant pose directly: no interpolation of integer-sampled
-/// levels reproduces so narrow a Gaussian at a fractional position (the
-/// cubic B-spline is off by 0.15% per axis at 1.5 px, 1.3% at 1 px, 16% at
-/// 0.5 px), while its sampled kernel has at most `(2 ceil(5 sigma) + 3)^2`
-/// taps.
-pub const DIRECT_SIGMA: f64 = 1.5;
-
-/// Terms farther than this (px, after scaling) from the centre are read from
-/// the stack however narrow (the direct kernel would border-extend the image
-/// by as much).
-const MAX_DIRECT_REACH: f64 = 1024.0;
-
-/// Whether [`Filter::with_direct`] with threshold `below` evaluates term `t`
-/// of a decomposition sampled as `sampling` directly at the constant scale
-/// `s`: its effective sigma is below `below` and it lies within 1024 px of
-/// the centre (after scaling). The one rule for the filter, the levels it
-/// reads ([`level_sigmas`](crate::level_sigmas)) and the error bound ([`crate::EvalPlan`]).
-#[must_use]
-pub fn evaluated_directly(sampling: Sampling, t: &Term, s: f64, below: f64) -> bool {
-    is_direct(sampling, t.sigma, t.x.hypot(t.y), s, below)
-}
-
-/// [`evaluated_directly`] for a term of width `sigma` at `reach` px from the
-/// centre (before scaling).
-fn is_direct(sampling: Sampling, sigma: f64, reach: f64, s: f64, below: f64) -> bool {
-    sampling.effective_sigma(sigma, s) < below && s * reach <= MAX_DIRECT_REACH
-}
-
 impl<'a> Filter<'a> {
     /// Prepares `decomposition` (a [`Decomposition`](crate::Decomposition), checked here, or a
     /// [`crate::PreparedDecomposition`]) for lookups into `stack`.
@@ -151,7 +121,7 @@ impl<'a> Filter<'a> {
     }
 
     /// Evaluates the terms of a constant pose whose scaled sigma is below
-    /// `below` px (normally [`DIRECT_SIGMA`]) directly on `source`, the image
+    /// `below` px (normally [`DIRECT_SIGMA`](crate::DIRECT_SIGMA)) directly on `source`, the image
     /// the stack was built from: their sum of sampled Gaussians is
     /// correlated with it as one small kernel, exactly, instead of being
     /// interpolated from the stack. Per-pixel poses still read every term

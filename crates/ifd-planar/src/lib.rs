@@ -79,22 +79,24 @@ mod tiled;
 
 pub use accuracy::{EvalPlan, PlanOptions};
 pub use border::Border;
-pub use dab::{Rotation, ScaledFilter, Taps};
+pub use dab::{Rotation, ScaledFilter};
 pub use decomposition::{
     Decomposition, DecompositionFileError, FORMAT as DECOMPOSITION_FORMAT, FitReport, Term,
     VERSION as DECOMPOSITION_VERSION,
 };
 pub use error::FilterError;
 pub use field::{CheckField, CheckedField, Field, FieldKind, MAX_FIELD_VALUE, MIN_FIELD_SCALE};
-pub use filter::{DIRECT_SIGMA, Filter, evaluated_directly};
+pub use filter::Filter;
 pub use fit::{DecomposeError, DecomposeOptions, FIT_REVISION, decompose, decompose_spec, measure};
 pub use kernel::{Kernel, KernelError, KernelSpec, MAX_RADIUS as MAX_KERNEL_RADIUS, Sampling};
 pub use pipeline::{FilterOptions, FilterPlan, filter_image};
 pub use prepared::{Prepare, PreparedDecomposition};
 pub use stack::for_decomposition::{
-    level_sigmas, sigma_bounds, stack_for_decomposition, stack_plan_for_decomposition,
+    DIRECT_SIGMA, evaluated_directly, level_sigmas, sigma_bounds, stack_for_decomposition,
+    stack_plan_for_decomposition,
 };
 pub use stack::gather::vector_kernels;
+pub use stack::lookup::Taps;
 pub use stack::refresh::{FixedTap, PixelRect, RefreshReport};
 pub use stack::{
     Interpolation, LevelLayout, LevelLocator, ScaleStack, StackLayout, StackOptions, StackPlan,

@@ -5,7 +5,8 @@
 use ifd_image::{Image, ImageView};
 
 use crate::accuracy::{EvalPlan, PlanOptions};
-use crate::filter::{DIRECT_SIGMA, Filter, evaluated_directly};
+use crate::filter::Filter;
+use crate::stack::for_decomposition::{DIRECT_SIGMA, evaluated_directly};
 use crate::{
     Border, CheckedField, Decomposition, Field, FieldKind, FilterError, Interpolation,
     PreparedDecomposition, ScaleStack, StackOptions, StackPlan, stack_plan_for_decomposition,
