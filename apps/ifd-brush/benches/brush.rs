@@ -26,8 +26,9 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use egui::TextureOptions;
 use ifd_brush::app::bundled_image;
 use ifd_brush::display;
-use ifd_brush::engine::{Banks, Engine, GpuChoice, SharedDevice};
+use ifd_brush::engine::{Banks, Engine, SharedDevice};
 use ifd_brush::{BrushMode, BrushSettings};
+use ifd_gpu::DeviceChoice;
 use ifd_image::MemoryBudget;
 use ifd_planar::PixelRect;
 use ifd_smooth::Smoother;
@@ -90,11 +91,11 @@ fn bench(c: &mut Criterion) {
             (Path::Cpu, _) => name.to_string(),
             (_, None) => continue,
             (Path::GpuReadback, _) => {
-                let (label, _) = engine.enable_gpu(GpuChoice::On);
+                let (label, _) = engine.enable_gpu(DeviceChoice::Gpu);
                 format!("{name} ({label})")
             }
             (Path::GpuDisplay, Some(d)) => {
-                let (label, _) = engine.enable_gpu_on(GpuChoice::On, Some(d.clone()));
+                let (label, _) = engine.enable_gpu_on(DeviceChoice::Gpu, Some(d.clone()));
                 format!("{name} ({label})")
             }
         };

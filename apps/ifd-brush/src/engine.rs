@@ -1,6 +1,7 @@
 //! The document and its edits, without any GUI: the app's worker thread and
 //! headless replay both drive an [`Engine`].
 
+use ifd_gpu::DeviceChoice;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, RwLock};
 use std::time::{Duration, Instant};
@@ -15,20 +16,6 @@ use crate::journal::{self, Journal, Recovered};
 use crate::settings::BrushSettings;
 use crate::stroke::StrokeInterpolator;
 use crate::strokes::{Action, StrokesFile};
-
-/// When dabs are evaluated on the GPU (`ifd-gpu`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum GpuChoice {
-    /// Never.
-    Off,
-    /// With a hardware adapter; software ones (lavapipe) are slower than the
-    /// CPU path, so they are not used.
-    #[default]
-    Auto,
-    /// With any adapter, software included (for testing the GPU path here).
-    On,
-}
 
 struct GpuPath {
     ctx: ifd_gpu::GpuContext,
@@ -312,7 +299,7 @@ impl Engine {
     /// Sets up the GPU path as `choice` allows, on a headless device of its
     /// own; returns the path in use, in words ("CPU", or "GPU: adapter
     /// name"), and why the GPU is not used.
-    pub fn enable_gpu(&mut self, choice: GpuChoice) -> (String, Option<String>) {
+    pub fn enable_gpu(&mut self, choice: DeviceChoice) -> (String, Option<String>) {
         self.enable_gpu_on(choice, None)
     }
 
@@ -325,7 +312,7 @@ impl Engine {
     /// every dab is read back.
     pub fn enable_gpu_on(
         &mut self,
-        choice: GpuChoice,
+        choice: DeviceChoice,
         shared: Option<SharedDevice>,
     ) -> (String, Option<String>) {
         self.compute = self.choose_gpu(choice, shared);
@@ -342,11 +329,11 @@ impl Engine {
 
     fn choose_gpu(
         &mut self,
-        choice: GpuChoice,
+        choice: DeviceChoice,
         shared: Option<SharedDevice>,
     ) -> (String, Option<String>) {
         self.gpu = None;
-        if choice == GpuChoice::Off {
+        if choice == DeviceChoice::Cpu {
             return ("CPU".into(), None);
         }
         let mut note = None;
@@ -364,7 +351,7 @@ impl Engine {
             None => ifd_gpu::GpuContext::new().map(|c| (c, false)),
         };
         match made {
-            Ok((ctx, _)) if ctx.is_software() && choice == GpuChoice::Auto => (
+            Ok((ctx, _)) if !choice.uses_adapter(ctx.is_software()) => (
                 "CPU".into(),
                 Some(format!(
                     "the GPU adapter ({}) is software; the CPU path is faster (--device gpu forces it)",

@@ -8,8 +8,9 @@ use clap::Parser;
 use ifd_brush::app::{
     Automation, BrushApp, Persisted, STORAGE_KEY, StartOptions, WindowGpu, bundled_image,
 };
-use ifd_brush::engine::{Banks, Engine, GpuChoice};
+use ifd_brush::engine::{Banks, Engine};
 use ifd_brush::strokes::StrokesFile;
+use ifd_gpu::DeviceChoice;
 use ifd_image::MemoryBudget;
 
 /// Paint Hessian-driven anisotropic smoothing onto an image.
@@ -88,12 +89,12 @@ enum Device {
     Cpu,
 }
 
-impl From<Device> for GpuChoice {
+impl From<Device> for DeviceChoice {
     fn from(g: Device) -> Self {
         match g {
-            Device::Auto => GpuChoice::Auto,
-            Device::Gpu => GpuChoice::On,
-            Device::Cpu => GpuChoice::Off,
+            Device::Auto => DeviceChoice::Auto,
+            Device::Gpu => DeviceChoice::Gpu,
+            Device::Cpu => DeviceChoice::Cpu,
         }
     }
 }

@@ -18,10 +18,11 @@ use ifd_image::{Image, MemoryBudget};
 use ifd_planar::PixelRect;
 
 use crate::display::{self, TilePatch};
-use crate::engine::{BankInfo, Banks, Engine, GpuChoice, SharedDevice, SharedSmoother};
+use crate::engine::{BankInfo, Banks, Engine, SharedDevice, SharedSmoother};
 use crate::history::extract;
 use crate::settings::BrushSettings;
 use crate::strokes::StrokesFile;
+use ifd_gpu::DeviceChoice;
 
 /// What the UI asks the worker to do.
 #[derive(Clone, Debug)]
@@ -187,7 +188,7 @@ pub fn spawn(
     bank_cache: Option<PathBuf>,
     journal_dir: Option<PathBuf>,
     budget: MemoryBudget,
-    gpu: GpuChoice,
+    gpu: DeviceChoice,
     shared: Option<SharedDevice>,
     wake: impl Fn() + Send + 'static,
 ) -> Worker {

@@ -42,7 +42,7 @@ fn loading_8_megapixels_shows_the_image_and_reports_frame_times() {
             bank_cache: Some(common::bank_cache()),
             budget: MemoryBudget::default_for_machine(),
             automation: Automation::default(),
-            gpu: ifd_brush::engine::GpuChoice::Off,
+            gpu: ifd_gpu::DeviceChoice::Cpu,
             render_state: None,
             journal_dir: None,
         },

@@ -203,17 +203,17 @@ fn bad_inputs_leave_the_document_untouched() {
 /// `crates/ifd-gpu/tests/gpu.rs`).
 #[test]
 fn gpu_replay_matches_cpu() {
-    use ifd_brush::engine::GpuChoice;
+    use ifd_gpu::DeviceChoice;
     let img = common::crop(150, 100, 200, 160);
     let file = strokes();
-    let run = |choice: GpuChoice| {
+    let run = |choice: DeviceChoice| {
         let mut engine = Engine::new(common::banks(), MemoryBudget::default_for_machine());
         let (label, note) = engine.enable_gpu(choice);
         engine.set_image(img.clone(), None, false);
         engine.replay(&file).expect("replay");
         (engine.image().expect("image").clone(), label, note)
     };
-    let (gpu, label, note) = run(GpuChoice::On);
+    let (gpu, label, note) = run(DeviceChoice::Gpu);
     if !label.starts_with("GPU") {
         assert!(
             skip::allowed("IFD_GPU_TESTS"),
@@ -224,7 +224,7 @@ fn gpu_replay_matches_cpu() {
         skip::skip(&format!("no GPU device (IFD_GPU_TESTS=skip): {note:?}"));
         return;
     }
-    let (cpu, cpu_label, _) = run(GpuChoice::Off);
+    let (cpu, cpu_label, _) = run(DeviceChoice::Cpu);
     assert_eq!(cpu_label, "CPU");
     let d = common::max_diff(&gpu, &cpu);
     let changed = common::max_diff(&img, &cpu);
@@ -244,7 +244,7 @@ fn gpu_replay_matches_cpu() {
         info: ctx.adapter_info().clone(),
     };
     let mut engine = Engine::new(common::banks(), MemoryBudget::default_for_machine());
-    let (shown, note) = engine.enable_gpu_on(GpuChoice::On, Some(shared));
+    let (shown, note) = engine.enable_gpu_on(DeviceChoice::Gpu, Some(shared));
     assert!(
         shown.ends_with("shown without readback"),
         "{shown} ({note:?})"
@@ -310,7 +310,8 @@ fn gpu_replay_matches_cpu() {
 #[test]
 fn gpu_display_paints_on_the_cpu_when_the_smoother_does_not_fit() {
     use eframe::wgpu;
-    use ifd_brush::engine::{GpuChoice, SharedDevice};
+    use ifd_brush::engine::SharedDevice;
+    use ifd_gpu::DeviceChoice;
     let Ok(big) = ifd_gpu::GpuContext::new() else {
         assert!(
             skip::allowed("IFD_GPU_TESTS"),
@@ -349,7 +350,7 @@ fn gpu_display_paints_on_the_cpu_when_the_smoother_does_not_fit() {
     let img = common::crop(150, 100, 200, 160);
     let file = strokes();
     let mut engine = Engine::new(common::banks(), MemoryBudget::default_for_machine());
-    engine.enable_gpu_on(GpuChoice::On, Some(shared));
+    engine.enable_gpu_on(DeviceChoice::Gpu, Some(shared));
     engine.set_image(img.clone(), None, false);
     assert!(
         engine.displays_on_device(),

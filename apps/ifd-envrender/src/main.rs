@@ -7,9 +7,10 @@ use std::sync::{Arc, Mutex};
 use anyhow::Context as _;
 use clap::Parser;
 use glam::DVec3;
-use ifd_envrender::app::{Automation, EnvApp, GpuChoice, ReferenceReport, StartOptions};
+use ifd_envrender::app::{Automation, EnvApp, ReferenceReport, StartOptions};
 use ifd_envrender::orbit::Orbit;
 use ifd_envrender::settings::{STORAGE_KEY, Settings, Variant};
+use ifd_gpu::DeviceChoice;
 
 /// Look at an object lit by an environment map, shaded by ISD (Eq. 22) on
 /// the GPU: orbit the camera, change the BRDF, L, the variant, the map.
@@ -288,9 +289,9 @@ fn run(args: &Args) -> anyhow::Result<()> {
         reference: Arc::clone(&reference),
     };
     let gpu = match args.device {
-        Device::Auto => GpuChoice::Auto,
-        Device::Gpu => GpuChoice::On,
-        Device::Cpu => GpuChoice::Off,
+        Device::Auto => DeviceChoice::Auto,
+        Device::Gpu => DeviceChoice::Gpu,
+        Device::Cpu => DeviceChoice::Cpu,
     };
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()

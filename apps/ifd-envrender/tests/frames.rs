@@ -12,8 +12,9 @@
 use std::time::{Duration, Instant};
 
 use egui::{RawInput, Rect, pos2, vec2};
-use ifd_envrender::app::{Automation, EnvApp, GpuChoice, StartOptions};
+use ifd_envrender::app::{Automation, EnvApp, StartOptions};
 use ifd_envrender::settings::Settings;
+use ifd_gpu::DeviceChoice;
 use ifd_image::Image;
 
 fn frame(ctx: &egui::Context, app: &mut EnvApp) -> f32 {
@@ -60,7 +61,7 @@ fn a_large_map_loads_without_stalling_the_ui_and_bad_maps_keep_the_frame() {
         settings,
         StartOptions {
             render_state: None,
-            gpu: GpuChoice::Off,
+            gpu: DeviceChoice::Cpu,
             automation: Automation::default(),
         },
     );

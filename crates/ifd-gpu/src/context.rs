@@ -10,13 +10,47 @@ use crate::shaders;
 /// Which adapter [`GpuContext::new_with`] may pick.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum AdapterChoice {
-    /// A hardware adapter when there is one, else a software one (lavapipe).
+    /// Any adapter: a hardware one when there is one, else a software one
+    /// (lavapipe). What a command asked to run on the GPU gets.
     #[default]
-    Auto,
+    Any,
     /// Only a hardware (discrete, integrated or virtual) adapter.
     Hardware,
     /// Only a software (CPU) adapter such as Mesa's lavapipe.
     Software,
+}
+
+/// Where an application runs its image work: the one meaning of `--device
+/// auto|gpu|cpu` in the apps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DeviceChoice {
+    /// A hardware GPU when there is one, else the CPU: a software adapter
+    /// (lavapipe) runs these kernels slower than the CPU paths on the same
+    /// cores, so it is not used.
+    #[default]
+    Auto,
+    /// The GPU on any adapter, software included.
+    Gpu,
+    /// The CPU paths.
+    Cpu,
+}
+
+impl DeviceChoice {
+    /// Whether work runs on an adapter that is `software` (or not).
+    ///
+    /// ```
+    /// use ifd_gpu::DeviceChoice;
+    /// assert!(DeviceChoice::Auto.uses_adapter(false) && !DeviceChoice::Auto.uses_adapter(true));
+    /// assert!(DeviceChoice::Gpu.uses_adapter(true) && !DeviceChoice::Cpu.uses_adapter(false));
+    /// ```
+    #[must_use]
+    pub fn uses_adapter(self, software: bool) -> bool {
+        match self {
+            Self::Auto => !software,
+            Self::Gpu => true,
+            Self::Cpu => false,
+        }
+    }
 }
 
 /// A device, its queue and the compiled IFD pipelines.
@@ -50,7 +84,7 @@ fn rank(t: wgpu::DeviceType) -> u8 {
 
 fn allowed(choice: AdapterChoice, t: wgpu::DeviceType) -> bool {
     match choice {
-        AdapterChoice::Auto => true,
+        AdapterChoice::Any => true,
         AdapterChoice::Hardware => t != wgpu::DeviceType::Cpu,
         AdapterChoice::Software => t == wgpu::DeviceType::Cpu,
     }
@@ -127,7 +161,7 @@ impl GpuContext {
     /// allow it then use the CPU path), [`GpuError::RequestDevice`] when the
     /// adapter refuses a device.
     pub fn new() -> Result<Self, GpuError> {
-        Self::new_with(AdapterChoice::Auto)
+        Self::new_with(AdapterChoice::Any)
     }
 
     /// As [`GpuContext::new`], restricted to the adapters `choice` allows.

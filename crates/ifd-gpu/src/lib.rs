@@ -109,7 +109,7 @@ mod stack;
 mod wgpu_helpers;
 
 pub use canvas::{DisplayTile, GpuCanvas};
-pub use context::{AdapterChoice, GpuContext, list_adapters};
+pub use context::{AdapterChoice, DeviceChoice, GpuContext, list_adapters};
 pub use error::GpuError;
 pub use eval::{GpuDecomposition, GpuOutput, GpuPose, Region};
 pub use smooth::{GpuHessian, GpuSmoother, filter_image};

@@ -23,11 +23,12 @@ use ifd_smooth::Orientation;
 use serde::{Deserialize, Serialize};
 
 use crate::browser::{FileBrowser, Purpose};
-use crate::engine::{BankInfo, GpuChoice, SharedSmoother};
+use crate::engine::{BankInfo, SharedSmoother};
 use crate::settings::BrushSettings;
 use crate::strokes::StrokesFile;
 use crate::view::View;
 use crate::worker::{self, Command, Event, Worker};
+use ifd_gpu::DeviceChoice;
 
 /// Storage key of the persisted settings.
 pub const STORAGE_KEY: &str = "ifd-brush-settings";
@@ -86,7 +87,7 @@ pub struct StartOptions {
     /// Unattended steps.
     pub automation: Automation,
     /// Whether dabs may run on the GPU.
-    pub gpu: GpuChoice,
+    pub gpu: DeviceChoice,
     /// The window's wgpu renderer (eframe's), when it has one: on the GPU
     /// path the document is painted on its device and shown from there.
     pub render_state: Option<WindowGpu>,

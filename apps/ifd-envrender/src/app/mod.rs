@@ -5,6 +5,7 @@ mod automation;
 mod gpu_view;
 mod panels;
 
+use ifd_gpu::DeviceChoice;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -41,24 +42,12 @@ pub(crate) struct RefState {
     curve: Option<(Vec<(usize, f64)>, usize)>,
 }
 
-/// Which shading path to use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum GpuChoice {
-    /// The GPU on a hardware adapter; the CPU on a software one (lavapipe
-    /// runs the kernel slower than the CPU path on the same cores).
-    Auto,
-    /// The GPU on any adapter.
-    On,
-    /// The CPU renderer.
-    Off,
-}
-
 /// How the app starts.
 pub struct StartOptions {
     /// The window's device (`None`: headless harness, or a GL backend).
     pub render_state: Option<RenderState>,
     /// GPU or CPU shading.
-    pub gpu: GpuChoice,
+    pub gpu: DeviceChoice,
     /// Automated run.
     pub automation: Automation,
 }
@@ -394,7 +383,7 @@ type GpuStart = (
 );
 
 /// The GPU view on the window's device, or why there is none.
-fn gpu_view(rs: Option<RenderState>, choice: GpuChoice) -> GpuStart {
+fn gpu_view(rs: Option<RenderState>, choice: DeviceChoice) -> GpuStart {
     let Some(rs) = rs else {
         return (
             None,
@@ -404,10 +393,10 @@ fn gpu_view(rs: Option<RenderState>, choice: GpuChoice) -> GpuStart {
     };
     let info = rs.adapter.get_info();
     let adapter = format!("{} ({:?}, {:?})", info.name, info.device_type, info.backend);
-    if choice == GpuChoice::Off {
+    if choice == DeviceChoice::Cpu {
         return (None, Some("--device cpu".into()), adapter);
     }
-    if choice == GpuChoice::Auto && info.device_type == eframe::wgpu::DeviceType::Cpu {
+    if !choice.uses_adapter(info.device_type == eframe::wgpu::DeviceType::Cpu) {
         return (
             None,
             Some(
