@@ -1,5 +1,6 @@
 //! The `ifd-brush` program: a window on the brush app, or a headless replay.
 
+use ifd_app::{DeviceArg, Shell};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -10,7 +11,6 @@ use ifd_brush::app::{
 };
 use ifd_brush::engine::{Banks, Engine};
 use ifd_brush::strokes::StrokesFile;
-use ifd_gpu::DeviceChoice;
 use ifd_image::MemoryBudget;
 
 /// Paint Hessian-driven anisotropic smoothing onto an image.
@@ -44,8 +44,8 @@ struct Args {
     /// Where dabs are evaluated: auto (a hardware GPU when there is one; a
     /// software adapter such as lavapipe is slower than the CPU path), gpu
     /// (any adapter, software included), cpu.
-    #[arg(long, value_enum, default_value_t = Device::Auto)]
-    device: Device,
+    #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
+    device: DeviceArg,
     /// Renamed: --device auto|gpu|cpu (`--gpu` is a switch in `ifd`).
     #[arg(long, hide = true)]
     gpu: Option<String>,
@@ -76,27 +76,6 @@ struct Args {
     /// watch a replay's journal, or to interrupt it on purpose).
     #[arg(long, value_name = "MS", default_value_t = 0)]
     replay_pace: u64,
-}
-
-/// `--device` values.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum Device {
-    /// A hardware GPU when there is one, else the CPU.
-    Auto,
-    /// Any GPU adapter, software included.
-    Gpu,
-    /// The CPU.
-    Cpu,
-}
-
-impl From<Device> for DeviceChoice {
-    fn from(g: Device) -> Self {
-        match g {
-            Device::Auto => DeviceChoice::Auto,
-            Device::Gpu => DeviceChoice::Gpu,
-            Device::Cpu => DeviceChoice::Cpu,
-        }
-    }
 }
 
 fn headless(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
@@ -244,7 +223,7 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
         // (eframe takes the RON file's path here, whatever its docs say.)
         persistence_path: std::env::var_os("IFD_BRUSH_STATE_DIR")
             .map(|d| PathBuf::from(d).join("app.ron")),
-        wgpu_options: wgpu_options(),
+        wgpu_options: ifd_app::wgpu_options(),
         ..eframe::NativeOptions::default()
     };
     eframe::run_native(
@@ -262,11 +241,10 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
             if let Some(b) = brush_override {
                 settings.brush = b;
             }
-            Ok(Box::new(Shell(BrushApp::new(
-                &cc.egui_ctx,
-                settings,
-                start,
-            ))))
+            Ok(Box::new(Shell::new(
+                BrushApp::new(&cc.egui_ctx, settings, start),
+                STORAGE_KEY,
+            )))
         }),
     )
     .map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -274,47 +252,6 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
     match failed {
         Some(msg) => Err(anyhow::anyhow!(msg)),
         None => Ok(()),
-    }
-}
-
-/// eframe's wgpu set-up, with a device the GPU path can also compute on:
-/// the adapter's own limits (the stack's storage buffers exceed wgpu's
-/// default limits) and timestamp queries when the adapter has them. GL
-/// devices keep eframe's settings (the GPU path does not use them).
-fn wgpu_options() -> eframe::egui_wgpu::WgpuConfiguration {
-    use eframe::egui_wgpu::WgpuSetup;
-    use eframe::wgpu;
-    let mut options = eframe::egui_wgpu::WgpuConfiguration::default();
-    if let WgpuSetup::CreateNew(create) = &mut options.wgpu_setup {
-        let base = std::sync::Arc::clone(&create.device_descriptor);
-        create.device_descriptor = std::sync::Arc::new(move |adapter: &wgpu::Adapter| {
-            let mut d = base(adapter);
-            if adapter.get_info().backend != wgpu::Backend::Gl {
-                d.required_limits = adapter.limits();
-                if adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
-                    d.required_features |= wgpu::Features::TIMESTAMP_QUERY;
-                }
-            }
-            d
-        });
-    }
-    options
-}
-
-/// The eframe shell around the app.
-struct Shell(BrushApp);
-
-impl eframe::App for Shell {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
-        self.0.frame(ui);
-    }
-
-    fn save(&mut self, storage: &mut dyn eframe::Storage) {
-        eframe::set_value(storage, STORAGE_KEY, &self.0.settings);
-    }
-
-    fn on_exit(&mut self) {
-        self.0.finish();
     }
 }
 

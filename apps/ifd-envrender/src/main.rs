@@ -1,5 +1,6 @@
 //! The `ifd-envrender` program: the environment renderer's window.
 
+use ifd_app::{DeviceArg, Shell};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
@@ -70,8 +71,8 @@ struct Args {
     /// Where the frame is shaded: auto (a hardware GPU when there is one; a
     /// software adapter such as lavapipe is slower than the CPU renderer), gpu
     /// (any adapter, software included), cpu.
-    #[arg(long, value_enum, default_value_t = Device::Auto)]
-    device: Device,
+    #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
+    device: DeviceArg,
     /// Renamed: --device auto|gpu|cpu (`--gpu` is a switch in `ifd`).
     #[arg(long, hide = true)]
     gpu: Option<String>,
@@ -96,17 +97,6 @@ struct Args {
     /// instead of a human summary.
     #[arg(long)]
     json: bool,
-}
-
-/// `--device` values.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum Device {
-    /// A hardware GPU when there is one, else the CPU.
-    Auto,
-    /// Any GPU adapter, software included.
-    Gpu,
-    /// The CPU.
-    Cpu,
 }
 
 /// `--variant` values.
@@ -236,44 +226,6 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
     Ok(s)
 }
 
-/// eframe's wgpu set-up with a device the shading can compute on: the
-/// adapter's own limits and timestamp queries when it has them.
-fn wgpu_options() -> eframe::egui_wgpu::WgpuConfiguration {
-    use eframe::egui_wgpu::WgpuSetup;
-    use eframe::wgpu;
-    let mut options = eframe::egui_wgpu::WgpuConfiguration::default();
-    if let WgpuSetup::CreateNew(create) = &mut options.wgpu_setup {
-        let base = std::sync::Arc::clone(&create.device_descriptor);
-        create.device_descriptor = std::sync::Arc::new(move |adapter: &wgpu::Adapter| {
-            let mut d = base(adapter);
-            if adapter.get_info().backend != wgpu::Backend::Gl {
-                d.required_limits = adapter.limits();
-                if adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
-                    d.required_features |= wgpu::Features::TIMESTAMP_QUERY;
-                }
-            }
-            d
-        });
-    }
-    options
-}
-
-struct Shell(EnvApp);
-
-impl eframe::App for Shell {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
-        self.0.frame(ui);
-    }
-
-    fn save(&mut self, storage: &mut dyn eframe::Storage) {
-        eframe::set_value(storage, STORAGE_KEY, &self.0.settings);
-    }
-
-    fn on_exit(&mut self) {
-        self.0.finish();
-    }
-}
-
 fn run(args: &Args) -> anyhow::Result<()> {
     // check the options before a window opens
     settings(args, None)?;
@@ -288,11 +240,7 @@ fn run(args: &Args) -> anyhow::Result<()> {
         reference_spp: args.reference_spp,
         reference: Arc::clone(&reference),
     };
-    let gpu = match args.device {
-        Device::Auto => DeviceChoice::Auto,
-        Device::Gpu => DeviceChoice::Gpu,
-        Device::Cpu => DeviceChoice::Cpu,
-    };
+    let gpu = DeviceChoice::from(args.device);
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_title("ifd envrender")
@@ -300,7 +248,7 @@ fn run(args: &Args) -> anyhow::Result<()> {
             .with_drag_and_drop(true),
         persistence_path: std::env::var_os("IFD_ENVRENDER_STATE_DIR")
             .map(|d| PathBuf::from(d).join("app.ron")),
-        wgpu_options: wgpu_options(),
+        wgpu_options: ifd_app::wgpu_options(),
         ..eframe::NativeOptions::default()
     };
     let mut err = None;
@@ -324,15 +272,18 @@ fn run(args: &Args) -> anyhow::Result<()> {
                 // the viewport at one screen pixel per image pixel
                 cc.egui_ctx.set_pixels_per_point(1.0);
             }
-            Ok(Box::new(Shell(EnvApp::new(
-                &cc.egui_ctx,
-                s,
-                StartOptions {
-                    render_state: cc.wgpu_render_state.clone(),
-                    gpu,
-                    automation,
-                },
-            ))))
+            Ok(Box::new(Shell::new(
+                EnvApp::new(
+                    &cc.egui_ctx,
+                    s,
+                    StartOptions {
+                        render_state: cc.wgpu_render_state.clone(),
+                        gpu,
+                        automation,
+                    },
+                ),
+                STORAGE_KEY,
+            )))
         }),
     )
     .map_err(|e| anyhow::anyhow!("{e}"))?;

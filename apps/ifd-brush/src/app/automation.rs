@@ -1,12 +1,9 @@
 //! Runs without a person (`--replay`, `--save`, `--screenshot`, `--exit`):
 //! the stages of an automated run, and how a failure reaches `main`.
 
-use std::path::Path;
+use ifd_app::write_screenshot;
 use std::sync::Arc;
 use std::time::Duration;
-
-use egui::ColorImage;
-use ifd_image::Image;
 
 use crate::worker::Command;
 
@@ -83,20 +80,4 @@ impl BrushApp {
             _ => {}
         }
     }
-}
-
-/// Writes an egui screenshot as PNG.
-///
-/// # Errors
-/// Write failures.
-pub fn write_screenshot(path: &Path, img: &ColorImage) -> anyhow::Result<()> {
-    let [w, h] = img.size;
-    let data = img
-        .pixels
-        .iter()
-        .flat_map(|c| [c.r(), c.g(), c.b()].map(|v| f32::from(v) / 255.0))
-        .collect();
-    let im = Image::from_vec(w, h, 3, data)?;
-    ifd_image::write(path, &im)?;
-    Ok(())
 }

@@ -8,7 +8,6 @@ mod dialogs;
 mod events;
 mod panels;
 
-pub use automation::write_screenshot;
 pub use canvas::ellipse_points;
 
 use std::collections::VecDeque;
@@ -555,6 +554,22 @@ impl BrushApp {
         while self.frame_ms.len() > 600 {
             self.frame_ms.pop_front();
         }
+    }
+}
+
+impl ifd_app::AppFrame for BrushApp {
+    type Settings = Persisted;
+
+    fn frame(&mut self, ui: &mut egui::Ui) {
+        BrushApp::frame(self, ui);
+    }
+
+    fn settings(&self) -> &Persisted {
+        &self.settings
+    }
+
+    fn finish(&mut self) {
+        BrushApp::finish(self);
     }
 }
 

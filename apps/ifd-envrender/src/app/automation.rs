@@ -3,12 +3,10 @@
 //! viewport's rectangle in it, close. A failure closes the window with a
 //! message that `main` reports (exit status 2).
 
-use std::path::{Path, PathBuf};
+use ifd_app::write_screenshot;
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-
-use egui::ColorImage;
-use ifd_image::Image;
 
 use super::EnvApp;
 
@@ -141,20 +139,4 @@ impl EnvApp {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
         }
     }
-}
-
-/// Writes an egui screenshot as PNG.
-///
-/// # Errors
-/// Write failures.
-pub fn write_screenshot(path: &Path, img: &ColorImage) -> anyhow::Result<()> {
-    let [w, h] = img.size;
-    let data = img
-        .pixels
-        .iter()
-        .flat_map(|c| [c.r(), c.g(), c.b()].map(|v| f32::from(v) / 255.0))
-        .collect();
-    let im = Image::from_vec(w, h, 3, data)?;
-    ifd_image::write(path, &im)?;
-    Ok(())
 }

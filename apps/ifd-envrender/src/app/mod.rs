@@ -15,7 +15,7 @@ use ifd_gpu::GpuContext;
 use ifd_gpu::shading::GpuShader;
 use ifd_render::Tonemap;
 
-pub use automation::{Automation, ReferenceReport, write_screenshot};
+pub use automation::{Automation, ReferenceReport};
 pub use gpu_view::GpuView;
 
 use crate::reference::{self, RefEvent, Request};
@@ -459,4 +459,20 @@ fn errors(a: &ifd_image::Image, reference: &ifd_image::Image, mask: &[bool]) -> 
     let rel = ifd_render::relative_rms(a, reference, mask);
     let psnr = ifd_image::metrics::psnr_from_mse(se / n.max(1) as f64, peak.max(1e-12));
     (rel, psnr)
+}
+
+impl ifd_app::AppFrame for EnvApp {
+    type Settings = Settings;
+
+    fn frame(&mut self, ui: &mut egui::Ui) {
+        EnvApp::frame(self, ui);
+    }
+
+    fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    fn finish(&mut self) {
+        EnvApp::finish(self);
+    }
 }
