@@ -16,8 +16,10 @@ use ifd_plot::draw::{
     BLACK, GREY, TEXT_HEIGHT, draw_text, draw_text_centred, hline, put, put_f, segment, text_width,
     vline,
 };
-use ifd_plot::lines::{BOTTOM, LEFT, PLOT_SIZE, RIGHT, TOP};
 use ifd_plot::profile_colour;
+use ifd_plot::{
+    PLOT_BOTTOM as BOTTOM, PLOT_LEFT as LEFT, PLOT_RIGHT as RIGHT, PLOT_SIZE, PLOT_TOP as TOP,
+};
 use ifd_sphere::Result;
 use ifd_sphere::profile::{Profile, isd_matrix};
 use ifd_sphere::zhf::{Chooser, DirectionSet, Sharing, condition_number};

@@ -6,7 +6,11 @@
 //!   pixels and colour bars.
 //! - [`log_line_plot`]: curves on a logarithmic `y` axis (convergence and
 //!   timing studies, `ifd envmap`, `ifd-render`).
-//! - [`draw`]: the primitives (lines, a 5x7 bitmap font, colour maps).
+//! - [`diverging`], [`sequential`]: the colour maps of those plots;
+//!   [`PLOT_SIZE`] and the margins ([`PLOT_LEFT`], [`PLOT_RIGHT`],
+//!   [`PLOT_TOP`], [`PLOT_BOTTOM`]) for plots drawn in the same style.
+//! - [`draw`]: the primitives (lines, a 5x7 bitmap font), the one public
+//!   module, for plots made elsewhere (`ifd-paper`'s).
 //!
 //! ```
 //! let s = ifd_plot::Series { name: "error".into(), colour: [0.9, 0.1, 0.1], dotted: false,
@@ -16,9 +20,12 @@
 //! # Ok::<(), ifd_image::ImageError>(())
 //! ```
 
-pub mod decomposition;
+mod decomposition;
 pub mod draw;
-pub mod lines;
+mod lines;
 
-pub use decomposition::decomposition_plot;
-pub use lines::{PLOT_SIZE, Series, log_line_plot, profile_colour};
+pub use decomposition::{decomposition_plot, diverging, sequential};
+pub use lines::{
+    BOTTOM as PLOT_BOTTOM, LEFT as PLOT_LEFT, PLOT_SIZE, RIGHT as PLOT_RIGHT, Series,
+    TOP as PLOT_TOP, log_line_plot, profile_colour,
+};
