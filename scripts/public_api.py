@@ -20,6 +20,7 @@ lines added and removed: a change to a public API is then a deliberate
 change to that file, reviewed with the code.
 """
 
+import functools
 import json
 import os
 import pathlib
@@ -36,6 +37,7 @@ CRATES = [
 ]
 
 
+@functools.cache
 def target_dir():
     meta = subprocess.run(
         ["cargo", "metadata", "--format-version", "1", "--no-deps"],

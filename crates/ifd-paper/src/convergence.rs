@@ -137,21 +137,14 @@ fn job<'b>(
     method: Method,
     material: Option<&'b Material>,
 ) -> Job<'b> {
-    Job {
-        scene: study.scene.clone(),
-        camera: study.camera,
-        env: study.env,
-        background: None,
+    Job::new(
+        study.scene.clone(),
+        study.camera,
+        study.env,
         brdf,
         material,
         method,
-        spp: 0,
-        seed: 0,
-        maps: None,
-        family: None,
-        lights: &[],
-        shadows: None,
-    }
+    )
 }
 
 /// The rows as CSV (`brdf,L,method,rel_rms,psnr_db`).

@@ -71,19 +71,15 @@ pub fn study(
 ) -> Result<VisibilityStudy> {
     let l_max = materials.iter().map(Material::l_max).max().unwrap_or(0);
     let job = |method, material, shadows| Job {
-        scene: Scene::Mesh(scene.mesh.clone()),
-        camera: scene.camera,
-        env: scene.env,
-        background: None,
-        brdf: scene.brdf,
-        material,
-        method,
-        spp: 0,
-        seed: 0,
-        maps: None,
-        family: None,
-        lights: &[],
         shadows,
+        ..Job::new(
+            Scene::Mesh(scene.mesh.clone()),
+            scene.camera,
+            scene.env,
+            scene.brdf,
+            material,
+            method,
+        )
     };
     progress("reference (ray-traced visibility)");
     let t = Instant::now();

@@ -15,8 +15,7 @@
 //! let brdf = Brdf::parse("lambert")?;
 //! let material = Material::new(&brdf, 4, None)?;
 //! let camera = Camera::new(DVec3::new(0.0, -4.0, 0.0), DVec3::ZERO, DVec3::Z, 40.0, 16, 16)?;
-//! let job = Job { scene: Scene::Sphere, camera, env: &env, background: None, brdf: &brdf,
-//!                 material: Some(&material), method: Method::Isd, spp: 0, seed: 0, maps: None, family: None, lights: &[], shadows: None };
+//! let job = Job::new(Scene::Sphere, camera, &env, &brdf, Some(&material), Method::Isd);
 //! let r = render(&job, &|_, _| {})?;
 //! // the white furnace: a white Lambertian sphere in a uniform unit light is 1
 //! let centre = r.image.get(8, 8, 0);

@@ -371,9 +371,13 @@ pub fn render(
                 let sample = |dx: f64, dy: f64, out: &mut [f64]| match trace(dx, dy) {
                     Ok((r, _)) | Err(r) => look(r, out),
                 };
-                mask[xi] = trace(0.0, 0.0).is_ok();
+                // the centre ray: the mask, and the sample of Centre and ISD
+                let centre = trace(0.0, 0.0);
+                mask[xi] = centre.is_ok();
                 match method {
-                    AaMethod::Centre => sample(0.0, 0.0, &mut out),
+                    AaMethod::Centre => match centre {
+                        Ok((r, _)) | Err(r) => look(r, &mut out),
+                    },
                     AaMethod::Supersample(n) | AaMethod::Reference(n) => {
                         let jitter = matches!(method, AaMethod::Reference(_));
                         let seed = hash((yi * w + xi) as u64);
@@ -406,7 +410,7 @@ pub fn render(
                         let Some(f) = isd else {
                             unreachable!("checked above")
                         };
-                        match trace(0.0, 0.0) {
+                        match centre {
                             Err(d) => look(d, &mut out),
                             Ok((r0, _)) => {
                                 // J by central differences half a pixel apart

@@ -93,6 +93,37 @@ pub struct Job<'a> {
     pub shadows: Option<&'a Shadows>,
 }
 
+impl<'a> Job<'a> {
+    /// A job with nothing optional: the object black-backed, unshadowed,
+    /// without texture maps or spherical lights, Monte Carlo at 0 samples
+    /// and seed 0; set the other fields by struct update.
+    #[must_use]
+    pub fn new(
+        scene: Scene,
+        camera: Camera,
+        env: &'a EnvMap,
+        brdf: &'a Brdf,
+        material: Option<&'a Material>,
+        method: Method,
+    ) -> Self {
+        Self {
+            scene,
+            camera,
+            env,
+            background: None,
+            brdf,
+            material,
+            method,
+            spp: 0,
+            seed: 0,
+            maps: None,
+            family: None,
+            lights: &[],
+            shadows: None,
+        }
+    }
+}
+
 /// A rendered image with what a caller needs to measure it.
 #[derive(Debug)]
 pub struct Rendered {

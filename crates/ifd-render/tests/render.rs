@@ -701,28 +701,27 @@ fn shadows_darken_the_torus_and_isd_follows_the_traced_reference() {
     let m = material(&brdf, 8);
     let traced = Shadows::traced(mesh.clone(), &env).unwrap();
     let shadows = Shadows::new(mesh.clone(), &env, 8, 1024, &|_, _| {}).unwrap();
+    let camera = Camera::new(
+        DVec3::new(0.0, -2.4, 1.7),
+        DVec3::ZERO,
+        DVec3::Z,
+        40.0,
+        32,
+        32,
+    )
+    .unwrap();
     let job = |method, material, shadows| Job {
-        scene: Scene::Mesh(mesh.clone()),
-        camera: Camera::new(
-            DVec3::new(0.0, -2.4, 1.7),
-            DVec3::ZERO,
-            DVec3::Z,
-            40.0,
-            32,
-            32,
-        )
-        .unwrap(),
-        env: &env,
-        background: None,
-        brdf: &brdf,
-        material,
-        method,
         spp: 1,
         seed: 1,
-        maps: None,
-        family: None,
-        lights: &[],
         shadows,
+        ..Job::new(
+            Scene::Mesh(mesh.clone()),
+            camera,
+            &env,
+            &brdf,
+            material,
+            method,
+        )
     };
     let go = |method, material, shadows| render(&job(method, material, shadows), &|_, _| {});
     let reference = go(Method::Quadrature, None, Some(&traced)).unwrap();
