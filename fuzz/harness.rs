@@ -92,11 +92,11 @@ pub fn planar_spec(data: &[u8]) {
 /// `ifd sphere decompose SPEC` and `--profile`: spherical kernel specs.
 pub fn sphere_spec(data: &[u8]) {
     let Some(t) = text(data) else { return };
-    if let Ok(k) = ifd_sphere::kernel::Kernel::parse(t) {
+    if let Ok(k) = ifd_sphere::Kernel::parse(t) {
         let _ = k.eval([0.0, 0.6, 0.8]);
         let _ = k.suggested_nodes(8);
     }
-    if let Ok(p) = ifd_sphere::profile::Profile::parse(t) {
+    if let Ok(p) = ifd_sphere::Profile::parse(t) {
         let _ = p.beta(8);
     }
 }
@@ -116,7 +116,7 @@ pub fn brdf_spec(data: &[u8]) {
 /// `ifd sphere filter --decomp FILE`: the spherical decomposition JSON.
 pub fn sphere_decomposition(data: &[u8]) {
     let Some(t) = text(data) else { return };
-    if let Ok(d) = ifd_sphere::filter::Decomposition::from_json(t)
+    if let Ok(d) = ifd_sphere::Decomposition::from_json(t)
         && d.validate().is_ok()
     {
         let _ = d.eval_kernel([0.0, 0.0, 1.0]);
@@ -154,7 +154,7 @@ pub fn image(data: &[u8]) {
 pub fn sh_coeffs(data: &[u8]) {
     let f = Scratch::new("sh_coeffs", "npy", data);
     let _ = ifd_sphere::ShCoeffs::read_npy(f.path());
-    let _ = ifd_sphere::coeffs::read_npy_f64(f.path());
+    let _ = ifd_sphere::read_npy_f64(f.path());
 }
 
 /// `--table FILE`: view-dependent lobe tables of `ifd sphere brdf`.

@@ -341,9 +341,9 @@ fn smooth_gpu_matches_cpu_in_both_modes() {
 mod sphere {
     use super::{ifd, testdata};
     use ifd_sphere::ShCoeffs;
-    use ifd_sphere::coeffs::write_npy_f64;
-    use ifd_sphere::kernel::{Kernel, project_function};
-    use ifd_sphere::sh::{direction, gauss_legendre, sh_index};
+    use ifd_sphere::write_npy_f64;
+    use ifd_sphere::{Kernel, project_function};
+    use ifd_sphere::{direction, gauss_legendre, sh_index};
     use std::f64::consts::PI;
     use std::path::Path;
 
@@ -685,7 +685,7 @@ mod sphere {
         let e = rel_diff(&weights(&p(d, "s.json")).1, &want);
         assert!(e < 1e-9, "samples vs spec: {e}");
         // (N, 4) samples: equal weights 4 pi / N on a fine spherical Fibonacci set
-        let fib = ifd_sphere::zhf::fibonacci(40_000);
+        let fib = ifd_sphere::fibonacci(40_000);
         let rows: Vec<f64> = fib
             .iter()
             .flat_map(|q| [q[0], q[1], q[2], k.eval(*q)])
@@ -847,10 +847,10 @@ mod sphere {
         assert_eq!(code, 2);
         assert!(err.contains("(16, 3)") && err.contains("(7, 3)"), "{err}");
         // a good per-band set from a file decomposes
-        let good: Vec<f64> = ifd_sphere::zhf::DirectionSet::new(
+        let good: Vec<f64> = ifd_sphere::DirectionSet::new(
             2,
-            ifd_sphere::zhf::Sharing::PerBand,
-            ifd_sphere::zhf::Chooser::Fibonacci,
+            ifd_sphere::Sharing::PerBand,
+            ifd_sphere::Chooser::Fibonacci,
         )
         .unwrap()
         .all()

@@ -1273,7 +1273,7 @@ mod shading {
     /// The forest map averaged down to 64x32 (what the renderer integrates).
     fn forest() -> EnvMap {
         let img = ifd_image::read(testdata("forest.hdr")).expect("forest.hdr");
-        let small = ifd_sphere::transform::downsample_equirect(&img, 64, 32).expect("downsample");
+        let small = ifd_sphere::downsample_equirect(&img, 64, 32).expect("downsample");
         EnvMap::new(small, 30.0).expect("env")
     }
 

@@ -11,7 +11,7 @@
 //!   world direction `d` (y up) samples texture coordinates
 //!   `u = 0.5 + atan2(d.z, d.x) / (2 pi)`, `v = acos(d.y) / pi` (v from the
 //!   top row). In ifd's own equirectangular frame (z up, column azimuth
-//!   `2 pi (u + 0.5) / W`, see `ifd_sphere::transform`) that is the direction
+//!   `2 pi (u + 0.5) / W`, see `ifd_sphere::EquirectTransform`) that is the direction
 //!   [`world_to_ifd`]`(d) = (-d.x, -d.z, d.y)`. Derivation: ifd's azimuth
 //!   `phi = 2 pi u = pi + atan2(d.z, d.x) = atan2(-d.z, -d.x)` and polar angle
 //!   `theta = pi v = acos(d.y)`. (The map is a reflection, determinant -1:
@@ -20,7 +20,7 @@
 //!   `sh.json`.)
 
 use ifd_image::Image;
-use ifd_sphere::transform::cube_texel;
+use ifd_sphere::cube_texel;
 
 /// Face names in storage order.
 pub const FACE_NAMES: [&str; 6] = ["+X", "-X", "+Y", "-Y", "+Z", "-Z"];
@@ -120,14 +120,14 @@ impl CubeLevel {
 
 /// Catmull-Rom (bicubic) lookup of an equirectangular map (ifd's layout) in
 /// direction `d` of ifd's frame, the first three channels
-/// ([`ifd_sphere::transform::bicubic_taps`]: wraps in azimuth, continues
+/// ([`ifd_sphere::bicubic_taps`]: wraps in azimuth, continues
 /// across the poles, `O(h^4)` for a smooth field).
 #[must_use]
 pub fn sample_bicubic(img: &Image, d: [f64; 3]) -> [f32; 3] {
     let ch = img.channels();
     let data = img.data();
     let mut out = [0.0f64; 3];
-    for (t, wt) in ifd_sphere::transform::bicubic_taps(d, img.width(), img.height()) {
+    for (t, wt) in ifd_sphere::bicubic_taps(d, img.width(), img.height()) {
         for (c, o) in out.iter_mut().enumerate().take(ch.min(3)) {
             *o += wt * f64::from(data[t * ch + c]);
         }

@@ -35,7 +35,7 @@ pub fn dfg(nv: f64, r: f64) -> (f64, f64) {
     let alpha = (r * r).max(1e-6);
     let a2 = alpha * alpha;
     let v = [(1.0 - nv * nv).max(0.0).sqrt(), 0.0, nv];
-    let (gx, gw) = ifd_sphere::sh::gauss_legendre(NX);
+    let (gx, gw) = ifd_sphere::gauss_legendre(NX);
     let (mut sa, mut sb) = (0.0, 0.0);
     for (x, w) in gx.iter().zip(&gw) {
         let xi = 0.5 * (1.0 + x);

@@ -197,7 +197,7 @@ impl Lobe {
 
     /// Composite Gauss-Legendre nodes and weights in `theta` on `[0, pi/2]`.
     fn quadrature(&self, l_max: usize) -> (Vec<f64>, Vec<f64>) {
-        let (gx, gw) = ifd_sphere::sh::gauss_legendre(20);
+        let (gx, gw) = ifd_sphere::gauss_legendre(20);
         let half = 0.5 * PI;
         let mut edges = vec![0.0];
         let mut e = (self.width() / 8.0).clamp(1e-9, half);
@@ -250,7 +250,7 @@ mod tests {
             let t = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
             let k = lobe.eval(t) * 2.0 / n as f64;
             c[0] += k;
-            c[1] += k * ifd_sphere::sh::legendre_p(l, t);
+            c[1] += k * ifd_sphere::legendre_p(l, t);
         }
         c[1] / c[0]
     }

@@ -542,7 +542,7 @@ impl Baker {
 /// centres at integers) of a face: the OpenGL table of [`crate::cube`].
 fn face_direction(face: usize, fi: f64, fj: f64, n: usize) -> [f64; 3] {
     let nf = n as f64;
-    ifd_sphere::transform::cube_face_direction(
+    ifd_sphere::cube_face_direction(
         face,
         2.0 * (fi + 0.5) / nf - 1.0,
         2.0 * (fj + 0.5) / nf - 1.0,

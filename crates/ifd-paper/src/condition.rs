@@ -21,8 +21,8 @@ use ifd_plot::{
     PLOT_BOTTOM as BOTTOM, PLOT_LEFT as LEFT, PLOT_RIGHT as RIGHT, PLOT_SIZE, PLOT_TOP as TOP,
 };
 use ifd_sphere::Result;
-use ifd_sphere::profile::{Profile, isd_matrix};
-use ifd_sphere::zhf::{Chooser, DirectionSet, Sharing, condition_number};
+use ifd_sphere::{Chooser, DirectionSet, Sharing, condition_number};
+use ifd_sphere::{Profile, isd_matrix};
 
 /// Gap between the top decade and the singular row, in pixels.
 const SINGULAR_GAP: usize = 34;
@@ -51,9 +51,9 @@ pub fn is_singular(cond: f64) -> bool {
 /// `L = 1..=l_max`.
 ///
 /// # Errors
-/// [`ifd_sphere::SphereError::IsdTooLarge`] above [`ifd_sphere::profile::MAX_ISD_DEGREE`].
+/// [`ifd_sphere::SphereError::IsdTooLarge`] above [`ifd_sphere::MAX_ISD_DEGREE`].
 pub fn condition_study(l_max: usize) -> Result<Vec<ConditionSeries>> {
-    ifd_sphere::profile::check_isd_degree(l_max)?;
+    ifd_sphere::check_isd_degree(l_max)?;
     let mut out = Vec::new();
     for profile in Profile::ALL {
         for sharing in [Sharing::PerBand, Sharing::Shared] {

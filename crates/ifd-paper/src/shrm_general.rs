@@ -41,8 +41,8 @@ use std::f64::consts::PI;
 use std::time::Instant;
 
 use ifd_image::Image;
-use ifd_sphere::sh::{ShEvaluator, gauss_legendre, sh_count};
 use ifd_sphere::{EquirectTransform, Negatives, Rotation, ShRotation};
+use ifd_sphere::{ShEvaluator, gauss_legendre, sh_count};
 use rayon::prelude::*;
 
 use ifd_ibl::Result;

@@ -25,8 +25,8 @@
 
 use nalgebra::DMatrix;
 
-use ifd_sphere::sh::ShEvaluator;
-use ifd_sphere::zhf::SplitMix64;
+use ifd_sphere::ShEvaluator;
+use ifd_sphere::SplitMix64;
 use ifd_sphere::{Result, SphereError};
 
 /// Entries below this magnitude count as zeros (the paper's epsilon).
@@ -217,7 +217,7 @@ fn fitness(
 ) -> Option<(f64, Vec<f64>, f64)> {
     let dirs: Vec<[f64; 3]> = genome
         .iter()
-        .map(|&(t, p)| ifd_sphere::sh::direction(cand.theta[t as usize], cand.phi[p as usize]))
+        .map(|&(t, p)| ifd_sphere::direction(cand.theta[t as usize], cand.phi[p as usize]))
         .collect();
     let (mut z, mut total, mut res) = (0, 0, 0.0f64);
     let mut per = Vec::new();
@@ -375,7 +375,7 @@ fn evolve_once(
     };
     let directions: Vec<[f64; 3]> = g
         .iter()
-        .map(|&(t, p)| ifd_sphere::sh::direction(cand.theta[t as usize], cand.phi[p as usize]))
+        .map(|&(t, p)| ifd_sphere::direction(cand.theta[t as usize], cand.phi[p as usize]))
         .collect();
     let lobes_per_function = if bands.start() == bands.end() {
         let l = *bands.start();

@@ -2,7 +2,7 @@
 //! and timing studies) and the colour of each ISD profile's curves.
 
 use ifd_image::Image;
-use ifd_sphere::profile::Profile;
+use ifd_sphere::Profile;
 
 use crate::draw::{
     BLACK, GREY, TEXT_HEIGHT, draw_text, draw_text_centred, hline, put_f, segment, text_width,

@@ -1,12 +1,12 @@
 //! The spherical half: SH analysis and synthesis of environment maps, SH
 //! rotation, decompositions of spherical filters into rotated lobes.
 
-use ifd_sphere::filter::Decomposition;
-use ifd_sphere::kernel::{Kernel, project_function};
-use ifd_sphere::profile::{IsdBasis, Profile, check_isd_degree};
-use ifd_sphere::transform::{Negatives, Projection, analyze_map};
-use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, Sharing};
+use ifd_sphere::Decomposition;
+use ifd_sphere::{Chooser, DirectionSet, RzhBasis, Sharing};
 use ifd_sphere::{EquirectTransform, Rotation, ShCoeffs, ShRotation};
+use ifd_sphere::{IsdBasis, Profile, check_isd_degree};
+use ifd_sphere::{Kernel, project_function};
+use ifd_sphere::{Negatives, Projection, analyze_map};
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 
@@ -311,7 +311,7 @@ fn sphere_filter<'py>(
     keep_negatives: bool,
     projection: Option<&str>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-    use ifd_sphere::filter::{MapLayout, Prefiltered};
+    use ifd_sphere::{MapLayout, Prefiltered};
     let projection = parse_projection(projection)?;
     let img = arrays::image_view("env", &env)?.to_image();
     let (w, h) = (img.width(), img.height());

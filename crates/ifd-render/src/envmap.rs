@@ -1,12 +1,12 @@
 //! Environment maps for rendering: an equirectangular map read as piecewise
 //! constant over its texels, rotated about `z`, downsampled by solid-angle
 //! averaging, looked up by direction and projected on SH exactly
-//! ([`ifd_sphere::transform::analyze_equirect_box`]).
+//! ([`ifd_sphere::analyze_equirect_box`]).
 
 use std::f64::consts::PI;
 
 use ifd_image::Image;
-use ifd_sphere::transform::{Negatives, analyze_equirect_box};
+use ifd_sphere::{Negatives, analyze_equirect_box};
 use ifd_sphere::{Rotation, ShCoeffs, ShRotation};
 
 use crate::error::{RenderError, Result};
@@ -158,7 +158,7 @@ impl EnvMap {
             });
         }
         Ok(Self {
-            img: ifd_sphere::transform::downsample_equirect(&self.img, width, height)?,
+            img: ifd_sphere::downsample_equirect(&self.img, width, height)?,
             rotation: self.rotation,
             sh: self.sh.clone(),
         })

@@ -8,8 +8,8 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use ifd_image::Image;
 use ifd_shade::shade::Environment;
-use ifd_sphere::kernel::vmf_factors;
-use ifd_sphere::sh::pi_l;
+use ifd_sphere::pi_l;
+use ifd_sphere::vmf_factors;
 use rayon::prelude::*;
 
 use crate::camera::Camera;
@@ -84,7 +84,7 @@ impl PixelFilter {
     /// phi(a) / (2 Phi(a) - 1))` with `a = radius / sigma`, by quadrature.
     #[must_use]
     pub fn variance(&self) -> f64 {
-        let (x, w) = ifd_sphere::sh::gauss_legendre(64);
+        let (x, w) = ifd_sphere::gauss_legendre(64);
         let (mut m0, mut m2) = (0.0, 0.0);
         for (t, wt) in x.iter().zip(&w) {
             let d = t * self.radius;
@@ -317,7 +317,7 @@ fn unit_float(h: u64) -> f64 {
 /// replace it by the isotropic Gaussian with the same second moment, `sigma_w^2
 /// = tr(S) / 2 = s^2 (|J_x|^2 + |J_y|^2) / 2`, i.e. a von Mises-Fisher lobe of
 /// `kappa = 1 / sigma_w^2`, whose convolution factors `Lambda_l`
-/// ([`ifd_sphere::kernel::vmf_factors`]) give Eq. 29:
+/// ([`ifd_sphere::vmf_factors`]) give Eq. 29:
 ///
 /// ```text
 /// I(p) = sum_l Lambda_l sum_m e_l^m y_l^m(r(p)) = sum_l (Lambda_l / pi_l) Ehat_l(r(p)).

@@ -78,7 +78,7 @@ impl VertexVisibility {
             });
         }
         let sh = ShEvaluator::new(l_max)?;
-        let dirs = ifd_sphere::zhf::fibonacci(n_dirs);
+        let dirs = ifd_sphere::fibonacci(n_dirs);
         let ydirs: Vec<f64> = dirs.iter().flat_map(|d| sh.eval(*d)).collect();
         let (pos, nrm) = (mesh.positions(), mesh.normals());
         let done = std::sync::atomic::AtomicUsize::new(0);

@@ -25,7 +25,7 @@
 //! # Filtering (Eq. 31-32)
 //! The separable kernel `m(wi, wo) = K exp(kappa (wi . zi + wo . zo))`,
 //! each factor a normalised vMF lobe, multiplies `C_ab` by `Lambda_{l_a}
-//! Lambda_{l_b}` ([`ifd_sphere::kernel::vmf_factors`]; Eq. 32's `k_l /
+//! Lambda_{l_b}` ([`ifd_sphere::vmf_factors`]; Eq. 32's `k_l /
 //! pi_l` products, with `k_l` the lobe's zonal coefficients). Holes (bins a
 //! measurement marks invalid) are treated as missing, not as zero, by
 //! **normalised convolution**: the data times the validity mask and the mask
@@ -34,8 +34,8 @@
 //! exactly 1 and this is plain filtering). Values are clamped at 0 and to
 //! zero below the horizon.
 
-use ifd_sphere::kernel::vmf_factors;
-use ifd_sphere::sh::{ShEvaluator, gauss_legendre};
+use ifd_sphere::vmf_factors;
+use ifd_sphere::{ShEvaluator, gauss_legendre};
 use rayon::prelude::*;
 
 use crate::brdf::Brdf;

@@ -43,7 +43,7 @@
 //! times `Le`.
 
 use ifd_sphere::ShCoeffs;
-use ifd_sphere::sh::{ShEvaluator, gauss_legendre, legendre_all, pi_l};
+use ifd_sphere::{ShEvaluator, gauss_legendre, legendre_all, pi_l};
 
 use crate::brdf::Brdf;
 use crate::error::{Result, ShadeError};

@@ -22,8 +22,8 @@
 //! its SH coefficients rotated by `R` (Ivanic-Ruedenberg) and dotted with
 //! `e`. Both give the same number up to rounding.
 
-use ifd_sphere::sh::{ShEvaluator, pi_l};
 use ifd_sphere::{Rotation, ShCoeffs, ShRotation};
+use ifd_sphere::{ShEvaluator, pi_l};
 
 use crate::brdf::Brdf;
 use crate::error::{Result, ShadeError};
@@ -238,7 +238,7 @@ impl Bands for BandMaps {
     }
     fn bands_from(&self, l0: usize, d: [f64; 3], _y: &mut [f64], out: &mut [f64]) {
         let (w, h, ch) = (self.width, self.height, self.channels);
-        let taps = ifd_sphere::transform::bicubic_taps(d, w, h);
+        let taps = ifd_sphere::bicubic_taps(d, w, h);
         let band_len = w * h * ch;
         for l in l0..=self.l_max {
             let base = &self.data[l * band_len..(l + 1) * band_len];

@@ -4,7 +4,7 @@
 //! ([`crate::zonal`]), rotated onto their axis by the addition theorem
 //! (`c_l^m = k_l pi_l y_l^m(axis)`). The other models are integrated over the
 //! upper hemisphere only (they vanish below the horizon, where the cosine has
-//! its kink) by [`ifd_sphere::kernel::project_band`], starting from a
+//! its kink) by [`ifd_sphere::project_band`], starting from a
 //! resolution set by the lobe's width ([`slice_nodes`]) and doubling it until
 //! the coefficients change by less than [`SLICE_TOLERANCE`] (relative L2), up
 //! to [`MAX_SLICE_NODES`] rings: near grazing views the lobe hugs the horizon
@@ -12,8 +12,8 @@
 //! 0.1` at `theta_o = 1.5` needs about 320 rings for 1e-4, 80 suffice at 0.8).
 
 use ifd_sphere::ShCoeffs;
-use ifd_sphere::kernel::project_band;
-use ifd_sphere::sh::{ShEvaluator, pi_l};
+use ifd_sphere::project_band;
+use ifd_sphere::{ShEvaluator, pi_l};
 
 use crate::brdf::{Brdf, Model};
 use crate::error::Result;

@@ -7,7 +7,7 @@
 //!   rotated about the normal so that `phi_o = 0`; the renderer applies the
 //!   same rotation ([`view_frame_angle`]). In that frame the slice is even in
 //!   `y`, so its band `l` needs only `l + 1` lobes: the in-plane basis of
-//!   [`ifd_sphere::zhf_plane`], `L + 1` directions in the `xz` plane shared by
+//!   [`ifd_sphere::PlaneRzhBasis`], `L + 1` directions in the `xz` plane shared by
 //!   all bands (band `l` uses the first `l + 1`), `(L + 1)(L + 2) / 2` weights
 //!   per entry ([`LobeKind::InPlane`], the default).
 //! - Anisotropic BRDFs: a 2D table over `(theta_o, phi_o)` in the tangent
@@ -43,8 +43,8 @@ use std::io::{Read, Write};
 use std::path::Path;
 
 use ifd_sphere::ShCoeffs;
-use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, RzhCoeffs, Sharing};
-use ifd_sphere::zhf_plane::{PlaneRzhBasis, plane_count, plane_index};
+use ifd_sphere::{Chooser, DirectionSet, RzhBasis, RzhCoeffs, Sharing};
+use ifd_sphere::{PlaneRzhBasis, plane_count, plane_index};
 use rayon::prelude::*;
 
 use crate::brdf::{Brdf, Model};
@@ -373,7 +373,7 @@ impl LobeTable {
                 directions: DirectionSet::new(l_max, Sharing::Shared, Chooser::Fibonacci)?,
             },
             LobeKind::InPlane => LobeLayout::InPlane {
-                angles: ifd_sphere::zhf_plane::default_angles(l_max),
+                angles: ifd_sphere::default_angles(l_max),
             },
         };
         let basis = LobeBasis::new(&layout, l_max)?;

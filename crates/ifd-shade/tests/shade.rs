@@ -8,8 +8,8 @@ use ifd_shade::merl::{self, Merl};
 use ifd_shade::slice::project_slice;
 use ifd_shade::table::LobeTable;
 use ifd_shade::zonal::{legendre_moments, zonal_slice};
-use ifd_sphere::kernel::{project_band, project_function};
-use ifd_sphere::sh::{gauss_legendre, legendre_p};
+use ifd_sphere::{gauss_legendre, legendre_p};
+use ifd_sphere::{project_band, project_function};
 
 fn view(theta: f64, phi: f64) -> [f64; 3] {
     [
@@ -347,8 +347,8 @@ fn in_plane_and_shared_tables_shade_alike() {
     use ifd_shade::shade::{Environment, Frame, Material};
     use ifd_shade::table::LobeKind;
     use ifd_sphere::ShCoeffs;
-    use ifd_sphere::zhf::SplitMix64;
-    use ifd_sphere::zhf_plane::odd_part_norm;
+    use ifd_sphere::SplitMix64;
+    use ifd_sphere::odd_part_norm;
     let l = 10;
     for spec in ["ggx:alpha=0.3", "blinn-exact:s=40", "ward:ax=0.2,ay=0.2"] {
         let b = Brdf::parse(spec).unwrap();
@@ -467,7 +467,7 @@ fn unit(v: [f64; 3]) -> [f64; 3] {
 fn isd_and_sh_shading_agree() {
     use ifd_shade::shade::{Environment, Frame, Material};
     use ifd_sphere::ShCoeffs;
-    use ifd_sphere::zhf::SplitMix64;
+    use ifd_sphere::SplitMix64;
     let l = 8;
     let mut rng = SplitMix64::new(3);
     let mut e = ShCoeffs::zeros(l, 3).unwrap();
@@ -553,7 +553,7 @@ fn white_furnace_through_shading() {
 
 #[test]
 fn samplers_are_consistent_with_their_densities() {
-    use ifd_sphere::zhf::SplitMix64;
+    use ifd_sphere::SplitMix64;
     // E[k(wi) / pdf(wi)] over the sampler's draws is the slice's integral
     let dir = tempfile::tempdir().unwrap();
     let merl_path = dir.path().join("m.binary");

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use ifd_image::Image;
-use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, Sharing, SplitMix64};
+use ifd_sphere::{Chooser, DirectionSet, RzhBasis, Sharing, SplitMix64};
 use ifd_sphere::{EquirectTransform, Negatives, Rotation, ShCoeffs, ShEvaluator, ShRotation};
 
 fn sh_eval(c: &mut Criterion) {
@@ -81,7 +81,7 @@ fn rotation(c: &mut Criterion) {
             b.iter(|| basis.rotate_tailored(black_box(&f), black_box(&r)).unwrap());
         });
         // ZHF Eq. 11 with the band expansions tabulated (512 rows)
-        let tables = ifd_sphere::tabulated::BandTables::new(&f, 512).unwrap();
+        let tables = ifd_sphere::BandTables::new(&f, 512).unwrap();
         g.bench_with_input(BenchmarkId::new("tabulated", n), &n, |b, _| {
             b.iter(|| tables.rotate(black_box(&basis), black_box(&r)).unwrap());
         });

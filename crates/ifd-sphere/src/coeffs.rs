@@ -8,7 +8,7 @@ use crate::sh::{ShEvaluator, sh_count, sh_index};
 
 /// Real SH coefficients `c_l^m` for `l <= L` of a function with `C` channels.
 ///
-/// Layout: `((L + 1)^2, C)` row-major, row `l (l + 1) + m` (see [`crate::sh`]
+/// Layout: `((L + 1)^2, C)` row-major, row `l (l + 1) + m` (see [`crate::ShEvaluator`]
 /// for the basis convention). This is also the layout of the `.npy` files
 /// written by [`ShCoeffs::write_npy`] (float64).
 #[derive(Clone, Debug, PartialEq)]

@@ -44,10 +44,10 @@ impl Decomposition {
     /// Decomposes a kernel given by its SH coefficients (truncated/padded to the basis degree).
     ///
     /// ```
-    /// use ifd_sphere::filter::{Decomposition, Prefiltered};
-    /// use ifd_sphere::kernel::{Kernel, project_function};
-    /// use ifd_sphere::profile::{IsdBasis, Profile};
-    /// use ifd_sphere::zhf::{Chooser, DirectionSet, Sharing};
+    /// use ifd_sphere::{Decomposition, Prefiltered};
+    /// use ifd_sphere::{Kernel, project_function};
+    /// use ifd_sphere::{IsdBasis, Profile};
+    /// use ifd_sphere::{Chooser, DirectionSet, Sharing};
     /// use ifd_sphere::{Rotation, ShCoeffs};
     /// let l = 6;
     /// let k = Kernel::parse("aniso-gauss:s1=0.6,s2=0.3")?;
@@ -249,10 +249,10 @@ impl Decomposition {
     /// profile.
     ///
     /// ```
-    /// use ifd_sphere::filter::Decomposition;
-    /// use ifd_sphere::kernel::{Kernel, project_function};
-    /// use ifd_sphere::profile::{IsdBasis, Profile};
-    /// use ifd_sphere::zhf::{Chooser, DirectionSet, Sharing};
+    /// use ifd_sphere::Decomposition;
+    /// use ifd_sphere::{Kernel, project_function};
+    /// use ifd_sphere::{IsdBasis, Profile};
+    /// use ifd_sphere::{Chooser, DirectionSet, Sharing};
     /// // vmf:kappa=10 integrates to 2 pi (1 - exp(-2 kappa)) / kappa
     /// let k = Kernel::parse("vmf:kappa=10")?;
     /// let kc = project_function(8, |w| k.eval(w), 64)?;
@@ -276,7 +276,7 @@ impl Decomposition {
     /// `w` the texel's direction and `R(w)` its [`meridian_frame`].
     ///
     /// The layout follows the size: `W = 2H` equirectangular (texel centres as
-    /// in [`crate::transform`]), `W = 6H` a cubemap strip
+    /// in [`crate::EquirectTransform`]), `W = 6H` a cubemap strip
     /// ([`crate::transform::cube_texel`]). Rows run in parallel (rayon); the
     /// result does not depend on the thread count. `progress(done, total)` is
     /// called after each row (from any thread).
@@ -379,7 +379,7 @@ impl MapLayout {
 /// atan2(y, x)`, which is `0` exactly at the poles.
 ///
 /// ```
-/// use ifd_sphere::filter::meridian_frame;
+/// use ifd_sphere::meridian_frame;
 /// let w = [0.0, 1.0, 0.0]; // theta = pi/2, phi = pi/2
 /// let r = meridian_frame(w);
 /// let z = r.apply([0.0, 0.0, 1.0]);

@@ -134,7 +134,7 @@ impl Kernel {
 /// (exact for band-limited functions of degree below `n_theta - l_max`).
 ///
 /// ```
-/// use ifd_sphere::kernel::project_function;
+/// use ifd_sphere::project_function;
 /// let c = project_function(2, |w| w[2], 8)?; // z = y_1^0 / 0.4886
 /// assert!((c.get(1, 0, 0) - 1.0 / 0.488_602_511_902_919_9).abs() < 1e-12);
 /// # Ok::<(), ifd_sphere::SphereError>(())
@@ -202,7 +202,7 @@ pub fn project_function(
 /// not depend on the thread count.
 ///
 /// ```
-/// use ifd_sphere::kernel::{project_band, project_function};
+/// use ifd_sphere::{project_band, project_function};
 /// // max(z, 0) projected over the upper hemisphere only, against the full rule
 /// let a = project_band(6, 1, (0.0, 1.0), 24, |w, o| o[0] = w[2].max(0.0))?;
 /// let b = project_function(6, |w| w[2].max(0.0), 400)?;
@@ -326,7 +326,7 @@ pub fn project_band(
 /// `l > 0`).
 ///
 /// ```
-/// let a = ifd_sphere::kernel::vmf_factors(50.0, 4);
+/// let a = ifd_sphere::vmf_factors(50.0, 4);
 /// // Lambda_1 = coth(kappa) - 1 / kappa, the mean cosine of the density
 /// let exact = 1.0 / 50f64.tanh() - 1.0 / 50.0;
 /// assert!((a[1] - exact).abs() < 1e-14);

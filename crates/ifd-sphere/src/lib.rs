@@ -4,9 +4,8 @@
 //! arbitrary mother functions, and filtering of spherical signals with it.
 //!
 //! ```
-//! use ifd_sphere::{EquirectTransform, Rotation, ShRotation};
-//! use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, Sharing};
-//! // A 64x32 map, projected to degree 4 with the FFT + Legendre transform.
+//! use ifd_sphere::{Chooser, DirectionSet, EquirectTransform, Rotation, RzhBasis, Sharing, ShRotation};
+//! //! // A 64x32 map, projected to degree 4 with the FFT + Legendre transform.
 //! let t = EquirectTransform::new(4, 64, 32)?;
 //! let img = ifd_image::Image::from_vec(64, 32, 1, (0..64 * 32).map(|i| (i % 7) as f32).collect())?;
 //! let c = t.analyze(&img, ifd_sphere::Negatives::Clamp)?.coeffs;
@@ -37,36 +36,68 @@
 //!   `pi_l = sqrt(4 pi / (2l + 1))` (ISD Eq. 10).
 //! - **Filtering**: `fhat(R) = int k(R^-1 w) f(w) dw` (ISD Eq. 1).
 //!
-//! # Modules
-//! - [`sh`]: evaluation (stable recurrences, `f64` and an `f32` fast path).
-//! - [`transform`]: equirectangular analysis/synthesis (FFT + Legendre),
-//!   cubemap and sample projection.
-//! - [`rotation`]: rotations and the Ivanic-Ruedenberg reference SH rotation.
-//! - [`zhf`]: direction sets, `M_l`, ZHF/ZHE, ZHF rotation (Eq. 10, 11).
-//! - [`tabulated`]: pre-tabulated band expansions for the signal-tailored
-//!   rotation (ZHF Eq. 11 with lookups).
-//! - [`zhf_plane`]: `l + 1` in-plane lobes per band for functions even in
-//!   `y` (isotropic BRDF slices).
-//! - [`profile`]: mother functions, `beta_{l l'}`, the general `M` (Eq. 15-19).
-//! - [`kernel`]: closed-form spherical filters and their projection.
-//! - [`filter`]: prefiltering (Eq. 13) and evaluation of `fhat(R)` (Eq. 6, 14).
-//! - [`coeffs`]: [`ShCoeffs`] and their `.npy` format.
+//! # The API, by topic (the modules are private; everything is here)
+//! - **SH evaluation** (`sh.rs`, stable recurrences, `f64` and an `f32`
+//!   fast path): [`ShEvaluator`], [`eval_sh`], [`legendre_p`],
+//!   [`legendre_all`], [`gauss_legendre`], [`direction`], [`pi_l`],
+//!   [`sh_count`], [`sh_index`]; coefficients [`ShCoeffs`] and their `.npy`
+//!   format ([`read_npy_f64`], [`write_npy_f64`]).
+//! - **Map transforms** (`transform/`): [`EquirectTransform`] (FFT +
+//!   Legendre analysis at pixel centres or texel-exact, synthesis),
+//!   [`analyze_map`] by shape, [`analyze_cubemap`], [`project_samples`],
+//!   cube geometry ([`cube_face_direction`], [`cube_texel`]), resampling
+//!   ([`bicubic_taps`], [`downsample_equirect`]).
+//! - **Rotations** (`rotation.rs`): [`Rotation`] and the Ivanic-Ruedenberg
+//!   reference [`ShRotation`].
+//! - **RZH and ZHF** (`zhf/`): direction sets ([`DirectionSet`], [`Sharing`],
+//!   [`Chooser`], [`fibonacci`]), the basis [`RzhBasis`] with ZHF/ZHE and ZHF
+//!   rotation (Eq. 10, 11), [`RzhCoeffs`], [`condition_number`]; the
+//!   generator [`SplitMix64`] (`rng.rs`); tabulated band expansions for the
+//!   signal-tailored rotation, [`BandTables`] (`tabulated.rs`); `l + 1`
+//!   in-plane lobes per band for functions even in `y`, [`PlaneRzhBasis`]
+//!   (`zhf_plane.rs`).
+//! - **ISD** (`profile.rs`): mother functions [`Profile`], `beta_{l l'}` and
+//!   the general `M` ([`IsdBasis`], [`isd_matrix`], Eq. 15-19).
+//! - **Spherical filters** (`kernel.rs`): closed forms [`Kernel`] and their
+//!   projection ([`project_function`], [`project_band`], [`vmf_factors`]).
+//! - **Filtering** (`filter.rs`): [`Decomposition`], prefiltering (Eq. 13)
+//!   into [`Prefiltered`] and evaluation of `fhat(R)` (Eq. 6, 14),
+//!   [`MapLayout`], [`meridian_frame`].
 
+mod coeffs;
 mod error;
+mod filter;
+mod kernel;
+mod profile;
+mod rng;
+mod rotation;
+mod sh;
+mod tabulated;
+mod transform;
+mod zhf;
+mod zhf_plane;
 
-pub mod coeffs;
-pub mod filter;
-pub mod kernel;
-pub mod profile;
-pub mod rotation;
-pub mod sh;
-pub mod tabulated;
-pub mod transform;
-pub mod zhf;
-pub mod zhf_plane;
-
-pub use crate::coeffs::ShCoeffs;
+pub use crate::coeffs::{ShCoeffs, read_npy_f64, write_npy_f64};
 pub use crate::error::{MAX_DEGREE, Result, SphereError};
+pub use crate::filter::{Decomposition, MapLayout, Prefiltered, meridian_frame};
+pub use crate::kernel::{Kernel, project_band, project_function, vmf_factors};
+pub use crate::profile::{IsdBasis, MAX_ISD_DEGREE, Profile, check_isd_degree, isd_matrix};
+pub use crate::rng::SplitMix64;
 pub use crate::rotation::{Rotation, ShRotation};
-pub use crate::sh::ShEvaluator;
-pub use crate::transform::{Analysis, EquirectTransform, Negatives};
+pub use crate::sh::{
+    ShEvaluator, direction, eval_sh, gauss_legendre, legendre_all, legendre_p, pi_l, sh_count,
+    sh_index,
+};
+pub use crate::tabulated::BandTables;
+pub use crate::transform::{
+    Analysis, EquirectTransform, Negatives, Projection, analyze_cubemap, analyze_equirect,
+    analyze_equirect_box, analyze_map, bicubic_taps, cube_face_direction, cube_texel,
+    downsample_equirect, project_samples,
+};
+pub use crate::zhf::{
+    Chooser, DEFAULT_COND_LIMIT, DirectionSet, RzhBasis, RzhCoeffs, Sharing, check_direction,
+    condition_number, fibonacci,
+};
+pub use crate::zhf_plane::{
+    PlaneRzhBasis, default_angles, odd_part_norm, plane_count, plane_index,
+};

@@ -206,8 +206,8 @@ fn graded_rule(l_max: usize) -> (Vec<f64>, Vec<f64>) {
 /// factorisation and its condition number.
 ///
 /// ```
-/// use ifd_sphere::profile::{IsdBasis, Profile};
-/// use ifd_sphere::zhf::{Chooser, DirectionSet, Sharing};
+/// use ifd_sphere::{IsdBasis, Profile};
+/// use ifd_sphere::{Chooser, DirectionSet, Sharing};
 /// let dirs = DirectionSet::new(4, Sharing::PerBand, Chooser::Fibonacci)?;
 /// let isd = IsdBasis::new(Profile::Gauss, dirs)?;
 /// assert!(isd.condition_number() < 1e6);
@@ -245,7 +245,7 @@ pub const MAX_ISD_DEGREE: usize = 40;
 /// Refuses degrees above [`MAX_ISD_DEGREE`], naming the size and cost of `M`.
 ///
 /// ```
-/// use ifd_sphere::profile::{MAX_ISD_DEGREE, check_isd_degree};
+/// use ifd_sphere::{MAX_ISD_DEGREE, check_isd_degree};
 /// assert!(check_isd_degree(MAX_ISD_DEGREE).is_ok());
 /// let e = check_isd_degree(5000).unwrap_err().to_string();
 /// assert!(e.contains("at most L = 40"), "{e}");

@@ -194,7 +194,7 @@ macro_rules! eval_body {
 /// Evaluates all real SH up to a fixed degree at a direction; reusable setup.
 ///
 /// ```
-/// use ifd_sphere::sh::{ShEvaluator, sh_index};
+/// use ifd_sphere::{ShEvaluator, sh_index};
 /// let sh = ShEvaluator::new(2)?;
 /// let y = sh.eval([1.0, 0.0, 0.0]);
 /// assert!((y[sh_index(1, 1)] + 0.488_602_511_902_919_9).abs() < 1e-15); // y_1^1 = -0.4886 x

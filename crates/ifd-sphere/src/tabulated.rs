@@ -16,8 +16,8 @@
 //!
 //! ```
 //! use ifd_sphere::{Rotation, ShCoeffs};
-//! use ifd_sphere::tabulated::BandTables;
-//! use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, Sharing};
+//! use ifd_sphere::BandTables;
+//! use ifd_sphere::{Chooser, DirectionSet, RzhBasis, Sharing};
 //! let f = ShCoeffs::from_vec(3, 1, (0..16).map(|i| (i as f64 * 0.7).sin()).collect())?;
 //! let basis = RzhBasis::new(DirectionSet::new(3, Sharing::Shared, Chooser::Fibonacci)?)?;
 //! let tables = BandTables::new(&f, 512)?;
@@ -197,7 +197,8 @@ impl BandTables {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::zhf::{Chooser, DirectionSet, SplitMix64};
+    use crate::rng::SplitMix64;
+    use crate::zhf::{Chooser, DirectionSet};
 
     /// Lookups converge to the on-the-fly rotation as the grid grows (second
     /// order: bilinear), per-band and shared sets alike.

@@ -62,7 +62,7 @@ pub const fn plane_index(l: usize, j: usize) -> usize {
 /// sequence, `0, pi/2, pi/4, 3pi/4, pi/8, 5pi/8, ...` (`l_max + 1` of them).
 ///
 /// ```
-/// let a = ifd_sphere::zhf_plane::default_angles(3);
+/// let a = ifd_sphere::default_angles(3);
 /// let pi = std::f64::consts::PI;
 /// assert_eq!(a, vec![0.0, pi / 2.0, pi / 4.0, 3.0 * pi / 4.0]);
 /// ```
@@ -88,7 +88,7 @@ pub fn default_angles(l_max: usize) -> Vec<f64> {
 ///
 /// ```
 /// use ifd_sphere::ShCoeffs;
-/// use ifd_sphere::zhf_plane::{PlaneRzhBasis, plane_count};
+/// use ifd_sphere::{PlaneRzhBasis, plane_count};
 /// let basis = PlaneRzhBasis::new(6)?;
 /// assert_eq!(basis.directions().len(), 7);
 /// // a function even in y: only the m >= 0 coefficients
@@ -275,7 +275,7 @@ pub fn odd_part_norm(f: &ShCoeffs) -> f64 {
 mod tests {
     use super::*;
     use crate::Rotation;
-    use crate::zhf::SplitMix64;
+    use crate::rng::SplitMix64;
 
     #[test]
     fn default_angles_are_well_conditioned_to_degree_100() {

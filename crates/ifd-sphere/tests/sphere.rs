@@ -8,13 +8,13 @@
 use std::f64::consts::PI;
 
 use ifd_image::Image;
-use ifd_sphere::filter::{Decomposition, Prefiltered};
-use ifd_sphere::kernel::{Kernel, project_function};
-use ifd_sphere::profile::{IsdBasis, Profile, isd_matrix};
-use ifd_sphere::sh::{ShEvaluator, direction, gauss_legendre, legendre_p, sh_count, sh_index};
-use ifd_sphere::transform::{Negatives, analyze_cubemap, project_samples};
-use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, Sharing, SplitMix64};
+use ifd_sphere::{Chooser, DirectionSet, RzhBasis, Sharing, SplitMix64};
+use ifd_sphere::{Decomposition, Prefiltered};
 use ifd_sphere::{EquirectTransform, Rotation, ShCoeffs, ShRotation, SphereError};
+use ifd_sphere::{IsdBasis, Profile, isd_matrix};
+use ifd_sphere::{Kernel, project_function};
+use ifd_sphere::{Negatives, analyze_cubemap, project_samples};
+use ifd_sphere::{ShEvaluator, direction, gauss_legendre, legendre_p, sh_count, sh_index};
 
 fn random_coeffs(l_max: usize, ch: usize, seed: u64) -> ShCoeffs {
     let mut rng = SplitMix64::new(seed);
@@ -552,7 +552,7 @@ mod transform {
         for face in 0..6 {
             for j in 0..n {
                 for i in 0..n {
-                    let (d, sa) = ifd_sphere::transform::cube_texel(face, i, j, n);
+                    let (d, sa) = ifd_sphere::cube_texel(face, i, j, n);
                     total += sa;
                     cube.set(face * n + i, j, 0, f.eval(&sh, d).unwrap()[0] as f32);
                 }
@@ -675,7 +675,7 @@ mod transform {
         // the library's own texel table agrees with the documented layout
         for face in 0..6 {
             for (i, j) in [(0, 0), (3, 5), (7, 7)] {
-                let (d, _) = ifd_sphere::transform::cube_texel(face, i, j, 8);
+                let (d, _) = ifd_sphere::cube_texel(face, i, j, 8);
                 let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
                 let d = [d[0] / r, d[1] / r, d[2] / r];
                 assert!(max_abs_diff(&d, &opengl_texel_dir(face, i, j, 8)) < 1e-15);
@@ -876,7 +876,7 @@ mod filter {
         for l in 0..=5 {
             for m in -(l as i64)..=l as i64 {
                 let want = if l == 3 {
-                    ifd_sphere::sh::pi_l(3) * f.get(l, m, 1)
+                    ifd_sphere::pi_l(3) * f.get(l, m, 1)
                 } else {
                     0.0
                 };

@@ -47,7 +47,7 @@ pub(crate) const MAX_TABLES: usize = 64;
 /// The kernel's `consts`: per `k < L + 1` the sectoral factor
 /// `-sqrt((2m + 1) / 2m)` and `sqrt(2m + 3)` of order `m = k`, and `(pi_l,
 /// k_l)` of band `l = k`; then the Legendre recurrence `(a_lm, b_lm)` of
-/// `ifd_sphere::sh` at `L + 1 + l (l + 1) / 2 + m`.
+/// `ifd_sphere::ShEvaluator` at `L + 1 + l (l + 1) / 2 + m`.
 fn constants(l_max: usize, k: &[f64]) -> Vec<[f32; 4]> {
     let nb = l_max + 1;
     let mut c = Vec::with_capacity(nb + nb * (nb + 1) / 2);
@@ -62,7 +62,7 @@ fn constants(l_max: usize, k: &[f64]) -> Vec<[f32; 4]> {
         c.push([
             q as f32,
             (2.0 * mf + 3.0).sqrt() as f32,
-            ifd_sphere::sh::pi_l(i) as f32,
+            ifd_sphere::pi_l(i) as f32,
             kl as f32,
         ]);
     }

@@ -267,7 +267,7 @@ impl PrefilterCmd {
         };
         let sh_json = json!({
             "lmax": self.sh_lmax,
-            "basis": "real orthonormal SH, Condon-Shortley phase, flat index l(l+1)+m (ifd_sphere::sh; pyshtools 'ortho', csphase=-1); rows are coefficients, columns R, G, B",
+            "basis": "real orthonormal SH, Condon-Shortley phase, flat index l(l+1)+m (ifd_sphere::ShEvaluator; pyshtools 'ortho', csphase=-1); rows are coefficients, columns R, G, B",
             "frame": "ifd's equirectangular frame: z up, azimuth 2 pi (u + 0.5) / W from +x towards +y; a world (glTF, y up) direction (x, y, z) is (-x, -z, y) here",
             "quadrature": "exact for the map read as piecewise constant over its texels",
             "radiance": bands(false),

@@ -7,7 +7,7 @@ use anyhow::{Result, bail};
 use clap::Args;
 use ifd_paper::condition::condition_plot;
 use ifd_paper::condition::{condition_study, is_singular};
-use ifd_sphere::profile::MAX_ISD_DEGREE;
+use ifd_sphere::MAX_ISD_DEGREE;
 use serde_json::json;
 
 use crate::commands::sphere::sharing_name;

@@ -109,7 +109,7 @@ impl Shrm {
                 img.channels()
             );
         }
-        let src = ifd_sphere::transform::downsample_equirect(&img, w, h).with_context(|| {
+        let src = ifd_sphere::downsample_equirect(&img, w, h).with_context(|| {
             format!(
                 "{}: averaging down to --size {w}x{h}",
                 self.envmap.display()

@@ -109,7 +109,7 @@ impl BrdfFilterCmd {
             filtered.eval(&sh, wi, wo, s, out);
         };
         // directional albedo of the result over a grid of views
-        let (gx, gw) = ifd_sphere::sh::gauss_legendre(32);
+        let (gx, gw) = ifd_sphere::gauss_legendre(32);
         let mut albedo = (f64::INFINITY, f64::NEG_INFINITY);
         let mut s = filtered.scratch();
         let mut v = vec![0.0; ch];
@@ -203,7 +203,7 @@ fn l2_errors(
     filtered: &BrdfSh,
     sh: &ShEvaluator,
 ) -> Result<serde_json::Value> {
-    let (gx, gw) = ifd_sphere::sh::gauss_legendre(12);
+    let (gx, gw) = ifd_sphere::gauss_legendre(12);
     let mut nodes = Vec::new();
     for (t, wt) in gx.iter().zip(&gw) {
         let z = 0.5 * (t + 1.0);

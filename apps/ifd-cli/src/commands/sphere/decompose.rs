@@ -4,14 +4,14 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
-use ifd_sphere::coeffs::read_npy_f64;
+use ifd_sphere::read_npy_f64;
 
+use ifd_sphere::Decomposition;
 use ifd_sphere::ShCoeffs;
-use ifd_sphere::filter::Decomposition;
-use ifd_sphere::kernel::{Kernel, project_function};
-use ifd_sphere::profile::{IsdBasis, Profile, check_isd_degree};
-use ifd_sphere::transform::{Negatives, analyze_map, project_samples};
-use ifd_sphere::zhf::{DirectionSet, Sharing};
+use ifd_sphere::{DirectionSet, Sharing};
+use ifd_sphere::{IsdBasis, Profile, check_isd_degree};
+use ifd_sphere::{Kernel, project_function};
+use ifd_sphere::{Negatives, analyze_map, project_samples};
 use serde_json::json;
 
 use super::sharing_name;
@@ -132,7 +132,7 @@ impl DecomposeCmd {
                 self.lmax,
                 Negatives::Keep,
                 Some(self.projection.map_or(
-                    ifd_sphere::transform::Projection::Centre,
+                    ifd_sphere::Projection::Centre,
                     super::ProjectionArg::projection,
                 )),
             )

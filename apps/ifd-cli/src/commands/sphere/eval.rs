@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use ifd_sphere::coeffs::{read_npy_f64, write_npy_f64};
+use ifd_sphere::{read_npy_f64, write_npy_f64};
 
 use ifd_sphere::ShEvaluator;
 
@@ -43,7 +43,7 @@ impl EvalCmd {
         let mut y32 = vec![0.0f32; k];
         for i in 0..*n {
             let d = [data[3 * i], data[3 * i + 1], data[3 * i + 2]];
-            ifd_sphere::zhf::check_direction(i, d)
+            ifd_sphere::check_direction(i, d)
                 .with_context(|| format!("--dirs {}", self.dirs.display()))?;
             if self.f32 {
                 sh.eval_f32_into([d[0] as f32, d[1] as f32, d[2] as f32], &mut y32);

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 
-use ifd_sphere::filter::{MapLayout, Prefiltered};
-use ifd_sphere::transform::{Negatives, analyze_map};
+use ifd_sphere::{MapLayout, Prefiltered};
+use ifd_sphere::{Negatives, analyze_map};
 use serde_json::json;
 
 use super::{

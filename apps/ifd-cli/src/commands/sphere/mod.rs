@@ -15,8 +15,8 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 
-use ifd_sphere::filter::Decomposition;
-use ifd_sphere::zhf::Sharing;
+use ifd_sphere::Decomposition;
+use ifd_sphere::Sharing;
 
 /// Spherical harmonics (graphics/Sloan convention, flat index l(l+1)+m), rotations
 /// (`--zyz a,b,c` = Rz(a) Ry(b) Rz(c), g(w) = f(R^T w)) and isotropic spherical
@@ -147,10 +147,10 @@ pub(super) enum ProjectionArg {
 }
 
 impl ProjectionArg {
-    fn projection(self) -> ifd_sphere::transform::Projection {
+    fn projection(self) -> ifd_sphere::Projection {
         match self {
-            Self::Texel => ifd_sphere::transform::Projection::Texel,
-            Self::Centre => ifd_sphere::transform::Projection::Centre,
+            Self::Texel => ifd_sphere::Projection::Texel,
+            Self::Centre => ifd_sphere::Projection::Centre,
         }
     }
 }

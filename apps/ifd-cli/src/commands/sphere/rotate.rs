@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 
-use ifd_sphere::zhf::{Chooser, DirectionSet, RzhBasis, Sharing};
+use ifd_sphere::{Chooser, DirectionSet, RzhBasis, Sharing};
 use ifd_sphere::{Rotation, ShCoeffs, ShRotation};
 
 #[derive(Debug, Clone, Copy, ValueEnum)]

@@ -6,7 +6,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 
 use ifd_sphere::EquirectTransform;
-use ifd_sphere::transform::{Negatives, analyze_map};
+use ifd_sphere::{Negatives, analyze_map};
 use serde_json::json;
 
 use super::{ProjectionArg, clamp_output_negatives, note_input_negatives, stores_negatives};
