@@ -160,13 +160,13 @@ pub fn sh_coeffs(data: &[u8]) {
 /// `--table FILE`: view-dependent lobe tables of `ifd sphere brdf`.
 pub fn brdf_table(data: &[u8]) {
     let f = Scratch::new("brdf_table", "bin", data);
-    let _ = ifd_shade::table::LobeTable::read(f.path());
+    let _ = ifd_shade::LobeTable::read(f.path());
 }
 
 /// `--brdf merl:FILE`: measured BRDFs in the MERL binary format.
 pub fn merl(data: &[u8]) {
     let f = Scratch::new("merl", "binary", data);
-    if let Ok(m) = ifd_shade::merl::Merl::read(f.path()) {
+    if let Ok(m) = ifd_shade::Merl::read(f.path()) {
         let _ = m.eval([0.0, 0.6, 0.8], [0.3, 0.0, 0.95]);
     }
 }

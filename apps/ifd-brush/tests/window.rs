@@ -22,22 +22,73 @@ fn have(cmd: &str) -> bool {
         .is_ok_and(|s| s.success())
 }
 
+/// The set-up every window test shares: Xvfb (or a skip that says why,
+/// when `IFD_WINDOW_TESTS=skip` allows it), a temporary folder with the
+/// app's state folder and a private `XDG_RUNTIME_DIR`, and the command that
+/// starts the app in a virtual 1280x800 screen.
+struct WindowTest {
+    dir: tempfile::TempDir,
+    state: std::path::PathBuf,
+    runtime: std::path::PathBuf,
+}
+
+impl WindowTest {
+    /// `None` when Xvfb is missing and the test may be skipped.
+    fn new() -> Option<Self> {
+        if !have("xvfb-run") || !have("Xvfb") {
+            assert!(
+                skip::allowed("IFD_WINDOW_TESTS"),
+                "Xvfb/xvfb-run not installed for the window test (apt-get install xvfb xauth; \
+                 scripts/test-all.sh does) or set IFD_WINDOW_TESTS=skip"
+            );
+            skip::skip("Xvfb/xvfb-run not installed (IFD_WINDOW_TESTS=skip)");
+            return None;
+        }
+        let dir = tempfile::tempdir().expect("tempdir");
+        let state = dir.path().join("state");
+        std::fs::create_dir(&state).expect("state dir");
+        let runtime = dir.path().join("xdg");
+        std::fs::create_dir(&runtime).expect("xdg dir");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700))
+                .expect("chmod");
+        }
+        Some(Self {
+            dir,
+            state,
+            runtime,
+        })
+    }
+
+    fn path(&self) -> &Path {
+        self.dir.path()
+    }
+
+    /// `xvfb-run ... ifd-brush` with the state and runtime folders set and
+    /// the test's bank cache; the caller adds the app's arguments.
+    fn command(&self) -> Command {
+        let mut c = Command::new("xvfb-run");
+        c.args(["-a", "-s", "-screen 0 1280x800x24"])
+            .arg(env!("CARGO_BIN_EXE_ifd-brush"))
+            .args(["--bank", common::bank_cache().to_str().expect("utf8")])
+            .env("IFD_BRUSH_STATE_DIR", &self.state)
+            .env("XDG_RUNTIME_DIR", &self.runtime);
+        c
+    }
+}
+
 #[test]
 fn window_under_xvfb_shows_image_and_controls() {
-    if !have("xvfb-run") || !have("Xvfb") {
-        assert!(
-            skip::allowed("IFD_WINDOW_TESTS"),
-            "Xvfb/xvfb-run not installed for the window test (apt-get install xvfb xauth; \
-             scripts/test-all.sh does) or set IFD_WINDOW_TESTS=skip"
-        );
-        skip::skip("Xvfb/xvfb-run not installed (IFD_WINDOW_TESTS=skip)");
+    let Some(win) = WindowTest::new() else {
         return;
-    }
-    let dir = tempfile::tempdir().expect("tempdir");
-    let input = dir.path().join("in.png");
+    };
+    let dir = win.path();
+    let input = dir.join("in.png");
     let img = common::crop(100, 50, 320, 256);
     ifd_image::write(&input, &img).expect("write");
-    let strokes = dir.path().join("strokes.json");
+    let strokes = dir.join("strokes.json");
     std::fs::write(
         &strokes,
         r#"{"format": "ifd-brush-strokes", "version": 1, "strokes": [
@@ -48,31 +99,19 @@ fn window_under_xvfb_shows_image_and_controls() {
     std::fs::create_dir_all(&artifacts).expect("artifacts dir");
     let shot = artifacts.join("brush-screenshot.png");
     std::fs::remove_file(&shot).ok();
-    let out = dir.path().join("out.exr");
-    let state = dir.path().join("state");
-    std::fs::create_dir(&state).expect("state dir");
-    let runtime = dir.path().join("xdg");
-    std::fs::create_dir(&runtime).expect("xdg dir");
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700)).expect("chmod");
-    }
+    let out = dir.join("out.exr");
+    let state = &win.state;
     let run = |gpu: &str, shot: &Path, out: &Path| -> String {
-        let log = dir.path().join(format!("stderr-{gpu}.txt"));
-        let mut child = Command::new("xvfb-run")
-            .args(["-a", "-s", "-screen 0 1280x800x24"])
-            .arg(env!("CARGO_BIN_EXE_ifd-brush"))
+        let log = dir.join(format!("stderr-{gpu}.txt"));
+        let mut child = win
+            .command()
             .args(["--image", input.to_str().expect("utf8")])
             .args(["--replay", strokes.to_str().expect("utf8")])
             .args(["--save", out.to_str().expect("utf8")])
             .args(["--screenshot", shot.to_str().expect("utf8")])
-            .args(["--bank", common::bank_cache().to_str().expect("utf8")])
             .args(["--brush", r#"{"radius": 37.5}"#])
             .args(["--device", gpu])
             .arg("--exit")
-            .env("IFD_BRUSH_STATE_DIR", &state)
-            .env("XDG_RUNTIME_DIR", &runtime)
             .stderr(std::fs::File::create(&log).expect("log file"))
             .spawn()
             .expect("start xvfb-run");
@@ -163,7 +202,7 @@ fn window_under_xvfb_shows_image_and_controls() {
     // result and the canvas on screen match the CPU run's.
     let gpu_shot = artifacts.join("brush-screenshot-gpu.png");
     std::fs::remove_file(&gpu_shot).ok();
-    let gpu_out = dir.path().join("out-gpu.exr");
+    let gpu_out = dir.join("out-gpu.exr");
     let log = run("gpu", &gpu_shot, &gpu_out);
     if !log.contains("shown without readback") {
         assert!(
@@ -211,42 +250,25 @@ fn window_under_xvfb_shows_image_and_controls() {
 /// with the message and no panic.
 #[test]
 fn automation_failure_exits_2_with_the_message() {
-    if !have("xvfb-run") || !have("Xvfb") {
-        assert!(
-            skip::allowed("IFD_WINDOW_TESTS"),
-            "Xvfb/xvfb-run not installed for the window test (apt-get install xvfb xauth; \
-             scripts/test-all.sh does) or set IFD_WINDOW_TESTS=skip"
-        );
-        skip::skip("Xvfb/xvfb-run not installed (IFD_WINDOW_TESTS=skip)");
+    let Some(win) = WindowTest::new() else {
         return;
-    }
-    let dir = tempfile::tempdir().expect("tempdir");
-    let input = dir.path().join("in.png");
+    };
+    let input = win.path().join("in.png");
     ifd_image::write(&input, &common::crop(100, 50, 128, 96)).expect("write");
-    let not_a_folder = dir.path().join("file");
+    let not_a_folder = win.path().join("file");
     std::fs::write(&not_a_folder, b"a regular file").expect("file");
     let shot = not_a_folder.join("shot.png");
-    let state = dir.path().join("state");
-    std::fs::create_dir(&state).expect("state dir");
-    let runtime = dir.path().join("xdg");
-    std::fs::create_dir(&runtime).expect("xdg dir");
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700)).expect("chmod");
-    }
+    let mut c = win.command();
+    c.args(["--image", input.to_str().expect("utf8")])
+        .args(["--screenshot", shot.to_str().expect("utf8")])
+        .args(["--device", "cpu"])
+        .arg("--exit");
+    // under `timeout 300`: the same command, stopped after 5 minutes
     let out = Command::new("timeout")
         .arg("300")
-        .arg("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1280x800x24"])
-        .arg(env!("CARGO_BIN_EXE_ifd-brush"))
-        .args(["--image", input.to_str().expect("utf8")])
-        .args(["--screenshot", shot.to_str().expect("utf8")])
-        .args(["--bank", common::bank_cache().to_str().expect("utf8")])
-        .args(["--device", "cpu"])
-        .arg("--exit")
-        .env("IFD_BRUSH_STATE_DIR", &state)
-        .env("XDG_RUNTIME_DIR", &runtime)
+        .arg(c.get_program())
+        .args(c.get_args())
+        .envs(c.get_envs().filter_map(|(k, v)| Some((k, v?))))
         .output()
         .expect("start xvfb-run");
     let stderr = String::from_utf8_lossy(&out.stderr);

@@ -1,6 +1,6 @@
 //! The environment renderer (`ifd-envrender`): an object lit by an
 //! environment map, shaded by ISD (ISD Eq. 22) in a window, with the GPU
-//! kernels of `ifd_gpu::shading` on the window's own device.
+//! kernels of `ifd_gpu::GpuShader` on the window's own device.
 //!
 //! - [`settings`]: what the user chose (map, scene, BRDF, `L`, variant,
 //!   camera, display), persisted between sessions.

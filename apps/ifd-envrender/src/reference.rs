@@ -14,7 +14,7 @@ use ifd_render::EnvMap;
 use ifd_render::Scene;
 use ifd_render::{Job, Method, relative_rms, render};
 use ifd_shade::Brdf;
-use ifd_shade::shade::Material;
+use ifd_shade::Material;
 
 use crate::settings::{Settings, bundled_env};
 use crate::worker::{build_material, load_env};

@@ -12,15 +12,15 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use ifd_gpu::GpuContext;
-use ifd_gpu::shading::{GpuEnvironment, GpuMaterial, GpuShader, GpuSurfaces, SurfacePoint};
+use ifd_gpu::{GpuEnvironment, GpuMaterial, GpuShader, GpuSurfaces, SurfacePoint};
 use ifd_render::EnvMap;
 use ifd_render::Scene;
 use ifd_render::Tonemap;
 use ifd_render::{Job, Method, render};
 use ifd_render::{RoughnessFamily, SurfaceMaps, Texture};
 use ifd_shade::Brdf;
-use ifd_shade::shade::{BandMaps, Environment, Material};
-use ifd_shade::table::{LobeTable, default_theta_entries};
+use ifd_shade::{BandMaps, Environment, Material};
+use ifd_shade::{LobeTable, default_theta_entries};
 
 use crate::settings::{Settings, Variant, bundled_env};
 

@@ -8,13 +8,23 @@
 //! - [`write_screenshot`]: a window screenshot (`--screenshot`) as an image
 //!   file;
 //! - [`Shell`]: the `eframe::App` around an app's frame, persisting its
-//!   settings under its storage key and finishing it on exit ([`AppFrame`]).
+//!   settings under its storage key and finishing it on exit ([`AppFrame`]);
+//! - [`Finish`] (`automation.rs`): the end of an automated run, settle,
+//!   screenshot, exit, or a failure for `main` to report;
+//! - [`Headless`] and [`FrameTimes`] (`harness.rs`): the headless frame
+//!   harness of the frame-time tests, with the frame-time summary and plot.
+
+mod automation;
+mod harness;
 
 use std::path::Path;
 
 use egui::ColorImage;
 use ifd_gpu::DeviceChoice;
 use ifd_image::Image;
+
+pub use crate::automation::{Finish, FinishStep, SETTLE_FRAMES};
+pub use crate::harness::{FRAME_GOAL_MS, FrameTimes, Headless};
 
 /// `--device` values.
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]

@@ -3,7 +3,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use ifd_image::Image;
-use ifd_smooth::smooth::DabRegion;
+use ifd_smooth::DabRegion;
 use ifd_smooth::{Dab, Mode};
 
 use crate::context::GpuContext;

@@ -103,7 +103,7 @@ mod eval;
 mod layout;
 mod pipelines;
 pub mod shaders;
-pub mod shading;
+mod shading;
 mod smooth;
 mod stack;
 mod wgpu_helpers;
@@ -112,5 +112,9 @@ pub use canvas::{DisplayTile, GpuCanvas};
 pub use context::{AdapterChoice, DeviceChoice, GpuContext, list_adapters};
 pub use error::GpuError;
 pub use eval::{GpuDecomposition, GpuOutput, GpuPose, Region};
+pub use shading::{
+    EnvVariant, GpuEnvironment, GpuMaterial, GpuRender, GpuShaded, GpuShader, GpuSurfaces,
+    SurfacePoint, ToneCurve,
+};
 pub use smooth::{GpuHessian, GpuSmoother, filter_image};
 pub use stack::GpuStack;

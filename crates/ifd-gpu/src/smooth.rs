@@ -3,8 +3,8 @@
 
 use ifd_image::Image;
 use ifd_planar::{Field, ScaleStack};
-use ifd_smooth::smooth::{DabRegion, anchored_dab_grid_corners, nearest_pixel};
 use ifd_smooth::{Dab, HessianBank, Mode, RegionRefresh, Smoother};
+use ifd_smooth::{DabRegion, anchored_dab_grid_corners, nearest_pixel};
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
@@ -33,7 +33,7 @@ impl GpuHessian {
     }
 
     /// `(Hxx, Hxy, Hyy)` planes of the channel mean at scale `sigma`, as
-    /// `ifd_smooth::hessian::HessianFilters::planes`: `xx` at 0 degrees, `xy`
+    /// `ifd_smooth::HessianFilters::planes`: `xx` at 0 degrees, `xy`
     /// at 0 and `xx` at 90, at filter scale `s = sigma / sigma0`, divided by
     /// `s^2`. The lookups run on the GPU; the channel mean on the CPU.
     ///
@@ -98,7 +98,7 @@ impl GpuSmoother {
             return Err(GpuError::Unsupported(format!(
                 "footprint scale {} px: scales below {} px are evaluated directly, on the CPU only",
                 smoother.options().scale,
-                ifd_smooth::direct::DIRECT_BELOW
+                ifd_smooth::DIRECT_BELOW
             )));
         }
         let stack = GpuStack::upload(ctx, smoother.stack())?;

@@ -770,7 +770,7 @@ fn rgba8_texture_holds_the_result() {
 mod smoothing {
     use std::sync::{Arc, OnceLock};
 
-    use ifd_smooth::hessian::HessianFilters;
+    use ifd_smooth::HessianFilters;
     use ifd_smooth::{AspectBank, BankOptions, Dab, HessianBank, Mode, SmoothOptions, Smoother};
 
     use super::*;
@@ -1181,7 +1181,7 @@ mod smoothing {
             lo,
             hi,
             Border::Reflect101,
-            ifd_smooth::hessian::hessian_stack_options(),
+            ifd_smooth::hessian_stack_options(),
         )
         .expect("stack");
         let cpu: HessianFilters<'_> = hbank.bind(&stack).expect("bind");
@@ -1253,7 +1253,7 @@ fn no_adapter_is_a_clear_error_not_a_panic() {
 
 mod shading {
     use glam::DVec3;
-    use ifd_gpu::shading::{GpuEnvironment, GpuMaterial, GpuShader, GpuSurfaces, SurfacePoint};
+    use ifd_gpu::{GpuEnvironment, GpuMaterial, GpuShader, GpuSurfaces, SurfacePoint};
     use ifd_image::Image;
     use ifd_render::Camera;
     use ifd_render::EnvMap;
@@ -1262,8 +1262,8 @@ mod shading {
     use ifd_render::{Job, Method, render};
     use ifd_render::{RoughnessFamily, SurfaceMaps, Texture};
     use ifd_shade::Brdf;
-    use ifd_shade::shade::{BandMaps, Environment, Material};
-    use ifd_shade::table::{LobeKind, LobeTable};
+    use ifd_shade::{BandMaps, Environment, Material};
+    use ifd_shade::{LobeKind, LobeTable};
 
     use super::{ctx, testdata};
 

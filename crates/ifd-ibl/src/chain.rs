@@ -44,7 +44,7 @@ impl RoughnessMapping {
     /// Perceptual roughness of mip `m` of an `levels`-level chain.
     ///
     /// ```
-    /// use ifd_ibl::chain::RoughnessMapping;
+    /// use ifd_ibl::RoughnessMapping;
     /// assert_eq!(RoughnessMapping::Linear.roughness(2, 8), 2.0 / 7.0);
     /// // cmgen: lod 0.5 -> 1 - sqrt(0.5)
     /// let r = RoughnessMapping::Cmgen.roughness(2, 5);

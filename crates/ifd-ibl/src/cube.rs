@@ -1,23 +1,6 @@
 //! Cube maps as engines load them, and the frame conversion to ifd's maps.
 //!
-//! # Conventions
-//! - Faces in the order `+X, -X, +Y, -Y, +Z, -Z`, **y up** (glTF, Vulkan,
-//!   OpenGL, Bevy). Texel `(i, j)` of an `N x N` face (column `i`, row `j`
-//!   from the top) has face coordinates `sc = 2 (i + 0.5) / N - 1`,
-//!   `tc = 2 (j + 0.5) / N - 1` and looks along the OpenGL cube-map table:
-//!   `+X: (1, -tc, -sc)`, `-X: (-1, -tc, sc)`, `+Y: (sc, 1, tc)`,
-//!   `-Y: (sc, -1, -tc)`, `+Z: (sc, -tc, 1)`, `-Z: (-sc, -tc, -1)`.
-//! - An equirectangular source is read as glTF-IBL-Sampler reads it: the
-//!   world direction `d` (y up) samples texture coordinates
-//!   `u = 0.5 + atan2(d.z, d.x) / (2 pi)`, `v = acos(d.y) / pi` (v from the
-//!   top row). In ifd's own equirectangular frame (z up, column azimuth
-//!   `2 pi (u + 0.5) / W`, see `ifd_sphere::EquirectTransform`) that is the direction
-//!   [`world_to_ifd`]`(d) = (-d.x, -d.z, d.y)`. Derivation: ifd's azimuth
-//!   `phi = 2 pi u = pi + atan2(d.z, d.x) = atan2(-d.z, -d.x)` and polar angle
-//!   `theta = pi v = acos(d.y)`. (The map is a reflection, determinant -1:
-//!   it does not matter for the isotropic lobes baked here, and SH
-//!   coefficients written by the baker stay in ifd's frame, as stated in
-//!   `sh.json`.)
+//! The derivation and conventions are documented on [`CubeLevel`].
 
 use ifd_image::Image;
 use ifd_sphere::cube_texel;
@@ -32,19 +15,19 @@ pub const FACE_FILE_NAMES: [&str; 6] = ["px", "nx", "py", "ny", "pz", "nz"];
 /// face `face` of an `n x n` cube, and the texel's exact solid angle.
 ///
 /// ```
-/// use ifd_ibl::cube::texel;
+/// use ifd_ibl::face_texel;
 /// // the centre texel of +Y looks straight up
-/// let (d, _) = texel(2, 1, 1, 3);
+/// let (d, _) = face_texel(2, 1, 1, 3);
 /// assert!((d[1] - 1.0).abs() < 1e-12);
 /// // the solid angles of all texels add up to 4 pi
 /// let n = 8;
 /// let total: f64 = (0..6)
-///     .flat_map(|f| (0..n * n).map(move |k| texel(f, k % n, k / n, n).1))
+///     .flat_map(|f| (0..n * n).map(move |k| face_texel(f, k % n, k / n, n).1))
 ///     .sum();
 /// assert!((total - 4.0 * std::f64::consts::PI).abs() < 1e-12);
 /// ```
 #[must_use]
-pub fn texel(face: usize, i: usize, j: usize, n: usize) -> ([f64; 3], f64) {
+pub fn face_texel(face: usize, i: usize, j: usize, n: usize) -> ([f64; 3], f64) {
     let (d, sa) = cube_texel(face, i, j, n);
     let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     ([d[0] / r, d[1] / r, d[2] / r], sa)
@@ -59,6 +42,25 @@ pub fn world_to_ifd(d: [f64; 3]) -> [f64; 3] {
 
 /// One mip level of a cube map: six `size x size` faces of RGB, `f32`,
 /// face-major, rows from the top.
+///
+/// # Conventions
+/// - Faces in the order `+X, -X, +Y, -Y, +Z, -Z`, **y up** (glTF, Vulkan,
+///   OpenGL, Bevy). Texel `(i, j)` of an `N x N` face (column `i`, row `j`
+///   from the top) has face coordinates `sc = 2 (i + 0.5) / N - 1`,
+///   `tc = 2 (j + 0.5) / N - 1` and looks along the OpenGL cube-map table:
+///   `+X: (1, -tc, -sc)`, `-X: (-1, -tc, sc)`, `+Y: (sc, 1, tc)`,
+///   `-Y: (sc, -1, -tc)`, `+Z: (sc, -tc, 1)`, `-Z: (-sc, -tc, -1)`.
+/// - An equirectangular source is read as glTF-IBL-Sampler reads it: the
+///   world direction `d` (y up) samples texture coordinates
+///   `u = 0.5 + atan2(d.z, d.x) / (2 pi)`, `v = acos(d.y) / pi` (v from the
+///   top row). In ifd's own equirectangular frame (z up, column azimuth
+///   `2 pi (u + 0.5) / W`, see `ifd_sphere::EquirectTransform`) that is the direction
+///   [`world_to_ifd`]`(d) = (-d.x, -d.z, d.y)`. Derivation: ifd's azimuth
+///   `phi = 2 pi u = pi + atan2(d.z, d.x) = atan2(-d.z, -d.x)` and polar angle
+///   `theta = pi v = acos(d.y)`. (The map is a reflection, determinant -1:
+///   it does not matter for the isotropic lobes baked here, and SH
+///   coefficients written by the baker stay in ifd's frame, as stated in
+///   `sh.json`.)
 #[derive(Clone, Debug, PartialEq)]
 pub struct CubeLevel {
     /// Face size in texels.
@@ -233,7 +235,7 @@ mod tests {
         let (w, h) = (64, 32);
         for face in 0..6 {
             for (i, j) in [(0, 0), (3, 1), (7, 7), (4, 4)] {
-                let (d, _) = texel(face, i, j, 8);
+                let (d, _) = face_texel(face, i, j, 8);
                 let want_u = 0.5 + d[2].atan2(d[0]) / (2.0 * std::f64::consts::PI);
                 let want_v = d[1].acos() / std::f64::consts::PI;
                 let (u, v) = equirect_coords(world_to_ifd(d), w, h);
@@ -259,16 +261,16 @@ mod tests {
             [0.0, 0.0, -1.0],
         ];
         for (face, a) in axes.iter().enumerate() {
-            let (d, _) = texel(face, 1, 1, 3);
+            let (d, _) = face_texel(face, 1, 1, 3);
             for k in 0..3 {
                 assert!((d[k] - a[k]).abs() < 1e-12);
             }
         }
         // the top row of a side face looks up (+y), of +Y looks towards -z
-        assert!(texel(0, 4, 0, 9).0[1] > 0.5);
-        assert!(texel(2, 4, 0, 9).0[2] < -0.5);
+        assert!(face_texel(0, 4, 0, 9).0[1] > 0.5);
+        assert!(face_texel(2, 4, 0, 9).0[2] < -0.5);
         // +X: column 0 looks towards +z (sc = -z)
-        assert!(texel(0, 0, 4, 9).0[2] > 0.5);
+        assert!(face_texel(0, 0, 4, 9).0[2] > 0.5);
     }
 
     #[test]
@@ -276,7 +278,7 @@ mod tests {
         let n = 16;
         for face in 0..6 {
             for (i, j) in [(0, 0), (5, 11), (15, 15), (8, 2)] {
-                let (d, _) = texel(face, i, j, n);
+                let (d, _) = face_texel(face, i, j, n);
                 let (f, s, t) = face_coords(d);
                 assert_eq!(f, face);
                 assert!((s * n as f64 - (i as f64 + 0.5)).abs() < 1e-9);
@@ -297,7 +299,7 @@ mod tests {
         let eq = strip_to_equirect(&level.strip().expect("strip")).expect("resample");
         let (w, h) = (eq.width(), eq.height());
         for face in 0..6 {
-            let (d, _) = texel(face, n / 2, n / 2, n);
+            let (d, _) = face_texel(face, n / 2, n / 2, n);
             let (u, v) = equirect_coords(world_to_ifd(d), w, h);
             let (u, v) = ((u as usize).min(w - 1), (v as usize).min(h - 1));
             assert_eq!(eq.data()[(v * w + u) * 3], face as f32, "face {face}");

@@ -2,21 +2,7 @@
 //! perceptual roughness (`alpha = y^2`), the scale `A` and bias `B` with
 //! `int f_spec(l, v) (n . l) dl = F0 A + B` for Schlick's Fresnel:
 //!
-//! ```text
-//! A = int (1 - Fc) Vis D (n.l) 4 (v.h) / ... = E[(1 - Fc) 4 Vis (v.h)(n.l) / (n.h)]
-//! B = E[Fc 4 Vis (v.h) (n.l) / (n.h)],   Fc = (1 - v.h)^5,
-//! Vis = 0.5 / (n.l sqrt((n.v)^2 (1 - a^2) + a^2) + n.v sqrt((n.l)^2 (1 - a^2) + a^2))
-//! ```
-//!
-//! (height-correlated Smith visibility, `a = alpha`), the expectation over
-//! half vectors drawn from `D(h) (n . h)`. Instead of random samples the
-//! expectation runs on a deterministic rule over the sampling square
-//! `(xi, phi)`: `cos theta_h = sqrt((1 - xi) / (1 + (alpha^2 - 1) xi))`
-//! maps `xi` uniformly to that density, Gauss-Legendre in `xi`, the midpoint
-//! rule in `phi` (periodic, and symmetric about the plane of `v`, so half the
-//! circle suffices). Texel `(i, j)` holds `x = (i + 0.5) / size`,
-//! `y = (j + 0.5) / size` (row 0 at the top is the smoothest), as
-//! glTF-IBL-Sampler's table.
+//! The derivation and conventions are documented on [`dfg_table`].
 
 use rayon::prelude::*;
 
@@ -24,7 +10,7 @@ use rayon::prelude::*;
 ///
 /// ```
 /// // a mirror-like surface seen head-on reflects everything: A + B = 1, B = 0
-/// let (a, b) = ifd_ibl::dfg::dfg(1.0, 0.02);
+/// let (a, b) = ifd_ibl::dfg(1.0, 0.02);
 /// assert!((a + b - 1.0).abs() < 1e-3 && b < 1e-3);
 /// ```
 #[must_use]
@@ -64,6 +50,22 @@ pub fn dfg(nv: f64, r: f64) -> (f64, f64) {
 }
 
 /// The `size x size` table, row-major, `(A, B)` per texel.
+///
+/// ```text
+/// A = int (1 - Fc) Vis D (n.l) 4 (v.h) / ... = E[(1 - Fc) 4 Vis (v.h)(n.l) / (n.h)]
+/// B = E[Fc 4 Vis (v.h) (n.l) / (n.h)],   Fc = (1 - v.h)^5,
+/// Vis = 0.5 / (n.l sqrt((n.v)^2 (1 - a^2) + a^2) + n.v sqrt((n.l)^2 (1 - a^2) + a^2))
+/// ```
+///
+/// (height-correlated Smith visibility, `a = alpha`), the expectation over
+/// half vectors drawn from `D(h) (n . h)`. Instead of random samples the
+/// expectation runs on a deterministic rule over the sampling square
+/// `(xi, phi)`: `cos theta_h = sqrt((1 - xi) / (1 + (alpha^2 - 1) xi))`
+/// maps `xi` uniformly to that density, Gauss-Legendre in `xi`, the midpoint
+/// rule in `phi` (periodic, and symmetric about the plane of `v`, so half the
+/// circle suffices). Texel `(i, j)` holds `x = (i + 0.5) / size`,
+/// `y = (j + 0.5) / size` (row 0 at the top is the smoothest), as
+/// glTF-IBL-Sampler's table.
 #[must_use]
 pub fn dfg_table(size: usize) -> Vec<[f32; 2]> {
     (0..size * size)

@@ -1,19 +1,6 @@
 //! A KTX2 writer for RGBA16F cube maps (the container engines load).
 //!
-//! Layout (KTX 2.0 specification, Khronos): the 12-byte identifier; the
-//! header (`vkFormat = 97` `VK_FORMAT_R16G16B16A16_SFLOAT`, `typeSize = 2`,
-//! `pixelWidth = pixelHeight = N`, `pixelDepth = 0`, `layerCount = 0`,
-//! `faceCount = 6`, `levelCount = M`, no supercompression); the index
-//! (offsets of the data format descriptor and key/value data); the level
-//! index (offset and length of every level, level 0 first); the data format
-//! descriptor (one basic block: RGBSDA colour model, BT.709 primaries,
-//! linear transfer, four 16-bit signed-float samples R, G, B, A with
-//! `sampleLower = -1.0f`, `sampleUpper = 1.0f`); key/value data
-//! (`KTXwriter`); then the levels, **smallest first** as the specification
-//! recommends, each 8-byte aligned, every level's six faces in order
-//! `+X, -X, +Y, -Y, +Z, -Z`, rows from the top. Alpha is 1.
-//!
-//! Values beyond the half-float range (65504) are clamped to it and counted.
+//! The derivation and conventions are documented on [`encode_ktx2_cube`].
 
 use std::io::Write;
 use std::path::Path;
@@ -35,9 +22,9 @@ const IDENTIFIER: [u8; 12] = [
 /// were clamped to the half-float range.
 ///
 /// ```
-/// use ifd_ibl::{cube::CubeLevel, ktx2::encode_cube};
+/// use ifd_ibl::{CubeLevel, encode_ktx2_cube};
 /// let levels = [CubeLevel::zeros(4), CubeLevel::zeros(2), CubeLevel::zeros(1)];
-/// let (bytes, clamped) = encode_cube(&levels)?;
+/// let (bytes, clamped) = encode_ktx2_cube(&levels)?;
 /// assert_eq!(&bytes[1..4], b"KTX");
 /// assert_eq!(clamped, 0);
 /// # Ok::<(), ifd_ibl::IblError>(())
@@ -45,7 +32,22 @@ const IDENTIFIER: [u8; 12] = [
 ///
 /// # Errors
 /// An empty chain, or levels whose sizes do not halve.
-pub fn encode_cube(levels: &[CubeLevel]) -> Result<(Vec<u8>, usize)> {
+///
+/// Layout (KTX 2.0 specification, Khronos): the 12-byte identifier; the
+/// header (`vkFormat = 97` `VK_FORMAT_R16G16B16A16_SFLOAT`, `typeSize = 2`,
+/// `pixelWidth = pixelHeight = N`, `pixelDepth = 0`, `layerCount = 0`,
+/// `faceCount = 6`, `levelCount = M`, no supercompression); the index
+/// (offsets of the data format descriptor and key/value data); the level
+/// index (offset and length of every level, level 0 first); the data format
+/// descriptor (one basic block: RGBSDA colour model, BT.709 primaries,
+/// linear transfer, four 16-bit signed-float samples R, G, B, A with
+/// `sampleLower = -1.0f`, `sampleUpper = 1.0f`); key/value data
+/// (`KTXwriter`); then the levels, **smallest first** as the specification
+/// recommends, each 8-byte aligned, every level's six faces in order
+/// `+X, -X, +Y, -Y, +Z, -Z`, rows from the top. Alpha is 1.
+///
+/// Values beyond the half-float range (65504) are clamped to it and counted.
+pub fn encode_ktx2_cube(levels: &[CubeLevel]) -> Result<(Vec<u8>, usize)> {
     let Some(first) = levels.first() else {
         return Err(param("KTX2 levels", "no level to write"));
     };
@@ -128,13 +130,13 @@ pub fn encode_cube(levels: &[CubeLevel]) -> Result<(Vec<u8>, usize)> {
     Ok((out, clamped))
 }
 
-/// Writes [`encode_cube`]'s bytes to `path` atomically (a temporary file in
+/// Writes [`encode_ktx2_cube`]'s bytes to `path` atomically (a temporary file in
 /// the same folder, renamed over `path`); returns the clamped count.
 ///
 /// # Errors
-/// As [`encode_cube`]; [`IblError::Write`] when the file cannot be written.
-pub fn write_cube(path: &Path, levels: &[CubeLevel]) -> Result<usize> {
-    let (bytes, clamped) = encode_cube(levels)?;
+/// As [`encode_ktx2_cube`]; [`IblError::Write`] when the file cannot be written.
+pub fn write_ktx2_cube(path: &Path, levels: &[CubeLevel]) -> Result<usize> {
+    let (bytes, clamped) = encode_ktx2_cube(levels)?;
     ifd_image::atomic_write(path, |w| w.write_all(&bytes).map_err(|e| e.to_string())).map_err(
         |e| IblError::Write {
             path: path.to_path_buf(),
@@ -194,7 +196,7 @@ mod tests {
             }
         }
         levels[0].data[0] = 1e6; // beyond half range: clamped and counted
-        let (bytes, clamped) = encode_cube(&levels).expect("encode");
+        let (bytes, clamped) = encode_ktx2_cube(&levels).expect("encode");
         assert_eq!(clamped, 1);
         let reader = ktx2::Reader::new(&bytes[..]).expect("a valid KTX2 file");
         let h = reader.header();
@@ -219,7 +221,7 @@ mod tests {
 
     #[test]
     fn bad_chains_are_rejected() {
-        assert!(encode_cube(&[]).is_err());
-        assert!(encode_cube(&[CubeLevel::zeros(4), CubeLevel::zeros(4)]).is_err());
+        assert!(encode_ktx2_cube(&[]).is_err());
+        assert!(encode_ktx2_cube(&[CubeLevel::zeros(4), CubeLevel::zeros(4)]).is_err());
     }
 }

@@ -1,40 +1,42 @@
 //! Zonal lobes: the kernels an IBL prefilter convolves the environment with,
 //! and their Legendre (zonal harmonic) coefficients.
 //!
-//! A lobe is a function `k(t)` of `t = r . l`, the cosine between the lookup
-//! direction `r` and the light direction `l`; the prefiltered map is the
-//! normalised convolution
-//!
-//! ```text
-//! P(r) = int L(l) k(r . l) dl / int k(r . l) dl.
-//! ```
-//!
-//! By the Funk-Hecke theorem `P` has SH coefficients `P_lm = lambda_l L_lm`
-//! with `lambda_l = c_l / c_0`, `c_l = int_{-1}^{1} k(t) P_l(t) dt` (the `2 pi`
-//! cancels; SHRM Eq. 5 with `Lambda_l rho_l`). The lobes:
-//!
-//! - [`Lobe::Ggx`]: the split-sum prefilter lobe `D(h) max(n . l, 0)` with
-//!   `n = v = r`, so `n . h = cos(theta / 2) = sqrt((1 + t) / 2)` and
-//!   `k(t) = D(sqrt((1 + t) / 2)) max(t, 0)`,
-//!   `D(c) = alpha^2 / (pi (c^2 (alpha^2 - 1) + 1)^2)` (GGX/Trowbridge-Reitz,
-//!   `alpha` = perceptual roughness squared);
-//! - [`Lobe::Phong`]: `k(t) = max(t, 0)^s` (Phong about the reflection
-//!   vector, SHRM Sec. 5.2);
-//! - [`Lobe::Lambert`]: `k(t) = max(t, 0)`, whose normalised convolution is
-//!   `E / pi`, irradiance over pi (what glTF and Bevy diffuse maps hold);
-//! - [`Lobe::Mirror`]: the delta (roughness 0), a lookup, no coefficients.
-//!
-//! The coefficients come from composite Gauss-Legendre quadrature in the
-//! angle `theta = acos t` on `[0, pi / 2]` (every lobe vanishes beyond): panel
-//! edges grow geometrically from an eighth of the lobe's width (so the peak is
-//! resolved however sharp) and no panel is wider than `2 pi / (L + 1)` (so
-//! `P_l(cos theta)` is resolved up to `L`); 20 nodes per panel.
+//! The derivation and conventions are documented on [`Lobe`].
 
 use std::f64::consts::PI;
 
 use crate::error::{Result, param};
 
 /// A zonal prefilter lobe.
+///
+/// A lobe is a function `k(t)` of `t = r . l`, the cosine between the lookup
+/// direction `r` and the light direction `l`; the prefiltered map is the
+/// normalised convolution
+///
+/// ```text
+/// P(r) = int L(l) k(r . l) dl / int k(r . l) dl.
+/// ```
+///
+/// By the Funk-Hecke theorem `P` has SH coefficients `P_lm = lambda_l L_lm`
+/// with `lambda_l = c_l / c_0`, `c_l = int_{-1}^{1} k(t) P_l(t) dt` (the `2 pi`
+/// cancels; SHRM Eq. 5 with `Lambda_l rho_l`). The lobes:
+///
+/// - [`Lobe::Ggx`]: the split-sum prefilter lobe `D(h) max(n . l, 0)` with
+///   `n = v = r`, so `n . h = cos(theta / 2) = sqrt((1 + t) / 2)` and
+///   `k(t) = D(sqrt((1 + t) / 2)) max(t, 0)`,
+///   `D(c) = alpha^2 / (pi (c^2 (alpha^2 - 1) + 1)^2)` (GGX/Trowbridge-Reitz,
+///   `alpha` = perceptual roughness squared);
+/// - [`Lobe::Phong`]: `k(t) = max(t, 0)^s` (Phong about the reflection
+///   vector, SHRM Sec. 5.2);
+/// - [`Lobe::Lambert`]: `k(t) = max(t, 0)`, whose normalised convolution is
+///   `E / pi`, irradiance over pi (what glTF and Bevy diffuse maps hold);
+/// - [`Lobe::Mirror`]: the delta (roughness 0), a lookup, no coefficients.
+///
+/// The coefficients come from composite Gauss-Legendre quadrature in the
+/// angle `theta = acos t` on `[0, pi / 2]` (every lobe vanishes beyond): panel
+/// edges grow geometrically from an eighth of the lobe's width (so the peak is
+/// resolved however sharp) and no panel is wider than `2 pi / (L + 1)` (so
+/// `P_l(cos theta)` is resolved up to `L`); 20 nodes per panel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Lobe {
     /// Roughness 0: the map itself, no blur.
@@ -153,7 +155,7 @@ impl Lobe {
     /// lobe applies to band `l` (`lambda_0 = 1`).
     ///
     /// ```
-    /// use ifd_ibl::lobe::Lobe;
+    /// use ifd_ibl::Lobe;
     /// // Lambert: lambda_1 = 2/3, lambda_2 = 1/4 (Ramamoorthi-Hanrahan's
     /// // A_l / pi), odd bands above 1 vanish
     /// let lam = Lobe::Lambert.zonal(4);
@@ -182,7 +184,7 @@ impl Lobe {
     /// bands than `cap` for this `eps`).
     ///
     /// ```
-    /// use ifd_ibl::lobe::Lobe;
+    /// use ifd_ibl::Lobe;
     /// let (l, capped) = Lobe::Lambert.band_limit(1e-2, 100);
     /// // lambda_l of the clamped cosine falls as l^-2.5 for even l
     /// assert!((6..=14).contains(&l) && !capped);

@@ -1,52 +1,7 @@
 //! Prefiltering an environment map with zonal lobes, in frequency space
 //! with the brightest texels summed exactly.
 //!
-//! # Method
-//! The source is read, as the accuracy oracle reads it, as **piecewise
-//! constant** over its equirectangular texels. It is split into
-//!
-//! - a **residual**, every channel clamped at a threshold `T`, and
-//! - the **excess** `E - min(E, T)` of the few texels brighter than `T`
-//!   (the sun: `T = bright_factor x` the mean of the map clamped at `T`, the
-//!   fixed point reached from `bright_factor x` the plain mean, so that a
-//!   texel dominating the mean cannot hide itself; raised so that at most
-//!   `max_bright` texels exceed it).
-//!
-//! The residual is projected on SH exactly for piecewise-constant texels
-//! ([`EquirectTransform::analyze_texels`], `O(H W log W + n H L^2)`), each
-//! lobe's bands are scaled by `lambda_l` ([`Lobe::zonal`]) up to a degree
-//! `L` chosen per lobe from the residual's own band powers `P_l`: the
-//! smallest `L` with `sum_{l > L} lambda_l^2 P_l <= eps^2 sum_l lambda_l^2
-//! P_l`, the sums over every band the analysis holds (by Parseval a
-//! relative RMS truncation error of at most `eps`; the analysis runs to the
-//! highest degree with `|lambda_l| >= eps` of any lobe), and the result is
-//! synthesised on an equirectangular grid (`H_s = max(2 N, 2 L + 2)` rows
-//! for `N`-texel faces, at least two rows per output texel and per half
-//! wavelength of the top band) and read at every cube texel with
-//! Catmull-Rom interpolation. Because the fast transforms make the frequency side cost
-//! `O(H L^2)` rather than the `O(pixels L^2)` of the SHRM paper's direct
-//! sums, it is cheaper than an angular sum for every lobe with `alpha > 0`
-//! at the sizes engines use (see `docs/ibl.md` for the cost model).
-//!
-//! The excess is summed directly: `sum_b e_b int_texel k(r . l) dl / K`, each
-//! bright texel split into `n x n` sub-texels when the lobe is narrower than a
-//! few texels. Bright texels are grouped in cells of `4 x 4` texels; a cell
-//! seen from further than `16` cell radii (and beyond twice the lobe width)
-//! contributes through its total at its weighted centroid (the dipole term
-//! vanishes there; the relative error of that far tail is below about
-//! `(k''/k) rho^2 / 2`, a few percent of a contribution that is itself a
-//! small part of the texel). This keeps a truncated SH expansion of a sun
-//! from ringing: the residual is bounded by `T`, so its ringing is bounded by
-//! `eps`-sized multiples of `T`. Texels still negative after that are set to
-//! 0 and counted.
-//!
-//! [`Lobe::Mirror`] (roughness 0) is the source itself: the texel hit by
-//! each output texel's centre direction (the exact delta-lobe answer for a
-//! piecewise-constant source) while the output texels are at least as large
-//! as about half a source texel (`H <= 2 N`); for a source much denser than
-//! the faces, a box filter over each output texel instead (`k x k`
-//! nearest-texel samples weighted by the cube's solid-angle density,
-//! `k = ceil(2 H / N)` up to 16), so that mip 0 does not alias.
+//! The derivation and conventions are documented on [`Baker`].
 
 use std::f64::consts::PI;
 
@@ -55,7 +10,7 @@ use ifd_image::Image;
 use ifd_sphere::{EquirectTransform, Negatives, ShCoeffs};
 use rayon::prelude::*;
 
-use crate::cube::{CubeLevel, equirect_coords, sample_bicubic, texel, world_to_ifd};
+use crate::cube::{CubeLevel, equirect_coords, face_texel, sample_bicubic, world_to_ifd};
 use crate::error::{Result, param};
 use crate::lobe::{Lobe, band_limit_of};
 
@@ -135,7 +90,7 @@ struct Bright {
 /// An environment map ready to be prefiltered with any number of lobes.
 ///
 /// ```
-/// use ifd_ibl::{Baker, BakeOptions, lobe::Lobe};
+/// use ifd_ibl::{Baker, BakeOptions, Lobe};
 /// // a constant map stays constant under every normalised lobe (white furnace)
 /// let env = ifd_image::Image::from_vec(32, 16, 3, vec![0.5; 32 * 16 * 3])?;
 /// let lobes = [Lobe::Ggx { alpha: 0.3 }, Lobe::Lambert];
@@ -144,6 +99,53 @@ struct Bright {
 /// assert!(level.data.iter().all(|v| (v - 0.5).abs() < 1e-5));
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
+///
+/// # Method
+/// The source is read, as the accuracy oracle reads it, as **piecewise
+/// constant** over its equirectangular texels. It is split into
+///
+/// - a **residual**, every channel clamped at a threshold `T`, and
+/// - the **excess** `E - min(E, T)` of the few texels brighter than `T`
+///   (the sun: `T = bright_factor x` the mean of the map clamped at `T`, the
+///   fixed point reached from `bright_factor x` the plain mean, so that a
+///   texel dominating the mean cannot hide itself; raised so that at most
+///   `max_bright` texels exceed it).
+///
+/// The residual is projected on SH exactly for piecewise-constant texels
+/// ([`EquirectTransform::analyze_texels`], `O(H W log W + n H L^2)`), each
+/// lobe's bands are scaled by `lambda_l` ([`Lobe::zonal`]) up to a degree
+/// `L` chosen per lobe from the residual's own band powers `P_l`: the
+/// smallest `L` with `sum_{l > L} lambda_l^2 P_l <= eps^2 sum_l lambda_l^2
+/// P_l`, the sums over every band the analysis holds (by Parseval a
+/// relative RMS truncation error of at most `eps`; the analysis runs to the
+/// highest degree with `|lambda_l| >= eps` of any lobe), and the result is
+/// synthesised on an equirectangular grid (`H_s = max(2 N, 2 L + 2)` rows
+/// for `N`-texel faces, at least two rows per output texel and per half
+/// wavelength of the top band) and read at every cube texel with
+/// Catmull-Rom interpolation. Because the fast transforms make the frequency side cost
+/// `O(H L^2)` rather than the `O(pixels L^2)` of the SHRM paper's direct
+/// sums, it is cheaper than an angular sum for every lobe with `alpha > 0`
+/// at the sizes engines use (see `docs/ibl.md` for the cost model).
+///
+/// The excess is summed directly: `sum_b e_b int_texel k(r . l) dl / K`, each
+/// bright texel split into `n x n` sub-texels when the lobe is narrower than a
+/// few texels. Bright texels are grouped in cells of `4 x 4` texels; a cell
+/// seen from further than `16` cell radii (and beyond twice the lobe width)
+/// contributes through its total at its weighted centroid (the dipole term
+/// vanishes there; the relative error of that far tail is below about
+/// `(k''/k) rho^2 / 2`, a few percent of a contribution that is itself a
+/// small part of the texel). This keeps a truncated SH expansion of a sun
+/// from ringing: the residual is bounded by `T`, so its ringing is bounded by
+/// `eps`-sized multiples of `T`. Texels still negative after that are set to
+/// 0 and counted.
+///
+/// [`Lobe::Mirror`] (roughness 0) is the source itself: the texel hit by
+/// each output texel's centre direction (the exact delta-lobe answer for a
+/// piecewise-constant source) while the output texels are at least as large
+/// as about half a source texel (`H <= 2 N`); for a source much denser than
+/// the faces, a box filter over each output texel instead (`k x k`
+/// nearest-texel samples weighted by the cube's solid-angle density,
+/// `k = ceil(2 H / N)` up to 16), so that mip 0 does not alias.
 #[derive(Debug)]
 pub struct Baker {
     source: Image,
@@ -385,7 +387,7 @@ impl Baker {
                 let (face, j) = (row / n, row % n);
                 let mut neg = 0;
                 for i in 0..n {
-                    let d = world_to_ifd(texel(face, i, j, n).0);
+                    let d = world_to_ifd(face_texel(face, i, j, n).0);
                     let f = sample_bicubic(&grid, d);
                     let b = direct_sum(lobe, &samples, &cells, d);
                     for c in 0..3 {

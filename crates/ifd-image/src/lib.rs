@@ -5,13 +5,14 @@
 //! - [`read_image`] / [`write_image`]: PNG, JPEG, TIFF (8/16 bit), OpenEXR
 //!   (DWAB included), Radiance HDR and NumPy `.npy`, chosen by extension;
 //!   atomic writes; clear errors naming the file.
-//! - [`metrics`]: PSNR and SSIM defined exactly as scikit-image defines them.
+//! - [`compare`], [`psnr`] and [`Metrics`] (`metrics.rs`): PSNR and SSIM
+//!   defined exactly as scikit-image defines them.
 //!
 //! ```
-//! use ifd_image::{read, metrics};
+//! use ifd_image::{compare, read};
 //! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/camera.png");
 //! let a = read(path)?;
-//! let m = metrics::compare(&a, &a, 1.0)?;
+//! let m = compare(&a, &a, 1.0)?;
 //! assert_eq!(m.overall.max_abs, 0.0);
 //! # Ok::<(), ifd_image::ImageError>(())
 //! ```
@@ -21,7 +22,7 @@ mod error;
 mod files;
 mod image;
 mod io;
-pub mod metrics;
+mod metrics;
 mod npy;
 mod npy_stream;
 
@@ -32,6 +33,10 @@ pub use crate::image::{Image, ImageView};
 pub use crate::io::{
     BitDepth, FileFormat, LoadedImage, NonFinitePolicy, ReadOptions, WriteOptions, WriteReport,
     linear_to_srgb, read, read_image, srgb_to_linear, write, write_image,
+};
+pub use crate::metrics::{
+    Comparison, Metrics, SSIM_SIGMA, SSIM_TRUNCATE, compare, crop_border, default_data_range, psnr,
+    psnr_from_mse, ssim_radius,
 };
 pub use crate::npy::{NpyArray, read_npy_array, write_npy_f64};
 pub use crate::npy_stream::{NpyReader, NpyWriter};

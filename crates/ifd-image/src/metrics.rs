@@ -1,25 +1,7 @@
 //! Image-quality metrics: PSNR, SSIM, maximum and mean absolute error, per
 //! channel and overall.
 //!
-//! The definitions match scikit-image so numbers can be compared directly:
-//! - PSNR is `skimage.metrics.peak_signal_noise_ratio`:
-//!   `10 log10(R^2 / MSE)` with `R` the data range.
-//! - SSIM is `skimage.metrics.structural_similarity(gaussian_weights=True,
-//!   sigma=1.5, use_sample_covariance=False, data_range=R)` (Wang et al. 2004):
-//!   local statistics under a Gaussian window (sigma 1.5, truncated at 3.5
-//!   sigma, i.e. an 11x11 window, borders by symmetric reflection as scipy's
-//!   `mode='reflect'`), `K1 = 0.01`, `K2 = 0.03`, the SSIM map averaged after
-//!   cropping 5 pixels from each side; for several channels the mean of the
-//!   per-channel values.
-//!
-//! ```
-//! use ifd_image::{Image, metrics};
-//! let a = Image::from_vec(16, 16, 1, (0..256).map(|i| (i % 16) as f32 / 15.0).collect())?;
-//! let m = metrics::compare(&a, &a, 1.0)?;
-//! assert!(m.overall.psnr.is_infinite());
-//! assert!((m.overall.ssim - 1.0).abs() < 1e-12);
-//! # Ok::<(), ifd_image::ImageError>(())
-//! ```
+//! The derivation and conventions are documented on [`compare`].
 
 use crate::{Image, ImageError};
 
@@ -66,6 +48,26 @@ pub fn ssim_radius() -> usize {
 /// [`ImageError::Shape`] when the shapes differ or the image is smaller than
 /// the 11x11 SSIM window; [`ImageError::InvalidParameter`] for a data range
 /// that is not finite and positive.
+///
+/// The definitions match scikit-image so numbers can be compared directly:
+/// - PSNR is `skimage.metrics.peak_signal_noise_ratio`:
+///   `10 log10(R^2 / MSE)` with `R` the data range.
+/// - SSIM is `skimage.metrics.structural_similarity(gaussian_weights=True,
+///   sigma=1.5, use_sample_covariance=False, data_range=R)` (Wang et al. 2004):
+///   local statistics under a Gaussian window (sigma 1.5, truncated at 3.5
+///   sigma, i.e. an 11x11 window, borders by symmetric reflection as scipy's
+///   `mode='reflect'`), `K1 = 0.01`, `K2 = 0.03`, the SSIM map averaged after
+///   cropping 5 pixels from each side; for several channels the mean of the
+///   per-channel values.
+///
+/// ```
+/// use ifd_image::{Image, compare};
+/// let a = Image::from_vec(16, 16, 1, (0..256).map(|i| (i % 16) as f32 / 15.0).collect())?;
+/// let m = compare(&a, &a, 1.0)?;
+/// assert!(m.overall.psnr.is_infinite());
+/// assert!((m.overall.ssim - 1.0).abs() < 1e-12);
+/// # Ok::<(), ifd_image::ImageError>(())
+/// ```
 pub fn compare(a: &Image, b: &Image, data_range: f64) -> Result<Comparison, ImageError> {
     if !a.same_shape(b) {
         return Err(ImageError::Shape(format!(
@@ -233,8 +235,8 @@ fn separable_symmetric(p: &[f64], w: usize, h: usize, k: &[f64]) -> Vec<f64> {
 /// does for float images outside `[0, 1]`.
 ///
 /// ```
-/// assert_eq!(ifd_image::metrics::default_data_range(&[0.0, 0.5], &[1.0, 0.2]), 1.0);
-/// assert_eq!(ifd_image::metrics::default_data_range(&[-1.0, 3.0], &[0.0, 0.0]), 4.0);
+/// assert_eq!(ifd_image::default_data_range(&[0.0, 0.5], &[1.0, 0.2]), 1.0);
+/// assert_eq!(ifd_image::default_data_range(&[-1.0, 3.0], &[0.0, 0.0]), 4.0);
 /// ```
 #[must_use]
 pub fn default_data_range(a: &[f32], b: &[f32]) -> f64 {

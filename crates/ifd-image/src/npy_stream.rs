@@ -5,24 +5,7 @@
 //! interrupted run leaves no partial output. No memory maps: the workspace
 //! denies `unsafe`.
 //!
-//! Streaming needs C-order arrays (`numpy.ascontiguousarray`); the element
-//! types are those of the whole-file reader (float32, float64, uint8 and
-//! uint16 read as their values, either byte order).
-//!
-//! ```
-//! use ifd_image::{Image, NpyReader, NpyWriter};
-//! let dir = tempfile::tempdir()?;
-//! let path = dir.path().join("big.npy");
-//! let mut w = NpyWriter::create(&path, 5, 4, 2)?;
-//! let tile = Image::from_vec(2, 2, 2, (0..8).map(|v| v as f32).collect())?;
-//! w.write_region(3, 2, &tile)?;
-//! w.finish()?;
-//! let mut r = NpyReader::open(&path, None)?;
-//! assert_eq!((r.width(), r.height(), r.channels()), (5, 4, 2));
-//! assert_eq!(r.read_region(3, 2, 2, 2)?.data(), tile.data());
-//! assert_eq!(r.read_region(0, 0, 1, 1)?.data(), &[0.0, 0.0]);
-//! # Ok::<(), Box<dyn std::error::Error>>(())
-//! ```
+//! The derivation and conventions are documented on [`NpyReader`].
 
 use std::fs::File;
 use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
@@ -34,6 +17,25 @@ use crate::npy::{
 use crate::{Image, ImageError};
 
 /// An `HxW` or `HxWxC` `.npy` file read by region.
+///
+/// Streaming needs C-order arrays (`numpy.ascontiguousarray`); the element
+/// types are those of the whole-file reader (float32, float64, uint8 and
+/// uint16 read as their values, either byte order).
+///
+/// ```
+/// use ifd_image::{Image, NpyReader, NpyWriter};
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("big.npy");
+/// let mut w = NpyWriter::create(&path, 5, 4, 2)?;
+/// let tile = Image::from_vec(2, 2, 2, (0..8).map(|v| v as f32).collect())?;
+/// w.write_region(3, 2, &tile)?;
+/// w.finish()?;
+/// let mut r = NpyReader::open(&path, None)?;
+/// assert_eq!((r.width(), r.height(), r.channels()), (5, 4, 2));
+/// assert_eq!(r.read_region(3, 2, 2, 2)?.data(), tile.data());
+/// assert_eq!(r.read_region(0, 0, 1, 1)?.data(), &[0.0, 0.0]);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug)]
 pub struct NpyReader {
     file: File,

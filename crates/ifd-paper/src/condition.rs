@@ -77,7 +77,7 @@ pub fn condition_study(l_max: usize) -> Result<Vec<ConditionSeries>> {
 ///
 /// ```
 /// use ifd_paper::condition::{ConditionSeries, condition_plot};
-/// use ifd_sphere::{profile::Profile, zhf::Sharing};
+/// use ifd_sphere::{Profile, Sharing};
 /// let s = ConditionSeries { profile: Profile::Gauss, sharing: Sharing::Shared,
 ///                           cond: vec![2.0, 40.0, 1e9, f64::INFINITY] };
 /// let img = condition_plot(&[s])?;

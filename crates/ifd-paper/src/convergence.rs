@@ -7,8 +7,8 @@ use std::fmt::Write as _;
 use ifd_image::Image;
 use ifd_plot::{Series, log_line_plot};
 use ifd_shade::Brdf;
-use ifd_shade::shade::Material;
-use ifd_shade::table::{LobeTable, default_theta_entries};
+use ifd_shade::Material;
+use ifd_shade::{LobeTable, default_theta_entries};
 
 use ifd_render::Camera;
 use ifd_render::EnvMap;

@@ -33,7 +33,7 @@ use rayon::prelude::*;
 use ifd_ibl::Result;
 
 use crate::param;
-use ifd_ibl::lobe::Lobe;
+use ifd_ibl::Lobe;
 
 /// The paper's frequency-space order for Phong exponent `s`: `1 + sqrt(6 s)`.
 #[must_use]

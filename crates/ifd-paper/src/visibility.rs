@@ -21,7 +21,7 @@ use ifd_render::Scene;
 use ifd_render::Shadows;
 use ifd_render::{Job, Method, relative_rms, render};
 use ifd_shade::Brdf;
-use ifd_shade::shade::Material;
+use ifd_shade::Material;
 
 /// What the study renders: a mesh seen by a camera under a map.
 #[derive(Debug)]

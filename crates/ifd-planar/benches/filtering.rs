@@ -37,7 +37,6 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use ifd_image::Image;
 use ifd_planar::internals::reference::correlate_varying_rows;
 use ifd_planar::{
     Border, Decomposition, Field, Filter, Interpolation, ScaleStack, StackOptions, Term,
@@ -45,25 +44,10 @@ use ifd_planar::{
 };
 use rayon::prelude::*;
 
-fn test_image(w: usize, h: usize) -> Image {
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let data = (0..w * h)
-        .map(|i| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            let (x, y) = ((i % w) as f32, (i / w) as f32);
-            let noise = (state >> 40) as f32 / (1u64 << 24) as f32;
-            let disk = if (x - 400.0).hypot(y - 600.0) < 150.0 {
-                0.3
-            } else {
-                0.0
-            };
-            0.4 + 0.2 * (0.05 * x + 0.03 * y).sin() + disk + 0.05 * noise
-        })
-        .collect();
-    Image::from_vec(w, h, 1, data).expect("valid image")
-}
+#[path = "../../../tests/support/images.rs"]
+mod images;
+
+use images::disk_noise as test_image;
 
 /// An 8:1 anisotropic Gaussian along x with `sigma_x = 5`, `sigma_y = 0.625`
 /// (extent 31 = support of `+-3 sigma_x`): a line of isotropic Gaussians of

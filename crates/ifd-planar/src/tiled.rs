@@ -83,7 +83,7 @@ pub fn halo(decomposition: &Decomposition, scale_max: f32) -> Result<usize, Filt
 /// Output tiles of `tile x tile` pixels (the last ones in a row or column
 /// larger, up to `2 tile - 1`), each read with `halo` pixels around it, tile
 /// origins and halo multiples of `align`: the geometry of any tiled run
-/// (filtering here, smoothing in `ifd_smooth::tiled`).
+/// (filtering here, smoothing in `ifd_smooth::smooth_tiled`).
 ///
 /// ```
 /// use ifd_planar::Tiling;

@@ -18,39 +18,10 @@ const BORDERS: [Border; 4] = [
 ];
 
 /// Deterministic pseudo-random numbers in [0, 1).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
+#[path = "../../../tests/support/images.rs"]
+mod images;
 
-/// A test image in [0, 1]: smooth shading, hard-edged shapes, stripes and mild noise.
-fn test_image(w: usize, h: usize, c: usize, seed: u64) -> Image {
-    let mut rng = Rng(seed | 1);
-    let mut data = Vec::with_capacity(w * h * c);
-    for y in 0..h {
-        for x in 0..w {
-            for ch in 0..c {
-                let (xf, yf) = (x as f32, y as f32);
-                let mut v = 0.3 + 0.2 * (0.11 * xf + 0.07 * yf + ch as f32).sin();
-                let (dx, dy) = (xf - 0.4 * w as f32, yf - 0.55 * h as f32);
-                if dx * dx + dy * dy < (0.2 * w as f32).powi(2) {
-                    v += 0.3;
-                }
-                if (x / 7 + y / 11) % 3 == ch % 3 {
-                    v += 0.15;
-                }
-                v += 0.05 * rng.next();
-                data.push(v.clamp(0.0, 1.0));
-            }
-        }
-    }
-    Image::from_vec(w, h, c, data).expect("valid image")
-}
+use images::shapes as test_image;
 
 fn psnr(a: &Image, b: &Image) -> f64 {
     assert!(a.same_shape(b));

@@ -4,7 +4,6 @@
 use std::fmt::Write as _;
 use std::sync::{Arc, Mutex, OnceLock};
 
-use ifd_image::metrics;
 use ifd_planar::decompose_spec;
 use ifd_planar::{
     Border, CheckedField, DecomposeOptions, Decomposition, Field, FieldKind, Interpolation, Kernel,
@@ -506,7 +505,7 @@ fn smooth<'py>(
     Ok(arrays::image_array(py, out, squeeze))
 }
 
-fn metrics_dict<'py>(py: Python<'py>, m: &metrics::Metrics) -> PyResult<Bound<'py, PyDict>> {
+fn metrics_dict<'py>(py: Python<'py>, m: &ifd_image::Metrics) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("psnr", m.psnr.is_finite().then_some(m.psnr))?;
     d.set_item("ssim", m.ssim)?;
@@ -542,11 +541,11 @@ fn compare<'py>(
     }
     let cmp = py
         .detach(|| {
-            let ia = metrics::crop_border(&va.to_image(), crop_border)?;
-            let ib = metrics::crop_border(&vb.to_image(), crop_border)?;
+            let ia = ifd_image::crop_border(&va.to_image(), crop_border)?;
+            let ib = ifd_image::crop_border(&vb.to_image(), crop_border)?;
             let range =
-                data_range.unwrap_or_else(|| metrics::default_data_range(ia.data(), ib.data()));
-            metrics::compare(&ia, &ib, range)
+                data_range.unwrap_or_else(|| ifd_image::default_data_range(ia.data(), ib.data()));
+            ifd_image::compare(&ia, &ib, range)
         })
         .map_err(|e| errors::value("", e))?;
     let d = metrics_dict(py, &cmp.overall)?;

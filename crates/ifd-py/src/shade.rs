@@ -2,8 +2,8 @@
 //! environment, for any BRDF of `ifd-shade`.
 
 use ifd_shade::Brdf;
-use ifd_shade::shade::{Environment, Frame, Material};
-use ifd_shade::table::LobeTable;
+use ifd_shade::LobeTable;
+use ifd_shade::{Environment, Frame, Material};
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use rayon::prelude::*;

@@ -1,10 +1,10 @@
 //! What each pixel's ray sees, before shading: the surface point's frame, the
 //! view, the texture maps' values there, or the direction of the background.
 //! The CPU render loop ([`crate::render`]) shades these records itself, and
-//! the GPU path (`ifd render --gpu`, `ifd_gpu::shading`) uploads them, so both
+//! the GPU path (`ifd render --gpu`, `ifd_gpu::GpuShader`) uploads them, so both
 //! shade the same points.
 
-use ifd_shade::shade::Frame;
+use ifd_shade::Frame;
 use rayon::prelude::*;
 
 use crate::camera::Camera;

@@ -10,7 +10,7 @@
 //! ```
 //! use glam::DVec3;
 //! use ifd_render::{Camera, EnvMap, Job, Method, Scene, render};
-//! use ifd_shade::{Brdf, shade::Material};
+//! use ifd_shade::{Brdf, Material};
 //! let env = EnvMap::new(ifd_image::Image::from_vec(8, 4, 1, vec![1.0; 32])?, 0.0)?;
 //! let brdf = Brdf::parse("lambert")?;
 //! let material = Material::new(&brdf, 4, None)?;

@@ -1,6 +1,6 @@
 //! The Monte Carlo reference: environment importance sampling (a
 //! piecewise-constant 2D distribution over the map's texels, proportional to
-//! luminance times solid angle), BRDF sampling ([`ifd_shade::sample`]) and
+//! luminance times solid angle), BRDF sampling ([`ifd_shade::Brdf::sample`]) and
 //! multiple importance sampling with the power heuristic, one sample of each
 //! strategy per path sample. Points come from a 4D Kronecker (additive
 //! recurrence) low-discrepancy sequence, rotated per pixel by a hash of the
@@ -10,7 +10,7 @@
 use std::f64::consts::PI;
 
 use ifd_shade::Brdf;
-use ifd_shade::shade::Frame;
+use ifd_shade::Frame;
 
 use crate::envmap::EnvMap;
 
@@ -156,7 +156,7 @@ fn point(i: u64, shift: [f64; 4]) -> [f64; 4] {
 ///
 /// The Monte Carlo reference: environment importance sampling (a
 /// piecewise-constant 2D distribution over the map's texels, proportional to
-/// luminance times solid angle), BRDF sampling ([`ifd_shade::sample`]) and
+/// luminance times solid angle), BRDF sampling ([`ifd_shade::Brdf::sample`]) and
 /// multiple importance sampling with the power heuristic, one sample of each
 /// strategy per path sample. Points come from a 4D Kronecker (additive
 /// recurrence) low-discrepancy sequence, rotated per pixel by a hash of the

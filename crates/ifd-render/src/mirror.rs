@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 use ifd_image::Image;
-use ifd_shade::shade::Environment;
+use ifd_shade::Environment;
 use ifd_sphere::pi_l;
 use ifd_sphere::vmf_factors;
 use rayon::prelude::*;

@@ -4,7 +4,7 @@
 use std::f64::consts::PI;
 
 use ifd_shade::Brdf;
-use ifd_shade::shade::Frame;
+use ifd_shade::Frame;
 use ifd_sphere::gauss_legendre;
 
 use crate::envmap::EnvMap;

@@ -5,8 +5,8 @@
 
 use ifd_image::Image;
 use ifd_shade::Brdf;
-use ifd_shade::lights::SphericalLight;
-use ifd_shade::shade::{BandMaps, Environment, Frame, Material, Scratch};
+use ifd_shade::SphericalLight;
+use ifd_shade::{BandMaps, Environment, Frame, Material, Scratch};
 use rayon::prelude::*;
 
 use crate::camera::Camera;
@@ -25,7 +25,7 @@ pub enum Method {
     /// ISD, Eq. 22: rotated lobes, the per-band environment reconstructed from SH.
     Isd,
     /// ISD with the per-band environment looked up in prefiltered maps
-    /// ([`ifd_shade::shade::BandMaps`], bicubic).
+    /// ([`ifd_shade::BandMaps`], bicubic).
     IsdMaps,
     /// The rotated slice's SH dotted with the environment's (same weights).
     Sh,
@@ -489,7 +489,7 @@ fn light_quadrature(
     let radiance = light.radiance_for(ch)?;
     let kc = brdf.channels();
     let mut k = vec![0.0; kc];
-    let ok = ifd_shade::lights::zonal_quadrature(
+    let ok = ifd_shade::zonal_quadrature(
         brdf,
         frame.to_local(wo),
         frame.to_local(axis),

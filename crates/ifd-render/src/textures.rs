@@ -3,8 +3,8 @@
 
 use ifd_image::Image;
 use ifd_shade::Brdf;
-use ifd_shade::shade::Material;
-use ifd_shade::table::{LobeTable, default_theta_entries};
+use ifd_shade::Material;
+use ifd_shade::{LobeTable, default_theta_entries};
 
 use crate::error::{RenderError, Result};
 

@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 use ifd_shade::Brdf;
-use ifd_shade::shade::{Frame, Material, Scratch};
+use ifd_shade::{Frame, Material, Scratch};
 use ifd_sphere::ShEvaluator;
 use rayon::prelude::*;
 
@@ -321,7 +321,7 @@ pub fn reference(
 ///
 /// 1. the slice's world SH coefficients `rho_l^m = pi_l sum_j lambda_l^j
 ///    y_l^m(R z_j)` from the rotated lobes
-///    ([`ifd_shade::shade::Material::world_sh`]);
+///    ([`ifd_shade::Material::world_sh`]);
 /// 2. the product with the lighting, `(rho E)_b = sum_a rho_a T_ab` with the
 ///    precomputed matrix `T_ab = int y_a y_b E` ([`ProductMatrix`]; the paper's
 ///    `gamma` are the same numbers expressed on rotated zonal harmonics);

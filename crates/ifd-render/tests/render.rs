@@ -9,8 +9,8 @@ use ifd_render::EnvMap;
 use ifd_render::Scene;
 use ifd_render::{Job, Method, Rendered, relative_rms, render};
 use ifd_shade::Brdf;
-use ifd_shade::shade::Material;
-use ifd_shade::table::{LobeTable, default_theta_entries};
+use ifd_shade::Material;
+use ifd_shade::{LobeTable, default_theta_entries};
 
 fn forest() -> EnvMap {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/forest.hdr");
@@ -513,7 +513,7 @@ fn images_do_not_depend_on_the_thread_count() {
 /// them.
 #[test]
 fn spherical_lights_match_the_quadrature() {
-    use ifd_shade::lights::SphericalLight;
+    use ifd_shade::SphericalLight;
     let env = forest();
     let lights = [
         SphericalLight::parse("2,-1.5,2,0.4,30").unwrap(),
@@ -641,7 +641,7 @@ fn mirror_filter_is_the_vmf_convolution() {
 #[test]
 fn visibility_three_steps_converge_to_the_ray_traced_reference() {
     use ifd_render::ProductMatrix;
-    use ifd_shade::shade::{Environment, Frame};
+    use ifd_shade::{Environment, Frame};
     let env = forest();
     let e = Environment::new(env.sh(10).unwrap()).unwrap();
     let product = ProductMatrix::new(&env, 10).unwrap();

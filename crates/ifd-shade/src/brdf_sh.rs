@@ -2,37 +2,7 @@
 //! Mises-Fisher kernel (ISD Sec. 6.3, Eq. 30-32): denoising measured data,
 //! filling its holes.
 //!
-//! # The basis
-//! A BRDF lives on the upper hemisphere in both arguments. Projecting it as
-//! it is onto SH would expand its jump to zero at the horizon; it is
-//! projected instead as its **even extension** in `z` (`rho(x, y, |z|)` in
-//! each argument), the reflective boundary of image filtering. Since
-//! `y_l^m(x, y, -z) = (-1)^(l+m) y_l^m(x, y, z)`, only the `M = (L + 1)(L +
-//! 2) / 2` functions with `l + m` even are used, and their coefficients are
-//! twice the hemisphere's integrals:
-//!
-//! ```text
-//! C_ab = 4 int_{H} int_{H} rho(wi, wo) y_a(wi) y_b(wo) dwi dwo      (Eq. 30)
-//! ```
-//!
-//! by Gauss-Legendre quadrature in `cos theta` times the trapezoid rule in
-//! `phi` (exact for the basis; `n_theta >= L + 1` nodes, `2 n_theta` in
-//! azimuth) on the same node set for both arguments, so that a reciprocal
-//! BRDF gives a symmetric `C` (reciprocity kept, Sec. 6.3; the projection is then made exactly symmetric, [`BrdfSh::asymmetry`]). A BRDF that is a
-//! polynomial of degree `<= L` in `(x, y, z^2)` of each argument is
-//! reproduced exactly (a constant, Lambert, at `L = 0`).
-//!
-//! # Filtering (Eq. 31-32)
-//! The separable kernel `m(wi, wo) = K exp(kappa (wi . zi + wo . zo))`,
-//! each factor a normalised vMF lobe, multiplies `C_ab` by `Lambda_{l_a}
-//! Lambda_{l_b}` ([`ifd_sphere::vmf_factors`]; Eq. 32's `k_l /
-//! pi_l` products, with `k_l` the lobe's zonal coefficients). Holes (bins a
-//! measurement marks invalid) are treated as missing, not as zero, by
-//! **normalised convolution**: the data times the validity mask and the mask
-//! itself are projected and filtered alike, and the filtered BRDF is their
-//! ratio (where the filtered mask is at least 1e-3; without holes the mask is
-//! exactly 1 and this is plain filtering). Values are clamped at 0 and to
-//! zero below the horizon.
+//! The derivation and conventions are documented on [`BrdfSh`].
 
 use ifd_sphere::vmf_factors;
 use ifd_sphere::{ShEvaluator, gauss_legendre};
@@ -43,6 +13,38 @@ use crate::error::{Result, ShadeError};
 
 /// A BRDF's coefficients on the even-extension 4D SH basis (module docs),
 /// with those of its validity mask when it has holes.
+///
+/// # The basis
+/// A BRDF lives on the upper hemisphere in both arguments. Projecting it as
+/// it is onto SH would expand its jump to zero at the horizon; it is
+/// projected instead as its **even extension** in `z` (`rho(x, y, |z|)` in
+/// each argument), the reflective boundary of image filtering. Since
+/// `y_l^m(x, y, -z) = (-1)^(l+m) y_l^m(x, y, z)`, only the `M = (L + 1)(L +
+/// 2) / 2` functions with `l + m` even are used, and their coefficients are
+/// twice the hemisphere's integrals:
+///
+/// ```text
+/// C_ab = 4 int_{H} int_{H} rho(wi, wo) y_a(wi) y_b(wo) dwi dwo      (Eq. 30)
+/// ```
+///
+/// by Gauss-Legendre quadrature in `cos theta` times the trapezoid rule in
+/// `phi` (exact for the basis; `n_theta >= L + 1` nodes, `2 n_theta` in
+/// azimuth) on the same node set for both arguments, so that a reciprocal
+/// BRDF gives a symmetric `C` (reciprocity kept, Sec. 6.3; the projection is then made exactly symmetric, [`BrdfSh::asymmetry`]). A BRDF that is a
+/// polynomial of degree `<= L` in `(x, y, z^2)` of each argument is
+/// reproduced exactly (a constant, Lambert, at `L = 0`).
+///
+/// # Filtering (Eq. 31-32)
+/// The separable kernel `m(wi, wo) = K exp(kappa (wi . zi + wo . zo))`,
+/// each factor a normalised vMF lobe, multiplies `C_ab` by `Lambda_{l_a}
+/// Lambda_{l_b}` ([`ifd_sphere::vmf_factors`]; Eq. 32's `k_l /
+/// pi_l` products, with `k_l` the lobe's zonal coefficients). Holes (bins a
+/// measurement marks invalid) are treated as missing, not as zero, by
+/// **normalised convolution**: the data times the validity mask and the mask
+/// itself are projected and filtered alike, and the filtered BRDF is their
+/// ratio (where the filtered mask is at least 1e-3; without holes the mask is
+/// exactly 1 and this is plain filtering). Values are clamped at 0 and to
+/// zero below the horizon.
 #[derive(Clone, Debug)]
 pub struct BrdfSh {
     l_max: usize,

@@ -3,8 +3,7 @@
 //! closed-form zonal coefficients, and view-dependent lobe-weight tables.
 //!
 //! ```
-//! use ifd_shade::brdf::Brdf;
-//! use ifd_shade::slice::project_slice;
+//! use ifd_shade::{Brdf, project_slice};
 //! // The white furnace: the slice of a white Lambertian BRDF integrates to 1,
 //! // so its SH coefficient c_00 is 1 / sqrt(4 pi).
 //! let b = Brdf::parse("lambert")?;
@@ -15,35 +14,70 @@
 //!
 //! # Conventions
 //! Local frame at a surface point: normal `+z`, tangent `+x`, bitangent `+y`;
-//! `wi` towards the light, `wo` towards the viewer ([`brdf`]). SH, directions
+//! `wi` towards the light, `wo` towards the viewer ([`Brdf`]). SH, directions
 //! and rotations are `ifd-sphere`'s.
 //!
-//! # Modules
-//! - [`brdf`]: models, specs, slices.
-//! - [`merl`]: the MERL measured-BRDF format.
-//! - [`brdf_sh`]: BRDFs on the 4D SH basis, vMF filtering of noisy and
-//!   sparse data (Eq. 30-32).
-//! - [`zonal`]: closed-form zonal coefficients (Lambert, Phong).
-//! - [`slice`](mod@slice): SH projection of slices.
-//! - [`table`]: view-dependent lobe-weight tables and their file format.
-//! - [`shade`]: shading by Eq. 22 (ISD and the SH reference).
-//! - [`lights`]: zonal lighting: spherical light sources (Eq. 33-34) and
-//!   radially symmetric light (Eq. 23), with their quadrature reference.
-//! - [`radial`]: radial reflection maps for any BRDF (Eq. 23-24).
-//! - [`sample`]: importance sampling of slices (Monte Carlo references).
+//! # The API, by topic (the modules are private; everything is here)
+//! - **BRDFs** (`brdf.rs`): [`Brdf`] models and specs, their slices,
+//!   [`Model`], [`MAX_EXPONENT`], [`blinn_exact_norm`]; importance sampling
+//!   of slices for Monte Carlo references (`sample.rs`, [`Brdf::sample`]).
+//! - **MERL** (`merl.rs`): measured BRDFs, [`Merl`]; the file format's
+//!   constants and its half/difference angles in [`merl_format`].
+//! - **BRDFs on the 4D SH basis** (`brdf_sh.rs`): [`BrdfSh`], vMF filtering of
+//!   noisy and sparse data (Eq. 30-32), [`BrdfSampler`].
+//! - **Zonal coefficients** (`zonal.rs`): closed forms for Lambert and Phong,
+//!   [`zonal_slice`], [`legendre_moments`].
+//! - **Slices** (`slice.rs`): SH projection of slices, [`project_slice`],
+//!   [`slice_nodes`], [`SLICE_TOLERANCE`], [`MAX_SLICE_NODES`].
+//! - **Lobe tables** (`table/`): view-dependent lobe weights, [`LobeTable`],
+//!   their bases ([`LobeKind`], [`LobeLayout`], [`LobeBasis`]) and file
+//!   format ([`TableHeader`], [`TABLE_VERSION`], [`brdf_digest`]),
+//!   [`default_theta_entries`], [`view_frame_angle`], [`MAX_TABLE_DEGREE`].
+//! - **Shading** (`shade.rs`): Eq. 22, ISD and the SH reference:
+//!   [`Environment`], [`Material`], [`Frame`], [`Bands`], [`BandMaps`],
+//!   [`Scratch`].
+//! - **Zonal lighting** (`lights.rs`): spherical light sources (Eq. 33-34) and
+//!   radially symmetric light (Eq. 23) with their quadrature reference:
+//!   [`SphericalLight`], [`ZonalLighting`], [`cap_coefficients`],
+//!   [`zonal_projection`], [`zonal_quadrature`].
+//! - **Radial reflection maps** (`radial.rs`) for any BRDF (Eq. 23-24):
+//!   [`RadialMap`], [`RadialProfile`], [`MapSize`].
+//! - Errors: [`ShadeError`], [`Result`].
 
+mod brdf;
+mod brdf_sh;
 mod error;
+mod lights;
+mod merl;
+mod radial;
+mod sample;
+mod shade;
+mod slice;
+mod table;
+mod zonal;
 
-pub mod brdf;
-pub mod brdf_sh;
-pub mod lights;
-pub mod merl;
-pub mod radial;
-pub mod sample;
-pub mod shade;
-pub mod slice;
-pub mod table;
-pub mod zonal;
-
-pub use crate::brdf::Brdf;
+pub use crate::brdf::{Brdf, MAX_EXPONENT, Model, blinn_exact_norm};
+pub use crate::brdf_sh::{BrdfSampler, BrdfSh};
 pub use crate::error::{Result, ShadeError};
+pub use crate::lights::{
+    SphericalLight, ZonalLighting, cap_coefficients, zonal_projection, zonal_quadrature,
+};
+pub use crate::merl::Merl;
+pub use crate::radial::{MapSize, RadialMap, RadialProfile};
+pub use crate::shade::{BandMaps, Bands, Environment, Frame, Material, Scratch};
+pub use crate::slice::{MAX_SLICE_NODES, SLICE_TOLERANCE, project_slice, slice_nodes};
+pub use crate::table::{
+    LobeBasis, LobeKind, LobeLayout, LobeTable, MAX_TABLE_DEGREE, TableHeader,
+    VERSION as TABLE_VERSION, brdf_digest, default_theta_entries, view_frame_angle,
+};
+pub use crate::zonal::{legendre_moments, zonal_slice};
+
+/// The MERL measured-BRDF file format: its sizes, the bins of its
+/// half/difference parameterisation and the conversion to and from
+/// directions (details on [`Merl`]).
+pub mod merl_format {
+    pub use crate::merl::{
+        FILE_BYTES, PHI_D, SAMPLES, SCALE, THETA_D, THETA_H, bin_centre, bin_index, from_half_diff,
+        half_diff,
+    };
+}

@@ -4,43 +4,7 @@
 //! radially symmetric distant lighting (Sec. 6.1, Eq. 23-24, the radial
 //! reflection maps of [`crate::radial`]).
 //!
-//! # Derivation
-//! Lighting `E(w) = f(a . w)` about a unit axis `a` expands on zonal
-//! harmonics (Eq. 23, 33) as `E(w) = sum_l e_l y_l^0(a . w)` with
-//!
-//! ```text
-//! e_l = 2 pi int_{-1}^{1} f(t) y_l^0(t) dt = 2 pi sqrt((2l + 1) / (4 pi)) int f(t) P_l(t) dt.
-//! ```
-//!
-//! By the addition theorem `y_l^0(a . w) = pi_l sum_m y_l^m(a) y_l^m(w)`
-//! (`pi_l = sqrt(4 pi / (2l + 1))`), so its SH coefficients are
-//! `e_l^m = pi_l e_l y_l^m(a)` and the per-band prefiltered light of Eq. 22 is
-//!
-//! ```text
-//! Ehat_l(d) = pi_l sum_m e_l^m y_l^m(d) = pi_l^2 e_l sum_m y_l^m(a) y_l^m(d)
-//!           = pi_l e_l y_l^0(a . d) = e_l P_l(a . d),
-//! ```
-//!
-//! since `pi_l sqrt((2l + 1) / (4 pi)) = 1`: one Legendre recurrence per
-//! lobe instead of an SH evaluation (Eq. 34 is this with the paper's
-//! `sqrt(4 pi / (2l + 1)) e_l y_l^0`). [`ZonalLighting`] implements
-//! [`Bands`] this way, so [`crate::shade::Material::shade_isd`] shades under
-//! it unchanged.
-//!
-//! **A spherical cap** of half-angle `alpha` and radiance `Le` (a sphere of
-//! radius `r` at distance `d` from the shaded point subtends `sin alpha = r /
-//! d`): `f(t) = Le` for `t >= cos alpha`, and with `int_x^1 P_l = (P_{l-1}(x) -
-//! P_{l+1}(x)) / (2l + 1)` (from `(2l + 1) P_l = P'_{l+1} - P'_{l-1}` and
-//! `P_l(1) = 1`),
-//!
-//! ```text
-//! e_0 = 2 pi Le sqrt(1 / (4 pi)) (1 - cos alpha),
-//! e_l = 2 pi Le sqrt((2l + 1) / (4 pi)) (P_{l-1}(cos alpha) - P_{l+1}(cos alpha)) / (2l + 1).
-//! ```
-//!
-//! As `alpha -> 0` with `Le alpha^2` fixed these tend to a point light's
-//! `Le pi alpha^2 y_l^0(1)`, and `e_0 sqrt(4 pi)` is the cap's solid angle
-//! times `Le`.
+//! The derivation and conventions are documented on [`ZonalLighting`].
 
 use ifd_sphere::ShCoeffs;
 use ifd_sphere::{ShEvaluator, gauss_legendre, legendre_all, pi_l};
@@ -51,6 +15,44 @@ use crate::shade::{Bands, Frame};
 use glam::DVec3;
 
 /// Lighting `sum_l e_l y_l^0(a . w)` about a unit axis `a`, per channel.
+///
+/// # Derivation
+/// Lighting `E(w) = f(a . w)` about a unit axis `a` expands on zonal
+/// harmonics (Eq. 23, 33) as `E(w) = sum_l e_l y_l^0(a . w)` with
+///
+/// ```text
+/// e_l = 2 pi int_{-1}^{1} f(t) y_l^0(t) dt = 2 pi sqrt((2l + 1) / (4 pi)) int f(t) P_l(t) dt.
+/// ```
+///
+/// By the addition theorem `y_l^0(a . w) = pi_l sum_m y_l^m(a) y_l^m(w)`
+/// (`pi_l = sqrt(4 pi / (2l + 1))`), so its SH coefficients are
+/// `e_l^m = pi_l e_l y_l^m(a)` and the per-band prefiltered light of Eq. 22 is
+///
+/// ```text
+/// Ehat_l(d) = pi_l sum_m e_l^m y_l^m(d) = pi_l^2 e_l sum_m y_l^m(a) y_l^m(d)
+///           = pi_l e_l y_l^0(a . d) = e_l P_l(a . d),
+/// ```
+///
+/// since `pi_l sqrt((2l + 1) / (4 pi)) = 1`: one Legendre recurrence per
+/// lobe instead of an SH evaluation (Eq. 34 is this with the paper's
+/// `sqrt(4 pi / (2l + 1)) e_l y_l^0`). [`ZonalLighting`] implements
+/// [`Bands`] this way, so [`crate::shade::Material::shade_isd`] shades under
+/// it unchanged.
+///
+/// **A spherical cap** of half-angle `alpha` and radiance `Le` (a sphere of
+/// radius `r` at distance `d` from the shaded point subtends `sin alpha = r /
+/// d`): `f(t) = Le` for `t >= cos alpha`, and with `int_x^1 P_l = (P_{l-1}(x) -
+/// P_{l+1}(x)) / (2l + 1)` (from `(2l + 1) P_l = P'_{l+1} - P'_{l-1}` and
+/// `P_l(1) = 1`),
+///
+/// ```text
+/// e_0 = 2 pi Le sqrt(1 / (4 pi)) (1 - cos alpha),
+/// e_l = 2 pi Le sqrt((2l + 1) / (4 pi)) (P_{l-1}(cos alpha) - P_{l+1}(cos alpha)) / (2l + 1).
+/// ```
+///
+/// As `alpha -> 0` with `Le alpha^2` fixed these tend to a point light's
+/// `Le pi alpha^2 y_l^0(1)`, and `e_0 sqrt(4 pi)` is the cap's solid angle
+/// times `Le`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ZonalLighting {
     axis: [f64; 3],
@@ -95,7 +97,7 @@ impl ZonalLighting {
     /// `radiance[c]` about `axis` (see the module docs).
     ///
     /// ```
-    /// use ifd_shade::lights::ZonalLighting;
+    /// use ifd_shade::ZonalLighting;
     /// // a hemisphere of unit radiance: e_0 sqrt(4 pi) is its solid angle, 2 pi
     /// let z = ZonalLighting::cap([0.0, 0.0, 1.0], 0.0, &[1.0], 4)?;
     /// let e0 = z.coeffs()[0] * (4.0 * std::f64::consts::PI).sqrt();
@@ -281,7 +283,7 @@ impl SphericalLight {
     /// of the sphere).
     ///
     /// ```
-    /// let s = ifd_shade::lights::SphericalLight::parse("0,0,3,0.5,20")?;
+    /// let s = ifd_shade::SphericalLight::parse("0,0,3,0.5,20")?;
     /// assert_eq!(s.radius, 0.5);
     /// # Ok::<(), ifd_shade::ShadeError>(())
     /// ```

@@ -1,22 +1,6 @@
 //! Measured BRDFs in the MERL binary format (Matusik et al. 2003).
 //!
-//! # Format
-//! Three little-endian `int32` dimensions `{90, 90, 180}` (`theta_h`,
-//! `theta_d`, `phi_d`), then `3 n` little-endian `f64`, `n = 90 * 90 * 180 =
-//! 1 458 000`, channel-planar (all red values, then green, then blue): a file
-//! of exactly 34 992 012 bytes. A stored value times the channel's scale (red
-//! `1 / 1500`, green `1.15 / 1500`, blue `1.66 / 1500`) is the BRDF; negative
-//! values mark invalid samples and read as 0.
-//!
-//! # Lookup (nearest bin, as the reference reader `BRDFRead.cpp`)
-//! Rusinkiewicz coordinates of `(wi, wo)`: `h = normalize(wi + wo)`,
-//! `theta_h = acos(h_z)`, `phi_h = atan2(h_y, h_x)`, `d = Ry(-theta_h)
-//! Rz(-phi_h) wi`, `theta_d = acos(d_z)`, `phi_d = atan2(d_y, d_x)` (plus `pi`
-//! when negative: reciprocity halves the range). Bins:
-//! `i_h = floor(sqrt(theta_h / (pi / 2)) * 90)` (denser near the specular
-//! peak), `i_d = floor(theta_d / (pi / 2) * 90)`, `i_p = floor(phi_d / pi *
-//! 180)`, each clamped to its range; the sample is at `i_p + 180 (i_d + 90
-//! i_h)`.
+//! The derivation and conventions are documented on [`Merl`].
 
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::io::{Read, Write};
@@ -38,6 +22,24 @@ pub const SCALE: [f64; 3] = [1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0];
 pub const FILE_BYTES: usize = 12 + 3 * SAMPLES * 8;
 
 /// A measured BRDF: the scaled RGB values of every bin, invalid ones as 0.
+///
+/// # Format
+/// Three little-endian `int32` dimensions `{90, 90, 180}` (`theta_h`,
+/// `theta_d`, `phi_d`), then `3 n` little-endian `f64`, `n = 90 * 90 * 180 =
+/// 1 458 000`, channel-planar (all red values, then green, then blue): a file
+/// of exactly 34 992 012 bytes. A stored value times the channel's scale (red
+/// `1 / 1500`, green `1.15 / 1500`, blue `1.66 / 1500`) is the BRDF; negative
+/// values mark invalid samples and read as 0.
+///
+/// # Lookup (nearest bin, as the reference reader `BRDFRead.cpp`)
+/// Rusinkiewicz coordinates of `(wi, wo)`: `h = normalize(wi + wo)`,
+/// `theta_h = acos(h_z)`, `phi_h = atan2(h_y, h_x)`, `d = Ry(-theta_h)
+/// Rz(-phi_h) wi`, `theta_d = acos(d_z)`, `phi_d = atan2(d_y, d_x)` (plus `pi`
+/// when negative: reciprocity halves the range). Bins:
+/// `i_h = floor(sqrt(theta_h / (pi / 2)) * 90)` (denser near the specular
+/// peak), `i_d = floor(theta_d / (pi / 2) * 90)`, `i_p = floor(phi_d / pi *
+/// 180)`, each clamped to its range; the sample is at `i_p + 180 (i_d + 90
+/// i_h)`.
 #[derive(Clone)]
 pub struct Merl {
     /// `[r, g, b]` per bin, already scaled.

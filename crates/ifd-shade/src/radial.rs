@@ -1,31 +1,6 @@
 //! Radial reflection maps for any BRDF (ISD Sec. 6.1, Eq. 23-24).
 //!
-//! Stone (2009) shades under distant lighting that is radially symmetric
-//! about an axis `zeta` (a sky dome, an overcast sky, a large area light) by
-//! precomputing the convolution of a radially symmetric lobe (Phong) with it:
-//! a 1D map of the angle between the lobe axis and `zeta`. With ISD the
-//! lighting is `L + 1` zonal coefficients `e_l` ([`RadialProfile::coefficients`],
-//! Eq. 23) and Eq. 22 becomes Eq. 24,
-//!
-//! ```text
-//! I(wo) = sum_{l,m} lambda_l^m(wo) e_l P_l(zeta . R z^m)
-//! ```
-//!
-//! (`pi_l e_l y_l^0 = e_l P_l`, see [`crate::lights`]): any BRDF, evaluated on
-//! the fly from `L + 1` numbers instead of a stored map. [`RadialMap`]
-//! tabulates it anyway, for engines that want lookups and for inspection:
-//! `I` over the view `(theta_o, phi_o)` and the light axis `(theta_z, phi_z)`
-//! in the local frame (`phi_o` only for anisotropic BRDFs; for isotropic
-//! ones the map is 3D, `phi_z` over `[0, pi]` by symmetry). Stone's 1D map is
-//! the special case of a slice zonal about the mirror direction.
-//!
-//! ```
-//! use ifd_shade::radial::RadialProfile;
-//! // a uniform sky over the upper hemisphere: e_0 sqrt(4 pi) = 2 pi
-//! let e = RadialProfile::parse("cap:deg=90")?.coefficients(4);
-//! assert!((e[0] * (4.0 * std::f64::consts::PI).sqrt() - 2.0 * std::f64::consts::PI).abs() < 1e-12);
-//! # Ok::<(), ifd_shade::ShadeError>(())
-//! ```
+//! The derivation and conventions are documented on [`RadialMap`].
 
 use rayon::prelude::*;
 
@@ -221,6 +196,33 @@ pub struct MapSize {
 
 /// A tabulated radial reflection map: `data` is a C-order array of shape
 /// `(T_o, P_o, T_z, P_z, C)` ([`Self::get`]).
+///
+/// Stone (2009) shades under distant lighting that is radially symmetric
+/// about an axis `zeta` (a sky dome, an overcast sky, a large area light) by
+/// precomputing the convolution of a radially symmetric lobe (Phong) with it:
+/// a 1D map of the angle between the lobe axis and `zeta`. With ISD the
+/// lighting is `L + 1` zonal coefficients `e_l` ([`RadialProfile::coefficients`],
+/// Eq. 23) and Eq. 22 becomes Eq. 24,
+///
+/// ```text
+/// I(wo) = sum_{l,m} lambda_l^m(wo) e_l P_l(zeta . R z^m)
+/// ```
+///
+/// (`pi_l e_l y_l^0 = e_l P_l`, see [`crate::ZonalLighting`]): any BRDF, evaluated on
+/// the fly from `L + 1` numbers instead of a stored map. [`RadialMap`]
+/// tabulates it anyway, for engines that want lookups and for inspection:
+/// `I` over the view `(theta_o, phi_o)` and the light axis `(theta_z, phi_z)`
+/// in the local frame (`phi_o` only for anisotropic BRDFs; for isotropic
+/// ones the map is 3D, `phi_z` over `[0, pi]` by symmetry). Stone's 1D map is
+/// the special case of a slice zonal about the mirror direction.
+///
+/// ```
+/// use ifd_shade::RadialProfile;
+/// // a uniform sky over the upper hemisphere: e_0 sqrt(4 pi) = 2 pi
+/// let e = RadialProfile::parse("cap:deg=90")?.coefficients(4);
+/// assert!((e[0] * (4.0 * std::f64::consts::PI).sqrt() - 2.0 * std::f64::consts::PI).abs() < 1e-12);
+/// # Ok::<(), ifd_shade::ShadeError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct RadialMap {
     /// Sampling.

@@ -1,26 +1,7 @@
 //! Shading with ISD (ISD Eq. 22): the radiance leaving a surface point
 //! towards `wo`, lit by a distant environment given by its SH coefficients.
 //!
-//! ```text
-//! I(wo) = int E(w) k_wo(R^-1 w) dw
-//!       = sum_{l, j} lambda_l^j(wo) Ehat_l(R z_j),   Ehat_l(d) = pi_l sum_m e_l^m y_l^m(d)
-//! ```
-//!
-//! with `R` the rotation from the local frame of the point to the world
-//! (columns tangent, bitangent, normal), further rotated about the normal by
-//! `phi_o` for isotropic tables (whose slices are taken at `phi_o = 0`). Two
-//! ways to get the weights:
-//! - **closed form** (Lambert, Phong): the slice is zonal about an axis `a`
-//!   (the normal, the mirror direction) with weights `k_l`, one lobe per band:
-//!   `I = sum_l k_l Ehat_l(R a)`, `L + 1` bands from one SH evaluation;
-//! - **table** ([`crate::table::LobeTable`]): for isotropic BRDFs `L + 1`
-//!   in-plane lobes, band `l` using the first `l + 1` (the slice is even in
-//!   `y` in the rotated frame); for anisotropic ones `2L + 1` shared lobes,
-//!   band `l` using the first `2l + 1`: one SH evaluation per lobe.
-//!
-//! [`Material::shade_sh`] is the SH reference of the same band-limited slice:
-//! its SH coefficients rotated by `R` (Ivanic-Ruedenberg) and dotted with
-//! `e`. Both give the same number up to rounding.
+//! The derivation and conventions are documented on [`Environment`].
 
 use ifd_sphere::{Rotation, ShCoeffs, ShRotation};
 use ifd_sphere::{ShEvaluator, pi_l};
@@ -63,6 +44,27 @@ pub trait Bands: Sync {
 }
 
 /// An environment's SH coefficients, ready for per-band lookups `Ehat_l(d)`.
+///
+/// ```text
+/// I(wo) = int E(w) k_wo(R^-1 w) dw
+///       = sum_{l, j} lambda_l^j(wo) Ehat_l(R z_j),   Ehat_l(d) = pi_l sum_m e_l^m y_l^m(d)
+/// ```
+///
+/// with `R` the rotation from the local frame of the point to the world
+/// (columns tangent, bitangent, normal), further rotated about the normal by
+/// `phi_o` for isotropic tables (whose slices are taken at `phi_o = 0`). Two
+/// ways to get the weights:
+/// - **closed form** (Lambert, Phong): the slice is zonal about an axis `a`
+///   (the normal, the mirror direction) with weights `k_l`, one lobe per band:
+///   `I = sum_l k_l Ehat_l(R a)`, `L + 1` bands from one SH evaluation;
+/// - **table** ([`crate::table::LobeTable`]): for isotropic BRDFs `L + 1`
+///   in-plane lobes, band `l` using the first `l + 1` (the slice is even in
+///   `y` in the rotated frame); for anisotropic ones `2L + 1` shared lobes,
+///   band `l` using the first `2l + 1`: one SH evaluation per lobe.
+///
+/// [`Material::shade_sh`] is the SH reference of the same band-limited slice:
+/// its SH coefficients rotated by `R` (Ivanic-Ruedenberg) and dotted with
+/// `e`. Both give the same number up to rounding.
 #[derive(Clone, Debug)]
 pub struct Environment {
     coeffs: ShCoeffs,

@@ -40,7 +40,7 @@ pub fn slice_nodes(brdf: &Brdf, l_max: usize) -> usize {
 /// quadrature models' resolution instead of the adaptive doubling.
 ///
 /// ```
-/// use ifd_shade::{brdf::Brdf, slice::project_slice};
+/// use ifd_shade::{Brdf, project_slice};
 /// // Lambert, white: int k = 1, so c_00 = 1 / sqrt(4 pi)
 /// let c = project_slice(&Brdf::parse("lambert")?, [0.0, 0.0, 1.0], 4, None)?;
 /// assert!((c.get(0, 0, 0) - 0.5 / std::f64::consts::PI.sqrt()).abs() < 1e-15);

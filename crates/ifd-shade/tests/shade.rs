@@ -3,11 +3,11 @@
 
 use std::f64::consts::PI;
 
-use ifd_shade::brdf::Brdf;
-use ifd_shade::merl::{self, Merl};
-use ifd_shade::slice::project_slice;
-use ifd_shade::table::LobeTable;
-use ifd_shade::zonal::{legendre_moments, zonal_slice};
+use ifd_shade::Brdf;
+use ifd_shade::LobeTable;
+use ifd_shade::project_slice;
+use ifd_shade::{Merl, merl_format as merl};
+use ifd_shade::{legendre_moments, zonal_slice};
 use ifd_sphere::{gauss_legendre, legendre_p};
 use ifd_sphere::{project_band, project_function};
 
@@ -218,7 +218,7 @@ fn merl_files_round_trip_and_read_as_the_model() {
     );
     let b = Brdf::parse(&format!("merl:{}", path.display())).unwrap();
     let Some(m) = (match b.model() {
-        ifd_shade::brdf::Model::Merl(m) => Some(m.clone()),
+        ifd_shade::Model::Merl(m) => Some(m.clone()),
         _ => None,
     }) else {
         panic!("not a MERL BRDF")
@@ -344,8 +344,8 @@ fn tables_interpolate_their_entries_and_round_trip() {
 /// the f32 storage) while evaluating `L + 1` directions instead of `2L + 1`.
 #[test]
 fn in_plane_and_shared_tables_shade_alike() {
-    use ifd_shade::shade::{Environment, Frame, Material};
-    use ifd_shade::table::LobeKind;
+    use ifd_shade::LobeKind;
+    use ifd_shade::{Environment, Frame, Material};
     use ifd_sphere::ShCoeffs;
     use ifd_sphere::SplitMix64;
     use ifd_sphere::odd_part_norm;
@@ -465,7 +465,7 @@ fn unit(v: [f64; 3]) -> [f64; 3] {
 
 #[test]
 fn isd_and_sh_shading_agree() {
-    use ifd_shade::shade::{Environment, Frame, Material};
+    use ifd_shade::{Environment, Frame, Material};
     use ifd_sphere::ShCoeffs;
     use ifd_sphere::SplitMix64;
     let l = 8;
@@ -507,7 +507,7 @@ fn isd_and_sh_shading_agree() {
 
 #[test]
 fn white_furnace_through_shading() {
-    use ifd_shade::shade::{Environment, Frame, Material};
+    use ifd_shade::{Environment, Frame, Material};
     use ifd_sphere::ShCoeffs;
     let l = 6;
     let mut e = ShCoeffs::zeros(l, 1).unwrap();

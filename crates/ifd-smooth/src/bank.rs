@@ -1,18 +1,6 @@
 //! Decompositions of anisotropic Gaussians tabulated over aspect ratio.
 //!
-//! Entry `i` is the decomposition of the Gaussian with standard deviations
-//! `sx = sigma_ref sqrt(a_i)`, `sy = sigma_ref / sqrt(a_i)` along `x` and `y`
-//! (`sx sy = sigma_ref^2`: every entry has the same footprint area, and an
-//! anisotropic Gaussian with `sx sy = S^2` attenuates white noise exactly as
-//! much as an isotropic one of sigma `S`, since `sum k^2 = 1 / (4 pi sx sy)`).
-//! The aspect ratios `a_i` are log-spaced from 1 to `max_aspect`.
-//!
-//! Between entries the weights are blended linearly in `log a`: filtering is
-//! linear, so `(1 - t) F_i + t F_{i+1}` is exactly the filter of the blended
-//! decomposition `(1 - t) D_i + t D_{i+1}` (the union of both term lists with
-//! scaled weights). The blended kernel is not exactly the Gaussian of the
-//! intermediate aspect ratio; [`AspectBank::blend_error`] measures by how much
-//! (see the tests and `docs/smoothing.md`).
+//! The derivation and conventions are documented on [`AspectBank`].
 
 use std::path::Path;
 
@@ -25,7 +13,7 @@ use crate::error::{SmoothError, check_range};
 /// How the bank's Gaussians are applied: as their averages over each output
 /// pixel ([`Sampling::Averaged`], atom variance plus `1/12` px^2), so that
 /// the smoothing filter is the pixel-integrated Gaussian at every footprint
-/// scale, as the directly evaluated small footprints ([`crate::direct`]) are.
+/// scale, as the directly evaluated small footprints ([`crate::DirectKernels`]) are.
 pub const BANK_SAMPLING: Sampling = Sampling::Averaged;
 
 /// How to build an [`AspectBank`].
@@ -57,7 +45,7 @@ impl Default for BankOptions {
 /// is 1).
 ///
 /// ```
-/// let a = ifd_smooth::bank::log_spaced_aspects(16.0, 2.0);
+/// let a = ifd_smooth::log_spaced_aspects(16.0, 2.0);
 /// assert_eq!(a.len(), 9);
 /// assert!((a[1] - 2f64.sqrt()).abs() < 1e-12 && (a[8] - 16.0).abs() < 1e-12);
 /// ```
@@ -95,6 +83,20 @@ pub fn locate_aspect(aspects: &[f64], a: f64) -> (usize, f64) {
 
 /// Decompositions of `gauss:sx=sigma_ref sqrt(a),sy=sigma_ref/sqrt(a)` for
 /// log-spaced aspect ratios `a`.
+///
+/// Entry `i` is the decomposition of the Gaussian with standard deviations
+/// `sx = sigma_ref sqrt(a_i)`, `sy = sigma_ref / sqrt(a_i)` along `x` and `y`
+/// (`sx sy = sigma_ref^2`: every entry has the same footprint area, and an
+/// anisotropic Gaussian with `sx sy = S^2` attenuates white noise exactly as
+/// much as an isotropic one of sigma `S`, since `sum k^2 = 1 / (4 pi sx sy)`).
+/// The aspect ratios `a_i` are log-spaced from 1 to `max_aspect`.
+///
+/// Between entries the weights are blended linearly in `log a`: filtering is
+/// linear, so `(1 - t) F_i + t F_{i+1}` is exactly the filter of the blended
+/// decomposition `(1 - t) D_i + t D_{i+1}` (the union of both term lists with
+/// scaled weights). The blended kernel is not exactly the Gaussian of the
+/// intermediate aspect ratio; [`AspectBank::blend_error`] measures by how much
+/// (see the tests and `docs/smoothing.md`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AspectBank {
     /// The options it was built with.

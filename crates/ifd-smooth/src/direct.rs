@@ -1,39 +1,7 @@
 //! Footprints too small for the scale stack: the pixel-integrated
 //! anisotropic Gaussian evaluated directly, from tables of sparse taps.
 //!
-//! Below [`DIRECT_BELOW`] px the smoother's Gaussians are narrower than the
-//! stack's finest levels represent (at footprint `S = 0.5` and aspect 16 the
-//! short axis has `sigma = 0.125` px), so a pixel's filter is applied as the
-//! weights of the continuous Gaussian **integrated over each pixel cell**:
-//!
-//! `w(i, j) = integral over [i - 1/2, i + 1/2] x [j - 1/2, j + 1/2] of
-//! N(u; 0, Sigma) du`, `Sigma = sx^2 e1 e1^T + sy^2 e2 e2^T`,
-//!
-//! with `e1 = (cos theta, -sin theta)` the long axis (`theta`
-//! counter-clockwise on screen, `y` down) and `e2` perpendicular. At `S = 0.5`
-//! a pixel reads a handful of taps; the weights sum to 1 (up to the
-//! truncation at 5 standard deviations, renormalised).
-//!
-//! **The cell integral.** A bivariate normal factors into the marginal of
-//! one coordinate and the conditional of the other: with `y` the coordinate
-//! of larger variance, `x | y ~ N(m y, c^2)`, `m = Sxy / Syy`,
-//! `c^2 = det(Sigma) / Syy`, so
-//!
-//! `w = integral_{y0}^{y1} phi(y / sqrt Syy) / sqrt Syy
-//!      [Phi((x1 - m y) / c) - Phi((x0 - m y) / c)] dy`.
-//!
-//! The outer integrand is smooth (the marginal has the larger standard
-//! deviation, at least `S / sqrt 2`) except where the bracket switches on or
-//! off, over a width `c / |m|` in `y`; composite 4-point Gauss-Legendre
-//! with sub-intervals narrower than that integrates it to about 1e-7
-//! (tested against dense supersampling).
-//!
-//! **Tables.** Per pixel the filter changes with the orientation field, so
-//! the weights are tabulated over aspect ratio (four entries per octave,
-//! blended linearly in `log a` like the IFD bank) and angle (a step that
-//! keeps the blend of neighbouring angles within about 0.2% of the exact
-//! kernel: finer for longer, thinner kernels; one angle for the isotropic
-//! entry). A pixel blends four tabulated kernels.
+//! The derivation and conventions are documented on [`DirectKernels`].
 
 use ifd_image::Image;
 use ifd_planar::Border;
@@ -114,7 +82,7 @@ const WEIGHTS: [f64; 4] = [
 /// (see the module documentation for the formula).
 ///
 /// ```
-/// use ifd_smooth::direct::{cell_integral, covariance};
+/// use ifd_smooth::{cell_integral, covariance};
 /// // An isotropic Gaussian: the product of two 1D integrals.
 /// let w = cell_integral(covariance(0.0, 1.0, 1.0), [-0.5, 0.5], [-0.5, 0.5]);
 /// assert!((w - 0.382_924_922_548_026_f64.powi(2)).abs() < 1e-6);
@@ -160,7 +128,7 @@ pub fn cell_integral(cov: [f64; 3], xr: [f64; 2], yr: [f64; 2]) -> f64 {
 /// to 1 (weights below `1e-7` of the total dropped).
 ///
 /// ```
-/// use ifd_smooth::direct::integrated_kernel;
+/// use ifd_smooth::integrated_kernel;
 /// let k = integrated_kernel(30.0, 2.0, 0.125);
 /// let sum: f32 = k.iter().map(|t| t.w).sum();
 /// assert!((sum - 1.0).abs() < 1e-5);
@@ -208,6 +176,40 @@ struct AspectEntry {
 
 /// Pixel-integrated anisotropic Gaussians of one footprint scale, tabulated
 /// over aspect ratio and angle (see the module documentation).
+///
+/// Below [`DIRECT_BELOW`] px the smoother's Gaussians are narrower than the
+/// stack's finest levels represent (at footprint `S = 0.5` and aspect 16 the
+/// short axis has `sigma = 0.125` px), so a pixel's filter is applied as the
+/// weights of the continuous Gaussian **integrated over each pixel cell**:
+///
+/// `w(i, j) = integral over [i - 1/2, i + 1/2] x [j - 1/2, j + 1/2] of
+/// N(u; 0, Sigma) du`, `Sigma = sx^2 e1 e1^T + sy^2 e2 e2^T`,
+///
+/// with `e1 = (cos theta, -sin theta)` the long axis (`theta`
+/// counter-clockwise on screen, `y` down) and `e2` perpendicular. At `S = 0.5`
+/// a pixel reads a handful of taps; the weights sum to 1 (up to the
+/// truncation at 5 standard deviations, renormalised).
+///
+/// **The cell integral.** A bivariate normal factors into the marginal of
+/// one coordinate and the conditional of the other: with `y` the coordinate
+/// of larger variance, `x | y ~ N(m y, c^2)`, `m = Sxy / Syy`,
+/// `c^2 = det(Sigma) / Syy`, so
+///
+/// `w = integral_{y0}^{y1} phi(y / sqrt Syy) / sqrt Syy
+///      [Phi((x1 - m y) / c) - Phi((x0 - m y) / c)] dy`.
+///
+/// The outer integrand is smooth (the marginal has the larger standard
+/// deviation, at least `S / sqrt 2`) except where the bracket switches on or
+/// off, over a width `c / |m|` in `y`; composite 4-point Gauss-Legendre
+/// with sub-intervals narrower than that integrates it to about 1e-7
+/// (tested against dense supersampling).
+///
+/// **Tables.** Per pixel the filter changes with the orientation field, so
+/// the weights are tabulated over aspect ratio (four entries per octave,
+/// blended linearly in `log a` like the IFD bank) and angle (a step that
+/// keeps the blend of neighbouring angles within about 0.2% of the exact
+/// kernel: finer for longer, thinner kernels; one angle for the isotropic
+/// entry). A pixel blends four tabulated kernels.
 #[derive(Clone, Debug)]
 pub struct DirectKernels {
     scale: f64,

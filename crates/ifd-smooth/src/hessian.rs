@@ -1,20 +1,6 @@
 //! The image Hessian at any scale through IFD (Section 5.1 of the IFD paper).
 //!
-//! The second derivatives of a normalised Gaussian `g_sigma0` are decomposed
-//! once: `k_xx = d^2 g / dx^2` and `k_xy = d^2 g / dx dy`. `k_yy` is `k_xx`
-//! rotated by 90 degrees: with `R_{-90} (dx, dy) = (-dy, dx)`,
-//! `k_xx(R_{-90} d) = (dy^2 / s0^4 - 1 / s0^2) g(d) = k_yy(d)`.
-//!
-//! **Scale.** Scaling a kernel by `s` in IFD gives `k_s(d) = k(d / s) / s^2`.
-//! With `g_sigma(d) = g_sigma0(d / s) / s^2` for `sigma = s sigma0`, the chain
-//! rule gives `d^2 g_sigma / dx^2 (d) = (d^2 g_sigma0 / dx^2)(d / s) / s^4 =
-//! k_s(d) / s^2`. So the Hessian at scale `sigma` is the IFD response at scale
-//! `s = sigma / sigma0` divided by `s^2`. The result is **not**
-//! scale-normalised (multiply by `sigma^2` for that), matching
-//! `skimage.feature.hessian_matrix(..., use_gaussian_derivatives=True)`.
-//!
-//! Both kernels are even (`k(-d) = k(d)`), so correlation equals convolution
-//! and the responses are the derivatives of the Gaussian-smoothed image.
+//! The derivation and conventions are documented on [`HessianBank`].
 
 use ifd_image::{Image, ImageView};
 use ifd_planar::{
@@ -46,6 +32,22 @@ pub fn hessian_stack_options() -> StackOptions {
 }
 
 /// The decomposed second-derivative filters.
+///
+/// The second derivatives of a normalised Gaussian `g_sigma0` are decomposed
+/// once: `k_xx = d^2 g / dx^2` and `k_xy = d^2 g / dx dy`. `k_yy` is `k_xx`
+/// rotated by 90 degrees: with `R_{-90} (dx, dy) = (-dy, dx)`,
+/// `k_xx(R_{-90} d) = (dy^2 / s0^4 - 1 / s0^2) g(d) = k_yy(d)`.
+///
+/// **Scale.** Scaling a kernel by `s` in IFD gives `k_s(d) = k(d / s) / s^2`.
+/// With `g_sigma(d) = g_sigma0(d / s) / s^2` for `sigma = s sigma0`, the chain
+/// rule gives `d^2 g_sigma / dx^2 (d) = (d^2 g_sigma0 / dx^2)(d / s) / s^4 =
+/// k_s(d) / s^2`. So the Hessian at scale `sigma` is the IFD response at scale
+/// `s = sigma / sigma0` divided by `s^2`. The result is **not**
+/// scale-normalised (multiply by `sigma^2` for that), matching
+/// `skimage.feature.hessian_matrix(..., use_gaussian_derivatives=True)`.
+///
+/// Both kernels are even (`k(-d) = k(d)`), so correlation equals convolution
+/// and the responses are the derivatives of the Gaussian-smoothed image.
 #[derive(Clone, Debug)]
 pub struct HessianBank {
     /// Decomposition of `d^2 g_sigma0 / dx^2`.

@@ -2,21 +2,37 @@
 //! filter decompositions (Section 5.1 and Fig. 5 of the IFD paper): the engine
 //! of the brush app.
 //!
-//! - [`hessian`]: the Hessian `(Hxx, Hxy, Hyy)` at any scale, from the
-//!   decompositions of the second-derivative-of-Gaussian filters `xx` and
-//!   `xy` (`yy` is `xx` rotated by 90 degrees, as in the paper), at one point
-//!   (O(s) lookups) or over a whole image.
-//! - [`orientation`]: from the Hessian to the smoothing filter's orientation and
-//!   aspect ratio (the mapping and its parameters).
-//! - [`bank`]: decompositions of anisotropic Gaussians tabulated over aspect
-//!   ratio; between entries the weights are blended linearly.
-//! - [`direct`]: footprints below the stack's finest levels (`S < 2` px), as
-//!   tables of pixel-integrated anisotropic Gaussians applied tap by tap.
-//! - [`smooth`]: the [`Smoother`], which owns one prefiltered scale stack and
-//!   smooths a whole image or a dab, in the paper's mode (one filter per dab,
-//!   from the Hessian at the dab's centre) or per pixel.
-//! - [`tiled`]: images larger than memory, smoothed tile by tile with the
-//!   halo each stage of the chain needs (the result of smoothing them whole).
+//! The modules are private; the API is re-exported here, by topic:
+//! - **Hessian** (`hessian.rs`): the Hessian `(Hxx, Hxy, Hyy)` at any
+//!   scale, from the decompositions of the second-derivative-of-Gaussian
+//!   filters `xx` and `xy` (`yy` is `xx` rotated by 90 degrees, as in the
+//!   paper), at one point (O(s) lookups) or over a whole image:
+//!   [`HessianBank`], [`HessianFilters`], [`hessian_image`],
+//!   [`hessian_stack_options`], [`check_sigma`], [`HESSIAN_SIGMA0`],
+//!   [`HESSIAN_SIGMA_RANGE`].
+//! - **Orientation** (`orientation.rs`): from the Hessian to the smoothing
+//!   filter's orientation and aspect ratio: [`Orientation`], [`AnisoParams`],
+//!   [`tensor`].
+//! - **Aspect bank** (`bank.rs`): decompositions of anisotropic Gaussians
+//!   tabulated over aspect ratio, blended linearly between entries:
+//!   [`AspectBank`], [`BankOptions`], [`BANK_SAMPLING`],
+//!   [`log_spaced_aspects`], [`locate_aspect`].
+//! - **Direct kernels** (`direct.rs`): footprints below the stack's finest
+//!   levels (`S < 2` px), tables of pixel-integrated anisotropic Gaussians
+//!   applied tap by tap: [`DirectKernels`], [`Tap`], [`DIRECT_BELOW`],
+//!   [`integrated_kernel`], [`cell_integral`], [`covariance`].
+//! - **Smoothing** (`smooth/`): the [`Smoother`], which owns one prefiltered
+//!   scale stack and smooths a whole image or a [`Dab`], in the paper's mode
+//!   (one filter per dab, from the Hessian at the dab's centre) or per pixel
+//!   ([`Mode`], [`SmoothOptions`], [`SCALE_RANGE`], [`smoother_stack_options`]),
+//!   refreshed for a changed rectangle ([`RegionRefresh`]); the dab grid
+//!   ([`dab_grid_corners`], [`anchored_dab_grid_corners`],
+//!   [`nearest_pixel`], [`DabRegion`]).
+//! - **Tiles** (`tiled.rs`): images larger than memory, smoothed tile by tile
+//!   with the halo each stage of the chain needs (the result of smoothing
+//!   them whole): [`smooth_tiled`], [`SmoothTiles`], [`Tile`],
+//!   [`smooth_halo`], [`smoother_bytes`].
+//! - Errors: [`SmoothError`].
 //!
 //! Conventions are those of `ifd_planar`: `x` = column, `y` = row (down),
 //! angles in degrees counter-clockwise on screen, filtering is correlation.
@@ -30,18 +46,24 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub mod bank;
-pub mod direct;
-pub mod error;
-pub mod hessian;
-pub mod orientation;
-pub mod smooth;
-pub mod tiled;
+mod bank;
+mod direct;
+mod error;
+mod hessian;
+mod orientation;
+mod smooth;
+mod tiled;
 
-pub use bank::{AspectBank, BankOptions};
+pub use bank::{AspectBank, BANK_SAMPLING, BankOptions, locate_aspect, log_spaced_aspects};
+pub use direct::{DIRECT_BELOW, DirectKernels, Tap, cell_integral, covariance, integrated_kernel};
 pub use error::SmoothError;
-pub use hessian::{HessianBank, hessian_image};
-pub use orientation::{AnisoParams, Orientation};
-pub use smooth::{
-    Dab, DabRegion, Mode, RegionRefresh, SmoothOptions, Smoother, smoother_stack_options,
+pub use hessian::{
+    HESSIAN_SIGMA_RANGE, HESSIAN_SIGMA0, HessianBank, HessianFilters, check_sigma, hessian_image,
+    hessian_stack_options,
 };
+pub use orientation::{AnisoParams, Orientation, tensor};
+pub use smooth::{
+    Dab, DabRegion, Mode, RegionRefresh, SCALE_RANGE, SmoothOptions, Smoother,
+    anchored_dab_grid_corners, dab_grid_corners, nearest_pixel, smoother_stack_options,
+};
+pub use tiled::{SmoothTiles, Tile, smooth_halo, smooth_tiled, smoother_bytes};

@@ -1,24 +1,6 @@
 //! From the Hessian to the smoothing filter's orientation and aspect ratio.
 //!
-//! At an edge or a ridge the Hessian's eigenvector of largest `|lambda|`
-//! points across the structure; smoothing should run along it (perpendicular
-//! to that eigenvector) and not across.
-//!
-//! **Tensor averaging.** At the centre of a step edge the second derivative
-//! across the edge crosses zero, so the raw Hessian there is nearly zero and
-//! would give an isotropic filter exactly where the edge must be kept. We
-//! therefore use the *Hessian tensor* `T = H^2` (same eigenvectors,
-//! eigenvalues `lambda^2 >= 0`), averaged over a small Gaussian neighbourhood
-//! (sigma `rho`), in the spirit of the structure tensor: the strong responses
-//! on both sides of the zero crossing fill it in.
-//!
-//! **Mapping.** With `mu1 >= mu2 >= 0` the eigenvalues of `T`, and
-//! `n1 = sigma^2 sqrt(mu1)`, `n2 = sigma^2 sqrt(mu2)` the scale-normalised
-//! magnitudes, the anisotropy is
-//! `A = (n1 - n2) / (n1 + n2 + epsilon)` in `[0, 1)`, and the filter's aspect
-//! ratio is `1 + (max_aspect - 1) A^gamma`. `epsilon` (in image units, default
-//! 0.02 for images in `[0, 1]`) makes flat and noisy regions isotropic: a
-//! zero Hessian gives aspect 1, never NaN.
+//! The derivation and conventions are documented on [`Orientation`].
 
 use serde::{Deserialize, Serialize};
 
@@ -59,6 +41,26 @@ impl AnisoParams {
 }
 
 /// The smoothing filter at one place.
+///
+/// At an edge or a ridge the Hessian's eigenvector of largest `|lambda|`
+/// points across the structure; smoothing should run along it (perpendicular
+/// to that eigenvector) and not across.
+///
+/// **Tensor averaging.** At the centre of a step edge the second derivative
+/// across the edge crosses zero, so the raw Hessian there is nearly zero and
+/// would give an isotropic filter exactly where the edge must be kept. We
+/// therefore use the *Hessian tensor* `T = H^2` (same eigenvectors,
+/// eigenvalues `lambda^2 >= 0`), averaged over a small Gaussian neighbourhood
+/// (sigma `rho`), in the spirit of the structure tensor: the strong responses
+/// on both sides of the zero crossing fill it in.
+///
+/// **Mapping.** With `mu1 >= mu2 >= 0` the eigenvalues of `T`, and
+/// `n1 = sigma^2 sqrt(mu1)`, `n2 = sigma^2 sqrt(mu2)` the scale-normalised
+/// magnitudes, the anisotropy is
+/// `A = (n1 - n2) / (n1 + n2 + epsilon)` in `[0, 1)`, and the filter's aspect
+/// ratio is `1 + (max_aspect - 1) A^gamma`. `epsilon` (in image units, default
+/// 0.02 for images in `[0, 1]`) makes flat and noisy regions isotropic: a
+/// zero Hessian gives aspect 1, never NaN.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Orientation {
     /// Direction of the long axis, degrees counter-clockwise on screen.

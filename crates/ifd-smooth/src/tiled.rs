@@ -1,69 +1,7 @@
 //! Smoothing an image far larger than memory, tile by tile, with the result
 //! of smoothing it whole.
 //!
-//! # What an output pixel reads
-//! The smoother is a chain of local operations, so each output pixel depends
-//! on a bounded neighbourhood of the input ([`smooth_halo`]):
-//!
-//! 1. **Stack levels.** A level of sigma `sigma` at a sample is the image
-//!    correlated with a Gaussian of that sigma: outside `5 sigma` its
-//!    weights are below `4e-6` of the peak, and its total mass beyond a line
-//!    at `5 sigma` is `3e-7`. Levels are read with cubic B-splines whose
-//!    coefficients come from an infinite prefilter decaying as `0.268^n`
-//!    (samples of step `<= sigma / 8` here), so `7 sigma` covers both.
-//! 2. **Hessian.** The derivative filters' atoms sit up to `s_h |c_t|` from
-//!    the pixel (`s_h = hessian sigma / sigma0`) and read levels up to the
-//!    Hessian's largest stack sigma `sigma_h`: `s_h max|c_t| + 7 sigma_h`.
-//! 3. **Tensor averaging.** The tensor is blurred with a Gaussian truncated
-//!    at `ceil(3 rho)` pixels: exactly that much more.
-//! 4. **Dab grid** ([`Mode::Dab`] only). A pixel uses the orientations of
-//!    the four dab centres around it, up to one grid spacing `g` away.
-//! 5. **Smoothing filters.** The bank's atoms sit up to `s_b max|c_t|` from
-//!    the pixel and read levels up to `sigma_b`: `s_b max|c_t| + 7 sigma_b`
-//!    (below [`crate::direct::DIRECT_BELOW`], the direct kernels' reach).
-//!
-//! The halo is the larger of the orientation's chain (2 + 3 + 4) and the
-//! smoothing's (5). Two more things make tiles agree with the whole image:
-//! tile origins are multiples of the stack's coarsest subsampling step (levels
-//! sample the same positions), and the dab grid stays anchored at the image's
-//! origin ([`Smoother::with_grid_origin`]). At the image's true edges a tile
-//! read stops at the edge and the border rule acts there, as for the whole
-//! image.
-//!
-//! Pixels come from a [`RegionReader`] (for example a streamed `.npy`,
-//! [`ifd_image::NpyReader`]); each smoothed tile goes to a callback, so that
-//! the caller can blend, write, or evaluate on another device.
-//!
-//! ```
-//! use std::sync::Arc;
-//! use ifd_image::Image;
-//! use ifd_planar::PixelRect;
-//! use ifd_smooth::{AspectBank, BankOptions, HessianBank, Mode, SmoothOptions, Smoother};
-//! use ifd_smooth::tiled::{SmoothTiles, smooth_tiled};
-//! // A small bank (aspects 1, 2, 4) keeps the example quick.
-//! let bank_opts = BankOptions { max_aspect: 4.0, steps_per_octave: 1, ..BankOptions::default() };
-//! let opts = SmoothOptions { scale: 3.0, bank: bank_opts, ..SmoothOptions::default() };
-//! let opts = SmoothOptions { aniso: ifd_smooth::AnisoParams { max_aspect: 4.0, ..opts.aniso }, ..opts };
-//! let bank = Arc::new(AspectBank::build(opts.bank, |_, _| {})?);
-//! let hbank = HessianBank::new(0.01)?;
-//! let (w, h) = (150, 120);
-//! let img = Image::from_vec(w, h, 1, (0..w * h).map(|i| ((i % w) / 10 % 2) as f32).collect())?;
-//! let tiles = SmoothTiles::new((w, h, 1), &opts, Mode::Dab, &bank, &hbank, 32)?;
-//! let mut out = Image::new(w, h, 1)?;
-//! smooth_tiled(
-//!     &tiles, &opts, &bank, &hbank,
-//!     &mut |r: PixelRect| Ok(img.crop(r.x0, r.y0, r.width, r.height)),
-//!     |tile| -> Result<(), ifd_smooth::SmoothError> {
-//!         out.paste(tile.inner.x0, tile.inner.y0, &tile.smooth(Mode::Dab)?);
-//!         Ok(())
-//!     },
-//!     |_, _| {},
-//! )?;
-//! let whole = Smoother::with_banks(&img, &opts, bank, &hbank)?.smooth_image(Mode::Dab)?;
-//! let diff = out.data().iter().zip(whole.data()).fold(0f32, |m, (a, b)| m.max((a - b).abs()));
-//! assert!(diff < 1e-5, "{diff}");
-//! # Ok::<(), Box<dyn std::error::Error>>(())
-//! ```
+//! The derivation and conventions are documented on [`smooth_tiled`].
 
 use std::sync::Arc;
 
@@ -133,7 +71,7 @@ fn alignment(
 
 /// Bytes the smoother of a `(width, height, channels)` image needs at most:
 /// its stack and the build's transient FFT buffers, the image (twice below
-/// [`crate::direct::DIRECT_BELOW`]), the orientation field, the Hessian and
+/// [`crate::DIRECT_BELOW`]), the orientation field, the Hessian and
 /// tensor planes while the field is built, and a result of `out_pixels`.
 ///
 /// # Errors
@@ -264,6 +202,70 @@ impl Tile<'_> {
 /// # Errors
 /// The reader's errors, a reader that returns another size, the errors of
 /// building a tile's smoother (NaN pixels name the tile), and `each`'s.
+///
+/// # What an output pixel reads
+/// The smoother is a chain of local operations, so each output pixel depends
+/// on a bounded neighbourhood of the input ([`smooth_halo`]):
+///
+/// 1. **Stack levels.** A level of sigma `sigma` at a sample is the image
+///    correlated with a Gaussian of that sigma: outside `5 sigma` its
+///    weights are below `4e-6` of the peak, and its total mass beyond a line
+///    at `5 sigma` is `3e-7`. Levels are read with cubic B-splines whose
+///    coefficients come from an infinite prefilter decaying as `0.268^n`
+///    (samples of step `<= sigma / 8` here), so `7 sigma` covers both.
+/// 2. **Hessian.** The derivative filters' atoms sit up to `s_h |c_t|` from
+///    the pixel (`s_h = hessian sigma / sigma0`) and read levels up to the
+///    Hessian's largest stack sigma `sigma_h`: `s_h max|c_t| + 7 sigma_h`.
+/// 3. **Tensor averaging.** The tensor is blurred with a Gaussian truncated
+///    at `ceil(3 rho)` pixels: exactly that much more.
+/// 4. **Dab grid** ([`Mode::Dab`] only). A pixel uses the orientations of
+///    the four dab centres around it, up to one grid spacing `g` away.
+/// 5. **Smoothing filters.** The bank's atoms sit up to `s_b max|c_t|` from
+///    the pixel and read levels up to `sigma_b`: `s_b max|c_t| + 7 sigma_b`
+///    (below [`crate::DIRECT_BELOW`], the direct kernels' reach).
+///
+/// The halo is the larger of the orientation's chain (2 + 3 + 4) and the
+/// smoothing's (5). Two more things make tiles agree with the whole image:
+/// tile origins are multiples of the stack's coarsest subsampling step (levels
+/// sample the same positions), and the dab grid stays anchored at the image's
+/// origin ([`Smoother::with_grid_origin`]). At the image's true edges a tile
+/// read stops at the edge and the border rule acts there, as for the whole
+/// image.
+///
+/// Pixels come from a [`RegionReader`] (for example a streamed `.npy`,
+/// [`ifd_image::NpyReader`]); each smoothed tile goes to a callback, so that
+/// the caller can blend, write, or evaluate on another device.
+///
+/// ```
+/// use std::sync::Arc;
+/// use ifd_image::Image;
+/// use ifd_planar::PixelRect;
+/// use ifd_smooth::{AspectBank, BankOptions, HessianBank, Mode, SmoothOptions, Smoother};
+/// use ifd_smooth::{SmoothTiles, smooth_tiled};
+/// // A small bank (aspects 1, 2, 4) keeps the example quick.
+/// let bank_opts = BankOptions { max_aspect: 4.0, steps_per_octave: 1, ..BankOptions::default() };
+/// let opts = SmoothOptions { scale: 3.0, bank: bank_opts, ..SmoothOptions::default() };
+/// let opts = SmoothOptions { aniso: ifd_smooth::AnisoParams { max_aspect: 4.0, ..opts.aniso }, ..opts };
+/// let bank = Arc::new(AspectBank::build(opts.bank, |_, _| {})?);
+/// let hbank = HessianBank::new(0.01)?;
+/// let (w, h) = (150, 120);
+/// let img = Image::from_vec(w, h, 1, (0..w * h).map(|i| ((i % w) / 10 % 2) as f32).collect())?;
+/// let tiles = SmoothTiles::new((w, h, 1), &opts, Mode::Dab, &bank, &hbank, 32)?;
+/// let mut out = Image::new(w, h, 1)?;
+/// smooth_tiled(
+///     &tiles, &opts, &bank, &hbank,
+///     &mut |r: PixelRect| Ok(img.crop(r.x0, r.y0, r.width, r.height)),
+///     |tile| -> Result<(), ifd_smooth::SmoothError> {
+///         out.paste(tile.inner.x0, tile.inner.y0, &tile.smooth(Mode::Dab)?);
+///         Ok(())
+///     },
+///     |_, _| {},
+/// )?;
+/// let whole = Smoother::with_banks(&img, &opts, bank, &hbank)?.smooth_image(Mode::Dab)?;
+/// let diff = out.data().iter().zip(whole.data()).fold(0f32, |m, (a, b)| m.max((a - b).abs()));
+/// assert!(diff < 1e-5, "{diff}");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn smooth_tiled<E: From<SmoothError>>(
     tiles: &SmoothTiles,
     opts: &SmoothOptions,

@@ -6,12 +6,16 @@
 
 use std::sync::{Arc, OnceLock};
 
+#[path = "../../../tests/support/images.rs"]
+mod images;
+
 use ifd_image::Image;
 use ifd_planar::Border;
 use ifd_smooth::{
     AspectBank, BankOptions, Dab, HessianBank, Mode, SmoothError, SmoothOptions, Smoother,
     hessian_image,
 };
+use images::edge_waves as test_image;
 
 fn banks() -> &'static (Arc<AspectBank>, HessianBank) {
     static B: OnceLock<(Arc<AspectBank>, HessianBank)> = OnceLock::new();
@@ -28,18 +32,6 @@ fn smoother(img: &Image, scale: f64) -> Smoother {
         ..SmoothOptions::default()
     };
     Smoother::with_banks(img, &opts, bank.clone(), hbank).unwrap()
-}
-
-fn test_image(w: usize, h: usize) -> Image {
-    // Smooth shapes plus a sharp diagonal edge.
-    let data = (0..w * h)
-        .map(|i| {
-            let (x, y) = ((i % w) as f32, (i / w) as f32);
-            let edge = if x + 0.5 * y > 40.0 { 0.8 } else { 0.2 };
-            edge + 0.1 * (x / 7.0).sin() * (y / 9.0).cos()
-        })
-        .collect();
-    Image::from_vec(w, h, 1, data).unwrap()
 }
 
 #[test]
@@ -81,7 +73,7 @@ fn point_hessian_equals_whole_image() {
         hbank.stack_sigmas(3.0, 3.0).0,
         hbank.stack_sigmas(3.0, 3.0).1,
         Border::Reflect101,
-        ifd_smooth::hessian::hessian_stack_options(),
+        ifd_smooth::hessian_stack_options(),
     )
     .unwrap();
     let f = hbank.bind(&stack).unwrap();
@@ -303,7 +295,7 @@ fn direct_refresh_follows_the_edited_image() {
 #[test]
 fn tiled_smoothing_equals_whole_image() {
     use ifd_planar::PixelRect;
-    use ifd_smooth::tiled::{SmoothTiles, smooth_tiled};
+    use ifd_smooth::{SmoothTiles, smooth_tiled};
     let (bank, hbank) = banks();
     let (w, h) = (420, 400);
     // Two channels: the Hessian of the channel mean, smoothing per channel.

@@ -1,16 +1,6 @@
 //! Filtering a spherical signal with a decomposed kernel (ISD Eq. 6, 13, 14).
 //!
-//! For a kernel `k ~ sum_{l,j} lambda_l^j phi_l((R_l^j)^-1 w)` and a signal `f`,
-//!
-//! ```text
-//! fhat(R) = int k(R^-1 w) f(w) dw = sum_{l,j} lambda_l^j fhat_l(R z_l^j)       (Eq. 6)
-//! fhat_l(d) = (f (x) phi_l)(d) = int g_l(d . w) f(w) dw
-//!           = sum_{l'} beta_{l l'} pi_{l'} sum_m f_{l'}^m y_{l'}^m(d)           (Eq. 13-14)
-//! ```
-//!
-//! (for the zonal profile `beta = delta` and this is exactly `pi_l f_l^m`, Eq. 13).
-//! [`Prefiltered`] holds the per-band convolved signal; [`Decomposition::filter`]
-//! evaluates `fhat(R)` for any rotation with `(L + 1)^2` lookups.
+//! The derivation and conventions are documented on [`Decomposition`].
 
 use ifd_image::Image;
 use rayon::prelude::*;
@@ -24,6 +14,18 @@ use crate::transform::cube_texel;
 use crate::zhf::{DirectionSet, RzhCoeffs, Sharing};
 
 /// A kernel decomposed into rotated copies of a profile's mother functions.
+///
+/// For a kernel `k ~ sum_{l,j} lambda_l^j phi_l((R_l^j)^-1 w)` and a signal `f`,
+///
+/// ```text
+/// fhat(R) = int k(R^-1 w) f(w) dw = sum_{l,j} lambda_l^j fhat_l(R z_l^j)       (Eq. 6)
+/// fhat_l(d) = (f (x) phi_l)(d) = int g_l(d . w) f(w) dw
+///           = sum_{l'} beta_{l l'} pi_{l'} sum_m f_{l'}^m y_{l'}^m(d)           (Eq. 13-14)
+/// ```
+///
+/// (for the zonal profile `beta = delta` and this is exactly `pi_l f_l^m`, Eq. 13).
+/// [`Prefiltered`] holds the per-band convolved signal; [`Decomposition::filter`]
+/// evaluates `fhat(R)` for any rotation with `(L + 1)^2` lookups.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Decomposition {
     /// File-format version (1).

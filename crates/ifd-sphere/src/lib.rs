@@ -4,8 +4,10 @@
 //! arbitrary mother functions, and filtering of spherical signals with it.
 //!
 //! ```
-//! use ifd_sphere::{Chooser, DirectionSet, EquirectTransform, Rotation, RzhBasis, Sharing, ShRotation};
-//! //! // A 64x32 map, projected to degree 4 with the FFT + Legendre transform.
+//! use ifd_sphere::{
+//!     Chooser, DirectionSet, EquirectTransform, Rotation, RzhBasis, ShRotation, Sharing,
+//! };
+//! // A 64x32 map, projected to degree 4 with the FFT + Legendre transform.
 //! let t = EquirectTransform::new(4, 64, 32)?;
 //! let img = ifd_image::Image::from_vec(64, 32, 1, (0..64 * 32).map(|i| (i % 7) as f32).collect())?;
 //! let c = t.analyze(&img, ifd_sphere::Negatives::Clamp)?.coeffs;

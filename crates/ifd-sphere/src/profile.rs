@@ -1,41 +1,6 @@
 //! Isotropic mother functions and the general ISD matrix (ISD Sec. 5.2, Eq. 15-19).
 //!
-//! A mother function of band `l` is circularly symmetric about `z`:
-//! `phi_l(w) = g_l(w . z)`. Its ZH projections are
-//!
-//! ```text
-//! beta_{l l'} = <phi_l, y_{l'}^0> = 2 pi K_{l'}^0 int_{-1}^{1} g_l(t) P_{l'}(t) dt   (Eq. 16)
-//! ```
-//!
-//! and, by the addition theorem, the lobe `phi_l^j(w) = phi_l((R_l^j)^-1 w)` has
-//! the SH coefficients `beta_{l l'} pi_{l'} y_{l'}^{m'}(z_l^j)`, so
-//!
-//! ```text
-//! M_{(l', m'), (l, j)} = beta_{l l'} pi_{l'} y_{l'}^{m'}(z_l^j)              (Eq. 17)
-//! ```
-//!
-//! (The paper's Eq. 15 goes through Wigner coefficients; this direct route gives
-//! the same Eq. 17.) `M` is `(L + 1)^2 x (L + 1)^2`, block-diagonal for the zonal
-//! profile (`beta = delta`, Eq. 18). Profiles (ISD Sec. 7.2, Fig. 13):
-//!
-//! | profile | `g_l(t)` | `beta_{l l'}` |
-//! |---|---|---|
-//! | [`Profile::Zonal`] (RZH) | `K_l^0 P_l(t)` (`= y_l^0`) | `delta_{l l'}` |
-//! | [`Profile::Legendre`] | `P_l(t)` | `pi_l delta_{l l'}` |
-//! | [`Profile::Phong`] | `max(t, 0)^(4l)` | quadrature |
-//! | [`Profile::Gauss`] | `exp(-(1 - t) l^2)` (Eq. 19) | quadrature |
-//! | [`Profile::Vmf`] | `kappa / (4 pi sinh kappa) exp(kappa t)`, `kappa_l = l (l + 1) / (2 ln 2)` | quadrature |
-//! | [`Profile::Hybrid`] | `exp(-(1 - t) l^2) P_l(t)` | quadrature |
-//!
-//! Phong is clamped to the upper hemisphere: the unclamped `t^(4l)` of the
-//! paper's text is even in `t`, has no odd-degree ZH component, and would make
-//! `M` exactly singular (no odd band could be represented).
-//! The vMF concentration is chosen so that the SH spectrum of `phi_l`
-//! (about `exp(-l'(l'+1) / (2 kappa))`) has dropped to one half at `l' = l`;
-//! for `l = 0` it is the uniform density `1 / (4 pi)`.
-//! Quadrature: composite Gauss-Legendre on `[-1, 1]` with intervals halving
-//! towards `t = 1` (where the peaked profiles live), exact for the polynomial
-//! profiles.
+//! The derivation and conventions are documented on [`IsdBasis`].
 
 use nalgebra::DMatrix;
 
@@ -213,6 +178,43 @@ fn graded_rule(l_max: usize) -> (Vec<f64>, Vec<f64>) {
 /// assert!(isd.condition_number() < 1e6);
 /// # Ok::<(), ifd_sphere::SphereError>(())
 /// ```
+///
+/// A mother function of band `l` is circularly symmetric about `z`:
+/// `phi_l(w) = g_l(w . z)`. Its ZH projections are
+///
+/// ```text
+/// beta_{l l'} = <phi_l, y_{l'}^0> = 2 pi K_{l'}^0 int_{-1}^{1} g_l(t) P_{l'}(t) dt   (Eq. 16)
+/// ```
+///
+/// and, by the addition theorem, the lobe `phi_l^j(w) = phi_l((R_l^j)^-1 w)` has
+/// the SH coefficients `beta_{l l'} pi_{l'} y_{l'}^{m'}(z_l^j)`, so
+///
+/// ```text
+/// M_{(l', m'), (l, j)} = beta_{l l'} pi_{l'} y_{l'}^{m'}(z_l^j)              (Eq. 17)
+/// ```
+///
+/// (The paper's Eq. 15 goes through Wigner coefficients; this direct route gives
+/// the same Eq. 17.) `M` is `(L + 1)^2 x (L + 1)^2`, block-diagonal for the zonal
+/// profile (`beta = delta`, Eq. 18). Profiles (ISD Sec. 7.2, Fig. 13):
+///
+/// | profile | `g_l(t)` | `beta_{l l'}` |
+/// |---|---|---|
+/// | [`Profile::Zonal`] (RZH) | `K_l^0 P_l(t)` (`= y_l^0`) | `delta_{l l'}` |
+/// | [`Profile::Legendre`] | `P_l(t)` | `pi_l delta_{l l'}` |
+/// | [`Profile::Phong`] | `max(t, 0)^(4l)` | quadrature |
+/// | [`Profile::Gauss`] | `exp(-(1 - t) l^2)` (Eq. 19) | quadrature |
+/// | [`Profile::Vmf`] | `kappa / (4 pi sinh kappa) exp(kappa t)`, `kappa_l = l (l + 1) / (2 ln 2)` | quadrature |
+/// | [`Profile::Hybrid`] | `exp(-(1 - t) l^2) P_l(t)` | quadrature |
+///
+/// Phong is clamped to the upper hemisphere: the unclamped `t^(4l)` of the
+/// paper's text is even in `t`, has no odd-degree ZH component, and would make
+/// `M` exactly singular (no odd band could be represented).
+/// The vMF concentration is chosen so that the SH spectrum of `phi_l`
+/// (about `exp(-l'(l'+1) / (2 kappa))`) has dropped to one half at `l' = l`;
+/// for `l = 0` it is the uniform density `1 / (4 pi)`.
+/// Quadrature: composite Gauss-Legendre on `[-1, 1]` with intervals halving
+/// towards `t = 1` (where the peaked profiles live), exact for the polynomial
+/// profiles.
 pub struct IsdBasis {
     profile: Profile,
     dirs: DirectionSet,

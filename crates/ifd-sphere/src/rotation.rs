@@ -1,20 +1,6 @@
 //! 3D rotations and the reference SH rotation (Ivanic-Ruedenberg recurrences).
 //!
-//! # Convention
-//! [`Rotation::from_zyz`]`(a, b, c)` is `R = Rz(a) Ry(b) Rz(c)` (radians, right
-//! handed, active). Rotating a function means `g(w) = f(R^T w)`: the function's
-//! features move with `R` (a lobe pointing along `d` ends up pointing along `R d`).
-//! This is what `ducc0.sht.rotate_alm(alm, lmax, psi=c, theta=b, phi=a)` computes.
-//!
-//! # Reference rotation
-//! [`ShRotation`] builds the block-diagonal real-SH rotation matrices with the
-//! recurrences of Ivanic and Ruedenberg (J. Phys. Chem. 1996, with the 1998
-//! erratum), which work in the real basis *without* the Condon-Shortley phase.
-//! Our basis (Sloan, with the phase) differs by `(-1)^m` on every function, so
-//! the band matrices are conjugated by `D_l = diag((-1)^m)`.
-//! Band 1 of the phase-free basis is proportional to `(y, z, x)`; a linear
-//! function `a . w` becomes `a . (R^T w) = (R a) . w`, so `R^1 = P R P^T` with
-//! the permutation `(y, z, x)`, and `c'_l = R^l c_l`.
+//! The derivation and conventions are documented on [`ShRotation`].
 
 use crate::coeffs::ShCoeffs;
 use crate::error::{Result, SphereError, check_degree};
@@ -231,6 +217,22 @@ impl Rotation {
 /// assert!((g.get(1, 1, 0) + 1.0).abs() < 1e-14);
 /// # Ok::<(), ifd_sphere::SphereError>(())
 /// ```
+///
+/// # Convention
+/// [`Rotation::from_zyz`]`(a, b, c)` is `R = Rz(a) Ry(b) Rz(c)` (radians, right
+/// handed, active). Rotating a function means `g(w) = f(R^T w)`: the function's
+/// features move with `R` (a lobe pointing along `d` ends up pointing along `R d`).
+/// This is what `ducc0.sht.rotate_alm(alm, lmax, psi=c, theta=b, phi=a)` computes.
+///
+/// # Reference rotation
+/// [`ShRotation`] builds the block-diagonal real-SH rotation matrices with the
+/// recurrences of Ivanic and Ruedenberg (J. Phys. Chem. 1996, with the 1998
+/// erratum), which work in the real basis *without* the Condon-Shortley phase.
+/// Our basis (Sloan, with the phase) differs by `(-1)^m` on every function, so
+/// the band matrices are conjugated by `D_l = diag((-1)^m)`.
+/// Band 1 of the phase-free basis is proportional to `(y, z, x)`; a linear
+/// function `a . w` becomes `a . (R^T w) = (R a) . w`, so `R^1 = P R P^T` with
+/// the permutation `(y, z, x)`, and `c'_l = R^l c_l`.
 #[derive(Clone, Debug)]
 pub struct ShRotation {
     l_max: usize,

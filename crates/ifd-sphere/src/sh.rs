@@ -1,41 +1,6 @@
 //! Real spherical harmonics in the graphics (Sloan) convention.
 //!
-//! # Convention
-//! `y_l^m` for `-l <= m <= l`, flat index `l (l + 1) + m`, orthonormal on the unit
-//! sphere, Condon-Shortley phase included:
-//!
-//! ```text
-//! y_l^m  = sqrt(2) K_l^m P_l^m(cos t) cos(m p)      m > 0
-//! y_l^0  =         K_l^0 P_l^0(cos t)
-//! y_l^m  = sqrt(2) K_l^|m| P_l^|m|(cos t) sin(|m| p)  m < 0
-//! K_l^m  = sqrt((2l + 1) / (4 pi) (l - m)! / (l + m)!)
-//! ```
-//!
-//! with `P_l^m` carrying the `(-1)^m` phase, so `y_1^-1 = -0.488603 y`,
-//! `y_1^0 = 0.488603 z`, `y_1^1 = -0.488603 x`. This is pyshtools'
-//! `spharm_lm(l, m, t, p, normalization='ortho', kind='real', csphase=-1)`.
-//!
-//! # Evaluation
-//! The formula above (ISD Eq. 7) is unstable for large `l` when evaluated with
-//! factorials. We use the Cartesian form of Sloan ("Stupid SH tricks", 2008):
-//! `sin^m t cos(m p) = Re (x + i y)^m` and `sin^m t sin(m p) = Im (x + i y)^m`,
-//! and run the standard three-term recurrences on the *normalised, reduced*
-//! Legendre functions `Q_l^m(z) = K_l^m P_l^m(z) / sin^m t`, which stay of
-//! moderate size for every degree:
-//!
-//! ```text
-//! Q_0^0     = 1 / sqrt(4 pi)
-//! Q_m^m     = -sqrt((2m + 1) / (2m)) Q_{m-1}^{m-1}
-//! Q_{m+1}^m = sqrt(2m + 3) z Q_m^m
-//! Q_l^m     = a_lm (z Q_{l-1}^m - b_lm Q_{l-2}^m),
-//!   a_lm = sqrt((4l^2 - 1) / (l^2 - m^2)),
-//!   b_lm = sqrt(((l - 1)^2 - m^2) / (4 (l - 1)^2 - 1)).
-//! ```
-//!
-//! (Derivation: divide the classical recurrence
-//! `(l - m) P_l^m = (2l - 1) z P_{l-1}^m - (l + m - 1) P_{l-2}^m` by `sin^m t` and
-//! fold in the ratios `K_l^m / K_{l-1}^m`.) Errors stay at a few ulps times `l`
-//! (checked against pyshtools to `L = 100`).
+//! The derivation and conventions are documented on [`ShEvaluator`].
 
 use std::f64::consts::PI;
 
@@ -200,6 +165,43 @@ macro_rules! eval_body {
 /// assert!((y[sh_index(1, 1)] + 0.488_602_511_902_919_9).abs() < 1e-15); // y_1^1 = -0.4886 x
 /// # Ok::<(), ifd_sphere::SphereError>(())
 /// ```
+///
+/// # Convention
+/// `y_l^m` for `-l <= m <= l`, flat index `l (l + 1) + m`, orthonormal on the unit
+/// sphere, Condon-Shortley phase included:
+///
+/// ```text
+/// y_l^m  = sqrt(2) K_l^m P_l^m(cos t) cos(m p)      m > 0
+/// y_l^0  =         K_l^0 P_l^0(cos t)
+/// y_l^m  = sqrt(2) K_l^|m| P_l^|m|(cos t) sin(|m| p)  m < 0
+/// K_l^m  = sqrt((2l + 1) / (4 pi) (l - m)! / (l + m)!)
+/// ```
+///
+/// with `P_l^m` carrying the `(-1)^m` phase, so `y_1^-1 = -0.488603 y`,
+/// `y_1^0 = 0.488603 z`, `y_1^1 = -0.488603 x`. This is pyshtools'
+/// `spharm_lm(l, m, t, p, normalization='ortho', kind='real', csphase=-1)`.
+///
+/// # Evaluation
+/// The formula above (ISD Eq. 7) is unstable for large `l` when evaluated with
+/// factorials. We use the Cartesian form of Sloan ("Stupid SH tricks", 2008):
+/// `sin^m t cos(m p) = Re (x + i y)^m` and `sin^m t sin(m p) = Im (x + i y)^m`,
+/// and run the standard three-term recurrences on the *normalised, reduced*
+/// Legendre functions `Q_l^m(z) = K_l^m P_l^m(z) / sin^m t`, which stay of
+/// moderate size for every degree:
+///
+/// ```text
+/// Q_0^0     = 1 / sqrt(4 pi)
+/// Q_m^m     = -sqrt((2m + 1) / (2m)) Q_{m-1}^{m-1}
+/// Q_{m+1}^m = sqrt(2m + 3) z Q_m^m
+/// Q_l^m     = a_lm (z Q_{l-1}^m - b_lm Q_{l-2}^m),
+///   a_lm = sqrt((4l^2 - 1) / (l^2 - m^2)),
+///   b_lm = sqrt(((l - 1)^2 - m^2) / (4 (l - 1)^2 - 1)).
+/// ```
+///
+/// (Derivation: divide the classical recurrence
+/// `(l - m) P_l^m = (2l - 1) z P_{l-1}^m - (l + m - 1) P_{l-2}^m` by `sin^m t` and
+/// fold in the ratios `K_l^m / K_{l-1}^m`.) Errors stay at a few ulps times `l`
+/// (checked against pyshtools to `L = 100`).
 #[derive(Clone, Debug)]
 pub struct ShEvaluator {
     table: LegendreTable,

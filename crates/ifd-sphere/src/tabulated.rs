@@ -6,29 +6,7 @@
 //! SH evaluation at all, as the paper intends for its GPU path (it used
 //! cubemaps of `6 x 1024^2`).
 //!
-//! Lookups are bilinear between texel centres (wrapping in azimuth), and
-//! between the first (last) row and the pole's own value within half a row of
-//! a pole (clamping there would make the error first order); one set of four
-//! taps and weights per lobe serves every band. The interpolation error of a band-`l` function on a grid of
-//! height `H` is about `(pi l / H)^2 / 8` of its amplitude: the tables trade
-//! memory (`(L + 1) x 2H^2` values per channel) for accuracy
-//! ([`BandTables::new`]'s `height`).
-//!
-//! ```
-//! use ifd_sphere::{Rotation, ShCoeffs};
-//! use ifd_sphere::BandTables;
-//! use ifd_sphere::{Chooser, DirectionSet, RzhBasis, Sharing};
-//! let f = ShCoeffs::from_vec(3, 1, (0..16).map(|i| (i as f64 * 0.7).sin()).collect())?;
-//! let basis = RzhBasis::new(DirectionSet::new(3, Sharing::Shared, Chooser::Fibonacci)?)?;
-//! let tables = BandTables::new(&f, 512)?;
-//! let r = Rotation::from_zyz(0.3, 1.1, -0.7);
-//! let a = basis.rotate_tailored(&f, &r)?;
-//! let b = tables.rotate(&basis, &r)?;
-//! for (x, y) in a.data().iter().zip(b.data()) {
-//!     assert!((x - y).abs() < 1e-3);
-//! }
-//! # Ok::<(), ifd_sphere::SphereError>(())
-//! ```
+//! The derivation and conventions are documented on [`BandTables`].
 
 use std::f64::consts::PI;
 
@@ -39,6 +17,30 @@ use crate::sh::ShEvaluator;
 use crate::zhf::{RzhBasis, Sharing};
 
 /// Every band's expansion of a signal on an equirectangular grid.
+///
+/// Lookups are bilinear between texel centres (wrapping in azimuth), and
+/// between the first (last) row and the pole's own value within half a row of
+/// a pole (clamping there would make the error first order); one set of four
+/// taps and weights per lobe serves every band. The interpolation error of a band-`l` function on a grid of
+/// height `H` is about `(pi l / H)^2 / 8` of its amplitude: the tables trade
+/// memory (`(L + 1) x 2H^2` values per channel) for accuracy
+/// ([`BandTables::new`]'s `height`).
+///
+/// ```
+/// use ifd_sphere::{Rotation, ShCoeffs};
+/// use ifd_sphere::BandTables;
+/// use ifd_sphere::{Chooser, DirectionSet, RzhBasis, Sharing};
+/// let f = ShCoeffs::from_vec(3, 1, (0..16).map(|i| (i as f64 * 0.7).sin()).collect())?;
+/// let basis = RzhBasis::new(DirectionSet::new(3, Sharing::Shared, Chooser::Fibonacci)?)?;
+/// let tables = BandTables::new(&f, 512)?;
+/// let r = Rotation::from_zyz(0.3, 1.1, -0.7);
+/// let a = basis.rotate_tailored(&f, &r)?;
+/// let b = tables.rotate(&basis, &r)?;
+/// for (x, y) in a.data().iter().zip(b.data()) {
+///     assert!((x - y).abs() < 1e-3);
+/// }
+/// # Ok::<(), ifd_sphere::SphereError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct BandTables {
     l_max: usize,

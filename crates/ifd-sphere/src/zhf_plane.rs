@@ -1,43 +1,7 @@
 //! Rotated zonal harmonics in one plane, for functions even in `y`: `l + 1`
 //! lobes per band instead of `2l + 1`.
 //!
-//! # Why
-//! An isotropic BRDF's slice taken with the view in the `xz` plane
-//! (`phi_o = 0`) is even in `y`: `k(x, -y, z) = k(x, y, z)`. Its SH
-//! coefficients with `m < 0` (the `sin(|m| p)` harmonics, odd in `y`) vanish,
-//! so band `l` lives in the `(l + 1)`-dimensional space spanned by
-//! `y_l^0 .. y_l^l`. Zonal harmonics about directions in the `xz` plane are
-//! even in `y` too, and `l + 1` of them span that space, so such a slice needs
-//! `sum_l (l + 1) = (L + 1)(L + 2) / 2` weights and `L + 1` lobe directions
-//! (band `l` uses the first `l + 1`), about half of the `2L + 1` of a general
-//! shared set ([`crate::zhf`]): half the work for a shader that evaluates the
-//! environment at each lobe.
-//!
-//! # The matrices
-//! With `d_j = (sin a_j, 0, cos a_j)`, ISD Eq. 10 restricted to `m >= 0`:
-//!
-//! ```text
-//! c_l^m = sum_{j <= l} (E_l)_{m j} lambda_l^j,   (E_l)_{m j} = pi_l y_l^m(d_j),   m = 0..l
-//! ```
-//!
-//! and `c_l^m = 0` for `m < 0`.
-//!
-//! # Why any `l + 1` distinct angles in `[0, pi)` work
-//! `E_l` is singular exactly when some non-zero band-`l` function `f`, even in
-//! `y`, vanishes at all the `d_j`. On the great circle `y = 0`, `f(a) =
-//! f(sin a, 0, cos a)` is a trigonometric polynomial of degree `l` with
-//! `f(a + pi) = (-1)^l f(a)` (band `l` has parity `(-1)^l`), so its zeros
-//! come in pairs `a, a + pi`; having at most `2l` zeros in `[0, 2 pi)` unless it
-//! vanishes identically, it has at most `l` in `[0, pi)`. And it cannot vanish
-//! on the whole circle: a harmonic polynomial that vanishes on the plane
-//! `y = 0` is odd in `y` (Schwarz reflection), and `f` is even, so `f = 0`.
-//! How well conditioned `E_l` is depends on the spacing of the angles (modulo
-//! `pi`); the default nested sequence is the van der Corput sequence in base 2
-//! (`0, pi/2, pi/4, 3pi/4, pi/8, ...`), whose prefixes keep every gap within a
-//! factor of two of every other. Its condition numbers grow slowly (see
-//! [`PlaneRzhBasis::condition_numbers`]): the largest is 4.9 up to `L = 10`,
-//! 7.6 up to 20, 11 up to 30 and 24.5 up to 100 (checked below 30 in the
-//! tests); the golden-ratio sequence does about as well (4.8, 8.4, 11.5, 25).
+//! The derivation and conventions are documented on [`PlaneRzhBasis`].
 
 use nalgebra::DMatrix;
 
@@ -104,6 +68,44 @@ pub fn default_angles(l_max: usize) -> Vec<f64> {
 /// assert!(back.data().iter().zip(f.data()).all(|(a, b)| (a - b).abs() < 1e-12));
 /// # Ok::<(), ifd_sphere::SphereError>(())
 /// ```
+///
+/// # Why
+/// An isotropic BRDF's slice taken with the view in the `xz` plane
+/// (`phi_o = 0`) is even in `y`: `k(x, -y, z) = k(x, y, z)`. Its SH
+/// coefficients with `m < 0` (the `sin(|m| p)` harmonics, odd in `y`) vanish,
+/// so band `l` lives in the `(l + 1)`-dimensional space spanned by
+/// `y_l^0 .. y_l^l`. Zonal harmonics about directions in the `xz` plane are
+/// even in `y` too, and `l + 1` of them span that space, so such a slice needs
+/// `sum_l (l + 1) = (L + 1)(L + 2) / 2` weights and `L + 1` lobe directions
+/// (band `l` uses the first `l + 1`), about half of the `2L + 1` of a general
+/// shared set ([`crate::RzhBasis`]): half the work for a shader that evaluates the
+/// environment at each lobe.
+///
+/// # The matrices
+/// With `d_j = (sin a_j, 0, cos a_j)`, ISD Eq. 10 restricted to `m >= 0`:
+///
+/// ```text
+/// c_l^m = sum_{j <= l} (E_l)_{m j} lambda_l^j,   (E_l)_{m j} = pi_l y_l^m(d_j),   m = 0..l
+/// ```
+///
+/// and `c_l^m = 0` for `m < 0`.
+///
+/// # Why any `l + 1` distinct angles in `[0, pi)` work
+/// `E_l` is singular exactly when some non-zero band-`l` function `f`, even in
+/// `y`, vanishes at all the `d_j`. On the great circle `y = 0`, `f(a) =
+/// f(sin a, 0, cos a)` is a trigonometric polynomial of degree `l` with
+/// `f(a + pi) = (-1)^l f(a)` (band `l` has parity `(-1)^l`), so its zeros
+/// come in pairs `a, a + pi`; having at most `2l` zeros in `[0, 2 pi)` unless it
+/// vanishes identically, it has at most `l` in `[0, pi)`. And it cannot vanish
+/// on the whole circle: a harmonic polynomial that vanishes on the plane
+/// `y = 0` is odd in `y` (Schwarz reflection), and `f` is even, so `f = 0`.
+/// How well conditioned `E_l` is depends on the spacing of the angles (modulo
+/// `pi`); the default nested sequence is the van der Corput sequence in base 2
+/// (`0, pi/2, pi/4, 3pi/4, pi/8, ...`), whose prefixes keep every gap within a
+/// factor of two of every other. Its condition numbers grow slowly (see
+/// [`PlaneRzhBasis::condition_numbers`]): the largest is 4.9 up to `L = 10`,
+/// 7.6 up to 20, 11 up to 30 and 24.5 up to 100 (checked below 30 in the
+/// tests); the golden-ratio sequence does about as well (4.8, 8.4, 11.5, 25).
 #[derive(Clone, Debug)]
 pub struct PlaneRzhBasis {
     angles: Vec<f64>,

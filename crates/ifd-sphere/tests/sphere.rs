@@ -8,6 +8,9 @@
 use std::f64::consts::PI;
 
 use ifd_image::Image;
+
+#[path = "../../../tests/support/images.rs"]
+mod images;
 use ifd_sphere::{Chooser, DirectionSet, RzhBasis, Sharing, SplitMix64};
 use ifd_sphere::{Decomposition, Prefiltered};
 use ifd_sphere::{EquirectTransform, Rotation, ShCoeffs, ShRotation, SphereError};
@@ -424,6 +427,7 @@ mod zhf {
 
 mod transform {
     use super::*;
+    use crate::images::uniform_noise as noise_image;
 
     /// Brute-force pixel quadrature with the same exact solid angles.
     fn brute_analysis(img: &Image, l_max: usize) -> ShCoeffs {
@@ -445,17 +449,6 @@ mod transform {
             }
         }
         out
-    }
-
-    fn noise_image(w: usize, h: usize, ch: usize, seed: u64) -> Image {
-        let mut rng = SplitMix64::new(seed);
-        Image::from_vec(
-            w,
-            h,
-            ch,
-            (0..w * h * ch).map(|_| rng.uniform() as f32).collect(),
-        )
-        .unwrap()
     }
 
     #[test]

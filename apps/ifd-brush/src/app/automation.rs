@@ -1,9 +1,8 @@
 //! Runs without a person (`--replay`, `--save`, `--screenshot`, `--exit`):
-//! the stages of an automated run, and how a failure reaches `main`.
+//! the brush's own stages (wait until ready, replay, save), then the end
+//! that both apps share ([`ifd_app::Finish`]: settle, screenshot, exit).
 
-use ifd_app::write_screenshot;
-use std::sync::Arc;
-use std::time::Duration;
+use ifd_app::FinishStep;
 
 use crate::worker::Command;
 
@@ -11,15 +10,18 @@ use super::{BrushApp, Stage};
 
 impl BrushApp {
     /// Stops an automated run: the message goes to `main` (through
-    /// [`Automation::failure`]), which reports it and exits with status 2
-    /// once the window has closed.
+    /// [`super::Automation::failure`]), which reports it and exits with
+    /// status 2 once the window has closed.
     pub(super) fn fail(&mut self, ctx: &egui::Context, msg: String) {
-        if let Ok(mut slot) = self.automation.failure.lock() {
-            slot.get_or_insert(msg);
-        }
         self.stage = Stage::Done;
         self.allow_close = true;
-        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        self.finish.fail(ctx, msg);
+    }
+
+    /// The brush's stages are over: the shared end of the run begins.
+    pub(super) fn begin_finish(&mut self) {
+        self.stage = Stage::Finishing;
+        self.finish.start();
     }
 
     pub(super) fn automation_step(&mut self, ctx: &egui::Context) {
@@ -32,51 +34,22 @@ impl BrushApp {
                     self.stage = Stage::Saving;
                     self.send(Command::Save(p));
                 } else {
-                    self.stage = Stage::Screenshot(0);
+                    self.begin_finish();
                 }
             }
-            Stage::Screenshot(n) => {
-                if self.automation.screenshot.is_none() {
+            Stage::Finishing => match self.finish.step(ctx) {
+                FinishStep::Pending => {}
+                FinishStep::Finished | FinishStep::Done => {
                     self.stage = Stage::Done;
-                    if self.automation.exit {
+                    if self.finish.exits() {
                         self.allow_close = true;
-                        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                     }
-                } else if n < 5 {
-                    // Let a few frames settle (fit, textures uploaded).
-                    self.stage = Stage::Screenshot(n + 1);
-                    ctx.request_repaint();
-                } else {
-                    let slot = Arc::clone(&self.shot);
-                    let c2 = ctx.clone();
-                    ctx.request_screenshot(move |img| {
-                        if let Ok(mut s) = slot.lock() {
-                            *s = Some(img);
-                        }
-                        c2.request_repaint();
-                    });
-                    self.stage = Stage::WaitShot;
                 }
-            }
-            Stage::WaitShot => {
-                let img = self.shot.lock().ok().and_then(|mut s| s.take());
-                if let Some(img) = img {
-                    if let Some(p) = &self.automation.screenshot {
-                        if let Err(e) = write_screenshot(p, &img) {
-                            self.fail(ctx, format!("writing the screenshot: {e:#}"));
-                            return;
-                        }
-                        eprintln!("screenshot written to {}", p.display());
-                    }
+                FinishStep::Failed => {
                     self.stage = Stage::Done;
-                    if self.automation.exit {
-                        self.allow_close = true;
-                        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
-                    }
-                } else {
-                    ctx.request_repaint_after(Duration::from_millis(20));
+                    self.allow_close = true;
                 }
-            }
+            },
             _ => {}
         }
     }

@@ -107,7 +107,7 @@ impl BrushApp {
                         doc.path = Some(path);
                     }
                     if self.stage == Stage::Saving {
-                        self.stage = Stage::Screenshot(0);
+                        self.begin_finish();
                     }
                     if self.quit_after_save && !self.is_dirty() {
                         self.allow_close = true;
@@ -121,7 +121,7 @@ impl BrushApp {
                         if let Some(p) = self.automation.save.clone() {
                             self.send(Command::Save(p));
                         } else {
-                            self.stage = Stage::Screenshot(0);
+                            self.begin_finish();
                         }
                         if let Some(p) = self.automation.record.clone() {
                             self.send(Command::SaveRecording(p));

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use egui::{Color32, ColorImage, Pos2, TextureHandle, TextureOptions};
+use egui::{Color32, Pos2, TextureHandle, TextureOptions};
 use ifd_image::{Image, MemoryBudget};
 use ifd_planar::PixelRect;
 use ifd_smooth::Orientation;
@@ -27,6 +27,7 @@ use crate::settings::BrushSettings;
 use crate::strokes::StrokesFile;
 use crate::view::View;
 use crate::worker::{self, Command, Event, Worker};
+use ifd_app::Finish;
 use ifd_gpu::DeviceChoice;
 
 /// Storage key of the persisted settings.
@@ -111,8 +112,8 @@ enum Stage {
     WaitReady,
     Replaying,
     Saving,
-    Screenshot(u32),
-    WaitShot,
+    /// The shared end of the run ([`ifd_app::Finish`]).
+    Finishing,
     Done,
 }
 
@@ -187,7 +188,7 @@ pub struct BrushApp {
     automation: Automation,
     render_state: Option<WindowGpu>,
     stage: Stage,
-    shot: Arc<Mutex<Option<Arc<ColorImage>>>>,
+    finish: Finish,
     status: String,
     compute: String,
     compute_note: Option<String>,
@@ -285,6 +286,11 @@ impl BrushApp {
         } else {
             Stage::Done
         };
+        let finish = Finish::new(
+            start.automation.screenshot.clone(),
+            start.automation.exit,
+            Arc::clone(&start.automation.failure),
+        );
         Self {
             settings: Persisted { brush, ..settings },
             worker,
@@ -317,7 +323,7 @@ impl BrushApp {
             automation: start.automation,
             render_state: start.render_state,
             stage,
-            shot: Arc::new(Mutex::new(None)),
+            finish,
             status: String::new(),
             compute: "CPU".into(),
             compute_note: None,

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use ifd_image::metrics::{self, Comparison, Metrics};
+use ifd_image::{Comparison, Metrics};
 use serde_json::json;
 
 use crate::input::InputOptions;
@@ -51,8 +51,8 @@ impl Compare {
                 b.channels()
             );
         }
-        let a = metrics::crop_border(&a, self.crop_border).context("--crop-border")?;
-        let b = metrics::crop_border(&b, self.crop_border).context("--crop-border")?;
+        let a = ifd_image::crop_border(&a, self.crop_border).context("--crop-border")?;
+        let b = ifd_image::crop_border(&b, self.crop_border).context("--crop-border")?;
         if let Some(r) = self.data_range
             && !(r.is_finite() && r > 0.0)
         {
@@ -60,8 +60,8 @@ impl Compare {
         }
         let range = self
             .data_range
-            .unwrap_or_else(|| metrics::default_data_range(a.data(), b.data()));
-        let cmp = metrics::compare(&a, &b, range).context("comparing images")?;
+            .unwrap_or_else(|| ifd_image::default_data_range(a.data(), b.data()));
+        let cmp = ifd_image::compare(&a, &b, range).context("comparing images")?;
         if self.report.json {
             println!("{}", serde_json::to_string_pretty(&to_json(&cmp))?);
         } else {

@@ -38,7 +38,7 @@ impl Hessian {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
         let border = self.border;
-        ifd_smooth::hessian::check_sigma(self.sigma)
+        ifd_smooth::check_sigma(self.sigma)
             .map_err(|e| crate::input::name_option(e, Some("--sigma")))?;
         crate::output::check_output_path(&self.output)?;
         let img = self.input.read(&self.image)?.image;

@@ -10,8 +10,8 @@ use ifd_render::Shadows;
 use ifd_render::{Job, Method, render};
 use ifd_render::{RoughnessFamily, SurfaceMaps, Texture};
 use ifd_shade::Brdf;
-use ifd_shade::shade::Material;
-use ifd_shade::table::{LobeTable, default_theta_entries};
+use ifd_shade::Material;
+use ifd_shade::{LobeTable, default_theta_entries};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
@@ -226,16 +226,16 @@ impl Render {
             (_, Some(l)) => Some(l),
             (_, None) => bail!("--lmax L is needed for --method {}", self.method.name()),
         };
-        if let Some(l) = l_max.filter(|&l| l > ifd_shade::table::MAX_TABLE_DEGREE) {
+        if let Some(l) = l_max.filter(|&l| l > ifd_shade::MAX_TABLE_DEGREE) {
             bail!(
                 "--lmax {l}: shading supports L <= {}",
-                ifd_shade::table::MAX_TABLE_DEGREE
+                ifd_shade::MAX_TABLE_DEGREE
             );
         }
         let lights = self
             .light
             .iter()
-            .map(|l| ifd_shade::lights::SphericalLight::parse(l))
+            .map(|l| ifd_shade::SphericalLight::parse(l))
             .collect::<Result<Vec<_>, _>>()?;
         if self.gpu && !lights.is_empty() {
             bail!("--light: spherical lights are shaded on the CPU only (drop --gpu)");
@@ -448,7 +448,7 @@ impl Render {
     ) -> Result<(ifd_render::Rendered, serde_json::Value)> {
         use std::time::Instant;
         let t = Instant::now();
-        let prepared = ifd_gpu::shading::GpuRender::new(ctx, job).context("--gpu")?;
+        let prepared = ifd_gpu::GpuRender::new(ctx, job).context("--gpu")?;
         let upload = t.elapsed().as_secs_f64();
         let bar = progress_bar("frames");
         bar.set_length(self.frames as u64);

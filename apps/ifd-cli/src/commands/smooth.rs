@@ -7,8 +7,8 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use ifd_planar::Border;
-use ifd_smooth::tiled::{SmoothTiles, smooth_tiled};
 use ifd_smooth::{AnisoParams, AspectBank, HessianBank, Mode, SmoothOptions, Smoother};
+use ifd_smooth::{SmoothTiles, smooth_tiled};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::input::InputOptions;
@@ -123,7 +123,7 @@ impl Smooth {
         if self.gpu && opts.evaluated_directly() {
             anyhow::bail!(
                 "--gpu: footprint scales below {} px (here {}) are evaluated directly, on the CPU only; drop --gpu",
-                ifd_smooth::direct::DIRECT_BELOW,
+                ifd_smooth::DIRECT_BELOW,
                 self.scale
             );
         }
@@ -259,7 +259,7 @@ impl Smooth {
         bank: &AspectBank,
         hbank: &HessianBank,
     ) -> Result<Option<u64>> {
-        let bytes = match ifd_smooth::tiled::smoother_bytes((w, h, c), opts, bank, hbank, w * h) {
+        let bytes = match ifd_smooth::smoother_bytes((w, h, c), opts, bank, hbank, w * h) {
             Ok(b) => b,
             // A stack too large to plan whole (its FFT domain) is one to tile.
             Err(ifd_smooth::SmoothError::Filter(ifd_planar::FilterError::TooLarge(_))) => u64::MAX,

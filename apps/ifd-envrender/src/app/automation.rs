@@ -1,12 +1,14 @@
 //! Runs without a person (`--screenshot`, `--exit`): wait for the first
-//! complete frame, let a few frames settle, save a screenshot and report the
-//! viewport's rectangle in it, close. A failure closes the window with a
-//! message that `main` reports (exit status 2).
+//! complete frame (and the reference, when asked), then the end that both
+//! apps share ([`ifd_app::Finish`]: settle, screenshot, close), reporting
+//! the viewport's rectangle in the screenshot. A failure closes the window
+//! with a message that `main` reports (exit status 2).
 
-use ifd_app::write_screenshot;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
+
+use ifd_app::FinishStep;
 
 use super::EnvApp;
 
@@ -45,18 +47,15 @@ impl Automation {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Stage {
     WaitFrame,
-    Settle(u32),
-    WaitShot,
+    /// The shared end of the run ([`ifd_app::Finish`]).
+    Finishing,
     Done,
 }
 
 impl EnvApp {
     pub(super) fn fail(&mut self, ctx: &egui::Context, msg: String) {
-        if let Ok(mut slot) = self.automation.failure.lock() {
-            slot.get_or_insert(msg);
-        }
         self.stage = Stage::Done;
-        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        self.finish.fail(ctx, msg);
     }
 
     pub(super) fn automation_step(&mut self, ctx: &egui::Context) {
@@ -81,62 +80,36 @@ impl EnvApp {
                         let curve = self.refs.curve.as_ref().map(|c| c.0.clone());
                         *slot = Some((*spp, rel, psnr, curve.unwrap_or_default()));
                     }
-                    self.stage = Stage::Settle(0);
+                    self.stage = Stage::Finishing;
+                    self.finish.start();
                 }
                 ctx.request_repaint_after(Duration::from_millis(20));
             }
-            Stage::Settle(n) if n < 4 => {
-                self.stage = Stage::Settle(n + 1);
-                ctx.request_repaint();
-            }
-            Stage::Settle(_) => {
-                if self.automation.screenshot.is_none() {
-                    self.finish_run(ctx);
-                    return;
+            Stage::Finishing => match self.finish.step(ctx) {
+                FinishStep::Pending => {}
+                FinishStep::Finished => {
+                    self.stage = Stage::Done;
+                    self.report_viewport(ctx);
                 }
-                let slot = Arc::clone(&self.shot);
-                let c2 = ctx.clone();
-                ctx.request_screenshot(move |img| {
-                    if let Ok(mut s) = slot.lock() {
-                        *s = Some(img);
-                    }
-                    c2.request_repaint();
-                });
-                self.stage = Stage::WaitShot;
-            }
-            Stage::WaitShot => {
-                let img = self.shot.lock().ok().and_then(|mut s| s.take());
-                if let Some(img) = img {
-                    if let Some(p) = &self.automation.screenshot
-                        && let Err(e) = write_screenshot(p, &img)
-                    {
-                        self.fail(ctx, format!("writing the screenshot: {e:#}"));
-                        return;
-                    }
-                    if let (Some(r), Ok(mut slot)) =
-                        (self.viewport, self.automation.viewport.lock())
-                    {
-                        let ppp = ctx.pixels_per_point();
-                        *slot = Some([
-                            (r.min.x * ppp).round() as usize,
-                            (r.min.y * ppp).round() as usize,
-                            (r.width() * ppp).round() as usize,
-                            (r.height() * ppp).round() as usize,
-                        ]);
-                    }
-                    self.finish_run(ctx);
-                } else {
-                    ctx.request_repaint_after(Duration::from_millis(20));
-                }
-            }
+                FinishStep::Failed | FinishStep::Done => self.stage = Stage::Done,
+            },
             Stage::Done => {}
         }
     }
 
-    fn finish_run(&mut self, ctx: &egui::Context) {
-        self.stage = Stage::Done;
-        if self.automation.exit {
-            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+    /// Reports the viewport's rectangle (physical pixels) for the
+    /// screenshot's reader.
+    fn report_viewport(&self, ctx: &egui::Context) {
+        if self.automation.screenshot.is_some()
+            && let (Some(r), Ok(mut slot)) = (self.viewport, self.automation.viewport.lock())
+        {
+            let ppp = ctx.pixels_per_point();
+            *slot = Some([
+                (r.min.x * ppp).round() as usize,
+                (r.min.y * ppp).round() as usize,
+                (r.width() * ppp).round() as usize,
+                (r.height() * ppp).round() as usize,
+            ]);
         }
     }
 }

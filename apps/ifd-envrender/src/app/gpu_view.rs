@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use eframe::egui_wgpu::RenderState;
 use eframe::wgpu;
 use ifd_gpu::GpuContext;
-use ifd_gpu::shading::{Curve, GpuEnvironment, GpuMaterial, GpuShaded, GpuShader, GpuSurfaces};
+use ifd_gpu::{GpuEnvironment, GpuMaterial, GpuShaded, GpuShader, GpuSurfaces, ToneCurve};
 
 /// GPU time the UI allows one band, before the next frame is drawn (on
 /// lavapipe a submission runs before `submit` returns, so this is also what
@@ -180,7 +180,7 @@ impl GpuView {
     ///
     /// # Errors
     /// GPU errors (caught by error scopes).
-    pub fn step(&mut self, curve: Curve, exposure: f32) -> Result<bool, ifd_gpu::GpuError> {
+    pub fn step(&mut self, curve: ToneCurve, exposure: f32) -> Result<bool, ifd_gpu::GpuError> {
         if let Some((t0, objects, done)) = &self.in_flight {
             // fire the completion callback if the band is done (non-blocking)
             let _ = self.ctx.device().poll(wgpu::PollType::Poll);

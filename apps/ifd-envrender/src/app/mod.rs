@@ -7,12 +7,12 @@ mod panels;
 
 use ifd_gpu::DeviceChoice;
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use eframe::egui_wgpu::RenderState;
 use ifd_gpu::GpuContext;
-use ifd_gpu::shading::GpuShader;
+use ifd_gpu::GpuShader;
 use ifd_render::Tonemap;
 
 pub use automation::{Automation, ReferenceReport};
@@ -74,7 +74,7 @@ pub struct EnvApp {
     ui_times: Vec<f32>,
     automation: Automation,
     stage: automation::Stage,
-    shot: Arc<Mutex<Option<Arc<egui::ColorImage>>>>,
+    finish: ifd_app::Finish,
     viewport: Option<egui::Rect>,
     reference: reference::Handle,
     pub(crate) refs: RefState,
@@ -102,6 +102,11 @@ impl EnvApp {
                 wake.request_repaint();
             },
         );
+        let finish = ifd_app::Finish::new(
+            start.automation.screenshot.clone(),
+            start.automation.exit,
+            Arc::clone(&start.automation.failure),
+        );
         Self {
             settings,
             sent: None,
@@ -119,7 +124,7 @@ impl EnvApp {
             ui_times: Vec::new(),
             automation: start.automation,
             stage: automation::Stage::WaitFrame,
-            shot: Arc::new(Mutex::new(None)),
+            finish,
             viewport: None,
             reference,
             refs: RefState::default(),
@@ -457,7 +462,7 @@ fn errors(a: &ifd_image::Image, reference: &ifd_image::Image, mask: &[bool]) -> 
         }
     }
     let rel = ifd_render::relative_rms(a, reference, mask);
-    let psnr = ifd_image::metrics::psnr_from_mse(se / n.max(1) as f64, peak.max(1e-12));
+    let psnr = ifd_image::psnr_from_mse(se / n.max(1) as f64, peak.max(1e-12));
     (rel, psnr)
 }
 

@@ -1,6 +1,6 @@
 //! The environment on the device, in either variant of Eq. 22.
 
-use ifd_shade::shade::{BandMaps, Environment};
+use ifd_shade::{BandMaps, Environment};
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
@@ -8,7 +8,7 @@ use crate::wgpu_helpers::buffer_init;
 
 /// How the kernel gets the per-band environment `Ehat_l(d)`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Variant {
+pub enum EnvVariant {
     /// Reconstructed from the SH coefficients at each rotated lobe direction
     /// (`(L + 1)^2` recurrence steps per lobe).
     Sh,
@@ -27,7 +27,7 @@ pub struct GpuEnvironment {
     pub(crate) maps: wgpu::Buffer,
     pub(crate) l_max: usize,
     pub(crate) channels: usize,
-    pub(crate) variant: Variant,
+    pub(crate) variant: EnvVariant,
     pub(crate) map_size: (usize, usize),
 }
 
@@ -47,7 +47,7 @@ fn rgb(values: &[f32], channels: usize, stride: usize) -> Vec<f32> {
 }
 
 impl GpuEnvironment {
-    /// The SH coefficients of `env` ([`Variant::Sh`]).
+    /// The SH coefficients of `env` ([`EnvVariant::Sh`]).
     ///
     /// # Errors
     /// [`GpuError::Unsupported`] for other than 1 or 3 channels;
@@ -58,10 +58,10 @@ impl GpuEnvironment {
         check_channels(ch)?;
         let values: Vec<f32> = env.coeffs().data().iter().map(|&v| v as f32).collect();
         let data = rgb(&values, ch, 4);
-        Self::upload(ctx, &data, &[], env.l_max(), ch, Variant::Sh, (0, 0))
+        Self::upload(ctx, &data, &[], env.l_max(), ch, EnvVariant::Sh, (0, 0))
     }
 
-    /// The per-band prefiltered maps ([`Variant::Maps`]).
+    /// The per-band prefiltered maps ([`EnvVariant::Maps`]).
     ///
     /// # Errors
     /// As [`Self::sh`]; maps larger than a storage binding (`L` about 60 on
@@ -73,9 +73,9 @@ impl GpuEnvironment {
         let bytes = (maps.data().len() / ch * 12) as u64;
         ctx.check_buffer("the per-band environment maps", bytes, true)?;
         let data = rgb(maps.data(), ch, 3);
-        let l_max = ifd_shade::shade::Bands::l_max(maps);
+        let l_max = ifd_shade::Bands::l_max(maps);
         let zeros = vec![0.0f32; 4 * (l_max + 1) * (l_max + 1)];
-        Self::upload(ctx, &zeros, &data, l_max, ch, Variant::Maps, (w, h))
+        Self::upload(ctx, &zeros, &data, l_max, ch, EnvVariant::Maps, (w, h))
     }
 
     fn upload(
@@ -84,7 +84,7 @@ impl GpuEnvironment {
         maps: &[f32],
         l_max: usize,
         channels: usize,
-        variant: Variant,
+        variant: EnvVariant,
         map_size: (usize, usize),
     ) -> Result<Self, GpuError> {
         ctx.check_uniform(
@@ -120,7 +120,7 @@ impl GpuEnvironment {
 
     /// The variant.
     #[must_use]
-    pub fn variant(&self) -> Variant {
+    pub fn variant(&self) -> EnvVariant {
         self.variant
     }
 

@@ -3,10 +3,10 @@
 //! recurrences at its degree.
 
 use ifd_render::RoughnessFamily;
-use ifd_shade::brdf::Model;
-use ifd_shade::shade::Material;
-use ifd_shade::table::{LobeBasis, LobeTable};
-use ifd_shade::zonal::zonal_slice;
+use ifd_shade::Material;
+use ifd_shade::Model;
+use ifd_shade::zonal_slice;
+use ifd_shade::{LobeBasis, LobeTable};
 
 use crate::context::GpuContext;
 use crate::error::GpuError;

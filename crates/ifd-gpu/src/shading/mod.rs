@@ -1,44 +1,9 @@
 //! ISD shading on the GPU (ISD Eq. 22): a G-buffer of surface points shaded
 //! by `shaders/isd_shade.wgsl`, in both variants (the per-band environment
 //! from SH at each rotated lobe direction, or from per-band prefiltered
-//! maps), with the CPU path's conventions (`ifd_shade::shade::Material::shade_isd`).
+//! maps), with the CPU path's conventions (`ifd_shade::Material::shade_isd`).
 //!
-//! ```no_run
-//! use ifd_gpu::GpuContext;
-//! use ifd_gpu::shading::{GpuEnvironment, GpuMaterial, GpuShader, GpuSurfaces, SurfacePoint};
-//! use ifd_render::{Camera, Scene, pixels};
-//! use ifd_shade::{Brdf, shade::{Environment, Material}};
-//! let ctx = GpuContext::new()?;
-//! let camera = Camera::new(glam::DVec3::new(0.0, -4.0, 0.0), glam::DVec3::ZERO, glam::DVec3::Z, 40.0, 64, 64)?;
-//! let px = pixels(&Scene::Sphere, &camera, None)?;
-//! let points: Vec<SurfacePoint> = px.iter().map(|p| SurfacePoint::from_pixel(p, None)).collect();
-//! let surfaces = GpuSurfaces::upload(&ctx, 64, 64, &points)?;
-//! let mut e = ifd_sphere::ShCoeffs::zeros(8, 3)?;
-//! e.data_mut()[..3].fill(1.0); // a constant environment
-//! let env = GpuEnvironment::sh(&ctx, &Environment::new(e)?)?;
-//! let material = GpuMaterial::new(&ctx, &Material::new(&Brdf::parse("phong:s=20")?, 8, None)?)?;
-//! let shader = GpuShader::new(&ctx)?;
-//! let (image, mask) = shader.shade(&ctx, &surfaces, &env, &material)?.read(&ctx)?;
-//! # Ok::<(), Box<dyn std::error::Error>>(())
-//! ```
-//!
-//! # Design
-//! - **The G-buffer comes from outside** ([`SurfacePoint`]: normal, tangent,
-//!   view, roughness, albedo or background radiance per pixel): the CPU ray
-//!   caster of `ifd-render` (`ifd render --gpu`), or any renderer that writes
-//!   the same records on the device.
-//! - **One kernel per degree**: the source is compiled with `NB = L + 1`
-//!   prepended, which sizes the private per-band sums (a WGSL function array
-//!   needs a constant size) and lets the compiler unroll; pipelines are cached
-//!   per degree.
-//! - **f32 with the CPU's recurrences**, except that `sin^m theta` is folded
-//!   into the sectoral start values (the CPU's reduced values overflow `f32`
-//!   beyond `L` about 38). Weights are interpolated in the kernel from the
-//!   tables' `f32` entries, map taps are computed in the kernel (no hardware
-//!   filtering, whose weights have 8 fractional bits). GPU and CPU agree
-//!   within `1e-3` of the image maximum (`tests/gpu.rs`).
-//! - **RGB always**: a grey environment is repeated in three channels; the
-//!   result is read back as RGB plus the object mask.
+//! The derivation and conventions are documented on [`GpuShader`].
 
 mod environment;
 mod material;
@@ -51,7 +16,7 @@ use std::time::Duration;
 
 use ifd_image::Image;
 
-pub use environment::{GpuEnvironment, Variant};
+pub use environment::{EnvVariant, GpuEnvironment};
 pub use material::GpuMaterial;
 pub use render::GpuRender;
 pub use surface::{GpuSurfaces, SurfacePoint};
@@ -99,7 +64,7 @@ struct DisplayParams {
 
 /// The tone curve of [`GpuShader::display`] (as `ifd_render::Tonemap`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Curve {
+pub enum ToneCurve {
     /// Clip to `[0, 1]`.
     None,
     /// `x / (1 + x)`.
@@ -108,7 +73,7 @@ pub enum Curve {
     Aces,
 }
 
-impl From<ifd_render::Tonemap> for Curve {
+impl From<ifd_render::Tonemap> for ToneCurve {
     fn from(t: ifd_render::Tonemap) -> Self {
         use ifd_render::Tonemap;
         match t {
@@ -120,6 +85,43 @@ impl From<ifd_render::Tonemap> for Curve {
 }
 
 /// The shading pipelines of one device (compiled per degree on first use).
+///
+/// ```no_run
+/// use ifd_gpu::GpuContext;
+/// use ifd_gpu::{GpuEnvironment, GpuMaterial, GpuShader, GpuSurfaces, SurfacePoint};
+/// use ifd_render::{Camera, Scene, pixels};
+/// use ifd_shade::{Brdf, Environment, Material};
+/// let ctx = GpuContext::new()?;
+/// let camera = Camera::new(glam::DVec3::new(0.0, -4.0, 0.0), glam::DVec3::ZERO, glam::DVec3::Z, 40.0, 64, 64)?;
+/// let px = pixels(&Scene::Sphere, &camera, None)?;
+/// let points: Vec<SurfacePoint> = px.iter().map(|p| SurfacePoint::from_pixel(p, None)).collect();
+/// let surfaces = GpuSurfaces::upload(&ctx, 64, 64, &points)?;
+/// let mut e = ifd_sphere::ShCoeffs::zeros(8, 3)?;
+/// e.data_mut()[..3].fill(1.0); // a constant environment
+/// let env = GpuEnvironment::sh(&ctx, &Environment::new(e)?)?;
+/// let material = GpuMaterial::new(&ctx, &Material::new(&Brdf::parse("phong:s=20")?, 8, None)?)?;
+/// let shader = GpuShader::new(&ctx)?;
+/// let (image, mask) = shader.shade(&ctx, &surfaces, &env, &material)?.read(&ctx)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Design
+/// - **The G-buffer comes from outside** ([`SurfacePoint`]: normal, tangent,
+///   view, roughness, albedo or background radiance per pixel): the CPU ray
+///   caster of `ifd-render` (`ifd render --gpu`), or any renderer that writes
+///   the same records on the device.
+/// - **One kernel per degree**: the source is compiled with `NB = L + 1`
+///   prepended, which sizes the private per-band sums (a WGSL function array
+///   needs a constant size) and lets the compiler unroll; pipelines are cached
+///   per degree.
+/// - **f32 with the CPU's recurrences**, except that `sin^m theta` is folded
+///   into the sectoral start values (the CPU's reduced values overflow `f32`
+///   beyond `L` about 38). Weights are interpolated in the kernel from the
+///   tables' `f32` entries, map taps are computed in the kernel (no hardware
+///   filtering, whose weights have 8 fractional bits). GPU and CPU agree
+///   within `1e-3` of the image maximum (`tests/gpu.rs`).
+/// - **RGB always**: a grey environment is repeated in three channels; the
+///   result is read back as RGB plus the object mask.
 #[derive(Debug)]
 pub struct GpuShader {
     layout: wgpu::BindGroupLayout,
@@ -295,8 +297,8 @@ impl GpuShader {
                 width: w as u32,
                 height: h as u32,
                 variant: match env.variant {
-                    Variant::Sh => shade_codes::VARIANT_SH,
-                    Variant::Maps => shade_codes::VARIANT_MAPS,
+                    EnvVariant::Sh => shade_codes::VARIANT_SH,
+                    EnvVariant::Maps => shade_codes::VARIANT_MAPS,
                 },
                 material: material.code,
                 isotropic: u32::from(material.isotropic),
@@ -364,7 +366,7 @@ impl GpuShader {
         &self,
         ctx: &GpuContext,
         shaded: &GpuShaded,
-        curve: Curve,
+        curve: ToneCurve,
         exposure: f32,
         target: &wgpu::Texture,
     ) -> Result<(), GpuError> {
@@ -379,7 +381,7 @@ impl GpuShader {
         &self,
         ctx: &GpuContext,
         shaded: &GpuShaded,
-        curve: Curve,
+        curve: ToneCurve,
         exposure: f32,
         target: &wgpu::Texture,
         rows: std::ops::Range<usize>,
@@ -408,9 +410,9 @@ impl GpuShader {
                 width: w,
                 height: h,
                 curve: match curve {
-                    Curve::None => 0,
-                    Curve::Reinhard => 1,
-                    Curve::Aces => 2,
+                    ToneCurve::None => 0,
+                    ToneCurve::Reinhard => 1,
+                    ToneCurve::Aces => 2,
                 },
                 row0: rows.start as u32,
                 scale: exposure.exp2(),

@@ -5,7 +5,7 @@
 
 use ifd_image::Image;
 use ifd_render::{Job, Method, Rendered};
-use ifd_shade::shade::{BandMaps, Environment};
+use ifd_shade::{BandMaps, Environment};
 
 use super::{GpuEnvironment, GpuMaterial, GpuShaded, GpuShader, GpuSurfaces, SurfacePoint};
 use crate::context::GpuContext;

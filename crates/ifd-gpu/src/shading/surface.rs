@@ -17,7 +17,7 @@ pub struct SurfacePoint {
     pub normal: [f32; 3],
     /// 1 on the object, 0 for the background.
     pub hit: f32,
-    /// Unit tangent, orthogonal to the normal (`ifd_shade::shade::Frame`).
+    /// Unit tangent, orthogonal to the normal (`ifd_shade::Frame`).
     pub tangent: [f32; 3],
     /// The roughness map's value (unused without a roughness family).
     pub roughness: f32,

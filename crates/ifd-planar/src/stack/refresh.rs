@@ -575,20 +575,14 @@ impl ScaleStack {
 }
 
 #[cfg(test)]
+#[path = "../../../../tests/support/images.rs"]
+mod test_images;
+
+#[cfg(test)]
 mod tests {
+    use super::test_images::lcg_noise as test_image;
     use super::*;
     use crate::stack::StackOptions;
-
-    fn test_image(w: usize, h: usize, c: usize, seed: u32) -> Image {
-        let mut s = seed;
-        let data = (0..w * h * c)
-            .map(|_| {
-                s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-                (s >> 8) as f32 / (1u32 << 24) as f32
-            })
-            .collect();
-        Image::from_vec(w, h, c, data).expect("image")
-    }
 
     fn max_diff(a: &ScaleStack, b: &ScaleStack) -> f32 {
         a.levels

@@ -4,36 +4,7 @@
 //! types, the one entry point by map shape ([`analyze_map`]) and the
 //! projection of scattered samples.
 //!
-//! # Equirectangular maps
-//! A `W x H` map with `W = 2H`: column `u` has azimuth `p = 2 pi (u + 0.5) / W`,
-//! row `v` (row 0 at the top) has polar angle `t = pi (v + 0.5) / H`, so the top
-//! row looks up (`+z`). The projection is the quadrature
-//!
-//! ```text
-//! c_l^m = sum_pixels f(w_uv) y_l^m(w_uv) dA_v,
-//! dA_v  = (2 pi / W) (cos(pi v / H) - cos(pi (v + 1) / H))
-//! ```
-//!
-//! where `dA_v` is the *exact* solid angle of the pixel (the weights sum to
-//! `4 pi` exactly). It is computed as an FFT over each row (giving the
-//! azimuthal Fourier coefficients for every `m` at once) followed by the
-//! Legendre recurrences of [`crate::sh`] over `l`, processing the rows `v` and
-//! `H - 1 - v` together (`P_l^m(-z) = (-1)^(l+m) P_l^m(z)`; two real rows share
-//! one complex FFT). Cost `O(H W log W + H L^2)` per channel.
-//! Synthesis runs the same steps backwards and evaluates the expansion exactly
-//! at the pixel centres.
-//!
-//! # Cubemaps
-//! [`analyze_cubemap`] projects a horizontal strip of six square faces in the
-//! order `+X, -X, +Y, -Y, +Z, -Z`, each face laid out as in OpenGL (face
-//! coordinates `sc, tc` of the OpenGL cube-map table, `tc` growing downwards
-//! in the image), with exact per-texel solid angles. It evaluates the SH per
-//! texel (`O(texels L^2)`).
-//!
-//! # Bad input
-//! NaN or infinite samples are an error ([`crate::SphereError::NonFinite`]).
-//! Negative samples (the bundled DWAB files have a few tiny ones) are clamped to
-//! zero by default and counted in [`Analysis::negatives_clamped`].
+//! The derivation and conventions are documented on [`analyze_map`].
 
 mod cube;
 mod equirect;
@@ -119,6 +90,37 @@ impl Projection {
 /// # Errors
 /// [`SphereError::NotEquirect`] for other shapes, [`SphereError::Parameter`]
 /// for a texel projection of a cube strip, and the errors of the transforms.
+///
+/// # Equirectangular maps
+/// A `W x H` map with `W = 2H`: column `u` has azimuth `p = 2 pi (u + 0.5) / W`,
+/// row `v` (row 0 at the top) has polar angle `t = pi (v + 0.5) / H`, so the top
+/// row looks up (`+z`). The projection is the quadrature
+///
+/// ```text
+/// c_l^m = sum_pixels f(w_uv) y_l^m(w_uv) dA_v,
+/// dA_v  = (2 pi / W) (cos(pi v / H) - cos(pi (v + 1) / H))
+/// ```
+///
+/// where `dA_v` is the *exact* solid angle of the pixel (the weights sum to
+/// `4 pi` exactly). It is computed as an FFT over each row (giving the
+/// azimuthal Fourier coefficients for every `m` at once) followed by the
+/// Legendre recurrences of [`crate::ShEvaluator`] over `l`, processing the rows `v` and
+/// `H - 1 - v` together (`P_l^m(-z) = (-1)^(l+m) P_l^m(z)`; two real rows share
+/// one complex FFT). Cost `O(H W log W + H L^2)` per channel.
+/// Synthesis runs the same steps backwards and evaluates the expansion exactly
+/// at the pixel centres.
+///
+/// # Cubemaps
+/// [`analyze_cubemap`] projects a horizontal strip of six square faces in the
+/// order `+X, -X, +Y, -Y, +Z, -Z`, each face laid out as in OpenGL (face
+/// coordinates `sc, tc` of the OpenGL cube-map table, `tc` growing downwards
+/// in the image), with exact per-texel solid angles. It evaluates the SH per
+/// texel (`O(texels L^2)`).
+///
+/// # Bad input
+/// NaN or infinite samples are an error ([`crate::SphereError::NonFinite`]).
+/// Negative samples (the bundled DWAB files have a few tiny ones) are clamped to
+/// zero by default and counted in [`Analysis::negatives_clamped`].
 pub fn analyze_map(
     img: &Image,
     l_max: usize,

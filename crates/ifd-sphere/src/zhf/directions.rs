@@ -2,18 +2,7 @@
 //! by spherical Fibonacci points, or by an optimiser that lowers the
 //! condition numbers of the `M_l`.
 //!
-//! Per band (`(L + 1)^2` directions, band `l` owns `2l + 1`), or shared across
-//! bands (lobe sharing, ZHF Sec. 6): `2L + 1` nested directions, band `l` uses
-//! the first `2l + 1`. Choosers: random (seeded), spherical Fibonacci, and an
-//! optimiser that lowers the condition numbers of the `M_l`.
-//!
-//! Fibonacci sets take the upper half of a `2n`-point spherical Fibonacci set:
-//! a plain `n`-point set is exactly singular for odd bands (its points pair up
-//! under a half-turn; the 3-point set is coplanar with the origin), and since
-//! band-`l` functions are even or odd, a set on one hemisphere loses nothing
-//! (`w` and `-w` give the same row of `M_l` up to sign). Shared sets are then
-//! reordered greedily, farthest point (in `|w . w'|`) first, so every prefix
-//! is well spread.
+//! The derivation and conventions are documented on [`DirectionSet`].
 
 use super::{band_matrix, condition_number};
 use crate::error::{Result, SphereError, check_degree};
@@ -122,6 +111,19 @@ pub(crate) fn farthest_point_order(points: &[[f64; 3]]) -> Vec<[f64; 3]> {
 }
 
 /// The lobe directions of an RZH (or ISD) basis up to degree `L`.
+///
+/// Per band (`(L + 1)^2` directions, band `l` owns `2l + 1`), or shared across
+/// bands (lobe sharing, ZHF Sec. 6): `2L + 1` nested directions, band `l` uses
+/// the first `2l + 1`. Choosers: random (seeded), spherical Fibonacci, and an
+/// optimiser that lowers the condition numbers of the `M_l`.
+///
+/// Fibonacci sets take the upper half of a `2n`-point spherical Fibonacci set:
+/// a plain `n`-point set is exactly singular for odd bands (its points pair up
+/// under a half-turn; the 3-point set is coplanar with the origin), and since
+/// band-`l` functions are even or odd, a set on one hemisphere loses nothing
+/// (`w` and `-w` give the same row of `M_l` up to sign). Shared sets are then
+/// reordered greedily, farthest point (in `|w . w'|`) first, so every prefix
+/// is well spread.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DirectionSet {
     l_max: usize,

@@ -1,36 +1,7 @@
 //! Rotated zonal harmonics (RZH), direction sets and zonal harmonic
 //! factorisation (ZHF): ISD Eq. 8-12, ZHF Eq. 5-7 and 9-11.
 //!
-//! # The basis
-//! For band `l` and `2l + 1` directions `z_l^j`, the rotated zonal harmonics
-//! `phi_l^j(w) = y_l^0((R_l^j)^-1 w) = K_l^0 P_l(z_l^j . w)` span the same space as
-//! the band-`l` SH (for a non-singular set). By the addition theorem
-//! (ISD Eq. 9, ZHF Eq. 6) `phi_l^j = pi_l sum_m y_l^m(z_l^j) y_l^m`, hence
-//!
-//! ```text
-//! c_l = M_l Lambda_l,   (M_l)_{m j} = pi_l y_l^m(z_l^j)      (ISD Eq. 10)
-//! ```
-//!
-//! between the SH coefficients `c_l` and the RZH coefficients `Lambda_l` of a
-//! function. [`RzhBasis::zhf`] computes `Lambda = M^-1 c` (ZHF), [`RzhBasis::zhe`]
-//! computes `c = M Lambda` (ZHE).
-//!
-//! Note on the ZHF paper: it writes `z = A^T f` with `A = Y^-1`,
-//! `Y_{jm} = y_l^m(w_j)`, and `f = Y^T z` (its Sec. 4), which leaves out the factor
-//! `n_l* = pi_l` of its own Eq. 6; the two are consistent with each other, so
-//! its lobe weights are `pi_l` times ours. We follow ISD Eq. 10-11.
-//!
-//! # Rotation
-//! Rotating the function (`g(w) = f(R^T w)`) rotates the lobes and keeps the
-//! weights (ZHF Eq. 9), so `c'_l = M_l(R z) Lambda_l` (ZHF Eq. 10, the "standard"
-//! algorithm, [`RzhBasis::rotate`]). Sampling the band-`l` part of `f` at the
-//! inversely rotated lobe directions gives the "signal-tailored" form (ZHF Eq. 11,
-//! [`RzhBasis::rotate_tailored`]): with `Y_l = M_l^T / pi_l`,
-//! `g_l(z_j) = f_l(R^T z_j) = (Y_l c'_l)_j`, so `c'_l = pi_l (M_l^-1)^T [f_l(R^T z_j)]_j`.
-//!
-//!
-//! The direction sets live in `directions.rs`, the band matrices `M_l` in
-//! `band_matrix.rs`.
+//! The derivation and conventions are documented on [`RzhBasis`].
 
 mod band_matrix;
 mod directions;
@@ -86,6 +57,37 @@ struct Band {
 /// assert!(g.data().iter().zip(h.data()).all(|(a, b)| (a - b).abs() < 1e-11));
 /// # Ok::<(), ifd_sphere::SphereError>(())
 /// ```
+///
+/// # The basis
+/// For band `l` and `2l + 1` directions `z_l^j`, the rotated zonal harmonics
+/// `phi_l^j(w) = y_l^0((R_l^j)^-1 w) = K_l^0 P_l(z_l^j . w)` span the same space as
+/// the band-`l` SH (for a non-singular set). By the addition theorem
+/// (ISD Eq. 9, ZHF Eq. 6) `phi_l^j = pi_l sum_m y_l^m(z_l^j) y_l^m`, hence
+///
+/// ```text
+/// c_l = M_l Lambda_l,   (M_l)_{m j} = pi_l y_l^m(z_l^j)      (ISD Eq. 10)
+/// ```
+///
+/// between the SH coefficients `c_l` and the RZH coefficients `Lambda_l` of a
+/// function. [`RzhBasis::zhf`] computes `Lambda = M^-1 c` (ZHF), [`RzhBasis::zhe`]
+/// computes `c = M Lambda` (ZHE).
+///
+/// Note on the ZHF paper: it writes `z = A^T f` with `A = Y^-1`,
+/// `Y_{jm} = y_l^m(w_j)`, and `f = Y^T z` (its Sec. 4), which leaves out the factor
+/// `n_l* = pi_l` of its own Eq. 6; the two are consistent with each other, so
+/// its lobe weights are `pi_l` times ours. We follow ISD Eq. 10-11.
+///
+/// # Rotation
+/// Rotating the function (`g(w) = f(R^T w)`) rotates the lobes and keeps the
+/// weights (ZHF Eq. 9), so `c'_l = M_l(R z) Lambda_l` (ZHF Eq. 10, the "standard"
+/// algorithm, [`RzhBasis::rotate`]). Sampling the band-`l` part of `f` at the
+/// inversely rotated lobe directions gives the "signal-tailored" form (ZHF Eq. 11,
+/// [`RzhBasis::rotate_tailored`]): with `Y_l = M_l^T / pi_l`,
+/// `g_l(z_j) = f_l(R^T z_j) = (Y_l c'_l)_j`, so `c'_l = pi_l (M_l^-1)^T [f_l(R^T z_j)]_j`.
+///
+///
+/// The direction sets live in `directions.rs`, the band matrices `M_l` in
+/// `band_matrix.rs`.
 #[derive(Clone)]
 pub struct RzhBasis {
     dirs: DirectionSet,

@@ -39,7 +39,7 @@ impl DfgCmd {
             bail!("--table-size {size}: must lie in 2..=4096");
         }
         let t = Instant::now();
-        let table = ifd_ibl::dfg::dfg_table(size);
+        let table = ifd_ibl::dfg_table(size);
         let data: Vec<f32> = table.iter().flat_map(|[a, b]| [*a, *b, 0.0]).collect();
         let img = ifd_image::Image::from_vec(size, size, 3, data)?;
         let opts = ifd_image::WriteOptions {

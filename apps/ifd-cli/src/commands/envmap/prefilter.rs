@@ -5,10 +5,10 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use ifd_ibl::chain::{RoughnessMapping, check_chain};
-use ifd_ibl::cube::{CubeLevel, FACE_FILE_NAMES, strip_to_equirect};
-use ifd_ibl::lobe::Lobe;
+use ifd_ibl::Lobe;
 use ifd_ibl::{BakeOptions, Baker};
+use ifd_ibl::{CubeLevel, FACE_FILE_NAMES, strip_to_equirect};
+use ifd_ibl::{RoughnessMapping, check_chain};
 use serde_json::json;
 
 use crate::input::InputOptions;
@@ -349,7 +349,7 @@ impl Staging {
 
     fn write_ktx2(&self, name: &str, levels: &[CubeLevel]) -> Result<usize> {
         let p = self.path(name);
-        Ok(ifd_ibl::ktx2::write_cube(&p, levels)?)
+        Ok(ifd_ibl::write_ktx2_cube(&p, levels)?)
     }
 
     fn write_exr(&self, name: &str, level: &CubeLevel, face: usize) -> Result<()> {

@@ -67,7 +67,7 @@ impl IsdConvergence {
             b.trim().parse().map_err(|_| bad())?,
             step.trim().parse().map_err(|_| bad())?,
         );
-        if a > b || b > ifd_shade::table::MAX_TABLE_DEGREE || step == 0 {
+        if a > b || b > ifd_shade::MAX_TABLE_DEGREE || step == 0 {
             return Err(bad());
         }
         for p in [&self.plot, &self.grid].into_iter().flatten() {

@@ -10,8 +10,8 @@ use ifd_paper::visibility::{VisibilityScene, study};
 use ifd_render::EnvMap;
 use ifd_render::torus_mesh;
 use ifd_shade::Brdf;
-use ifd_shade::shade::Material;
-use ifd_shade::table::{LobeTable, default_theta_entries};
+use ifd_shade::Material;
+use ifd_shade::{LobeTable, default_theta_entries};
 use serde_json::json;
 
 use crate::input::parse_size;

@@ -56,7 +56,7 @@ pub(super) struct BrdfCmd {
 
 impl BrdfCmd {
     pub(super) fn run(self) -> Result<()> {
-        use ifd_shade::table::{LobeTable, MAX_TABLE_DEGREE, default_theta_entries};
+        use ifd_shade::{LobeTable, MAX_TABLE_DEGREE, default_theta_entries};
         use indicatif::{ProgressBar, ProgressStyle};
         if self.lmax > MAX_TABLE_DEGREE {
             bail!(
@@ -78,9 +78,9 @@ impl BrdfCmd {
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
         let kind = match self.lobes.as_str() {
-            "shared" => ifd_shade::table::LobeKind::Shared,
-            "in-plane" => ifd_shade::table::LobeKind::InPlane,
-            _ => ifd_shade::table::LobeKind::default_for(&brdf),
+            "shared" => ifd_shade::LobeKind::Shared,
+            "in-plane" => ifd_shade::LobeKind::InPlane,
+            _ => ifd_shade::LobeKind::default_for(&brdf),
         };
         let table = LobeTable::build_with(&brdf, self.lmax, nt, np, kind, &|done, total| {
             bar.set_length(total as u64);

@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use clap::Args;
 use ifd_shade::Brdf;
-use ifd_shade::brdf_sh::BrdfSh;
-use ifd_shade::merl::{Merl, from_half_diff};
+use ifd_shade::BrdfSh;
+use ifd_shade::{Merl, merl_format::from_half_diff};
 use ifd_sphere::ShEvaluator;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -235,7 +235,7 @@ fn l2_errors(
                 to_brdf(&mut b, input.channels());
                 filtered.eval(sh, *wi, *wo, &mut s, &mut c);
                 let valid = match input.model() {
-                    ifd_shade::brdf::Model::Merl(m) => m.is_valid(*wi, *wo),
+                    ifd_shade::Model::Merl(m) => m.is_valid(*wi, *wo),
                     _ => true,
                 };
                 if !valid {

@@ -7,10 +7,10 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use ifd_image::Image;
 use ifd_shade::Brdf;
-use ifd_shade::lights::ZonalLighting;
-use ifd_shade::radial::{MapSize, RadialMap, RadialProfile};
-use ifd_shade::shade::Material;
-use ifd_shade::table::{LobeTable, default_theta_entries};
+use ifd_shade::Material;
+use ifd_shade::ZonalLighting;
+use ifd_shade::{LobeTable, default_theta_entries};
+use ifd_shade::{MapSize, RadialMap, RadialProfile};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
@@ -101,11 +101,11 @@ impl RadialCmd {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
         let brdf = Brdf::parse(&self.brdf)?;
-        if self.lmax > ifd_shade::table::MAX_TABLE_DEGREE {
+        if self.lmax > ifd_shade::MAX_TABLE_DEGREE {
             bail!(
                 "--lmax {}: at most {}",
                 self.lmax,
-                ifd_shade::table::MAX_TABLE_DEGREE
+                ifd_shade::MAX_TABLE_DEGREE
             );
         }
         let size = self.parse_size(&brdf)?;
@@ -335,7 +335,7 @@ fn check(
                         z.eval([(1.0 - t * t).max(0.0).sqrt(), 0.0, t], &mut out);
                         out[c]
                     };
-                    ok &= ifd_shade::lights::zonal_quadrature(
+                    ok &= ifd_shade::zonal_quadrature(
                         brdf,
                         wo,
                         zeta,

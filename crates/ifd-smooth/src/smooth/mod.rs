@@ -1,240 +1,33 @@
 //! The [`Smoother`]: one prefiltered scale stack, the Hessian-derived
 //! orientation field, and the aspect-ratio bank; smooths whole images or dabs.
+//! The options are in `options.rs`, dabs and the dab grid in `dab.rs`, the
+//! tensor blur in `blur.rs`, the refresh of a changed rectangle in
+//! `refresh.rs`.
+
+mod blur;
+mod dab;
+mod options;
+mod refresh;
 
 use std::sync::Arc;
 
 use ifd_image::{Image, ImageView};
 use ifd_planar::{
-    Border, Filter, PreparedDecomposition, Rotation, ScaleStack, ScaledFilter, StackLayout,
-    StackPlan, Taps,
+    Filter, PreparedDecomposition, Rotation, ScaleStack, ScaledFilter, StackLayout, StackPlan, Taps,
 };
 use rayon::prelude::*;
 
-use crate::bank::{AspectBank, BANK_SAMPLING, BankOptions};
-use crate::direct::{DIRECT_BELOW, DirectKernels};
-use crate::error::{SmoothError, check_range};
+use crate::bank::{AspectBank, BANK_SAMPLING};
+use crate::direct::DirectKernels;
+use crate::error::SmoothError;
 use crate::hessian::{HessianBank, hessian_stack_options};
-use crate::orientation::{AnisoParams, Orientation, tensor};
+use crate::orientation::{Orientation, tensor};
 
-/// Smallest and largest footprint scale `S` (pixels) supported. Below
-/// [`DIRECT_BELOW`] the filters are evaluated directly ([`crate::direct`]).
-pub const SCALE_RANGE: (f64, f64) = (0.5, 128.0);
-
-/// Where the filter of a pixel comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Mode {
-    /// The paper's mode: the Hessian at the dab's centre gives one filter for
-    /// the whole dab. For whole images, the image is covered by a grid of
-    /// dabs (spacing `2 S`) whose results are blended bilinearly.
-    Dab,
-    /// Every pixel uses the filter from its own (tensor-averaged) Hessian.
-    #[default]
-    PerPixel,
-}
-
-/// Parameters of [`Smoother`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SmoothOptions {
-    /// Footprint scale `S`: the geometric mean of the Gaussian's two standard
-    /// deviations, in pixels (`sx sy = S^2`, so the noise reduction equals an
-    /// isotropic Gaussian of sigma `S` whatever the aspect ratio).
-    pub scale: f64,
-    /// Hessian scale, pixels (default `max(1.5, S / 2)`).
-    pub hessian_sigma: Option<f64>,
-    /// Sigma of the tensor averaging, pixels (default: the Hessian scale).
-    pub tensor_sigma: Option<f64>,
-    /// The Hessian-to-filter mapping.
-    pub aniso: AnisoParams,
-    /// Border handling.
-    pub border: Border,
-    /// Fit tolerance of the derivative filters.
-    pub hessian_tol: f64,
-    /// How the aspect-ratio bank is built (when not given).
-    pub bank: BankOptions,
-}
-
-impl Default for SmoothOptions {
-    fn default() -> Self {
-        Self {
-            scale: 6.0,
-            hessian_sigma: None,
-            tensor_sigma: None,
-            aniso: AnisoParams::default(),
-            border: Border::Reflect101,
-            hessian_tol: 0.01,
-            bank: BankOptions::default(),
-        }
-    }
-}
-
-impl SmoothOptions {
-    /// The Hessian scale in use.
-    #[must_use]
-    pub fn hessian_sigma(&self) -> f64 {
-        self.hessian_sigma.unwrap_or((self.scale / 2.0).max(1.5))
-    }
-
-    /// Whether the smoothing filters are evaluated directly (footprint
-    /// below [`DIRECT_BELOW`], [`crate::direct`]) rather than from the
-    /// scale stack; the GPU path supports only the latter.
-    #[must_use]
-    pub fn evaluated_directly(&self) -> bool {
-        self.scale < DIRECT_BELOW
-    }
-
-    /// Spacing of the dab grid of whole-image [`Mode::Dab`] smoothing:
-    /// `max(2 S, 4)` pixels.
-    #[must_use]
-    pub fn dab_grid_spacing(&self) -> f32 {
-        (2.0 * self.scale).max(4.0) as f32
-    }
-
-    /// The tensor averaging sigma in use.
-    #[must_use]
-    pub fn tensor_sigma(&self) -> f64 {
-        self.tensor_sigma.unwrap_or_else(|| self.hessian_sigma())
-    }
-
-    /// Checks every parameter's range (what the smoother checks first), so
-    /// that front ends can refuse them before any work.
-    ///
-    /// # Errors
-    /// [`SmoothError::OutOfRange`] naming the parameter (`scale`, `hessian
-    /// sigma`, `tensor sigma`, `max aspect`, `gamma`, `epsilon`).
-    pub fn validate(&self) -> Result<(), SmoothError> {
-        check_range("scale", self.scale, SCALE_RANGE.0, SCALE_RANGE.1)?;
-        crate::hessian::check_sigma(self.hessian_sigma())?;
-        check_range("tensor sigma", self.tensor_sigma(), 0.0, 64.0)?;
-        self.aniso.validate()
-    }
-}
-
-/// One brush dab.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Dab {
-    /// Centre, column.
-    pub x: f32,
-    /// Centre, row.
-    pub y: f32,
-    /// Radius in pixels.
-    pub radius: f32,
-    /// Fraction of the radius over which the effect fades to zero (0: hard edge, 1: from the centre).
-    pub falloff: f32,
-    /// Blend of the smoothed result into the image at the centre, 0..=1.
-    pub strength: f32,
-}
-
-impl Dab {
-    /// The dab's weight at distance `d` from its centre.
-    #[must_use]
-    pub fn weight(&self, d: f32) -> f32 {
-        let inner = self.radius * (1.0 - self.falloff);
-        if d >= self.radius {
-            0.0
-        } else if d <= inner {
-            self.strength
-        } else {
-            let t = (self.radius - d) / (self.radius - inner);
-            self.strength * t * t * (3.0 - 2.0 * t)
-        }
-    }
-
-    fn validate(&self) -> Result<(), SmoothError> {
-        check_range("dab x", f64::from(self.x), -1e7, 1e7)?;
-        check_range("dab y", f64::from(self.y), -1e7, 1e7)?;
-        check_range("dab radius", f64::from(self.radius), 0.5, 4096.0)?;
-        check_range("dab falloff", f64::from(self.falloff), 0.0, 1.0)?;
-        check_range("dab strength", f64::from(self.strength), 0.0, 1.0)
-    }
-
-    /// The pixels of a `width x height` image the dab can change: its
-    /// bounding box clipped to the image (`None` when it misses the image),
-    /// as [`Smoother::apply_dab`] uses it.
-    ///
-    /// ```
-    /// use ifd_smooth::Dab;
-    /// let dab = Dab { x: 2.0, y: 50.0, radius: 10.0, falloff: 0.5, strength: 1.0 };
-    /// let r = dab.region(100, 80)?.expect("inside");
-    /// assert_eq!((r.x0, r.y0, r.width, r.height), (0, 40, 13, 21));
-    /// # Ok::<(), ifd_smooth::SmoothError>(())
-    /// ```
-    ///
-    /// # Errors
-    /// [`SmoothError::OutOfRange`] for bad dab parameters.
-    pub fn region(&self, width: usize, height: usize) -> Result<Option<DabRegion>, SmoothError> {
-        self.validate()?;
-        let x0 = (self.x - self.radius).floor().max(0.0) as usize;
-        let y0 = (self.y - self.radius).floor().max(0.0) as usize;
-        let x1 = ((self.x + self.radius).ceil().max(-1.0) as i64).min(width as i64 - 1);
-        let y1 = ((self.y + self.radius).ceil().max(-1.0) as i64).min(height as i64 - 1);
-        if x1 < x0 as i64 || y1 < y0 as i64 {
-            return Ok(None);
-        }
-        Ok(Some(DabRegion {
-            x0,
-            y0,
-            width: x1 as usize - x0 + 1,
-            height: y1 as usize - y0 + 1,
-        }))
-    }
-}
-
-/// Index of the pixel nearest `(x, y)`, clamped into a `width x height`
-/// image (row-major), as [`Smoother::orientation_at`] looks the field up.
-#[must_use]
-pub fn nearest_pixel(x: f32, y: f32, width: usize, height: usize) -> usize {
-    let xi = (x.round().max(0.0) as usize).min(width - 1);
-    let yi = (y.round().max(0.0) as usize).min(height - 1);
-    yi * width + xi
-}
-
-/// The four centres of the dab grid of spacing `g` around pixel `(x, y)`
-/// and their bilinear weights, in the order whole-image [`Mode::Dab`]
-/// smoothing sums them.
-///
-/// ```
-/// let c = ifd_smooth::smooth::dab_grid_corners(3.0, 8.0, 4.0);
-/// assert_eq!(c[0], ((0.0, 8.0), 0.25));
-/// assert_eq!(c[1], ((4.0, 8.0), 0.75));
-/// assert_eq!(c[2].1 + c[3].1, 0.0);
-/// ```
-#[must_use]
-pub fn dab_grid_corners(x: f32, y: f32, g: f32) -> [((f32, f32), f32); 4] {
-    let (gx, gy) = (x / g, y / g);
-    let (i0, fx) = (gx.floor(), gx - gx.floor());
-    let (j0, fy) = (gy.floor(), gy - gy.floor());
-    [
-        ((i0 * g, j0 * g), (1.0 - fx) * (1.0 - fy)),
-        (((i0 + 1.0) * g, j0 * g), fx * (1.0 - fy)),
-        ((i0 * g, (j0 + 1.0) * g), (1.0 - fx) * fy),
-        (((i0 + 1.0) * g, (j0 + 1.0) * g), fx * fy),
-    ]
-}
-
-/// [`dab_grid_corners`] for a tile whose pixel (0, 0) lies at `origin` in
-/// the image whose grid it follows: `(x, y)` and the returned centres in the
-/// tile's coordinates.
-///
-/// ```
-/// use ifd_smooth::smooth::{anchored_dab_grid_corners, dab_grid_corners};
-/// let tile = anchored_dab_grid_corners(3.0, 1.0, 4.0, (8, 4));
-/// let whole = dab_grid_corners(11.0, 5.0, 4.0);
-/// assert_eq!(tile[0], ((0.0, 0.0), whole[0].1));
-/// assert_eq!(whole[0].0, (8.0, 4.0));
-/// ```
-#[must_use]
-pub fn anchored_dab_grid_corners(
-    x: f32,
-    y: f32,
-    g: f32,
-    origin: (usize, usize),
-) -> [((f32, f32), f32); 4] {
-    let (ox, oy) = (origin.0 as f32, origin.1 as f32);
-    dab_grid_corners(x + ox, y + oy, g).map(|((cx, cy), w)| ((cx - ox, cy - oy), w))
-}
-
-/// What [`Smoother::apply_dab`] touched: a [`PixelRect`](ifd_planar::PixelRect).
-pub use ifd_planar::PixelRect as DabRegion;
+pub(crate) use self::blur::blur_radius;
+use self::blur::gaussian_blur;
+pub use self::dab::{Dab, DabRegion, anchored_dab_grid_corners, dab_grid_corners, nearest_pixel};
+pub use self::options::{Mode, SCALE_RANGE, SmoothOptions};
+pub use self::refresh::RegionRefresh;
 
 /// Hessian-driven anisotropic smoothing of one image.
 #[derive(Debug)]
@@ -402,7 +195,7 @@ impl Smoother {
     /// Declares the smoother's image a tile of a larger image, with its
     /// pixel (0, 0) at `(x0, y0)` there: whole-image [`Mode::Dab`]
     /// smoothing then places its dab grid as it would on the larger image
-    /// ([`crate::tiled`]). Nothing else depends on the position.
+    /// ([`crate::smooth_tiled`]). Nothing else depends on the position.
     #[must_use]
     pub fn with_grid_origin(mut self, (x0, y0): (usize, usize)) -> Self {
         self.grid_origin = (x0, y0);
@@ -465,7 +258,7 @@ impl Smoother {
         (self.opts.scale * a, self.opts.scale / a)
     }
 
-    /// The tabulated kernels when the footprint is below [`DIRECT_BELOW`]
+    /// The tabulated kernels when the footprint is below [`DIRECT_BELOW`](crate::DIRECT_BELOW)
     /// and the smoothing filters are evaluated directly (the GPU path
     /// supports only the stack-based filters).
     #[must_use]
@@ -565,7 +358,7 @@ impl Smoother {
 
     /// Smooths the pixels of `rect` (the rest of the image only feeds
     /// them): the rectangle of [`Smoother::smooth_image`]'s result, computed
-    /// alone (how [`crate::tiled`] smooths a tile read with its halo).
+    /// alone (how [`crate::smooth_tiled`] smooths a tile read with its halo).
     ///
     /// # Errors
     /// [`SmoothError::BadImage`] for a rectangle outside the image, and
@@ -739,90 +532,4 @@ pub fn smoother_stack_options(
     )
     .unwrap_or(options.margin);
     ifd_planar::StackOptions { margin, ..options }
-}
-
-/// The radius, in pixels, of the tensor blur of sigma `sigma`: `ceil(3
-/// sigma)`, 0 (no blur) below 0.3 px. What [`gaussian_blur`] reads and what
-/// region refreshes and tiles add for it.
-pub(crate) fn blur_radius(sigma: f64) -> usize {
-    if sigma < 0.3 {
-        0
-    } else {
-        (3.0 * sigma).ceil() as usize
-    }
-}
-
-/// Separable Gaussian blur of a plane (reflect-101 border, radius
-/// [`blur_radius`]).
-fn gaussian_blur(p: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
-    let r = blur_radius(sigma) as i64;
-    if r == 0 {
-        return p.to_vec();
-    }
-    let k: Vec<f32> = (-r..=r)
-        .map(|i| (-0.5 * (i * i) as f64 / (sigma * sigma)).exp() as f32)
-        .collect();
-    let ks: f32 = k.iter().sum();
-    let k: Vec<f32> = k.into_iter().map(|v| v / ks).collect();
-    let reflect = |i: i64, n: usize| -> usize {
-        let n = n as i64;
-        if n == 1 {
-            return 0;
-        }
-        let period = 2 * (n - 1);
-        let m = i.rem_euclid(period);
-        (if m < n { m } else { period - m }) as usize
-    };
-    let mut tmp = vec![0.0f32; w * h];
-    tmp.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        let src = &p[y * w..(y + 1) * w];
-        for (x, o) in row.iter_mut().enumerate() {
-            *o = k
-                .iter()
-                .enumerate()
-                .map(|(j, kv)| kv * src[reflect(x as i64 + j as i64 - r, w)])
-                .sum();
-        }
-    });
-    let mut out = vec![0.0f32; w * h];
-    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, o) in row.iter_mut().enumerate() {
-            *o = k
-                .iter()
-                .enumerate()
-                .map(|(j, kv)| kv * tmp[reflect(y as i64 + j as i64 - r, h) * w + x])
-                .sum();
-        }
-    });
-    out
-}
-
-mod refresh;
-pub use refresh::RegionRefresh;
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn dab_weight_profile() {
-        let d = Dab {
-            x: 0.0,
-            y: 0.0,
-            radius: 10.0,
-            falloff: 0.5,
-            strength: 0.8,
-        };
-        assert_eq!(d.weight(0.0), 0.8);
-        assert_eq!(d.weight(5.0), 0.8);
-        assert!(d.weight(7.5) > 0.0 && d.weight(7.5) < 0.8);
-        assert_eq!(d.weight(10.0), 0.0);
-    }
-
-    #[test]
-    fn blur_preserves_constants() {
-        let p = vec![2.0f32; 30 * 20];
-        let b = gaussian_blur(&p, 30, 20, 2.5);
-        assert!(b.iter().all(|v| (v - 2.0).abs() < 1e-5));
-    }
 }
