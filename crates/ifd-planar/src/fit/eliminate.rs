@@ -5,7 +5,7 @@
 use crate::dictionary::Dictionary;
 use crate::sparsa::{LinearOperator, debias};
 
-use super::linalg::{cholesky_solve, factor, full_inverse, inverse_diagonal};
+use super::linalg::factor;
 
 /// The growth of the squared residual when an atom with coefficient `z`
 /// and (constrained) inverse diagonal `p` is removed: `z^2 / p`; infinite
@@ -123,12 +123,12 @@ impl Fitter<'_> {
         let b: Vec<f64> = support.iter().map(|&k| self.aty[k]).collect();
         let l = factor(&gram, s);
         let mut z = b.clone();
-        cholesky_solve(&l, s, &mut z);
-        let mut h_diag = inverse_diagonal(&l, s);
+        l.solve(&mut z);
+        let mut h_diag = l.inverse_diagonal();
         if let Some((c, target)) = self.dc_row(&support) {
             // z = z0 + u (s - c.z0) / (c.u), u = G^-1 c; diag(P) = diag(H) - u^2 / c.u.
             let mut u = c.clone();
-            cholesky_solve(&l, s, &mut u);
+            l.solve(&mut u);
             let cu: f64 = c.iter().zip(&u).map(|(a, b)| a * b).sum();
             if cu > 0.0 && cu.is_finite() {
                 let cz: f64 = c.iter().zip(&z).map(|(a, b)| a * b).sum();
@@ -220,7 +220,7 @@ impl Fitter<'_> {
             };
         }
         let gram = self.dict.gram(&c.support);
-        let mut h = full_inverse(&factor(&gram, s), s);
+        let mut h = factor(&gram, s).full_inverse();
         if let Some((row, _)) = self.dc_row(&c.support) {
             // The constrained inverse P = H - u u^T / c.u, u = H c (c.z
             // already holds the constrained solution).

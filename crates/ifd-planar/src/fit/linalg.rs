@@ -1,97 +1,68 @@
-//! The dense linear algebra of the refits: Cholesky factorisation, solves
-//! and the inverses whose diagonals score atoms for removal (row-major,
-//! lower triangles).
+//! The dense linear algebra of the refits, on nalgebra: the Cholesky factor
+//! of a support's Gram matrix (with a tiny ridge when near-coincident atoms
+//! make it singular), its solves, and the inverses whose diagonals score
+//! atoms for removal. Slices are row-major; the Gram matrix and its
+//! inverse are symmetric, so the layout only matters for the factor.
 
-/// In-place Cholesky factorisation `G = L L^T` (lower triangle of `g`, row-major).
-pub(super) fn cholesky(g: &mut [f64], s: usize) -> bool {
-    for j in 0..s {
-        let mut d = g[j * s + j];
-        for k in 0..j {
-            d -= g[j * s + k] * g[j * s + k];
-        }
-        if d <= 0.0 || !d.is_finite() {
-            return false;
-        }
-        let d = d.sqrt();
-        g[j * s + j] = d;
-        for i in j + 1..s {
-            let mut v = g[i * s + j];
-            for k in 0..j {
-                v -= g[i * s + k] * g[j * s + k];
-            }
-            g[i * s + j] = v / d;
-        }
-    }
-    true
+use nalgebra::{DMatrix, DVector, Dyn, linalg::Cholesky};
+
+/// The Cholesky factorisation `G = L L^T` of a support's Gram matrix.
+pub(super) struct Factor {
+    chol: Cholesky<f64, Dyn>,
+    s: usize,
 }
 
-/// Cholesky factor of `gram` (`s x s`), with a tiny ridge added when needed
-/// (unit-norm atoms: `diag(G) = 1`; near-coincident atoms make `G` singular).
-pub(super) fn factor(gram: &[f64], s: usize) -> Vec<f64> {
-    let mut l = gram.to_vec();
+/// The Cholesky factor of `gram` (`s x s`), with a tiny ridge added when
+/// needed (unit-norm atoms: `diag(G) = 1`; near-coincident atoms make `G`
+/// singular).
+pub(super) fn factor(gram: &[f64], s: usize) -> Factor {
+    let g = DMatrix::from_row_slice(s, s, gram);
     let mut ridge = 1e-12;
-    while !cholesky(&mut l, s) {
-        l.copy_from_slice(gram);
-        for i in 0..s {
-            l[i * s + i] += ridge;
+    let mut m = g.clone();
+    loop {
+        if let Some(chol) = m.clone().cholesky()
+            && chol
+                .l_dirty()
+                .diagonal()
+                .iter()
+                .all(|d| d.is_finite() && *d > 0.0)
+        {
+            return Factor { chol, s };
         }
+        m = &g + DMatrix::identity(s, s) * ridge;
         ridge *= 100.0;
     }
-    l
 }
 
-/// `L^-1` (lower triangular, row-major) from a Cholesky factor.
-pub(super) fn lower_inverse(l: &[f64], s: usize) -> Vec<f64> {
-    let mut inv = vec![0.0; s * s];
-    for j in 0..s {
-        inv[j * s + j] = 1.0 / l[j * s + j];
-        for i in j + 1..s {
-            let mut v = 0.0;
-            for k in j..i {
-                v -= l[i * s + k] * inv[k * s + j];
-            }
-            inv[i * s + j] = v / l[i * s + i];
-        }
+impl Factor {
+    /// Solves `G x = rhs` in place.
+    pub(super) fn solve(&self, x: &mut [f64]) {
+        let mut v = DVector::from_column_slice(x);
+        self.chol.solve_mut(&mut v);
+        x.copy_from_slice(v.as_slice());
     }
-    inv
-}
 
-/// `diag(G^-1)` = column sums of squares of `L^-1`.
-pub(super) fn inverse_diagonal(l: &[f64], s: usize) -> Vec<f64> {
-    let inv = lower_inverse(l, s);
-    (0..s)
-        .map(|j| (j..s).map(|i| inv[i * s + j].powi(2)).sum())
-        .collect()
-}
-
-/// `G^-1 = L^-T L^-1` from a Cholesky factor, row-major.
-pub(super) fn full_inverse(l: &[f64], s: usize) -> Vec<f64> {
-    let inv = lower_inverse(l, s);
-    let mut h = vec![0.0; s * s];
-    for a in 0..s {
-        for b in 0..=a {
-            let v: f64 = (a..s).map(|i| inv[i * s + a] * inv[i * s + b]).sum();
-            h[a * s + b] = v;
-            h[b * s + a] = v;
-        }
+    /// `L^-1`, lower triangular.
+    fn lower_inverse(&self) -> DMatrix<f64> {
+        let l = self.chol.l();
+        let mut inv = DMatrix::identity(self.s, self.s);
+        // L is non-singular: its diagonal is positive (checked in `factor`).
+        let solved = l.solve_lower_triangular_mut(&mut inv);
+        debug_assert!(solved);
+        inv
     }
-    h
-}
 
-/// Solves `L L^T x = rhs` in place from a Cholesky factor (row-major).
-pub(super) fn cholesky_solve(l: &[f64], s: usize, x: &mut [f64]) {
-    for i in 0..s {
-        let mut v = x[i];
-        for k in 0..i {
-            v -= l[i * s + k] * x[k];
-        }
-        x[i] = v / l[i * s + i];
+    /// `diag(G^-1)` = column sums of squares of `L^-1`.
+    pub(super) fn inverse_diagonal(&self) -> Vec<f64> {
+        let inv = self.lower_inverse();
+        inv.column_iter().map(|c| c.norm_squared()).collect()
     }
-    for i in (0..s).rev() {
-        let mut v = x[i];
-        for k in i + 1..s {
-            v -= l[k * s + i] * x[k];
-        }
-        x[i] = v / l[i * s + i];
+
+    /// `G^-1 = L^-T L^-1`, row-major (symmetric).
+    pub(super) fn full_inverse(&self) -> Vec<f64> {
+        let inv = self.lower_inverse();
+        let h = inv.tr_mul(&inv);
+        // symmetric: the column-major slice is the row-major one
+        h.as_slice().to_vec()
     }
 }

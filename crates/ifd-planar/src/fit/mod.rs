@@ -134,7 +134,8 @@ pub fn sampled_dc_gain(decomposition: &Decomposition) -> f64 {
 /// whenever the fitting changes its results, so that stored fits made by
 /// older code (the smoother's cached aspect bank) are refitted, not reused.
 /// 2: DC-exact refits ([`DecomposeOptions::exact_dc`], 2026-12-04).
-pub const FIT_REVISION: u32 = 2;
+/// 3: the refits' linear algebra on nalgebra (rounding only, 2026-12-05).
+pub const FIT_REVISION: u32 = 3;
 
 /// The most samples (kernel window and margin) a fit runs over.
 const MAX_FIT_SAMPLES: usize = 1 << 26;

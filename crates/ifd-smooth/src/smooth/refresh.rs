@@ -13,6 +13,7 @@ use ifd_planar::{Border, FixedTap, PixelRect, RefreshReport};
 use rayon::prelude::*;
 
 use super::Smoother;
+use super::blur::{blur_kernel, reflect};
 use crate::error::SmoothError;
 use crate::hessian::HessianBank;
 use crate::orientation::{Orientation, tensor};
@@ -36,17 +37,6 @@ fn dilate_axis(a: usize, b: usize, r: usize, n: usize, border: Border) -> (usize
         return (0, n - 1);
     }
     (a.saturating_sub(r), (b + r).min(n - 1))
-}
-
-/// Reflect-101 index, as the tensor blur of [`Smoother::with_banks`] uses.
-fn reflect(i: i64, n: usize) -> usize {
-    let n = n as i64;
-    if n == 1 {
-        return 0;
-    }
-    let period = 2 * (n - 1);
-    let m = i.rem_euclid(period);
-    (if m < n { m } else { period - m }) as usize
 }
 
 impl Smoother {
@@ -172,11 +162,7 @@ impl Smoother {
             })
         } else {
             let r = rb as i64;
-            let k: Vec<f32> = (-r..=r)
-                .map(|i| (-0.5 * (i * i) as f64 / (rho * rho)).exp() as f32)
-                .collect();
-            let ks: f32 = k.iter().sum();
-            let k: Vec<f32> = k.into_iter().map(|v| v / ks).collect();
+            let k = blur_kernel(rho, r);
             t.map(|p| {
                 // Horizontal pass for every window row, at the field's columns.
                 let mut tmp = vec![0.0f32; th * fw];
