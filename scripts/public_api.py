@@ -30,10 +30,11 @@ import sys
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "reference" / "api"
 # crates whose surface is listed (the libraries others build on); ifd-py's is
-# Python's (its stubs), ifd-clidoc and ifd-paper are dev-only
+# Python's (its stubs), ifd-clidoc and ifd-paper are dev-only; ifd-app is the
+# apps' shell
 CRATES = [
     "ifd-image", "ifd-planar", "ifd-smooth", "ifd-sphere", "ifd-shade",
-    "ifd-render", "ifd-ibl", "ifd-gpu", "ifd-plot",
+    "ifd-render", "ifd-ibl", "ifd-gpu", "ifd-plot", "ifd-app",
 ]
 
 
