@@ -74,6 +74,7 @@ mod profile;
 mod rng;
 mod rotation;
 mod sh;
+mod simd;
 mod tabulated;
 mod transform;
 mod zhf;
@@ -90,6 +91,7 @@ pub use crate::sh::{
     ShEvaluator, direction, eval_sh, gauss_legendre, legendre_all, legendre_p, pi_l, sh_count,
     sh_index,
 };
+pub use crate::simd::{set_vector_kernels, vector_kernels};
 pub use crate::tabulated::BandTables;
 pub use crate::transform::{
     Analysis, EquirectTransform, Negatives, Projection, analyze_cubemap, analyze_equirect,

@@ -81,7 +81,11 @@ impl LegendreTable {
     /// of one order `m`, for `N` arguments at once: lane `k` of `out[l - m]`
     /// is the value at `z[k]`, with `sm[k] = sin^m t_k`. Written lane-wise so
     /// that the recurrence vectorises across arguments (`N = 1` for one).
-    #[inline]
+    #[inline(always)]
+    #[expect(
+        clippy::inline_always,
+        reason = "compiled into each target of `simd::dispatch`"
+    )]
     pub(crate) fn column<const N: usize>(
         &self,
         m: usize,
@@ -311,6 +315,23 @@ impl ShEvaluator {
     /// If `coeffs` holds fewer than `(L + 1)^2 C` values or `out` fewer than
     /// `N (L + 1) C`.
     pub fn band_sums<const N: usize>(
+        &self,
+        l0: usize,
+        dirs: &[[f64; 3]; N],
+        coeffs: &[f64],
+        channels: usize,
+        out: &mut [f64],
+    ) {
+        crate::simd::dispatch(|| self.band_sums_kernel(l0, dirs, coeffs, channels, out));
+    }
+
+    /// [`Self::band_sums`]' loops, compiled into each of its dispatch targets.
+    #[inline(always)]
+    #[expect(
+        clippy::inline_always,
+        reason = "compiled into each target of `simd::dispatch`"
+    )]
+    fn band_sums_kernel<const N: usize>(
         &self,
         l0: usize,
         dirs: &[[f64; 3]; N],

@@ -134,6 +134,11 @@ impl EquirectTransform {
     /// `ss`) met with the even (`l + m` even) or odd combination of each row
     /// pair's Fourier sums, `even`/`odd[(m C + c) LANES + lane]`.
     #[expect(clippy::too_many_arguments, reason = "one block's inputs and scratch")]
+    #[inline(always)]
+    #[allow(
+        clippy::inline_always,
+        reason = "compiled into each target of `simd::dispatch`"
+    )]
     fn legendre_sums(
         &self,
         zs: &[f64; ANALYSIS_LANES],
@@ -242,18 +247,20 @@ impl EquirectTransform {
                 let last = (first + per_group).min(n_pairs);
                 let mut out = vec![0.0; n_coef];
                 let mut pass = PairPass::new(self, ch);
-                for start in (first..last).step_by(PAIRS_PER_BLOCK) {
-                    let end = (start + PAIRS_PER_BLOCK).min(last);
-                    pass.run(
-                        self,
-                        img,
-                        negatives,
-                        &azimuthal,
-                        &nodes,
-                        start..end,
-                        &mut out,
-                    );
-                }
+                crate::simd::dispatch(|| {
+                    for start in (first..last).step_by(PAIRS_PER_BLOCK) {
+                        let end = (start + PAIRS_PER_BLOCK).min(last);
+                        pass.run(
+                            self,
+                            img,
+                            negatives,
+                            &azimuthal,
+                            &nodes,
+                            start..end,
+                            &mut out,
+                        );
+                    }
+                });
                 out
             })
             .collect();
@@ -463,8 +470,14 @@ impl PairPass {
     }
 
     /// Adds the Legendre sums of the row pairs `pairs` (at most
-    /// [`PAIRS_PER_BLOCK`]) to `out`.
+    /// [`PAIRS_PER_BLOCK`]) to `out` (compiled into each target of
+    /// `crate::simd::dispatch`, as the Legendre sums it calls).
     #[expect(clippy::too_many_arguments, reason = "one block's inputs and output")]
+    #[inline(always)]
+    #[allow(
+        clippy::inline_always,
+        reason = "compiled into each target of `simd::dispatch`"
+    )]
     fn run(
         &mut self,
         t: &EquirectTransform,
