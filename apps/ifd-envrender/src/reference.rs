@@ -1,6 +1,6 @@
 //! The progressive Monte Carlo reference of the current view, on a thread of
 //! its own: started when the camera is still, refined pass after pass
-//! (environment and BRDF importance sampling with MIS, `ifd_render::mc`),
+//! (environment and BRDF importance sampling with MIS, `ifd_render::estimate_mc`),
 //! and, once it has enough samples, the error of ISD at a ladder of degrees
 //! against it (the error-against-`L` curve of the current view).
 

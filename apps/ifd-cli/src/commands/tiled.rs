@@ -1,4 +1,4 @@
-//! `ifd filter` tile by tile (`ifd_planar::tiled`), streaming `.npy` input,
+//! `ifd filter` tile by tile (`ifd_planar::filter_tiled`), streaming `.npy` input,
 //! maps and output ([`ifd_image::NpyReader`], [`ifd_image::NpyWriter`]):
 //! images far larger than memory in about one tile's memory.
 
