@@ -12,8 +12,8 @@ mkdir -p "$OUT"
 # The dev profile of this workspace is optimised (opt-level 2, dependencies
 # 3: see Cargo.toml), so this shares its build with `cargo test` instead of
 # compiling wgpu and everything else a second time for `--release`.
-echo "==> building ifd"
-cargo build --quiet -p ifd-cli
+echo "==> building ifd (a few minutes on a fresh clone; cargo shows its progress)"
+cargo build -p ifd-cli
 IFD=${CARGO_TARGET_DIR:-target}/debug/ifd
 
 echo "==> decomposing gauss:sx=16,sy=2 (8:1)"
