@@ -37,8 +37,8 @@ use crate::error::{Result, ShadeError};
 /// # Filtering (Eq. 31-32)
 /// The separable kernel `m(wi, wo) = K exp(kappa (wi . zi + wo . zo))`,
 /// each factor a normalised vMF lobe, multiplies `C_ab` by `Lambda_{l_a}
-/// Lambda_{l_b}` ([`ifd_sphere::vmf_factors`]; Eq. 32's `k_l /
-/// pi_l` products, with `k_l` the lobe's zonal coefficients). Holes (bins a
+/// Lambda_{l_b}` ([`ifd_sphere::vmf_factors`]; Eq. 32's factors
+/// `Lambda_l = pi_l k_l`, with `k_l` the lobe's zonal coefficients). Holes (bins a
 /// measurement marks invalid) are treated as missing, not as zero, by
 /// **normalised convolution**: the data times the validity mask and the mask
 /// itself are projected and filtered alike, and the filtered BRDF is their
