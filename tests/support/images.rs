@@ -77,20 +77,11 @@ pub fn edge_waves(w: usize, h: usize) -> Image {
     Image::from_vec(w, h, 1, data).expect("valid image")
 }
 
-/// Uniform noise in `[0, 1)` from `SplitMix64` (`ifd_sphere::SplitMix64`'s
-/// sequence), `ch` channels (the spherical transform tests).
-pub fn uniform_noise(w: usize, h: usize, ch: usize, seed: u64) -> Image {
-    let mut state = seed;
-    let data = (0..w * h * ch)
-        .map(|_| {
-            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^= z >> 31;
-            ((z >> 11) as f64 / (1u64 << 53) as f64) as f32
-        })
-        .collect();
+/// Noise from `uniform` (a generator's draws in `[0, 1)`, e.g.
+/// `ifd_sphere::SplitMix64::uniform`), `ch` channels (the spherical
+/// transform tests).
+pub fn uniform_noise(w: usize, h: usize, ch: usize, mut uniform: impl FnMut() -> f64) -> Image {
+    let data = (0..w * h * ch).map(|_| uniform() as f32).collect();
     Image::from_vec(w, h, ch, data).expect("valid image")
 }
 

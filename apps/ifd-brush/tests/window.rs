@@ -69,7 +69,19 @@ impl WindowTest {
     /// `xvfb-run ... ifd-brush` with the state and runtime folders set and
     /// the test's bank cache; the caller adds the app's arguments.
     fn command(&self) -> Command {
-        let mut c = Command::new("xvfb-run");
+        self.command_under(&[])
+    }
+
+    /// [`Self::command`] run by `wrapper` (e.g. `["timeout", "300"]`).
+    fn command_under(&self, wrapper: &[&str]) -> Command {
+        let mut c = match wrapper.split_first() {
+            Some((program, args)) => {
+                let mut c = Command::new(program);
+                c.args(args).arg("xvfb-run");
+                c
+            }
+            None => Command::new("xvfb-run"),
+        };
         c.args(["-a", "-s", "-screen 0 1280x800x24"])
             .arg(env!("CARGO_BIN_EXE_ifd-brush"))
             .args(["--bank", common::bank_cache().to_str().expect("utf8")])
@@ -258,17 +270,12 @@ fn automation_failure_exits_2_with_the_message() {
     let not_a_folder = win.path().join("file");
     std::fs::write(&not_a_folder, b"a regular file").expect("file");
     let shot = not_a_folder.join("shot.png");
-    let mut c = win.command();
-    c.args(["--image", input.to_str().expect("utf8")])
+    let out = win
+        .command_under(&["timeout", "300"])
+        .args(["--image", input.to_str().expect("utf8")])
         .args(["--screenshot", shot.to_str().expect("utf8")])
         .args(["--device", "cpu"])
-        .arg("--exit");
-    // under `timeout 300`: the same command, stopped after 5 minutes
-    let out = Command::new("timeout")
-        .arg("300")
-        .arg(c.get_program())
-        .args(c.get_args())
-        .envs(c.get_envs().filter_map(|(k, v)| Some((k, v?))))
+        .arg("--exit")
         .output()
         .expect("start xvfb-run");
     let stderr = String::from_utf8_lossy(&out.stderr);

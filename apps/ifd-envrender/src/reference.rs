@@ -41,19 +41,10 @@ fn job<'a>(
     seed: u64,
 ) -> Job<'a> {
     Job {
-        scene: scene.clone(),
-        camera,
-        env,
         background,
-        brdf,
-        material,
-        method,
         spp,
         seed,
-        maps: None,
-        family: None,
-        lights: &[],
-        shadows: None,
+        ..Job::new(scene.clone(), camera, env, brdf, material, method)
     }
 }
 

@@ -376,23 +376,15 @@ impl Worker {
         send: &(dyn Fn(Event) -> bool + Sync),
     ) -> Result<()> {
         let t = Instant::now();
+        let method = match s.variant {
+            Variant::Sh => Method::Isd,
+            Variant::Maps => Method::IsdMaps,
+        };
         let job = Job {
-            scene,
-            camera,
-            env,
             background,
-            brdf,
-            material: Some(material),
-            method: match s.variant {
-                Variant::Sh => Method::Isd,
-                Variant::Maps => Method::IsdMaps,
-            },
-            spp: 0,
-            seed: 0,
             maps: Some(surface),
             family,
-            lights: &[],
-            shadows: None,
+            ..Job::new(scene, camera, env, brdf, Some(material), method)
         };
         let r = render(&job, &|_, _| {})?;
         let tm = Tonemap::parse(&s.tonemap)?;

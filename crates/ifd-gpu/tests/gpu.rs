@@ -1302,19 +1302,17 @@ mod shading {
         )
         .expect("camera");
         let job = Job {
-            scene: case.scene.clone(),
-            camera,
-            env,
             background: Some(env),
-            brdf: case.brdf,
-            material: case.material,
-            method: case.method,
-            spp: 0,
-            seed: 0,
             maps: case.maps,
             family: case.family,
-            lights: &[],
-            shadows: None,
+            ..Job::new(
+                case.scene.clone(),
+                camera,
+                env,
+                case.brdf,
+                case.material,
+                case.method,
+            )
         };
         let cpu = render(&job, &|_, _| {}).expect("cpu render");
         let px = ifd_render::pixels(&case.scene, &camera, case.maps).expect("pixels");

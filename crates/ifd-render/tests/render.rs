@@ -35,19 +35,9 @@ fn camera(size: usize) -> Camera {
 
 fn shoot(env: &EnvMap, brdf: &Brdf, material: Option<&Material>, method: Method) -> Rendered {
     let job = Job {
-        scene: Scene::Sphere,
-        camera: camera(40),
-        env,
-        background: None,
-        brdf,
-        material,
-        method,
         spp: 64,
         seed: 1,
-        maps: None,
-        family: None,
-        lights: &[],
-        shadows: None,
+        ..Job::new(Scene::Sphere, camera(40), env, brdf, material, method)
     };
     render(&job, &|_, _| {}).expect("render")
 }
@@ -188,19 +178,8 @@ fn white_furnace_and_bad_cameras() {
     )
     .unwrap();
     let job = Job {
-        scene: Scene::Sphere,
-        camera: away,
-        env: &one,
         background: Some(&one),
-        brdf: &brdf,
-        material: Some(&m),
-        method: Method::Isd,
-        spp: 0,
-        seed: 0,
-        maps: None,
-        family: None,
-        lights: &[],
-        shadows: None,
+        ..Job::new(Scene::Sphere, away, &one, &brdf, Some(&m), Method::Isd)
     };
     let e = render(&job, &|_, _| {}).unwrap_err().to_string();
     assert!(e.contains("sees no object"), "{e}");
@@ -227,19 +206,9 @@ fn monte_carlo_converges_to_the_oracle() {
         let oracle = shoot(&env, &brdf, None, Method::Quadrature);
         let mc = |spp: usize| {
             let job = Job {
-                scene: Scene::Sphere,
-                camera: camera(40),
-                env: &env,
-                background: None,
-                brdf: &brdf,
-                material: None,
-                method: Method::Mc,
                 spp,
                 seed: 7,
-                maps: None,
-                family: None,
-                lights: &[],
-                shadows: None,
+                ..Job::new(Scene::Sphere, camera(40), &env, &brdf, None, Method::Mc)
             };
             render(&job, &|_, _| {}).unwrap()
         };
@@ -323,19 +292,7 @@ fn obj_meshes_render_like_the_analytic_surface() {
     let m = Material::new(&brdf, 10, None).unwrap();
     let render_scene = |scene: Scene| {
         let job = Job {
-            scene,
-            camera: camera(48),
-            env: &env,
-            background: None,
-            brdf: &brdf,
-            material: Some(&m),
-            method: Method::Isd,
-            spp: 0,
-            seed: 0,
-            maps: None,
-            family: None,
-            lights: &[],
-            shadows: None,
+            ..Job::new(scene, camera(48), &env, &brdf, Some(&m), Method::Isd)
         };
         render(&job, &|_, _| {}).unwrap()
     };
@@ -433,19 +390,9 @@ fn textured_sphere_matches_the_oracle() {
     let range = maps.roughness.as_ref().unwrap().range();
     let family = RoughnessFamily::build(&brdf, 20, range, 6, &|_, _| {}).unwrap();
     let job = |method, family| Job {
-        scene: Scene::Sphere,
-        camera: camera(40),
-        env: &env,
-        background: None,
-        brdf: &brdf,
-        material: None,
-        method,
-        spp: 0,
-        seed: 0,
         maps: Some(&maps),
         family,
-        lights: &[],
-        shadows: None,
+        ..Job::new(Scene::Sphere, camera(40), &env, &brdf, None, method)
     };
     let oracle = render(&job(Method::Quadrature, None), &|_, _| {}).unwrap();
     let isd = render(&job(Method::Isd, Some(&family)), &|_, _| {}).unwrap();
@@ -479,19 +426,10 @@ fn images_do_not_depend_on_the_thread_count() {
         pool.install(|| {
             let material = (method == Method::Isd).then_some(&m);
             let job = Job {
-                scene: Scene::Sphere,
-                camera: camera(24),
-                env: &env,
                 background: Some(&env),
-                brdf: &brdf,
-                material,
-                method,
                 spp: 32,
                 seed: 3,
-                maps: None,
-                family: None,
-                lights: &[],
-                shadows: None,
+                ..Job::new(Scene::Sphere, camera(24), &env, &brdf, material, method)
             };
             render(&job, &|_, _| {}).unwrap().image
         })
@@ -522,19 +460,10 @@ fn spherical_lights_match_the_quadrature() {
     let go =
         |brdf: &Brdf, material: Option<&Material>, method: Method, lights: &[SphericalLight]| {
             let job = Job {
-                scene: Scene::Sphere,
-                camera: camera(32),
-                env: &env,
-                background: None,
-                brdf,
-                material,
-                method,
                 spp: 1,
                 seed: 1,
-                maps: None,
-                family: None,
                 lights,
-                shadows: None,
+                ..Job::new(Scene::Sphere, camera(32), &env, brdf, material, method)
             };
             render(&job, &|_, _| {}).expect("render")
         };
@@ -566,19 +495,10 @@ fn spherical_lights_match_the_quadrature() {
     let r = go(&brdf, Some(&m), Method::Isd, &seen);
     assert!(r.image.data().contains(&7.0));
     let job = Job {
-        scene: Scene::Sphere,
-        camera: camera(8),
-        env: &env,
-        background: None,
-        brdf: &brdf,
-        material: None,
-        method: Method::Mc,
         spp: 1,
         seed: 1,
-        maps: None,
-        family: None,
         lights: &seen,
-        shadows: None,
+        ..Job::new(Scene::Sphere, camera(8), &env, &brdf, None, Method::Mc)
     };
     assert!(render(&job, &|_, _| {}).is_err());
 }

@@ -427,7 +427,12 @@ mod zhf {
 
 mod transform {
     use super::*;
-    use crate::images::uniform_noise as noise_image;
+    use crate::images::uniform_noise;
+
+    fn noise_image(w: usize, h: usize, ch: usize, seed: u64) -> Image {
+        let mut rng = SplitMix64::new(seed);
+        uniform_noise(w, h, ch, || rng.uniform())
+    }
 
     /// Brute-force pixel quadrature with the same exact solid angles.
     fn brute_analysis(img: &Image, l_max: usize) -> ShCoeffs {

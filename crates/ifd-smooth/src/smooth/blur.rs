@@ -1,6 +1,7 @@
 //! The separable Gaussian blur of the structure tensor's planes and its
 //! radius, which region refreshes and tiles add as a halo.
 
+use ifd_planar::Border;
 use rayon::prelude::*;
 
 /// The radius, in pixels, of the tensor blur of sigma `sigma`: `ceil(3
@@ -23,15 +24,9 @@ pub(super) fn blur_kernel(sigma: f64, r: i64) -> Vec<f32> {
     k.into_iter().map(|v| v / ks).collect()
 }
 
-/// Reflect-101 index of `i` into `0..n` (the blur's border).
+/// Reflect-101 index of `i` into `0..n` (the blur's border; `n >= 1`).
 pub(super) fn reflect(i: i64, n: usize) -> usize {
-    let n = n as i64;
-    if n == 1 {
-        return 0;
-    }
-    let period = 2 * (n - 1);
-    let m = i.rem_euclid(period);
-    (if m < n { m } else { period - m }) as usize
+    Border::Reflect101.resolve(i, n).unwrap_or(0)
 }
 
 /// Separable Gaussian blur of a plane (reflect-101 border, radius
