@@ -6,7 +6,7 @@
 use ifd_image::Image;
 use ifd_shade::Brdf;
 use ifd_shade::SphericalLight;
-use ifd_shade::{BandMaps, Environment, Frame, Material, Scratch};
+use ifd_shade::{BandMaps, Environment, Frame, GltfMaterial, Material, Scratch};
 use rayon::prelude::*;
 
 use crate::camera::Camera;
@@ -67,7 +67,11 @@ pub struct Job<'a> {
     pub env: &'a EnvMap,
     /// The map shown behind the object (`None`: black).
     pub background: Option<&'a EnvMap>,
-    /// The BRDF (the oracle evaluates it directly).
+    /// The BRDF (the oracle evaluates it directly). For the glTF BRDF
+    /// (`gltf:..`) the ISD methods shade with a material of its three parts
+    /// (`gltf-lobes`, [`Brdf::tabulated`]) and combine them per pixel with
+    /// the point's colour (the factor times the albedo map) and roughness (the
+    /// roughness map's, else the factor's).
     pub brdf: &'a Brdf,
     /// The material for `isd` and `sh` (same BRDF, degree `L`).
     pub material: Option<&'a Material>,
@@ -196,6 +200,33 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
         });
     }
     check_shadows(job, rough_map.is_some())?;
+    // the glTF BRDF: ISD shades its three parts and combines them per pixel
+    // with the point's colour and metalness (GltfMaterial::combine)
+    let gltf = job.brdf.gltf_material();
+    let np = if gltf.is_some() { 3 * ch } else { ch };
+    if gltf.is_some() {
+        let parts = job.brdf.tabulated()?;
+        let tabulated = |m: &Material| m.brdf().spec() == parts.spec();
+        let family_ok = job.family.is_none_or(|f| {
+            f.materials()
+                .iter()
+                .all(|m| matches!(m.brdf().model(), ifd_shade::Model::GltfLobes { .. }))
+        });
+        if !job.material.is_none_or(tabulated) || !family_ok {
+            return Err(RenderError::Parameter {
+                name: "--table",
+                value: job
+                    .material
+                    .map_or("a roughness family", |m| m.brdf().spec())
+                    .into(),
+                reason: format!(
+                    "the glTF BRDF {} is shaded with the table of its parts, {}",
+                    job.brdf.spec(),
+                    parts.spec()
+                ),
+            });
+        }
+    }
     let degree = match (job.material, job.family) {
         (_, Some(f)) if rough_map.is_some() => Some(f.l_max()),
         (Some(m), _) => Some(m.l_max()),
@@ -227,20 +258,29 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                  out: &mut [f64]|
      -> Result<()> {
         let (frame, wo) = (&surface.frame, surface.wo);
-        match (job.method, &env_sh, &maps) {
-            (Method::Isd, Some(e), _) => m.shade_isd(e, frame, wo, s, out)?,
-            (Method::IsdMaps, _, Some(bm)) => m.shade_isd(bm, frame, wo, s, out)?,
-            (Method::Sh, Some(e), _) => m.shade_sh(e, frame, wo, out)?,
+        let parts = gltf.is_some();
+        match (job.method, &env_sh, &maps, parts) {
+            (Method::Isd, Some(e), _, false) => m.shade_isd(e, frame, wo, s, out)?,
+            (Method::Isd, Some(e), _, true) => m.shade_isd_parts(e, frame, wo, s, out)?,
+            (Method::IsdMaps, _, Some(bm), false) => m.shade_isd(bm, frame, wo, s, out)?,
+            (Method::IsdMaps, _, Some(bm), true) => m.shade_isd_parts(bm, frame, wo, s, out)?,
+            (Method::Sh, Some(e), _, false) => m.shade_sh(e, frame, wo, out)?,
+            (Method::Sh, Some(e), _, true) => m.shade_sh_parts(e, frame, wo, out)?,
             _ => unreachable!("ISD-side methods have their environment"),
         }
         for light in job.lights {
             let z = light.at(surface.p, m.l_max(), ch)?;
-            if job.method == Method::Sh {
-                m.shade_sh(&Environment::new(z.to_sh()?)?, frame, wo, tmp)?;
-            } else {
-                m.shade_isd(&z, frame, wo, s, tmp)?;
+            match (job.method, parts) {
+                (Method::Sh, false) => {
+                    m.shade_sh(&Environment::new(z.to_sh()?)?, frame, wo, tmp)?;
+                }
+                (Method::Sh, true) => {
+                    m.shade_sh_parts(&Environment::new(z.to_sh()?)?, frame, wo, tmp)?;
+                }
+                (_, false) => m.shade_isd(&z, frame, wo, s, tmp)?,
+                (_, true) => m.shade_isd_parts(&z, frame, wo, s, tmp)?,
             }
-            for c in 0..ch {
+            for c in 0..np {
                 out[c] += tmp[c];
             }
         }
@@ -255,9 +295,9 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             let mut se = vec![0.0f32; if sampler.is_some() { w * ch } else { 0 }];
             let mut err = vec![0.0; ch.max(3)];
             let (mut max_k, mut bad, mut resid) = (0, 0, 0.0f64);
-            let mut out = vec![0.0; ch.max(3)];
-            let mut out2 = vec![0.0; ch.max(3)];
-            let mut tmp = vec![0.0; ch.max(3)];
+            let mut out = vec![0.0; 3 * ch.max(3)];
+            let mut out2 = vec![0.0; 3 * ch.max(3)];
+            let mut tmp = vec![0.0; 3 * ch.max(3)];
             let l = degree.unwrap_or(0);
             let mut scratch = Scratch::new(l, ch);
             let mut vis = vec![0.0; job.shadows.map_or(0, |s| (s.l_max() + 1).pow(2))];
@@ -281,11 +321,19 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                         p,
                         ..
                     } = surface;
+                    // the glTF material of this point: the BRDF's factors,
+                    // the albedo map's colour multiplying the base colour,
+                    // the roughness map's value replacing the roughness
+                    let point_gltf = gltf.map(|g| GltfMaterial {
+                        base: [0, 1, 2].map(|c| (g.base[c] * albedo[c]).clamp(0.0, 1.0)),
+                        roughness: rough.map_or(g.roughness, |r| alpha_of(r).sqrt()),
+                        ..g
+                    });
                     // the exact BRDF of this point (oracle, Monte Carlo)
-                    let local = match rough {
-                        Some(r) if matches!(job.method, Method::Quadrature | Method::Mc) => {
-                            Some(job.brdf.with_roughness(alpha_of(r))?)
-                        }
+                    let exact = matches!(job.method, Method::Quadrature | Method::Mc);
+                    let local = match (rough, point_gltf) {
+                        (_, Some(g)) if exact => Some(Brdf::gltf(&g)),
+                        (Some(r), None) if exact => Some(job.brdf.with_roughness(alpha_of(r))?),
                         _ => None,
                     };
                     let brdf = local.as_ref().unwrap_or(job.brdf);
@@ -295,7 +343,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                                 let (m0, m1, t) = f.locate(r);
                                 shade(m0, &surface, &mut scratch, &mut tmp, &mut out)?;
                                 shade(m1, &surface, &mut scratch, &mut tmp, &mut out2)?;
-                                for c in 0..ch {
+                                for c in 0..np {
                                     out[c] = (1.0 - t) * out[c] + t * out2[c];
                                 }
                             } else if let (Some(m), Some(sh)) = (job.material, job.shadows) {
@@ -312,6 +360,11 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                                 )?;
                             } else if let Some(m) = job.material {
                                 shade(m, &surface, &mut scratch, &mut tmp, &mut out)?;
+                            }
+                            if let Some(g) = point_gltf {
+                                let mut rgb = [0.0; 3];
+                                g.combine(&out[..np], ch, &mut rgb);
+                                out[..ch].copy_from_slice(&rgb[..ch]);
                             }
                         }
                         Method::Mc => {
@@ -352,7 +405,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                             }
                         }
                     }
-                    if albedo_map.is_some() {
+                    if albedo_map.is_some() && gltf.is_none() {
                         for c in 0..ch {
                             let k = albedo[c];
                             out[c] *= k;
@@ -442,6 +495,9 @@ fn check_shadows(job: &Job<'_>, roughness_map: bool) -> Result<()> {
     }
     if roughness_map {
         return bad("a roughness map is not shadowed; drop --roughness-map".into());
+    }
+    if job.brdf.gltf_material().is_some() {
+        return bad("the glTF BRDF is not shadowed (Eq. 25 shades one material's slice)".into());
     }
     if let Some(m) = job.material.filter(|m| m.l_max() > sh.l_max()) {
         return bad(format!(

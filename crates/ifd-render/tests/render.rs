@@ -680,3 +680,66 @@ fn shadows_darken_the_torus_and_isd_follows_the_traced_reference() {
     let m12 = material(&brdf, 12);
     assert!(go(Method::Isd, Some(&m12), Some(&shadows)).is_err());
 }
+
+#[test]
+fn gltf_brdf_isd_matches_the_oracle_and_monte_carlo_converges() {
+    // the glTF metallic-roughness BRDF: ISD integrates its three parts and
+    // combines them per pixel; the oracle and Monte Carlo evaluate the whole
+    // BRDF (the goal: relative RMS <= 1% for roughness >= 0.5 at L <= 24)
+    let env = forest();
+    for (spec, l) in [
+        ("gltf:roughness=0.5,metallic=1,base=0.95:0.64:0.54", 16),
+        ("gltf:roughness=0.7,metallic=0,base=0.8:0.2:0.2", 12),
+        ("gltf:roughness=1,metallic=0.5,base=0.5", 8),
+    ] {
+        let brdf = Brdf::parse(spec).unwrap();
+        let parts = brdf.tabulated().unwrap();
+        let m = material(&parts, l);
+        let oracle = shoot(&env, &brdf, None, Method::Quadrature);
+        let isd = shoot(&env, &brdf, Some(&m), Method::Isd);
+        let sh = shoot(&env, &brdf, Some(&m), Method::Sh);
+        let err = relative_rms(&isd.image, &oracle.image, &oracle.mask);
+        let err_sh = relative_rms(&isd.image, &sh.image, &sh.mask);
+        eprintln!(
+            "{spec} at L = {l}: relative RMS {err:.5} against the oracle, {err_sh:.1e} against sh"
+        );
+        assert!(err <= 0.01, "{spec}: {err}");
+        // f32 images: ISD and its SH reference agree to rounding
+        assert!(err_sh <= 1e-6, "{spec}: isd vs sh {err_sh}");
+        let coarse = shoot(&env, &brdf, Some(&material(&parts, 2)), Method::Isd);
+        let err_coarse = relative_rms(&coarse.image, &oracle.image, &oracle.mask);
+        assert!(err_coarse > 2.0 * err, "{spec}: L = 2 gives {err_coarse}");
+        // the whole BRDF's own table is refused: ISD shades the parts
+        let whole = Brdf::parse(spec).unwrap();
+        let wrong = LobeTable::build(&whole, 2, 16, 1, &|_, _| {}).unwrap();
+        let wrong = Material::new(&whole, 2, Some(wrong)).unwrap();
+        let job = Job::new(
+            Scene::Sphere,
+            camera(8),
+            &env,
+            &brdf,
+            Some(&wrong),
+            Method::Isd,
+        );
+        let e = render(&job, &|_, _| {}).unwrap_err().to_string();
+        assert!(e.contains("gltf-lobes"), "{e}");
+    }
+    // Monte Carlo with the mixture of GGX and cosine sampling converges to it
+    let brdf = Brdf::parse("gltf:roughness=0.6,metallic=0.3,base=0.9:0.7:0.4").unwrap();
+    let oracle = shoot(&env, &brdf, None, Method::Quadrature);
+    let mc = |spp: usize| {
+        let job = Job {
+            spp,
+            seed: 3,
+            ..Job::new(Scene::Sphere, camera(40), &env, &brdf, None, Method::Mc)
+        };
+        render(&job, &|_, _| {}).unwrap()
+    };
+    let (a, b) = (mc(16), mc(256));
+    let (ea, eb) = (
+        relative_rms(&a.image, &oracle.image, &oracle.mask),
+        relative_rms(&b.image, &oracle.image, &oracle.mask),
+    );
+    eprintln!("gltf: Monte Carlo relative RMS {ea:.4} at 16 spp, {eb:.4} at 256");
+    assert!(eb <= 0.35 * ea && eb < 0.05, "{eb} vs {ea}");
+}

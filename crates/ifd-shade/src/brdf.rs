@@ -8,6 +8,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use crate::error::{Result, ShadeError};
+use crate::gltf::GltfMaterial;
 use crate::merl::Merl;
 
 /// `v` normalised, or `+z` for the zero vector (never NaN).
@@ -57,6 +58,14 @@ pub enum Model {
     },
     /// A measured BRDF in the MERL format.
     Merl(Arc<Merl>),
+    /// The glTF 2.0 metallic-roughness BRDF, whole (three channels, RGB).
+    Gltf(GltfMaterial),
+    /// The glTF BRDF's three view-dependent parts as three channels:
+    /// `S (1 - w) cos`, `S w cos` and `(1 - w) cos / pi` ([`GltfMaterial`]).
+    GltfLobes {
+        /// Perceptual roughness (`alpha = roughness^2`).
+        roughness: f64,
+    },
 }
 
 /// A BRDF: a model, an albedo and the spec it was parsed from.
@@ -82,6 +91,8 @@ pub enum Model {
 /// | `ggx:alpha=a` or `ggx:ax=..,ay=..` `[,f0=F][,albedo=A]` | `A D(h) V(wi, wo) F(wo . h) max(wi_z, 0)` (below) |
 /// | `ward:ax=..,ay=..` or `ward:alpha=a` `[,albedo=A]` | `A / (pi ax ay) (H . H) / H_z^4 exp(-((H_x / ax)^2 + (H_y / ay)^2) / H_z^2) max(wi_z, 0)`, `H = wi + wo` unnormalised |
 /// | `merl:FILE` | the measured BRDF (three channels), [`crate::Merl`] |
+/// | `gltf[:roughness=R][,metallic=M][,base=B or R:G:B]` | glTF 2.0's metallic-roughness BRDF times `max(wi_z, 0)`, three channels (RGB; defaults 1, 1, 1 as glTF's factors), [`GltfMaterial`] |
+/// | `gltf-lobes[:roughness=R]` | its three view-dependent parts as three channels, `S (1 - w)`, `S w` and `(1 - w) / pi`, times `max(wi_z, 0)`: what ISD tabulates for `gltf` ([`GltfMaterial`]) |
 ///
 /// **GGX** as glTF 2.0 and `KHR_materials_anisotropy` define it, with `alpha`
 /// given directly (glTF's `alpha = roughness^2`):
@@ -176,6 +187,22 @@ impl Brdf {
                 spec: text.to_string(),
             });
         }
+        if name == "gltf" {
+            let m = crate::gltf::parse_material(args, &err)?;
+            return Ok(Self {
+                model: Model::Gltf(m),
+                albedo: 1.0,
+                spec: text.to_string(),
+            });
+        }
+        if name == "gltf-lobes" {
+            let roughness = crate::gltf::parse_lobes(args, &err)?;
+            return Ok(Self {
+                model: Model::GltfLobes { roughness },
+                albedo: 1.0,
+                spec: text.to_string(),
+            });
+        }
         let mut kv: Vec<(String, f64)> = Vec::new();
         for part in args.split(',').filter(|s| !s.trim().is_empty()) {
             let (k, v) = part
@@ -201,7 +228,8 @@ impl Brdf {
             "ward" => &["alpha", "ax", "ay", "albedo"],
             _ => {
                 return Err(err(format!(
-                    "unknown BRDF {name:?} (lambert, phong, blinn, blinn-exact, ggx, ward, merl)"
+                    "unknown BRDF {name:?} (lambert, phong, blinn, blinn-exact, ggx, ward, merl, \
+                     gltf, gltf-lobes)"
                 )));
             }
         };
@@ -274,6 +302,47 @@ impl Brdf {
         })
     }
 
+    /// The glTF BRDF of a material (`gltf:..`, the spec written by
+    /// [`GltfMaterial::spec`]).
+    #[must_use]
+    pub fn gltf(m: &GltfMaterial) -> Self {
+        Self {
+            model: Model::Gltf(*m),
+            albedo: 1.0,
+            spec: m.spec(),
+        }
+    }
+
+    /// The glTF BRDF's three parts at a roughness (`gltf-lobes:..`).
+    ///
+    /// # Errors
+    /// [`ShadeError::Spec`] for a roughness outside
+    /// `[crate::GLTF_MIN_ROUGHNESS, 1]`.
+    pub fn gltf_lobes(roughness: f64) -> Result<Self> {
+        Self::parse(&format!("gltf-lobes:roughness={roughness}"))
+    }
+
+    /// The material of a `gltf` BRDF.
+    #[must_use]
+    pub fn gltf_material(&self) -> Option<GltfMaterial> {
+        match self.model {
+            Model::Gltf(m) => Some(m),
+            _ => None,
+        }
+    }
+
+    /// The BRDF ISD tabulates for this one: its three parts for `gltf`, itself
+    /// otherwise.
+    ///
+    /// # Errors
+    /// As [`Self::gltf_lobes`].
+    pub fn tabulated(&self) -> Result<Self> {
+        match self.model {
+            Model::Gltf(m) => Self::gltf_lobes(m.roughness),
+            _ => Ok(self.clone()),
+        }
+    }
+
     /// The spec this BRDF was parsed from.
     #[must_use]
     pub fn spec(&self) -> &str {
@@ -332,9 +401,23 @@ impl Brdf {
                 },
                 format!("ward:alpha={alpha}{albedo}"),
             ),
+            Model::Gltf(m) => {
+                let m = GltfMaterial {
+                    roughness: alpha.sqrt(),
+                    ..m
+                };
+                (Model::Gltf(m), m.spec())
+            }
+            Model::GltfLobes { .. } => {
+                let roughness = alpha.sqrt();
+                (
+                    Model::GltfLobes { roughness },
+                    format!("gltf-lobes:roughness={roughness}"),
+                )
+            }
             _ => {
                 return Err(err(
-                    "a roughness map needs an isotropic GGX or Ward BRDF".into()
+                    "a roughness map needs an isotropic GGX, Ward or glTF BRDF".into(),
                 ));
             }
         };
@@ -349,7 +432,7 @@ impl Brdf {
     #[must_use]
     pub fn channels(&self) -> usize {
         match self.model {
-            Model::Merl(_) => 3,
+            Model::Merl(_) | Model::Gltf(_) | Model::GltfLobes { .. } => 3,
             _ => 1,
         }
     }
@@ -373,6 +456,9 @@ impl Brdf {
             Model::Phong { s } => 1.0 / (s + 1.0).sqrt(),
             Model::BlinnPhong { s, .. } => 2.0 / (s + 2.0).sqrt(),
             Model::Ggx { ax, ay, .. } | Model::Ward { ax, ay } => 2.0 * ax.min(ay),
+            Model::Gltf(GltfMaterial { roughness, .. }) | Model::GltfLobes { roughness } => {
+                2.0 * roughness * roughness
+            }
             // measured data: bins down to 1e-4 rad near the specular peak
             Model::Merl(_) => 0.05,
         }
@@ -432,6 +518,14 @@ impl Brdf {
                 for c in 0..3 {
                     out[c] = v[c] * cos_i;
                 }
+            }
+            Model::GltfLobes { roughness } => {
+                crate::gltf::parts(roughness * roughness, wi, wo, out);
+            }
+            Model::Gltf(m) => {
+                let mut p = [0.0; 3];
+                crate::gltf::parts(m.alpha(), wi, wo, &mut p);
+                m.combine(&p, 1, &mut out[..3]);
             }
             Model::Phong { .. } => unreachable!("handled above"),
         }

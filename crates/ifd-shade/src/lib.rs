@@ -21,6 +21,10 @@
 //! - **BRDFs** (`brdf.rs`): [`Brdf`] models and specs, their slices,
 //!   [`Model`], [`MAX_EXPONENT`], [`blinn_exact_norm`]; importance sampling
 //!   of slices for Monte Carlo references (`sample.rs`, [`Brdf::sample`]).
+//! - **glTF** (`gltf.rs`): the glTF 2.0 metallic-roughness BRDF
+//!   ([`GltfMaterial`], [`GLTF_MIN_ROUGHNESS`], [`GLTF_DIELECTRIC_F0`]),
+//!   whole (`gltf`) and as its three view-dependent parts (`gltf-lobes`), which
+//!   one table holds and [`Material::shade_isd_parts`] shades at once.
 //! - **MERL** (`merl.rs`): measured BRDFs, [`Merl`]; the file format's
 //!   constants and its half/difference angles in [`merl_format`].
 //! - **BRDFs on the 4D SH basis** (`brdf_sh.rs`): [`BrdfSh`], vMF filtering of
@@ -47,6 +51,7 @@
 mod brdf;
 mod brdf_sh;
 mod error;
+mod gltf;
 mod lights;
 mod merl;
 mod radial;
@@ -59,6 +64,9 @@ mod zonal;
 pub use crate::brdf::{Brdf, MAX_EXPONENT, Model, blinn_exact_norm};
 pub use crate::brdf_sh::{BrdfSampler, BrdfSh};
 pub use crate::error::{Result, ShadeError};
+pub use crate::gltf::{
+    DIELECTRIC_F0 as GLTF_DIELECTRIC_F0, GltfMaterial, MIN_ROUGHNESS as GLTF_MIN_ROUGHNESS,
+};
 pub use crate::lights::{
     SphericalLight, ZonalLighting, cap_coefficients, zonal_projection, zonal_quadrature,
 };

@@ -8,6 +8,7 @@
 //! | Phong | the lobe about `r`: `cos = u1^(1/(s+1))` | `(s+1)/(2 pi) max(r.wi, 0)^s` |
 //! | Blinn-Phong | `h` about `n` with `(s+1)/(2 pi) h_z^s`, `wi = reflect(wo, h)` | `(s+1)/(2 pi) h_z^s / (4 wo.h)` |
 //! | GGX | visible normals (Heitz 2018) | `G1(wo) D(h) / (4 wo_z)` |
+//! | glTF | visible GGX normals with probability `p = (1 + metallic) / 2`, else cosine | `p pdf_GGX + (1 - p) max(wi_z, 0) / pi` |
 //! | Ward | Walter's half-vector sampling (2005) | `exp(-tan^2 t_h (c^2/ax^2 + s^2/ay^2)) / (pi ax ay cos^3 t_h) / (4 wo.h)` |
 
 use std::f64::consts::PI;
@@ -50,9 +51,51 @@ fn ggx_lambda(ax: f64, ay: f64, v: [f64; 3]) -> f64 {
     0.5 * (-1.0 + (1.0 + t).sqrt())
 }
 
+/// The density of [`ggx_visible`]: `G1(wo) D(h) / (4 wo_z)`.
+fn ggx_visible_pdf(ax: f64, ay: f64, wi: [f64; 3], wo: [f64; 3], h: [f64; 3], oh: f64) -> f64 {
+    if wi[2] <= 0.0 || wo[2] <= 0.0 || oh <= 0.0 {
+        return 0.0;
+    }
+    let g1 = 1.0 / (1.0 + ggx_lambda(ax, ay, wo));
+    g1 * ggx_d(ax, ay, h) / (4.0 * wo[2])
+}
+
 fn ggx_d(ax: f64, ay: f64, h: [f64; 3]) -> f64 {
     let q = (h[0] / ax).powi(2) + (h[1] / ay).powi(2) + h[2] * h[2];
     1.0 / (PI * ax * ay * q * q)
+}
+
+/// Heitz's (2018) sampling of the GGX normals visible from `wo`, `wi`
+/// reflected about the drawn normal; `None` for a view below the horizon.
+fn ggx_visible(ax: f64, ay: f64, wo: [f64; 3], u0: f64, phi: f64) -> Option<[f64; 3]> {
+    if wo[2] <= 0.0 {
+        return None;
+    }
+    let vh = unit_or_z(DVec3::new(ax * wo[0], ay * wo[1], wo[2])).to_array();
+    let lensq = vh[0] * vh[0] + vh[1] * vh[1];
+    let t1 = if lensq > 0.0 {
+        let l = lensq.sqrt();
+        [-vh[1] / l, vh[0] / l, 0.0]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let t2 = [
+        vh[1] * t1[2] - vh[2] * t1[1],
+        vh[2] * t1[0] - vh[0] * t1[2],
+        vh[0] * t1[1] - vh[1] * t1[0],
+    ];
+    let r = u0.sqrt();
+    let (a, mut b) = (r * phi.cos(), r * phi.sin());
+    let s = 0.5 * (1.0 + vh[2]);
+    b = (1.0 - s) * (1.0 - a * a).max(0.0).sqrt() + s * b;
+    let c = (1.0 - a * a - b * b).max(0.0).sqrt();
+    let nh = [
+        a * t1[0] + b * t2[0] + c * vh[0],
+        a * t1[1] + b * t2[1] + c * vh[1],
+        a * t1[2] + b * t2[2] + c * vh[2],
+    ];
+    let h = unit_or_z(DVec3::new(ax * nh[0], ay * nh[1], nh[2].max(0.0))).to_array();
+    Some(reflect(wo, h))
 }
 
 impl Brdf {
@@ -72,35 +115,14 @@ impl Brdf {
                 let h = around([0.0, 0.0, 1.0], u[0].powf(1.0 / (s + 1.0)), phi);
                 reflect(wo, h)
             }
-            Model::Ggx { ax, ay, .. } => {
-                if wo[2] <= 0.0 {
-                    return None;
-                }
-                let vh = unit_or_z(DVec3::new(ax * wo[0], ay * wo[1], wo[2])).to_array();
-                let lensq = vh[0] * vh[0] + vh[1] * vh[1];
-                let t1 = if lensq > 0.0 {
-                    let l = lensq.sqrt();
-                    [-vh[1] / l, vh[0] / l, 0.0]
+            Model::Ggx { ax, ay, .. } => ggx_visible(ax, ay, wo, u[0], phi)?,
+            Model::Gltf(_) | Model::GltfLobes { .. } => {
+                let (alpha, p) = self.gltf_lobe_choice();
+                if u[0] < p {
+                    ggx_visible(alpha, alpha, wo, u[0] / p, phi)?
                 } else {
-                    [1.0, 0.0, 0.0]
-                };
-                let t2 = [
-                    vh[1] * t1[2] - vh[2] * t1[1],
-                    vh[2] * t1[0] - vh[0] * t1[2],
-                    vh[0] * t1[1] - vh[1] * t1[0],
-                ];
-                let r = u[0].sqrt();
-                let (a, mut b) = (r * phi.cos(), r * phi.sin());
-                let s = 0.5 * (1.0 + vh[2]);
-                b = (1.0 - s) * (1.0 - a * a).max(0.0).sqrt() + s * b;
-                let c = (1.0 - a * a - b * b).max(0.0).sqrt();
-                let nh = [
-                    a * t1[0] + b * t2[0] + c * vh[0],
-                    a * t1[1] + b * t2[1] + c * vh[1],
-                    a * t1[2] + b * t2[2] + c * vh[2],
-                ];
-                let h = unit_or_z(DVec3::new(ax * nh[0], ay * nh[1], nh[2].max(0.0))).to_array();
-                reflect(wo, h)
+                    around([0.0, 0.0, 1.0], ((u[0] - p) / (1.0 - p)).sqrt(), phi)
+                }
             }
             Model::Ward { ax, ay } => {
                 // phi_h = atan(ay/ax tan(2 pi u2)) in the quadrant of 2 pi u2
@@ -115,6 +137,17 @@ impl Brdf {
             }
         };
         (wi[2] > 0.0).then_some(wi)
+    }
+
+    /// The glTF BRDF's GGX `alpha` and the probability of drawing from its
+    /// specular lobe rather than the cosine: `(1 + metallic) / 2` (metals
+    /// have no diffuse part), one half for the parts.
+    fn gltf_lobe_choice(&self) -> (f64, f64) {
+        match *self.model() {
+            Model::Gltf(m) => (m.alpha(), 0.5 * (1.0 + m.metallic)),
+            Model::GltfLobes { roughness } => (roughness * roughness, 0.5),
+            _ => unreachable!("glTF models only"),
+        }
     }
 
     /// The density (per solid angle) with which [`Self::sample`] draws `wi`.
@@ -139,11 +172,12 @@ impl Brdf {
             }
             Model::Ggx { ax, ay, .. } => {
                 let (h, oh) = h_and_oh();
-                if wi[2] <= 0.0 || wo[2] <= 0.0 || oh <= 0.0 {
-                    return 0.0;
-                }
-                let g1 = 1.0 / (1.0 + ggx_lambda(ax, ay, wo));
-                g1 * ggx_d(ax, ay, h) / (4.0 * wo[2])
+                ggx_visible_pdf(ax, ay, wi, wo, h, oh)
+            }
+            Model::Gltf(_) | Model::GltfLobes { .. } => {
+                let (alpha, p) = self.gltf_lobe_choice();
+                let (h, oh) = h_and_oh();
+                p * ggx_visible_pdf(alpha, alpha, wi, wo, h, oh) + (1.0 - p) * wi[2].max(0.0) / PI
             }
             Model::Ward { ax, ay } => {
                 let (h, oh) = h_and_oh();

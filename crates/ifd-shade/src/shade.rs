@@ -460,10 +460,74 @@ impl Material {
         s: &mut Scratch,
         out: &mut [f64],
     ) -> Result<()> {
-        let ch = self.out_channels(env.channels())?;
-        self.check_env(env)?;
+        self.isd_into::<false>(env, frame, wo, s, out)
+    }
+
+    /// Eq. 22 for every channel of a multi-channel BRDF against every
+    /// channel of the environment: `out[p C + c]` is BRDF channel `p`'s slice
+    /// integrated against environment channel `c` (`C` environment channels,
+    /// `P C` values in all). The glTF BRDF's three parts (`gltf-lobes`) this
+    /// way share every environment lookup; [`crate::GltfMaterial::combine`]
+    /// makes the whole BRDF's radiance of them.
+    ///
+    /// ```
+    /// use ifd_shade::{Brdf, Environment, Frame, GltfMaterial, LobeTable, Material};
+    /// use ifd_sphere::ShCoeffs;
+    /// // a uniform white environment: each part integrates to its albedo
+    /// let mut e = ShCoeffs::zeros(4, 1)?;
+    /// e.data_mut()[0] = (4.0 * std::f64::consts::PI).sqrt();
+    /// let env = Environment::new(e)?;
+    /// let parts = Brdf::gltf_lobes(0.7)?;
+    /// let table = LobeTable::build(&parts, 4, 32, 1, &|_, _| {})?;
+    /// let m = Material::new(&parts, 4, Some(table))?;
+    /// let frame = Frame::new([0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+    /// let mut s = m.scratch(1);
+    /// let mut out = [0.0; 3];
+    /// m.shade_isd_parts(&env, &frame, [0.0, 0.6, 0.8], &mut s, &mut out)?;
+    /// // a white metal (f0 = 1): the GGX albedo, below 1, as the whole
+    /// // BRDF's slice integrates
+    /// let metal = GltfMaterial::new([1.0; 3], 1.0, 0.7)?;
+    /// let mut rgb = [0.0; 3];
+    /// metal.combine(&out, 1, &mut rgb);
+    /// let whole = ifd_shade::project_slice(&Brdf::gltf(&metal), [0.0, 0.6, 0.8], 0, None)?;
+    /// let albedo = whole.get(0, 0, 0) * (4.0 * std::f64::consts::PI).sqrt();
+    /// assert!(rgb[0] < 1.0 && (rgb[0] - albedo).abs() < 1e-3, "{rgb:?} vs {albedo}");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Self::shade_isd`].
+    pub fn shade_isd_parts(
+        &self,
+        env: &impl Bands,
+        frame: &Frame,
+        wo: [f64; 3],
+        s: &mut Scratch,
+        out: &mut [f64],
+    ) -> Result<()> {
+        self.isd_into::<true>(env, frame, wo, s, out)
+    }
+
+    /// [`Self::shade_isd`] (`OUTER = false`: BRDF channel `c`, or the only
+    /// one, against environment channel `c`) and [`Self::shade_isd_parts`]
+    /// (`OUTER`: every BRDF channel against every environment channel).
+    fn isd_into<const OUTER: bool>(
+        &self,
+        env: &impl Bands,
+        frame: &Frame,
+        wo: [f64; 3],
+        s: &mut Scratch,
+        out: &mut [f64],
+    ) -> Result<()> {
         let kc = self.brdf.channels();
-        out[..ch].fill(0.0);
+        let ch = if OUTER {
+            env.channels()
+        } else {
+            self.out_channels(env.channels())?
+        };
+        let parts = if OUTER { kc } else { 1 };
+        self.check_env(env)?;
+        out[..parts * ch].fill(0.0);
         let (r, wl, theta, phi) = self.placement(frame, wo);
         match &self.lobes {
             Lobes::Zonal => {
@@ -501,9 +565,19 @@ impl Material {
                     for (k, &j) in js.iter().enumerate() {
                         for l in l0[k]..nb {
                             let base = basis.index(l, j) * kc;
-                            for (c, o) in out[..ch].iter_mut().enumerate() {
-                                let lam = s.weights[base + if kc == 1 { 0 } else { c }];
-                                *o += lam * s.bands[(k * nb + l) * ch + c];
+                            let bands = &s.bands[(k * nb + l) * ch..(k * nb + l + 1) * ch];
+                            if OUTER {
+                                for (p, o) in out.chunks_exact_mut(ch).take(kc).enumerate() {
+                                    let lam = s.weights[base + p];
+                                    for (o, b) in o.iter_mut().zip(bands) {
+                                        *o += lam * b;
+                                    }
+                                }
+                            } else {
+                                for (c, o) in out[..ch].iter_mut().enumerate() {
+                                    let lam = s.weights[base + if kc == 1 { 0 } else { c }];
+                                    *o += lam * bands[c];
+                                }
                             }
                         }
                     }
@@ -618,8 +692,35 @@ impl Material {
         out: &mut [f64],
     ) -> Result<()> {
         let ch = self.out_channels(env.channels())?;
+        self.sh_into(env, frame, wo, false, &mut out[..ch])
+    }
+
+    /// The SH reference of [`Self::shade_isd_parts`]: `out[p C + c]`.
+    ///
+    /// # Errors
+    /// As [`Self::shade_isd`].
+    pub fn shade_sh_parts(
+        &self,
+        env: &Environment,
+        frame: &Frame,
+        wo: [f64; 3],
+        out: &mut [f64],
+    ) -> Result<()> {
+        let n = self.brdf.channels() * env.channels();
+        self.sh_into(env, frame, wo, true, &mut out[..n])
+    }
+
+    fn sh_into(
+        &self,
+        env: &Environment,
+        frame: &Frame,
+        wo: [f64; 3],
+        outer: bool,
+        out: &mut [f64],
+    ) -> Result<()> {
+        let ch = env.channels();
         self.check_env(env)?;
-        out[..ch].fill(0.0);
+        out.fill(0.0);
         let (r, c) = self.slice_sh(frame, wo)?;
         let Some(c) = c else {
             return Ok(());
@@ -628,8 +729,14 @@ impl Material {
         let kc = g.channels();
         let e = env.coeffs().data();
         for i in 0..g.data().len() / kc {
-            for (cc, o) in out.iter_mut().enumerate().take(ch) {
-                *o += g.data()[i * kc + if kc == 1 { 0 } else { cc }] * e[i * ch + cc];
+            for cc in 0..ch {
+                if outer {
+                    for p in 0..kc {
+                        out[p * ch + cc] += g.data()[i * kc + p] * e[i * ch + cc];
+                    }
+                } else {
+                    out[cc] += g.data()[i * kc + if kc == 1 { 0 } else { cc }] * e[i * ch + cc];
+                }
             }
         }
         Ok(())

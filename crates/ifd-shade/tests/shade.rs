@@ -567,6 +567,9 @@ fn samplers_are_consistent_with_their_densities() {
         "ggx:ax=0.15,ay=0.5",
         "ward:ax=0.2,ay=0.35",
         merl.as_str(),
+        "gltf:roughness=0.5,metallic=0.3,base=0.8:0.5:0.2",
+        "gltf:roughness=0.3,metallic=1",
+        "gltf-lobes:roughness=0.6",
     ] {
         let b = Brdf::parse(spec).unwrap();
         let mut rng = SplitMix64::new(9);
@@ -591,4 +594,87 @@ fn samplers_are_consistent_with_their_densities() {
             );
         }
     }
+}
+
+#[test]
+fn gltf_white_furnace_metal_albedo_is_below_one_and_matches_brute_force() {
+    // a metal with f0 = 1 (base 1): the BRDF is S, its albedo the GGX
+    // albedo, at most 1, from the SH projection and from a brute-force sum
+    for r in [0.2, 0.3, 0.5, 0.8, 1.0] {
+        let b = Brdf::parse(&format!("gltf:roughness={r},metallic=1,base=1")).unwrap();
+        for t in [0.0, 0.5, 1.0, 1.4] {
+            let wo = view(t, 0.4);
+            let c = project_slice(&b, wo, 4, None).unwrap();
+            let albedo = c.get(0, 0, 0) * (4.0 * PI).sqrt();
+            let brute = brute_albedo(&b, wo, 600);
+            assert!(albedo <= 1.0 + 1e-9, "roughness {r} at {t}: {albedo}");
+            assert!(
+                (albedo - brute).abs() < 1e-3,
+                "roughness {r} at {t}: {albedo} vs brute force {brute}"
+            );
+            // every channel alike (white)
+            assert!((c.get(0, 0, 2) - c.get(0, 0, 0)).abs() < 1e-15);
+        }
+    }
+}
+
+#[test]
+fn gltf_parts_isd_matches_sh_and_combines_to_the_whole_brdf() {
+    use ifd_shade::{Environment, Frame, GltfMaterial, Material};
+    use ifd_sphere::ShCoeffs;
+    use ifd_sphere::SplitMix64;
+    let l = 10;
+    let mut rng = SplitMix64::new(5);
+    let mut e = ShCoeffs::zeros(l, 3).unwrap();
+    for v in e.data_mut() {
+        *v = rng.uniform() - 0.5;
+    }
+    e.set(0, 0, 0, 3.0);
+    let env = Environment::new(e.clone()).unwrap();
+    let parts = Brdf::gltf_lobes(0.6).unwrap();
+    let t = LobeTable::build(&parts, l, 48, 1, &|_, _| {}).unwrap();
+    let m = Material::new(&parts, l, Some(t)).unwrap();
+    let mut s = m.scratch(3);
+    let gm = GltfMaterial::new([0.9, 0.5, 0.2], 0.4, 0.6).unwrap();
+    let whole = Brdf::gltf(&gm);
+    let direct = Material::new(
+        &whole,
+        l,
+        Some(LobeTable::build(&whole, l, 48, 1, &|_, _| {}).unwrap()),
+    )
+    .unwrap();
+    let (mut worst, mut scale) = (0.0f64, 0.0f64);
+    let (mut worst_whole, mut scale_whole) = (0.0f64, 0.0f64);
+    for _ in 0..30 {
+        let f = Frame::new(rng.direction(), rng.direction());
+        let wo = rng.direction();
+        let (mut a, mut c) = ([0.0; 9], [0.0; 9]);
+        m.shade_isd_parts(&env, &f, wo, &mut s, &mut a).unwrap();
+        m.shade_sh_parts(&env, &f, wo, &mut c).unwrap();
+        for k in 0..9 {
+            worst = worst.max((a[k] - c[k]).abs());
+            scale = scale.max(c[k].abs());
+        }
+        // the combination against the whole BRDF's own SH projection, rotated
+        let mut rgb = [0.0; 3];
+        gm.combine(&a, 3, &mut rgb);
+        let wl = f.to_local(wo);
+        if wl[2] <= 0.05 {
+            continue;
+        }
+        let mut want = [0.0; 3];
+        direct.shade_sh(&env, &f, wo, &mut want).unwrap();
+        for k in 0..3 {
+            worst_whole = worst_whole.max((rgb[k] - want[k]).abs());
+            scale_whole = scale_whole.max(want[k].abs());
+        }
+    }
+    assert!(worst <= 1e-9 * scale, "parts: {worst} vs {scale}");
+    // both sides interpolate tables over theta_o (48 entries): the slices
+    // are linear in the colour, so the difference is rounding plus the
+    // two tables' interpolation of the same slices
+    assert!(
+        worst_whole <= 1e-6 * scale_whole,
+        "whole BRDF: {worst_whole} vs {scale_whole}"
+    );
 }

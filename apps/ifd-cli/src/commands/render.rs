@@ -39,7 +39,9 @@ pub struct Render {
     #[command(flatten)]
     env: EnvOptions,
     /// BRDF spec: lambert, phong:s=.., blinn:s=.., blinn-exact:s=.., ggx:alpha=.. or
-    /// ggx:ax=..,ay=.., ward:.., merl:FILE; or mirror, a perfect mirror reflecting the full
+    /// ggx:ax=..,ay=.., ward:.., merl:FILE, gltf:roughness=..,metallic=..,base=R:G:B (the glTF
+    /// 2.0 metallic-roughness BRDF, shaded exactly: ISD integrates its three view-dependent
+    /// parts, the table of gltf-lobes:roughness=..); or mirror, a perfect mirror reflecting the full
     /// resolution map (bilinear), anti-aliased over the pixel filter (a Gaussian of 0.5 pixel
     /// over [-1, 1]^2) by --method: isd filters the footprint's reflected directions as one
     /// spherical Gaussian (ISD Eq. 26-29, from the map's SH up to --lmax; a mip lookup where
@@ -88,12 +90,13 @@ pub struct Render {
     no_background: bool,
     #[command(flatten)]
     display: DisplayOptions,
-    /// Albedo map over the surface's texture coordinates (multiplies the BRDF; 8/16-bit files
-    /// are sRGB-encoded as glTF's base colour, float files linear).
+    /// Albedo map over the surface's texture coordinates (multiplies the BRDF, or the base
+    /// colour of --brdf gltf; 8/16-bit files are sRGB-encoded as glTF's base colour, float
+    /// files linear).
     #[arg(long, value_name = "IMAGE")]
     albedo_map: Option<PathBuf>,
-    /// Roughness map (first channel, linear, alpha = roughness^2 as glTF) for an isotropic GGX
-    /// or Ward BRDF; ISD blends lobe tables at --roughness-tables values over the map's range.
+    /// Roughness map (first channel, linear, alpha = roughness^2 as glTF) for an isotropic GGX,
+    /// Ward or glTF BRDF; ISD blends lobe tables at --roughness-tables values over the map's range.
     #[arg(long, value_name = "IMAGE")]
     roughness_map: Option<PathBuf>,
     /// Tangent-space normal map over the surface's texture coordinates (RGB, linear, glTF's
@@ -302,6 +305,14 @@ impl Render {
         } else {
             None
         };
+        if self.gpu && brdf.gltf_material().is_some() {
+            bail!(
+                "--gpu: the GPU kernels do not shade the glTF BRDF yet; drop --gpu (the CPU \
+                 shades it with --method isd, isd-maps, sh, quadrature or mc)"
+            );
+        }
+        // what ISD tabulates: the glTF BRDF's three parts, else the BRDF
+        let tabulated = brdf.tabulated()?;
         let (full, env) = self.env.environments(&self.input)?;
         let (ew, eh) = (env.image().width(), env.image().height());
         let start = std::time::Instant::now();
@@ -313,16 +324,16 @@ impl Render {
             (_, Some(l)) => {
                 let table = match &self.table {
                     Some(p) => Some(LobeTable::read(p)?),
-                    None if Material::new(&brdf, l, None).is_err() => {
-                        let nt = default_theta_entries(&brdf);
+                    None if Material::new(&tabulated, l, None).is_err() => {
+                        let nt = default_theta_entries(&tabulated);
                         let np = (2 * nt).min(128);
                         eprintln!(
                             "note: building the lobe table of {} at L = {l} (save one with \
                              `ifd sphere brdf` and pass --table to skip this)",
-                            brdf.spec()
+                            tabulated.spec()
                         );
                         let bar = progress_bar("table");
-                        let t = LobeTable::build(&brdf, l, nt, np, &|d, n| {
+                        let t = LobeTable::build(&tabulated, l, nt, np, &|d, n| {
                             bar.set_length(n as u64);
                             bar.set_position(d as u64);
                         })?;
@@ -331,7 +342,7 @@ impl Render {
                     }
                     None => None,
                 };
-                let m = Material::new(&brdf, l, table);
+                let m = Material::new(&tabulated, l, table);
                 Some(m.with_context(|| match &self.table {
                     Some(p) => format!("{}", p.display()),
                     None => "--brdf".into(),
@@ -346,11 +357,16 @@ impl Render {
                 }
                 brdf.with_roughness(0.5).context("--roughness-map")?;
                 let bar = progress_bar("roughness tables");
-                let f =
-                    RoughnessFamily::build(&brdf, l, t.range(), self.roughness_tables, &|d, n| {
+                let f = RoughnessFamily::build(
+                    &tabulated,
+                    l,
+                    t.range(),
+                    self.roughness_tables,
+                    &|d, n| {
                         bar.set_length(n as u64);
                         bar.set_position(d as u64);
-                    })?;
+                    },
+                )?;
                 bar.finish_and_clear();
                 Some(f)
             }
