@@ -44,6 +44,10 @@
 //!   [`Reflector`] ([`SceneMirror`]: a scene's surface, bumpy through a
 //!   normal map) by an [`AaMethod`] ([`IsdFilter`] with its [`EnvPyramid`]
 //!   fallback, supersampling), over a [`PixelFilter`], into an [`AaImage`];
+//! - **the engines' approximation**: [`SplitSum`] (the prefiltered chain,
+//!   irradiance and DFG table of the split sum, baked in memory by
+//!   `ifd-ibl`) in its [`SplitSumVariant`]s, the methods
+//!   [`Method::SplitSum`] and [`Method::SplitSumSampleRenderer`];
 //! - **display**: [`Tonemap`] (exposure, tone curves, sRGB).
 
 mod camera;
@@ -57,6 +61,7 @@ mod mirror;
 mod oracle;
 mod render;
 mod scene;
+mod split_sum;
 mod textures;
 mod tonemap;
 mod visibility;
@@ -75,6 +80,7 @@ pub use crate::mirror::{
 pub use crate::oracle::{MAX_K as ORACLE_MAX_K, Oracle, TOLERANCE as ORACLE_TOLERANCE};
 pub use crate::render::{Job, Method, Rendered, relative_rms, render};
 pub use crate::scene::Scene;
+pub use crate::split_sum::{SplitSum, SplitSumVariant};
 pub use crate::textures::{RoughnessFamily, SurfaceMaps, Texture, alpha_of, perturb_normal};
 pub use crate::tonemap::Tonemap;
 pub use crate::visibility::{

@@ -16,6 +16,7 @@ use crate::gbuffer::{Pixel, Surface, check_maps, nothing_visible, pixel};
 use crate::mc::{EnvSampler, estimate, pixel_seed};
 use crate::oracle::Oracle;
 use crate::scene::Scene;
+use crate::split_sum::{SplitSum, SplitSumVariant};
 use crate::textures::{RoughnessFamily, SurfaceMaps, alpha_of};
 use crate::visibility::Shadows;
 
@@ -33,10 +34,18 @@ pub enum Method {
     Quadrature,
     /// Monte Carlo with environment and BRDF sampling and MIS ([`crate::estimate_mc`]).
     Mc,
+    /// The split-sum approximation of the glTF BRDF ([`crate::SplitSum`],
+    /// [`crate::SplitSumVariant::Consistent`]): engines' prefiltered chain and
+    /// DFG table, the same BRDF otherwise.
+    SplitSum,
+    /// glTF-Sample-Renderer's split-sum shader as written
+    /// ([`crate::SplitSumVariant::SampleRenderer`]).
+    SplitSumSampleRenderer,
 }
 
 impl Method {
-    /// `isd`, `sh` or `quadrature`.
+    /// `isd`, `isd-maps`, `sh`, `quadrature`, `mc`, `split-sum` or
+    /// `split-sum-sample-renderer`.
     ///
     /// # Errors
     /// [`RenderError::Parameter`] for other names.
@@ -47,10 +56,14 @@ impl Method {
             "sh" => Ok(Self::Sh),
             "quadrature" => Ok(Self::Quadrature),
             "mc" => Ok(Self::Mc),
+            "split-sum" => Ok(Self::SplitSum),
+            "split-sum-sample-renderer" => Ok(Self::SplitSumSampleRenderer),
             _ => Err(RenderError::Parameter {
                 name: "--method",
                 value: s.into(),
-                reason: "use isd, isd-maps, sh, quadrature or mc".into(),
+                reason: "use isd, isd-maps, sh, quadrature, mc, split-sum or \
+                         split-sum-sample-renderer"
+                    .into(),
             }),
         }
     }
@@ -232,8 +245,35 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
         (Some(m), _) => Some(m.l_max()),
         _ => None,
     };
+    let split = match job.method {
+        Method::SplitSum | Method::SplitSumSampleRenderer => {
+            if gltf.is_none() {
+                return Err(RenderError::Parameter {
+                    name: "--method",
+                    value: format!("{:?}", job.method),
+                    reason: format!(
+                        "the split-sum methods shade the glTF BRDF (gltf:..), not {}",
+                        job.brdf.spec()
+                    ),
+                });
+            }
+            if !job.lights.is_empty() || job.shadows.is_some() {
+                return Err(RenderError::Parameter {
+                    name: "--method",
+                    value: format!("{:?}", job.method),
+                    reason: "the split sum shades the environment alone (no lights, no shadows)"
+                        .into(),
+                });
+            }
+            Some(SplitSum::bake(job.env, 256)?)
+        }
+        _ => None,
+    };
     let env_sh = match (job.method, degree) {
-        (Method::Quadrature | Method::Mc, _) => None,
+        (
+            Method::Quadrature | Method::Mc | Method::SplitSum | Method::SplitSumSampleRenderer,
+            _,
+        ) => None,
         (_, Some(l)) => Some(Environment::new(job.env.sh(l)?)?),
         (_, None) => {
             return Err(RenderError::Parameter {
@@ -378,6 +418,18 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                             for c in 0..ch {
                                 se[x * ch + c] = err[c] as f32;
                             }
+                        }
+                        Method::SplitSum | Method::SplitSumSampleRenderer => {
+                            let (Some(ss), Some(g)) = (&split, point_gltf) else {
+                                unreachable!("the split sum is baked for the glTF BRDF")
+                            };
+                            let variant = if job.method == Method::SplitSum {
+                                SplitSumVariant::Consistent
+                            } else {
+                                SplitSumVariant::SampleRenderer
+                            };
+                            let rgb = ss.shade(variant, &g, frame.n, wo);
+                            out[..3].copy_from_slice(&rgb);
                         }
                         Method::Quadrature => {
                             let Some(or) = &oracle else {

@@ -128,6 +128,12 @@ pub struct Render {
     /// Also write the object mask (1 on the object, 0 elsewhere).
     #[arg(long, value_name = "FILE")]
     mask: Option<PathBuf>,
+    /// Also render the exact oracle (--method quadrature, same scene) and write the per-pixel
+    /// difference of the image to it: signed RGB radiance in .exr/.npy; in .png a diverging
+    /// map of the difference averaged over channels (red: brighter than the oracle, blue:
+    /// darker), full scale the largest difference, printed and in the --json report.
+    #[arg(long, value_name = "FILE")]
+    error_map: Option<PathBuf>,
     /// Output image.
     #[arg(short, long, value_name = "IMAGE")]
     output: PathBuf,
@@ -150,6 +156,11 @@ pub enum RenderMethod {
     Quadrature,
     /// Monte Carlo: environment and BRDF importance sampling, MIS, low-discrepancy points.
     Mc,
+    /// The split-sum approximation engines use, for --brdf gltf: the prefiltered chain and
+    /// irradiance of `ifd envmap prefilter` (256 faces, baked in memory) and the DFG table.
+    SplitSum,
+    /// glTF-Sample-Renderer's split-sum shader as written (KhronosGroup, pbr.frag at 07d2ba65).
+    SplitSumSampleRenderer,
 }
 
 impl RenderMethod {
@@ -161,6 +172,8 @@ impl RenderMethod {
             Self::Sh => Method::Sh,
             Self::Quadrature => Method::Quadrature,
             Self::Mc => Method::Mc,
+            Self::SplitSum => Method::SplitSum,
+            Self::SplitSumSampleRenderer => Method::SplitSumSampleRenderer,
         }
     }
 
@@ -190,6 +203,30 @@ impl Render {
         let display = is_display(&output)?;
         if let Some(m) = &self.mask {
             is_display(m)?;
+        }
+        if let Some(p) = &self.error_map {
+            if matches!(
+                ifd_image::FileFormat::from_path(p)?,
+                ifd_image::FileFormat::Hdr
+                    | ifd_image::FileFormat::Jpeg
+                    | ifd_image::FileFormat::Tiff
+            ) {
+                bail!(
+                    "--error-map {}: use .exr or .npy (signed differences) or .png (a diverging map)",
+                    p.display()
+                );
+            }
+            if method == Method::Quadrature {
+                bail!("--error-map compares with the oracle, which --method quadrature is");
+            }
+            if self.gpu {
+                bail!("--error-map: the oracle is a CPU render; drop --gpu");
+            }
+            if self.shadows {
+                bail!(
+                    "--error-map: not with --shadows (compare with --method quadrature --shadows)"
+                );
+            }
         }
         let camera = self.camera.camera()?;
         let (w, h) = (camera.width(), camera.height());
@@ -225,7 +262,10 @@ impl Render {
             is_display(p)?;
         }
         let l_max = match (method, self.lmax) {
-            (Method::Quadrature | Method::Mc, l) => l,
+            (
+                Method::Quadrature | Method::Mc | Method::SplitSum | Method::SplitSumSampleRenderer,
+                l,
+            ) => l,
             (_, Some(l)) => Some(l),
             (_, None) => bail!("--lmax L is needed for --method {}", self.method.name()),
         };
@@ -319,7 +359,11 @@ impl Render {
         // with a roughness map the ISD methods shade with the roughness family
         // built below, not with one material
         let material = match (method, l_max) {
-            (Method::Quadrature | Method::Mc, _) | (_, None) => None,
+            (
+                Method::Quadrature | Method::Mc | Method::SplitSum | Method::SplitSumSampleRenderer,
+                _,
+            )
+            | (_, None) => None,
             _ if self.roughness_map.is_some() => None,
             (_, Some(l)) => {
                 let table = match &self.table {
@@ -421,6 +465,33 @@ impl Render {
             (r, None)
         };
         let render_secs = t_render.elapsed().as_secs_f64();
+        let error_map = match &self.error_map {
+            Some(p) => {
+                let bar = progress_bar("oracle");
+                let oracle_job = Job {
+                    scene: job.scene.clone(),
+                    camera: job.camera.clone(),
+                    env: job.env,
+                    background: None,
+                    brdf: job.brdf,
+                    material: None,
+                    method: Method::Quadrature,
+                    spp: job.spp,
+                    seed: job.seed,
+                    maps: job.maps,
+                    family: None,
+                    lights: job.lights,
+                    shadows: None,
+                };
+                let oracle = render(&oracle_job, &|d, n| {
+                    bar.set_length(n as u64);
+                    bar.set_position(d as u64);
+                })?;
+                bar.finish_and_clear();
+                Some(write_error_map(p, &r.image, &oracle.image, &r.mask)?)
+            }
+            None => None,
+        };
         let secs = start.elapsed().as_secs_f64();
         let mut img = r.image;
         if display {
@@ -448,6 +519,7 @@ impl Render {
                 "spp": (method == Method::Mc).then_some(self.spp),
                 "seconds": secs, "render_seconds": render_secs,
                 "gpu": gpu_report,
+                "error_map": error_map,
             }))?;
         Ok(())
     }
@@ -667,4 +739,43 @@ pub(crate) fn progress_bar(what: &str) -> ProgressBar {
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar
+}
+
+/// Writes the difference of `image` to the oracle (see `--error-map`) and
+/// returns its summary: the relative RMS error over the object, the largest
+/// absolute difference (the PNG's full scale).
+fn write_error_map(
+    path: &std::path::Path,
+    image: &ifd_image::Image,
+    oracle: &ifd_image::Image,
+    mask: &[bool],
+) -> Result<serde_json::Value> {
+    let ch = image.channels();
+    let (w, h) = (image.width(), image.height());
+    let diff: Vec<f32> = image
+        .data()
+        .iter()
+        .zip(oracle.data())
+        .enumerate()
+        .map(|(i, (a, o))| if mask[i / ch] { a - o } else { 0.0 })
+        .collect();
+    let max = diff.iter().fold(0.0f32, |m, d| m.max(d.abs()));
+    let rms = ifd_render::relative_rms(image, oracle, mask);
+    let out = if is_display(path)? {
+        let scale = if max > 0.0 { f64::from(max) } else { 1.0 };
+        let mut rgb = Vec::with_capacity(w * h * 3);
+        for p in diff.chunks_exact(ch) {
+            let mean = p.iter().map(|v| f64::from(*v)).sum::<f64>() / ch as f64;
+            rgb.extend(ifd_plot::diverging(mean / scale));
+        }
+        ifd_image::Image::from_vec(w, h, 3, rgb)?
+    } else {
+        ifd_image::Image::from_vec(w, h, ch, diff)?
+    };
+    crate::output::write_output(path, &out, &ifd_image::WriteOptions::default())?;
+    eprintln!(
+        "note: --error-map {}: relative RMS {rms:.3e} against the oracle, largest difference {max:.3e}",
+        path.display()
+    );
+    Ok(json!({"relative_rms": rms, "max_abs_difference": max}))
 }
