@@ -678,3 +678,17 @@ def _doc() -> str:
         message = message.replace("<", "&lt;").replace(">", "&gt;")
         lines.append(f"| `{_cell(command)}` | {_cell(what)} | {code} | {_cell(message)} |")
     return "\n".join(lines) + "\n"
+
+
+def test_a_closed_or_full_standard_output_is_not_a_panic(ifd_bin):
+    """`ifd info FILE | head -1` (the reader gone) ends quietly with SIGPIPE's
+    status; a full disk is one error line and status 2; neither panics."""
+    p = subprocess.run(f"'{ifd_bin}' info '{TESTDATA / 'forest.hdr'}' | true; "
+                       "echo rc=${PIPESTATUS[0]}", shell=True, executable="/bin/bash",
+                       capture_output=True, text=True)
+    assert "rc=141" in p.stdout and "panicked" not in p.stderr, p
+    with open("/dev/full", "w") as full:
+        p = subprocess.run([str(ifd_bin), "info", str(TESTDATA / "forest.hdr")], stdout=full,
+                           stderr=subprocess.PIPE, text=True)
+    assert p.returncode == 2, p.stderr
+    assert "error: writing to standard output" in p.stderr and "panicked" not in p.stderr

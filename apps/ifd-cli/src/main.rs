@@ -84,7 +84,37 @@ fn moved_spelling(args: &[String]) -> Option<&'static str> {
     None
 }
 
+/// A reader that closes the pipe early (`ifd info x.exr | head -3`) makes
+/// `println!` panic; end quietly instead, as a process killed by SIGPIPE
+/// does (status 141), and on other failures to write the standard output
+/// (a full disk) with one error line and status 2, unfinished outputs
+/// removed either way. Other panics keep the default report.
+fn quiet_on_closed_stdout() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if let Some(reason) = message.strip_prefix("failed printing to stdout: ") {
+            ifd_image::remove_pending_outputs();
+            if reason.contains("Broken pipe") {
+                std::process::exit(141);
+            }
+            let _ = writeln!(
+                std::io::stderr(),
+                "error: writing to standard output: {reason}"
+            );
+            std::process::exit(2);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> ExitCode {
+    quiet_on_closed_stdout();
     let args: Vec<String> = std::env::args_os()
         .map(|a| a.to_string_lossy().into_owned())
         .collect();
