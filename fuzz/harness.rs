@@ -38,6 +38,7 @@ pub const TARGETS: &[(&str, Target)] = &[
     ("merl", merl),
     ("obj", obj),
     ("smooth_bank", smooth_bank),
+    ("gltf", gltf),
 ];
 
 /// A scratch file holding `data`, unique to this process and target, for
@@ -181,4 +182,27 @@ pub fn obj(data: &[u8]) {
 pub fn smooth_bank(data: &[u8]) {
     let f = Scratch::new("smooth_bank", "json", data);
     let _ = ifd_smooth::AspectBank::load(f.path());
+}
+
+/// `--scene FILE.glb` / `FILE.gltf`: glTF 2.0 assets, written as `.glb`
+/// (or as `.gltf` when the bytes do not start with the GLB magic, so the
+/// JSON path is fuzzed too), loaded under the budget, and shaded at a few
+/// rays from outside the mesh towards its vertices.
+pub fn gltf(data: &[u8]) {
+    let ext = if data.starts_with(b"glTF") {
+        "glb"
+    } else {
+        "gltf"
+    };
+    let f = Scratch::new("gltf", ext, data);
+    let Ok(asset) = ifd_render::GltfAsset::load(f.path(), BUDGET) else {
+        return;
+    };
+    let _ = (asset.notes(), asset.roughness_range(), asset.camera());
+    let mesh = asset.mesh();
+    for (p, n) in mesh.positions().iter().zip(mesh.normals()).take(16) {
+        if let Some(hit) = mesh.intersect(*p + *n * 3.0, -*n) {
+            let _ = asset.point(&hit);
+        }
+    }
 }

@@ -316,10 +316,11 @@ pub enum ObjUp {
 /// The object shaded.
 #[derive(Debug, Args, Clone)]
 pub struct SceneOptions {
-    /// A built-in shape or an OBJ file: sphere (unit), torus (radii 1 and 0.4 around z), plane
-    /// (z = 0, [-2, 2]^2), or a path to an .obj (centred and scaled to a unit bounding sphere;
-    /// smooth normals computed when it has none; anisotropic BRDFs need its texture
-    /// coordinates).
+    /// A built-in shape, an OBJ file or a glTF asset: sphere (unit), torus (radii 1 and 0.4
+    /// around z), plane (z = 0, [-2, 2]^2), a path to an .obj (centred and scaled to a unit
+    /// bounding sphere; smooth normals computed when it has none; anisotropic BRDFs need its
+    /// texture coordinates), or a .gltf/.glb (the default scene's triangles with their
+    /// metallic-roughness materials and textures, y up turned z up, placed the same way).
     #[arg(long, value_name = "SCENE", default_value = "sphere")]
     pub scene: String,
     /// The up axis of an OBJ file.
@@ -330,9 +331,15 @@ pub struct SceneOptions {
 impl SceneOptions {
     /// The scene the options name.
     pub fn scene(&self) -> Result<ifd_render::Scene> {
-        Ok(ifd_render::Scene::parse(
+        self.scene_with(ifd_image::MemoryBudget::default_for_machine())
+    }
+
+    /// The scene the options name, a glTF asset read under `budget`.
+    pub fn scene_with(&self, budget: ifd_image::MemoryBudget) -> Result<ifd_render::Scene> {
+        Ok(ifd_render::Scene::parse_with(
             &self.scene,
             self.obj_up == ObjUp::Z,
+            budget,
         )?)
     }
 }

@@ -9,8 +9,7 @@
 //! destination only once complete, so a failed run never leaves a half-written
 //! output.
 
-use std::fs::File;
-use std::io::BufReader;
+use std::io::{BufRead, BufReader, Cursor, Read, Seek};
 use std::path::Path;
 
 use image::{DynamicImage, ImageDecoder, ImageFormat, ImageReader};
@@ -160,8 +159,61 @@ pub fn read_image(path: &Path, opts: &ReadOptions) -> Result<LoadedImage, ImageE
     let file = open(path)?;
     let decoded = match format.image_format() {
         None => npy::read_npy(path, file, opts.budget).map(|image| (image, None)),
-        Some(fmt) => decode_with_image_crate(path, file, fmt, format, opts),
+        Some(fmt) => decode_with_image_crate(path, BufReader::new(file), fmt, format, opts),
     };
+    finish(path, format, decoded, opts)
+}
+
+/// Reads an image held in memory (a texture embedded in a container file,
+/// such as a glTF asset's PNG or JPEG images), in the format given, with the
+/// checks and options of [`read_image`]: the memory budget checked from the
+/// header before the samples are decoded, truncated JPEG scans refused,
+/// [`ReadOptions::srgb_decode`] and the non-finite policy. `name` stands
+/// for the file in every error message (e.g. `model.glb: image 2
+/// (image/png)`). NumPy arrays are read from files only.
+///
+/// ```
+/// use ifd_image::{FileFormat, Image, ReadOptions, read_image_bytes, write};
+/// let dir = tempfile::tempdir()?;
+/// let file = dir.path().join("a.png");
+/// write(&file, &Image::from_vec(2, 1, 1, vec![0.0, 1.0])?)?;
+/// let bytes = std::fs::read(&file)?;
+/// let name = std::path::Path::new("model.glb: image 0 (image/png)");
+/// let img = read_image_bytes(&bytes, name, FileFormat::Png, &ReadOptions::default())?;
+/// assert_eq!(img.image.data(), &[0.0, 1.0]);
+/// let e = read_image_bytes(&bytes[..20], name, FileFormat::Png, &ReadOptions::default());
+/// assert!(e.unwrap_err().to_string().starts_with("model.glb: image 0 (image/png): cannot decode PNG"));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// As [`read_image`], each naming `name`; [`ImageError::Decode`] for
+/// [`FileFormat::Npy`].
+pub fn read_image_bytes(
+    bytes: &[u8],
+    name: &Path,
+    format: FileFormat,
+    opts: &ReadOptions,
+) -> Result<LoadedImage, ImageError> {
+    let decoded = match format.image_format() {
+        None => Err(ImageError::Decode {
+            path: name.to_path_buf(),
+            format: format.name(),
+            reason: "NumPy images are read from files only".into(),
+        }),
+        Some(fmt) => decode_with_image_crate(name, Cursor::new(bytes), fmt, format, opts),
+    };
+    finish(name, format, decoded, opts)
+}
+
+/// Names the file in the errors raised without it and applies the
+/// non-finite policy: the last step of [`read_image`] and [`read_image_bytes`].
+fn finish(
+    path: &Path,
+    format: FileFormat,
+    decoded: Result<(Image, Option<u8>), ImageError>,
+    opts: &ReadOptions,
+) -> Result<LoadedImage, ImageError> {
     // The budget and shape checks do not know the file: name it here.
     let (mut image, integer_bits) = decoded.map_err(|e| e.in_file(path))?;
     let replaced_non_finite = handle_non_finite(path, &mut image, opts.non_finite)?;
@@ -194,12 +246,11 @@ fn decode_reason(e: &image::ImageError) -> String {
 /// marker `FF D9` is refused as truncated instead. Entropy-coded data cannot
 /// contain `FF D9` (a data `FF` is stuffed as `FF 00`), and an embedded EXIF
 /// thumbnail ends before the main image's scans.
-fn check_jpeg_complete(path: &Path, file: &File) -> Result<(), ImageError> {
-    use std::io::{Read as _, Seek as _};
+fn check_jpeg_complete<R: Read + Seek>(path: &Path, reader: &mut R) -> Result<(), ImageError> {
     let mut bytes = Vec::new();
-    let mut f = file;
-    f.read_to_end(&mut bytes)
-        .and_then(|_| f.rewind())
+    reader
+        .read_to_end(&mut bytes)
+        .and_then(|_| reader.rewind())
         .map_err(|e| ImageError::Io {
             path: path.to_path_buf(),
             error: e,
@@ -221,9 +272,11 @@ fn check_jpeg_complete(path: &Path, file: &File) -> Result<(), ImageError> {
     }
 }
 
-fn decode_with_image_crate(
+/// Decodes what `reader` holds (positioned at its start) as `format`; `path`
+/// names it in errors (a file, or a part of one).
+fn decode_with_image_crate<R: BufRead + Seek>(
     path: &Path,
-    file: File,
+    mut reader: R,
     fmt: ImageFormat,
     format: FileFormat,
     opts: &ReadOptions,
@@ -234,9 +287,9 @@ fn decode_with_image_crate(
         reason: decode_reason(&e),
     };
     if format == FileFormat::Jpeg {
-        check_jpeg_complete(path, &file)?;
+        check_jpeg_complete(path, &mut reader)?;
     }
-    let mut reader = ImageReader::with_format(BufReader::new(file), fmt);
+    let mut reader = ImageReader::with_format(reader, fmt);
     // Our own budget check below replaces the crate's fixed default limits.
     reader.no_limits();
     let decoder = reader.into_decoder().map_err(decode_err)?;
@@ -691,6 +744,59 @@ mod tests {
             e.starts_with(&format!("{}: ", n.display())) && e.contains("budget of 1000 B"),
             "{e}"
         );
+    }
+
+    /// Images in memory decode as their files do, with the same checks,
+    /// each error naming the name given.
+    #[test]
+    fn bytes_read_as_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let name = Path::new("model.glb: image 2 (image/png)");
+        for (file, format) in [("a.png", FileFormat::Png), ("a.jpg", FileFormat::Jpeg)] {
+            let p = dir.path().join(file);
+            write(&p, &ramp(40, 30, 3)).unwrap();
+            let bytes = std::fs::read(&p).unwrap();
+            for srgb in [false, true] {
+                let opts = ReadOptions {
+                    srgb_decode: srgb,
+                    ..ReadOptions::default()
+                };
+                let a = read_image(&p, &opts).unwrap();
+                let b = read_image_bytes(&bytes, name, format, &opts).unwrap();
+                assert_eq!(a.image.data(), b.image.data(), "{file}");
+                assert_eq!((a.format, a.integer_bits), (b.format, b.integer_bits));
+            }
+            let small = ReadOptions {
+                budget: MemoryBudget::bytes(1000),
+                ..ReadOptions::default()
+            };
+            let e = read_image_bytes(&bytes, name, format, &small)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.starts_with("model.glb: image 2 (image/png): image would need"),
+                "{e}"
+            );
+            let e = read_image_bytes(
+                &bytes[..bytes.len() - 40],
+                name,
+                format,
+                &ReadOptions::default(),
+            )
+            .unwrap_err()
+            .to_string();
+            assert!(
+                e.starts_with(&format!(
+                    "model.glb: image 2 (image/png): cannot decode {}",
+                    format.name()
+                )),
+                "{e}"
+            );
+        }
+        let e = read_image_bytes(b"\x93NUMPY", name, FileFormat::Npy, &ReadOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("files only"), "{e}");
     }
 
     #[test]

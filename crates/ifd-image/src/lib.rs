@@ -32,7 +32,7 @@ pub use crate::files::{atomic_write, output_folder_problem, remove_pending_outpu
 pub use crate::image::{Image, ImageView};
 pub use crate::io::{
     BitDepth, FileFormat, LoadedImage, NonFinitePolicy, ReadOptions, WriteOptions, WriteReport,
-    linear_to_srgb, read, read_image, srgb_to_linear, write, write_image,
+    linear_to_srgb, read, read_image, read_image_bytes, srgb_to_linear, write, write_image,
 };
 pub use crate::metrics::{
     Comparison, Metrics, SSIM_SIGMA, SSIM_TRUNCATE, compare, crop_border, default_data_range, psnr,

@@ -14,6 +14,17 @@ pub enum RenderError {
         /// Why.
         reason: String,
     },
+    /// A glTF asset (or a part of it) that cannot be read: the file, the part
+    /// (`accessor 3 (POSITION of mesh 0 primitive 1)`) and why.
+    #[error("{}: {part}: {reason}", file.display())]
+    Asset {
+        /// The file.
+        file: std::path::PathBuf,
+        /// The part of the file.
+        part: String,
+        /// Why it cannot be read.
+        reason: String,
+    },
     /// The camera sees no object.
     #[error("the camera sees no object: {0}")]
     NothingVisible(String),

@@ -29,6 +29,9 @@ pub struct Surface {
     /// The albedo map's value per channel (a grey map repeats its value),
     /// `[1, 1, 1]` without a map.
     pub albedo: [f64; 3],
+    /// A glTF asset's material at the point (its textures applied; the
+    /// frame's normal is its shading normal), `None` for other scenes.
+    pub gltf: Option<crate::gltf::GltfPoint>,
 }
 
 /// One pixel: its ray's direction and what it hits.
@@ -59,17 +62,26 @@ pub fn pixel(
             Some(a) => [a.sample(uv, 0), a.sample(uv, 1), a.sample(uv, 2)],
             None => [1.0; 3],
         };
-        let n = match maps.and_then(|m| m.normal.as_ref()) {
-            Some(t) => crate::textures::perturb_normal(hit.n, hit.dpdu, uv, t),
-            None => hit.n,
+        let gltf = match scene {
+            Scene::Gltf(a) => Some(a.point(&hit)),
+            _ => None,
+        };
+        let (n, tangent) = match (gltf, maps.and_then(|m| m.normal.as_ref())) {
+            (Some(g), _) => (g.normal, g.tangent),
+            (None, Some(t)) => (
+                crate::textures::perturb_normal(hit.n, hit.dpdu, uv, t),
+                hit.dpdu,
+            ),
+            (None, None) => (hit.n, hit.dpdu),
         };
         Surface {
-            frame: Frame::new(n.to_array(), hit.dpdu.to_array()),
+            frame: Frame::new(n.to_array(), tangent.to_array()),
             p: hit.p.to_array(),
             wo: (-d).to_array(),
             uv,
             roughness,
             albedo,
+            gltf,
         }
     });
     Pixel {

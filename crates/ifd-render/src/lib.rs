@@ -30,6 +30,9 @@
 //!   as piecewise constant: rotation, downsampling, lookups, exact SH);
 //!   surface maps ([`SurfaceMaps`], [`Texture`], [`perturb_normal`],
 //!   [`RoughnessFamily`], [`alpha_of`]);
+//! - **glTF 2.0 assets**: [`GltfAsset`] (`.gltf`/`.glb`: the default
+//!   scene's triangles as a [`Mesh`], its metallic-roughness materials and
+//!   textures evaluated at a [`Hit`] as a [`GltfPoint`], its [`GltfCamera`]);
 //! - **rendering**: [`render`] a [`Job`] by a [`Method`] into a [`Rendered`]
 //!   image, measured by [`relative_rms`]; what each pixel's ray sees
 //!   ([`pixel`], [`pixels`], [`Pixel`], [`Surface`]: the G-buffer the GPU path
@@ -54,6 +57,7 @@ mod camera;
 mod envmap;
 mod error;
 mod gbuffer;
+mod gltf;
 mod hit;
 mod mc;
 mod mesh;
@@ -70,6 +74,7 @@ pub use crate::camera::Camera;
 pub use crate::envmap::EnvMap;
 pub use crate::error::{RenderError, Result};
 pub use crate::gbuffer::{Pixel, Surface, pixel, pixels};
+pub use crate::gltf::{GltfAsset, GltfCamera, GltfPoint};
 pub use crate::hit::Hit;
 pub use crate::mc::{EnvSampler, estimate as estimate_mc, pixel_seed};
 pub use crate::mesh::Mesh;

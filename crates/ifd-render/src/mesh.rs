@@ -24,6 +24,10 @@ use crate::hit::Hit;
 /// - Tangents: `dP/du` of each triangle from its texture coordinates, for
 ///   anisotropic BRDFs; a mesh without texture coordinates has none (such a
 ///   BRDF on it is refused by the renderer).
+/// - Extras (glTF assets, [`crate::GltfAsset`]): per-triangle material
+///   indices, per-vertex tangents (`xyz` and the handedness `w`), a second set
+///   of texture coordinates and vertex colours, each interpolated into the
+///   [`Hit`].
 /// - BVH: binary, median split of the centroids along the widest axis, at most
 ///   4 triangles per leaf; slab tests for boxes, Moller-Trumbore for triangles.
 #[derive(Debug)]
@@ -37,6 +41,34 @@ pub struct Mesh {
     tris: Vec<[u32; 3]>,
     has_uv: bool,
     nodes: Vec<Node>,
+    /// Per-vertex second texture coordinates (as given: no flip).
+    uv1: Option<Vec<[f64; 2]>>,
+    /// Per-vertex tangents: unit `xyz` (or zero where unknown), `w = +-1`.
+    tan: Option<Vec<[f64; 4]>>,
+    /// Per-vertex linear RGB colours.
+    col: Option<Vec<[f64; 3]>>,
+    /// Per-triangle material indices, in the BVH's triangle order.
+    mat: Option<Vec<u32>>,
+    /// The placement: a point `p` of the input is at `(p - centre) / radius`.
+    centre: DVec3,
+    radius: f64,
+}
+
+/// What [`Mesh::from_parts`] builds a mesh from: z-up positions, unit or
+/// zero normals, and optional per-vertex and per-triangle data.
+#[derive(Debug, Default)]
+pub(crate) struct MeshParts {
+    pub pos: Vec<DVec3>,
+    pub nrm: Vec<DVec3>,
+    /// Texture coordinates, `v = 0` at the top of an image unless `flip_v`.
+    pub uv: Option<Vec<[f64; 2]>>,
+    /// OBJ's `v` is 0 at the bottom: flip it (glTF's is not flipped).
+    pub flip_v: bool,
+    pub uv1: Option<Vec<[f64; 2]>>,
+    pub tangents: Option<Vec<[f64; 4]>>,
+    pub colors: Option<Vec<[f64; 3]>>,
+    pub tris: Vec<[u32; 3]>,
+    pub materials: Option<Vec<u32>>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -133,7 +165,14 @@ impl Mesh {
             smooth_normals(&pos, &tris)
         };
         let uv = (with_uv && uv.len() == total).then_some(uv);
-        Self::build(pos, nrm, uv.as_deref(), tris)
+        Self::build(MeshParts {
+            pos,
+            nrm,
+            uv,
+            flip_v: true,
+            tris,
+            ..MeshParts::default()
+        })
     }
 
     /// A mesh from positions (z-up), vertex normals (computed when `None`),
@@ -161,15 +200,54 @@ impl Mesh {
             });
         }
         let nrm = normals.unwrap_or_else(|| smooth_normals(&pos, &tris));
-        Self::build(pos, nrm, uv, tris)
+        Self::build(MeshParts {
+            pos,
+            nrm,
+            uv: uv.map(<[_]>::to_vec),
+            flip_v: true,
+            tris,
+            ..MeshParts::default()
+        })
     }
 
-    fn build(
-        mut pos: Vec<DVec3>,
-        nrm: Vec<DVec3>,
-        uv: Option<&[[f64; 2]]>,
-        mut tris: Vec<[u32; 3]>,
-    ) -> Result<Self> {
+    /// A mesh from parts whose lengths and indices the caller checked
+    /// (the glTF reader); placed as [`Self::load`] does.
+    pub(crate) fn from_parts(parts: MeshParts) -> Result<Self> {
+        let n = parts.pos.len();
+        let ok = parts.nrm.len() == n
+            && parts.uv.as_ref().is_none_or(|u| u.len() == n)
+            && parts.uv1.as_ref().is_none_or(|u| u.len() == n)
+            && parts.tangents.as_ref().is_none_or(|t| t.len() == n)
+            && parts.colors.as_ref().is_none_or(|c| c.len() == n)
+            && parts
+                .materials
+                .as_ref()
+                .is_none_or(|m| m.len() == parts.tris.len())
+            && parts.pos.iter().all(|p| p.is_finite())
+            && !parts.tris.is_empty()
+            && parts.tris.iter().flatten().all(|&i| (i as usize) < n);
+        if !ok {
+            return Err(RenderError::Parameter {
+                name: "mesh",
+                value: format!("{n} vertices, {} triangles", parts.tris.len()),
+                reason: "inconsistent mesh parts (lengths, indices or non-finite positions)".into(),
+            });
+        }
+        Self::build(parts)
+    }
+
+    fn build(parts: MeshParts) -> Result<Self> {
+        let MeshParts {
+            mut pos,
+            nrm,
+            uv,
+            flip_v,
+            uv1,
+            tangents,
+            colors,
+            mut tris,
+            materials,
+        } = parts;
         // centre and scale to the unit bounding sphere
         let (lo, hi) = pos.iter().fold(
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
@@ -177,6 +255,7 @@ impl Mesh {
         );
         let c = 0.5 * (lo + hi);
         let r = pos.iter().map(|p| (*p - c).length()).fold(0.0, f64::max);
+        let (centre, radius) = (c, r);
         if r.is_nan() || r <= 0.0 {
             return Err(RenderError::Parameter {
                 name: "mesh",
@@ -202,11 +281,12 @@ impl Mesh {
         }];
         build_node(&pos, &tris, &cent, &mut order, 0, 0, &mut nodes);
         tris = order.iter().map(|&i| tris[i]).collect();
+        let mat = materials.map(|m| order.iter().map(|&i| m[i]).collect());
         let has_uv = uv.is_some();
         let dpdu = tris
             .iter()
             .map(|t| {
-                let Some(uv) = uv else { return DVec3::ZERO };
+                let Some(uv) = &uv else { return DVec3::ZERO };
                 let [a, b, c] = t.map(|i| i as usize);
                 let (e1, e2) = (pos[b] - pos[a], pos[c] - pos[a]);
                 let (du1, dv1) = (uv[b][0] - uv[a][0], uv[b][1] - uv[a][1]);
@@ -219,15 +299,59 @@ impl Mesh {
                 }
             })
             .collect();
+        let uv = if flip_v {
+            uv.map(|u| u.iter().map(|t| [t[0], 1.0 - t[1]]).collect())
+        } else {
+            uv
+        };
+        let tan = tangents.map(|t| {
+            t.into_iter()
+                .map(|[x, y, z, w]| {
+                    let v = DVec3::new(x, y, z).normalize_or_zero();
+                    [v.x, v.y, v.z, if w < 0.0 { -1.0 } else { 1.0 }]
+                })
+                .collect()
+        });
         Ok(Self {
             pos,
             nrm,
             dpdu,
-            uv: uv.map(|u| u.iter().map(|t| [t[0], 1.0 - t[1]]).collect()),
+            uv,
             tris,
             has_uv,
             nodes,
+            uv1,
+            tan,
+            col: colors,
+            mat,
+            centre,
+            radius,
         })
+    }
+
+    /// The placement [`Self::load`] applies to fit the unit bounding sphere:
+    /// the centre `c` of the bounding box and the radius `r` of the bounding
+    /// sphere around it, in the input's (z-up) coordinates. A point `p` of
+    /// the input is at `(p - c) / r` in the mesh; cameras and lights given
+    /// with the input move the same way (directions are unchanged).
+    #[must_use]
+    pub fn placement(&self) -> (DVec3, f64) {
+        (self.centre, self.radius)
+    }
+
+    /// Per-triangle material indices (in the order of the BVH's triangles,
+    /// which [`Hit::material`] reports), `None` for OBJ meshes.
+    #[must_use]
+    pub fn triangle_materials(&self) -> Option<&[u32]> {
+        self.mat.as_deref()
+    }
+
+    /// Per-vertex tangents `[x, y, z, w]` (unit `xyz`, zero where unknown;
+    /// the handedness `w = +-1`: the bitangent is `w N x T`), `None` when
+    /// the mesh has none.
+    #[must_use]
+    pub fn tangents(&self) -> Option<&[[f64; 4]]> {
+        self.tan.as_deref()
     }
 
     /// Whether the mesh has texture coordinates (tangents).
@@ -310,17 +434,32 @@ impl Mesh {
         if n == DVec3::ZERO {
             n = geo;
         }
-        // shade the side the ray sees
-        if n.dot(d) > 0.0 && geo.dot(d) > 0.0 {
+        // shade the side the ray sees; the tangent frame turns over with it
+        let back = n.dot(d) > 0.0 && geo.dot(d) > 0.0;
+        if back {
             n = -n;
         }
-        let uv = self.uv.as_ref().map(|uv| {
-            let w = 1.0 - u - v;
+        let w = 1.0 - u - v;
+        let lerp2 = |t: &Vec<[f64; 2]>| {
             [
-                w * uv[a][0] + u * uv[b][0] + v * uv[c][0],
-                w * uv[a][1] + u * uv[b][1] + v * uv[c][1],
+                w * t[a][0] + u * t[b][0] + v * t[c][0],
+                w * t[a][1] + u * t[b][1] + v * t[c][1],
             ]
+        };
+        let uv = self.uv.as_ref().map(lerp2);
+        let uv1 = self.uv1.as_ref().map(lerp2);
+        let tangent = self.tan.as_ref().and_then(|t| {
+            let [ta, tb, tc] = [t[a], t[b], t[c]].map(glam::DVec4::from_array);
+            let m = w * ta + u * tb + v * tc;
+            let xyz = m.truncate().try_normalize()?;
+            let s = if m.w < 0.0 { -1.0 } else { 1.0 };
+            let t = xyz.extend(s);
+            Some(if back { -t } else { t })
         });
+        let color = self
+            .col
+            .as_ref()
+            .map(|col| [0, 1, 2].map(|k| w * col[a][k] + u * col[b][k] + v * col[c][k]));
         Some((
             Hit {
                 t,
@@ -328,6 +467,10 @@ impl Mesh {
                 n,
                 dpdu: self.dpdu[i],
                 uv,
+                material: self.mat.as_ref().map(|m| m[i]),
+                tangent,
+                uv1,
+                color,
             },
             [a, b, c],
             [1.0 - u - v, u, v],
@@ -419,7 +562,7 @@ fn build_node(
 }
 
 /// Area-weighted vertex normals, shared by vertices at the same position.
-fn smooth_normals(pos: &[DVec3], tris: &[[u32; 3]]) -> Vec<DVec3> {
+pub(crate) fn smooth_normals(pos: &[DVec3], tris: &[[u32; 3]]) -> Vec<DVec3> {
     let key = |p: DVec3| (p.x.to_bits(), p.y.to_bits(), p.z.to_bits());
     let mut acc: HashMap<(u64, u64, u64), DVec3> = HashMap::new();
     for t in tris {

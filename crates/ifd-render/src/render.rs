@@ -202,14 +202,30 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             reason: "the camera (--eye) is inside the light".into(),
         })?;
     }
-    if rough_map.is_some()
+    // a glTF asset shaded with its own materials (the job's BRDF `gltf`):
+    // roughness varies per point, as with a roughness map
+    let asset_materials = matches!(job.scene, Scene::Gltf(_)) && job.brdf.gltf_material().is_some();
+    if (rough_map.is_some() || asset_materials)
         && job.family.is_none()
         && matches!(job.method, Method::Isd | Method::IsdMaps | Method::Sh)
     {
         return Err(RenderError::Parameter {
-            name: "--roughness-map",
+            name: if asset_materials {
+                "--scene"
+            } else {
+                "--roughness-map"
+            },
             value: format!("{:?}", job.method),
-            reason: "ISD methods need a RoughnessFamily for a roughness map".into(),
+            reason: "ISD methods need a RoughnessFamily for a roughness map or a glTF \
+                     asset's materials"
+                .into(),
+        });
+    }
+    if asset_materials && rough_map.is_some() {
+        return Err(RenderError::Parameter {
+            name: "--roughness-map",
+            value: "a glTF asset".into(),
+            reason: "a glTF asset's materials carry their own textures".into(),
         });
     }
     check_shadows(job, rough_map.is_some())?;
@@ -241,7 +257,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
         }
     }
     let degree = match (job.material, job.family) {
-        (_, Some(f)) if rough_map.is_some() => Some(f.l_max()),
+        (_, Some(f)) if rough_map.is_some() || asset_materials => Some(f.l_max()),
         (Some(m), _) => Some(m.l_max()),
         _ => None,
     };
@@ -364,11 +380,20 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                     // the glTF material of this point: the BRDF's factors,
                     // the albedo map's colour multiplying the base colour,
                     // the roughness map's value replacing the roughness
-                    let point_gltf = gltf.map(|g| GltfMaterial {
-                        base: [0, 1, 2].map(|c| (g.base[c] * albedo[c]).clamp(0.0, 1.0)),
-                        roughness: rough.map_or(g.roughness, |r| alpha_of(r).sqrt()),
-                        ..g
-                    });
+                    let point_gltf = match (surface.gltf, gltf) {
+                        (Some(p), Some(_)) => Some(p.material),
+                        (_, Some(g)) => Some(GltfMaterial {
+                            base: [0, 1, 2].map(|c| (g.base[c] * albedo[c]).clamp(0.0, 1.0)),
+                            roughness: rough.map_or(g.roughness, |r| alpha_of(r).sqrt()),
+                            ..g
+                        }),
+                        _ => None,
+                    };
+                    // the roughness the ISD family is read at
+                    let rough = match (surface.gltf, gltf) {
+                        (Some(p), Some(_)) => Some(p.material.roughness),
+                        _ => rough,
+                    };
                     // the exact BRDF of this point (oracle, Monte Carlo)
                     let exact = matches!(job.method, Method::Quadrature | Method::Mc);
                     let local = match (rough, point_gltf) {
@@ -455,6 +480,13 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                                     out[c] += tmp[c];
                                 }
                             }
+                        }
+                    }
+                    // a glTF asset's ambient occlusion (scaling the
+                    // environment's light, as engines apply it) and emission
+                    if let (Some(p), Some(_)) = (surface.gltf, gltf) {
+                        for (c, o) in out[..ch].iter_mut().enumerate() {
+                            *o = *o * p.occlusion + p.emissive[c.min(2)];
                         }
                     }
                     if albedo_map.is_some() && gltf.is_none() {

@@ -23,6 +23,9 @@ pub enum Scene {
     Plane,
     /// A triangle mesh.
     Mesh(std::sync::Arc<crate::mesh::Mesh>),
+    /// A glTF 2.0 asset: its triangles, with their metallic-roughness
+    /// materials evaluated at every hit ([`crate::GltfAsset::point`]).
+    Gltf(std::sync::Arc<crate::gltf::GltfAsset>),
 }
 
 /// Torus radii.
@@ -30,12 +33,35 @@ const RING: f64 = 1.0;
 const TUBE: f64 = 0.4;
 
 impl Scene {
-    /// `sphere`, `torus`, `plane` or an `.obj` file (`obj_z_up`: the file is
-    /// z-up already; OBJ files are y-up by convention).
+    /// `sphere`, `torus`, `plane`, an `.obj` file (`obj_z_up`: the file is
+    /// z-up already; OBJ files are y-up by convention) or a `.gltf`/`.glb`
+    /// asset (read with the machine's default memory budget;
+    /// [`Self::parse_with`] takes one).
     ///
     /// # Errors
-    /// [`RenderError::Parameter`] for other names and bad OBJ files.
+    /// [`RenderError::Parameter`] for other names and bad OBJ files,
+    /// [`RenderError::Asset`] for bad glTF files.
     pub fn parse(name: &str, obj_z_up: bool) -> Result<Self> {
+        Self::parse_with(
+            name,
+            obj_z_up,
+            ifd_image::MemoryBudget::default_for_machine(),
+        )
+    }
+
+    /// [`Self::parse`] with the memory budget glTF files are read under.
+    ///
+    /// # Errors
+    /// As [`Self::parse`].
+    pub fn parse_with(name: &str, obj_z_up: bool, budget: ifd_image::MemoryBudget) -> Result<Self> {
+        let ext = std::path::Path::new(name)
+            .extension()
+            .map(|e| e.to_string_lossy().to_lowercase());
+        if matches!(ext.as_deref(), Some("gltf" | "glb")) {
+            return Ok(Self::Gltf(std::sync::Arc::new(
+                crate::gltf::GltfAsset::load(std::path::Path::new(name), budget)?,
+            )));
+        }
         match name {
             "sphere" => Ok(Self::Sphere),
             "torus" => Ok(Self::Torus),
@@ -46,7 +72,7 @@ impl Scene {
             _ => Err(RenderError::Parameter {
                 name: "--scene",
                 value: name.into(),
-                reason: "use sphere, torus, plane or an .obj file".into(),
+                reason: "use sphere, torus, plane, an .obj file or a .gltf/.glb asset".into(),
             }),
         }
     }
@@ -57,6 +83,7 @@ impl Scene {
     pub fn has_tangents(&self) -> bool {
         match self {
             Self::Mesh(m) => m.has_uv(),
+            Self::Gltf(a) => a.mesh().has_uv(),
             _ => true,
         }
     }
@@ -89,6 +116,10 @@ impl Scene {
                         p.y.atan2(p.x).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU,
                         n.z.clamp(-1.0, 1.0).acos() / std::f64::consts::PI,
                     ]),
+                    material: None,
+                    tangent: None,
+                    uv1: None,
+                    color: None,
                 })
             }
             Self::Plane => {
@@ -106,10 +137,15 @@ impl Scene {
                     n: DVec3::Z,
                     dpdu: DVec3::X,
                     uv: Some([(p.x + 2.0) / 4.0, (2.0 - p.y) / 4.0]),
+                    material: None,
+                    tangent: None,
+                    uv1: None,
+                    color: None,
                 })
             }
             Self::Torus => torus_hit(o, d),
             Self::Mesh(m) => m.intersect(o, d),
+            Self::Gltf(a) => a.mesh().intersect(o, d),
         }
     }
 }
@@ -164,6 +200,10 @@ fn torus_hit(o: DVec3, d: DVec3) -> Option<Hit> {
                     p.y.atan2(p.x).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU,
                     tube / std::f64::consts::TAU,
                 ]),
+                material: None,
+                tangent: None,
+                uv1: None,
+                color: None,
             });
         }
         prev = t;

@@ -21,7 +21,7 @@ pub enum SplitSumVariant {
     /// `specular = P(r, roughness) (f0 A + B)`,
     /// `diffuse = 0.96 c_diff (E(n) / pi) D(n . v)`.
     Consistent,
-    /// glTF-Sample-Renderer's shader as written (KhronosGroup,
+    /// glTF-Sample-Renderer's shader as written (Khronos Group,
     /// `source/Renderer/shaders/pbr.frag` at 07d2ba65 and `ibl.glsl` at
     /// 4e170c47): the roughness-dependent Fresnel of Fdez-Agüera with its
     /// multiple-scattering term, and the diffuse `E(n) / pi` times the base
@@ -352,14 +352,10 @@ mod tests {
             let wo = [(1.0 - nv * nv).sqrt(), 0.0, nv];
             let got = ss.shade(SplitSumVariant::Consistent, &m, n, wo);
             let (a, b) = ifd_ibl::dfg(nv, 0.6);
-            for c in 0..3 {
+            for (c, g) in got.iter().enumerate() {
                 let want = m.f0(c) * a + b + 0.96 * m.c_diff(c) * diffuse_albedo(nv);
                 // the tables' interpolation only
-                assert!(
-                    (got[c] - want).abs() < 2e-3,
-                    "{nv} {c}: {} vs {want}",
-                    got[c]
-                );
+                assert!((g - want).abs() < 2e-3, "{nv} {c}: {g} vs {want}");
             }
         }
     }

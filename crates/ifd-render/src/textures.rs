@@ -146,14 +146,18 @@ impl RoughnessFamily {
         count: usize,
         progress: &dyn Fn(usize, usize),
     ) -> Result<Self> {
-        let count = count.max(2);
         let (lo, hi) = (lo.max(alpha_of(0.0).sqrt()), hi.max(lo + 1e-6));
+        // one roughness (a single-material asset): two tables bracket it
+        let count = if hi - lo < 1e-3 { 2 } else { count.max(2) };
         let mut roughness = Vec::new();
         let mut materials = Vec::new();
         for k in 0..count {
             let r = lo + (hi - lo) * k as f64 / (count - 1) as f64;
             let b = brdf.with_roughness(alpha_of(r))?;
-            let nt = default_theta_entries(&b);
+            // a lobe narrower than degree L resolves moves with theta_o as a
+            // lobe of width pi / (L + 1): eight entries across that width
+            // suffice (4 (L + 1) over theta_o), however narrow the BRDF
+            let nt = default_theta_entries(&b).min(4 * (l_max + 1)).max(16);
             let t = LobeTable::build(&b, l_max, nt, 1, &|_, _| {})?;
             materials.push(Material::new(&b, l_max, Some(t))?);
             roughness.push(r);

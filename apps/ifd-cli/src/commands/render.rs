@@ -35,6 +35,10 @@ use crate::options::{CameraOptions, DisplayOptions, EnvOptions, ReportOptions, S
 /// Output: .exr/.hdr/.npy are linear radiance; .png (8-bit sRGB) gets
 /// --exposure and --tonemap.
 #[derive(Debug, Args)]
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "independent command-line switches"
+)]
 pub struct Render {
     #[command(flatten)]
     env: EnvOptions,
@@ -48,8 +52,11 @@ pub struct Render {
     /// the footprint is narrower than pi/L), quadrature averages a regular sqrt(N)xsqrt(N)
     /// grid of --spp N samples (--spp 1: the pixel centre, no anti-aliasing), mc a jittered
     /// stratified one (the reference).
+    ///
+    /// Default for a glTF asset (--scene FILE.gltf/.glb): gltf, each point shaded with the
+    /// asset's own materials and textures; another spec shades its geometry with that BRDF.
     #[arg(long, value_name = "SPEC")]
-    brdf: String,
+    brdf: Option<String>,
     /// Maximum SH degree L (isd, isd-maps, sh).
     #[arg(long, value_name = "L")]
     lmax: Option<usize>,
@@ -125,6 +132,10 @@ pub struct Render {
     #[arg(long, value_name = "N", default_value_t = 4096, requires = "shadows",
           value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
     shadow_rays: u32,
+    /// Look through the glTF asset's camera (its first perspective camera in the default
+    /// scene) instead of --eye, --target, --up and --fov.
+    #[arg(long)]
+    scene_camera: bool,
     /// Also write the object mask (1 on the object, 0 elsewhere).
     #[arg(long, value_name = "FILE")]
     mask: Option<PathBuf>,
@@ -198,7 +209,45 @@ impl Render {
     pub fn run(self) -> Result<()> {
         let output = self.output.clone();
         let method = self.method.method();
-        let scene = self.scene.scene()?;
+        let scene = self.scene.scene_with(self.input.budget())?;
+        let asset = match &scene {
+            ifd_render::Scene::Gltf(a) => {
+                for note in a.notes() {
+                    eprintln!("note: {}: {note}", self.scene.scene);
+                }
+                Some(a.clone())
+            }
+            _ => None,
+        };
+        let brdf_spec = match (&self.brdf, &asset) {
+            (Some(b), _) => b.clone(),
+            (None, Some(_)) => "gltf".to_string(),
+            (None, None) => bail!(
+                "--brdf SPEC is needed (a glTF asset, --scene FILE.glb, brings its own materials)"
+            ),
+        };
+        let asset_materials = asset.is_some() && brdf_spec.starts_with("gltf");
+        if asset_materials {
+            for (set, flag) in [
+                (self.albedo_map.is_some(), "--albedo-map"),
+                (self.roughness_map.is_some(), "--roughness-map"),
+                (self.normal_map.is_some(), "--normal-map"),
+            ] {
+                if set {
+                    bail!(
+                        "{flag}: the glTF asset {} brings its own textures (pass another --brdf \
+                         to shade its geometry with maps)",
+                        self.scene.scene
+                    );
+                }
+            }
+        }
+        if self.scene_camera && asset.as_ref().is_none_or(|a| a.camera().is_none()) {
+            bail!(
+                "--scene-camera: {} has no perspective camera",
+                self.scene.scene
+            );
+        }
         let tonemap = self.display.tonemap()?;
         let display = is_display(&output)?;
         if let Some(m) = &self.mask {
@@ -228,7 +277,17 @@ impl Render {
                 );
             }
         }
-        let camera = self.camera.camera()?;
+        let camera = match asset
+            .as_ref()
+            .and_then(|a| a.camera())
+            .filter(|_| self.scene_camera)
+        {
+            Some(c) => {
+                let (w, h) = crate::input::parse_size(&self.camera.size, "--size")?;
+                ifd_render::Camera::new(c.eye, c.target, c.up, c.fov_deg, w, h)?
+            }
+            None => self.camera.camera()?,
+        };
         let (w, h) = (camera.width(), camera.height());
         // the image, its row buffers and the mask, before any work
         let bytes = (w as u64)
@@ -238,10 +297,10 @@ impl Render {
             .budget()
             .check(bytes)
             .with_context(|| format!("--size {w}x{h}"))?;
-        if self.brdf == "mirror" {
+        if brdf_spec == "mirror" {
             return self.run_mirror(&scene, camera, tonemap, display);
         }
-        let brdf = Brdf::parse(&self.brdf)?;
+        let brdf = Brdf::parse(&brdf_spec)?;
         if !brdf.is_isotropic() && !scene.has_tangents() {
             bail!(
                 "--brdf {}: an anisotropic BRDF needs tangents, and {} has no texture coordinates",
@@ -394,7 +453,32 @@ impl Render {
             }
         };
         let surface = self.surface_maps()?;
+        let asset_range = asset
+            .as_ref()
+            .filter(|_| asset_materials)
+            .map(|a| a.roughness_range());
         let family = match (&surface.roughness, method, l_max) {
+            (None, Method::Isd | Method::IsdMaps | Method::Sh, Some(l))
+                if asset_range.is_some() =>
+            {
+                if !(2..=64).contains(&self.roughness_tables) {
+                    bail!("--roughness-tables {}: use 2..=64", self.roughness_tables);
+                }
+                let range = asset_range.unwrap_or((1.0, 1.0));
+                let bar = progress_bar("roughness tables");
+                let f = RoughnessFamily::build(
+                    &tabulated,
+                    l,
+                    range,
+                    self.roughness_tables,
+                    &|d, n| {
+                        bar.set_length(n as u64);
+                        bar.set_position(d as u64);
+                    },
+                )?;
+                bar.finish_and_clear();
+                Some(f)
+            }
             (Some(t), Method::Isd | Method::IsdMaps | Method::Sh, Some(l)) => {
                 if !(2..=64).contains(&self.roughness_tables) {
                     bail!("--roughness-tables {}: use 2..=64", self.roughness_tables);
@@ -470,7 +554,7 @@ impl Render {
                 let bar = progress_bar("oracle");
                 let oracle_job = Job {
                     scene: job.scene.clone(),
-                    camera: job.camera.clone(),
+                    camera: job.camera,
                     env: job.env,
                     background: None,
                     brdf: job.brdf,
