@@ -430,3 +430,12 @@ def test_normal_map_bumps_are_raised():
     assert nrm[c, c + d, 0] > 0.1 and nrm[c, c - d, 0] < -0.1
     assert nrm[c - d, c, 1] > 0.1 and nrm[c + d, c, 1] < -0.1
     assert np.all(nrm[..., 2] > 0)
+
+
+def test_the_bundled_assets_are_the_generators_output():
+    """testdata/spheres.glb and testdata/textured.glb (used by the docs and
+    the quick tour) are byte for byte what gltf_assets.py writes."""
+    testdata = pathlib.Path(__file__).resolve().parents[2] / "testdata"
+    built = {**gltf_assets.build_spheres(), **gltf_assets.build_textured()}
+    for name in ("spheres.glb", "textured.glb"):
+        assert (testdata / name).read_bytes() == built[name], name

@@ -5,7 +5,6 @@
 
 use std::f64::consts::PI;
 
-use crate::brdf::half;
 use crate::error::{Result, ShadeError};
 
 /// The smallest glTF roughness ISD shades: `alpha = roughness^2 = 1e-3`, the
@@ -162,7 +161,10 @@ pub(crate) fn ggx_and_schlick(alpha: f64, wi: [f64; 3], wo: [f64; 3]) -> (f64, f
     if wi[2] <= 0.0 || wo[2] <= 0.0 {
         return (0.0, 0.0);
     }
-    let h = half(wi, wo);
+    let h = (glam::DVec3::from(wi) + glam::DVec3::from(wo))
+        .try_normalize()
+        .unwrap_or(glam::DVec3::Z)
+        .to_array();
     let a2 = alpha * alpha;
     let q = (h[0] * h[0] + h[1] * h[1]) / a2 + h[2] * h[2];
     let d = 1.0 / (PI * a2 * q * q);
@@ -276,7 +278,9 @@ mod tests {
     /// [`parts`]: `mix(mix(diffuse, S, F_d), S F_m, m)`.
     fn spec_form(m: &GltfMaterial, wi: [f64; 3], wo: [f64; 3]) -> [f64; 3] {
         let a = m.alpha();
-        let h = half(wi, wo);
+        let h = (glam::DVec3::from(wi) + glam::DVec3::from(wo))
+            .normalize()
+            .to_array();
         let vh = (wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2]).abs();
         let nl = wi[2];
         let nv = wo[2];
