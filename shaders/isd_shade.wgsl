@@ -22,9 +22,12 @@
 // coefficients in a 64 KiB binding, L <= 63.
 //
 // Buffers:
-//   surf     4 vec4 per pixel: (n, hit), (tangent, roughness), (wo, 0),
-//            (albedo, 0) on the object or (background, 0) elsewhere; the
-//            tangent is already orthogonal to n (ifd_shade's Frame).
+//   surf     4 vec4 per pixel: (n, hit), (tangent, roughness), (wo,
+//            metallic), (albedo, 0) on the object or (background, 0)
+//            elsewhere; the tangent is already orthogonal to n (ifd_shade's
+//            Frame); MATERIAL_GLTF reads the albedo as the base colour and
+//            combines the three parts' integrals with it and the metalness
+//            (ifd_shade::GltfMaterial::combine).
 //   sh       VARIANT_SH: (L + 1)^2 vec4 (rgb, 0) coefficients e_l^m, index
 //            l (l + 1) + m (zeros in the other variant).
 //   consts   vec4 per k < NB: (sectoral factor of order m = k, sqrt(2m + 3),
@@ -287,6 +290,10 @@ fn table_corners(k: u32, theta: f32, phi: f32, tw: f32, slot: u32) {
     }
 }
 
+// MATERIAL_GLTF: the integrals of the three parts (S (1 - w), S w,
+// (1 - w) / pi), each RGB.
+var<private> part_acc: array<vec3<f32>, 3>;
+
 // The interpolated weight lambda_l^j (per channel).
 fn lobe_weight(l: u32, j: u32) -> vec3<f32> {
     var idx = l * l + j;
@@ -348,13 +355,25 @@ fn shade_table(n: vec3<f32>, t_in: vec3<f32>, wl: vec3<f32>, roughness: f32) -> 
     }
     table_corners(k, theta, phi, 1.0 - tw, 0u);
     var acc = vec3<f32>(0.0);
+    let parts = params.material == MATERIAL_GLTF;
+    for (var p = 0u; p < 3u; p++) {
+        part_acc[p] = vec3<f32>(0.0);
+    }
     for (var j = 0u; j < params.n_lobes; j++) {
         let lobe = lobes[j];
         let l0 = u32(lobe.w);
         let d = lobe.x * t + lobe.y * b + lobe.z * n;
         environment_bands(d, l0);
         for (var l = l0; l < NB; l++) {
-            acc += lobe_weight(l, j) * bands[l];
+            let w = lobe_weight(l, j);
+            if parts {
+                // every part against every colour channel
+                part_acc[0] += w.x * bands[l];
+                part_acc[1] += w.y * bands[l];
+                part_acc[2] += w.z * bands[l];
+            } else {
+                acc += w * bands[l];
+            }
         }
     }
     return acc;
@@ -390,6 +409,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         c = shade_zonal(2.0 * wl.z * n - wo);
     } else if wl.z > 0.0 {
         c = shade_table(n, t, wl, s1.w);
+        if params.material == MATERIAL_GLTF {
+            // f0 = 0.04 (1 - m) + m base, c_diff = base (1 - m)
+            let base = s3.xyz;
+            let m = s2.w;
+            let f0 = vec3<f32>(0.04 * (1.0 - m)) + m * base;
+            let c_diff = base * (1.0 - m);
+            c = f0 * part_acc[0] + part_acc[1] + 0.96 * c_diff * part_acc[2];
+            out[i] = vec4<f32>(c, 1.0);
+            return;
+        }
     }
     out[i] = vec4<f32>(c * s3.xyz, 1.0);
 }

@@ -580,7 +580,7 @@ def test_render_texture_maps(run_ifd, tmp_path):
     assert out["object_pixels"] > 100
     p = run_ifd(*common, "--brdf", "phong:s=8", "--lmax", 4, "--roughness-map", tmp_path / "rough.npy",
                 "-o", tmp_path / "x.npy", check=False)
-    assert p.returncode == 2 and "roughness" in p.stderr and "GGX or Ward" in p.stderr, p.stderr
+    assert p.returncode == 2 and "roughness" in p.stderr and "GGX, Ward or glTF" in p.stderr, p.stderr
     bad = np.full((4, 8), np.nan, np.float32)
     np.save(tmp_path / "nan.npy", bad)
     p = run_ifd(*common, "--brdf", "ggx:alpha=0.5", "--lmax", 4, "--roughness-map", tmp_path / "nan.npy",

@@ -107,14 +107,18 @@ pub mod shade_codes {
     pub const MATERIAL_PHONG: u32 = 1;
     /// `material`: lobe tables (one, or a roughness family).
     pub const MATERIAL_TABLE: u32 = 2;
+    /// `material`: the glTF BRDF: tables of its three parts (`gltf-lobes`),
+    /// combined per pixel with the G-buffer's base colour and metalness.
+    pub const MATERIAL_GLTF: u32 = 3;
 
     /// Every code with its name, as [`super::isd_shade_source`] declares them.
-    pub const ALL: [(&str, u32); 5] = [
+    pub const ALL: [(&str, u32); 6] = [
         ("VARIANT_SH", VARIANT_SH),
         ("VARIANT_MAPS", VARIANT_MAPS),
         ("MATERIAL_LAMBERT", MATERIAL_LAMBERT),
         ("MATERIAL_PHONG", MATERIAL_PHONG),
         ("MATERIAL_TABLE", MATERIAL_TABLE),
+        ("MATERIAL_GLTF", MATERIAL_GLTF),
     ];
 }
 

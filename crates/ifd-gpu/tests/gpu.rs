@@ -1316,9 +1316,10 @@ mod shading {
         };
         let cpu = render(&job, &|_, _| {}).expect("cpu render");
         let px = ifd_render::pixels(&case.scene, &camera, case.maps).expect("pixels");
+        let gltf = case.brdf.gltf_material();
         let points: Vec<SurfacePoint> = px
             .iter()
-            .map(|p| SurfacePoint::from_pixel(p, Some(env)))
+            .map(|p| SurfacePoint::from_pixel_with(p, Some(env), gltf.as_ref()))
             .collect();
         let surfaces = GpuSurfaces::upload(ctx, case.size, case.size, &points).expect("upload");
         let e = Environment::new(env.sh(case.l_max).expect("sh")).expect("env");
@@ -1495,6 +1496,61 @@ mod shading {
             method: Method::Isd,
         };
         check("roughness + albedo maps", &env, &case);
+    }
+
+    #[test]
+    fn the_gltf_brdf_matches_cpu() {
+        // the glTF BRDF's three parts against every colour channel, combined
+        // with the base colour and metalness in the kernel: one material,
+        // then a roughness family with an albedo map (the base colour)
+        let env = forest();
+        let brdf = Brdf::parse("gltf:roughness=0.6,metallic=0.4,base=0.9:0.6:0.3").expect("brdf");
+        let parts = brdf.tabulated().expect("parts");
+        let m = table(&parts, 8, 24, 1, LobeKind::InPlane);
+        for method in [Method::Isd, Method::IsdMaps] {
+            let case = Case {
+                brdf: &brdf,
+                material: Some(&m),
+                family: None,
+                maps: None,
+                scene: Scene::Sphere,
+                size: 32,
+                l_max: 8,
+                method,
+            };
+            check(&format!("gltf L=8 {method:?}"), &env, &case);
+        }
+        let (w, h) = (16, 8);
+        let rough: Vec<f32> = (0..w * h)
+            .map(|i| 0.5 + 0.4 * (i % w) as f32 / w as f32)
+            .collect();
+        let albedo: Vec<f32> = (0..w * h)
+            .flat_map(|i| [0.3 + 0.6 * (i / w) as f32 / h as f32, 0.8, 0.4])
+            .collect();
+        let maps = SurfaceMaps {
+            roughness: Some(
+                Texture::new(Image::from_vec(w, h, 1, rough).expect("img"), "roughness")
+                    .expect("texture"),
+            ),
+            albedo: Some(
+                Texture::new(Image::from_vec(w, h, 3, albedo).expect("img"), "albedo")
+                    .expect("texture"),
+            ),
+            normal: None,
+        };
+        let range = maps.roughness.as_ref().expect("set").range();
+        let family = RoughnessFamily::build(&parts, 6, range, 3, &|_, _| {}).expect("family");
+        let case = Case {
+            brdf: &brdf,
+            material: None,
+            family: Some(&family),
+            maps: Some(&maps),
+            scene: Scene::Sphere,
+            size: 32,
+            l_max: 6,
+            method: Method::Isd,
+        };
+        check("gltf roughness + base colour maps", &env, &case);
     }
 
     #[test]

@@ -404,12 +404,6 @@ impl Render {
         } else {
             None
         };
-        if self.gpu && brdf.gltf_material().is_some() {
-            bail!(
-                "--gpu: the GPU kernels do not shade the glTF BRDF yet; drop --gpu (the CPU \
-                 shades it with --method isd, isd-maps, sh, quadrature or mc)"
-            );
-        }
         // what ISD tabulates: the glTF BRDF's three parts, else the BRDF
         let tabulated = brdf.tabulated()?;
         let (full, env) = self.env.environments(&self.input)?;
@@ -423,7 +417,7 @@ impl Render {
                 _,
             )
             | (_, None) => None,
-            _ if self.roughness_map.is_some() => None,
+            _ if self.roughness_map.is_some() || asset_materials => None,
             (_, Some(l)) => {
                 let table = match &self.table {
                     Some(p) => Some(LobeTable::read(p)?),

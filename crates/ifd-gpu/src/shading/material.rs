@@ -142,14 +142,13 @@ impl GpuMaterial {
                 ));
             }
         }
-        Self::build(
-            ctx,
-            l_max,
-            shade_codes::MATERIAL_TABLE,
-            &[],
-            Some(first.basis()),
-            tables,
-        )
+        // the glTF BRDF's parts: every part against every colour channel
+        let code = if first.header().brdf.starts_with("gltf-lobes") {
+            shade_codes::MATERIAL_GLTF
+        } else {
+            shade_codes::MATERIAL_TABLE
+        };
+        Self::build(ctx, l_max, code, &[], Some(first.basis()), tables)
     }
 
     fn build(

@@ -20,6 +20,9 @@ pub struct GpuRender {
     material: GpuMaterial,
     channels: usize,
     object_pixels: usize,
+    /// A glTF asset's ambient occlusion and emission per pixel, applied to
+    /// the shaded frame as the CPU renderer applies them.
+    post: Option<Vec<[f32; 4]>>,
 }
 
 impl GpuRender {
@@ -43,7 +46,9 @@ impl GpuRender {
                 "self-shadowing and spherical lights (shaded on the CPU only)".into(),
             ));
         }
-        let rough = job.maps.is_some_and(|m| m.roughness.is_some());
+        let gltf = job.brdf.gltf_material();
+        let asset = matches!(job.scene, ifd_render::Scene::Gltf(_)) && gltf.is_some();
+        let rough = job.maps.is_some_and(|m| m.roughness.is_some()) || asset;
         let material = match (job.family, job.material) {
             (Some(f), _) if rough => GpuMaterial::family(ctx, f)?,
             (_, Some(m)) => GpuMaterial::new(ctx, m)?,
@@ -71,8 +76,19 @@ impl GpuRender {
         let object_pixels = px.iter().filter(|p| p.surface.is_some()).count();
         let points: Vec<SurfacePoint> = px
             .iter()
-            .map(|p| SurfacePoint::from_pixel(p, job.background))
+            .map(|p| SurfacePoint::from_pixel_with(p, job.background, gltf.as_ref()))
             .collect();
+        let post = asset.then(|| {
+            px.iter()
+                .map(|p| match p.surface.and_then(|s| s.gltf) {
+                    Some(g) => {
+                        let e = g.emissive.map(|v| v as f32);
+                        [g.occlusion as f32, e[0], e[1], e[2]]
+                    }
+                    None => [1.0, 0.0, 0.0, 0.0],
+                })
+                .collect()
+        });
         let surfaces = GpuSurfaces::upload(ctx, w, h, &points)?;
         let shader = GpuShader::new(ctx)?;
         // compile now, so that the first frame's time is the shading's
@@ -84,6 +100,7 @@ impl GpuRender {
             material,
             channels: ch,
             object_pixels,
+            post,
         })
     }
 
@@ -108,7 +125,16 @@ impl GpuRender {
     /// # Errors
     /// As [`GpuShaded::read`].
     pub fn rendered(&self, ctx: &GpuContext, shaded: &GpuShaded) -> Result<Rendered, GpuError> {
-        let (rgb, mask) = shaded.read(ctx)?;
+        let (mut rgb, mask) = shaded.read(ctx)?;
+        if let Some(post) = &self.post {
+            for ((px, q), on) in rgb.data_mut().chunks_exact_mut(3).zip(post).zip(&mask) {
+                if *on {
+                    for c in 0..3 {
+                        px[c] = px[c] * q[0] + q[c + 1];
+                    }
+                }
+            }
+        }
         let image = if self.channels == 1 {
             let grey = rgb.data().chunks_exact(3).map(|p| p[0]).collect();
             Image::from_vec(rgb.width(), rgb.height(), 1, grey).map_err(|e| GpuError::Readback {

@@ -3,6 +3,7 @@
 use bytemuck::{Pod, Zeroable};
 use ifd_render::EnvMap;
 use ifd_render::Pixel;
+use ifd_shade::GltfMaterial;
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
@@ -23,10 +24,10 @@ pub struct SurfacePoint {
     pub roughness: f32,
     /// Unit direction towards the viewer.
     pub wo: [f32; 3],
-    /// Unused.
-    pub pad0: f32,
-    /// The albedo map's value on the object (multiplies the shading), the
-    /// background's radiance elsewhere.
+    /// The glTF BRDF's metalness (unused by other materials).
+    pub metallic: f32,
+    /// The albedo map's value on the object (multiplies the shading; the
+    /// base colour of the glTF BRDF), the background's radiance elsewhere.
     pub color: [f32; 3],
     /// Unused.
     pub pad1: f32,
@@ -41,15 +42,38 @@ impl SurfacePoint {
     /// object (black without one; channel 0 repeated for a grey map).
     #[must_use]
     pub fn from_pixel(p: &Pixel, background: Option<&EnvMap>) -> Self {
+        Self::from_pixel_with(p, background, None)
+    }
+
+    /// [`Self::from_pixel`] for the glTF BRDF `gltf` (the job's material):
+    /// the point's base colour, metalness and roughness, as the CPU renderer
+    /// takes them (a glTF asset's own material, else the BRDF's factors with
+    /// the albedo map's colour and the roughness map's value).
+    #[must_use]
+    pub fn from_pixel_with(
+        p: &Pixel,
+        background: Option<&EnvMap>,
+        gltf: Option<&GltfMaterial>,
+    ) -> Self {
         if let Some(s) = &p.surface {
+            let point = gltf.map(|g| match s.gltf {
+                Some(a) => a.material,
+                None => GltfMaterial {
+                    base: [0, 1, 2].map(|c| (g.base[c] * s.albedo[c]).clamp(0.0, 1.0)),
+                    roughness: s
+                        .roughness
+                        .map_or(g.roughness, |r| ifd_render::alpha_of(r).sqrt()),
+                    ..*g
+                },
+            });
             return Self {
                 normal: f32x3(s.frame.n),
                 hit: 1.0,
                 tangent: f32x3(s.frame.t),
-                roughness: s.roughness.unwrap_or(0.0) as f32,
+                roughness: point.map_or(s.roughness.unwrap_or(0.0), |m| m.roughness) as f32,
                 wo: f32x3(s.wo),
-                pad0: 0.0,
-                color: f32x3(s.albedo),
+                metallic: point.map_or(0.0, |m| m.metallic) as f32,
+                color: f32x3(point.map_or(s.albedo, |m| m.base)),
                 pad1: 0.0,
             };
         }
