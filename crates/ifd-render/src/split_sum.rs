@@ -289,15 +289,7 @@ fn lookup(level: &CubeLevel, d: [f64; 3]) -> [f64; 3] {
         // the texel centre's direction, off the face, on the OpenGL table
         let sc = 2.0 * (i + 0.5) / n as f64 - 1.0;
         let tc = 2.0 * (j + 0.5) / n as f64 - 1.0;
-        let w = match face {
-            0 => [1.0, -tc, -sc],
-            1 => [-1.0, -tc, sc],
-            2 => [sc, 1.0, tc],
-            3 => [sc, -1.0, -tc],
-            4 => [sc, -tc, 1.0],
-            _ => [-sc, -tc, -1.0],
-        };
-        let (f2, s2, t2) = face_coords(w);
+        let (f2, s2, t2) = face_coords(ifd_sphere::cube_face_direction(face, sc, tc));
         let i2 = ((s2 * n as f64) as usize).min(n - 1);
         let j2 = ((t2 * n as f64) as usize).min(n - 1);
         level.get(f2, i2, j2)

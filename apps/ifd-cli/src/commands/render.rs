@@ -452,37 +452,25 @@ impl Render {
             .filter(|_| asset_materials)
             .map(|a| a.roughness_range());
         let family = match (&surface.roughness, method, l_max) {
-            (None, Method::Isd | Method::IsdMaps | Method::Sh, Some(l))
-                if asset_range.is_some() =>
+            (rough, Method::Isd | Method::IsdMaps | Method::Sh, Some(l))
+                if rough.is_some() || asset_range.is_some() =>
             {
                 if !(2..=64).contains(&self.roughness_tables) {
                     bail!("--roughness-tables {}: use 2..=64", self.roughness_tables);
                 }
-                let range = asset_range.unwrap_or((1.0, 1.0));
+                // a roughness map's range, else the glTF asset's
+                let range = match rough {
+                    Some(t) => {
+                        brdf.with_roughness(0.5).context("--roughness-map")?;
+                        t.range()
+                    }
+                    None => asset_range.unwrap_or((1.0, 1.0)),
+                };
                 let bar = progress_bar("roughness tables");
                 let f = RoughnessFamily::build(
                     &tabulated,
                     l,
                     range,
-                    self.roughness_tables,
-                    &|d, n| {
-                        bar.set_length(n as u64);
-                        bar.set_position(d as u64);
-                    },
-                )?;
-                bar.finish_and_clear();
-                Some(f)
-            }
-            (Some(t), Method::Isd | Method::IsdMaps | Method::Sh, Some(l)) => {
-                if !(2..=64).contains(&self.roughness_tables) {
-                    bail!("--roughness-tables {}: use 2..=64", self.roughness_tables);
-                }
-                brdf.with_roughness(0.5).context("--roughness-map")?;
-                let bar = progress_bar("roughness tables");
-                let f = RoughnessFamily::build(
-                    &tabulated,
-                    l,
-                    t.range(),
                     self.roughness_tables,
                     &|d, n| {
                         bar.set_length(n as u64);
