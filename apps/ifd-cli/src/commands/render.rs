@@ -141,8 +141,9 @@ pub struct Render {
     mask: Option<PathBuf>,
     /// Also render the exact oracle (--method quadrature, same scene) and write the per-pixel
     /// difference of the image to it: signed RGB radiance in .exr/.npy; in .png a diverging
-    /// map of the difference averaged over channels (red: brighter than the oracle, blue:
-    /// darker), full scale the largest difference, printed and in the --json report.
+    /// map of the difference relative to the oracle, averaged over channels (red: brighter
+    /// than the oracle, blue: darker), full scale the 99th percentile of the object's relative
+    /// differences, printed and in the --json report.
     #[arg(long, value_name = "FILE")]
     error_map: Option<PathBuf>,
     /// Output image.
@@ -827,21 +828,44 @@ fn write_error_map(
         .collect();
     let max = diff.iter().fold(0.0f32, |m, d| m.max(d.abs()));
     let rms = ifd_render::relative_rms(image, oracle, mask);
+    // the PNG shows the difference relative to the exact value, averaged
+    // over channels
+    let means: Vec<f64> = diff
+        .chunks_exact(ch)
+        .zip(oracle.data().chunks_exact(ch))
+        .map(|(d, o)| {
+            let d = d.iter().map(|v| f64::from(*v)).sum::<f64>();
+            let o = o.iter().map(|v| f64::from(*v)).sum::<f64>();
+            if o > 0.0 { d / o } else { 0.0 }
+        })
+        .collect();
+    // full scale: the 99th percentile of the object's relative differences,
+    // so that a few hot pixels do not wash the map out
+    let mut on: Vec<f64> = means
+        .iter()
+        .zip(mask)
+        .filter(|(_, m)| **m)
+        .map(|(v, _)| v.abs())
+        .collect();
+    on.sort_by(f64::total_cmp);
+    let p99 = on
+        .get((on.len() * 99 / 100).min(on.len().saturating_sub(1)))
+        .copied();
+    let scale = p99.filter(|v| *v > 0.0).unwrap_or(1.0);
     let out = if is_display(path)? {
-        let scale = if max > 0.0 { f64::from(max) } else { 1.0 };
-        let mut rgb = Vec::with_capacity(w * h * 3);
-        for p in diff.chunks_exact(ch) {
-            let mean = p.iter().map(|v| f64::from(*v)).sum::<f64>() / ch as f64;
-            rgb.extend(ifd_plot::diverging(mean / scale));
-        }
+        let rgb = means
+            .iter()
+            .flat_map(|m| ifd_plot::diverging(m / scale))
+            .collect();
         ifd_image::Image::from_vec(w, h, 3, rgb)?
     } else {
         ifd_image::Image::from_vec(w, h, ch, diff)?
     };
     crate::output::write_output(path, &out, &ifd_image::WriteOptions::default())?;
     eprintln!(
-        "note: --error-map {}: relative RMS {rms:.3e} against the oracle, largest difference {max:.3e}",
+        "note: --error-map {}: relative RMS {rms:.3e} against the oracle, largest difference \
+         {max:.3e}; the PNG's full scale is a relative difference of {scale:.3e} (99th percentile)",
         path.display()
     );
-    Ok(json!({"relative_rms": rms, "max_abs_difference": max}))
+    Ok(json!({"relative_rms": rms, "max_abs_difference": max, "png_full_scale": scale}))
 }
