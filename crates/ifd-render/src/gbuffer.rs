@@ -34,6 +34,27 @@ pub struct Surface {
     pub gltf: Option<crate::gltf::GltfPoint>,
 }
 
+impl Surface {
+    /// The glTF material at this point when the job's BRDF is `gltf` with
+    /// factors `brdf`: a glTF asset's own material, else the factors with
+    /// the albedo map's colour multiplying the base colour and the roughness
+    /// map's value replacing the roughness. The CPU renderer and the GPU
+    /// G-buffer both take it from here.
+    #[must_use]
+    pub fn gltf_material(&self, brdf: &ifd_shade::GltfMaterial) -> ifd_shade::GltfMaterial {
+        match self.gltf {
+            Some(p) => p.material,
+            None => ifd_shade::GltfMaterial {
+                base: [0, 1, 2].map(|c| (brdf.base[c] * self.albedo[c]).clamp(0.0, 1.0)),
+                roughness: self
+                    .roughness
+                    .map_or(brdf.roughness, |r| crate::textures::alpha_of(r).sqrt()),
+                ..*brdf
+            },
+        }
+    }
+}
+
 /// One pixel: its ray's direction and what it hits.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pixel {

@@ -6,7 +6,7 @@
 use ifd_image::Image;
 use ifd_shade::Brdf;
 use ifd_shade::SphericalLight;
-use ifd_shade::{BandMaps, Environment, Frame, GltfMaterial, Material, Scratch};
+use ifd_shade::{BandMaps, Environment, Frame, Material, Scratch};
 use rayon::prelude::*;
 
 use crate::camera::Camera;
@@ -380,15 +380,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                     // the glTF material of this point: the BRDF's factors,
                     // the albedo map's colour multiplying the base colour,
                     // the roughness map's value replacing the roughness
-                    let point_gltf = match (surface.gltf, gltf) {
-                        (Some(p), Some(_)) => Some(p.material),
-                        (_, Some(g)) => Some(GltfMaterial {
-                            base: [0, 1, 2].map(|c| (g.base[c] * albedo[c]).clamp(0.0, 1.0)),
-                            roughness: rough.map_or(g.roughness, |r| alpha_of(r).sqrt()),
-                            ..g
-                        }),
-                        _ => None,
-                    };
+                    let point_gltf = gltf.map(|g| surface.gltf_material(&g));
                     // the roughness the ISD family is read at
                     let rough = match (surface.gltf, gltf) {
                         (Some(p), Some(_)) => Some(p.material.roughness),

@@ -56,16 +56,7 @@ impl SurfacePoint {
         gltf: Option<&GltfMaterial>,
     ) -> Self {
         if let Some(s) = &p.surface {
-            let point = gltf.map(|g| match s.gltf {
-                Some(a) => a.material,
-                None => GltfMaterial {
-                    base: [0, 1, 2].map(|c| (g.base[c] * s.albedo[c]).clamp(0.0, 1.0)),
-                    roughness: s
-                        .roughness
-                        .map_or(g.roughness, |r| ifd_render::alpha_of(r).sqrt()),
-                    ..*g
-                },
-            });
+            let point = gltf.map(|g| s.gltf_material(g));
             return Self {
                 normal: f32x3(s.frame.n),
                 hit: 1.0,
