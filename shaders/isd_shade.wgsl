@@ -22,12 +22,13 @@
 // coefficients in a 64 KiB binding, L <= 63.
 //
 // Buffers:
-//   surf     4 vec4 per pixel: (n, hit), (tangent, roughness), (wo,
-//            metallic), (albedo, 0) on the object or (background, 0)
-//            elsewhere; the tangent is already orthogonal to n (ifd_shade's
-//            Frame); MATERIAL_GLTF reads the albedo as the base colour and
-//            combines the three parts' integrals with it and the metalness
-//            (ifd_shade::GltfMaterial::combine).
+//   surf     5 vec4 per pixel: (n, hit), (tangent, roughness), (wo,
+//            metallic), (albedo, occlusion) on the object or (background, 0)
+//            elsewhere, (emission, 0); the tangent is already orthogonal to
+//            n (ifd_shade's Frame); MATERIAL_GLTF reads the albedo as the base
+//            colour, combines the three parts' integrals with it and the
+//            metalness (ifd_shade::GltfMaterial::combine), then scales by a
+//            glTF asset's occlusion and adds its emission.
 //   sh       VARIANT_SH: (L + 1)^2 vec4 (rgb, 0) coefficients e_l^m, index
 //            l (l + 1) + m (zeros in the other variant).
 //   consts   vec4 per k < NB: (sectoral factor of order m = k, sqrt(2m + 3),
@@ -386,10 +387,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = y * params.width + gid.x;
-    let s0 = surf[4u * i];
-    let s1 = surf[4u * i + 1u];
-    let s2 = surf[4u * i + 2u];
-    let s3 = surf[4u * i + 3u];
+    let s0 = surf[5u * i];
+    let s1 = surf[5u * i + 1u];
+    let s2 = surf[5u * i + 2u];
+    let s3 = surf[5u * i + 3u];
     if s0.w < 0.5 {
         out[i] = vec4<f32>(s3.xyz, 0.0);
         return;
@@ -416,9 +417,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let f0 = vec3<f32>(0.04 * (1.0 - m)) + m * base;
             let c_diff = base * (1.0 - m);
             c = f0 * part_acc[0] + part_acc[1] + 0.96 * c_diff * part_acc[2];
-            out[i] = vec4<f32>(c, 1.0);
-            return;
         }
+    }
+    if params.material == MATERIAL_GLTF {
+        // a glTF asset's occlusion scales the environment's light, its
+        // emission adds (1 and 0 elsewhere), as ifd_render applies them
+        out[i] = vec4<f32>(c * s3.w + surf[5u * i + 4u].xyz, 1.0);
+        return;
     }
     out[i] = vec4<f32>(c * s3.xyz, 1.0);
 }

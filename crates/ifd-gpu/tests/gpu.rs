@@ -1551,6 +1551,32 @@ mod shading {
             method: Method::Isd,
         };
         check("gltf roughness + base colour maps", &env, &case);
+        // a glTF asset with its own textures: the kernel applies its
+        // occlusion and emission (the bundled textured.glb has both)
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/textured.glb");
+        let scene = Scene::parse(path, false).expect("the bundled asset");
+        let Scene::Gltf(asset) = &scene else {
+            panic!("{path} is not read as a glTF asset")
+        };
+        let brdf = Brdf::parse("gltf").expect("brdf");
+        let parts = brdf.tabulated().expect("parts");
+        let family = RoughnessFamily::build(&parts, 6, asset.roughness_range(), 3, &|_, _| {})
+            .expect("family");
+        let case = Case {
+            brdf: &brdf,
+            material: None,
+            family: Some(&family),
+            maps: None,
+            scene: scene.clone(),
+            size: 48,
+            l_max: 6,
+            method: Method::Isd,
+        };
+        check(
+            "a glTF asset's materials, occlusion and emission",
+            &env,
+            &case,
+        );
     }
 
     #[test]

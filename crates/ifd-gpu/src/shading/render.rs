@@ -20,9 +20,6 @@ pub struct GpuRender {
     material: GpuMaterial,
     channels: usize,
     object_pixels: usize,
-    /// A glTF asset's ambient occlusion and emission per pixel, applied to
-    /// the shaded frame as the CPU renderer applies them.
-    post: Option<Vec<[f32; 4]>>,
 }
 
 impl GpuRender {
@@ -78,17 +75,6 @@ impl GpuRender {
             .iter()
             .map(|p| SurfacePoint::from_pixel_with(p, job.background, gltf.as_ref()))
             .collect();
-        let post = asset.then(|| {
-            px.iter()
-                .map(|p| match p.surface.and_then(|s| s.gltf) {
-                    Some(g) => {
-                        let e = g.emissive.map(|v| v as f32);
-                        [g.occlusion as f32, e[0], e[1], e[2]]
-                    }
-                    None => [1.0, 0.0, 0.0, 0.0],
-                })
-                .collect()
-        });
         let surfaces = GpuSurfaces::upload(ctx, w, h, &points)?;
         let shader = GpuShader::new(ctx)?;
         // compile now, so that the first frame's time is the shading's
@@ -100,7 +86,6 @@ impl GpuRender {
             material,
             channels: ch,
             object_pixels,
-            post,
         })
     }
 
@@ -125,16 +110,7 @@ impl GpuRender {
     /// # Errors
     /// As [`GpuShaded::read`].
     pub fn rendered(&self, ctx: &GpuContext, shaded: &GpuShaded) -> Result<Rendered, GpuError> {
-        let (mut rgb, mask) = shaded.read(ctx)?;
-        if let Some(post) = &self.post {
-            for ((px, q), on) in rgb.data_mut().chunks_exact_mut(3).zip(post).zip(&mask) {
-                if *on {
-                    for c in 0..3 {
-                        px[c] = px[c] * q[0] + q[c + 1];
-                    }
-                }
-            }
-        }
+        let (rgb, mask) = shaded.read(ctx)?;
         let image = if self.channels == 1 {
             let grey = rgb.data().chunks_exact(3).map(|p| p[0]).collect();
             Image::from_vec(rgb.width(), rgb.height(), 1, grey).map_err(|e| GpuError::Readback {

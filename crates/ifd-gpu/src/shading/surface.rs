@@ -9,7 +9,7 @@ use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::wgpu_helpers::buffer_init;
 
-/// One pixel of the G-buffer, as `shaders/isd_shade.wgsl` reads it (four
+/// One pixel of the G-buffer, as `shaders/isd_shade.wgsl` reads it (five
 /// `vec4<f32>`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -29,8 +29,14 @@ pub struct SurfacePoint {
     /// The albedo map's value on the object (multiplies the shading; the
     /// base colour of the glTF BRDF), the background's radiance elsewhere.
     pub color: [f32; 3],
+    /// A glTF asset's ambient occlusion (scales the environment's light; 1
+    /// elsewhere; read by the glTF BRDF only).
+    pub occlusion: f32,
+    /// A glTF asset's emitted radiance, added after the occlusion (0
+    /// elsewhere; read by the glTF BRDF only).
+    pub emissive: [f32; 3],
     /// Unused.
-    pub pad1: f32,
+    pub pad: f32,
 }
 
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
@@ -48,7 +54,8 @@ impl SurfacePoint {
     /// [`Self::from_pixel`] for the glTF BRDF `gltf` (the job's material):
     /// the point's base colour, metalness and roughness, as the CPU renderer
     /// takes them (a glTF asset's own material, else the BRDF's factors with
-    /// the albedo map's colour and the roughness map's value).
+    /// the albedo map's colour and the roughness map's value), and a glTF
+    /// asset's occlusion and emission.
     #[must_use]
     pub fn from_pixel_with(
         p: &Pixel,
@@ -57,6 +64,7 @@ impl SurfacePoint {
     ) -> Self {
         if let Some(s) = &p.surface {
             let point = gltf.map(|g| s.gltf_material(g));
+            let asset = s.gltf.filter(|_| gltf.is_some());
             return Self {
                 normal: f32x3(s.frame.n),
                 hit: 1.0,
@@ -65,7 +73,9 @@ impl SurfacePoint {
                 wo: f32x3(s.wo),
                 metallic: point.map_or(0.0, |m| m.metallic) as f32,
                 color: f32x3(point.map_or(s.albedo, |m| m.base)),
-                pad1: 0.0,
+                occlusion: asset.map_or(1.0, |a| a.occlusion) as f32,
+                emissive: f32x3(asset.map_or([0.0; 3], |a| a.emissive)),
+                pad: 0.0,
             };
         }
         let mut c = [0.0; 3];
