@@ -87,6 +87,13 @@ def test_bad_input_exits_2_with_a_message(tmp_path):
     assert p.returncode == 2 and "bad.hdr" in p.stderr and "panicked" not in p.stderr, p.stderr
     p = run_window(tmp_path, "--reset", "--brdf", "velvet", "--exit", check=False)
     assert p.returncode == 2 and "velvet" in p.stderr, p.stderr
+    # a glTF file that is not one, and a comparison without the glTF BRDF
+    (tmp_path / "bad.glb").write_bytes(b"glTF\x02\x00\x00\x00\xff\xff")
+    p = run_window(tmp_path, "--reset", "--scene", tmp_path / "bad.glb", "--exit", check=False)
+    assert p.returncode == 2 and "bad.glb" in p.stderr and "panicked" not in p.stderr, p.stderr
+    p = run_window(tmp_path, "--reset", "--brdf", "ggx:alpha=0.3", "--compare", "split-sum",
+                   "--exit", check=False)
+    assert p.returncode == 2 and "glTF BRDF" in p.stderr, p.stderr
     # the old spelling of --device is refused with the new one, not reinterpreted
     p = run_window(tmp_path, "--reset", "--gpu", "on", "--exit", check=False)
     assert p.returncode == 2 and "--device auto|gpu|cpu" in p.stderr, p.stderr
@@ -103,3 +110,61 @@ def test_monte_carlo_reference_and_error_against_l(tmp_path):
     curve = [c["rel_rms"] for c in r["curve"]]
     assert [c["lmax"] for c in r["curve"]] == [2, 4, 6, 8], r
     assert curve[0] > 1.5 * curve[-1], curve
+
+
+# the bundled textured asset: base colour, metal-roughness, normal, occlusion and emission
+# textures; the view's eye given so that the window's framing and `ifd render` agree
+GLTF_VIEW = ["--lmax", 6, "--size", "160x120", "--eye", "2.2,-2.0,1.0", "--target", "0,0,0"]
+
+
+@pytest.mark.parametrize("device", ["gpu", "cpu"])
+def test_gltf_asset_in_the_window_matches_ifd_render(run_ifd, tmp_path, device):
+    """A glTF asset opened with --scene is shaded with its own materials (a roughness family
+    over its range, occlusion and emission in the kernel on the GPU path) and equals `ifd render
+    --scene` of the same view within 2 of 255 levels."""
+    import cv2
+    asset = TESTDATA / "textured.glb"
+    shot = tmp_path / "shot.png"
+    p = run_window(tmp_path, "--reset", "--scene", asset, *GLTF_VIEW, "--device", device,
+                   "--screenshot", shot, "--exit", "--json")
+    vp = json.loads(p.stdout.strip().splitlines()[-1])["viewport"]
+    run_ifd("render", "--env", TESTDATA / "forest.hdr", "--scene", asset, *GLTF_VIEW,
+            "--roughness-tables", 6, "--method", "isd", "-o", tmp_path / "ref.png")
+    ref = cv2.imread(str(tmp_path / "ref.png")).astype(int)
+    crop = cv2.imread(str(shot)).astype(int)[vp["y"]:vp["y"] + 120, vp["x"]:vp["x"] + 160]
+    diff = np.abs(crop - ref)
+    assert diff.max() <= 2, (device, diff.max(), (diff > 2).sum())
+    persisted = (tmp_path / "state" / "app.ron").read_text()
+    assert "textured.glb" in persisted and 'brdf:\\"gltf\\"' in persisted, persisted[:300]
+
+
+@pytest.mark.parametrize("device,compare,method", [
+    ("gpu", "split-sum", "split-sum"),
+    ("cpu", "sample-renderer", "split-sum-sample-renderer"),
+])
+def test_split_sum_beside_isd_reports_its_difference(run_ifd, tmp_path, device, compare, method):
+    """--compare shows an engine's split sum beside ISD's image; the numbers it reports (status
+    bar, --json) are the split sum's difference from ISD over the object, as computed here from
+    `ifd render --method isd` and `--method <split sum>` of the same view."""
+    asset = TESTDATA / "textured.glb"
+    p = run_window(tmp_path, "--reset", "--scene", asset, *GLTF_VIEW, "--device", device,
+                   "--compare", compare, "--screenshot", tmp_path / "shot.png", "--exit", "--json")
+    r = json.loads(p.stdout.strip().splitlines()[-1])["split_sum"]
+    view = ["--env", TESTDATA / "forest.hdr", "--scene", asset, *GLTF_VIEW]
+    run_ifd("render", *view, "--roughness-tables", 6, "--method", "isd", "-o",
+            tmp_path / "isd.npy", "--mask", tmp_path / "mask.png")
+    run_ifd("render", *view, "--method", method, "-o", tmp_path / "ss.npy")
+    import cv2
+    on = cv2.imread(str(tmp_path / "mask.png"), cv2.IMREAD_GRAYSCALE) > 127
+    isd = np.load(tmp_path / "isd.npy").astype(np.float64)[on]
+    ss = np.load(tmp_path / "ss.npy").astype(np.float64)[on]
+    rel = np.sqrt(((ss - isd) ** 2).sum() / (isd ** 2).sum())
+    assert r["rel_rms"] > 1e-3, r
+    assert abs(r["rel_rms"] - rel) <= 0.01 * rel, (r, rel)
+    # the 95th percentile of the per-pixel relative difference (channel sums), the colour
+    # map's full scale
+    # relative to ISD's value, floored at 5% of its mean over the object (ifd_render::Difference)
+    tot = isd.sum(-1)
+    d = np.abs((ss - isd).sum(-1) / np.maximum(tot, 0.05 * tot.mean()))
+    p95 = np.sort(d)[min(len(d) * 95 // 100, len(d) - 1)]
+    assert abs(r["relative_p95"] - p95) <= 0.02 * p95 + 1e-6, (r, p95)

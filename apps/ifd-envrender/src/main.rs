@@ -8,9 +8,9 @@ use std::sync::{Arc, Mutex};
 use anyhow::Context as _;
 use clap::Parser;
 use glam::DVec3;
-use ifd_envrender::app::{Automation, EnvApp, ReferenceReport, StartOptions};
+use ifd_envrender::app::{Automation, EnvApp, ReferenceReport, SplitSumReport, StartOptions};
 use ifd_envrender::orbit::Orbit;
-use ifd_envrender::settings::{STORAGE_KEY, Settings, Variant};
+use ifd_envrender::settings::{Compare, STORAGE_KEY, Settings, Variant, is_gltf};
 use ifd_gpu::DeviceChoice;
 
 /// Look at an object lit by an environment map, shaded by ISD (Eq. 22) on
@@ -31,7 +31,9 @@ struct Args {
     /// Maximum SH degree L.
     #[arg(long, value_name = "L")]
     lmax: Option<usize>,
-    /// A built-in shape (sphere, torus, plane) or a path to an .obj file.
+    /// A built-in shape (sphere, torus, plane), an .obj file, or a glTF asset
+    /// (.gltf/.glb: shaded with its own materials, --brdf gltf, unless --brdf
+    /// says otherwise). A file is framed.
     #[arg(long, value_name = "SCENE")]
     scene: Option<String>,
     /// Evaluation of the per-band environment.
@@ -93,7 +95,16 @@ struct Args {
     /// from 64, the error-against-L curve); prints the errors (JSON with --json).
     #[arg(long, value_name = "N", requires = "reference")]
     reference_spp: Option<usize>,
-    /// Print the report of --screenshot and --reference-spp as JSON (machine-readable)
+    /// Show an engine's split-sum approximation of the frame beside ISD's
+    /// (its difference, or the image with --compare-image), the numbers in
+    /// the status bar; glTF BRDF only. With --exit: wait for it and print
+    /// them.
+    #[arg(long, value_enum, conflicts_with = "reference")]
+    compare: Option<CompareArg>,
+    /// With --compare: show the split-sum image instead of its difference.
+    #[arg(long, requires = "compare")]
+    compare_image: bool,
+    /// Print the report of --screenshot, --reference-spp and --compare as JSON (machine-readable)
     /// instead of a human summary.
     #[arg(long)]
     json: bool,
@@ -106,6 +117,19 @@ enum VariantArg {
     Sh,
     /// Per-band prefiltered maps.
     Maps,
+}
+
+/// `--compare` values.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum CompareArg {
+    /// No comparison (overrides the stored setting).
+    Off,
+    /// The split sum with ISD's own BRDF split: the approximation's own
+    /// error (`ifd render --method split-sum`).
+    SplitSum,
+    /// glTF-Sample-Renderer's shader as written (`ifd render --method
+    /// split-sum-sample-renderer`).
+    SampleRenderer,
 }
 
 /// `--tonemap` values (as `ifd render --tonemap`).
@@ -153,7 +177,38 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
         s.l_max = l;
     }
     if let Some(sc) = &args.scene {
-        s.scene.clone_from(sc);
+        if is_gltf(sc) || sc.to_lowercase().ends_with(".obj") {
+            // framed; a glTF asset brings its materials
+            s.open_scene(std::path::Path::new(sc));
+            if let Some(b) = &args.brdf {
+                s.brdf.clone_from(b);
+            }
+        } else {
+            s.scene.clone_from(sc);
+        }
+    }
+    if let Some(c) = args.compare {
+        s.compare = match c {
+            CompareArg::Off => Compare::Off,
+            CompareArg::SplitSum => Compare::SplitSum,
+            CompareArg::SampleRenderer => Compare::SampleRenderer,
+        };
+        if s.compare != Compare::Off {
+            s.reference = false;
+        }
+    }
+    if args.compare_image {
+        s.compare_image = true;
+    }
+    if s.compare != Compare::Off
+        && ifd_shade::Brdf::parse(&s.brdf).is_ok_and(|b| b.gltf_material().is_none())
+        && args.compare.is_some()
+    {
+        anyhow::bail!(
+            "--compare: the split sum shades the glTF BRDF, not {} (--brdf gltf:.. or a glTF \
+             asset, --scene FILE.glb)",
+            s.brdf
+        );
     }
     if let Some(v) = args.variant {
         s.variant = match v {
@@ -208,6 +263,7 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
     }
     if args.reference {
         s.reference = true;
+        s.compare = Compare::Off;
     }
     if let Some(p) = &args.albedo_map {
         s.albedo_map = Some(p.clone());
@@ -229,6 +285,16 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
 fn run(args: &Args) -> anyhow::Result<()> {
     // check the options before a window opens
     settings(args, None)?;
+    if let Some(sc) = args.scene.as_deref().filter(|sc| is_gltf(sc)) {
+        // a bad asset is reported here, not in a window
+        let scene = ifd_render::Scene::parse(sc, false).with_context(|| format!("--scene {sc}"))?;
+        if let ifd_render::Scene::Gltf(a) = scene {
+            for note in a.notes() {
+                eprintln!("note: {sc}: {note}");
+            }
+        }
+    }
+    let split_sum = Arc::new(Mutex::new(None::<SplitSumReport>));
     let failure = Arc::new(Mutex::new(None::<String>));
     let viewport = Arc::new(Mutex::new(None::<[usize; 4]>));
     let reference = Arc::new(Mutex::new(None::<ReferenceReport>));
@@ -239,6 +305,7 @@ fn run(args: &Args) -> anyhow::Result<()> {
         viewport: Arc::clone(&viewport),
         reference_spp: args.reference_spp,
         reference: Arc::clone(&reference),
+        split_sum: Arc::clone(&split_sum),
     };
     let gpu = DeviceChoice::from(args.device);
     let options = eframe::NativeOptions {
@@ -304,6 +371,13 @@ fn run(args: &Args) -> anyhow::Result<()> {
             "curve": curve.iter().map(|(l, e)| serde_json::json!({"lmax": l, "rel_rms": e})).collect::<Vec<_>>(),
         });
     }
+    if let Some(r) = split_sum.lock().ok().and_then(|mut r| r.take()) {
+        let d = &r.difference;
+        report["split_sum"] = serde_json::json!({
+            "rel_rms": d.relative_rms, "psnr_db": d.psnr_db, "max_abs": d.max_abs,
+            "relative_p95": d.full_scale, "seconds": r.seconds,
+        });
+    }
     if report.as_object().is_some_and(|o| !o.is_empty()) {
         if args.json {
             println!("{report}");
@@ -324,6 +398,18 @@ fn human(report: &serde_json::Value) -> String {
             s,
             "viewport   {}x{} at {},{}",
             v["width"], v["height"], v["x"], v["y"]
+        );
+    }
+    if let Some(r) = report.get("split_sum") {
+        let _ = writeln!(
+            s,
+            "split sum  against ISD: relative RMS {:.4e}, PSNR {:.2} dB, 95% of pixels within \
+             {:.2}%, largest difference {:.4e} ({:.2} s)",
+            r["rel_rms"].as_f64().unwrap_or(f64::NAN),
+            r["psnr_db"].as_f64().unwrap_or(f64::NAN),
+            100.0 * r["relative_p95"].as_f64().unwrap_or(f64::NAN),
+            r["max_abs"].as_f64().unwrap_or(f64::NAN),
+            r["seconds"].as_f64().unwrap_or(f64::NAN),
         );
     }
     if let Some(r) = report.get("reference") {

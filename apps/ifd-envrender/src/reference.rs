@@ -17,24 +17,25 @@ use ifd_shade::Brdf;
 use ifd_shade::Material;
 
 use crate::settings::{Settings, bundled_env};
-use crate::worker::{build_material, load_env};
+use crate::worker::{build_material, load_env, load_maps};
 
 /// The maps of a path and rotation (the full map and the integrated one).
 type EnvCache = Option<((PathBuf, u64), Arc<(EnvMap, EnvMap)>)>;
 
 /// What every render of the view shares: scene, camera, environment,
-/// background, BRDF.
+/// background, BRDF, texture maps.
 type View<'a> = (
     &'a Scene,
     ifd_render::Camera,
     &'a EnvMap,
     Option<&'a EnvMap>,
     &'a Brdf,
+    &'a ifd_render::SurfaceMaps,
 );
 
 /// A render job of the view.
 fn job<'a>(
-    (scene, camera, env, background, brdf): View<'a>,
+    (scene, camera, env, background, brdf, maps): View<'a>,
     method: Method,
     material: Option<&'a Material>,
     spp: usize,
@@ -44,6 +45,7 @@ fn job<'a>(
         background,
         spp,
         seed,
+        maps: Some(maps),
         ..Job::new(scene.clone(), camera, env, brdf, material, method)
     }
 }
@@ -156,6 +158,11 @@ fn refine(
     };
     let brdf = Brdf::parse(&s.brdf).with_context(|| format!("BRDF {:?}", s.brdf))?;
     let scene = Scene::parse(&s.scene, false)?;
+    let surface = load_maps(&(s.albedo_map.clone(), s.roughness_map.clone()))?;
+    // ISD at other degrees with one material: not for a roughness map or a
+    // glTF asset's own materials (each degree would need a table family)
+    let one_material = surface.roughness.is_none()
+        && !(matches!(scene, Scene::Gltf(_)) && brdf.gltf_material().is_some());
     let camera = s.camera.camera(s.size[0], s.size[1])?;
     let view: View<'_> = (
         &scene,
@@ -163,6 +170,7 @@ fn refine(
         &maps.1,
         s.background.then_some(&maps.0),
         &brdf,
+        &surface,
     );
     let mut mean: Option<(Vec<f64>, Vec<bool>, usize, usize)> = None;
     let mut spp = 0;
@@ -206,9 +214,14 @@ fn refine(
             spp,
         });
         if CURVE_AT.contains(&spp) {
-            let points = curve(s, &brdf, &image, &m.1, |material, method| {
-                Ok(render(&job(view, method, Some(material), 0, 0), &|_, _| {})?.image)
-            })?;
+            // empty without one material (the panel says why)
+            let points = if one_material {
+                curve(s, &brdf, &image, &m.1, |material, method| {
+                    Ok(render(&job(view, method, Some(material), 0, 0), &|_, _| {})?.image)
+                })?
+            } else {
+                Vec::new()
+            };
             send(RefEvent::Curve {
                 generation: req.generation,
                 points,
@@ -230,8 +243,9 @@ fn curve(
     let mut degrees: Vec<usize> = (2..s.l_max).step_by(2).collect();
     degrees.push(s.l_max);
     let mut points = Vec::new();
+    let tabulated = brdf.tabulated()?;
     for l in degrees {
-        let material = build_material(brdf, l, &|_, _| {})?;
+        let material = build_material(&tabulated, l, &|_, _| {})?;
         let img = render_isd(&material, Method::Isd)?;
         points.push((l, relative_rms(&img, reference, mask)));
     }

@@ -16,6 +16,20 @@ pub enum Variant {
     Maps,
 }
 
+/// What the view beside the ISD image shows for the glTF BRDF: nothing, or
+/// an engine's split-sum approximation of the same frame (`ifd render
+/// --method split-sum` / `split-sum-sample-renderer`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Compare {
+    /// No comparison.
+    #[default]
+    Off,
+    /// The split sum with ISD's own BRDF split (its approximation alone).
+    SplitSum,
+    /// glTF-Sample-Renderer's shader as written.
+    SampleRenderer,
+}
+
 /// Everything that determines the rendered image.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -52,6 +66,40 @@ pub struct Settings {
     pub albedo_map: Option<PathBuf>,
     /// Roughness map (`ifd render --roughness-map`; isotropic GGX or Ward).
     pub roughness_map: Option<PathBuf>,
+    /// The split-sum comparison (glTF BRDF only).
+    pub compare: Compare,
+    /// With a comparison: show the split-sum image beside ISD's (else their
+    /// difference).
+    pub compare_image: bool,
+}
+
+impl Settings {
+    /// Whether the scene is a glTF asset (`.gltf`/`.glb`).
+    #[must_use]
+    pub fn scene_is_gltf(&self) -> bool {
+        is_gltf(&self.scene)
+    }
+
+    /// Opens a scene file: an OBJ mesh, or a glTF asset shaded with its own
+    /// materials (the BRDF becomes `gltf` unless it is one already); either
+    /// is framed (meshes are fitted to the unit sphere).
+    pub fn open_scene(&mut self, path: &std::path::Path) {
+        self.scene = path.to_string_lossy().into_owned();
+        if self.scene_is_gltf() && !self.brdf.starts_with("gltf:") && self.brdf != "gltf" {
+            "gltf".clone_into(&mut self.brdf);
+            self.albedo_map = None;
+            self.roughness_map = None;
+        }
+        self.camera.frame(1.0);
+    }
+}
+
+/// Whether `scene` names a glTF file.
+#[must_use]
+pub fn is_gltf(scene: &str) -> bool {
+    std::path::Path::new(scene)
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
 }
 
 impl Default for Settings {
@@ -72,6 +120,8 @@ impl Default for Settings {
             reference: false,
             albedo_map: None,
             roughness_map: None,
+            compare: Compare::Off,
+            compare_image: false,
         }
     }
 }

@@ -17,12 +17,12 @@ use ifd_render::EnvMap;
 use ifd_render::Scene;
 use ifd_render::Tonemap;
 use ifd_render::{Job, Method, render};
-use ifd_render::{RoughnessFamily, SurfaceMaps, Texture};
+use ifd_render::{RoughnessFamily, SplitSum, SurfaceMaps, Texture};
 use ifd_shade::Brdf;
 use ifd_shade::{BandMaps, Environment, Material};
 use ifd_shade::{LobeTable, default_theta_entries};
 
-use crate::settings::{Settings, Variant, bundled_env};
+use crate::settings::{Compare, Settings, Variant, bundled_env};
 
 /// What the worker tells the UI.
 #[derive(Debug)]
@@ -38,6 +38,16 @@ pub enum Event {
     Info(Info),
     /// A frame to show.
     Frame(Frame),
+    /// The split-sum image of the last frame ([`Settings::compare`]), linear
+    /// radiance, with its object mask.
+    SplitSum {
+        /// The image.
+        image: Arc<ifd_image::Image>,
+        /// Object pixels, row-major.
+        mask: Arc<Vec<bool>>,
+        /// Bake (when the map changed) and render time, seconds.
+        seconds: f64,
+    },
 }
 
 /// The current scene, for the status bar.
@@ -148,13 +158,27 @@ struct Cache {
     family: Slot<(String, usize, MapKey), RoughnessFamily>,
     gpu_env: Slot<(PathBuf, u64, usize, Variant), GpuEnvironment>,
     gpu_material: Slot<(String, usize, MapKey), GpuMaterial>,
+    split_sum: Slot<EnvKey, SplitSum>,
+}
+
+/// What a frame was rendered from, for the split-sum comparison after it.
+struct Shaded {
+    maps: Arc<(EnvMap, EnvMap)>,
+    env_key: EnvKey,
+    brdf: Brdf,
+    scene: Scene,
+    camera: ifd_render::Camera,
+    surface: Arc<SurfaceMaps>,
 }
 
 /// The albedo and roughness maps' paths.
 type MapKey = (Option<PathBuf>, Option<PathBuf>);
 
 /// Reads the texture maps (8/16-bit albedo sRGB-decoded, as `ifd render`).
-fn load_maps((albedo, roughness): &MapKey) -> Result<SurfaceMaps> {
+///
+/// # Errors
+/// A map that cannot be read.
+pub(crate) fn load_maps((albedo, roughness): &MapKey) -> Result<SurfaceMaps> {
     let read = |p: &PathBuf, srgb: bool, what: &'static str| -> Result<Texture> {
         let opts = ifd_image::ReadOptions {
             srgb_decode: srgb,
@@ -200,7 +224,51 @@ fn cached<K: PartialEq + Clone, V>(
 }
 
 impl Worker {
+    /// The frame of `s`, then its split-sum comparison when asked.
     fn update(&mut self, s: &Settings, send: &(dyn Fn(Event) -> bool + Sync)) -> Result<()> {
+        let shaded = self.frame(s, send)?;
+        let variant = match s.compare {
+            Compare::Off => return Ok(()),
+            Compare::SplitSum => Method::SplitSum,
+            Compare::SampleRenderer => Method::SplitSumSampleRenderer,
+        };
+        if shaded.brdf.gltf_material().is_none() {
+            // the panel says so; nothing to compare
+            return Ok(());
+        }
+        let t = Instant::now();
+        let env = &shaded.maps.1;
+        let split = cached(&mut self.cache.split_sum, &shaded.env_key, || {
+            send(Event::Progress(
+                "baking the split sum (256-texel chain, irradiance, DFG)".into(),
+            ));
+            Ok(SplitSum::bake(env, 256)?)
+        })?;
+        send(Event::Progress("rendering the split sum".into()));
+        let job = Job {
+            maps: Some(&shaded.surface),
+            split_sum: Some(&split),
+            ..Job::new(
+                shaded.scene,
+                shaded.camera,
+                env,
+                &shaded.brdf,
+                None,
+                variant,
+            )
+        };
+        let r = render(&job, &|_, _| {})?;
+        send(Event::SplitSum {
+            image: Arc::new(r.image),
+            mask: Arc::new(r.mask),
+            seconds: t.elapsed().as_secs_f64(),
+        });
+        Ok(())
+    }
+
+    /// Prepares and shades the frame of `s` (on the GPU: its inputs, shaded
+    /// by the UI in bands).
+    fn frame(&mut self, s: &Settings, send: &(dyn Fn(Event) -> bool + Sync)) -> Result<Shaded> {
         let path = s.env.clone().unwrap_or_else(bundled_env);
         let rot = s.env_rotate.to_bits();
         let env_key = (path.clone(), rot);
@@ -209,6 +277,7 @@ impl Worker {
             load_env(&path, s.env_rotate)
         })?;
         let (full, env) = (&maps.0, &maps.1);
+        let maps_arc = Arc::clone(&maps);
         let l = s.l_max;
         let sh_key = (path.clone(), rot, l);
         let sh = cached(&mut self.cache.sh, &sh_key, || {
@@ -224,15 +293,45 @@ impl Worker {
             None
         };
         let brdf = Brdf::parse(&s.brdf).with_context(|| format!("BRDF {:?}", s.brdf))?;
+        // what ISD tabulates: the glTF BRDF's three parts, else the BRDF
+        let tabulated = brdf.tabulated()?;
+        let scene = match &self.cache.scene {
+            Some((name, sc)) if *name == s.scene => sc.clone(),
+            _ => {
+                send(Event::Progress(format!("loading the scene {}", s.scene)));
+                let sc = Scene::parse(&s.scene, false)?;
+                self.cache.scene = Some((s.scene.clone(), sc.clone()));
+                sc
+            }
+        };
+        // a glTF asset shaded with its own materials (the BRDF `gltf`)
+        let asset_range = match &scene {
+            Scene::Gltf(a) if brdf.gltf_material().is_some() => Some(a.roughness_range()),
+            _ => None,
+        };
         let map_key: MapKey = (s.albedo_map.clone(), s.roughness_map.clone());
+        if asset_range.is_some() && (map_key.0.is_some() || map_key.1.is_some()) {
+            anyhow::bail!(
+                "the glTF asset {} brings its own textures: clear the albedo and roughness maps \
+                 (or choose another BRDF to shade its geometry with them)",
+                s.scene
+            );
+        }
         let surface = cached(&mut self.cache.surface, &map_key, || load_maps(&map_key))?;
-        // a roughness map: a family of tables over its range, as `ifd render`
-        let family = match &surface.roughness {
-            Some(t) => {
+        // a roughness map or a glTF asset: a family of tables over its range,
+        // as `ifd render`
+        let range = match (&surface.roughness, asset_range) {
+            (Some(t), _) => {
                 brdf.with_roughness(0.5).context("the roughness map")?;
-                let key = (s.brdf.clone(), l, map_key.clone());
+                Some(t.range())
+            }
+            (None, r) => r,
+        };
+        let family = match range {
+            Some(range) => {
+                let key = (format!("{} {}", s.brdf, s.scene), l, map_key.clone());
                 Some(cached(&mut self.cache.family, &key, || {
-                    Ok(RoughnessFamily::build(&brdf, l, t.range(), 6, &|d, n| {
+                    Ok(RoughnessFamily::build(&tabulated, l, range, 6, &|d, n| {
                         send(Event::Progress(format!("roughness tables {d}/{n}")));
                     })?)
                 })?)
@@ -246,21 +345,12 @@ impl Worker {
                 f.materials()[0].table().cloned(),
             )?),
             None => cached(&mut self.cache.material, &(s.brdf.clone(), l), || {
-                build_material(&brdf, l, &|d, n| {
+                build_material(&tabulated, l, &|d, n| {
                     if d % 8 == 0 || d == n {
                         send(Event::Progress(format!("lobe table {d}/{n}")));
                     }
                 })
             })?,
-        };
-        let scene = match &self.cache.scene {
-            Some((name, sc)) if *name == s.scene => sc.clone(),
-            _ => {
-                send(Event::Progress(format!("loading the scene {}", s.scene)));
-                let sc = Scene::parse(&s.scene, false)?;
-                self.cache.scene = Some((s.scene.clone(), sc.clone()));
-                sc
-            }
         };
         if !brdf.is_isotropic() && !scene.has_tangents() {
             anyhow::bail!(
@@ -295,6 +385,14 @@ impl Worker {
         let [w, h] = s.size;
         let camera = s.camera.camera(w, h)?;
         let background = s.background.then_some(full);
+        let shaded = Shaded {
+            maps: Arc::clone(&maps_arc),
+            env_key: env_key.clone(),
+            brdf: brdf.clone(),
+            scene: scene.clone(),
+            camera,
+            surface: Arc::clone(&surface),
+        };
         if let Some((ctx, shader)) = &self.gpu {
             let gkey = (path, rot, l, s.variant);
             let uploads = cached(&mut self.cache.gpu_env, &gkey, || {
@@ -304,7 +402,7 @@ impl Worker {
                 })
             })
             .and_then(|e| {
-                let key = (s.brdf.clone(), l, map_key.clone());
+                let key = (format!("{} {}", s.brdf, s.scene), l, map_key.clone());
                 let m = cached(&mut self.cache.gpu_material, &key, || {
                     Ok(match &family {
                         Some(f) => GpuMaterial::family(ctx, f)?,
@@ -319,7 +417,7 @@ impl Worker {
                 Ok(u) => u,
                 Err(e) => {
                     send(Event::Fallback(format!("{e:#}")));
-                    return Self::render_cpu(
+                    Self::render_cpu(
                         s,
                         scene,
                         camera,
@@ -328,15 +426,17 @@ impl Worker {
                         &brdf,
                         (&material, &surface, family.as_deref()),
                         send,
-                    );
+                    )?;
+                    return Ok(shaded);
                 }
             };
             // the kernel for this degree, compiled here rather than on the UI thread
             shader.pipeline(ctx, l)?;
+            let gltf = brdf.gltf_material();
             let px = ifd_render::pixels(&scene, &camera, Some(&surface))?;
             let points: Vec<SurfacePoint> = px
                 .iter()
-                .map(|p| SurfacePoint::from_pixel(p, background))
+                .map(|p| SurfacePoint::from_pixel_with(p, background, gltf.as_ref()))
                 .collect();
             let surfaces = Arc::new(GpuSurfaces::upload(ctx, w, h, &points)?);
             let row_objects = px
@@ -349,7 +449,7 @@ impl Worker {
                 material: gmat,
                 row_objects,
             }));
-            return Ok(());
+            return Ok(shaded);
         }
         Self::render_cpu(
             s,
@@ -360,7 +460,8 @@ impl Worker {
             &brdf,
             (&material, &surface, family.as_deref()),
             send,
-        )
+        )?;
+        Ok(shaded)
     }
 
     /// The frame on the CPU (`ifd_render::render`), display-transformed.
@@ -384,7 +485,15 @@ impl Worker {
             background,
             maps: Some(surface),
             family,
-            ..Job::new(scene, camera, env, brdf, Some(material), method)
+            // a family (roughness map, glTF asset) shades alone
+            ..Job::new(
+                scene,
+                camera,
+                env,
+                brdf,
+                family.is_none().then_some(material),
+                method,
+            )
         };
         let r = render(&job, &|_, _| {})?;
         let tm = Tonemap::parse(&s.tonemap)?;

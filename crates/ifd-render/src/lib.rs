@@ -34,7 +34,9 @@
 //!   scene's triangles as a [`Mesh`], its metallic-roughness materials and
 //!   textures evaluated at a [`Hit`] as a [`GltfPoint`], its [`GltfCamera`]);
 //! - **rendering**: [`render`] a [`Job`] by a [`Method`] into a [`Rendered`]
-//!   image, measured by [`relative_rms`]; what each pixel's ray sees
+//!   image, compared with a reference by [`relative_rms`] and
+//!   [`Difference`] (the per-pixel relative difference error maps show);
+//!   what each pixel's ray sees
 //!   ([`pixel`], [`pixels`], [`Pixel`], [`Surface`]: the G-buffer the GPU path
 //!   shades too); the references: the exact texel quadrature ([`Oracle`],
 //!   [`ORACLE_TOLERANCE`], [`ORACLE_MAX_K`]) and Monte Carlo ([`EnvSampler`],
@@ -54,6 +56,7 @@
 //! - **display**: [`Tonemap`] (exposure, tone curves, sRGB).
 
 mod camera;
+mod difference;
 mod envmap;
 mod error;
 mod gbuffer;
@@ -71,6 +74,7 @@ mod tonemap;
 mod visibility;
 
 pub use crate::camera::Camera;
+pub use crate::difference::{Difference, relative_rms};
 pub use crate::envmap::EnvMap;
 pub use crate::error::{RenderError, Result};
 pub use crate::gbuffer::{Pixel, Surface, pixel, pixels};
@@ -83,7 +87,7 @@ pub use crate::mirror::{
     render as render_mirror,
 };
 pub use crate::oracle::{MAX_K as ORACLE_MAX_K, Oracle, TOLERANCE as ORACLE_TOLERANCE};
-pub use crate::render::{Job, Method, Rendered, relative_rms, render};
+pub use crate::render::{Job, Method, Rendered, render};
 pub use crate::scene::Scene;
 pub use crate::split_sum::{SplitSum, SplitSumVariant};
 pub use crate::textures::{RoughnessFamily, SurfaceMaps, Texture, alpha_of, perturb_normal};

@@ -108,6 +108,10 @@ pub struct Job<'a> {
     /// the visibility of every node (the reference); other methods, lights
     /// and roughness maps are refused. `None`: unshadowed.
     pub shadows: Option<&'a Shadows>,
+    /// For the split-sum methods: the split sum baked from `env`
+    /// ([`SplitSum::bake`]), for callers that render one environment
+    /// often; `None`: baked by each render.
+    pub split_sum: Option<&'a SplitSum>,
 }
 
 impl<'a> Job<'a> {
@@ -137,6 +141,7 @@ impl<'a> Job<'a> {
             family: None,
             lights: &[],
             shadows: None,
+            split_sum: None,
         }
     }
 }
@@ -261,7 +266,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
         (Some(m), _) => Some(m.l_max()),
         _ => None,
     };
-    let split = match job.method {
+    let baked = match job.method {
         Method::SplitSum | Method::SplitSumSampleRenderer => {
             if gltf.is_none() {
                 return Err(RenderError::Parameter {
@@ -281,8 +286,15 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                         .into(),
                 });
             }
-            Some(SplitSum::bake(job.env, 256)?)
+            match job.split_sum {
+                Some(_) => None,
+                None => Some(SplitSum::bake(job.env, 256)?),
+            }
         }
+        _ => None,
+    };
+    let split = match job.method {
+        Method::SplitSum | Method::SplitSumSampleRenderer => job.split_sum.or(baked.as_ref()),
         _ => None,
     };
     let env_sh = match (job.method, degree) {
@@ -635,26 +647,4 @@ fn light_quadrature(
         out[c] = radiance[c] * k[if kc == 1 { 0 } else { c }];
     }
     Ok(ok)
-}
-
-/// Relative RMS error of `a` against `b` over the masked pixels:
-/// `sqrt(sum (a - b)^2 / sum b^2)` over all channels.
-#[must_use]
-pub fn relative_rms(a: &Image, b: &Image, mask: &[bool]) -> f64 {
-    let ch = a.channels();
-    let (mut num, mut den) = (0.0, 0.0);
-    for (i, m) in mask.iter().enumerate() {
-        if !m {
-            continue;
-        }
-        for c in 0..ch {
-            let (x, y) = (
-                f64::from(a.data()[i * ch + c]),
-                f64::from(b.data()[i * ch + c]),
-            );
-            num += (x - y) * (x - y);
-            den += y * y;
-        }
-    }
-    (num / den.max(f64::MIN_POSITIVE)).sqrt()
 }

@@ -141,9 +141,10 @@ pub struct Render {
     mask: Option<PathBuf>,
     /// Also render the exact oracle (--method quadrature, same scene) and write the per-pixel
     /// difference of the image to it: signed RGB radiance in .exr/.npy; in .png a diverging
-    /// map of the difference relative to the oracle, averaged over channels (red: brighter
-    /// than the oracle, blue: darker), full scale the 99th percentile of the object's relative
-    /// differences, printed and in the --json report.
+    /// map of the difference relative to the oracle (to its value, or to 5% of its mean over
+    /// the object where darker), averaged over channels (red: brighter than the oracle, blue:
+    /// darker), full scale the 95th percentile of the object's relative differences, printed
+    /// and in the --json report.
     #[arg(long, value_name = "FILE")]
     error_map: Option<PathBuf>,
     /// Output image.
@@ -517,6 +518,7 @@ impl Render {
             family: family.as_ref(),
             lights: &lights,
             shadows: shadows.as_ref(),
+            split_sum: None,
         };
         let t_render = std::time::Instant::now();
         let (r, gpu_report) = if let Some(ctx) = &gpu {
@@ -549,6 +551,7 @@ impl Render {
                     family: None,
                     lights: job.lights,
                     shadows: None,
+                    split_sum: None,
                 };
                 let oracle = render(&oracle_job, &|d, n| {
                     bar.set_length(n as u64);
@@ -819,52 +822,32 @@ fn write_error_map(
 ) -> Result<serde_json::Value> {
     let ch = image.channels();
     let (w, h) = (image.width(), image.height());
-    let diff: Vec<f32> = image
-        .data()
-        .iter()
-        .zip(oracle.data())
-        .enumerate()
-        .map(|(i, (a, o))| if mask[i / ch] { a - o } else { 0.0 })
-        .collect();
-    let max = diff.iter().fold(0.0f32, |m, d| m.max(d.abs()));
-    let rms = ifd_render::relative_rms(image, oracle, mask);
-    // the PNG shows the difference relative to the exact value, averaged
-    // over channels
-    let means: Vec<f64> = diff
-        .chunks_exact(ch)
-        .zip(oracle.data().chunks_exact(ch))
-        .map(|(d, o)| {
-            let d = d.iter().map(|v| f64::from(*v)).sum::<f64>();
-            let o = o.iter().map(|v| f64::from(*v)).sum::<f64>();
-            if o > 0.0 { d / o } else { 0.0 }
-        })
-        .collect();
-    // full scale: the 99th percentile of the object's relative differences,
-    // so that a few hot pixels do not wash the map out
-    let mut on: Vec<f64> = means
-        .iter()
-        .zip(mask)
-        .filter(|(_, m)| **m)
-        .map(|(v, _)| v.abs())
-        .collect();
-    on.sort_by(f64::total_cmp);
-    let p99 = on
-        .get((on.len() * 99 / 100).min(on.len().saturating_sub(1)))
-        .copied();
-    let scale = p99.filter(|v| *v > 0.0).unwrap_or(1.0);
+    let d = ifd_render::Difference::new(image, oracle, mask)?;
+    // the PNG shows the difference relative to the exact value, full scale
+    // its 95th percentile over the object
+    let scale = d.full_scale;
     let out = if is_display(path)? {
-        let rgb = means
+        let rgb = d
+            .relative
             .iter()
             .flat_map(|m| ifd_plot::diverging(m / scale))
             .collect();
         ifd_image::Image::from_vec(w, h, 3, rgb)?
     } else {
+        let diff = image
+            .data()
+            .iter()
+            .zip(oracle.data())
+            .enumerate()
+            .map(|(i, (a, o))| if mask[i / ch] { a - o } else { 0.0 })
+            .collect();
         ifd_image::Image::from_vec(w, h, ch, diff)?
     };
     crate::output::write_output(path, &out, &ifd_image::WriteOptions::default())?;
+    let (rms, max) = (d.relative_rms, d.max_abs);
     eprintln!(
         "note: --error-map {}: relative RMS {rms:.3e} against the oracle, largest difference \
-         {max:.3e}; the PNG's full scale is a relative difference of {scale:.3e} (99th percentile)",
+         {max:.3e}; the PNG's full scale is a relative difference of {scale:.3e} (95th percentile)",
         path.display()
     );
     Ok(json!({"relative_rms": rms, "max_abs_difference": max, "png_full_scale": scale}))

@@ -30,10 +30,22 @@ pub struct Automation {
     /// Where the reference's result is reported: samples per pixel, ISD's
     /// relative RMS error and PSNR against it, the curve `(L, error)`.
     pub reference: Arc<Mutex<Option<ReferenceReport>>>,
+    /// Wait for the split sum's difference from ISD (with a comparison on)
+    /// and report it here.
+    pub split_sum: Arc<Mutex<Option<SplitSumReport>>>,
 }
 
 /// The reference's result at the end of an automated run.
 pub type ReferenceReport = (usize, f64, f64, Vec<(usize, f64)>);
+
+/// The split sum against ISD at the end of an automated run.
+#[derive(Clone, Debug)]
+pub struct SplitSumReport {
+    /// The difference (ISD as the reference).
+    pub difference: ifd_render::Difference,
+    /// Bake and render time of the split sum, seconds.
+    pub seconds: f64,
+}
 
 impl Automation {
     /// Whether anything is automated.
@@ -69,7 +81,17 @@ impl EnvApp {
                     let spp = r.image.as_ref().map_or(0, |i| i.2);
                     spp >= n && r.error.is_some() && (n < 64 || r.curve.is_some())
                 });
-                if self.frame_complete() && reference_done {
+                let split_done = self.settings.compare == crate::settings::Compare::Off
+                    || self.split.difference.is_some();
+                if self.frame_complete() && reference_done && split_done {
+                    if let (Some(d), Ok(mut slot)) =
+                        (&self.split.difference, self.automation.split_sum.lock())
+                    {
+                        *slot = Some(SplitSumReport {
+                            difference: d.clone(),
+                            seconds: self.split.seconds.unwrap_or(f64::NAN),
+                        });
+                    }
                     if self.automation.reference_spp.is_some()
                         && let (Some((_, _, spp)), Some((rel, psnr)), Ok(mut slot)) = (
                             &self.refs.image,

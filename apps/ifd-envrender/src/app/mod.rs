@@ -15,11 +15,11 @@ use ifd_gpu::GpuContext;
 use ifd_gpu::GpuShader;
 use ifd_render::Tonemap;
 
-pub use automation::{Automation, ReferenceReport};
+pub use automation::{Automation, ReferenceReport, SplitSumReport};
 pub use gpu_view::GpuView;
 
 use crate::reference::{self, RefEvent, Request};
-use crate::settings::Settings;
+use crate::settings::{Compare, Settings};
 use crate::worker::{self, Event, Frame, Handle, Info};
 
 /// The Monte Carlo reference of the current view and ISD's error against it.
@@ -40,6 +40,21 @@ pub(crate) struct RefState {
     error: Option<(f64, f64)>,
     /// `(L, relative RMS)` and the reference's samples per pixel.
     curve: Option<(Vec<(usize, f64)>, usize)>,
+}
+
+/// The split sum of the current frame and its difference from ISD's.
+#[derive(Default)]
+pub(crate) struct SplitState {
+    /// The split-sum image (linear radiance) and its object mask.
+    image: Option<(Arc<ifd_image::Image>, Arc<Vec<bool>>)>,
+    /// Bake (when the map changed) and render time, seconds.
+    seconds: Option<f64>,
+    /// The split-sum image, display-transformed.
+    texture: Option<egui::TextureHandle>,
+    /// The split sum against ISD (ISD as the reference).
+    difference: Option<ifd_render::Difference>,
+    /// The difference relative to ISD, as a diverging colour map.
+    difference_texture: Option<egui::TextureHandle>,
 }
 
 /// How the app starts.
@@ -78,6 +93,7 @@ pub struct EnvApp {
     viewport: Option<egui::Rect>,
     reference: reference::Handle,
     pub(crate) refs: RefState,
+    pub(crate) split: SplitState,
 }
 
 impl std::fmt::Debug for EnvApp {
@@ -128,6 +144,7 @@ impl EnvApp {
             viewport: None,
             reference,
             refs: RefState::default(),
+            split: SplitState::default(),
         }
     }
 
@@ -166,6 +183,12 @@ impl EnvApp {
     pub fn frame(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
         let t0 = Instant::now();
+        // what the view beside ISD's shows changes nothing to render
+        if let Some(sent) = &mut self.sent
+            && sent.compare_image != self.settings.compare_image
+        {
+            sent.compare_image = self.settings.compare_image;
+        }
         // the worker renders the latest settings that change the image
         let display_only = self.sent.as_ref().is_some_and(|s| {
             let mut a = s.clone();
@@ -204,10 +227,19 @@ impl EnvApp {
                     egui::TextureOptions::NEAREST,
                 );
             }
+            if let Some(t) = &mut self.split.texture
+                && let Some((img, _)) = &self.split.image
+            {
+                t.set(
+                    worker::display_image(img, tm, self.settings.exposure),
+                    egui::TextureOptions::NEAREST,
+                );
+            }
             self.sent = Some(self.settings.clone());
         }
         self.events(&ctx);
         self.reference_step(&ctx);
+        self.split_step(&ctx);
         let (curve, exposure) = (self.tonemap().into(), self.settings.exposure);
         if let Some(g) = &mut self.gpu {
             match g.step(curve, exposure) {
@@ -242,9 +274,34 @@ impl EnvApp {
                 Event::Fallback(why) => {
                     self.fallback = Some(why);
                 }
+                Event::SplitSum {
+                    image,
+                    mask,
+                    seconds,
+                } => {
+                    self.progress.clear();
+                    let shown =
+                        worker::display_image(&image, self.tonemap(), self.settings.exposure);
+                    match &mut self.split.texture {
+                        Some(t) => t.set(shown, egui::TextureOptions::NEAREST),
+                        None => {
+                            self.split.texture = Some(ctx.load_texture(
+                                "ifd-envrender split sum",
+                                shown,
+                                egui::TextureOptions::NEAREST,
+                            ));
+                        }
+                    }
+                    self.split.image = Some((image, mask));
+                    self.split.seconds = Some(seconds);
+                    self.split.difference = None;
+                }
                 Event::Frame(f) => {
                     self.progress.clear();
                     self.frames_seen += 1;
+                    // the split sum of the previous frame is stale
+                    self.split.image = None;
+                    self.split.difference = None;
                     match f {
                         Frame::Gpu {
                             surfaces,
@@ -313,7 +370,7 @@ impl EnvApp {
             }
         }
         // the GPU frame's linear image, read back once it is complete
-        if self.settings.reference
+        if (self.settings.reference || self.settings.compare != Compare::Off)
             && self.refs.isd.is_none()
             && self.fallback.is_none()
             && let Some(g) = &self.gpu
@@ -365,6 +422,51 @@ impl EnvApp {
             && isd.height() == reference.height()
         {
             r.error = Some(errors(isd, reference, mask));
+        }
+    }
+
+    /// The split sum's difference from ISD, once both images are here.
+    fn split_step(&mut self, ctx: &egui::Context) {
+        let sp = &mut self.split;
+        if self.settings.compare == Compare::Off || sp.difference.is_some() {
+            return;
+        }
+        let (Some(isd), Some((split, mask))) = (&self.refs.isd, &sp.image) else {
+            return;
+        };
+        match ifd_render::Difference::new(split, isd, mask) {
+            Ok(d) => {
+                let pixels = d
+                    .relative
+                    .iter()
+                    .zip(mask.iter())
+                    .map(|(v, on)| {
+                        if *on {
+                            let c = ifd_plot::diverging(v / d.full_scale);
+                            let b = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+                            egui::Color32::from_rgb(b(c[0]), b(c[1]), b(c[2]))
+                        } else {
+                            egui::Color32::from_gray(40)
+                        }
+                    })
+                    .collect();
+                let image = egui::ColorImage::new([split.width(), split.height()], pixels);
+                match &mut sp.difference_texture {
+                    Some(t) => t.set(image, egui::TextureOptions::NEAREST),
+                    None => {
+                        sp.difference_texture = Some(ctx.load_texture(
+                            "ifd-envrender split-sum difference",
+                            image,
+                            egui::TextureOptions::NEAREST,
+                        ));
+                    }
+                }
+                sp.difference = Some(d);
+            }
+            Err(e) => {
+                sp.image = None;
+                self.errors.push(format!("split sum: {e}"));
+            }
         }
     }
 
@@ -443,27 +545,11 @@ pub fn dropped_path(ctx: &egui::Context) -> Option<PathBuf> {
 }
 
 /// Relative RMS error and PSNR (dB; the reference's largest object value as
-/// the data range) of `a` against `reference` over the object's pixels.
+/// the data range) of `a` against `reference` over the object's pixels
+/// (NaN when the images cannot be compared).
 fn errors(a: &ifd_image::Image, reference: &ifd_image::Image, mask: &[bool]) -> (f64, f64) {
-    let ch = a.channels().min(reference.channels());
-    let (mut se, mut n, mut peak) = (0.0, 0usize, 0.0f64);
-    for (i, m) in mask.iter().enumerate() {
-        if !m {
-            continue;
-        }
-        for c in 0..ch {
-            let (x, y) = (
-                f64::from(a.data()[i * a.channels() + c]),
-                f64::from(reference.data()[i * reference.channels() + c]),
-            );
-            se += (x - y) * (x - y);
-            n += 1;
-            peak = peak.max(y.abs());
-        }
-    }
-    let rel = ifd_render::relative_rms(a, reference, mask);
-    let psnr = ifd_image::psnr_from_mse(se / n.max(1) as f64, peak.max(1e-12));
-    (rel, psnr)
+    ifd_render::Difference::new(a, reference, mask)
+        .map_or((f64::NAN, f64::NAN), |d| (d.relative_rms, d.psnr_db))
 }
 
 impl ifd_app::AppFrame for EnvApp {

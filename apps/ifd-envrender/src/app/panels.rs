@@ -4,7 +4,7 @@
 use egui::{Color32, Sense, Stroke, vec2};
 
 use super::EnvApp;
-use crate::settings::Variant;
+use crate::settings::{Compare, Variant};
 
 /// The BRDF models the panel offers.
 const MODELS: [&str; 6] = ["lambert", "phong", "blinn", "blinn-exact", "ggx", "ward"];
@@ -151,13 +151,21 @@ pub(super) fn side_panel(app: &mut EnvApp, ui: &mut egui::Ui) {
             ui.checkbox(&mut s.background, "background");
             ui.separator();
             ui.heading("Scene");
+            let shown = std::path::Path::new(&s.scene)
+                .file_name()
+                .map_or_else(|| s.scene.clone(), |n| n.to_string_lossy().into_owned());
             egui::ComboBox::from_id_salt("scene")
-                .selected_text(s.scene.clone())
+                .selected_text(shown)
                 .show_ui(ui, |ui| {
                     for name in ["sphere", "torus", "plane"] {
                         ui.selectable_value(&mut s.scene, name.to_string(), name);
                     }
-                });
+                })
+                .response
+                .on_hover_text("drop an .obj, .gltf or .glb file on the window to open it");
+            if s.scene_is_gltf() && s.brdf == "gltf" {
+                ui.label("shaded with the asset's own materials");
+            }
             ui.separator();
             ui.heading("BRDF");
             brdf_editor(ui, &mut s.brdf);
@@ -203,14 +211,22 @@ pub(super) fn side_panel(app: &mut EnvApp, ui: &mut egui::Ui) {
             ui.label("drag: orbit, wheel: zoom, F: frame");
             ui.separator();
             ui.heading("Reference");
+            let was = s.reference;
             ui.checkbox(&mut s.reference, "Monte Carlo reference, side by side")
                 .on_hover_text(
                     "refined on a worker thread while the camera is still (8 samples per pixel \
                      a pass, up to 1024); ISD's error against it below",
                 );
+            if s.reference && !was {
+                // one view beside ISD's at a time
+                s.compare = Compare::Off;
+            }
             if s.reference {
                 reference_report(ui, &app.refs, s.l_max);
             }
+            ui.separator();
+            ui.heading("Split sum");
+            split_sum_panel(ui, s, &app.split);
             ui.separator();
             ui.heading("Frame times");
             frame_plot(ui, &app.ui_times);
@@ -224,6 +240,58 @@ pub(super) fn side_panel(app: &mut EnvApp, ui: &mut egui::Ui) {
                 gpu_plot(ui, &g.gpu_frames);
             }
         });
+}
+
+/// The split-sum comparison: which engine's, image or difference, the
+/// colour scale.
+fn split_sum_panel(
+    ui: &mut egui::Ui,
+    s: &mut crate::settings::Settings,
+    split: &super::SplitState,
+) {
+    let gltf = ifd_shade::Brdf::parse(&s.brdf).is_ok_and(|b| b.gltf_material().is_some());
+    if !gltf {
+        ui.label("for the glTF BRDF: gltf:roughness=..,metallic=.. or a .gltf/.glb asset");
+        return;
+    }
+    let was = s.compare;
+    ui.radio_value(&mut s.compare, Compare::Off, "off");
+    ui.radio_value(
+        &mut s.compare,
+        Compare::SplitSum,
+        "split sum (ISD's BRDF split)",
+    )
+    .on_hover_text(
+        "the prefiltered chain, irradiance and DFG table of `ifd envmap prefilter`, with \
+             the same Fresnel-weighted diffuse as ISD: the approximation's own error",
+    );
+    ui.radio_value(
+        &mut s.compare,
+        Compare::SampleRenderer,
+        "split sum (glTF-Sample-Renderer's shader)",
+    )
+    .on_hover_text("pbr.frag and ibl.glsl as written, with their multiple-scattering term");
+    if s.compare != was && s.compare != Compare::Off {
+        s.reference = false;
+    }
+    if s.compare == Compare::Off {
+        return;
+    }
+    ui.checkbox(&mut s.compare_image, "show the split-sum image")
+        .on_hover_text("else its difference from ISD's image");
+    match &split.difference {
+        Some(d) if !s.compare_image => {
+            ui.label(format!(
+                "(split sum - ISD) / ISD: blue darker, red brighter, full scale +/-{:.1}% (95% of \
+                 the object's pixels)",
+                100.0 * d.full_scale
+            ));
+        }
+        Some(_) => {}
+        None => {
+            ui.label("waiting for the frame and the split sum");
+        }
+    }
 }
 
 /// GPU time per shaded frame (ms), scaled to the largest.
@@ -271,6 +339,13 @@ fn reference_report(ui: &mut egui::Ui, r: &super::RefState, l_max: usize) {
     let Some((points, spp)) = &r.curve else {
         return;
     };
+    if points.is_empty() {
+        ui.label(
+            "no error-against-L curve: a roughness map or a glTF asset's materials need a table \
+             family at every degree",
+        );
+        return;
+    }
     ui.label(format!("error against L (reference at {spp} spp):"));
     let (rect, _) = ui.allocate_exact_size(vec2(220.0, 80.0), Sense::hover());
     let p = ui.painter_at(rect);
@@ -380,6 +455,27 @@ pub(super) fn status_bar(app: &mut EnvApp, ui: &mut egui::Ui) {
             if let Some(t) = shade {
                 ui.label(format!("frame {:.0} ms", t.as_secs_f64() * 1e3));
             }
+            if app.settings.compare != Compare::Off
+                && let Some(d) = &app.split.difference
+            {
+                ui.separator();
+                ui.label(format!(
+                    "split sum vs ISD (L = {}): relative RMS {:.2}%, PSNR {:.1} dB, 95% within \
+                     {:.1}%, largest {:.3}",
+                    app.settings.l_max,
+                    100.0 * d.relative_rms,
+                    d.psnr_db,
+                    100.0 * d.full_scale,
+                    d.max_abs
+                ))
+                .on_hover_text(
+                    "over the object's pixels, ISD's image as the reference (its own error \
+                     against the exact integral falls with L: see the Monte Carlo reference)",
+                );
+                if let Some(t) = app.split.seconds {
+                    ui.label(format!("split sum {:.0} ms", t * 1e3));
+                }
+            }
             if !app.progress.is_empty() {
                 ui.spinner();
                 ui.label(&app.progress);
@@ -413,9 +509,21 @@ pub(super) fn viewport(app: &mut EnvApp, ui: &mut egui::Ui) {
             ui.painter().rect_filled(rect, 0.0, Color32::from_gray(16));
         }
         app.viewport = Some(rect);
-        if app.settings.reference
-            && let Some(t) = &app.refs.texture
-        {
+        let beside = if app.settings.reference {
+            app.refs.texture.as_ref()
+        } else if app.settings.compare != Compare::Off && app.split.image.is_some() {
+            if app.settings.compare_image {
+                app.split.texture.as_ref()
+            } else {
+                app.split
+                    .difference
+                    .as_ref()
+                    .and(app.split.difference_texture.as_ref())
+            }
+        } else {
+            None
+        };
+        if let Some(t) = beside {
             let r = egui::Rect::from_min_size(rect.right_top() + vec2(8.0, 0.0), size);
             ui.painter().image(
                 t.id(),
@@ -444,8 +552,13 @@ pub(super) fn viewport(app: &mut EnvApp, ui: &mut egui::Ui) {
             cam.frame(r);
         }
         if let Some(p) = super::dropped_path(ui.ctx()) {
-            if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj")) {
-                app.settings.scene = p.to_string_lossy().into_owned();
+            let scene = p.extension().is_some_and(|e| {
+                ["obj", "gltf", "glb"]
+                    .iter()
+                    .any(|x| e.eq_ignore_ascii_case(x))
+            });
+            if scene {
+                app.settings.open_scene(&p);
             } else {
                 app.settings.env = Some(p);
             }
