@@ -61,6 +61,8 @@ SKIPPED = {
     ("docs/guide/gpu.md", "ifd render --env testdata/forest.hdr --brdf ggx:alpha=0.3 --lmax 16 "
      "--size 1024x1024 --gpu --frames 50 -o ggx-gpu.png"):
         "a timing: meaningful on a hardware GPU only, minutes on a software one",
+    ("docs/guide/gpu.md", "cargo build --release -p ifd-cli -p ifd-brush"):
+        "builds release binaries with cargo (minutes); the timing is meaningful on a hardware GPU only",
     ("docs/guide/ibl.md", ".venv/bin/python tests/bench/bench_ibl.py"):
         "runs from the repository root, needs Filament's cmgen and glTF-IBL-Sampler, and takes minutes",
     ("docs/guide/python.md", "pip install ./crates/ifd-py"): "builds with cargo and pip (minutes)",
