@@ -113,6 +113,44 @@ def test_split_sum_is_exact_for_a_uniform_map_and_not_otherwise(run_ifd, tmp_pat
     assert np.abs(varied - exact).max() > 1e-3 * np.abs(exact).max()
 
 
+def test_gbuffer_holds_each_pixels_normal_view_cosine_and_material(run_ifd, tmp_path):
+    """--gbuffer: the shading normal, n.v, roughness and metalness per pixel, against a numpy
+    ray cast of the unit sphere through the same pinhole camera (z up)."""
+    size, eye, fov = 40, np.array([3.0, -2.5, 1.2]), 40.0
+    run_ifd("render", "--env", ROOT / "testdata" / "forest.hdr", "--brdf",
+            "gltf:roughness=0.4,metallic=0.7", "--method", "split-sum", "--size", f"{size}x{size}",
+            "--eye", "3,-2.5,1.2", "--target", "0,0,0", "--fov", fov, "-o", tmp_path / "a.npy",
+            "--gbuffer", tmp_path / "g.npy")
+    g = np.load(tmp_path / "g.npy")
+    assert g.shape == (size, size, 6)
+    fwd = -eye / np.linalg.norm(eye)
+    right = np.cross(fwd, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    th = math.tan(math.radians(fov) / 2)
+    j, i = np.mgrid[0:size, 0:size] + 0.5
+    d = (fwd + ((2 * i / size - 1) * th)[..., None] * right
+         + ((1 - 2 * j / size) * th)[..., None] * up)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    b = d @ eye
+    disc = b * b - (eye @ eye - 1)
+    on = disc > 1e-6
+    t = -b - np.sqrt(np.where(on, disc, 0))
+    n = eye + t[..., None] * d
+    # away from the silhouette, where a pixel centre's hit is unambiguous
+    inner = on & (disc > 0.05)
+    np.testing.assert_allclose(g[inner][:, :3], n[inner], atol=1e-4)
+    np.testing.assert_allclose(g[inner][:, 3], np.einsum("ij,ij->i", n[inner], -d[inner]),
+                               atol=1e-4)
+    np.testing.assert_allclose(g[inner][:, 4:], np.tile([0.4, 0.7], (inner.sum(), 1)), atol=1e-6)
+    assert not g[~on].any(), "zeros off the object"
+    p = run_ifd("render", "--env", ROOT / "testdata" / "forest.hdr", "--brdf", "lambert",
+                "--lmax", 2, "--size", "8x8", "-o", tmp_path / "b.png", "--gbuffer",
+                tmp_path / "g.png", check=False)
+    assert p.returncode == 2 and "--gbuffer" in p.stderr and ".npy" in p.stderr, p.stderr
+    assert not (tmp_path / "b.png").exists()
+
+
 # --- glTF assets --------------------------------------------------------------
 
 import gltf_assets  # noqa: E402

@@ -139,6 +139,11 @@ pub struct Render {
     /// Also write the object mask (1 on the object, 0 elsewhere).
     #[arg(long, value_name = "FILE")]
     mask: Option<PathBuf>,
+    /// Also write what each pixel's ray sees, as .npy (height x width x 6): the shading normal
+    /// (x, y, z), n.v, and the roughness and metalness the point is shaded with (the glTF
+    /// material's, else the roughness map's; NaN where the BRDF has none); zeros off the object.
+    #[arg(long, value_name = "FILE.npy")]
+    gbuffer: Option<PathBuf>,
     /// Also render the exact oracle (--method quadrature, same scene) and write the per-pixel
     /// difference of the image to it: signed RGB radiance in .exr/.npy; in .png a diverging
     /// map of the difference relative to the oracle (to its value, or to 5% of its mean over
@@ -254,6 +259,11 @@ impl Render {
         let display = is_display(&output)?;
         if let Some(m) = &self.mask {
             is_display(m)?;
+        }
+        if let Some(g) = &self.gbuffer
+            && ifd_image::FileFormat::from_path(g)? != ifd_image::FileFormat::Npy
+        {
+            bail!("--gbuffer {}: write six channels as .npy", g.display());
         }
         if let Some(p) = &self.error_map {
             if matches!(
@@ -534,6 +544,9 @@ impl Render {
             (r, None)
         };
         let render_secs = t_render.elapsed().as_secs_f64();
+        if let Some(p) = &self.gbuffer {
+            write_gbuffer(p, &job)?;
+        }
         let error_map = match &self.error_map {
             Some(p) => {
                 let bar = progress_bar("oracle");
@@ -814,6 +827,39 @@ pub(crate) fn progress_bar(what: &str) -> ProgressBar {
 /// Writes the difference of `image` to the oracle (see `--error-map`) and
 /// returns its summary: the relative RMS error over the object, the largest
 /// absolute difference (the PNG's full scale).
+/// `--gbuffer`: normal, n.v, roughness and metalness per pixel (six
+/// channels, zeros off the object).
+fn write_gbuffer(path: &std::path::Path, job: &Job<'_>) -> Result<()> {
+    let (w, h) = (job.camera.width(), job.camera.height());
+    let gltf = job.brdf.gltf_material();
+    let px = ifd_render::pixels(&job.scene, &job.camera, job.maps)?;
+    let data = px
+        .iter()
+        .flat_map(|p| {
+            let Some(s) = &p.surface else {
+                return [0.0; 6];
+            };
+            let n = s.frame.n;
+            let nv = n[0] * s.wo[0] + n[1] * s.wo[1] + n[2] * s.wo[2];
+            let point = gltf.map(|g| s.gltf_material(&g));
+            let rough = point.map(|m| m.roughness).or(s.roughness);
+            let metal = point.map(|m| m.metallic);
+            [
+                n[0],
+                n[1],
+                n[2],
+                nv,
+                rough.unwrap_or(f64::NAN),
+                metal.unwrap_or(f64::NAN),
+            ]
+            .map(|v| v as f32)
+        })
+        .collect();
+    let img = ifd_image::Image::from_vec(w, h, 6, data)?;
+    crate::output::write_output(path, &img, &ifd_image::WriteOptions::default())?;
+    Ok(())
+}
+
 fn write_error_map(
     path: &std::path::Path,
     image: &ifd_image::Image,
