@@ -32,6 +32,7 @@
 #   --quick      small sizes, 2 runs, 2 frames: a check that every step works
 #                (the test suite runs this on lavapipe)
 set -euo pipefail
+export LC_ALL=C
 root=$(cd "$(dirname "$0")/.." && pwd)
 bin=$root/target/release
 out=gpu-bench.json
@@ -40,14 +41,20 @@ frames=20
 quick=0
 while [[ $# -gt 0 ]]; do
   case $1 in
-    --bin) bin=$2; shift 2 ;;
-    --out) out=$2; shift 2 ;;
-    --runs) runs=$2; shift 2 ;;
-    --frames) frames=$2; shift 2 ;;
+    --bin) bin=${2:?--bin needs a folder}; shift 2 ;;
+    --out) out=${2:?--out needs a file}; shift 2 ;;
+    --runs) runs=${2:?--runs needs a count}; shift 2 ;;
+    --frames) frames=${2:?--frames needs a count}; shift 2 ;;
     --quick) quick=1; runs=2; frames=2; shift ;;
-    -h|--help) sed -n '2,36p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,33p' "$0"; exit 0 ;;
     *) echo "gpu-bench.sh: unknown option $1 (--help)" >&2; exit 2 ;;
   esac
+done
+for n in "$runs" "$frames"; do
+  if ! [[ $n =~ ^[1-9][0-9]*$ ]]; then
+    echo "gpu-bench.sh: --runs and --frames take a count of at least 1, not $n" >&2
+    exit 2
+  fi
 done
 for exe in ifd ifd-brush; do
   if [[ ! -x $bin/$exe ]]; then
@@ -61,6 +68,8 @@ brush=$bin/ifd-brush
 data=$root/testdata
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
+# a failing step shows what its command printed before the folder goes
+trap 'echo "gpu-bench.sh: a step failed; its logs:" >&2; tail -n 20 "$work"/*.log >&2 2>/dev/null || true' ERR
 
 if [[ $quick == 1 ]]; then
   image=$data/camera.png; render_size=128x96; degrees="7"; terms=64
@@ -70,11 +79,11 @@ fi
 log() { echo "==> $*" >&2; }
 
 log "adapter"
-"$ifd" gpu-info > "$work/adapter.txt" 2>/dev/null
+"$ifd" gpu-info > "$work/adapter.txt" 2> "$work/gpu-info.log"
 
 log "planar: fitting a decomposition with $terms terms"
 "$ifd" decompose gauss:sx=24,sy=3,theta=0 --max-terms "$terms" --tol 0.001 --json \
-  -o "$work/decomp.json" > "$work/decompose.json"
+  -o "$work/decomp.json" > "$work/decompose.json" 2> "$work/decompose.log"
 python3 - "$image" "$work/angle.npy" <<'EOF'
 # a per-pixel angle map (degrees) of the image's size: circles about the centre
 import math, struct, sys, zlib
@@ -99,13 +108,13 @@ for ((i = 0; i < runs; i++)); do
     -o "$work/planar-gpu.exr" 2>> "$work/planar-gpu.log" >/dev/null
   TIMEFORMAT=%R
   { time "$ifd" filter "$image" --decomp "$work/decomp.json" --angle-map "$work/angle.npy" \
-      -o "$work/planar-cpu.exr" 2>/dev/null >/dev/null; } 2> "$work/planar-cpu-$i.time"
+      -o "$work/planar-cpu.exr" 2>> "$work/planar-cpu.log" >/dev/null; } 2> "$work/planar-cpu-$i.time"
 done
 
 log "isd: ifd render --gpu --frames $frames at $render_size, L = $degrees"
 for l in $degrees; do
   "$ifd" render --env "$data/forest.hdr" --brdf ggx:alpha=0.3 --lmax "$l" --size "$render_size" \
-    --gpu --frames "$frames" --json -o "$work/isd-$l.exr" 2>/dev/null > "$work/isd-$l.json"
+    --gpu --frames "$frames" --json -o "$work/isd-$l.exr" 2> "$work/isd-$l.log" > "$work/isd-$l.json"
 done
 
 log "brush: headless replay, --device gpu and cpu"

@@ -200,10 +200,12 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
     if args.compare_image {
         s.compare_image = true;
     }
-    if s.compare != Compare::Off
-        && ifd_shade::Brdf::parse(&s.brdf).is_ok_and(|b| b.gltf_material().is_none())
-        && args.compare.is_some()
-    {
+    let gltf = ifd_shade::Brdf::parse(&s.brdf).is_ok_and(|b| b.gltf_material().is_some());
+    if s.compare != Compare::Off && !gltf && args.compare.is_none() {
+        // a stored comparison, for a BRDF that has none
+        s.compare = Compare::Off;
+    }
+    if s.compare != Compare::Off && !gltf {
         anyhow::bail!(
             "--compare: the split sum shades the glTF BRDF, not {} (--brdf gltf:.. or a glTF \
              asset, --scene FILE.glb)",

@@ -85,8 +85,11 @@ impl Settings {
     /// is framed (meshes are fitted to the unit sphere).
     pub fn open_scene(&mut self, path: &std::path::Path) {
         self.scene = path.to_string_lossy().into_owned();
-        if self.scene_is_gltf() && !self.brdf.starts_with("gltf:") && self.brdf != "gltf" {
-            "gltf".clone_into(&mut self.brdf);
+        if self.scene_is_gltf() {
+            if !self.brdf.starts_with("gltf:") && self.brdf != "gltf" {
+                "gltf".clone_into(&mut self.brdf);
+            }
+            // the asset's own textures replace the maps
             self.albedo_map = None;
             self.roughness_map = None;
         }

@@ -119,7 +119,8 @@ pub fn spawn(
                 gpu,
                 cache: Cache::default(),
             };
-            while let Ok(mut s) = rx_settings.recv() {
+            let mut next = None;
+            while let Some(mut s) = next.take().or_else(|| rx_settings.recv().ok()) {
                 // only the latest settings matter
                 while let Ok(newer) = rx_settings.try_recv() {
                     s = newer;
@@ -129,8 +130,24 @@ pub fn spawn(
                     wake();
                     ok
                 };
-                if let Err(e) = w.update(&s, &send) {
-                    send(Event::Error(format!("{e:#}")));
+                let shaded = match w.frame(&s, &send) {
+                    Ok(f) => f,
+                    Err(e) => {
+                        send(Event::Error(format!("{e:#}")));
+                        continue;
+                    }
+                };
+                // newer settings first: this frame's split sum would be stale
+                match rx_settings.try_recv() {
+                    Ok(newer) => {
+                        next = Some(newer);
+                        continue;
+                    }
+                    Err(std::sync::mpsc::TryRecvError::Disconnected) => break,
+                    Err(std::sync::mpsc::TryRecvError::Empty) => {}
+                }
+                if let Err(e) = w.compare(&s, shaded, &send) {
+                    send(Event::Error(format!("split sum: {e:#}")));
                 }
             }
         })
@@ -224,9 +241,14 @@ fn cached<K: PartialEq + Clone, V>(
 }
 
 impl Worker {
-    /// The frame of `s`, then its split-sum comparison when asked.
-    fn update(&mut self, s: &Settings, send: &(dyn Fn(Event) -> bool + Sync)) -> Result<()> {
-        let shaded = self.frame(s, send)?;
+    /// The split sum of the frame `shaded` was rendered from, when `s` asks
+    /// for the comparison.
+    fn compare(
+        &mut self,
+        s: &Settings,
+        shaded: Shaded,
+        send: &(dyn Fn(Event) -> bool + Sync),
+    ) -> Result<()> {
         let variant = match s.compare {
             Compare::Off => return Ok(()),
             Compare::SplitSum => Method::SplitSum,

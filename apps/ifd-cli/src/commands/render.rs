@@ -824,9 +824,6 @@ pub(crate) fn progress_bar(what: &str) -> ProgressBar {
     bar
 }
 
-/// Writes the difference of `image` to the oracle (see `--error-map`) and
-/// returns its summary: the relative RMS error over the object, the largest
-/// absolute difference (the PNG's full scale).
 /// `--gbuffer`: normal, n.v, roughness and metalness per pixel (six
 /// channels, zeros off the object).
 fn write_gbuffer(path: &std::path::Path, job: &Job<'_>) -> Result<()> {
@@ -860,6 +857,9 @@ fn write_gbuffer(path: &std::path::Path, job: &Job<'_>) -> Result<()> {
     Ok(())
 }
 
+/// Writes the difference of `image` to the oracle (see `--error-map`) and
+/// returns its summary: the relative RMS error over the object, the largest
+/// absolute difference, the PNG's full scale.
 fn write_error_map(
     path: &std::path::Path,
     image: &ifd_image::Image,

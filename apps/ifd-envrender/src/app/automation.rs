@@ -81,7 +81,10 @@ impl EnvApp {
                     let spp = r.image.as_ref().map_or(0, |i| i.2);
                     spp >= n && r.error.is_some() && (n < 64 || r.curve.is_some())
                 });
+                // (the worker compares the glTF BRDF only)
                 let split_done = self.settings.compare == crate::settings::Compare::Off
+                    || ifd_shade::Brdf::parse(&self.settings.brdf)
+                        .map_or(true, |b| b.gltf_material().is_none())
                     || self.split.difference.is_some();
                 if self.frame_complete() && reference_done && split_done {
                     if let (Some(d), Ok(mut slot)) =

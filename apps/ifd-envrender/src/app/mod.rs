@@ -40,6 +40,8 @@ pub(crate) struct RefState {
     error: Option<(f64, f64)>,
     /// `(L, relative RMS)` and the reference's samples per pixel.
     curve: Option<(Vec<(usize, f64)>, usize)>,
+    /// Reading the current GPU frame back failed (not retried).
+    readback_failed: bool,
 }
 
 /// The split sum of the current frame and its difference from ISD's.
@@ -311,6 +313,11 @@ impl EnvApp {
                         } => {
                             self.fallback = None;
                             self.cpu_texture = None;
+                            // ISD's linear image is this frame's, read back
+                            // once it is complete
+                            self.refs.isd = None;
+                            self.refs.error = None;
+                            self.refs.readback_failed = false;
                             if let Some(g) = &mut self.gpu
                                 && let Err(e) = g.set_frame(surfaces, env, material, row_objects)
                             {
@@ -372,13 +379,21 @@ impl EnvApp {
         // the GPU frame's linear image, read back once it is complete
         if (self.settings.reference || self.settings.compare != Compare::Off)
             && self.refs.isd.is_none()
+            && !self.refs.readback_failed
             && self.fallback.is_none()
             && let Some(g) = &self.gpu
             && g.is_complete()
         {
             match g.read_linear() {
                 Ok(img) => self.refs.isd = Some(Arc::new(img)),
-                Err(e) => self.errors.push(format!("GPU: {e}")),
+                Err(e) => {
+                    self.refs.readback_failed = true;
+                    let msg = format!("GPU: reading the frame back: {e}");
+                    if self.automation.active() {
+                        self.fail(ctx, msg.clone());
+                    }
+                    self.errors.push(msg);
+                }
             }
         }
         while let Ok(e) = self.reference.rx.try_recv() {
@@ -434,7 +449,7 @@ impl EnvApp {
         let (Some(isd), Some((split, mask))) = (&self.refs.isd, &sp.image) else {
             return;
         };
-        match ifd_render::Difference::new(split, isd, mask) {
+        match ifd_render::Difference::new(split, &like(isd, split), mask) {
             Ok(d) => {
                 let pixels = d
                     .relative
@@ -465,7 +480,11 @@ impl EnvApp {
             }
             Err(e) => {
                 sp.image = None;
-                self.errors.push(format!("split sum: {e}"));
+                let msg = format!("split sum: {e}");
+                if self.automation.active() {
+                    self.fail(ctx, msg.clone());
+                }
+                self.errors.push(msg);
             }
         }
     }
@@ -544,11 +563,26 @@ pub fn dropped_path(ctx: &egui::Context) -> Option<PathBuf> {
     ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()))
 }
 
+/// `img` with `other`'s channels: the GPU's frame is RGB, grey maps
+/// repeat their one channel in it (the CPU renders one channel).
+fn like<'a>(
+    img: &'a ifd_image::Image,
+    other: &ifd_image::Image,
+) -> std::borrow::Cow<'a, ifd_image::Image> {
+    if img.channels() == 3 && other.channels() == 1 {
+        let grey = img.data().chunks_exact(3).map(|p| p[0]).collect();
+        if let Ok(g) = ifd_image::Image::from_vec(img.width(), img.height(), 1, grey) {
+            return std::borrow::Cow::Owned(g);
+        }
+    }
+    std::borrow::Cow::Borrowed(img)
+}
+
 /// Relative RMS error and PSNR (dB; the reference's largest object value as
 /// the data range) of `a` against `reference` over the object's pixels
 /// (NaN when the images cannot be compared).
 fn errors(a: &ifd_image::Image, reference: &ifd_image::Image, mask: &[bool]) -> (f64, f64) {
-    ifd_render::Difference::new(a, reference, mask)
+    ifd_render::Difference::new(&like(a, reference), reference, mask)
         .map_or((f64::NAN, f64::NAN), |d| (d.relative_rms, d.psnr_db))
 }
 

@@ -12,7 +12,7 @@ use crate::wgpu_helpers::buffer_init;
 /// One pixel of the G-buffer, as `shaders/isd_shade.wgsl` reads it (five
 /// `vec4<f32>`).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct SurfacePoint {
     /// Unit normal.
     pub normal: [f32; 3],
@@ -37,6 +37,16 @@ pub struct SurfacePoint {
     pub emissive: [f32; 3],
     /// Unused.
     pub pad: f32,
+}
+
+impl Default for SurfacePoint {
+    /// A background pixel (black), with the neutral occlusion 1.
+    fn default() -> Self {
+        Self {
+            occlusion: 1.0,
+            ..Zeroable::zeroed()
+        }
+    }
 }
 
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
