@@ -12,6 +12,10 @@ sphere (metalness, roughness) and per view-angle bin (the bins of split_sum_stud
 relative RMS error of the pixels in it. Writes `split_sum_assets.csv`, `split_sum_assets.png`
 (error against `n . v`, one panel per map and metalness 0, 0.5, 1) and prints a markdown table
 of the whole-sphere errors.
+
+With `--isd-lmax L`, ISD is measured too (`--method isd --lmax L --roughness-tables 19`: tables
+every 0.05 of roughness from 0.1 to 1, so every sphere's roughness has its own table);
+`--size N` and `--envs forest` change the image size and the maps.
 """
 
 import argparse
@@ -32,10 +36,12 @@ METALLIC = (0.0, 0.25, 0.5, 0.75, 1.0)
 ROUGHNESS = (0.1, 0.3, 0.5, 0.75, 1.0)
 
 
-def render(ifd, env, method, out, gbuffer=None):
+def render(ifd, env, method, out, gbuffer=None, lmax=None):
     args = [str(ifd), "render", "--env", str(env), "--env-size", "128x64", "--scene", str(ASSET),
             "--scene-camera", "--method", method, "--size", f"{SIZE}x{SIZE}", "--no-background",
             "-o", str(out)]
+    if lmax is not None:
+        args += ["--lmax", str(lmax), "--roughness-tables", "19"]
     if gbuffer is not None:
         args += ["--gbuffer", str(gbuffer)]
     subprocess.run(args, check=True, capture_output=True)
@@ -48,22 +54,31 @@ def rel_rms(err, ref, sel):
 
 
 def main():
+    global SIZE, METHODS
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ifd", type=pathlib.Path, default=None)
     ap.add_argument("--out", type=pathlib.Path, default=ROOT / "docs" / "split-sum")
+    ap.add_argument("--isd-lmax", type=int, default=None)
+    ap.add_argument("--size", type=int, default=SIZE)
+    ap.add_argument("--envs", nargs="+", default=list(ENVS))
     a = ap.parse_args()
+    SIZE = a.size
+    envs = {k: ENVS[k] for k in a.envs}
+    if a.isd_lmax is not None:
+        METHODS = [*METHODS, "isd"]
     ifd = ifd_binary(a.ifd)
     a.out.mkdir(parents=True, exist_ok=True)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
-        for env_name, env in ENVS.items():
+        for env_name, env in envs.items():
             ref = render(ifd, env, "quadrature", tmp / "ref.npy", tmp / "g.npy")
             g = np.load(tmp / "g.npy").astype(np.float64)
             on = g[..., 3] > 0
             nv, rough, metal = g[..., 3], g[..., 4], g[..., 5]
             for method in METHODS:
-                err = render(ifd, env, method, tmp / f"{method}.npy") - ref
+                lmax = a.isd_lmax if method == "isd" else None
+                err = render(ifd, env, method, tmp / f"{method}.npy", lmax=lmax) - ref
                 for m in METALLIC:
                     for r in ROUGHNESS:
                         sphere = on & (np.abs(metal - m) < 1e-3) & (np.abs(rough - r) < 1e-3)
@@ -75,16 +90,18 @@ def main():
                         rows.append(row)
                 print(f"{env_name} {method} done", flush=True)
     keys = list(rows[0].keys())
-    with open(a.out / "split_sum_assets.csv", "w", newline="") as f:
+    stem = "split_sum_assets" if a.isd_lmax is None else f"split_sum_assets_isd{a.isd_lmax}"
+    with open(a.out / f"{stem}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys, lineterminator="\n")
         w.writeheader()
         w.writerows(rows)
-    plot(rows, keys, a.out / "split_sum_assets.png")
+    if a.isd_lmax is None:
+        plot(rows, keys, a.out / f"{stem}.png")
     for method in METHODS:
         print(f"\n{method}: relative RMS error against the oracle per sphere")
         print("\n| map | metallic | " + " | ".join(f"roughness {r:g}" for r in ROUGHNESS) + " |")
         print("|---|---|" + "---|" * len(ROUGHNESS))
-        for env_name in ENVS:
+        for env_name in envs:
             for m in METALLIC:
                 vals = [next(x["all"] for x in rows if x["env"] == env_name and
                              x["method"] == method and x["metallic"] == m and
