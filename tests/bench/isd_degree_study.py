@@ -21,23 +21,10 @@ import tempfile
 
 import numpy as np
 from ifd_paths import ifd_binary
-import subprocess
-
-from split_sum_study import EYE, FOV, ROOT, SIZE, TARGET, view_cosines
+from split_sum_study import ENVS, ROOT, render, view_cosines
 
 ROUGHNESS = (0.2, 0.25, 0.3, 0.4, 0.5, 0.75, 1.0)
 DEGREES = (8, 12, 16, 24, 32, 40, 48)
-
-
-def render(ifd, spec, method, out, lmax=None):
-    args = [str(ifd), "render", "--env", str(ROOT / "testdata" / "forest.hdr"), "--env-size",
-            "128x64", "--brdf", spec, "--method", method, "--size", f"{SIZE}x{SIZE}",
-            "--fov", str(FOV), "--eye", ",".join(map(str, EYE)),
-            "--target", ",".join(map(str, TARGET)), "--no-background", "-o", str(out)]
-    if lmax is not None:
-        args += ["--lmax", str(lmax)]
-    subprocess.run(args, check=True, capture_output=True)
-    return np.load(out).astype(np.float64)
 
 
 def main():
@@ -54,10 +41,10 @@ def main():
         tmp = pathlib.Path(tmp)
         for rough in ROUGHNESS:
             spec = f"gltf:roughness={rough},metallic=1,base=0.9"
-            ref = render(ifd, spec, "quadrature", tmp / "ref.npy")
+            ref = render(ifd, ENVS["forest"], spec, "quadrature", tmp / "ref.npy")
             on = ref.sum(axis=-1) > 0
             for lmax in DEGREES:
-                img = render(ifd, spec, "isd", tmp / "isd.npy", lmax)
+                img = render(ifd, ENVS["forest"], spec, "isd", tmp / "isd.npy", lmax)
                 err = math.sqrt(((img - ref)[on] ** 2).sum() / (ref[on] ** 2).sum())
                 sel = on & inner
                 err_inner = math.sqrt(((img - ref)[sel] ** 2).sum() / (ref[sel] ** 2).sum())

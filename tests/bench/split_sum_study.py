@@ -58,13 +58,14 @@ def view_cosines():
     return np.einsum("ijk,ijk->ij", p, -d)
 
 
-def render(ifd, env, spec, method, out):
+def render(ifd, env, spec, method, out, lmax=24):
+    """`ifd render` of the unit sphere at SIZE x SIZE (ISD at degree `lmax`); the image."""
     args = [str(ifd), "render", "--env", str(env), "--env-size", "128x64", "--brdf", spec,
             "--method", method, "--size", f"{SIZE}x{SIZE}", "--fov", str(FOV),
             "--eye", ",".join(map(str, EYE)), "--target", ",".join(map(str, TARGET)),
             "--no-background", "-o", str(out)]
     if method == "isd":
-        args += ["--lmax", "24"]
+        args += ["--lmax", str(lmax)]
     subprocess.run(args, check=True, capture_output=True)
     return np.load(out).astype(np.float64)
 
