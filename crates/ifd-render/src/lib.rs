@@ -74,7 +74,7 @@ mod tonemap;
 mod visibility;
 
 pub use crate::camera::Camera;
-pub use crate::difference::{Difference, relative_rms};
+pub use crate::difference::{Difference, FULL_SCALE_PERCENTILE, RELATIVE_FLOOR, relative_rms};
 pub use crate::envmap::EnvMap;
 pub use crate::error::{RenderError, Result};
 pub use crate::gbuffer::{Pixel, Surface, pixel, pixels};

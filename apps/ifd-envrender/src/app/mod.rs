@@ -284,16 +284,12 @@ impl EnvApp {
                     self.progress.clear();
                     let shown =
                         worker::display_image(&image, self.tonemap(), self.settings.exposure);
-                    match &mut self.split.texture {
-                        Some(t) => t.set(shown, egui::TextureOptions::NEAREST),
-                        None => {
-                            self.split.texture = Some(ctx.load_texture(
-                                "ifd-envrender split sum",
-                                shown,
-                                egui::TextureOptions::NEAREST,
-                            ));
-                        }
-                    }
+                    show_in(
+                        &mut self.split.texture,
+                        ctx,
+                        "ifd-envrender split sum",
+                        shown,
+                    );
                     self.split.image = Some((image, mask));
                     self.split.seconds = Some(seconds);
                     self.split.difference = None;
@@ -332,16 +328,7 @@ impl EnvApp {
                             self.refs.isd = Some(linear);
                             self.refs.error = None;
                             self.cpu_frame = Some(Duration::from_secs_f64(seconds));
-                            match &mut self.cpu_texture {
-                                Some(t) => t.set(image, egui::TextureOptions::NEAREST),
-                                None => {
-                                    self.cpu_texture = Some(ctx.load_texture(
-                                        "ifd-envrender view",
-                                        image,
-                                        egui::TextureOptions::NEAREST,
-                                    ));
-                                }
-                            }
+                            show_in(&mut self.cpu_texture, ctx, "ifd-envrender view", image);
                         }
                     }
                     ctx.request_repaint();
@@ -406,16 +393,12 @@ impl EnvApp {
                 } if generation == self.refs.generation => {
                     let shown =
                         worker::display_image(&image, self.tonemap(), self.settings.exposure);
-                    match &mut self.refs.texture {
-                        Some(t) => t.set(shown, egui::TextureOptions::NEAREST),
-                        None => {
-                            self.refs.texture = Some(ctx.load_texture(
-                                "ifd-envrender reference",
-                                shown,
-                                egui::TextureOptions::NEAREST,
-                            ));
-                        }
-                    }
+                    show_in(
+                        &mut self.refs.texture,
+                        ctx,
+                        "ifd-envrender reference",
+                        shown,
+                    );
                     self.refs.image = Some((image, mask, spp));
                     self.refs.error = None;
                 }
@@ -466,16 +449,12 @@ impl EnvApp {
                     })
                     .collect();
                 let image = egui::ColorImage::new([split.width(), split.height()], pixels);
-                match &mut sp.difference_texture {
-                    Some(t) => t.set(image, egui::TextureOptions::NEAREST),
-                    None => {
-                        sp.difference_texture = Some(ctx.load_texture(
-                            "ifd-envrender split-sum difference",
-                            image,
-                            egui::TextureOptions::NEAREST,
-                        ));
-                    }
-                }
+                show_in(
+                    &mut sp.difference_texture,
+                    ctx,
+                    "ifd-envrender split-sum difference",
+                    image,
+                );
                 sp.difference = Some(d);
             }
             Err(e) => {
@@ -561,6 +540,19 @@ fn gpu_view(rs: Option<RenderState>, choice: DeviceChoice) -> GpuStart {
 #[must_use]
 pub fn dropped_path(ctx: &egui::Context) -> Option<PathBuf> {
     ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()))
+}
+
+/// Shows `image` in the texture `slot`, made (named `name`) the first time.
+fn show_in(
+    slot: &mut Option<egui::TextureHandle>,
+    ctx: &egui::Context,
+    name: &str,
+    image: egui::ColorImage,
+) {
+    match slot {
+        Some(t) => t.set(image, egui::TextureOptions::NEAREST),
+        None => *slot = Some(ctx.load_texture(name, image, egui::TextureOptions::NEAREST)),
+    }
 }
 
 /// `img` with `other`'s channels: the GPU's frame is RGB, grey maps
