@@ -80,13 +80,22 @@ impl Settings {
         is_gltf(&self.scene)
     }
 
+    /// Whether the BRDF spec names the glTF BRDF (`gltf` or `gltf:..`), read
+    /// from the spec's model name as `Brdf::parse` reads it, without parsing
+    /// it (the UI asks every frame, and `merl:FILE` would read its file).
+    #[must_use]
+    pub fn brdf_is_gltf(&self) -> bool {
+        let spec = self.brdf.trim();
+        spec.split_once(':').map_or(spec, |(name, _)| name).trim() == "gltf"
+    }
+
     /// Opens a scene file: an OBJ mesh, or a glTF asset shaded with its own
     /// materials (the BRDF becomes `gltf` unless it is one already); either
     /// is framed (meshes are fitted to the unit sphere).
     pub fn open_scene(&mut self, path: &std::path::Path) {
         self.scene = path.to_string_lossy().into_owned();
         if self.scene_is_gltf() {
-            if !self.brdf.starts_with("gltf:") && self.brdf != "gltf" {
+            if !self.brdf_is_gltf() {
                 "gltf".clone_into(&mut self.brdf);
             }
             // the asset's own textures replace the maps
@@ -133,4 +142,30 @@ impl Default for Settings {
 #[must_use]
 pub fn bundled_env() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../testdata/forest.hdr")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Settings;
+
+    #[test]
+    fn the_gltf_brdf_is_recognised_by_its_model_name_as_brdf_parse_reads_it() {
+        for (spec, gltf) in [
+            ("gltf", true),
+            ("gltf:roughness=0.3,metallic=1", true),
+            (" gltf : roughness=0.3", true),
+            ("gltf-lobes:roughness=0.5", false),
+            ("ggx:alpha=0.3", false),
+            ("merl:gltf.binary", false),
+        ] {
+            let s = Settings {
+                brdf: spec.into(),
+                ..Settings::default()
+            };
+            assert_eq!(s.brdf_is_gltf(), gltf, "{spec}");
+            if let Ok(b) = ifd_shade::Brdf::parse(spec) {
+                assert_eq!(b.gltf_material().is_some(), gltf, "{spec}");
+            }
+        }
+    }
 }

@@ -299,7 +299,6 @@ impl Worker {
             load_env(&path, s.env_rotate)
         })?;
         let (full, env) = (&maps.0, &maps.1);
-        let maps_arc = Arc::clone(&maps);
         let l = s.l_max;
         let sh_key = (path.clone(), rot, l);
         let sh = cached(&mut self.cache.sh, &sh_key, || {
@@ -408,7 +407,7 @@ impl Worker {
         let camera = s.camera.camera(w, h)?;
         let background = s.background.then_some(full);
         let shaded = Shaded {
-            maps: Arc::clone(&maps_arc),
+            maps: Arc::clone(&maps),
             env_key: env_key.clone(),
             brdf: brdf.clone(),
             scene: scene.clone(),

@@ -83,8 +83,7 @@ impl EnvApp {
                 });
                 // (the worker compares the glTF BRDF only)
                 let split_done = self.settings.compare == crate::settings::Compare::Off
-                    || ifd_shade::Brdf::parse(&self.settings.brdf)
-                        .map_or(true, |b| b.gltf_material().is_none())
+                    || !self.settings.brdf_is_gltf()
                     || self.split.difference.is_some();
                 if self.frame_complete() && reference_done && split_done {
                     if let (Some(d), Ok(mut slot)) =

@@ -249,8 +249,7 @@ fn split_sum_panel(
     s: &mut crate::settings::Settings,
     split: &super::SplitState,
 ) {
-    let gltf = ifd_shade::Brdf::parse(&s.brdf).is_ok_and(|b| b.gltf_material().is_some());
-    if !gltf {
+    if !s.brdf_is_gltf() {
         ui.label("for the glTF BRDF: gltf:roughness=..,metallic=.. or a .gltf/.glb asset");
         return;
     }
