@@ -1376,6 +1376,18 @@ mod shading {
         Material::new(brdf, l, Some(t)).expect("material")
     }
 
+    /// A `w x h` roughness map and RGB albedo map over the surface's (u, v).
+    fn rough_albedo_maps(w: usize, h: usize, rough: Vec<f32>, albedo: Vec<f32>) -> SurfaceMaps {
+        let texture = |c, data, what| {
+            Texture::new(Image::from_vec(w, h, c, data).expect("img"), what).expect("texture")
+        };
+        SurfaceMaps {
+            roughness: Some(texture(1, rough, "roughness")),
+            albedo: Some(texture(3, albedo, "albedo")),
+            normal: None,
+        }
+    }
+
     fn check(name: &str, env: &EnvMap, case: &Case<'_>) {
         if let Some(rel) = compare(name, env, case) {
             assert!(
@@ -1471,17 +1483,7 @@ mod shading {
                 [0.9, 0.3 + 0.6 * v, 0.5]
             })
             .collect();
-        let maps = SurfaceMaps {
-            roughness: Some(
-                Texture::new(Image::from_vec(w, h, 1, rough).expect("img"), "roughness")
-                    .expect("texture"),
-            ),
-            albedo: Some(
-                Texture::new(Image::from_vec(w, h, 3, albedo).expect("img"), "albedo")
-                    .expect("texture"),
-            ),
-            normal: None,
-        };
+        let maps = rough_albedo_maps(w, h, rough, albedo);
         let l = 6;
         let range = maps.roughness.as_ref().expect("set").range();
         let family = RoughnessFamily::build(&brdf, l, range, 4, &|_, _| {}).expect("family");
@@ -1527,17 +1529,7 @@ mod shading {
         let albedo: Vec<f32> = (0..w * h)
             .flat_map(|i| [0.3 + 0.6 * (i / w) as f32 / h as f32, 0.8, 0.4])
             .collect();
-        let maps = SurfaceMaps {
-            roughness: Some(
-                Texture::new(Image::from_vec(w, h, 1, rough).expect("img"), "roughness")
-                    .expect("texture"),
-            ),
-            albedo: Some(
-                Texture::new(Image::from_vec(w, h, 3, albedo).expect("img"), "albedo")
-                    .expect("texture"),
-            ),
-            normal: None,
-        };
+        let maps = rough_albedo_maps(w, h, rough, albedo);
         let range = maps.roughness.as_ref().expect("set").range();
         let family = RoughnessFamily::build(&parts, 6, range, 3, &|_, _| {}).expect("family");
         let case = Case {
