@@ -91,7 +91,10 @@ pub use crate::sh::{
     ShEvaluator, direction, eval_sh, gauss_legendre, legendre_all, legendre_p, pi_l, sh_count,
     sh_index,
 };
-pub use crate::simd::{set_vector_kernels, vector_kernels};
+pub use crate::simd::{
+    VectorIsa, VectorKernel, run_vectorized, set_vector_isa, set_vector_kernels, vector_isa,
+    vector_kernels,
+};
 pub use crate::tabulated::BandTables;
 pub use crate::transform::{
     Analysis, EquirectTransform, Negatives, Projection, analyze_cubemap, analyze_equirect,

@@ -129,11 +129,14 @@ impl EquirectTransform {
         count_negatives_of_finite_map(img.data(), "environment map")
     }
 
-    /// Adds the Legendre sums of one block of `LANES` (virtual) rows to the
-    /// coefficients `out`: `P_l^m(z)` of the northern rows (`zs`, `sin t` in
-    /// `ss`) met with the even (`l + m` even) or odd combination of each row
-    /// pair's Fourier sums, `even`/`odd[(m C + c) LANES + lane]`.
-    #[expect(clippy::too_many_arguments, reason = "one block's inputs and scratch")]
+    /// Adds the Legendre sums of one block's virtual rows to the
+    /// coefficients `out`. The rows sit in `G = zs.len()` groups of
+    /// [`ANALYSIS_LANES`] lanes (`zs`, `ss`: `cos t`, `sin t` of the
+    /// northern rows; unused lanes hold zero data); `comb[(j 4 + q) G + g]`
+    /// holds the even (`q` = 0, 1: real, imaginary) and odd (`q` = 2, 3)
+    /// combinations of each row pair's Fourier sums for `j = m C + c`.
+    /// Per `(l, m, c)` the lanes accumulate `P_l^m` times the combination
+    /// over the groups, then one fixed-order tree adds the lanes.
     #[inline(always)]
     #[allow(
         clippy::inline_always,
@@ -141,40 +144,72 @@ impl EquirectTransform {
     )]
     fn legendre_sums(
         &self,
-        zs: &[f64; ANALYSIS_LANES],
-        ss: &[f64; ANALYSIS_LANES],
-        even: &[Complex64],
-        odd: &[Complex64],
+        zs: &[[f64; ANALYSIS_LANES]],
+        ss: &[[f64; ANALYSIS_LANES]],
+        comb: &[[f64; ANALYSIS_LANES]],
         ch: usize,
-        col: &mut [[f64; ANALYSIS_LANES]],
+        state: &mut [[f64; ANALYSIS_LANES]],
         out: &mut [f64],
     ) {
         const LANES: usize = ANALYSIS_LANES;
+        let g_n = zs.len();
         let l_max = self.l_max;
-        let mut sm = [1.0; LANES];
+        let t = &self.table;
+        let (sm, rest) = state.split_at_mut(g_n);
+        let (p1, p2) = rest.split_at_mut(g_n);
+        let p2 = &mut p2[..g_n];
+        sm.fill([1.0; LANES]);
+        let sqrt2 = std::f64::consts::SQRT_2;
         for m in 0..=l_max {
             if m > 0 {
                 for (a, b) in sm.iter_mut().zip(ss) {
-                    *a *= b;
+                    for k in 0..LANES {
+                        a[k] *= b[k];
+                    }
                 }
             }
-            self.table.column(m, zs, &sm, col);
             for l in m..=l_max {
-                let p = &col[l - m];
-                let src = if (l + m) % 2 == 0 { even } else { odd };
+                // P_l^m of every group: p2 holds l - 1 (after the step), p1 l - 2
+                if l == m {
+                    for (p, s) in p2.iter_mut().zip(sm.iter()) {
+                        *p = std::array::from_fn(|k| t.qmm[m] * s[k]);
+                    }
+                } else if l == m + 1 {
+                    let c1 = t.c1[m];
+                    for ((q, p), z) in p1.iter_mut().zip(p2.iter_mut()).zip(zs) {
+                        *q = *p;
+                        *p = std::array::from_fn(|k| c1 * z[k] * q[k]);
+                    }
+                } else {
+                    let ti = crate::sh::tri(l, m);
+                    let (a, b) = (t.a[ti], t.b[ti]);
+                    for ((q, p), z) in p1.iter_mut().zip(p2.iter_mut()).zip(zs) {
+                        let next: [f64; LANES] =
+                            std::array::from_fn(|k| a * (z[k] * p[k] - b * q[k]));
+                        *q = *p;
+                        *p = next;
+                    }
+                }
+                let q0 = if (l + m) % 2 == 0 { 0 } else { 2 };
                 let base = l * (l + 1);
                 for c in 0..ch {
-                    let x = &src[(m * ch + c) * LANES..][..LANES];
-                    let (mut re, mut im) = (0.0, 0.0);
-                    for (p, x) in p.iter().zip(x) {
-                        re += p * x.re;
-                        im += p * x.im;
+                    let j = m * ch + c;
+                    let re_src = &comb[(j * 4 + q0) * g_n..(j * 4 + q0 + 1) * g_n];
+                    let im_src = &comb[(j * 4 + q0 + 1) * g_n..(j * 4 + q0 + 2) * g_n];
+                    let mut re = [0.0; LANES];
+                    let mut im = [0.0; LANES];
+                    for ((p, xr), xi) in p2.iter().zip(re_src).zip(im_src) {
+                        for k in 0..LANES {
+                            re[k] += p[k] * xr[k];
+                            im[k] += p[k] * xi[k];
+                        }
                     }
+                    let (re, im) = (lane_sum(re), lane_sum(im));
                     if m == 0 {
                         out[base * ch + c] += re;
                     } else {
-                        out[(base + m) * ch + c] += std::f64::consts::SQRT_2 * re;
-                        out[(base - m) * ch + c] -= std::f64::consts::SQRT_2 * im;
+                        out[(base + m) * ch + c] += sqrt2 * re;
+                        out[(base - m) * ch + c] -= sqrt2 * im;
                     }
                 }
             }
@@ -224,7 +259,7 @@ impl EquirectTransform {
 
     /// The one projection pass of both rules: each row pair's Fourier sums
     /// (one complex FFT per pair and channel), then the Legendre sums over
-    /// the rule's polar nodes, [`ANALYSIS_LANES`] nodes at a time.
+    /// the rule's polar nodes, [`ANALYSIS_LANES`] nodes a vector.
     ///
     /// The pairs are cut into at most [`GROUPS`] contiguous groups, run in
     /// parallel, each summing its nodes in order, and the groups' sums are
@@ -247,19 +282,15 @@ impl EquirectTransform {
                 let last = (first + per_group).min(n_pairs);
                 let mut out = vec![0.0; n_coef];
                 let mut pass = PairPass::new(self, ch);
-                crate::simd::dispatch(|| {
-                    for start in (first..last).step_by(PAIRS_PER_BLOCK) {
-                        let end = (start + PAIRS_PER_BLOCK).min(last);
-                        pass.run(
-                            self,
-                            img,
-                            negatives,
-                            &azimuthal,
-                            &nodes,
-                            start..end,
-                            &mut out,
-                        );
-                    }
+                crate::simd::run_vectorized(GroupPass {
+                    t: self,
+                    pass: &mut pass,
+                    img,
+                    negatives,
+                    azimuthal: &azimuthal,
+                    nodes: &nodes,
+                    pairs: first..last,
+                    out: &mut out,
                 });
                 out
             })
@@ -425,15 +456,28 @@ impl EquirectTransform {
 }
 
 /// Nodes whose Legendre recurrences run together (they vectorise across
-/// nodes).
-const ANALYSIS_LANES: usize = 4;
+/// nodes: one AVX-512 vector of `f64`, two AVX2 ones).
+const ANALYSIS_LANES: usize = 8;
 
-/// Row pairs whose Fourier sums a worker holds at once.
-const PAIRS_PER_BLOCK: usize = 8;
+/// Row pairs whose Fourier sums a worker holds at once: their virtual rows
+/// (up to `PAIRS_PER_BLOCK` times the rule's nodes per row) share each
+/// `(l, m, c)`'s lane sum.
+const PAIRS_PER_BLOCK: usize = 16;
 
 /// The most groups of row pairs a projection is cut into (a fixed number, so
 /// that the order of the sums does not depend on the thread count).
 const GROUPS: usize = 16;
+
+/// The lanes' sum in a fixed tree (the same on every instruction set).
+#[inline(always)]
+#[allow(
+    clippy::inline_always,
+    reason = "compiled into each target of `simd::dispatch`"
+)]
+fn lane_sum(x: [f64; ANALYSIS_LANES]) -> f64 {
+    let a = [x[0] + x[4], x[1] + x[5], x[2] + x[6], x[3] + x[7]];
+    (a[0] + a[2]) + (a[1] + a[3])
+}
 
 /// The two projection rules of [`EquirectTransform`].
 #[derive(Clone, Copy, Debug)]
@@ -444,16 +488,55 @@ enum Rule {
     Texel,
 }
 
+/// One group of row pairs of [`EquirectTransform::project`], block by
+/// block, compiled for the CPU's vectors as a whole.
+struct GroupPass<'a> {
+    t: &'a EquirectTransform,
+    pass: &'a mut PairPass,
+    img: &'a Image,
+    negatives: Negatives,
+    azimuthal: &'a [f64],
+    nodes: &'a [Vec<(f64, f64, f64)>],
+    pairs: std::ops::Range<usize>,
+    out: &'a mut [f64],
+}
+
+impl crate::simd::VectorKernel for GroupPass<'_> {
+    type Output = ();
+    #[inline(always)]
+    #[allow(
+        clippy::inline_always,
+        reason = "the kernel is compiled into each target of `run_vectorized`"
+    )]
+    fn run(self) {
+        for start in self.pairs.clone().step_by(PAIRS_PER_BLOCK) {
+            let end = (start + PAIRS_PER_BLOCK).min(self.pairs.end);
+            self.pass.run(
+                self.t,
+                self.img,
+                self.negatives,
+                self.azimuthal,
+                self.nodes,
+                start..end,
+                self.out,
+            );
+        }
+    }
+}
+
 /// One worker's buffers for [`EquirectTransform::project`].
 struct PairPass {
     buf: Vec<Complex64>,
     scratch: Vec<Complex64>,
     /// `(north, south)` Fourier sums per (pair of the block, `m`, channel).
     fourier: Vec<(Complex64, Complex64)>,
-    /// Even/odd combinations per (`m`, channel, lane).
-    even: Vec<Complex64>,
-    odd: Vec<Complex64>,
-    col: Vec<[f64; ANALYSIS_LANES]>,
+    /// Lane-major even/odd combinations (see `legendre_sums`).
+    comb: Vec<[f64; ANALYSIS_LANES]>,
+    /// `cos t`, `sin t` of the block's virtual rows, by lane group.
+    zs: Vec<[f64; ANALYSIS_LANES]>,
+    ss: Vec<[f64; ANALYSIS_LANES]>,
+    /// The recurrence's state: `sin^m t` and two degrees, per group.
+    state: Vec<[f64; ANALYSIS_LANES]>,
 }
 
 impl PairPass {
@@ -463,9 +546,10 @@ impl PairPass {
             buf: vec![Complex64::default(); t.width],
             scratch: vec![Complex64::default(); t.fwd.get_inplace_scratch_len()],
             fourier: vec![Default::default(); PAIRS_PER_BLOCK * per_pair],
-            even: vec![Complex64::default(); per_pair * ANALYSIS_LANES],
-            odd: vec![Complex64::default(); per_pair * ANALYSIS_LANES],
-            col: vec![[0.0; ANALYSIS_LANES]; t.l_max + 1],
+            comb: Vec::new(),
+            zs: Vec::new(),
+            ss: Vec::new(),
+            state: Vec::new(),
         }
     }
 
@@ -536,36 +620,37 @@ impl PairPass {
                 }
             }
         }
-        // 2. Legendre sums over the pairs' polar nodes, LANES at a time
-        // (unused lanes of the last block: zero data, harmless arguments).
-        let mut lane = 0;
-        let mut zs = [0.0; LANES];
-        let mut ss = [1.0; LANES];
-        self.even.fill(Complex64::default());
-        self.odd.fill(Complex64::default());
+        // 2. the block's virtual rows (each pair's polar nodes) in lane
+        // groups; unused lanes: zero data, harmless arguments
+        let n_rows: usize = pairs.clone().map(|vn| nodes[vn].len()).sum();
+        let g_n = n_rows.div_ceil(LANES);
+        self.zs.clear();
+        self.zs.resize(g_n, [0.0; LANES]);
+        self.ss.clear();
+        self.ss.resize(g_n, [1.0; LANES]);
+        self.comb.clear();
+        self.comb.resize(per_pair * 4 * g_n, [0.0; LANES]);
+        self.state.resize(3 * g_n, [0.0; LANES]);
+        let mut r = 0;
         for (i, vn) in pairs.enumerate() {
             let f = &self.fourier[i * per_pair..(i + 1) * per_pair];
             for &(z, s, wt) in &nodes[vn] {
-                zs[lane] = z;
-                ss[lane] = s;
+                let (g, lane) = (r / LANES, r % LANES);
+                self.zs[g][lane] = z;
+                self.ss[g][lane] = s;
                 for (j, &(fn_, fs)) in f.iter().enumerate() {
-                    self.even[j * LANES + lane] = (fn_ + fs) * wt;
-                    self.odd[j * LANES + lane] = (fn_ - fs) * wt;
+                    let even = (fn_ + fs) * wt;
+                    let odd = (fn_ - fs) * wt;
+                    self.comb[(j * 4) * g_n + g][lane] = even.re;
+                    self.comb[(j * 4 + 1) * g_n + g][lane] = even.im;
+                    self.comb[(j * 4 + 2) * g_n + g][lane] = odd.re;
+                    self.comb[(j * 4 + 3) * g_n + g][lane] = odd.im;
                 }
-                lane += 1;
-                if lane == LANES {
-                    t.legendre_sums(&zs, &ss, &self.even, &self.odd, ch, &mut self.col, out);
-                    lane = 0;
-                    zs = [0.0; LANES];
-                    ss = [1.0; LANES];
-                    self.even.fill(Complex64::default());
-                    self.odd.fill(Complex64::default());
-                }
+                r += 1;
             }
         }
-        if lane > 0 {
-            t.legendre_sums(&zs, &ss, &self.even, &self.odd, ch, &mut self.col, out);
-        }
+        // 3. the Legendre sums of the whole block
+        t.legendre_sums(&self.zs, &self.ss, &self.comb, ch, &mut self.state, out);
     }
 }
 
