@@ -19,7 +19,7 @@ use ifd_render::Tonemap;
 use ifd_render::{Job, Method, render};
 use ifd_render::{RoughnessFamily, SplitSum, SurfaceMaps, Texture};
 use ifd_shade::Brdf;
-use ifd_shade::{BandMaps, Environment, Material};
+use ifd_shade::{BandMaps, Environment, Material, Precision};
 use ifd_shade::{LobeTable, default_theta_entries};
 
 use crate::settings::{Compare, Settings, Variant, bundled_env};
@@ -506,6 +506,8 @@ impl Worker {
             background,
             maps: Some(surface),
             family,
+            // the fast lanes, as `ifd render` by default
+            precision: Precision::F32,
             // a family (roughness map, glTF asset) shades alone
             ..Job::new(
                 scene,

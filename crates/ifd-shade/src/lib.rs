@@ -72,7 +72,7 @@ pub use crate::lights::{
 };
 pub use crate::merl::Merl;
 pub use crate::radial::{MapSize, RadialMap, RadialProfile};
-pub use crate::shade::{BandMaps, Bands, Environment, Frame, Material, Scratch};
+pub use crate::shade::{BandMaps, Bands, Environment, Frame, Material, Precision, Scratch};
 pub use crate::slice::{MAX_SLICE_NODES, SLICE_TOLERANCE, project_slice, slice_nodes};
 pub use crate::table::{
     LobeBasis, LobeKind, LobeLayout, LobeTable, MAX_TABLE_DEGREE, TableHeader,
