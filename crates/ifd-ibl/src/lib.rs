@@ -41,6 +41,7 @@
 mod chain;
 mod cube;
 mod dfg;
+mod direct;
 mod error;
 mod ktx2;
 mod lobe;

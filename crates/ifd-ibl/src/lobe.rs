@@ -131,24 +131,20 @@ impl Lobe {
             return vec![1.0; l_max + 1];
         }
         let (nodes, weights) = self.quadrature(l_max);
-        let mut c = vec![0.0; l_max + 1];
-        for (&th, &w) in nodes.iter().zip(&weights) {
-            let (s, t) = th.sin_cos();
-            let f = self.eval(t) * s * w;
-            let (mut p0, mut p1) = (1.0, t);
-            c[0] += f;
-            if l_max >= 1 {
-                c[1] += f * t;
-            }
-            for l in 1..l_max {
-                let lf = l as f64;
-                let p = ((2.0 * lf + 1.0) * t * p1 - lf * p0) / (lf + 1.0);
-                p0 = p1;
-                p1 = p;
-                c[l + 1] += f * p;
-            }
+        // f(theta) sin(theta) w per node, in lanes; unused lanes weigh 0
+        let n = nodes.len().div_ceil(MOMENT_LANES);
+        let mut t = vec![[0.0; MOMENT_LANES]; n];
+        let mut f = vec![[0.0; MOMENT_LANES]; n];
+        for (i, (&th, &w)) in nodes.iter().zip(&weights).enumerate() {
+            let (s, ct) = th.sin_cos();
+            t[i / MOMENT_LANES][i % MOMENT_LANES] = ct;
+            f[i / MOMENT_LANES][i % MOMENT_LANES] = self.eval(ct) * s * w;
         }
-        c
+        ifd_sphere::run_vectorized(Moments {
+            l_max,
+            t: &t,
+            f: &f,
+        })
     }
 
     /// `lambda_l = c_l / c_0`, the factors a convolution with the normalised
@@ -224,6 +220,68 @@ impl Lobe {
             }
         }
         (nodes, weights)
+    }
+}
+
+/// Quadrature nodes whose Legendre recurrences run together.
+const MOMENT_LANES: usize = 8;
+
+/// [`Lobe::legendre_moments`]' sums: `c_l = sum_nodes f P_l(t)` by Bonnet's
+/// recurrence `P_{l+1} = ((2l + 1) t P_l - l P_{l-1}) / (l + 1)`, its factors
+/// precomputed (a division per step was the latency of a long dependent
+/// chain) and the nodes in lanes (independent chains), each lane summing its
+/// nodes in order, the lanes added in order at the end.
+struct Moments<'a> {
+    l_max: usize,
+    t: &'a [[f64; MOMENT_LANES]],
+    f: &'a [[f64; MOMENT_LANES]],
+}
+
+impl ifd_sphere::VectorKernel for Moments<'_> {
+    type Output = Vec<f64>;
+    #[inline(always)]
+    #[allow(
+        clippy::inline_always,
+        reason = "the kernel is compiled into each target of `run_vectorized`"
+    )]
+    fn run(self) -> Vec<f64> {
+        const N: usize = MOMENT_LANES;
+        let l_max = self.l_max;
+        let ab: Vec<(f64, f64)> = (0..l_max.max(1))
+            .map(|l| {
+                let lf = l as f64;
+                ((2.0 * lf + 1.0) / (lf + 1.0), lf / (lf + 1.0))
+            })
+            .collect();
+        // degree by degree over all nodes: each degree's lane sums stay in
+        // registers, the recurrence's two previous degrees stream per group
+        let mut acc = vec![[0.0; N]; l_max + 1];
+        let mut p0 = vec![[1.0; N]; self.t.len()];
+        let mut p1 = self.t.to_vec();
+        for (t, f) in self.t.iter().zip(self.f) {
+            for k in 0..N {
+                acc[0][k] += f[k];
+            }
+            if l_max >= 1 {
+                for k in 0..N {
+                    acc[1][k] += f[k] * t[k];
+                }
+            }
+        }
+        for l in 1..l_max {
+            let (a, b) = ab[l];
+            let mut s = [0.0; N];
+            for (((t, f), q0), q1) in self.t.iter().zip(self.f).zip(&mut p0).zip(&mut p1) {
+                let p: [f64; N] = std::array::from_fn(|k| a * t[k] * q1[k] - b * q0[k]);
+                *q0 = *q1;
+                *q1 = p;
+                for k in 0..N {
+                    s[k] += f[k] * p[k];
+                }
+            }
+            acc[l + 1] = s;
+        }
+        acc.iter().map(|a| a.iter().sum()).collect()
     }
 }
 

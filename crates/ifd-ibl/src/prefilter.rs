@@ -11,6 +11,7 @@ use ifd_sphere::{EquirectTransform, Negatives, ShCoeffs};
 use rayon::prelude::*;
 
 use crate::cube::{CubeLevel, equirect_coords, face_texel, sample_bicubic, world_to_ifd};
+use crate::direct::{Cell, CellLanes, DirectRow, Sample};
 use crate::error::{Result, param};
 use crate::lobe::{Lobe, band_limit_of};
 
@@ -56,27 +57,6 @@ pub struct LevelStats {
     pub bright_samples: usize,
     /// Output values below zero, set to zero.
     pub negatives_clamped: usize,
-}
-
-/// One bright sub-texel: direction (ifd frame) and `excess x solid angle`.
-#[derive(Clone, Copy, Debug)]
-struct Sample {
-    d: [f64; 3],
-    w: [f64; 3],
-}
-
-/// A group of bright samples with its bounding cone and total.
-#[derive(Clone, Debug)]
-struct Cell {
-    centre: [f64; 3],
-    total: [f64; 3],
-    samples: std::ops::Range<usize>,
-    /// `d . centre` below this: the whole cell is behind the lobe
-    /// (angle - radius >= pi/2).
-    cos_behind: f64,
-    /// `d . centre` below this: far enough for the cell's total (angle >
-    /// max(16 radius, near)).
-    cos_far: f64,
 }
 
 /// A bright texel: position and excess.
@@ -379,27 +359,39 @@ impl Baker {
         // int k = 2 pi c_0
         let k_int = 2.0 * PI * moments[0];
         let mut level = CubeLevel::zeros(n);
+        let lanes = CellLanes::new(&cells, &samples);
         let negatives: usize = level
             .data
             .par_chunks_mut(n * 3)
             .enumerate()
-            .map(|(row, out)| {
-                let (face, j) = (row / n, row % n);
-                let mut neg = 0;
-                for i in 0..n {
-                    let d = world_to_ifd(face_texel(face, i, j, n).0);
-                    let f = sample_bicubic(&grid, d);
-                    let b = direct_sum(lobe, &samples, &cells, d);
-                    for c in 0..3 {
-                        let v = f64::from(f[c]) + b[c] / k_int;
-                        if v < 0.0 {
-                            neg += 1;
-                        }
-                        out[i * 3 + c] = v.max(0.0) as f32;
+            .map_init(
+                || (vec![[0.0; 3]; n], vec![[0.0; 3]; n]),
+                |(dirs, direct), (row, out)| {
+                    let (face, j) = (row / n, row % n);
+                    for (i, d) in dirs.iter_mut().enumerate() {
+                        *d = world_to_ifd(face_texel(face, i, j, n).0);
                     }
-                }
-                neg
-            })
+                    ifd_sphere::run_vectorized(DirectRow {
+                        lobe,
+                        lanes: &lanes,
+                        dirs,
+                        out: direct,
+                    });
+                    let mut neg = 0;
+                    for i in 0..n {
+                        let f = sample_bicubic(&grid, dirs[i]);
+                        let b = direct[i];
+                        for c in 0..3 {
+                            let v = f64::from(f[c]) + b[c] / k_int;
+                            if v < 0.0 {
+                                neg += 1;
+                            }
+                            out[i * 3 + c] = v.max(0.0) as f32;
+                        }
+                    }
+                    neg
+                },
+            )
             .sum();
         Ok((
             level,
@@ -572,33 +564,6 @@ fn truncation_degree(lam: &[f64], power: &[f64], tol: f64) -> usize {
 
 fn angle(c: f64) -> f64 {
     c.clamp(-1.0, 1.0).acos()
-}
-
-/// `sum_b w_b k(d . l_b)` over the bright samples, cells far from `d`
-/// through their totals (the thresholds are precomputed cosines: one dot
-/// product decides per cell).
-fn direct_sum(lobe: &Lobe, samples: &[Sample], cells: &[Cell], d: [f64; 3]) -> [f64; 3] {
-    let mut acc = [0.0; 3];
-    for cell in cells {
-        let c = DVec3::from(d).dot(DVec3::from(cell.centre));
-        if c <= cell.cos_behind {
-            continue;
-        }
-        if c < cell.cos_far {
-            let k = lobe.eval(c);
-            for (a, t) in acc.iter_mut().zip(cell.total) {
-                *a += k * t;
-            }
-        } else {
-            for s in &samples[cell.samples.clone()] {
-                let k = lobe.eval(DVec3::from(d).dot(DVec3::from(s.d)));
-                for (a, w) in acc.iter_mut().zip(s.w) {
-                    *a += k * w;
-                }
-            }
-        }
-    }
-    acc
 }
 
 #[cfg(test)]

@@ -1,0 +1,204 @@
+//! The direct part of a prefiltered level: the bright texels' sub-texel
+//! samples summed against the lobe at each output direction, cells of
+//! samples far from the direction through their totals.
+//!
+//! The cells sit in vector lanes ([`CellLanes`]): per output direction one
+//! pass over the lanes takes every cell's dot product, its far-field term
+//! and whether it is near (its samples are then summed one by one); the
+//! lanes' sums are added in a fixed order at the end.
+
+use crate::lobe::Lobe;
+
+/// One bright sub-texel: direction (ifd frame) and `excess x solid angle`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Sample {
+    pub(crate) d: [f64; 3],
+    pub(crate) w: [f64; 3],
+}
+
+/// A group of bright samples with its bounding cone and total.
+#[derive(Clone, Debug)]
+pub(crate) struct Cell {
+    pub(crate) centre: [f64; 3],
+    pub(crate) total: [f64; 3],
+    pub(crate) samples: std::ops::Range<usize>,
+    /// `d . centre` at or below this: the whole cell is behind the lobe
+    /// (angle - radius >= pi/2).
+    pub(crate) cos_behind: f64,
+    /// `d . centre` below this: far enough for the cell's total (angle >
+    /// max(16 radius, near)).
+    pub(crate) cos_far: f64,
+}
+
+/// Cells a vector holds.
+const LANES: usize = 8;
+
+/// The cells of a level, structure of arrays in groups of [`LANES`]
+/// (padding lanes: behind everything, zero totals), and each cell's samples
+/// likewise (padding lanes: zero weight).
+pub(crate) struct CellLanes {
+    centre: [Vec<[f64; LANES]>; 3],
+    total: [Vec<[f64; LANES]>; 3],
+    behind: Vec<[f64; LANES]>,
+    far: Vec<[f64; LANES]>,
+    /// Each cell's groups of samples in `sample_d` and `sample_w`.
+    groups: Vec<std::ops::Range<usize>>,
+    sample_d: [Vec<[f64; LANES]>; 3],
+    sample_w: [Vec<[f64; LANES]>; 3],
+}
+
+impl CellLanes {
+    pub(crate) fn new(cells: &[Cell], samples: &[Sample]) -> Self {
+        let n = cells.len().div_ceil(LANES);
+        let zeros = || vec![[0.0; LANES]; n];
+        let mut s = Self {
+            centre: [zeros(), zeros(), zeros()],
+            total: [zeros(), zeros(), zeros()],
+            behind: vec![[2.0; LANES]; n],
+            far: vec![[2.0; LANES]; n],
+            groups: Vec::with_capacity(cells.len()),
+            sample_d: [Vec::new(), Vec::new(), Vec::new()],
+            sample_w: [Vec::new(), Vec::new(), Vec::new()],
+        };
+        for c in cells {
+            let first = s.sample_d[0].len();
+            for chunk in samples[c.samples.clone()].chunks(LANES) {
+                for a in 0..3 {
+                    s.sample_d[a].push(std::array::from_fn(|k| {
+                        chunk.get(k).map_or(0.0, |x| x.d[a])
+                    }));
+                    s.sample_w[a].push(std::array::from_fn(|k| {
+                        chunk.get(k).map_or(0.0, |x| x.w[a])
+                    }));
+                }
+            }
+            s.groups.push(first..s.sample_d[0].len());
+        }
+        for (i, c) in cells.iter().enumerate() {
+            let (g, k) = (i / LANES, i % LANES);
+            for a in 0..3 {
+                s.centre[a][g][k] = c.centre[a];
+                s.total[a][g][k] = c.total[a];
+            }
+            s.behind[g][k] = c.cos_behind;
+            s.far[g][k] = c.cos_far;
+        }
+        s
+    }
+}
+
+/// `sum_b w_b k(d . l_b)` over the bright samples, cells far from `d`
+/// through their totals (the thresholds are precomputed cosines: one dot
+/// product decides per cell). Call inside a [`ifd_sphere::VectorKernel`]
+/// (it is `#[inline(always)]`).
+#[inline(always)]
+#[expect(
+    clippy::inline_always,
+    reason = "compiled into each target of `ifd_sphere::run_vectorized`"
+)]
+pub(crate) fn direct_sum(lobe: &Lobe, lanes: &CellLanes, d: [f64; 3]) -> [f64; 3] {
+    match *lobe {
+        Lobe::Ggx { alpha } => {
+            // Lobe::eval's formula, operation for operation
+            let a2 = alpha * alpha;
+            lane_sum(lanes, d, |t| {
+                let c2 = 0.5 * (1.0 + t);
+                let q = c2 * (a2 - 1.0) + 1.0;
+                a2 / (std::f64::consts::PI * q * q) * t
+            })
+        }
+        Lobe::Lambert => lane_sum(lanes, d, |t| t),
+        Lobe::Phong { s } => lane_sum(lanes, d, |t| t.max(0.0).powf(s)),
+        Lobe::Mirror => [0.0; 3],
+    }
+}
+
+/// [`direct_sum`] with the lobe's value `k(t)` for `t > 0` as `eval` (the
+/// lanes zero `t <= 0`), for the cells' totals and the near cells' samples.
+#[inline(always)]
+#[expect(
+    clippy::inline_always,
+    reason = "compiled into each target of `ifd_sphere::run_vectorized`"
+)]
+#[allow(
+    clippy::needless_bitwise_bool,
+    clippy::needless_range_loop,
+    reason = "straight-line lane loops with non-short-circuit masks vectorise"
+)]
+fn lane_sum(lanes: &CellLanes, d: [f64; 3], eval: impl Fn(f64) -> f64) -> [f64; 3] {
+    let mut acc = [[0.0; LANES]; 3];
+    let mut near = [[0.0; LANES]; 3];
+    let [cx, cy, cz] = &lanes.centre;
+    for g in 0..lanes.behind.len() {
+        let (behind, far) = (&lanes.behind[g], &lanes.far[g]);
+        // straight-line lane loops (non-short-circuit masks): they vectorise
+        let mut c = [0.0; LANES];
+        for k in 0..LANES {
+            c[k] = d[0] * cx[g][k] + d[1] * cy[g][k] + d[2] * cz[g][k];
+        }
+        let mut kf = [0.0; LANES];
+        let mut any_near = false;
+        for k in 0..LANES {
+            let v = eval(c[k]);
+            let ahead = c[k] > behind[k];
+            kf[k] = if ahead & (c[k] < far[k]) & (c[k] > 0.0) {
+                v
+            } else {
+                0.0
+            };
+            any_near |= ahead & (c[k] >= far[k]);
+        }
+        for a in 0..3 {
+            let t = &lanes.total[a][g];
+            for k in 0..LANES {
+                acc[a][k] += kf[k] * t[k];
+            }
+        }
+        if any_near {
+            for k in 0..LANES {
+                if c[k] > behind[k] && c[k] >= far[k] {
+                    // the near cell's samples, in lanes
+                    let [sx, sy, sz] = &lanes.sample_d;
+                    for q in lanes.groups[g * LANES + k].clone() {
+                        let mut kv = [0.0; LANES];
+                        for i in 0..LANES {
+                            let t = d[0] * sx[q][i] + d[1] * sy[q][i] + d[2] * sz[q][i];
+                            let v = eval(t);
+                            kv[i] = if t > 0.0 { v } else { 0.0 };
+                        }
+                        for a in 0..3 {
+                            let w = &lanes.sample_w[a][q];
+                            for i in 0..LANES {
+                                near[a][i] += kv[i] * w[i];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    std::array::from_fn(|a| acc[a].iter().sum::<f64>() + near[a].iter().sum::<f64>())
+}
+
+/// [`direct_sum`] at each direction of `dirs` into `out`, compiled for the
+/// CPU's vectors.
+pub(crate) struct DirectRow<'a> {
+    pub(crate) lobe: &'a Lobe,
+    pub(crate) lanes: &'a CellLanes,
+    pub(crate) dirs: &'a [[f64; 3]],
+    pub(crate) out: &'a mut [[f64; 3]],
+}
+
+impl ifd_sphere::VectorKernel for DirectRow<'_> {
+    type Output = ();
+    #[inline(always)]
+    #[allow(
+        clippy::inline_always,
+        reason = "the kernel is compiled into each target of `run_vectorized`"
+    )]
+    fn run(self) {
+        for (o, &d) in self.out.iter_mut().zip(self.dirs) {
+            *o = direct_sum(self.lobe, self.lanes, d);
+        }
+    }
+}
