@@ -363,10 +363,11 @@ def test_zhf_table2_counts(tmp_path):
 def test_render_precision_f32_matches_f64(ifd_bin, tmp_path):
     """`ifd render --precision f32` (the default: f32 lanes) against `f64` (the
     reference path) on two bundled maps at L = 7 and 30: within 1e-5 of the
-    image maximum, not equal (the fast path ran); and the f32 image is the same
-    bit for bit whether the CPU's widest vectors, AVX2 or the baseline code run
+    image maximum, not equal (the fast path ran, as the report says); the f32
+    image is the same bit for bit whether the CPU's widest vectors or AVX2 run
     it (IFD_SIMD caps the instruction set; where the CPU lacks one, the best it
-    has runs)."""
+    has runs), and with the baseline code (no hardware FMA) f32 runs the f64
+    lanes: the f64 image."""
     import os
     import subprocess
 
@@ -376,16 +377,23 @@ def test_render_precision_f32_matches_f64(ifd_bin, tmp_path):
         e.pop("IFD_SIMD", None)
         if simd:
             e["IFD_SIMD"] = simd
-        subprocess.run([str(ifd_bin), "render", "--env", str(TESTDATA / env), "--brdf",
-                        "ggx:alpha=0.3", "--lmax", str(lmax), "--size", "64x48",
-                        "--no-background", "--precision", precision, "-o", str(out)],
-                       check=True, capture_output=True, env=e)
-        return np.load(out)
+        p = subprocess.run([str(ifd_bin), "render", "--env", str(TESTDATA / env), "--brdf",
+                            "ggx:alpha=0.3", "--lmax", str(lmax), "--size", "64x48",
+                            "--no-background", "--precision", precision, "-o", str(out),
+                            "--json"], check=True, capture_output=True, text=True, env=e)
+        rep = json.loads(p.stdout)
+        return np.load(out), rep["lanes"], rep["vector_isa"]
 
     for env, lmax in [("forest.hdr", 7), ("sunrise.hdr", 30)]:
-        ref = render(env, lmax, "f64")
-        fast = render(env, lmax, "f32")
+        ref, lanes, _ = render(env, lmax, "f64")
+        assert lanes == "f64"
+        fast, lanes, isa = render(env, lmax, "f32")
+        if isa == "baseline":
+            pytest.fail("this CPU has neither AVX2 + FMA nor AVX-512: the f32 lanes cannot run")
+        assert lanes == "f32"
         err = np.abs(fast - ref).max() / np.abs(ref).max()
         assert 0 < err <= 1e-5, (env, lmax, err)
-        for simd in ("avx2", "baseline"):
-            assert np.array_equal(render(env, lmax, "f32", simd), fast), (env, lmax, simd)
+        avx2, lanes, isa = render(env, lmax, "f32", "avx2")
+        assert (lanes, isa) == ("f32", "avx2") and np.array_equal(avx2, fast), (env, lmax)
+        base, lanes, isa = render(env, lmax, "f32", "baseline")
+        assert (lanes, isa) == ("f64", "baseline") and np.array_equal(base, ref), (env, lmax)

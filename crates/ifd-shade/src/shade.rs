@@ -95,9 +95,12 @@ fn add_weighted(
 /// to 1e-9). `F32` runs sixteen lanes of `f32` (one AVX-512 register; eight
 /// when a point has at most eight lobes) with fused multiply-adds, the lanes'
 /// weighted sums in the lanes too, only the lanes' totals in `f64`: its
-/// results stay within 1e-5 of the largest `F64` value (tested on every lobe
-/// layout and channel count up to L = 30; 3-5e-7 of the image maximum on the
-/// bundled forest map at L = 7 to 30), the GPU path's accuracy.
+/// results stay within 1e-5 of the largest `F64` value (tested on both lobe
+/// layouts, 1, 2 and 3 channels, up to L = 60; 3-5e-7 of the image maximum
+/// on the bundled forest and sunrise maps at L = 7 to 100), the GPU path's
+/// accuracy. On
+/// x86-64 without AVX2 and FMA (or with `IFD_SIMD=baseline`) `F32` runs the
+/// `F64` lanes: `f32` fused multiply-adds would be a libm call per lane.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Precision {
     /// `f64` lanes: the reference.
@@ -105,6 +108,27 @@ pub enum Precision {
     F64,
     /// `f32` lanes: the fast path.
     F32,
+}
+
+impl Precision {
+    /// The arithmetic this precision runs in on this CPU now: `F32` needs
+    /// fused multiply-adds in hardware, so on the x86-64 baseline (no AVX2 +
+    /// FMA, or `IFD_SIMD=baseline`) it runs the `F64` lanes (a libm call per
+    /// lane would be slower than them).
+    ///
+    /// ```
+    /// use ifd_shade::Precision;
+    /// assert_eq!(Precision::F64.effective(), Precision::F64);
+    /// let p = Precision::F32.effective();
+    /// let baseline = ifd_sphere::vector_isa() == ifd_sphere::VectorIsa::Baseline;
+    /// assert_eq!(p == Precision::F64, cfg!(target_arch = "x86_64") && baseline);
+    /// ```
+    #[must_use]
+    pub fn effective(self) -> Self {
+        let no_fma = cfg!(target_arch = "x86_64")
+            && ifd_sphere::vector_isa() == ifd_sphere::VectorIsa::Baseline;
+        if no_fma { Self::F64 } else { self }
+    }
 }
 
 /// An environment's SH coefficients, ready for per-band lookups `Ehat_l(d)`.
@@ -357,10 +381,11 @@ impl Bands for Environment {
         bands: &mut [f64],
         out: &mut [f64],
     ) {
-        match self.precision {
-            Precision::F32 if d.len() <= 8 => self.lobe_sums_f32::<8>(l0, d, w, parts, out),
-            Precision::F32 => self.lobe_sums_f32::<16>(l0, d, w, parts, out),
-            Precision::F64 => {
+        let f32_lanes = self.precision.effective() == Precision::F32;
+        match (f32_lanes, d.len() <= 8) {
+            (true, true) => self.lobe_sums_f32::<8>(l0, d, w, parts, out),
+            (true, false) => self.lobe_sums_f32::<16>(l0, d, w, parts, out),
+            (false, _) => {
                 // four lanes at a time, fusing the SH recurrences with the coefficients
                 let ch = self.channels();
                 let nb = self.l_max() + 1;

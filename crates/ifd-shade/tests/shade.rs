@@ -683,7 +683,7 @@ fn gltf_parts_isd_matches_sh_and_combines_to_the_whole_brdf() {
 /// reference: every layout (in-plane lobes in one chunk of eight and in
 /// chunks of sixteen with a remainder, shared lobes), channel counts 1, 2 and
 /// 3, the glTF parts (every BRDF channel against every environment channel)
-/// and an RGB MERL BRDF (channel against channel), up to `L = 30`: within
+/// and an RGB MERL BRDF (channel against channel), up to `L = 60`: within
 /// 1e-5 of the largest reference value.
 #[test]
 fn f32_lanes_agree_with_the_f64_reference() {
@@ -695,10 +695,11 @@ fn f32_lanes_agree_with_the_f64_reference() {
     Merl::tabulate(ggx_rgb).write(&merl_path).unwrap();
     let merl_spec = format!("merl:{}", merl_path.display());
     // (BRDF, L, phi entries, environment channels, every part)
-    let cases: [(&str, usize, usize, usize, bool); 7] = [
+    let cases: [(&str, usize, usize, usize, bool); 8] = [
         ("ggx:alpha=0.3", 7, 1, 3, false),
         ("ggx:alpha=0.3", 16, 1, 1, false),
         ("ggx:alpha=0.3", 30, 1, 3, false),
+        ("ggx:alpha=0.1", 60, 1, 3, false),
         ("ggx:ax=0.2,ay=0.5", 8, 8, 2, false),
         ("gltf-lobes:roughness=0.5", 10, 1, 3, true),
         (&merl_spec, 6, 1, 3, false),

@@ -1,16 +1,20 @@
-//! Run-time dispatch of the SH kernels (the lane-wise Legendre recurrences of
-//! [`crate::ShEvaluator::band_sums`], [`crate::ShEvaluator::lobe_sums_f32`]
-//! and of the equirect projection) to code compiled for AVX2 or AVX-512 when
-//! the CPU has it.
+//! Run-time dispatch of the lane-wise kernels (the Legendre recurrences of
+//! [`crate::ShEvaluator::band_sums`] and [`crate::ShEvaluator::band_sums_f32`],
+//! the equirect projection, and, through [`run_vectorized`], `ifd-shade`'s
+//! `f32` lobe lanes and `ifd-ibl`'s moments and bright-texel sums) to code
+//! compiled for AVX2 + FMA or AVX-512 when the CPU has it.
 //!
 //! The kernels are written once, as plain lane-wise loops over `[f64; N]` or
 //! `[f32; N]`; the dispatch compiles them again with AVX2 enabled (four `f64`
 //! or eight `f32` per vector) and with AVX-512 (eight `f64`, sixteen `f32`)
 //! and picks one at run time. All compute the same IEEE operations lane by
-//! lane (Rust does not contract `a * b + c` into fused multiply-adds), so
-//! their results are equal bit for bit (tested). `IFD_SIMD=baseline` (or
-//! `avx2`) in the environment, or [`set_vector_isa`], caps the instruction
-//! set (to compare, or on a CPU where the wide vectors are slow).
+//! lane, so their results are equal bit for bit (tested): Rust does not
+//! contract `a * b + c` into a fused multiply-add, and where a kernel asks
+//! for one (`mul_add`, the `f32` kernels) it is exactly rounded everywhere
+//! (in the baseline code a libm call, slow: `ifd-shade` runs its `f64`
+//! lanes there instead). `IFD_SIMD=baseline` (or `avx2`) in the environment,
+//! or [`set_vector_isa`], caps the instruction set (to compare, or on a CPU
+//! where the wide vectors are slow).
 //!
 //! # The `unsafe` in this module
 //! The workspace denies `unsafe`; this module is an exception for the one
@@ -78,7 +82,13 @@ fn detect(max: VectorIsa) -> VectorIsa {
     {
         let avx2 = std::arch::is_x86_feature_detected!("avx2")
             && std::arch::is_x86_feature_detected!("fma");
-        if max >= VectorIsa::Avx512 && avx2 && std::arch::is_x86_feature_detected!("avx512f") {
+        // (rustc's avx512f implies f16c, which every AVX-512 CPU has; checked
+        // all the same)
+        if max >= VectorIsa::Avx512
+            && avx2
+            && std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("f16c")
+        {
             return VectorIsa::Avx512;
         }
         if max >= VectorIsa::Avx2 && avx2 {
@@ -101,9 +111,12 @@ fn env_cap() -> VectorIsa {
 fn choice() -> VectorIsa {
     match CHOICE.load(Ordering::Relaxed) {
         0 => {
-            let c = detect(env_cap());
-            CHOICE.store(c.code(), Ordering::Relaxed);
-            c
+            // first use: decide, unless a concurrent set_vector_isa did
+            let c = detect(env_cap()).code();
+            match CHOICE.compare_exchange(0, c, Ordering::Relaxed, Ordering::Relaxed) {
+                Ok(_) => VectorIsa::from_code(c),
+                Err(set) => VectorIsa::from_code(set),
+            }
         }
         c => VectorIsa::from_code(c),
     }
@@ -139,11 +152,12 @@ pub fn vector_kernels() -> Option<&'static str> {
     }
 }
 
-/// Allows (`true`: the CPU's best) or forbids (`false`: the baseline code)
-/// the vector kernels, for the whole process; as [`set_vector_isa`].
+/// Allows (`true`: the CPU's best, within an `IFD_SIMD` cap) or forbids
+/// (`false`: the baseline code) the vector kernels, for the whole process; as
+/// [`set_vector_isa`].
 pub fn set_vector_kernels(enabled: bool) {
     set_vector_isa(if enabled {
-        VectorIsa::Avx512
+        env_cap()
     } else {
         VectorIsa::Baseline
     });

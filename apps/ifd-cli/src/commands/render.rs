@@ -70,9 +70,10 @@ pub struct Render {
     /// Shading algorithm.
     #[arg(long, value_enum, default_value_t = RenderMethod::Isd)]
     method: RenderMethod,
-    /// Arithmetic of the CPU's isd lookups at the lobes: f32 (sixteen lanes a vector on
-    /// AVX-512; within 1e-5 of the image maximum of f64's) or f64 (the reference, as
-    /// before: isd and sh agree to 1e-9).
+    /// Arithmetic of the CPU's isd lookups at the lobes (--method isd without --gpu): f32
+    /// (sixteen lanes a vector on AVX-512; within 1e-5 of the image maximum of f64's, tested
+    /// to L = 60, 5e-7 measured at L = 100; without AVX2 + FMA it runs the f64 lanes) or f64 (the reference: isd and
+    /// sh agree to 1e-9). IFD_SIMD=avx2|baseline caps the instruction set.
     #[arg(long, value_enum, default_value_t = RenderPrecision::F32)]
     precision: RenderPrecision,
     /// Shade on the GPU (wgpu, Vulkan: a hardware adapter when there is one,
@@ -562,6 +563,7 @@ impl Render {
             (r, None)
         };
         let render_secs = t_render.elapsed().as_secs_f64();
+        let job_precision = job.precision;
         if let Some(p) = &self.gbuffer {
             write_gbuffer(p, &job)?;
         }
@@ -619,6 +621,15 @@ impl Render {
                 "quadrature_unconverged_pixels": (method == Method::Quadrature).then_some(r.not_converged),
                 "quadrature_max_residual": (method == Method::Quadrature).then_some(r.max_residual),
                 "spp": (method == Method::Mc).then_some(self.spp),
+                // the CPU's isd lanes as they ran (f32 falls back to f64
+                // without AVX2 + FMA) and the instruction set
+                "lanes": (method == Method::Isd && gpu_report.is_none()).then(|| {
+                    match job_precision.effective() {
+                        Precision::F32 => "f32",
+                        Precision::F64 => "f64",
+                    }
+                }),
+                "vector_isa": ifd_sphere::vector_isa().name(),
                 "seconds": secs, "render_seconds": render_secs,
                 "gpu": gpu_report,
                 "error_map": error_map,

@@ -169,7 +169,7 @@ impl EquirectTransform {
                 }
             }
             for l in m..=l_max {
-                // P_l^m of every group: p2 holds l - 1 (after the step), p1 l - 2
+                // P_l^m of every group: after this step p2 holds degree l, p1 l - 1
                 if l == m {
                     for (p, s) in p2.iter_mut().zip(sm.iter()) {
                         *p = std::array::from_fn(|k| t.qmm[m] * s[k]);
@@ -467,6 +467,9 @@ const PAIRS_PER_BLOCK: usize = 16;
 /// The most groups of row pairs a projection is cut into (a fixed number, so
 /// that the order of the sums does not depend on the thread count).
 const GROUPS: usize = 16;
+
+// `lane_sum`'s tree is written for eight lanes.
+const _: () = assert!(ANALYSIS_LANES == 8);
 
 /// The lanes' sum in a fixed tree (the same on every instruction set).
 #[inline(always)]
