@@ -236,8 +236,8 @@ mod tests {
     fn unit(rng: &mut u64) -> [f64; 3] {
         let mut next = || {
             *rng = rng
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
             (*rng >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
         };
         let v = DVec3::new(next(), next(), next()).normalize();
@@ -257,7 +257,7 @@ mod tests {
             let centre = unit(&mut rng);
             let first = samples.len();
             let mut total = [0.0; 3];
-            for k in 0..(1 + (i * 7) % 19) {
+            for k in 0..=(i * 7) % 19 {
                 let jitter = unit(&mut rng);
                 let d = (DVec3::from(centre) + 0.05 * DVec3::from(jitter)).normalize();
                 let w = [0.1 + k as f64 * 0.01, 0.2, 0.05 * (i % 3) as f64];
@@ -271,7 +271,7 @@ mod tests {
                 centre,
                 total,
                 samples: first..samples.len(),
-                cos_behind: -(radius as f64).sin(),
+                cos_behind: -f64::sin(radius),
                 cos_far: (0.1 + 0.05 * (i % 5) as f64).cos(),
             });
         }
