@@ -359,10 +359,26 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
         }
         Ok(())
     };
+    // the plain case (one material, ISD from SH, nothing per point but the
+    // albedo map): a row's points are shaded together, sharing vector lanes
+    let batched = match (job.method, &env_sh, job.material) {
+        (Method::Isd, Some(e), Some(m)) => (job.family.is_none()
+            && job.lights.is_empty()
+            && job.shadows.is_none()
+            && gltf.is_none())
+        .then_some((e, m)),
+        _ => None,
+    };
     let done = std::sync::atomic::AtomicUsize::new(0);
     let rows: Vec<Result<Row>> = (0..h)
         .into_par_iter()
         .map(|y| {
+            if let Some((e, m)) = batched {
+                let row = batched_row(job, e, m, albedo_map.is_some(), y)?;
+                let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                progress(n, h);
+                return Ok(row);
+            }
             let mut px = vec![0.0f32; w * ch];
             let mut mask = vec![false; w];
             let mut se = vec![0.0f32; if sampler.is_some() { w * ch } else { 0 }];
@@ -556,6 +572,71 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             None
         },
     })
+}
+
+/// Row `y` of the plain ISD case ([`render`]'s `batched`): the row's points
+/// shaded a few at a time ([`Material::shade_isd_batch`]: as many as fill
+/// sixteen lobe lanes), times the albedo map where there is one, the
+/// background elsewhere.
+fn batched_row(
+    job: &Job<'_>,
+    env: &Environment,
+    m: &Material,
+    albedo: bool,
+    y: usize,
+) -> Result<Row> {
+    let (w, ch) = (job.camera.width(), job.env.channels());
+    let mut px = vec![0.0f32; w * ch];
+    let mut mask = vec![false; w];
+    let mut out = vec![0.0; 3 * ch.max(3)];
+    let mut scratch = m.scratch(ch);
+    let per = m
+        .table()
+        .map_or(1, |t| (16 / t.basis().directions().len().max(1)).max(1));
+    // (column, albedo) and (frame, view) of the points waiting
+    let mut waiting: Vec<(usize, [f64; 3])> = Vec::with_capacity(per);
+    let mut points: Vec<(Frame, [f64; 3])> = Vec::with_capacity(per);
+    let mut shaded = vec![0.0; per * ch];
+    let mut flush = |waiting: &mut Vec<(usize, [f64; 3])>,
+                     points: &mut Vec<(Frame, [f64; 3])>,
+                     px: &mut [f32]|
+     -> Result<()> {
+        m.shade_isd_batch(env, points, &mut scratch, &mut shaded)?;
+        for (i, &(x, k)) in waiting.iter().enumerate() {
+            for c in 0..ch {
+                let k = if albedo { k[c] } else { 1.0 };
+                px[x * ch + c] = (shaded[i * ch + c] * k) as f32;
+            }
+        }
+        waiting.clear();
+        points.clear();
+        Ok(())
+    };
+    for x in 0..w {
+        let p = pixel(&job.scene, &job.camera, job.maps, x, y);
+        match &p.surface {
+            Some(surface) => {
+                mask[x] = true;
+                waiting.push((x, surface.albedo));
+                points.push((surface.frame, surface.wo));
+                if points.len() == per {
+                    flush(&mut waiting, &mut points, &mut px)?;
+                }
+            }
+            None => {
+                if let Some(bg) = job.background {
+                    bg.lookup(p.dir, &mut out);
+                    for (o, v) in px[x * ch..(x + 1) * ch].iter_mut().zip(&out) {
+                        *o = *v as f32;
+                    }
+                }
+            }
+        }
+    }
+    if !points.is_empty() {
+        flush(&mut waiting, &mut points, &mut px)?;
+    }
+    Ok((px, mask, 0, 0, 0.0, Vec::new()))
 }
 
 /// Shadows need their mesh, `isd` or `quadrature`, a material of at most

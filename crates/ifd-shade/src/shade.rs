@@ -267,6 +267,7 @@ impl Environment {
         d: &[[f64; 3]],
         w: &[f64],
         parts: usize,
+        owner: Option<&[u32]>,
         out: &mut [f64],
     ) {
         thread_local! {
@@ -285,9 +286,60 @@ impl Environment {
                 w,
                 parts,
                 lanes,
+                owner,
                 out,
             });
         });
+    }
+
+    /// [`Bands::lobe_sums`] for the lobes of several points at once: lobe
+    /// `k` belongs to point `owner[k]` (each point's lobes contiguous, points
+    /// numbered from 0 in order), whose sums go to `out[point P C..]`
+    /// (overwritten). With [`Precision::F32`] the points share vector lanes
+    /// (sixteen lobes a chunk: two points of eight lobes fill one AVX-512
+    /// register); with `F64` each point runs as [`Bands::lobe_sums`] does.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the points' lobes, weights and scratch"
+    )]
+    pub fn lobe_sums_batch(
+        &self,
+        l0: &[usize],
+        d: &[[f64; 3]],
+        w: &[f64],
+        parts: usize,
+        owner: &[u32],
+        y: &mut [f64],
+        bands: &mut [f64],
+        out: &mut [f64],
+    ) {
+        let pc = parts * self.channels();
+        let points = owner.last().map_or(0, |&p| p as usize + 1);
+        out[..points * pc].fill(0.0);
+        if self.precision.effective() == Precision::F32 {
+            self.lobe_sums_f32::<16>(l0, d, w, parts, Some(owner), out);
+            return;
+        }
+        let nb = self.l_max() + 1;
+        let mut start = 0;
+        while start < owner.len() {
+            let pt = owner[start] as usize;
+            let end = start
+                + owner[start..]
+                    .iter()
+                    .take_while(|&&p| p as usize == pt)
+                    .count();
+            self.lobe_sums(
+                &l0[start..end],
+                &d[start..end],
+                &w[start * nb * parts..end * nb * parts],
+                parts,
+                y,
+                bands,
+                &mut out[pt * pc..(pt + 1) * pc],
+            );
+            start = end;
+        }
     }
 }
 
@@ -304,6 +356,9 @@ struct LobeSumsF32<'a, const N: usize> {
     parts: usize,
     /// Scratch: `(L + 1) C` accumulators, `(L + 1) P` weights, `P C` sums.
     lanes: &'a mut [[f32; N]],
+    /// The point of each lobe (`None`: one point); its `P C` sums start at
+    /// `out[point P C]`.
+    owner: Option<&'a [u32]>,
     out: &'a mut [f64],
 }
 
@@ -322,13 +377,13 @@ impl<const N: usize> ifd_sphere::VectorKernel for LobeSumsF32<'_, N> {
             w,
             parts,
             lanes,
+            owner,
             out,
         } = self;
         let ch = env.channels();
         let nb = env.l_max() + 1;
         let (acc, rest) = lanes.split_at_mut(nb * ch);
         let (wl, sums) = rest.split_at_mut(nb * parts);
-        out[..parts * ch].fill(0.0);
         for (j0, (l0s, ds)) in l0.chunks(N).zip(d.chunks(N)).enumerate() {
             let lo = l0s.iter().copied().min().unwrap_or(nb).min(nb);
             let dirs: [[f32; 3]; N] =
@@ -354,8 +409,20 @@ impl<const N: usize> ifd_sphere::VectorKernel for LobeSumsF32<'_, N> {
                     sums[p * ch + c] = s;
                 }
             }
-            for (o, s) in out[..parts * ch].iter_mut().zip(sums.iter()) {
-                *o += s.iter().map(|&v| f64::from(v)).sum::<f64>();
+            match owner {
+                None => {
+                    for (o, s) in out[..parts * ch].iter_mut().zip(sums.iter()) {
+                        *o += s.iter().map(|&v| f64::from(v)).sum::<f64>();
+                    }
+                }
+                Some(own) => {
+                    for (k, &pt) in own[j0 * N..j0 * N + ds.len()].iter().enumerate() {
+                        let o = &mut out[pt as usize * parts * ch..(pt as usize + 1) * parts * ch];
+                        for (o, s) in o.iter_mut().zip(sums.iter()) {
+                            *o += f64::from(s[k]);
+                        }
+                    }
+                }
             }
         }
     }
@@ -383,8 +450,14 @@ impl Bands for Environment {
     ) {
         let f32_lanes = self.precision.effective() == Precision::F32;
         match (f32_lanes, d.len() <= 8) {
-            (true, true) => self.lobe_sums_f32::<8>(l0, d, w, parts, out),
-            (true, false) => self.lobe_sums_f32::<16>(l0, d, w, parts, out),
+            (true, true) => {
+                out[..parts * self.channels()].fill(0.0);
+                self.lobe_sums_f32::<8>(l0, d, w, parts, None, out);
+            }
+            (true, false) => {
+                out[..parts * self.channels()].fill(0.0);
+                self.lobe_sums_f32::<16>(l0, d, w, parts, None, out);
+            }
             (false, _) => {
                 // four lanes at a time, fusing the SH recurrences with the coefficients
                 let ch = self.channels();
@@ -600,6 +673,10 @@ pub struct Scratch {
     first: Vec<usize>,
     lobe_weights: Vec<f64>,
     sums: Vec<f64>,
+    /// For a batch of points: each lobe's point among the lit ones, and the
+    /// lit points' indices.
+    owner: Vec<u32>,
+    lit: Vec<usize>,
 }
 
 impl Scratch {
@@ -616,6 +693,8 @@ impl Scratch {
             first: Vec::with_capacity(2 * l_max + 1),
             lobe_weights: Vec::with_capacity((2 * l_max + 1) * (l_max + 1) * 3),
             sums: vec![0.0; 3 * channels.max(3)],
+            owner: Vec::new(),
+            lit: Vec::new(),
         }
     }
 }
@@ -730,6 +809,111 @@ impl Material {
         out: &mut [f64],
     ) -> Result<()> {
         self.isd_into::<false>(env, frame, wo, s, out)
+    }
+
+    /// [`Self::shade_isd`] at several points at once: `points[i]` is the
+    /// frame and view of point `i`, its value goes to `out[i C..]` (`C` the
+    /// environment's channels). With a lobe table and [`Precision::F32`] the
+    /// points' lobes share the vector lanes (at L = 7 two points fill the
+    /// sixteen of an AVX-512 register where one fills eight); otherwise each
+    /// point is shaded alone. Equal to [`Self::shade_isd`] point by point to
+    /// `f32` rounding (`F32`) or exactly (`F64`).
+    ///
+    /// ```
+    /// use ifd_shade::{Brdf, Environment, Frame, LobeTable, Material, Precision};
+    /// use ifd_sphere::ShCoeffs;
+    /// let l = 7;
+    /// let mut e = ShCoeffs::zeros(l, 1)?;
+    /// for (i, v) in e.data_mut().iter_mut().enumerate() {
+    ///     *v = 1.0 / (1.0 + i as f64);
+    /// }
+    /// let env = Environment::new(e)?.with_precision(Precision::F32);
+    /// let b = Brdf::parse("ggx:alpha=0.3")?;
+    /// let m = Material::new(&b, l, Some(LobeTable::build(&b, l, 8, 1, &|_, _| {})?))?;
+    /// let f = Frame::new([0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+    /// let points = [(f, [0.0, 0.6, 0.8]), (f, [0.6, 0.0, 0.8]), (f, [0.0, 0.0, -1.0])];
+    /// let mut s = m.scratch(1);
+    /// let mut batch = [0.0; 3];
+    /// m.shade_isd_batch(&env, &points, &mut s, &mut batch)?;
+    /// for (i, (f, wo)) in points.iter().enumerate() {
+    ///     let mut one = [0.0];
+    ///     m.shade_isd(&env, f, *wo, &mut s, &mut one)?;
+    ///     assert!((batch[i] - one[0]).abs() <= 1e-6 * one[0].abs().max(1e-3));
+    /// }
+    /// assert_eq!(batch[2], 0.0); // a view below the surface
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Self::shade_isd`].
+    pub fn shade_isd_batch(
+        &self,
+        env: &Environment,
+        points: &[(Frame, [f64; 3])],
+        s: &mut Scratch,
+        out: &mut [f64],
+    ) -> Result<()> {
+        let ch = self.out_channels(env.channels())?;
+        self.check_env(env)?;
+        let Lobes::Table(t) = &self.lobes else {
+            for (i, (f, wo)) in points.iter().enumerate() {
+                self.shade_isd(env, f, *wo, s, &mut out[i * ch..(i + 1) * ch])?;
+            }
+            return Ok(());
+        };
+        let kc = self.brdf.channels();
+        let nb = self.l_max + 1;
+        let n = t.entry_len();
+        let basis = t.basis();
+        let dirs = basis.directions();
+        s.dirs.clear();
+        s.first.clear();
+        s.lobe_weights.clear();
+        s.owner.clear();
+        s.lit.clear();
+        for (i, (frame, wo)) in points.iter().enumerate() {
+            out[i * ch..(i + 1) * ch].fill(0.0);
+            let (r, wl, theta, phi) = self.placement(frame, *wo);
+            if wl[2] <= 0.0 {
+                continue;
+            }
+            t.weights_into(theta, phi, &mut s.weights[..n]);
+            let first_lobe = s.dirs.len();
+            let point = s.lit.len() as u32;
+            s.lit.push(i);
+            s.dirs.extend(dirs.iter().map(|&d| r.apply(d)));
+            s.first
+                .extend((0..dirs.len()).map(|j| basis.first_band(j).min(nb)));
+            s.owner.extend(std::iter::repeat_n(point, dirs.len()));
+            s.lobe_weights.resize(s.dirs.len() * nb * kc, 0.0);
+            for j in 0..dirs.len() {
+                for l in s.first[first_lobe + j]..nb {
+                    let (src, dst) = (basis.index(l, j) * kc, ((first_lobe + j) * nb + l) * kc);
+                    for p in 0..kc {
+                        s.lobe_weights[dst + p] = s.weights[src + p];
+                    }
+                }
+            }
+        }
+        let pc = kc * ch;
+        s.sums.resize(s.lit.len().max(1) * pc, 0.0);
+        env.lobe_sums_batch(
+            &s.first,
+            &s.dirs,
+            &s.lobe_weights,
+            kc,
+            &s.owner,
+            &mut s.y,
+            &mut s.bands,
+            &mut s.sums,
+        );
+        for (li, &i) in s.lit.iter().enumerate() {
+            let sums = &s.sums[li * pc..(li + 1) * pc];
+            for c in 0..ch {
+                out[i * ch + c] = sums[if kc == 1 { c } else { c * ch + c }];
+            }
+        }
+        Ok(())
     }
 
     /// Eq. 22 for every channel of a multi-channel BRDF against every
