@@ -84,7 +84,7 @@ impl LegendreTable {
     #[inline(always)]
     #[expect(
         clippy::inline_always,
-        reason = "compiled into each target of `simd::dispatch`"
+        reason = "compiled into each target of `simd::run_vectorized`"
     )]
     pub(crate) fn column<const N: usize>(
         &self,
@@ -322,14 +322,21 @@ impl ShEvaluator {
         channels: usize,
         out: &mut [f64],
     ) {
-        crate::simd::dispatch(|| self.band_sums_kernel(l0, dirs, coeffs, channels, out));
+        crate::simd::run_vectorized(BandSums {
+            sh: self,
+            l0,
+            dirs,
+            coeffs,
+            channels,
+            out,
+        });
     }
 
     /// [`Self::band_sums`]' loops, compiled into each of its dispatch targets.
     #[inline(always)]
     #[expect(
         clippy::inline_always,
-        reason = "compiled into each target of `simd::dispatch`"
+        reason = "compiled into each target of `simd::run_vectorized`"
     )]
     fn band_sums_kernel<const N: usize>(
         &self,
@@ -495,7 +502,7 @@ impl ShEvaluator {
     #[inline(always)]
     #[expect(
         clippy::inline_always,
-        reason = "compiled into each target of `simd::dispatch`"
+        reason = "compiled into each target of `simd::run_vectorized`"
     )]
     fn band_sums_f32_kernel<const N: usize>(
         &self,
@@ -573,6 +580,36 @@ impl ShEvaluator {
     }
 }
 
+/// [`ShEvaluator::band_sums`]' arguments, run as a [`crate::VectorKernel`].
+struct BandSums<'a, const N: usize> {
+    sh: &'a ShEvaluator,
+    l0: usize,
+    dirs: &'a [[f64; 3]; N],
+    coeffs: &'a [f64],
+    channels: usize,
+    out: &'a mut [f64],
+}
+
+impl<const N: usize> crate::simd::VectorKernel for BandSums<'_, N> {
+    type Output = ();
+    #[inline(always)]
+    #[allow(
+        clippy::inline_always,
+        reason = "the kernel is compiled into each target of `run_vectorized`"
+    )]
+    fn run(self) {
+        let Self {
+            sh,
+            l0,
+            dirs,
+            coeffs,
+            channels,
+            out,
+        } = self;
+        sh.band_sums_kernel(l0, dirs, coeffs, channels, out);
+    }
+}
+
 /// [`ShEvaluator::band_sums_f32`]'s arguments, run as a [`crate::VectorKernel`].
 struct BandSumsF32<'a, const N: usize> {
     sh: &'a ShEvaluator,
@@ -610,7 +647,7 @@ impl<const N: usize> crate::simd::VectorKernel for BandSumsF32<'_, N> {
 #[inline(always)]
 #[expect(
     clippy::inline_always,
-    reason = "compiled into each target of `simd::dispatch`"
+    reason = "compiled into each target of `simd::run_vectorized`"
 )]
 fn add_band<const N: usize>(
     acc: &mut [[f32; N]],

@@ -163,27 +163,6 @@ pub fn set_vector_kernels(enabled: bool) {
     });
 }
 
-/// Runs `f`, compiled for the instruction set [`vector_isa`] names. `f`
-/// should call `#[inline(always)]` kernels, so that they are compiled into it.
-#[inline(always)]
-#[expect(
-    clippy::inline_always,
-    reason = "compiled into each target of `simd::dispatch`"
-)]
-pub(crate) fn dispatch<R>(f: impl FnOnce() -> R) -> R {
-    #[cfg(target_arch = "x86_64")]
-    {
-        match choice() {
-            // SAFETY: the CPU has AVX-512F, AVX2 and FMA (`detect` checked them at run time).
-            VectorIsa::Avx512 => return unsafe { with_avx512(f) },
-            // SAFETY: the CPU has AVX2 and FMA (`detect` checked them at run time).
-            VectorIsa::Avx2 => return unsafe { with_avx2(f) },
-            VectorIsa::Baseline => {}
-        }
-    }
-    f()
-}
-
 /// A lane-wise kernel to run on the best instruction set of the CPU
 /// ([`run_vectorized`]): its [`VectorKernel::run`] is marked
 /// `#[inline(always)]` and calls `#[inline(always)]` code only (such as
@@ -223,7 +202,7 @@ pub trait VectorKernel {
 #[inline(always)]
 #[expect(
     clippy::inline_always,
-    reason = "compiled into each target of `simd::dispatch`"
+    reason = "compiled into each target of `simd::run_vectorized`"
 )]
 pub fn run_vectorized<K: VectorKernel>(k: K) -> K::Output {
     #[cfg(target_arch = "x86_64")]
@@ -249,18 +228,6 @@ unsafe fn kernel_avx2<K: VectorKernel>(k: K) -> K::Output {
 #[target_feature(enable = "avx2,fma,avx512f")]
 unsafe fn kernel_avx512<K: VectorKernel>(k: K) -> K::Output {
     k.run()
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
-    f()
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,avx512f")]
-unsafe fn with_avx512<R>(f: impl FnOnce() -> R) -> R {
-    f()
 }
 
 #[cfg(test)]

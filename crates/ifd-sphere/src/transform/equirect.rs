@@ -140,7 +140,7 @@ impl EquirectTransform {
     #[inline(always)]
     #[allow(
         clippy::inline_always,
-        reason = "compiled into each target of `simd::dispatch`"
+        reason = "compiled into each target of `simd::run_vectorized`"
     )]
     fn legendre_sums(
         &self,
@@ -475,7 +475,7 @@ const _: () = assert!(ANALYSIS_LANES == 8);
 #[inline(always)]
 #[allow(
     clippy::inline_always,
-    reason = "compiled into each target of `simd::dispatch`"
+    reason = "compiled into each target of `simd::run_vectorized`"
 )]
 fn lane_sum(x: [f64; ANALYSIS_LANES]) -> f64 {
     let a = [x[0] + x[4], x[1] + x[5], x[2] + x[6], x[3] + x[7]];
@@ -558,12 +558,12 @@ impl PairPass {
 
     /// Adds the Legendre sums of the row pairs `pairs` (at most
     /// [`PAIRS_PER_BLOCK`]) to `out` (compiled into each target of
-    /// `crate::simd::dispatch`, as the Legendre sums it calls).
+    /// `crate::simd::run_vectorized`, as the Legendre sums it calls).
     #[expect(clippy::too_many_arguments, reason = "one block's inputs and output")]
     #[inline(always)]
     #[allow(
         clippy::inline_always,
-        reason = "compiled into each target of `simd::dispatch`"
+        reason = "compiled into each target of `simd::run_vectorized`"
     )]
     fn run(
         &mut self,
