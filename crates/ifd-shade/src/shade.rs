@@ -88,6 +88,20 @@ fn add_weighted(
     }
 }
 
+/// The values a shading call returns from the weighted sums `sums[p C + c]`
+/// (BRDF channel `p` against environment channel `c`) into `out`: every pair
+/// (`OUTER`, `kc C` values), else per environment channel the one BRDF
+/// channel (`kc = 1`) or the matching one (`kc = C`).
+fn pick_sums<const OUTER: bool>(sums: &[f64], kc: usize, ch: usize, out: &mut [f64]) {
+    if OUTER {
+        out[..kc * ch].copy_from_slice(&sums[..kc * ch]);
+    } else {
+        for (c, o) in out[..ch].iter_mut().enumerate() {
+            *o = sums[if kc == 1 { c } else { c * ch + c }];
+        }
+    }
+}
+
 /// The arithmetic of [`Environment`]'s lookups at many lobes at once
 /// ([`Bands::lobe_sums`]).
 ///
@@ -448,21 +462,14 @@ impl Bands for Environment {
         bands: &mut [f64],
         out: &mut [f64],
     ) {
+        let (nb, ch) = (self.l_max() + 1, self.channels());
+        out[..parts * ch].fill(0.0);
         let f32_lanes = self.precision.effective() == Precision::F32;
         match (f32_lanes, d.len() <= 8) {
-            (true, true) => {
-                out[..parts * self.channels()].fill(0.0);
-                self.lobe_sums_f32::<8>(l0, d, w, parts, None, out);
-            }
-            (true, false) => {
-                out[..parts * self.channels()].fill(0.0);
-                self.lobe_sums_f32::<16>(l0, d, w, parts, None, out);
-            }
+            (true, true) => self.lobe_sums_f32::<8>(l0, d, w, parts, None, out),
+            (true, false) => self.lobe_sums_f32::<16>(l0, d, w, parts, None, out),
             (false, _) => {
                 // four lanes at a time, fusing the SH recurrences with the coefficients
-                let ch = self.channels();
-                let nb = self.l_max() + 1;
-                out[..parts * ch].fill(0.0);
                 for (j0, (l0s, ds)) in l0.chunks(4).zip(d.chunks(4)).enumerate() {
                     let lo = l0s.iter().copied().min().unwrap_or(nb).min(nb);
                     let dirs: [[f64; 3]; 4] =
@@ -862,10 +869,6 @@ impl Material {
             return Ok(());
         };
         let kc = self.brdf.channels();
-        let nb = self.l_max + 1;
-        let n = t.entry_len();
-        let basis = t.basis();
-        let dirs = basis.directions();
         s.dirs.clear();
         s.first.clear();
         s.lobe_weights.clear();
@@ -877,23 +880,11 @@ impl Material {
             if wl[2] <= 0.0 {
                 continue;
             }
-            t.weights_into(theta, phi, &mut s.weights[..n]);
-            let first_lobe = s.dirs.len();
             let point = s.lit.len() as u32;
             s.lit.push(i);
-            s.dirs.extend(dirs.iter().map(|&d| r.apply(d)));
-            s.first
-                .extend((0..dirs.len()).map(|j| basis.first_band(j).min(nb)));
-            s.owner.extend(std::iter::repeat_n(point, dirs.len()));
-            s.lobe_weights.resize(s.dirs.len() * nb * kc, 0.0);
-            for j in 0..dirs.len() {
-                for l in s.first[first_lobe + j]..nb {
-                    let (src, dst) = (basis.index(l, j) * kc, ((first_lobe + j) * nb + l) * kc);
-                    for p in 0..kc {
-                        s.lobe_weights[dst + p] = s.weights[src + p];
-                    }
-                }
-            }
+            s.owner
+                .extend(std::iter::repeat_n(point, t.basis().directions().len()));
+            self.push_lobes(t, &r, theta, phi, s);
         }
         let pc = kc * ch;
         s.sums.resize(s.lit.len().max(1) * pc, 0.0);
@@ -909,11 +900,35 @@ impl Material {
         );
         for (li, &i) in s.lit.iter().enumerate() {
             let sums = &s.sums[li * pc..(li + 1) * pc];
-            for c in 0..ch {
-                out[i * ch + c] = sums[if kc == 1 { c } else { c * ch + c }];
-            }
+            pick_sums::<false>(sums, kc, ch, &mut out[i * ch..(i + 1) * ch]);
         }
         Ok(())
+    }
+
+    /// Appends the lobes of one point to `s` (its table weights at `(theta,
+    /// phi)` into `s.weights` first): each lobe's direction `R z_j`, first
+    /// band, and weights per band in the layout of [`Bands::lobe_sums`]
+    /// (`[(j (L + 1) + l) P + p]`, zero below the first band).
+    fn push_lobes(&self, t: &LobeTable, r: &Rotation, theta: f64, phi: f64, s: &mut Scratch) {
+        let kc = self.brdf.channels();
+        let nb = self.l_max + 1;
+        let basis = t.basis();
+        let dirs = basis.directions();
+        t.weights_into(theta, phi, &mut s.weights[..t.entry_len()]);
+        let first_lobe = s.dirs.len();
+        s.dirs.extend(dirs.iter().map(|&d| r.apply(d)));
+        s.first
+            .extend((0..dirs.len()).map(|j| basis.first_band(j).min(nb)));
+        s.lobe_weights.resize(s.dirs.len() * nb * kc, 0.0);
+        for j in 0..dirs.len() {
+            for l in s.first[first_lobe + j]..nb {
+                let (src, dst) = (basis.index(l, j) * kc, ((first_lobe + j) * nb + l) * kc);
+                // element by element: a slice copy of one value is a memmove call
+                for p in 0..kc {
+                    s.lobe_weights[dst + p] = s.weights[src + p];
+                }
+            }
+        }
     }
 
     /// Eq. 22 for every channel of a multi-channel BRDF against every
@@ -998,28 +1013,10 @@ impl Material {
                 if wl[2] <= 0.0 {
                     return Ok(());
                 }
-                let n = t.entry_len();
-                t.weights_into(theta, phi, &mut s.weights[..n]);
-                let basis = t.basis();
-                let dirs = basis.directions();
-                let nb = self.l_max + 1;
-                // every lobe at once; lobe j serves the bands l >= first_band(j)
                 s.dirs.clear();
-                s.dirs.extend(dirs.iter().map(|&d| r.apply(d)));
                 s.first.clear();
-                s.first
-                    .extend((0..dirs.len()).map(|j| basis.first_band(j).min(nb)));
                 s.lobe_weights.clear();
-                s.lobe_weights.resize(dirs.len() * nb * kc, 0.0);
-                for (j, &l0) in s.first.iter().enumerate() {
-                    for l in l0..nb {
-                        let (src, dst) = (basis.index(l, j) * kc, (j * nb + l) * kc);
-                        // element by element: a slice copy of one value is a memmove call
-                        for p in 0..kc {
-                            s.lobe_weights[dst + p] = s.weights[src + p];
-                        }
-                    }
-                }
+                self.push_lobes(t, &r, theta, phi, s);
                 env.lobe_sums(
                     &s.first,
                     &s.dirs,
@@ -1029,17 +1026,7 @@ impl Material {
                     &mut s.bands,
                     &mut s.sums,
                 );
-                // BRDF channel p against environment channel c: all pairs
-                // (OUTER), the one BRDF channel, or the matching ones
-                for c in 0..ch {
-                    if OUTER {
-                        for p in 0..kc {
-                            out[p * ch + c] = s.sums[p * ch + c];
-                        }
-                    } else {
-                        out[c] = s.sums[if kc == 1 { c } else { c * ch + c }];
-                    }
-                }
+                pick_sums::<OUTER>(&s.sums, kc, ch, out);
             }
         }
         Ok(())
