@@ -563,7 +563,6 @@ impl Render {
             (r, None)
         };
         let render_secs = t_render.elapsed().as_secs_f64();
-        let job_precision = job.precision;
         if let Some(p) = &self.gbuffer {
             write_gbuffer(p, &job)?;
         }
@@ -624,7 +623,7 @@ impl Render {
                 // the CPU's isd lanes as they ran (f32 falls back to f64
                 // without AVX2 + FMA) and the instruction set
                 "lanes": (method == Method::Isd && gpu_report.is_none()).then(|| {
-                    match job_precision.effective() {
+                    match job.precision.effective() {
                         Precision::F32 => "f32",
                         Precision::F64 => "f64",
                     }
