@@ -99,7 +99,8 @@ pub use stack::gather::vector_kernels;
 pub use stack::lookup::Taps;
 pub use stack::refresh::{FixedTap, PixelRect, RefreshReport};
 pub use stack::{
-    Interpolation, LevelLayout, LevelLocator, ScaleStack, StackLayout, StackOptions, StackPlan,
+    Interpolation, LevelLayout, LevelLocator, ScaleStack, StackBuild, StackLayout, StackOptions,
+    StackPlan,
 };
 pub use tiled::{
     RegionReader, RegionWriter, TileGrid, TiledField, Tiling, filter_tiled, halo as tile_halo,

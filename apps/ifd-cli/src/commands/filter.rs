@@ -411,11 +411,12 @@ impl Filter {
                 eprintln!("per-pixel lookups: {kernel}");
             }
             eprintln!(
-                "{} terms; prefiltering {:.1} ms ({} levels, {}), filtering {:.1} ms",
+                "{} terms; prefiltering {:.1} ms ({} levels, {}, {} build), filtering {:.1} ms",
                 decomposition.terms.len(),
                 (t1 - t0).as_secs_f64() * 1e3,
                 stack.sigmas().len(),
                 ifd_image::fmt_bytes(stack.bytes()),
+                stack.build_method().name(),
                 (t2 - t1).as_secs_f64() * 1e3
             );
         }

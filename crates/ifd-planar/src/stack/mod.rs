@@ -10,12 +10,14 @@ mod build;
 mod locate;
 mod plan;
 mod sample;
+mod separable;
 
 pub(crate) use build::check_finite;
 pub use locate::LevelLocator;
 pub(crate) use locate::snap_to_level;
 pub use plan::{Interpolation, LevelLayout, MIN_SIGMA, StackLayout, StackOptions, StackPlan};
 pub(crate) use plan::{bspline_weights, pyramid_step};
+pub use separable::StackBuild;
 
 use ifd_image::ImageView;
 
@@ -104,6 +106,7 @@ pub struct ScaleStack {
     /// `ln sigma` of every level (for stacks with levels at given sigmas).
     ln_sigmas: Vec<f64>,
     interpolation: Interpolation,
+    build_method: StackBuild,
     pub(crate) levels: Vec<Level>,
 }
 
@@ -188,6 +191,16 @@ impl ScaleStack {
         if !border.constant().is_finite() {
             return Err(FilterError::InvalidBorder(border.to_string()));
         }
+        let build_method = separable::choose(layout);
+        let direct = build_method == StackBuild::Direct;
+        let src = separable::Source {
+            data,
+            width,
+            height,
+            channels,
+            border,
+        };
+        let cubic = layout.interpolation == Interpolation::Cubic;
         let mut levels: Vec<Level> = layout
             .levels
             .iter()
@@ -195,10 +208,17 @@ impl ScaleStack {
                 layout: *l,
                 origin: l.origin as f32,
                 inv_step: 1.0 / l.step as f32,
-                data: vec![0.0; l.nx * l.ny * channels],
+                data: if direct {
+                    let (nx, ny) = (l.nx as i64, l.ny as i64);
+                    separable::window(&src, l, (0, nx - 1), (0, ny - 1), cubic)
+                } else {
+                    vec![0.0; l.nx * l.ny * channels]
+                },
             })
             .collect();
-        build_levels(layout, data, border, &mut levels);
+        if !direct {
+            build_levels(layout, data, border, &mut levels);
+        }
         let sigmas: Vec<f64> = layout.levels.iter().map(|l| l.sigma).collect();
         let ln_sigma0 = sigmas[0].ln();
         let inv_ln_ratio = if !layout.uniform {
@@ -219,8 +239,15 @@ impl ScaleStack {
             inv_ln_ratio,
             ln_sigmas,
             interpolation: layout.interpolation,
+            build_method,
             levels,
         })
+    }
+
+    /// How the levels were computed (the cheaper build for the layout).
+    #[must_use]
+    pub fn build_method(&self) -> StackBuild {
+        self.build_method
     }
 
     /// Image width in pixels.

@@ -3,7 +3,7 @@
 
 use ifd_image::ImageView;
 
-use super::{ScaleStack, refresh};
+use super::{ScaleStack, separable};
 use crate::border::Border;
 use crate::error::FilterError;
 
@@ -438,7 +438,7 @@ impl StackLayout {
         // samples `CUBIC_TAPS` further out, so those must not see the FFT's
         // periodic wrap either.
         let extra = if options.interpolation == Interpolation::Cubic {
-            refresh::CUBIC_TAPS * max_step
+            separable::CUBIC_TAPS * max_step
         } else {
             0
         };

@@ -6,6 +6,7 @@
 use ifd_image::Image;
 use rayon::prelude::*;
 
+use super::separable::{CUBIC_TAPS, Source, reach, window};
 use super::{Interpolation, LevelLayout, ScaleStack, check_finite};
 use crate::border::Border;
 use crate::error::FilterError;
@@ -184,12 +185,6 @@ fn affected_range(
     (lo <= hi).then_some((lo as usize, hi as usize))
 }
 
-/// Reach of a level's Gaussian in [`ScaleStack::refresh_region`]: 5 sigma
-/// and one pixel.
-fn reach(sigma: f64) -> i64 {
-    (5.0 * sigma).ceil() as i64 + 1
-}
-
 /// Stored sample ranges `((i0, i1), (j0, j1))` (columns, rows) of level `l`
 /// that depend on the pixels of the non-empty `rect`; `None` when none.
 fn affected_window(
@@ -207,28 +202,6 @@ fn affected_window(
     let rows = affected_range(a_y, b_y, r, l.origin, step, l.ny, h, border)?;
     Some((cols, rows))
 }
-
-/// Dot product in eight independent lanes (vectorises; the summation order
-/// differs from a sequential sum by rounding only).
-fn dot(a: &[f32], b: &[f32]) -> f32 {
-    let mut acc = [0.0f32; 8];
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        for k in 0..8 {
-            acc[k] += x[k] * y[k];
-        }
-    }
-    let tail: f32 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
-    acc.iter().sum::<f32>() + tail
-}
-
-/// Terms of the cubic B-spline prefilter kept by [`ScaleStack::refresh_region`]
-/// on each side: the prefilter is `sqrt 3 z^|k|`, `z = sqrt 3 - 2`, so the
-/// neglected tail is `2 sqrt 3 z^(K + 1) / (1 - z) < 2e-7` of the samples'
-/// range, and a change moves coefficients at most `K` samples away by more
-/// than that.
-pub const CUBIC_TAPS: usize = 12;
 
 /// Stored samples `((i0, i1), (j0, j1))` of level `l` that
 /// [`ScaleStack::refresh_region`] rewrites for a change in `rect`: those
@@ -251,125 +224,6 @@ fn written_window(
         (i0.saturating_sub(k), (i1 + k).min(l.nx - 1)),
         (j0.saturating_sub(k), (j1 + k).min(l.ny - 1)),
     ))
-}
-
-/// The samples of level `l` at stored indices `i0..=i1` by `j0..=j1`
-/// (which may lie beyond the stored ones), by direct separable correlation
-/// of the border-extended `image` with the level's sampled Gaussian;
-/// interleaved, row-major.
-fn level_samples(
-    image: &Image,
-    border: Border,
-    l: &LevelLayout,
-    (i0, i1): (i64, i64),
-    (j0, j1): (i64, i64),
-) -> Vec<f32> {
-    let (w, h, c) = (image.width(), image.height(), image.channels());
-    let data = image.data();
-    let cval = border.constant();
-    let sigma = l.sigma;
-    let r = reach(sigma);
-    let step = l.step as i64;
-    let norm = 1.0 / ((2.0 * std::f64::consts::PI).sqrt() * sigma);
-    let g: Vec<f32> = (-r..=r)
-        .map(|d| (norm * (-(d * d) as f64 / (2.0 * sigma * sigma)).exp()) as f32)
-        .collect();
-    let ni = (i1 - i0 + 1) as usize;
-    let nj = (j1 - j0 + 1) as usize;
-    // Full-resolution coordinates of the first and last samples.
-    let x_first = l.origin + i0 * step;
-    let y_first = l.origin + j0 * step;
-    let y_last = l.origin + j1 * step;
-    // Column map for the horizontal pass: coordinates
-    // [x_first - r, x_last + r].
-    let cols: Vec<Option<usize>> = (x_first - r..=l.origin + i1 * step + r)
-        .map(|x| border.resolve(x, w))
-        .collect();
-    let row_lo = y_first - r;
-    let n_rows = (y_last + r - row_lo + 1) as usize;
-    // Horizontal pass: hp[row][i][channel].
-    let mut hp = vec![0.0f32; n_rows * ni * c];
-    hp.par_chunks_mut(ni * c).enumerate().for_each_init(
-        || Vec::with_capacity(cols.len() * c),
-        |ext: &mut Vec<f32>, (k, out)| {
-            // The border-extended row, contiguous, then plain dot products.
-            ext.clear();
-            let src_row = border.resolve(row_lo + k as i64, h);
-            for &col in &cols {
-                match (src_row, col) {
-                    (Some(y), Some(x)) => {
-                        ext.extend_from_slice(&data[(y * w + x) * c..(y * w + x + 1) * c]);
-                    }
-                    _ => ext.extend(std::iter::repeat_n(cval, c)),
-                }
-            }
-            let taps = g.len();
-            for (ii, px) in out.chunks_exact_mut(c).enumerate() {
-                let base = ii * l.step;
-                if c == 1 {
-                    px[0] = dot(&g, &ext[base..base + taps]);
-                } else {
-                    px.fill(0.0);
-                    for (dx, &gv) in g.iter().enumerate() {
-                        let s = &ext[(base + dx) * c..(base + dx + 1) * c];
-                        for (p, v) in px.iter_mut().zip(s) {
-                            *p += gv * v;
-                        }
-                    }
-                }
-            }
-        },
-    );
-    // Vertical pass.
-    let mut out = vec![0.0f32; ni * nj * c];
-    out.par_chunks_mut(ni * c).enumerate().for_each(|(j, row)| {
-        // Row index in hp of coordinate (y_j - r).
-        let k0 = j * l.step;
-        for (dy, &gv) in g.iter().enumerate() {
-            let src = &hp[(k0 + dy) * ni * c..(k0 + dy + 1) * ni * c];
-            for (p, v) in row.iter_mut().zip(src) {
-                *p += gv * v;
-            }
-        }
-    });
-    out
-}
-
-/// Cubic B-spline coefficients of the inner `(nx - 2K) x (ny - 2K)` samples
-/// of an `nx x ny x c` block ([`CUBIC_TAPS`] `= K`): the separable
-/// prefilter `sqrt 3 z^|k|`, `|k| <= K`, along rows then columns.
-fn bspline_coefficients(samples: &[f32], nx: usize, ny: usize, c: usize) -> Vec<f32> {
-    let k = CUBIC_TAPS;
-    let z = 3f64.sqrt() - 2.0;
-    let h: Vec<f32> = (0..=2 * k)
-        .map(|i| (3f64.sqrt() * z.powi((i as i32 - k as i32).abs())) as f32)
-        .collect();
-    let (mx, my) = (nx - 2 * k, ny - 2 * k);
-    // Along rows: every row, inner columns.
-    let mut rows = vec![0.0f32; ny * mx * c];
-    rows.par_chunks_mut(mx * c)
-        .zip(samples.par_chunks(nx * c))
-        .for_each(|(out, src)| {
-            for (i, px) in out.chunks_exact_mut(c).enumerate() {
-                for (d, &hv) in h.iter().enumerate() {
-                    let s = &src[(i + d) * c..(i + d + 1) * c];
-                    for (p, v) in px.iter_mut().zip(s) {
-                        *p += hv * v;
-                    }
-                }
-            }
-        });
-    // Along columns: inner rows.
-    let mut out = vec![0.0f32; my * mx * c];
-    out.par_chunks_mut(mx * c).enumerate().for_each(|(j, row)| {
-        for (d, &hv) in h.iter().enumerate() {
-            let src = &rows[(j + d) * mx * c..(j + d + 1) * mx * c];
-            for (p, v) in row.iter_mut().zip(src) {
-                *p += hv * v;
-            }
-        }
-    });
-    out
 }
 
 impl ScaleStack {
@@ -539,28 +393,20 @@ impl ScaleStack {
             };
             let (ni, nj) = (i1 - i0 + 1, j1 - j0 + 1);
             report.samples += ni * nj;
-            let values = if cubic {
-                // B-spline coefficients: the prefilter (truncated, see
-                // `CUBIC_TAPS`) of the samples K further out on each side.
-                let k = CUBIC_TAPS as i64;
-                let (si0, sj0) = (i0 as i64 - k, j0 as i64 - k);
-                let samples = level_samples(
-                    image,
-                    border,
-                    &l,
-                    (si0, i1 as i64 + k),
-                    (sj0, j1 as i64 + k),
-                );
-                bspline_coefficients(&samples, ni + 2 * CUBIC_TAPS, nj + 2 * CUBIC_TAPS, c)
-            } else {
-                level_samples(
-                    image,
-                    border,
-                    &l,
-                    (i0 as i64, i1 as i64),
-                    (j0 as i64, j1 as i64),
-                )
+            let src = Source {
+                data: image.data(),
+                width: w,
+                height: h,
+                channels: c,
+                border,
             };
+            let values = window(
+                &src,
+                &l,
+                (i0 as i64, i1 as i64),
+                (j0 as i64, j1 as i64),
+                cubic,
+            );
             let nx = l.nx;
             level
                 .data
@@ -576,7 +422,7 @@ impl ScaleStack {
 
 #[cfg(test)]
 #[path = "../../../../tests/support/images.rs"]
-mod test_images;
+pub(super) mod test_images;
 
 #[cfg(test)]
 mod tests {
