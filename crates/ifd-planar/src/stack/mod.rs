@@ -200,7 +200,12 @@ impl ScaleStack {
             channels,
             border,
         };
-        let cubic = layout.interpolation == Interpolation::Cubic;
+        let mut direct_data = if direct {
+            separable::build_levels(&src, layout)
+        } else {
+            Vec::new()
+        }
+        .into_iter();
         let mut levels: Vec<Level> = layout
             .levels
             .iter()
@@ -208,12 +213,9 @@ impl ScaleStack {
                 layout: *l,
                 origin: l.origin as f32,
                 inv_step: 1.0 / l.step as f32,
-                data: if direct {
-                    let (nx, ny) = (l.nx as i64, l.ny as i64);
-                    separable::window(&src, l, (0, nx - 1), (0, ny - 1), cubic)
-                } else {
-                    vec![0.0; l.nx * l.ny * channels]
-                },
+                data: direct_data
+                    .next()
+                    .unwrap_or_else(|| vec![0.0; l.nx * l.ny * channels]),
             })
             .collect();
         if !direct {

@@ -1,10 +1,15 @@
 //! Levels by direct separable correlation: each stored sample is the sum of
 //! the border-extended image times the level's sampled Gaussian, down the
 //! columns (every output row sums its input rows over the image columns,
-//! read in place) and then along the row. The FFT build ([`super::build`])
-//! computes the same samples; [`choose`] takes whichever its cost model
-//! says is cheaper, and the brush's region refresh ([`super::refresh`])
-//! always takes this one (its windows are small).
+//! strip by strip so that they stay in the first cache level) and then along
+//! the row. Where the levels allow, a level is instead the level before it
+//! correlated with the Gaussian in between ([`build_levels`]: a chain; a
+//! few samples wide where the level's own Gaussian would be many, and on its
+//! coarser grid where the pyramid step doubles). The FFT build
+//! ([`super::build`]) computes the same samples; [`choose`] takes whichever
+//! its cost model says is cheaper, and the brush's region refresh
+//! ([`super::refresh`]) always takes the unchained sums of [`window`] (its
+//! windows are small).
 //!
 //! # Which sum
 //! Sample `(i, j)` of a level with sigma `s`, step `q` and origin `o` is
@@ -15,20 +20,23 @@
 //! border mode. The FFT build sums the same samples with a reach of
 //! `ceil(5 s_max) + 1`; the tails beyond `r` weigh at most
 //! `2 Q(5) = 5.7e-7` of the signal per axis, below `f32` rounding of the
-//! transforms (the two builds agree to 2e-6 of the image's range, tested on
-//! every border mode, pyramid levels and both interpolations).
+//! transforms. A chain's link composes two sampled Gaussians, exact up to
+//! their aliases ([`chained_sigma`]). The builds agree to 2e-6 of the
+//! image's range, chained or not (tested on every border mode, pyramid
+//! levels and both interpolations).
 //!
 //! # Cost, and the choice
 //! A level of `nx x ny` stored samples whose Gaussian has `T = 2 r + 1`
-//! taps costs `T ny (w + nx)` multiply-adds per channel (`w` image columns
-//! summed down, then `nx` outputs along each row), in 8 or 16 lanes
-//! ([`weighted_sum`]): with the sigma a few stored samples (a pyramid level,
-//! or a narrow full-resolution one) that is cheaper than the FFT build's
-//! forward transform of the padded image plus an inverse transform per level.
-//! Wide unsubsampled levels (`T` in the hundreds) go the other way. The model
-//! ([`MACS_PER_FFT_SAMPLE`]) was measured on one core: for a 1024x1024 image
-//! it picked the faster build in each of eight stacks tried, and the direct
-//! build ran 1.1-2.7x faster where it was picked (BENCHMARKS.md).
+//! taps costs `T ny (w + nx)` multiply-adds per channel (`w` source columns
+//! summed down, the image's or the chain's previous level's, then `nx`
+//! outputs along each row), in 8 or 16 lanes ([`weighted_sum`]): with the
+//! sigma a few stored samples (a pyramid level, or a narrow full-resolution
+//! one) that is cheaper than the FFT build's forward transform of the
+//! padded image plus an inverse transform per level. Wide unsubsampled
+//! levels (`T` in the hundreds) go the other way. The model
+//! ([`MACS_PER_FFT_SAMPLE`]) was measured on one core; BENCHMARKS.md has
+//! both builds side by side on the stacks of
+//! `tests/bench/bench_stack_build.py`.
 //! `IFD_STACK_BUILD=fft` or `direct` in the environment forces a build.
 //!
 //! # Bits
@@ -75,26 +83,36 @@ fn sampled_gaussian(sigma: f64, r: i64) -> Vec<f32> {
 /// Output rows per parallel task.
 const ROWS_PER_TASK: usize = 8;
 
-/// The samples of level `l` at stored indices `i0..=i1` by `j0..=j1` (which
-/// may lie beyond the stored ones), interleaved, row-major: the sum of the
-/// module documentation, along columns first (each output row sums its
-/// `2 r + 1` input rows over every image column it needs, read in place),
-/// then along the row.
-fn level_window(
+/// `nj` rows of `ni` samples, interleaved, row-major: the source
+/// correlated with the sampled Gaussian of `sigma` samples of the source,
+/// at source coordinates `(x_first + i step, y_first + j step)`, down the
+/// columns first (each output row sums its `2 r + 1` input rows over every
+/// source column it needs, read in place), then along the row.
+fn correlate(
     src: &Source<'_>,
-    l: &LevelLayout,
-    (i0, i1): (i64, i64),
-    (j0, j1): (i64, i64),
+    sigma: f64,
+    step: usize,
+    xs: (i64, usize),
+    ys: (i64, usize),
 ) -> Vec<f32> {
+    let mut out = Vec::new();
+    correlate_into(src, sigma, step, xs, ys, &mut out);
+    out
+}
+
+/// [`correlate`] into `out` (resized; its allocation reused).
+fn correlate_into(
+    src: &Source<'_>,
+    sigma: f64,
+    step: usize,
+    (x_first, ni): (i64, usize),
+    (y_first, nj): (i64, usize),
+    out: &mut Vec<f32>,
+) {
     let c = src.channels;
-    let r = reach(l.sigma);
-    let g = sampled_gaussian(l.sigma, r);
+    let r = reach(sigma);
+    let g = sampled_gaussian(sigma, r);
     let taps = g.len();
-    let step = l.step;
-    let ni = (i1 - i0 + 1) as usize;
-    let nj = (j1 - j0 + 1) as usize;
-    let x_first = l.origin + i0 * step as i64;
-    let y_first = l.origin + j0 * step as i64;
     let rows: Vec<Option<usize>> = (0..(nj - 1) * step + taps)
         .map(|k| src.border.resolve(y_first - r + k as i64, src.height))
         .collect();
@@ -107,16 +125,19 @@ fn level_window(
         .map(|d| ((d % step) * plen + d / step) * c)
         .collect();
     let total: f32 = g.iter().sum();
-    let mut out = vec![0.0f32; ni * nj * c];
+    out.clear();
+    out.resize(ni * nj * c, 0.0);
     out.par_chunks_mut(ni * c * ROWS_PER_TASK)
         .enumerate()
         .for_each_init(Scratch::default, |scratch, (task, chunk)| {
+            let band = chunk.len() / (ni * c);
+            let j0 = task * ROWS_PER_TASK;
+            column_sums(src, &g, &rows[j0 * step..], (band, step), &map, scratch);
             for (jj, orow) in chunk.chunks_mut(ni * c).enumerate() {
-                let j = task * ROWS_PER_TASK + jj;
-                column_sums(src, &g, &rows[j * step..j * step + taps], &map, scratch);
+                let len = scratch.sums.len() / band;
                 fill_phases(
                     src,
-                    &scratch.sums,
+                    &scratch.sums[jj * len..(jj + 1) * len],
                     &map,
                     src.border.constant() * total,
                     &mut scratch.phases,
@@ -124,53 +145,78 @@ fn level_window(
                 weighted_sum(&g, &scratch.phases, &along_row, orow);
             }
         });
-    out
 }
 
 /// Buffers a thread reuses from row to row.
 #[derive(Default)]
 struct Scratch {
-    /// Column sums over the image columns `map.lo..=map.hi`.
+    /// Column sums of a band's output rows over the image columns `map.lo..=map.hi`.
     sums: Vec<f32>,
     phases: Vec<f32>,
     weights: Vec<f32>,
     offsets: Vec<usize>,
+    outside: Vec<f32>,
 }
 
-/// `scratch.sums[x] = sum_d g[d] f(map.lo + x, rows[d])`: the weights of
-/// the image rows through [`weighted_sum`], the border constant's rows
-/// added after.
+/// Source columns summed down per pass: the rows of a band's strip stay in
+/// the first cache level while every output row of the band sums them.
+const COLUMN_STRIP: usize = 128;
+
+/// For the `band` output rows `jj` of a task, `scratch.sums[jj][x] = sum_d
+/// g[d] f(map.lo + x, rows[jj step + d])`, strip by strip of source
+/// columns: the image rows through [`weighted_sum`], the border constant's
+/// rows added after.
 fn column_sums(
     src: &Source<'_>,
     g: &[f32],
     rows: &[Option<usize>],
+    (band, step): (usize, usize),
     map: &ColumnMap,
     scratch: &mut Scratch,
 ) {
     let c = src.channels;
     let len = (map.hi + 1 - map.lo) * c;
-    scratch.sums.resize(len, 0.0);
+    scratch.sums.resize(band * len, 0.0);
+    // Per output row: the weights of its image rows, their offsets, and the
+    // weight of its rows outside the image.
     scratch.weights.clear();
     scratch.offsets.clear();
-    let mut outside = 0.0f32;
-    for (&gd, row) in g.iter().zip(rows) {
-        match row {
-            Some(y) => {
+    scratch.outside.clear();
+    for jj in 0..band {
+        let mut outside = 0.0f32;
+        for (&gd, row) in g.iter().zip(&rows[jj * step..jj * step + g.len()]) {
+            if let Some(y) = row {
                 scratch.weights.push(gd);
                 scratch.offsets.push((y * src.width + map.lo) * c);
+            } else {
+                // Zero weight on an in-image row keeps the layout fixed.
+                scratch.weights.push(0.0);
+                scratch.offsets.push(map.lo * c);
+                outside += gd;
             }
-            None => outside += gd,
+        }
+        scratch.outside.push(outside);
+    }
+    let taps = g.len();
+    let (sums, weights, offsets) = (&mut scratch.sums, &scratch.weights, &scratch.offsets);
+    for x0 in (0..len).step_by(COLUMN_STRIP) {
+        let x1 = (x0 + COLUMN_STRIP).min(len);
+        for jj in 0..band {
+            weighted_sum(
+                &weights[jj * taps..(jj + 1) * taps],
+                &src.data[x0..],
+                &offsets[jj * taps..(jj + 1) * taps],
+                &mut sums[jj * len + x0..jj * len + x1],
+            );
         }
     }
-    weighted_sum(
-        &scratch.weights,
-        src.data,
-        &scratch.offsets,
-        &mut scratch.sums,
-    );
-    if outside != 0.0 {
-        let add = outside * src.border.constant();
-        scratch.sums.iter_mut().for_each(|v| *v += add);
+    for (jj, &outside) in scratch.outside.iter().enumerate() {
+        if outside != 0.0 {
+            let add = outside * src.border.constant();
+            sums[jj * len..(jj + 1) * len]
+                .iter_mut()
+                .for_each(|v| *v += add);
+        }
     }
 }
 
@@ -306,16 +352,25 @@ fn choose_by_cost(layout: &super::StackLayout) -> StackBuild {
     }
 }
 
-/// Multiply-adds of the direct build, per channel.
+/// Multiply-adds of the direct build, per channel ([`build_levels`]; the
+/// chained levels' wider windows left out).
 fn direct_cost(layout: &super::StackLayout) -> f64 {
     let cubic = layout.interpolation == super::Interpolation::Cubic;
-    layout
-        .levels
+    let levels = &layout.levels;
+    let links = chains(layout);
+    levels
         .iter()
-        .map(|l| {
-            let taps = (2 * reach(l.sigma) + 1) as f64;
+        .enumerate()
+        .map(|(i, l)| {
             let (nx, ny) = (l.nx as f64, l.ny as f64);
-            let cols_in = (layout.width as f64).min(nx * l.step as f64 + taps);
+            let chained = links[i].map(|d| (d, &levels[i - 1]));
+            // Taps, and the source columns summed down per output row.
+            let (taps, cols_in) = if let Some((d, a)) = chained {
+                ((2 * reach(d) + 1) as f64, a.nx as f64)
+            } else {
+                let taps = (2 * reach(l.sigma) + 1) as f64;
+                (taps, (layout.width as f64).min(nx * l.step as f64 + taps))
+            };
             let spline = if cubic {
                 let k = CUBIC_TAPS as f64;
                 (2.0 * k + 1.0) * 2.0 * (nx + 2.0 * k) * (ny + 2.0 * k)
@@ -351,18 +406,173 @@ pub(super) fn window(
     (j0, j1): (i64, i64),
     cubic: bool,
 ) -> Vec<f32> {
-    if !cubic {
-        return level_window(src, l, (i0, i1), (j0, j1));
+    let k = if cubic { CUBIC_TAPS as i64 } else { 0 };
+    let (ni, nj) = (
+        (i1 - i0 + 1 + 2 * k) as usize,
+        (j1 - j0 + 1 + 2 * k) as usize,
+    );
+    let step = l.step as i64;
+    let samples = correlate(
+        src,
+        l.sigma,
+        l.step,
+        (l.origin + (i0 - k) * step, ni),
+        (l.origin + (j0 - k) * step, nj),
+    );
+    if cubic {
+        bspline_coefficients(&samples, ni, nj, src.channels)
+    } else {
+        samples
     }
-    let k = CUBIC_TAPS as i64;
-    let samples = level_window(src, l, (i0 - k, i1 + k), (j0 - k, j1 + k));
-    let (ni, nj) = ((i1 - i0 + 1) as usize, (j1 - j0 + 1) as usize);
-    bspline_coefficients(
-        &samples,
-        ni + 2 * CUBIC_TAPS,
-        nj + 2 * CUBIC_TAPS,
-        src.channels,
-    )
+}
+
+/// Stored-index ranges `((i0, i1), (j0, j1))`, inclusive, per axis.
+type Window = ((i64, i64), (i64, i64));
+
+/// The Gaussian that takes level `a` to level `b`, in samples of `a`, when
+/// level `b` is built from `a` (the next level of a chain): `b` on `a`'s
+/// grid or every second sample of it, and both `a`'s Gaussian and the one
+/// between at least a sample wide. Sampled Gaussians compose exactly up to
+/// their aliases, `exp(-2 pi^2 s^2)` at zero frequency (`2.7e-9` at one
+/// sample) and about `exp(-pi^2 (s_a^2 + s_d^2) / 2)` at the Nyquist
+/// frequency, where the level itself has no more than that.
+fn chained_sigma(a: &LevelLayout, b: &LevelLayout) -> Option<f64> {
+    let s = a.step as f64;
+    let d = (b.sigma * b.sigma - a.sigma * a.sigma).sqrt() / s;
+    let on_grid = b.step == a.step || b.step == 2 * a.step;
+    (on_grid && a.sigma / s >= MIN_CHAIN_SIGMA && d >= MIN_CHAIN_SIGMA).then_some(d)
+}
+
+/// Per level, the Gaussian (in samples of the level before) it is built
+/// with from the level before, or `None`: from the image. A chain widens
+/// the windows of its levels by the reaches of the links after them; a
+/// link that would widen the chain's first level by more than a sixteenth
+/// of the image's shorter side starts a new chain instead (from the image,
+/// at about `20 k` multiply-adds per pixel for pyramid factor `k`).
+fn chains(layout: &super::StackLayout) -> Vec<Option<f64>> {
+    let levels = &layout.levels;
+    let limit = (layout.width.min(layout.height) as f64 / 16.0).max(8.0);
+    let mut widening = 0.0;
+    (0..levels.len())
+        .map(|i| {
+            let link = (i > 0)
+                .then(|| chained_sigma(&levels[i - 1], &levels[i]))
+                .flatten();
+            let more = link.map(|d| reach(d) as f64 * levels[i - 1].step as f64);
+            match more {
+                Some(more) if widening + more <= limit => {
+                    widening += more;
+                    link
+                }
+                _ => {
+                    widening = 0.0;
+                    None
+                }
+            }
+        })
+        .collect()
+}
+
+/// The narrowest Gaussian, in samples, a chained build starts from or adds.
+const MIN_CHAIN_SIGMA: f64 = 1.0;
+
+/// Every level of `layout`, stored samples (or B-spline coefficients), by
+/// the direct build: a level is the image correlated with its Gaussian, or,
+/// where [`chained_sigma`] allows, the level before it correlated with the
+/// Gaussian in between (a few samples of that level wide where the level's
+/// own would be many, and on its coarser grid when the step doubles). Each
+/// level of a chain is computed over a window wide enough for the rest of
+/// the chain and cropped.
+pub(super) fn build_levels(src: &Source<'_>, layout: &super::StackLayout) -> Vec<Vec<f32>> {
+    let levels = &layout.levels;
+    let cubic = layout.interpolation == super::Interpolation::Cubic;
+    let k = if cubic { CUBIC_TAPS as i64 } else { 0 };
+    let c = src.channels;
+    let chained = chains(layout);
+    // The windows to compute, from the last level back.
+    let mut need: Vec<Window> = levels
+        .iter()
+        .map(|l| ((-k, l.nx as i64 - 1 + k), (-k, l.ny as i64 - 1 + k)))
+        .collect();
+    for i in (1..levels.len()).rev() {
+        if let Some(d) = chained[i] {
+            let (a, b) = (&levels[i - 1], &levels[i]);
+            let m = (b.step / a.step) as i64;
+            let off = (b.origin - a.origin) / a.step as i64;
+            let r = reach(d);
+            let ((i0, i1), (j0, j1)) = need[i];
+            let ((a0, a1), (b0, b1)) = need[i - 1];
+            need[i - 1] = (
+                (a0.min(off + i0 * m - r), a1.max(off + i1 * m + r)),
+                (b0.min(off + j0 * m - r), b1.max(off + j1 * m + r)),
+            );
+        }
+    }
+    let mut out: Vec<Vec<f32>> = Vec::with_capacity(levels.len());
+    // Windows wider than the stored samples are computed into one of two
+    // buffers, reused (a fresh one costs a page fault per 4 KiB); where the
+    // previous level's window is one, `prev_work` says which.
+    let mut work: [Vec<f32>; 2] = [Vec::new(), Vec::new()];
+    let mut prev_work: Option<usize> = None;
+    for (i, l) in levels.iter().enumerate() {
+        let ((i0, i1), (j0, j1)) = need[i];
+        let (ni, nj) = ((i1 - i0 + 1) as usize, (j1 - j0 + 1) as usize);
+        let (sx, sy) = (l.nx + 2 * k as usize, l.ny + 2 * k as usize);
+        // The stored window itself, or a wider one to crop.
+        let own = (ni, nj) == (sx, sy) && !cubic;
+        let slot = i % 2;
+        let mut dst = if own {
+            Vec::new()
+        } else {
+            std::mem::take(&mut work[slot])
+        };
+        if let Some(d) = chained[i] {
+            let a = &levels[i - 1];
+            let ((p0, p1), (q0, q1)) = need[i - 1];
+            let m = l.step / a.step;
+            let off = (l.origin - a.origin) / a.step as i64;
+            let data = match prev_work {
+                Some(s) => &work[s],
+                None => &out[i - 1],
+            };
+            // Every read is inside the window (`need` made it so); the
+            // border mode is never consulted.
+            let from = Source {
+                data,
+                width: (p1 - p0 + 1) as usize,
+                height: (q1 - q0 + 1) as usize,
+                channels: c,
+                border: Border::Replicate,
+            };
+            let xs = (off + i0 * m as i64 - p0, ni);
+            let ys = (off + j0 * m as i64 - q0, nj);
+            correlate_into(&from, d, m, xs, ys, &mut dst);
+        } else {
+            let step = l.step as i64;
+            let xs = (l.origin + i0 * step, ni);
+            let ys = (l.origin + j0 * step, nj);
+            correlate_into(src, l.sigma, l.step, xs, ys, &mut dst);
+        }
+        if own {
+            out.push(dst);
+            prev_work = None;
+            continue;
+        }
+        // The stored samples (and K more on each side for cubic).
+        let (dx, dy) = ((-k - i0) as usize, (-k - j0) as usize);
+        let mut stored = Vec::with_capacity(sx * sy * c);
+        for row in dst.chunks_exact(ni * c).skip(dy).take(sy) {
+            stored.extend_from_slice(&row[dx * c..(dx + sx) * c]);
+        }
+        out.push(if cubic {
+            bspline_coefficients(&stored, sx, sy, c)
+        } else {
+            stored
+        });
+        work[slot] = dst;
+        prev_work = Some(slot);
+    }
+    out
 }
 
 /// Terms of the cubic B-spline prefilter kept on each side by the direct
@@ -631,6 +841,17 @@ mod tests {
                     };
                     let layout = StackLayout::new(w, h, c, 0.8, 9.0, options).unwrap();
                     assert!(layout.levels.iter().any(|l| l.step > 1));
+                    // Chains on one grid and across a pyramid step.
+                    let chains: Vec<(usize, usize)> = layout
+                        .levels
+                        .windows(2)
+                        .filter(|p| chained_sigma(&p[0], &p[1]).is_some())
+                        .map(|p| (p[0].step, p[1].step))
+                        .collect();
+                    assert!(chains.iter().any(|(a, b)| a == b), "{chains:?}");
+                    if factor > 1.0 {
+                        assert!(chains.iter().any(|(a, b)| b == &(2 * a)), "{chains:?}");
+                    }
                     let mut fft: Vec<Level> = layout
                         .levels
                         .iter()
