@@ -166,6 +166,43 @@ impl EvalPlan {
     /// errors are then below about 0.1%).
     pub const DEFAULT_BUDGET: f64 = 0.002;
 
+    /// The budget a decomposition is applied within unless told otherwise:
+    /// half the relative L2 error its fit left (the larger of the kernel
+    /// grid's and, when measured, the finer grid's), and no less than
+    /// [`EvalPlan::DEFAULT_BUDGET`] (a decomposition without a fit report:
+    /// that default).
+    ///
+    /// Why half: the evaluation error adds to the fit's, and the two are
+    /// uncorrelated, so they add in quadrature; a bound of half the fit's
+    /// error, with measured errors 2 to 5 times below the bound, adds at most
+    /// 3% to the total, while a tighter budget buys nothing the fit has not
+    /// already given up, at the price of finer levels (more prefiltering and
+    /// memory) or cubic lookups (four times the arithmetic). At `--tol 0.2`
+    /// on the 8:1 Gaussian this plans bilinear at pyramid factor 2 instead of
+    /// 4 (levels a quarter the size) for the same PSNR against the exact
+    /// filter (BENCHMARKS.md).
+    ///
+    /// ```
+    /// use ifd_planar::{Decomposition, EvalPlan, Term};
+    /// // Terms written by hand carry no fit report: the default budget.
+    /// let d = Decomposition::from_terms(vec![Term { weight: 1.0, x: 0.0, y: 0.0, sigma: 3.0 }]);
+    /// assert_eq!(EvalPlan::budget_for(&d), EvalPlan::DEFAULT_BUDGET);
+    /// ```
+    #[must_use]
+    pub fn budget_for(decomposition: &Decomposition) -> f64 {
+        decomposition
+            .report
+            .as_ref()
+            .map_or(Self::DEFAULT_BUDGET, |r| {
+                let fit = r.rel_l2_error.max(r.fine_rel_l2_error.unwrap_or(0.0));
+                if fit.is_finite() {
+                    (0.5 * fit).max(Self::DEFAULT_BUDGET)
+                } else {
+                    Self::DEFAULT_BUDGET
+                }
+            })
+    }
+
     /// The cheapest plan whose bound is within `options.budget` for every
     /// scale in `[scale_min, scale_max]`, else the most accurate one.
     ///
@@ -344,6 +381,38 @@ mod tests {
         }]);
         let expected = 2.0 / (2.0 * std::f64::consts::PI.sqrt() * 3.0);
         assert!((kernel_norm(&d) - expected).abs() < 1e-12);
+    }
+
+    /// A coarse fit's budget follows its error: the 8:1 Gaussian at
+    /// `--tol 0.2` (12 terms, 4 to 6.7 px) is read bilinearly at pyramid
+    /// factor 2 within half its fit error, where the fixed default budget
+    /// would store the levels at full resolution (factor 4).
+    #[test]
+    fn a_coarse_fit_plans_within_half_its_error() {
+        let spec: crate::KernelSpec = "gauss:sx=32,sy=4,theta=0".parse().unwrap();
+        let opts = crate::DecomposeOptions {
+            tol: 0.2,
+            ..crate::DecomposeOptions::default()
+        };
+        let d = crate::decompose_spec(&spec, &opts, None, |_, _, _| {}).unwrap();
+        let fit = d.report.as_ref().unwrap().rel_l2_error;
+        assert!(fit > 0.1 && fit <= 0.2, "{fit}");
+        assert_eq!(EvalPlan::budget_for(&d), 0.5 * fit);
+        let linear = |budget| {
+            let options = PlanOptions {
+                budget,
+                interpolation: Some(Interpolation::Linear),
+                direct_sigma: 0.0,
+            };
+            EvalPlan::choose(&d, 1.0, 1.0, options).unwrap()
+        };
+        let own = linear(EvalPlan::budget_for(&d));
+        assert_eq!(own.pyramid_factor, 2.0);
+        assert!(own.error_bound <= 0.5 * fit);
+        assert_eq!(linear(EvalPlan::DEFAULT_BUDGET).pyramid_factor, 4.0);
+        // Without a fit report, the default.
+        let bare = Decomposition::from_terms(d.terms.clone());
+        assert_eq!(EvalPlan::budget_for(&bare), EvalPlan::DEFAULT_BUDGET);
     }
 
     #[test]

@@ -20,9 +20,10 @@ pub struct FilterOptions {
     /// Fix the interpolation of levels (`None`: the cheapest within the
     /// budget, see [`EvalPlan::choose`]).
     pub interpolation: Option<Interpolation>,
-    /// Budget on the evaluation error bound. Default
-    /// [`EvalPlan::DEFAULT_BUDGET`].
-    pub eval_budget: f64,
+    /// Budget on the evaluation error bound. Default `None`: the
+    /// decomposition's own, [`EvalPlan::budget_for`] (half its fit's error,
+    /// at least [`EvalPlan::DEFAULT_BUDGET`]).
+    pub eval_budget: Option<f64>,
     /// Plan for an evaluator that reads every term from a log-uniformly
     /// spaced stack: no levels at exact sigmas, no direct terms.
     pub log_uniform: bool,
@@ -46,7 +47,7 @@ impl Default for FilterOptions {
         Self {
             border: Border::Reflect101,
             interpolation: None,
-            eval_budget: EvalPlan::DEFAULT_BUDGET,
+            eval_budget: None,
             log_uniform: false,
             direct_terms: true,
             scale_range: None,
@@ -62,6 +63,9 @@ pub struct FilterPlan {
     pub decomposition: PreparedDecomposition,
     /// How levels are read and which terms are evaluated directly.
     pub eval: EvalPlan,
+    /// The budget `eval` was planned within ([`FilterOptions::eval_budget`]
+    /// or the decomposition's own).
+    pub eval_budget: f64,
     /// The log-uniform stack (its layout bounds memory even when
     /// `level_sigmas` is used: the exact levels are no more).
     pub stack: StackPlan,
@@ -108,12 +112,15 @@ impl FilterPlan {
         let prepared = PreparedDecomposition::new(decomposition)?;
         let constant_pose =
             !angle.is_map() && !scale.is_map() && !options.log_uniform && options.direct_terms;
+        let eval_budget = options
+            .eval_budget
+            .unwrap_or_else(|| EvalPlan::budget_for(decomposition));
         let eval = EvalPlan::choose(
             decomposition,
             smin,
             smax,
             PlanOptions {
-                budget: options.eval_budget,
+                budget: eval_budget,
                 interpolation: options.interpolation,
                 direct_sigma: if constant_pose { DIRECT_SIGMA } else { 0.0 },
             },
@@ -150,6 +157,7 @@ impl FilterPlan {
         Ok(Self {
             decomposition: prepared,
             eval,
+            eval_budget,
             stack,
             level_sigmas,
             direct_terms,

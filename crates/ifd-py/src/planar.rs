@@ -321,7 +321,7 @@ fn filter<'py>(
     let options = FilterOptions {
         border: parse_border(border)?,
         interpolation: parse_interp(interp)?,
-        eval_budget: eval_budget.unwrap_or(ifd_planar::EvalPlan::DEFAULT_BUDGET),
+        eval_budget,
         log_uniform: false,
         direct_terms: true,
         scale_range,
@@ -365,7 +365,7 @@ fn filter_alignment(
     let options = FilterOptions {
         border: parse_border(border)?,
         interpolation: parse_interp(interp)?,
-        eval_budget: eval_budget.unwrap_or(ifd_planar::EvalPlan::DEFAULT_BUDGET),
+        eval_budget,
         log_uniform: false,
         direct_terms: true,
         scale_range: None,

@@ -6,8 +6,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use ifd_planar::{
-    Border, CheckedField, Decomposition, EvalPlan, Field, FieldKind, Interpolation,
-    PreparedDecomposition,
+    Border, CheckedField, Decomposition, Field, FieldKind, Interpolation, PreparedDecomposition,
 };
 use ifd_planar::{FilterOptions, FilterPlan};
 
@@ -71,9 +70,10 @@ pub struct Filter {
     #[arg(long, value_name = "MODE", default_value = "auto")]
     interp: InterpChoice,
     /// Budget on the evaluation error bound (relative RMS on white noise)
-    /// that `--interp` plans for.
-    #[arg(long, value_name = "E", default_value_t = EvalPlan::DEFAULT_BUDGET)]
-    eval_budget: f64,
+    /// that `--interp` plans for [default: half the decomposition's fit
+    /// error, at least 0.002]
+    #[arg(long, value_name = "E")]
+    eval_budget: Option<f64>,
     /// Filter tile by tile, output tiles of about PX pixels, streaming the
     /// image, the maps and the output as .npy (images larger than memory;
     /// equal to the whole-image result to float rounding). Chosen by itself,
@@ -284,11 +284,10 @@ impl Filter {
     pub fn run(self) -> Result<()> {
         crate::output::check_output_path(&self.output.output)?;
         let decomposition = Decomposition::load(&self.decomp)?;
-        if !(self.eval_budget.is_finite() && self.eval_budget > 0.0) {
-            bail!(
-                "--eval-budget {} must be finite and positive",
-                self.eval_budget
-            );
+        if let Some(b) = self.eval_budget
+            && !(b.is_finite() && b > 0.0)
+        {
+            bail!("--eval-budget {b} must be finite and positive");
         }
         if self.tile == Some(0) {
             bail!("--tile 0: the tile side must be at least 1 pixel");
@@ -400,11 +399,12 @@ impl Filter {
         if self.verbose {
             eprintln!(
                 "evaluation: {} interpolation, pyramid factor {}, {} terms direct; bound on its \
-                 error {:.3}% (amplification {:.1}; measured errors are lower)",
+                 error {:.3}%, budget {:.3}% (amplification {:.1}; measured errors are lower)",
                 plan.eval.interpolation.name(),
                 plan.eval.pyramid_factor,
                 plan.direct_terms,
                 100.0 * plan.eval.error_bound,
+                100.0 * plan.eval_budget,
                 plan.eval.amplification
             );
             if per_pixel {
