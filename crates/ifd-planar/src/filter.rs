@@ -15,6 +15,24 @@ use crate::stack::lookup::Tap;
 use crate::stack::lookup::Taps;
 use crate::stack::{ScaleStack, snap_to_level};
 
+/// `ln(max(1 + x, 1/4)) / 2`: the log of an atom's widening by the pixel
+/// footprint, `sigma_eff / (s sigma)` with `x = var / (s sigma)^2` and
+/// [`crate::Sampling::effective_sigma`]'s floor of half the width. For
+/// `|x| < 0.03` (atoms a few pixels wide) a series to `x^6` (error below
+/// `x^7 / 14 < 2e-12`), which vectorises and costs no libm call.
+#[inline]
+fn half_ln_1p(x: f64) -> f64 {
+    let x = x.max(-0.75);
+    if x.abs() < 0.03 {
+        let x2 = x * x;
+        let odd = x * (1.0 + x2 * (1.0 / 3.0 + x2 / 5.0));
+        let even = x2 * (0.5 + x2 * (0.25 + x2 / 6.0));
+        0.5 * (odd - even)
+    } else {
+        0.5 * x.ln_1p()
+    }
+}
+
 /// One decomposition term, prepared for lookups.
 #[derive(Clone, Copy, Debug)]
 struct Prepared {
@@ -23,6 +41,8 @@ struct Prepared {
     cy: f32,
     sigma: f64,
     ln_sigma: f64,
+    /// `1 / sigma^2`.
+    inv_sigma2: f64,
 }
 
 /// A decomposition bound to a scale stack, ready to filter.
@@ -93,6 +113,7 @@ impl<'a> Filter<'a> {
                 cy: t.y as f32,
                 sigma: t.sigma,
                 ln_sigma: t.sigma.ln(),
+                inv_sigma2: 1.0 / (t.sigma * t.sigma),
             })
             .collect();
         let (sigma_lo, sigma_hi) = d.sigma_range();
@@ -518,9 +539,9 @@ impl<'a> Filter<'a> {
                     (*c, *sn) = (cos * s, sin * s);
                     let sf = f64::from(s);
                     let t_s = (sf.ln() - ln0) * inv;
-                    let var = self.sampling.footprint_variance(sf);
+                    let widen = self.sampling.footprint_variance(sf) / (sf * sf);
                     for (g, rep) in groups.iter().enumerate() {
-                        levels[g * w + x] = self.uniform_level(rep, s, t_s, var);
+                        levels[g * w + x] = self.uniform_level(rep, t_s, widen);
                     }
                 }
                 gather::scaled_row::<C>(self.stack, &self.scaled_terms, &levels, y, &cs, &ss, row)
@@ -530,20 +551,24 @@ impl<'a> Filter<'a> {
     }
 
     /// Term `t`'s levels and weights at scale `s` on a log-uniform stack of
-    /// several levels: `t_s = (ln s - ln sigma_0) / ln r`, `var` the pixel
-    /// footprint's variance at `s`.
+    /// several levels: `t_s = (ln s - ln sigma_0) / ln r`, `widen` the pixel
+    /// footprint's variance at `s` over `s^2` (the same expressions on the
+    /// scalar and the vector paths, so the same values).
     #[inline]
-    fn uniform_level(&self, t: &Prepared, s: f32, t_s: f64, var: f64) -> (usize, usize, f32, f32) {
-        let (ln0, inv) = self.stack.ln_params();
+    fn uniform_level(&self, t: &Prepared, t_s: f64, widen: f64) -> (usize, usize, f32, f32) {
+        let (_, inv) = self.stack.ln_params();
         let last = self.stack.sigmas().len() - 1;
-        let ln_sigma = if var == 0.0 {
+        let ln_sigma = if widen == 0.0 {
             t_s + t.ln_sigma * inv
         } else {
-            (self.sampling.effective_sigma(t.sigma, f64::from(s)).ln() - ln0) * inv
+            // ln sigma_eff = ln s + ln sigma + ln(sigma_eff / (s sigma)): no
+            // logarithm or division per term.
+            t_s + (t.ln_sigma + half_ln_1p(widen * t.inv_sigma2)) * inv
         };
         let u = ln_sigma.clamp(0.0, last as f64);
-        let i = (u as usize).min(last - 1);
-        snap_to_level(i, u - i as f64)
+        // 32-bit conversions: one instruction each on x86-64 (usize's are not).
+        let i = (u as u32).min(last as u32 - 1);
+        snap_to_level(i as usize, u - f64::from(i))
     }
 
     /// One pixel with constant scale (levels precomputed) and a per-pixel
@@ -615,8 +640,8 @@ impl<'a> Filter<'a> {
         let (ln0, inv) = self.stack.ln_params();
         let last = self.stack.sigmas().len() - 1;
         let t_s = (f64::from(s).ln() - ln0) * inv;
-        // The pixel footprint's variance at this scale (usually 0).
-        let var = self.sampling.footprint_variance(f64::from(s));
+        // The pixel footprint's variance at this scale (usually 0), over s^2.
+        let widen = self.sampling.footprint_variance(f64::from(s)) / (f64::from(s) * f64::from(s));
         let uniform = self.stack.is_uniform();
         let cs = cos * s;
         let ss = sin * s;
@@ -638,7 +663,7 @@ impl<'a> Filter<'a> {
                 }
                 continue;
             }
-            let (a, b, wa, wb) = self.uniform_level(t, s, t_s, var);
+            let (a, b, wa, wb) = self.uniform_level(t, t_s, widen);
             self.add::<C>(a, px, py, t.weight * wa, &mut acc, out);
             if wb != 0.0 {
                 self.add::<C>(b, px, py, t.weight * wb, &mut acc, out);
@@ -766,4 +791,24 @@ fn direct_correlation(
         }
     });
     Image::from_vec(w, h, c, out).map_err(|e| FilterError::Shape(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::half_ln_1p;
+
+    /// The series and the libm branch against `ln(max(1 + x, 1/4)) / 2`,
+    /// across the switch and the floor.
+    #[test]
+    fn half_ln_1p_matches_the_logarithm() {
+        for i in -1000..=1000 {
+            let x = f64::from(i) * 1e-4 * (1.0 + f64::from(i).abs() / 50.0);
+            let exact = 0.5 * (1.0 + x).max(0.25).ln();
+            assert!(
+                (half_ln_1p(x) - exact).abs() < 2e-12,
+                "{x}: {} vs {exact}",
+                half_ln_1p(x)
+            );
+        }
+    }
 }
