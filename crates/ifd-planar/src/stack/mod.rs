@@ -38,6 +38,18 @@ pub(crate) struct Level {
     pub(crate) data: Vec<f32>,
 }
 
+impl Level {
+    /// A level of `layout` holding `data`.
+    pub(crate) fn new(layout: &LevelLayout, data: Vec<f32>) -> Self {
+        Self {
+            layout: *layout,
+            origin: layout.origin as f32,
+            inv_step: 1.0 / layout.step as f32,
+            data,
+        }
+    }
+}
+
 /// An image prefiltered with isotropic Gaussians over a range of sigmas.
 ///
 /// ```
@@ -209,13 +221,9 @@ impl ScaleStack {
         let mut levels: Vec<Level> = layout
             .levels
             .iter()
-            .map(|l| Level {
-                layout: *l,
-                origin: l.origin as f32,
-                inv_step: 1.0 / l.step as f32,
-                data: direct_data
-                    .next()
-                    .unwrap_or_else(|| vec![0.0; l.nx * l.ny * channels]),
+            .map(|l| {
+                let data = direct_data.next();
+                Level::new(l, data.unwrap_or_else(|| vec![0.0; l.nx * l.ny * channels]))
             })
             .collect();
         if !direct {

@@ -855,12 +855,7 @@ mod tests {
                     let mut fft: Vec<Level> = layout
                         .levels
                         .iter()
-                        .map(|l| Level {
-                            layout: *l,
-                            origin: l.origin as f32,
-                            inv_step: 1.0 / l.step as f32,
-                            data: vec![0.0; l.nx * l.ny * c],
-                        })
+                        .map(|l| Level::new(l, vec![0.0; l.nx * l.ny * c]))
                         .collect();
                     build_levels(&layout, img.data(), border, &mut fft);
                     let src = Source {
