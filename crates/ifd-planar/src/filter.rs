@@ -15,24 +15,6 @@ use crate::stack::lookup::Tap;
 use crate::stack::lookup::Taps;
 use crate::stack::{ScaleStack, snap_to_level};
 
-/// `ln(max(1 + x, 1/4)) / 2`: the log of an atom's widening by the pixel
-/// footprint, `sigma_eff / (s sigma)` with `x = var / (s sigma)^2` and
-/// [`crate::Sampling::effective_sigma`]'s floor of half the width. For
-/// `|x| < 0.03` (atoms a few pixels wide) a series to `x^6` (error below
-/// `x^7 / 14 < 2e-12`), which vectorises and costs no libm call.
-#[inline]
-fn half_ln_1p(x: f64) -> f64 {
-    let x = x.max(-0.75);
-    if x.abs() < 0.03 {
-        let x2 = x * x;
-        let odd = x * (1.0 + x2 * (1.0 / 3.0 + x2 / 5.0));
-        let even = x2 * (0.5 + x2 * (0.25 + x2 / 6.0));
-        0.5 * (odd - even)
-    } else {
-        0.5 * x.ln_1p()
-    }
-}
-
 /// One decomposition term, prepared for lookups.
 #[derive(Clone, Copy, Debug)]
 struct Prepared {
@@ -563,7 +545,7 @@ impl<'a> Filter<'a> {
         } else {
             // ln sigma_eff = ln s + ln sigma + ln(sigma_eff / (s sigma)): no
             // logarithm or division per term.
-            t_s + (t.ln_sigma + half_ln_1p(widen * t.inv_sigma2)) * inv
+            t_s + (t.ln_sigma + crate::kernel::ln_widening(widen * t.inv_sigma2)) * inv
         };
         let u = ln_sigma.clamp(0.0, last as f64);
         // 32-bit conversions: one instruction each on x86-64 (usize's are not).
@@ -791,24 +773,4 @@ fn direct_correlation(
         }
     });
     Image::from_vec(w, h, c, out).map_err(|e| FilterError::Shape(e.to_string()))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::half_ln_1p;
-
-    /// The series and the libm branch against `ln(max(1 + x, 1/4)) / 2`,
-    /// across the switch and the floor.
-    #[test]
-    fn half_ln_1p_matches_the_logarithm() {
-        for i in -1000..=1000 {
-            let x = f64::from(i) * 1e-4 * (1.0 + f64::from(i).abs() / 50.0);
-            let exact = 0.5 * (1.0 + x).max(0.25).ln();
-            assert!(
-                (half_ln_1p(x) - exact).abs() < 2e-12,
-                "{x}: {} vs {exact}",
-                half_ln_1p(x)
-            );
-        }
-    }
 }

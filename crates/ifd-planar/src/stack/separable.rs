@@ -595,12 +595,10 @@ pub(super) fn bspline_coefficients(samples: &[f32], nx: usize, ny: usize, c: usi
     let len = mx * c;
     // Along rows: every row, inner columns.
     let mut rows = vec![0.0f32; ny * len];
+    let along_row: Vec<usize> = (0..h.len()).map(|d| d * c).collect();
     rows.par_chunks_mut(len)
         .zip(samples.par_chunks(nx * c))
-        .for_each(|(out, src)| {
-            let offsets: Vec<usize> = (0..h.len()).map(|d| d * c).collect();
-            weighted_sum(&h, src, &offsets, out);
-        });
+        .for_each(|(out, src)| weighted_sum(&h, src, &along_row, out));
     // Along columns: inner rows.
     let mut out = vec![0.0f32; my * len];
     out.par_chunks_mut(len).enumerate().for_each(|(j, row)| {
@@ -610,9 +608,9 @@ pub(super) fn bspline_coefficients(samples: &[f32], nx: usize, ny: usize, c: usi
     out
 }
 
-/// `out[k] = sum_d w[d] src[offsets[d] + k]`, summed in tap order with each
-/// product rounded (no fused multiply-add), so every instruction set gives
-/// the same bits.
+/// `out[k] = sum_d w[d] src[offsets[d] + k]`, summed in tap order: fused
+/// multiply-adds in the AVX-512 and AVX2 kernels (the same bits in both),
+/// each product rounded in the baseline one (the module's "Bits").
 ///
 /// # Panics
 /// When `src` ends before `offsets[d] + out.len()` for some `d`.
