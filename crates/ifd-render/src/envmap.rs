@@ -9,6 +9,7 @@ use ifd_image::Image;
 use ifd_sphere::{Negatives, analyze_equirect_box};
 use ifd_sphere::{Rotation, ShCoeffs, ShRotation};
 
+use crate::equirect_grid::EquirectGrid;
 use crate::error::{RenderError, Result};
 
 /// An equirectangular environment (`W = 2H`, row 0 at the zenith), rotated by
@@ -19,6 +20,8 @@ pub struct EnvMap {
     rotation: f64,
     /// Exact SH coefficients when the environment was given as SH.
     sh: Option<ShCoeffs>,
+    /// The texel edges, for direction lookups.
+    grid: EquirectGrid,
 }
 
 impl EnvMap {
@@ -66,9 +69,11 @@ impl EnvMap {
                 img.data()[i]
             )));
         }
+        let rotation = rotation_deg.to_radians();
         Ok(Self {
+            grid: EquirectGrid::new(w, h, rotation),
             img,
-            rotation: rotation_deg.to_radians(),
+            rotation,
             sh: None,
         })
     }
@@ -161,28 +166,39 @@ impl EnvMap {
             img: ifd_sphere::downsample_equirect(&self.img, width, height)?,
             rotation: self.rotation,
             sh: self.sh.clone(),
+            grid: EquirectGrid::new(width, height, self.rotation),
         })
     }
 
     /// The index `v W + u` of the texel seen in direction `d` (unit), after
-    /// the rotation.
+    /// the rotation: the texel whose polar angles `[v pi / H, (v + 1) pi /
+    /// H)` and azimuths `[a + 2 pi u / W, a + 2 pi (u + 1) / W)` hold `d`
+    /// (found by comparisons with the texel edges, no inverse trigonometry
+    /// per call; the derivation is in `equirect_grid.rs`).
     #[must_use]
     pub fn texel(&self, d: [f64; 3]) -> usize {
-        let (w, h) = (self.img.width(), self.img.height());
-        let t = d[2].clamp(-1.0, 1.0).acos();
-        let p = (d[1].atan2(d[0]) - self.rotation).rem_euclid(2.0 * PI);
-        let u = ((p / (2.0 * PI) * w as f64) as usize).min(w - 1);
-        let v = ((t / PI * h as f64) as usize).min(h - 1);
-        v * w + u
+        self.grid.texel(d)
+    }
+
+    /// [`Self::texel`] found from `near`, the texel of a nearby direction
+    /// (e.g. the pixel before on a row), in a step or two instead of a guess
+    /// from the angles; the same texel whatever `near` is.
+    #[must_use]
+    pub fn texel_near(&self, d: [f64; 3], near: Option<usize>) -> usize {
+        self.grid.texel_near(d, near)
+    }
+
+    /// Texel `t`'s value (`t` from [`Self::texel`]; panics beyond the map).
+    pub fn texel_value(&self, t: usize, out: &mut [f64]) {
+        let ch = self.img.channels();
+        for (o, x) in out.iter_mut().zip(&self.img.data()[t * ch..(t + 1) * ch]) {
+            *o = f64::from(*x);
+        }
     }
 
     /// The texel value seen in direction `d` (unit), nearest texel.
     pub fn lookup(&self, d: [f64; 3], out: &mut [f64]) {
-        let ch = self.img.channels();
-        let t = self.texel(d);
-        for (o, x) in out.iter_mut().zip(&self.img.data()[t * ch..(t + 1) * ch]) {
-            *o = f64::from(*x);
-        }
+        self.texel_value(self.texel(d), out);
     }
 
     /// The map seen in direction `d` (unit), bilinear between texel centres

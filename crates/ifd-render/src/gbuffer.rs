@@ -22,7 +22,8 @@ pub struct Surface {
     pub p: [f64; 3],
     /// The unit direction towards the viewer.
     pub wo: [f64; 3],
-    /// Texture coordinates (`[0, 0]` for meshes without them).
+    /// Texture coordinates (`[0, 0]` for meshes without them, and for the
+    /// sphere and the torus when no texture map reads them).
     pub uv: [f64; 2],
     /// The roughness map's value, when there is one.
     pub roughness: Option<f64>,
@@ -74,7 +75,7 @@ pub fn pixel(
     y: usize,
 ) -> Pixel {
     let (o, d) = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
-    let surface = scene.intersect(o, d).map(|hit| {
+    let surface = scene.intersect_with(o, d, textured(maps)).map(|hit| {
         let uv = hit.uv.unwrap_or([0.0, 0.0]);
         let roughness = maps
             .and_then(|m| m.roughness.as_ref())
@@ -129,11 +130,14 @@ pub fn pixels(scene: &Scene, camera: &Camera, maps: Option<&SurfaceMaps>) -> Res
     Ok(px)
 }
 
+/// Whether any texture map is given (and texture coordinates are read).
+fn textured(maps: Option<&SurfaceMaps>) -> bool {
+    maps.is_some_and(|m| m.roughness.is_some() || m.albedo.is_some() || m.normal.is_some())
+}
+
 /// Texture maps need texture coordinates.
 pub(crate) fn check_maps(scene: &Scene, maps: Option<&SurfaceMaps>) -> Result<()> {
-    let any =
-        maps.is_some_and(|m| m.roughness.is_some() || m.albedo.is_some() || m.normal.is_some());
-    if any && !scene.has_tangents() {
+    if textured(maps) && !scene.has_tangents() {
         return Err(RenderError::Parameter {
             name: "--scene",
             value: "mesh".into(),

@@ -58,6 +58,7 @@
 mod camera;
 mod difference;
 mod envmap;
+mod equirect_grid;
 mod error;
 mod gbuffer;
 mod gltf;

@@ -91,6 +91,14 @@ impl Scene {
     /// The first hit of the ray `o + t d` (`d` unit, `t > 1e-9`).
     #[must_use]
     pub fn intersect(&self, o: DVec3, d: DVec3) -> Option<Hit> {
+        self.intersect_with(o, d, true)
+    }
+
+    /// [`Self::intersect`], leaving the texture coordinates of the sphere
+    /// and the torus out (`uv: None`; an `atan2` and an `acos` per hit)
+    /// unless `uv`; meshes and the plane give theirs either way.
+    #[must_use]
+    pub fn intersect_with(&self, o: DVec3, d: DVec3, uv: bool) -> Option<Hit> {
         match self {
             Self::Sphere => {
                 let b = o.dot(d);
@@ -112,10 +120,13 @@ impl Scene {
                     n,
                     dpdu: DVec3::new(-p.y, p.x, 0.0),
                     // u = phi / 2 pi, v = theta / pi (an equirect texture)
-                    uv: Some([
-                        p.y.atan2(p.x).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU,
-                        n.z.clamp(-1.0, 1.0).acos() / std::f64::consts::PI,
-                    ]),
+                    uv: uv.then(|| {
+                        [
+                            p.y.atan2(p.x).rem_euclid(std::f64::consts::TAU)
+                                / std::f64::consts::TAU,
+                            n.z.clamp(-1.0, 1.0).acos() / std::f64::consts::PI,
+                        ]
+                    }),
                     material: None,
                     tangent: None,
                     uv1: None,
@@ -143,7 +154,7 @@ impl Scene {
                     color: None,
                 })
             }
-            Self::Torus => torus_hit(o, d),
+            Self::Torus => torus_hit(o, d, uv),
             Self::Mesh(m) => m.intersect(o, d),
             Self::Gltf(a) => a.mesh().intersect(o, d),
         }
@@ -157,7 +168,7 @@ fn torus_sdf(p: DVec3) -> f64 {
 }
 
 /// Sphere tracing to the torus surface, then bisection to 1e-12.
-fn torus_hit(o: DVec3, d: DVec3) -> Option<Hit> {
+fn torus_hit(o: DVec3, d: DVec3, uv: bool) -> Option<Hit> {
     // the bounding sphere of radius RING + TUBE
     let b = o.dot(d);
     let c = o.length_squared() - (RING + TUBE) * (RING + TUBE);
@@ -190,16 +201,19 @@ fn torus_hit(o: DVec3, d: DVec3) -> Option<Hit> {
             let centre = DVec3::new(p.x / rxy * RING, p.y / rxy * RING, 0.0);
             let n = (p - centre).normalize();
             // u around z, v around the tube (from the outer equator, upwards)
-            let tube = p.z.atan2(rxy - RING).rem_euclid(std::f64::consts::TAU);
+            let uv = uv.then(|| {
+                let tube = p.z.atan2(rxy - RING).rem_euclid(std::f64::consts::TAU);
+                [
+                    p.y.atan2(p.x).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU,
+                    tube / std::f64::consts::TAU,
+                ]
+            });
             return Some(Hit {
                 t,
                 p,
                 n,
                 dpdu: DVec3::new(-p.y, p.x, 0.0),
-                uv: Some([
-                    p.y.atan2(p.x).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU,
-                    tube / std::f64::consts::TAU,
-                ]),
+                uv,
                 material: None,
                 tangent: None,
                 uv1: None,
