@@ -13,8 +13,11 @@ pub struct Camera {
     right: DVec3,
     up: DVec3,
     forward: DVec3,
-    /// `tan(fov / 2)` (vertical).
-    tan_half: f64,
+    /// The image plane's half extents at unit distance, `tan(fov / 2)
+    /// aspect` across and `tan(fov / 2)` (vertical) down.
+    half: [f64; 2],
+    /// Its extent per pixel: `2 half / (W, H)`.
+    step: [f64; 2],
     width: usize,
     height: usize,
 }
@@ -79,12 +82,18 @@ impl Camera {
             return Err(bad("--size", format!("{width}x{height}"), "empty image"));
         }
         let right = r.normalize();
+        let tan_half = (fov_deg.to_radians() * 0.5).tan();
+        let aspect = width as f64 / height as f64;
         Ok(Self {
             eye,
             right,
             up: right.cross(forward),
             forward,
-            tan_half: (fov_deg.to_radians() * 0.5).tan(),
+            half: [tan_half * aspect, tan_half],
+            step: [
+                2.0 * tan_half * aspect / width as f64,
+                2.0 * tan_half / height as f64,
+            ],
             width,
             height,
         })
@@ -113,9 +122,10 @@ impl Camera {
     /// direction.
     #[must_use]
     pub fn ray(&self, x: f64, y: f64) -> (DVec3, DVec3) {
-        let aspect = self.width as f64 / self.height as f64;
-        let sx = (2.0 * x / self.width as f64 - 1.0) * self.tan_half * aspect;
-        let sy = (1.0 - 2.0 * y / self.height as f64) * self.tan_half;
+        // (2 x / W - 1) tan(fov / 2) aspect and (1 - 2 y / H) tan(fov / 2),
+        // without a division per ray
+        let sx = x * self.step[0] - self.half[0];
+        let sy = self.half[1] - y * self.step[1];
         let d = (self.forward + sx * self.right + sy * self.up).normalize();
         (self.eye, d)
     }

@@ -67,6 +67,7 @@ pub struct Pixel {
 
 /// The ray through pixel `(x, y)`'s centre and what it hits.
 #[must_use]
+#[inline]
 pub fn pixel(
     scene: &Scene,
     camera: &Camera,

@@ -580,8 +580,8 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
 
 /// Row `y` of the plain ISD case ([`render`]'s `batched`): the row's points
 /// shaded a few at a time ([`Material::shade_isd_batch`]: as many as fill
-/// sixteen lobe lanes), times the albedo map where there is one, the
-/// background elsewhere.
+/// 128 lobe lanes, eight vectors of sixteen, so the per-call work is shared),
+/// times the albedo map where there is one, the background elsewhere.
 fn batched_row(
     job: &Job<'_>,
     env: &Environment,
@@ -596,7 +596,7 @@ fn batched_row(
     let mut scratch = m.scratch(ch);
     let per = m
         .table()
-        .map_or(1, |t| (16 / t.basis().directions().len().max(1)).max(1));
+        .map_or(1, |t| (128 / t.basis().directions().len().max(1)).max(1));
     // (column, albedo) and (frame, view) of the points waiting
     let mut waiting: Vec<(usize, [f64; 3])> = Vec::with_capacity(per);
     let mut points: Vec<(Frame, [f64; 3])> = Vec::with_capacity(per);

@@ -619,7 +619,7 @@ impl Frame {
             t = nv.cross(a).cross(nv);
             len = t.length();
         }
-        let t = t / len;
+        let t = t * len.recip();
         Self {
             t: t.to_array(),
             b: nv.cross(t).to_array(),
@@ -772,19 +772,32 @@ impl Material {
     }
 
     /// The rotation of the slice and the local view: `R` (local -> world,
-    /// rotated by `phi_o` for isotropic tables) and `(theta_o, phi_o)`.
+    /// rotated by `phi_o` for isotropic tables) and `(theta_o, phi_o)`
+    /// (`phi_o = 0` for isotropic tables, whose weights do not depend on it:
+    /// their rotation by `phi_o` takes its cosine and sine from the view,
+    /// `(x, y) / |(x, y)|`, without the angle).
     fn placement(&self, frame: &Frame, wo: [f64; 3]) -> (Rotation, [f64; 3], f64, f64) {
         let wl = frame.to_local(wo);
         let theta = wl[2].clamp(-1.0, 1.0).acos();
-        let phi = if wl[0] == 0.0 && wl[1] == 0.0 {
-            0.0
-        } else {
-            view_frame_angle(wl)
-        };
         let r = frame.rotation();
+        let on_axis = wl[0] == 0.0 && wl[1] == 0.0;
         match &self.lobes {
-            Lobes::Table(t) if t.header().isotropic => (r.mul(&Rotation::rz(phi)), wl, theta, phi),
-            _ => (r, wl, theta, phi),
+            Lobes::Table(t) if t.header().isotropic => {
+                let rho = (wl[0] * wl[0] + wl[1] * wl[1]).sqrt();
+                let (c, s) = if on_axis || !(rho > 0.0 && rho.is_finite()) {
+                    (1.0, 0.0)
+                } else {
+                    (wl[0] / rho, wl[1] / rho)
+                };
+                let rz = Rotation {
+                    m: [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
+                };
+                (r.mul(&rz), wl, theta, 0.0)
+            }
+            _ => {
+                let phi = if on_axis { 0.0 } else { view_frame_angle(wl) };
+                (r, wl, theta, phi)
+            }
         }
     }
 
@@ -914,7 +927,15 @@ impl Material {
         let nb = self.l_max + 1;
         let basis = t.basis();
         let dirs = basis.directions();
-        t.weights_into(theta, phi, &mut s.weights[..t.entry_len()]);
+        // the table's entries blended straight into the lobes' layout (the
+        // sums of `LobeTable::weights_into`, term for term)
+        let mut entries = [(&[][..], 0.0); 4];
+        let mut ne = 0;
+        for (e, w) in t.blend(theta, phi) {
+            entries[ne] = (t.entry(e), w);
+            ne += 1;
+        }
+        let entries = &entries[..ne];
         let first_lobe = s.dirs.len();
         s.dirs.extend(dirs.iter().map(|&d| r.apply(d)));
         s.first
@@ -923,9 +944,22 @@ impl Material {
         for j in 0..dirs.len() {
             for l in s.first[first_lobe + j]..nb {
                 let (src, dst) = (basis.index(l, j) * kc, ((first_lobe + j) * nb + l) * kc);
-                // element by element: a slice copy of one value is a memmove call
-                for p in 0..kc {
-                    s.lobe_weights[dst + p] = s.weights[src + p];
+                let out = &mut s.lobe_weights[dst..dst + kc];
+                match entries {
+                    // an isotropic table's two entries, unrolled
+                    [(a, wa), (b, wb)] => {
+                        let (a, b) = (&a[src..src + kc], &b[src..src + kc]);
+                        for p in 0..kc {
+                            out[p] = wa * f64::from(a[p]) + wb * f64::from(b[p]);
+                        }
+                    }
+                    _ => {
+                        for (p, o) in out.iter_mut().enumerate() {
+                            *o = entries
+                                .iter()
+                                .fold(0.0, |v, (e, w)| v + w * f64::from(e[src + p]));
+                        }
+                    }
                 }
             }
         }

@@ -323,9 +323,21 @@ impl LobeTable {
     /// # Panics
     /// If `out` has another length.
     pub fn weights_into(&self, theta: f64, phi: f64, out: &mut [f64]) {
-        let h = &self.header;
         let n = self.entry_len();
         assert_eq!(out.len(), n);
+        out.fill(0.0);
+        for (e, w) in self.blend(theta, phi) {
+            for (o, v) in out.iter_mut().zip(self.entry(e)) {
+                *o += w * f64::from(*v);
+            }
+        }
+    }
+
+    /// The entries [`Self::weights_into`] blends at `(theta_o, phi_o)` and
+    /// their weights, bilinear between entry centres (linear in `theta_o`
+    /// for isotropic tables, which give two), zero weights left out.
+    pub fn blend(&self, theta: f64, phi: f64) -> impl Iterator<Item = (usize, f64)> {
+        let h = &self.header;
         let (nt, np) = (h.n_theta, h.n_phi);
         // theta: centres (i + 1/2) * (pi/2) / nt
         let x =
@@ -348,15 +360,15 @@ impl LobeTable {
                 ((i0 + 1) * np + j1, ft * fp),
             ]
         };
-        out.fill(0.0);
-        for (e, w) in corners {
-            if w == 0.0 {
-                continue;
-            }
-            for (o, v) in out.iter_mut().zip(&self.weights[e * n..(e + 1) * n]) {
-                *o += w * f64::from(*v);
-            }
-        }
+        corners.into_iter().filter(|&(_, w)| w != 0.0)
+    }
+
+    /// Entry `e`'s weights ([`Self::entry_len`] values; panics beyond the
+    /// table).
+    #[must_use]
+    pub fn entry(&self, e: usize) -> &[f32] {
+        let n = self.entry_len();
+        &self.weights[e * n..(e + 1) * n]
     }
 
     /// Refuses a table built for another BRDF or degree.
