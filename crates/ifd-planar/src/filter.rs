@@ -10,10 +10,10 @@ use crate::field::{CheckField, CheckedField, Field, FieldKind};
 use crate::kernel::Sampling;
 use crate::prepared::Prepare;
 use crate::stack::for_decomposition::{is_direct, sigma_bounds};
-use crate::stack::gather::{self, FixedTerm, ScaledTerm};
+use crate::stack::gather::{self, FixedTerm, RowLevels, ScaledTerm};
 use crate::stack::lookup::Tap;
 use crate::stack::lookup::Taps;
-use crate::stack::{ScaleStack, snap_to_level};
+use crate::stack::{LevelRule, ScaleStack};
 
 /// One decomposition term, prepared for lookups.
 #[derive(Clone, Copy, Debug)]
@@ -509,22 +509,22 @@ impl<'a> Filter<'a> {
             }
             Field::Map(_) if scaled_vector => {
                 let (ln0, inv) = self.stack.ln_params();
-                // Levels and weights per distinct sigma and pixel,
-                // group-major; the same function of (sigma, scale) as the
-                // scalar loop's, so the same values.
-                let groups = &self.sigma_groups;
-                let mut levels = vec![(0, 0, 0.0, 0.0); groups.len() * w];
+                // Per pixel: the rotation, t_s and the widening; then the
+                // levels and weights per distinct sigma, group-major, by
+                // the scalar loop's rule (the same values).
+                let (mut t_s, mut widen) = (vec![0.0f64; w], vec![0.0f64; w]);
                 for (x, (c, sn)) in cs.iter_mut().zip(&mut ss).enumerate() {
                     let i = y * w + x;
                     let s = scale.at(i);
                     let (sin, cos) = angle.at(i).to_radians().sin_cos();
                     (*c, *sn) = (cos * s, sin * s);
                     let sf = f64::from(s);
-                    let t_s = (sf.ln() - ln0) * inv;
-                    let widen = self.sampling.footprint_variance(sf) / (sf * sf);
-                    for (g, rep) in groups.iter().enumerate() {
-                        levels[g * w + x] = self.uniform_level(rep, t_s, widen);
-                    }
+                    t_s[x] = (sf.ln() - ln0) * inv;
+                    widen[x] = self.sampling.footprint_variance(sf) / (sf * sf);
+                }
+                let mut levels = RowLevels::new(self.sigma_groups.len(), w);
+                for (g, rep) in self.sigma_groups.iter().enumerate() {
+                    gather::fill_levels(self.level_rule(rep), &t_s, &widen, &mut levels, g);
                 }
                 gather::scaled_row::<C>(self.stack, &self.scaled_terms, &levels, y, &cs, &ss, row)
             }
@@ -532,25 +532,26 @@ impl<'a> Filter<'a> {
         }
     }
 
+    /// The level rule of terms of `t`'s sigma on this (log-uniform, several
+    /// levels) stack.
+    fn level_rule(&self, t: &Prepared) -> LevelRule {
+        let (_, inv) = self.stack.ln_params();
+        LevelRule {
+            ln_sigma: t.ln_sigma,
+            inv_sigma2: t.inv_sigma2,
+            inv,
+            last: (self.stack.sigmas().len() - 1) as u32,
+        }
+    }
+
     /// Term `t`'s levels and weights at scale `s` on a log-uniform stack of
     /// several levels: `t_s = (ln s - ln sigma_0) / ln r`, `widen` the pixel
-    /// footprint's variance at `s` over `s^2` (the same expressions on the
-    /// scalar and the vector paths, so the same values).
+    /// footprint's variance at `s` over `s^2` ([`LevelRule`]; the vector
+    /// path's rows take the same values).
     #[inline]
     fn uniform_level(&self, t: &Prepared, t_s: f64, widen: f64) -> (usize, usize, f32, f32) {
-        let (_, inv) = self.stack.ln_params();
-        let last = self.stack.sigmas().len() - 1;
-        let ln_sigma = if widen == 0.0 {
-            t_s + t.ln_sigma * inv
-        } else {
-            // ln sigma_eff = ln s + ln sigma + ln(sigma_eff / (s sigma)): no
-            // logarithm or division per term.
-            t_s + (t.ln_sigma + crate::kernel::ln_widening(widen * t.inv_sigma2)) * inv
-        };
-        let u = ln_sigma.clamp(0.0, last as f64);
-        // 32-bit conversions: one instruction each on x86-64 (usize's are not).
-        let i = (u as u32).min(last as u32 - 1);
-        snap_to_level(i as usize, u - f64::from(i))
+        let (a, b, wa, wb) = self.level_rule(t).at(t_s, widen);
+        (a as usize, b as usize, wa, wb)
     }
 
     /// One pixel with constant scale (levels precomputed) and a per-pixel

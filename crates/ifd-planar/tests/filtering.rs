@@ -859,6 +859,21 @@ fn vector_gathers_equal_the_scalar_loop_on_a_realistic_case() {
             options,
         );
         assert_same_bits(&v, &s);
+        // scales that jump within 8-pixel blocks: blocks spanning two to
+        // five levels (vector lookups on up to four, lane by lane beyond)
+        let jumpy: Vec<f32> = (0..w * h)
+            .map(|i| 0.6 * 1.5f32.powi(((i % w) % 5 + (i / w) % 3) as i32))
+            .collect();
+        let (v, s) = vector_and_scalar(
+            &img,
+            &d,
+            &angles,
+            Field::Map(&jumpy),
+            (0.6, 0.6 * 1.5f32.powi(6)),
+            Border::Reflect101,
+            options,
+        );
+        assert_same_bits(&v, &s);
     }
 }
 

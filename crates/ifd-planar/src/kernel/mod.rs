@@ -325,15 +325,36 @@ const MIN_VARIANCE_RATIO: f64 = 0.25;
 /// a per-pixel scale map's level choice takes no logarithm per term.
 #[inline]
 pub(crate) fn ln_widening(x: f64) -> f64 {
-    let x = x.max(MIN_VARIANCE_RATIO - 1.0);
-    if x.abs() < 0.03 {
-        let x2 = x * x;
-        let odd = x * (1.0 + x2 * (1.0 / 3.0 + x2 / 5.0));
-        let even = x2 * (0.5 + x2 * (0.25 + x2 / 6.0));
-        0.5 * (odd - even)
+    if widening_needs_log(x) {
+        0.5 * x.max(MIN_VARIANCE_RATIO - 1.0).ln_1p()
     } else {
-        0.5 * x.ln_1p()
+        ln_widening_series(x)
     }
+}
+
+/// Whether [`ln_widening`] at `x` takes the logarithm (`|x| >= 0.03` after
+/// the floor), not the series.
+#[inline]
+pub(crate) fn widening_needs_log(x: f64) -> bool {
+    x.max(MIN_VARIANCE_RATIO - 1.0).abs() >= 0.03
+}
+
+/// [`ln_widening`]'s series branch, branch-free (its value wherever
+/// [`widening_needs_log`] is false): the per-pixel level rule over a row
+/// evaluates it for every pixel, in vector lanes, and redoes the few that
+/// need the logarithm.
+#[inline(always)]
+#[expect(
+    clippy::inline_always,
+    reason = "compiled into the AVX2 row loop of the level rule"
+)]
+pub(crate) fn ln_widening_series(x: f64) -> f64 {
+    let x = x.max(MIN_VARIANCE_RATIO - 1.0);
+    let x2 = x * x;
+    // constant factors, not divisions (two per term and pixel)
+    let odd = x * (1.0 + x2 * (1.0 / 3.0 + x2 * (1.0 / 5.0)));
+    let even = x2 * (0.5 + x2 * (0.25 + x2 * (1.0 / 6.0)));
+    0.5 * (odd - even)
 }
 
 impl Kernel {

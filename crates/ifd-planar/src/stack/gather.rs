@@ -6,7 +6,7 @@
     reason = "AVX2 gathers and run-time dispatch; see the module documentation"
 )]
 
-use super::{Interpolation, ScaleStack};
+use super::{Interpolation, LevelRule, ScaleStack};
 
 /// Pixels per vector block.
 pub(crate) const LANES: usize = 8;
@@ -134,13 +134,108 @@ pub(crate) struct ScaledTerm {
     pub(crate) group: usize,
 }
 
-/// As [`rotated_row`] with a per-pixel scale: `levels[g * w + x]` gives the
-/// levels `(a, b)` and weights `(wa, wb)` (the term weight not included) of
-/// the terms of sigma group `g` at pixel `x`, `w = cs.len()`.
+/// The levels of each sigma group at each pixel of a row, group-major
+/// (`g * w + x`), one array per part: pixel `x` of group `g` reads level
+/// `a` with weight `wa` and, where `wb != 0`, level `b = a + 1` with `wb`
+/// (the scalar loop's `(a, b, wa, wb)`; the term weight not included).
+#[derive(Clone, Debug)]
+pub(crate) struct RowLevels {
+    w: usize,
+    a: Vec<u32>,
+    b: Vec<u32>,
+    wa: Vec<f32>,
+    wb: Vec<f32>,
+}
+
+impl RowLevels {
+    /// Room for `groups` sigma groups over `w` pixels.
+    pub(crate) fn new(groups: usize, w: usize) -> Self {
+        let n = groups * w;
+        Self {
+            w,
+            a: vec![0; n],
+            b: vec![0; n],
+            wa: vec![0.0; n],
+            wb: vec![0.0; n],
+        }
+    }
+
+    /// Pixel `x`'s `(a, b, wa, wb)` in group `g`.
+    fn at(&self, g: usize, x: usize) -> (usize, usize, f32, f32) {
+        let i = g * self.w + x;
+        (
+            self.a[i] as usize,
+            self.b[i] as usize,
+            self.wa[i],
+            self.wb[i],
+        )
+    }
+}
+
+/// Group `g`'s levels over the row by `rule` from each pixel's `t_s` and
+/// `widen` ([`LevelRule`]): the series branch for every pixel (in AVX2
+/// lanes where the CPU has them), then [`LevelRule::at`] again for the
+/// pixels whose widening needs the logarithm; the same values as
+/// [`LevelRule::at`] pixel by pixel.
+///
+/// # Panics
+/// If `t_s` or `widen` is not one value per pixel, or `g` is past the
+/// groups.
+pub(crate) fn fill_levels(
+    rule: LevelRule,
+    t_s: &[f64],
+    widen: &[f64],
+    levels: &mut RowLevels,
+    g: usize,
+) {
+    let w = levels.w;
+    assert!(t_s.len() == w && widen.len() == w && (g + 1) * w <= levels.a.len());
+    #[cfg(target_arch = "x86_64")]
+    {
+        if vector_kernels().is_some() {
+            // SAFETY: the CPU has AVX2 (checked just now).
+            unsafe { avx2::fill_levels(rule, t_s, widen, levels, g) };
+        } else {
+            series_levels(rule, t_s, widen, levels, g);
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    series_levels(rule, t_s, widen, levels, g);
+    let r = g * w..(g + 1) * w;
+    for (x, ((a, b), (wa, wb))) in levels.a[r.clone()]
+        .iter_mut()
+        .zip(&mut levels.b[r.clone()])
+        .zip(levels.wa[r.clone()].iter_mut().zip(&mut levels.wb[r]))
+        .enumerate()
+    {
+        if crate::kernel::widening_needs_log(widen[x] * rule.inv_sigma2) {
+            (*a, *b, *wa, *wb) = rule.at(t_s[x], widen[x]);
+        }
+    }
+}
+
+/// [`fill_levels`]' series pass, written for the compiler's vector lanes.
+#[inline(always)]
+#[expect(
+    clippy::inline_always,
+    reason = "compiled into `avx2::fill_levels` as well as here"
+)]
+fn series_levels(rule: LevelRule, t_s: &[f64], widen: &[f64], levels: &mut RowLevels, g: usize) {
+    let w = levels.w;
+    let r = g * w..(g + 1) * w;
+    let (a, b) = (&mut levels.a[r.clone()], &mut levels.b[r.clone()]);
+    let (wa, wb) = (&mut levels.wa[r.clone()], &mut levels.wb[r]);
+    for x in 0..w {
+        (a[x], b[x], wa[x], wb[x]) = rule.series(t_s[x], widen[x]);
+    }
+}
+
+/// As [`rotated_row`] with a per-pixel scale: `levels` gives the levels and
+/// weights of the terms of each sigma group at each pixel, `w = cs.len()`.
 pub(crate) fn scaled_row<const C: usize>(
     stack: &ScaleStack,
     terms: &[ScaledTerm],
-    levels: &[(usize, usize, f32, f32)],
+    levels: &RowLevels,
     y: usize,
     cs: &[f32],
     ss: &[f32],
@@ -150,9 +245,14 @@ pub(crate) fn scaled_row<const C: usize>(
     let n_levels = stack.levels.len();
     if !supports::<C>(stack)
         || ss.len() != w
+        || levels.w != w
         || out.len() < w * C
-        || terms.iter().any(|t| (t.group + 1) * w > levels.len())
-        || levels.iter().any(|l| l.0 >= n_levels || l.1 >= n_levels)
+        || terms.iter().any(|t| (t.group + 1) * w > levels.a.len())
+        || levels
+            .a
+            .iter()
+            .chain(&levels.b)
+            .any(|&l| l as usize >= n_levels)
     {
         return 0;
     }
@@ -181,7 +281,7 @@ mod avx2 {
         _mm256_storeu_ps, _mm256_sub_epi32, _mm256_sub_ps,
     };
 
-    use super::{FixedTerm, LANES, ScaledTerm};
+    use super::{FixedTerm, LANES, LevelRule, RowLevels, ScaledTerm};
     use crate::stack::{Interpolation, Level, ScaleStack};
 
     /// Eight floats into a vector.
@@ -605,44 +705,86 @@ mod avx2 {
         n
     }
 
+    /// The most levels one block's vector lookups span (a lookup each);
+    /// blocks whose lanes spread wider go lane by lane.
+    const SPAN: usize = 4;
+
     /// One sigma group's levels over a block of eight pixels.
     #[derive(Clone, Copy)]
     enum Block {
-        /// Every lane between levels `a` and `a + 1`: weights per lane on
-        /// each (a lane snapped to a level has weight 0 on the other).
+        /// Every lane on levels `a .. a + n` (`n <= SPAN`): per level, each
+        /// lane's weight on it (zero where the lane does not read it). A
+        /// lane reads its two levels in the scalar loop's order, lower
+        /// first, so its sum is the scalar loop's.
         Vector {
             a: usize,
-            wa: [f32; LANES],
-            wb: [f32; LANES],
+            n: usize,
+            w: [[f32; LANES]; SPAN],
         },
-        /// Lanes on different pairs of levels: each lane looks up its own.
+        /// Lanes spread over more levels: each lane looks up its own.
         Lanes,
     }
 
-    /// The block of lanes `lv` (as the scalar loop's `(a, b, wa, wb)`).
-    fn classify(lv: &[(usize, usize, f32, f32)]) -> Block {
-        let a = lv.iter().map(|l| l.0).min().unwrap_or(0);
-        let (mut wa, mut wb) = ([0.0f32; LANES], [0.0f32; LANES]);
-        for (lane, &(la, lb, xa, xb)) in lv.iter().enumerate() {
-            (wa[lane], wb[lane]) = if la == a && (lb == a || lb == a + 1) {
-                (xa, xb)
-            } else if la == a + 1 && lb == a + 1 {
-                // Snapped to the upper level: the scalar loop reads it alone
-                // with weight `xa`; here it reads level `a` with weight 0
-                // first, which adds nothing.
-                (0.0, xa)
-            } else {
-                return Block::Lanes;
-            };
+    /// The series pass of [`super::fill_levels`] in AVX2 lanes.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn fill_levels(
+        rule: LevelRule,
+        t_s: &[f64],
+        widen: &[f64],
+        levels: &mut RowLevels,
+        g: usize,
+    ) {
+        super::series_levels(rule, t_s, widen, levels, g);
+    }
+
+    /// The block of eight lanes from pixel `x0` of group `g` (as the scalar
+    /// loop's `(a, b, wa, wb)`: `b == a + 1`, or `b == a` with `wb == 0`).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn classify(levels: &RowLevels, g: usize, x0: usize) -> Block {
+        let r = g * levels.w + x0..g * levels.w + x0 + LANES;
+        let (la, lb) = (&levels.a[r.clone()], &levels.b[r.clone()]);
+        let (xa, xb) = (&levels.wa[r.clone()], &levels.wb[r]);
+        let a = la.iter().copied().min().unwrap_or(0);
+        let top = lb
+            .iter()
+            .zip(la)
+            .map(|(&b, &l)| b.max(l))
+            .max()
+            .unwrap_or(0);
+        let n = (top - a) as usize + 1;
+        // a lane reading one level twice is not the rule's (b == a + 1, or
+        // b == a with wb == 0); go lane by lane, as the scalar loop would
+        let twice = (0..LANES).any(|k| lb[k] <= la[k] && xb[k] != 0.0);
+        if n > SPAN || twice {
+            return Block::Lanes;
         }
-        Block::Vector { a, wa, wb }
+        // level a + k: each lane's weight on it (selects, no branches)
+        let mut w = [[0.0f32; LANES]; SPAN];
+        for (k, wk) in w.iter_mut().enumerate().take(n) {
+            let level = a + k as u32;
+            for lane in 0..LANES {
+                let on_a = if la[lane] == level { xa[lane] } else { 0.0 };
+                let on_b = if lb[lane] == level && lb[lane] != la[lane] {
+                    xb[lane]
+                } else {
+                    0.0
+                };
+                wk[lane] = on_a + on_b;
+            }
+        }
+        Block::Vector {
+            a: a as usize,
+            n,
+            w,
+        }
     }
 
     #[target_feature(enable = "avx2")]
     pub(super) fn scaled_row<const C: usize>(
         stack: &ScaleStack,
         terms: &[ScaledTerm],
-        levels: &[(usize, usize, f32, f32)],
+        levels: &RowLevels,
         y: usize,
         cs: &[f32],
         ss: &[f32],
@@ -650,12 +792,12 @@ mod avx2 {
     ) -> usize {
         let w = cs.len();
         let n = w / LANES * LANES;
-        let groups = levels.len() / w.max(1);
+        let groups = levels.a.len() / w.max(1);
         let yf = _mm256_set1_ps(y as f32);
         let mut blocks = vec![Block::Lanes; groups];
         for x0 in (0..n).step_by(LANES) {
             for (g, b) in blocks.iter_mut().enumerate() {
-                *b = classify(&levels[g * w + x0..g * w + x0 + LANES]);
+                *b = classify(levels, g, x0);
             }
             let xf = columns(x0);
             let (c, s) = (load_at(cs, x0), load_at(ss, x0));
@@ -663,12 +805,13 @@ mod avx2 {
             for t in terms {
                 let (px, py) = positions(xf, yf, c, s, t.cx, t.cy);
                 match &blocks[t.group] {
-                    Block::Vector { a, wa, wb } => {
+                    Block::Vector { a, n, w } => {
                         let tw = _mm256_set1_ps(t.weight);
-                        for (li, lw) in [(*a, wa), (a + 1, wb)] {
+                        for (k, lw) in w[..*n].iter().enumerate() {
                             if lw.iter().all(|&v| v == 0.0) {
                                 continue;
                             }
+                            let li = a + k;
                             let wv = _mm256_mul_ps(tw, load(lw));
                             if !lookup::<C>(stack, li, px, py, wv, &mut acc) {
                                 let ws = store(wv);
@@ -681,9 +824,8 @@ mod avx2 {
                         // Each lane's two lookups in the scalar order.
                         let (pxs, pys) = (store(px), store(py));
                         let mut lanes = spill(&acc);
-                        let lv = &levels[t.group * w + x0..t.group * w + x0 + LANES];
                         for (lane, sum) in lanes.iter_mut().enumerate() {
-                            let (a, b, wa, wb) = lv[lane];
+                            let (a, b, wa, wb) = levels.at(t.group, x0 + lane);
                             let (px, py) = (pxs[lane], pys[lane]);
                             stack.accumulate_fixed::<C>(a, px, py, t.weight * wa, sum);
                             if wb != 0.0 {

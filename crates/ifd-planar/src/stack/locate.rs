@@ -77,3 +77,71 @@ pub(crate) fn snap_to_level(i: usize, f: f64) -> (usize, usize, f32, f32) {
         (i, i + 1, (1.0 - f) as f32, f as f32)
     }
 }
+
+/// The per-pixel level rule of one sigma on a log-uniform stack of several
+/// levels, for a per-pixel scale `s`: position `t_s + (ln sigma + ln w) /
+/// ln r` among the levels (`t_s = (ln s - ln sigma_0) / ln r`, `w =
+/// sigma_eff / (s sigma)` the pixel footprint's widening,
+/// [`crate::kernel::ln_widening`] of `widen = footprint variance / s^2`
+/// times `1 / sigma^2`), clamped, then bracketed and snapped as
+/// [`snap_to_level`] does, branch-free. The scalar loop ([`Self::at`]) and
+/// the vector path's rows (`gather::fill_levels`: [`Self::series`] over the
+/// row, then [`Self::at`] again where the widening needs its logarithm)
+/// take the same values bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LevelRule {
+    /// `ln sigma`.
+    pub(crate) ln_sigma: f64,
+    /// `1 / sigma^2`.
+    pub(crate) inv_sigma2: f64,
+    /// `1 / ln r`.
+    pub(crate) inv: f64,
+    /// The last level's index (at least 1).
+    pub(crate) last: u32,
+}
+
+impl LevelRule {
+    /// `(a, b, wa, wb)` at `t_s` and `widen`.
+    #[inline]
+    pub(crate) fn at(self, t_s: f64, widen: f64) -> (u32, u32, f32, f32) {
+        let x = widen * self.inv_sigma2;
+        if crate::kernel::widening_needs_log(x) {
+            self.bracket(t_s + (self.ln_sigma + crate::kernel::ln_widening(x)) * self.inv)
+        } else {
+            self.series(t_s, widen)
+        }
+    }
+
+    /// [`Self::at`] where the widening takes its series (branch-free, for
+    /// vector lanes).
+    #[inline(always)]
+    #[expect(
+        clippy::inline_always,
+        reason = "compiled into the AVX2 row loop of `gather::fill_levels`"
+    )]
+    pub(crate) fn series(self, t_s: f64, widen: f64) -> (u32, u32, f32, f32) {
+        let lw = crate::kernel::ln_widening_series(widen * self.inv_sigma2);
+        self.bracket(t_s + (self.ln_sigma + lw) * self.inv)
+    }
+
+    /// The levels bracketing position `u` and their weights: [`snap_to_level`]
+    /// of `u` clamped to the levels, with selects for its branches.
+    #[inline(always)]
+    #[expect(
+        clippy::inline_always,
+        reason = "compiled into the AVX2 row loop of `gather::fill_levels`"
+    )]
+    fn bracket(self, u: f64) -> (u32, u32, f32, f32) {
+        let u = u.clamp(0.0, f64::from(self.last));
+        // 32-bit conversions (vector lanes convert 32-bit integers)
+        let i = (u as u32).min(self.last - 1);
+        let f = u - f64::from(i);
+        let (lo, hi) = (f < LEVEL_SNAP, f > 1.0 - LEVEL_SNAP);
+        let a = if hi { i + 1 } else { i };
+        let b = if lo { i } else { i + 1 };
+        let snapped = lo || hi;
+        let wa = if snapped { 1.0 } else { (1.0 - f) as f32 };
+        let wb = if snapped { 0.0 } else { f as f32 };
+        (a, b, wa, wb)
+    }
+}
