@@ -136,13 +136,13 @@ pub(crate) struct ScaledTerm {
 
 /// The levels of each sigma group at each pixel of a row, group-major
 /// (`g * w + x`), one array per part: pixel `x` of group `g` reads level
-/// `a` with weight `wa` and, where `wb != 0`, level `b = a + 1` with `wb`
-/// (the scalar loop's `(a, b, wa, wb)`; the term weight not included).
+/// `a` with weight `wa` and, where `wb != 0`, level `a + 1` with `wb` (the
+/// scalar loop's `(a, b, wa, wb)` of [`LevelRule`], whose `b` is `a + 1`
+/// or, with `wb == 0`, `a`; the term weight not included).
 #[derive(Clone, Debug)]
 pub(crate) struct RowLevels {
     w: usize,
     a: Vec<u32>,
-    b: Vec<u32>,
     wa: Vec<f32>,
     wb: Vec<f32>,
 }
@@ -154,7 +154,6 @@ impl RowLevels {
         Self {
             w,
             a: vec![0; n],
-            b: vec![0; n],
             wa: vec![0.0; n],
             wb: vec![0.0; n],
         }
@@ -163,12 +162,19 @@ impl RowLevels {
     /// Pixel `x`'s `(a, b, wa, wb)` in group `g`.
     fn at(&self, g: usize, x: usize) -> (usize, usize, f32, f32) {
         let i = g * self.w + x;
-        (
-            self.a[i] as usize,
-            self.b[i] as usize,
-            self.wa[i],
-            self.wb[i],
-        )
+        let a = self.a[i] as usize;
+        let b = if self.wb[i] == 0.0 { a } else { a + 1 };
+        (a, b, self.wa[i], self.wb[i])
+    }
+
+    /// Pixel `i`'s (group-major index) levels from `(a, b, wa, wb)`.
+    #[inline(always)]
+    #[expect(
+        clippy::inline_always,
+        reason = "compiled into the AVX2 row loop of `fill_levels`"
+    )]
+    fn set(&mut self, i: usize, (a, _, wa, wb): (u32, u32, f32, f32)) {
+        (self.a[i], self.wa[i], self.wb[i]) = (a, wa, wb);
     }
 }
 
@@ -201,15 +207,9 @@ pub(crate) fn fill_levels(
     }
     #[cfg(not(target_arch = "x86_64"))]
     series_levels(rule, t_s, widen, levels, g);
-    let r = g * w..(g + 1) * w;
-    for (x, ((a, b), (wa, wb))) in levels.a[r.clone()]
-        .iter_mut()
-        .zip(&mut levels.b[r.clone()])
-        .zip(levels.wa[r.clone()].iter_mut().zip(&mut levels.wb[r]))
-        .enumerate()
-    {
+    for x in 0..w {
         if crate::kernel::widening_needs_log(widen[x] * rule.inv_sigma2) {
-            (*a, *b, *wa, *wb) = rule.at(t_s[x], widen[x]);
+            levels.set(g * w + x, rule.at(t_s[x], widen[x]));
         }
     }
 }
@@ -223,10 +223,13 @@ pub(crate) fn fill_levels(
 fn series_levels(rule: LevelRule, t_s: &[f64], widen: &[f64], levels: &mut RowLevels, g: usize) {
     let w = levels.w;
     let r = g * w..(g + 1) * w;
-    let (a, b) = (&mut levels.a[r.clone()], &mut levels.b[r.clone()]);
-    let (wa, wb) = (&mut levels.wa[r.clone()], &mut levels.wb[r]);
+    let (a, wa, wb) = (
+        &mut levels.a[r.clone()],
+        &mut levels.wa[r.clone()],
+        &mut levels.wb[r],
+    );
     for x in 0..w {
-        (a[x], b[x], wa[x], wb[x]) = rule.series(t_s[x], widen[x]);
+        (a[x], _, wa[x], wb[x]) = rule.series(t_s[x], widen[x]);
     }
 }
 
@@ -251,8 +254,8 @@ pub(crate) fn scaled_row<const C: usize>(
         || levels
             .a
             .iter()
-            .chain(&levels.b)
-            .any(|&l| l as usize >= n_levels)
+            .zip(&levels.wb)
+            .any(|(&a, &wb)| a as usize + usize::from(wb != 0.0) >= n_levels)
     {
         return 0;
     }
@@ -271,14 +274,16 @@ pub(crate) fn scaled_row<const C: usize>(
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::{
-        __m256, __m256i, _CMP_GE_OQ, _mm256_add_epi32, _mm256_add_ps, _mm256_and_si256,
-        _mm256_castps_si256, _mm256_castsi256_ps, _mm256_castsi256_si128, _mm256_cmp_ps,
-        _mm256_cmpgt_epi32, _mm256_cvtepi32_ps, _mm256_cvttps_epi32, _mm256_extracti128_si256,
-        _mm256_i32gather_epi64, _mm256_i32gather_ps, _mm256_loadu_ps, _mm256_max_epi32,
-        _mm256_min_epi32, _mm256_movemask_epi8, _mm256_mul_ps, _mm256_mullo_epi32,
-        _mm256_permute2x128_si256, _mm256_permutevar8x32_epi32, _mm256_set1_epi32, _mm256_set1_ps,
-        _mm256_setr_epi32, _mm256_setr_ps, _mm256_setzero_ps, _mm256_setzero_si256,
-        _mm256_storeu_ps, _mm256_sub_epi32, _mm256_sub_ps,
+        __m256, __m256i, _CMP_GE_OQ, _CMP_NEQ_OQ, _mm256_add_epi32, _mm256_add_ps, _mm256_and_ps,
+        _mm256_and_si256, _mm256_andnot_si256, _mm256_castps_si256, _mm256_castsi256_ps,
+        _mm256_castsi256_si128, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cmpgt_epi32,
+        _mm256_cvtepi32_ps, _mm256_cvtsi256_si32, _mm256_cvttps_epi32, _mm256_extracti128_si256,
+        _mm256_i32gather_epi64, _mm256_i32gather_ps, _mm256_loadu_ps, _mm256_loadu_si256,
+        _mm256_max_epi32, _mm256_min_epi32, _mm256_movemask_epi8, _mm256_movemask_ps,
+        _mm256_mul_ps, _mm256_mullo_epi32, _mm256_permute2x128_si256, _mm256_permutevar8x32_epi32,
+        _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32, _mm256_setr_ps, _mm256_setzero_ps,
+        _mm256_setzero_si256, _mm256_shuffle_epi32, _mm256_storeu_ps, _mm256_sub_epi32,
+        _mm256_sub_ps,
     };
 
     use super::{FixedTerm, LANES, LevelRule, RowLevels, ScaledTerm};
@@ -712,14 +717,15 @@ mod avx2 {
     /// One sigma group's levels over a block of eight pixels.
     #[derive(Clone, Copy)]
     enum Block {
-        /// Every lane on levels `a .. a + n` (`n <= SPAN`): per level, each
-        /// lane's weight on it (zero where the lane does not read it). A
-        /// lane reads its two levels in the scalar loop's order, lower
-        /// first, so its sum is the scalar loop's.
+        /// Every lane on levels `a .. a + SPAN`: per level, each lane's
+        /// weight on it (zero where the lane does not read it), `used`
+        /// marking the levels some lane reads. A lane reads its two levels
+        /// in the scalar loop's order, lower first, so its sum is the
+        /// scalar loop's.
         Vector {
             a: usize,
-            n: usize,
-            w: [[f32; LANES]; SPAN],
+            used: u8,
+            w: [__m256; SPAN],
         },
         /// Lanes spread over more levels: each lane looks up its own.
         Lanes,
@@ -737,45 +743,57 @@ mod avx2 {
         super::series_levels(rule, t_s, widen, levels, g);
     }
 
-    /// The block of eight lanes from pixel `x0` of group `g` (as the scalar
-    /// loop's `(a, b, wa, wb)`: `b == a + 1`, or `b == a` with `wb == 0`).
+    /// The least and the largest of eight lanes.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn min_max(lo: __m256i, hi: __m256i) -> (i32, i32) {
+        let (mut lo, mut hi) = (
+            _mm256_min_epi32(lo, _mm256_permute2x128_si256::<1>(lo, lo)),
+            _mm256_max_epi32(hi, _mm256_permute2x128_si256::<1>(hi, hi)),
+        );
+        lo = _mm256_min_epi32(lo, _mm256_shuffle_epi32::<0b0100_1110>(lo));
+        hi = _mm256_max_epi32(hi, _mm256_shuffle_epi32::<0b0100_1110>(hi));
+        lo = _mm256_min_epi32(lo, _mm256_shuffle_epi32::<0b1011_0001>(lo));
+        hi = _mm256_max_epi32(hi, _mm256_shuffle_epi32::<0b1011_0001>(hi));
+        (_mm256_cvtsi256_si32(lo), _mm256_cvtsi256_si32(hi))
+    }
+
+    /// The block of eight lanes from pixel `x0` of group `g`: each lane
+    /// reads level `a` (weight `wa`) and, where `wb != 0`, `a + 1` (`wb`).
     #[inline]
     #[target_feature(enable = "avx2")]
     fn classify(levels: &RowLevels, g: usize, x0: usize) -> Block {
-        let r = g * levels.w + x0..g * levels.w + x0 + LANES;
-        let (la, lb) = (&levels.a[r.clone()], &levels.b[r.clone()]);
-        let (xa, xb) = (&levels.wa[r.clone()], &levels.wb[r]);
-        let a = la.iter().copied().min().unwrap_or(0);
-        let top = lb
-            .iter()
-            .zip(la)
-            .map(|(&b, &l)| b.max(l))
-            .max()
-            .unwrap_or(0);
-        let n = (top - a) as usize + 1;
-        // a lane reading one level twice is not the rule's (b == a + 1, or
-        // b == a with wb == 0); go lane by lane, as the scalar loop would
-        let twice = (0..LANES).any(|k| lb[k] <= la[k] && xb[k] != 0.0);
-        if n > SPAN || twice {
+        let i = g * levels.w + x0;
+        let a: &[u32; LANES] = levels.a[i..i + LANES].try_into().expect("eight lanes");
+        // SAFETY: reads exactly the eight integers of `a`.
+        let la = unsafe { _mm256_loadu_si256(a.as_ptr().cast()) };
+        let (wa, wb) = (load_at(&levels.wa, i), load_at(&levels.wb, i));
+        // a + 1 where the lane reads a second level (the mask is -1 there)
+        let second = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_NEQ_OQ>(wb, _mm256_setzero_ps()));
+        let lb = _mm256_sub_epi32(la, second);
+        let (lo, hi) = min_max(la, lb);
+        let n = (hi - lo) as usize + 1;
+        if n > SPAN {
             return Block::Lanes;
         }
-        // level a + k: each lane's weight on it (selects, no branches)
-        let mut w = [[0.0f32; LANES]; SPAN];
+        // level lo + k: each lane's weight on it (wa where a is it, wb
+        // where a + 1 is; a lane without a second level adds wb = 0)
+        let mut w = [_mm256_setzero_ps(); SPAN];
+        let mut used = 0u8;
         for (k, wk) in w.iter_mut().enumerate().take(n) {
-            let level = a + k as u32;
-            for lane in 0..LANES {
-                let on_a = if la[lane] == level { xa[lane] } else { 0.0 };
-                let on_b = if lb[lane] == level && lb[lane] != la[lane] {
-                    xb[lane]
-                } else {
-                    0.0
-                };
-                wk[lane] = on_a + on_b;
-            }
+            let level = _mm256_set1_epi32(lo + k as i32);
+            let on_a = _mm256_castsi256_ps(_mm256_cmpeq_epi32(la, level));
+            let on_b = _mm256_castsi256_ps(_mm256_andnot_si256(
+                _mm256_cmpeq_epi32(la, lb),
+                _mm256_cmpeq_epi32(lb, level),
+            ));
+            *wk = _mm256_add_ps(_mm256_and_ps(on_a, wa), _mm256_and_ps(on_b, wb));
+            let nonzero = _mm256_cmp_ps::<_CMP_NEQ_OQ>(*wk, _mm256_setzero_ps());
+            used |= u8::from(_mm256_movemask_ps(nonzero) != 0) << k;
         }
         Block::Vector {
-            a: a as usize,
-            n,
+            a: lo as usize,
+            used,
             w,
         }
     }
@@ -805,14 +823,14 @@ mod avx2 {
             for t in terms {
                 let (px, py) = positions(xf, yf, c, s, t.cx, t.cy);
                 match &blocks[t.group] {
-                    Block::Vector { a, n, w } => {
+                    Block::Vector { a, used, w } => {
                         let tw = _mm256_set1_ps(t.weight);
-                        for (k, lw) in w[..*n].iter().enumerate() {
-                            if lw.iter().all(|&v| v == 0.0) {
+                        for (k, lw) in w.iter().enumerate() {
+                            if used & (1 << k) == 0 {
                                 continue;
                             }
                             let li = a + k;
-                            let wv = _mm256_mul_ps(tw, load(lw));
+                            let wv = _mm256_mul_ps(tw, *lw);
                             if !lookup::<C>(stack, li, px, py, wv, &mut acc) {
                                 let ws = store(wv);
                                 let l = std::array::from_fn(|lane| (li, ws[lane]));
