@@ -918,10 +918,12 @@ impl Material {
         Ok(())
     }
 
-    /// Appends the lobes of one point to `s` (its table weights at `(theta,
-    /// phi)` into `s.weights` first): each lobe's direction `R z_j`, first
-    /// band, and weights per band in the layout of [`Bands::lobe_sums`]
-    /// (`[(j (L + 1) + l) P + p]`, zero below the first band).
+    /// Appends the lobes of one point to `s`: each lobe's direction `R z_j`,
+    /// first band, and weights per band (the table's entries at `(theta,
+    /// phi)` blended as [`LobeTable::weights_into`] blends them) in the
+    /// layout of [`Bands::lobe_sums`] (`[(j (L + 1) + l) P + p]`, zero below
+    /// the first band).
+    #[inline]
     fn push_lobes(&self, t: &LobeTable, r: &Rotation, theta: f64, phi: f64, s: &mut Scratch) {
         let kc = self.brdf.channels();
         let nb = self.l_max + 1;
