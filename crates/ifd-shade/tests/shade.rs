@@ -463,18 +463,22 @@ fn unit(v: [f64; 3]) -> [f64; 3] {
     [v[0] / n, v[1] / n, v[2] / n]
 }
 
-#[test]
-fn isd_and_sh_shading_agree() {
-    use ifd_shade::{Environment, Frame, Material};
-    use ifd_sphere::ShCoeffs;
-    use ifd_sphere::SplitMix64;
-    let l = 8;
-    let mut rng = SplitMix64::new(3);
-    let mut e = ShCoeffs::zeros(l, 3).unwrap();
+/// Three-channel SH coefficients up to `l`, each uniform in `[-0.5, 0.5)`.
+fn random_env(l: usize, rng: &mut ifd_sphere::SplitMix64) -> ifd_sphere::ShCoeffs {
+    let mut e = ifd_sphere::ShCoeffs::zeros(l, 3).expect("coefficients");
     for v in e.data_mut() {
         *v = rng.uniform() - 0.5;
     }
-    let env = Environment::new(e).unwrap();
+    e
+}
+
+#[test]
+fn isd_and_sh_shading_agree() {
+    use ifd_shade::{Environment, Frame, Material};
+    use ifd_sphere::SplitMix64;
+    let l = 8;
+    let mut rng = SplitMix64::new(3);
+    let env = Environment::new(random_env(l, &mut rng)).unwrap();
     for (spec, table) in [
         ("lambert:albedo=0.8", false),
         ("phong:s=16", false),
@@ -764,14 +768,10 @@ fn f32_lanes_agree_with_the_f64_reference() {
 #[test]
 fn batched_shading_matches_sh_point_by_point() {
     use ifd_shade::{Environment, Frame, Material, Precision};
-    use ifd_sphere::ShCoeffs;
     use ifd_sphere::SplitMix64;
     let l = 7;
     let mut rng = SplitMix64::new(41);
-    let mut e = ShCoeffs::zeros(l, 3).unwrap();
-    for v in e.data_mut() {
-        *v = rng.uniform() - 0.5;
-    }
+    let mut e = random_env(l, &mut rng);
     for c in 0..3 {
         e.set(0, 0, c, 3.0);
     }
