@@ -104,6 +104,10 @@ impl LevelRule {
     /// `(a, b, wa, wb)` at `t_s` and `widen`.
     #[inline]
     pub(crate) fn at(self, t_s: f64, widen: f64) -> (u32, u32, f32, f32) {
+        if widen == 0.0 {
+            // the series is 0 here: `ln sigma + 0` is `ln sigma`, the same bits
+            return self.bracket(t_s + self.ln_sigma * self.inv);
+        }
         let x = widen * self.inv_sigma2;
         if crate::kernel::widening_needs_log(x) {
             self.bracket(t_s + (self.ln_sigma + crate::kernel::ln_widening(x)) * self.inv)
