@@ -184,12 +184,12 @@ impl EnvMap {
     /// (e.g. the pixel before on a row), in a step or two instead of a guess
     /// from the angles; the same texel whatever `near` is.
     #[must_use]
-    pub fn texel_near(&self, d: [f64; 3], near: Option<usize>) -> usize {
+    pub(crate) fn texel_near(&self, d: [f64; 3], near: Option<usize>) -> usize {
         self.grid.texel_near(d, near)
     }
 
     /// Texel `t`'s value (`t` from [`Self::texel`]; panics beyond the map).
-    pub fn texel_value(&self, t: usize, out: &mut [f64]) {
+    pub(crate) fn texel_value(&self, t: usize, out: &mut [f64]) {
         let ch = self.img.channels();
         for (o, x) in out.iter_mut().zip(&self.img.data()[t * ch..(t + 1) * ch]) {
             *o = f64::from(*x);

@@ -98,7 +98,7 @@ impl Scene {
     /// and the torus out (`uv: None`; an `atan2` and an `acos` per hit)
     /// unless `uv`; meshes and the plane give theirs either way.
     #[must_use]
-    pub fn intersect_with(&self, o: DVec3, d: DVec3, uv: bool) -> Option<Hit> {
+    pub(crate) fn intersect_with(&self, o: DVec3, d: DVec3, uv: bool) -> Option<Hit> {
         match self {
             Self::Sphere => {
                 let b = o.dot(d);

@@ -336,7 +336,7 @@ impl LobeTable {
     /// The entries [`Self::weights_into`] blends at `(theta_o, phi_o)` and
     /// their weights, bilinear between entry centres (linear in `theta_o`
     /// for isotropic tables, which give two), zero weights left out.
-    pub fn blend(&self, theta: f64, phi: f64) -> impl Iterator<Item = (usize, f64)> {
+    pub(crate) fn blend(&self, theta: f64, phi: f64) -> impl Iterator<Item = (usize, f64)> {
         let h = &self.header;
         let (nt, np) = (h.n_theta, h.n_phi);
         // theta: centres (i + 1/2) * (pi/2) / nt
@@ -366,7 +366,7 @@ impl LobeTable {
     /// Entry `e`'s weights ([`Self::entry_len`] values; panics beyond the
     /// table).
     #[must_use]
-    pub fn entry(&self, e: usize) -> &[f32] {
+    pub(crate) fn entry(&self, e: usize) -> &[f32] {
         let n = self.entry_len();
         &self.weights[e * n..(e + 1) * n]
     }
