@@ -508,7 +508,6 @@ impl<'a> Filter<'a> {
                 gather::rotated_row::<C>(self.stack, fixed, y, &cs, &ss, row)
             }
             Field::Map(_) if scaled_vector => {
-                let (ln0, inv) = self.stack.ln_params();
                 // Per pixel: the rotation, t_s and the widening; then the
                 // levels and weights per distinct sigma, group-major, by
                 // the scalar loop's rule (the same values).
@@ -518,9 +517,7 @@ impl<'a> Filter<'a> {
                     let s = scale.at(i);
                     let (sin, cos) = angle.at(i).to_radians().sin_cos();
                     (*c, *sn) = (cos * s, sin * s);
-                    let sf = f64::from(s);
-                    t_s[x] = (sf.ln() - ln0) * inv;
-                    widen[x] = self.sampling.footprint_variance(sf) / (sf * sf);
+                    (t_s[x], widen[x]) = self.scale_position(s);
                 }
                 let mut levels = RowLevels::new(self.sigma_groups.len(), w);
                 for (g, rep) in self.sigma_groups.iter().enumerate() {
@@ -530,6 +527,19 @@ impl<'a> Filter<'a> {
             }
             Field::Map(_) => 0,
         }
+    }
+
+    /// The per-pixel scale `s` as [`LevelRule`] reads it: `t_s = (ln s - ln
+    /// sigma_0) / ln r` and `widen`, the pixel footprint's variance at `s`
+    /// over `s^2` (one expression for the scalar loop and the vector rows).
+    #[inline]
+    fn scale_position(&self, s: f32) -> (f64, f64) {
+        let (ln0, inv) = self.stack.ln_params();
+        let s = f64::from(s);
+        (
+            (s.ln() - ln0) * inv,
+            self.sampling.footprint_variance(s) / (s * s),
+        )
     }
 
     /// The level rule of terms of `t`'s sigma on this (log-uniform, several
@@ -620,11 +630,8 @@ impl<'a> Filter<'a> {
         s: f32,
         out: &mut [f32],
     ) {
-        let (ln0, inv) = self.stack.ln_params();
         let last = self.stack.sigmas().len() - 1;
-        let t_s = (f64::from(s).ln() - ln0) * inv;
-        // The pixel footprint's variance at this scale (usually 0), over s^2.
-        let widen = self.sampling.footprint_variance(f64::from(s)) / (f64::from(s) * f64::from(s));
+        let (t_s, widen) = self.scale_position(s);
         let uniform = self.stack.is_uniform();
         let cs = cos * s;
         let ss = sin * s;

@@ -780,21 +780,19 @@ impl Material {
         let wl = frame.to_local(wo);
         let theta = wl[2].clamp(-1.0, 1.0).acos();
         let r = frame.rotation();
-        let on_axis = wl[0] == 0.0 && wl[1] == 0.0;
         match &self.lobes {
             Lobes::Table(t) if t.header().isotropic => {
+                // on the axis (rho = 0) the angle is taken as 0
                 let rho = (wl[0] * wl[0] + wl[1] * wl[1]).sqrt();
-                let (c, s) = if on_axis || !(rho > 0.0 && rho.is_finite()) {
-                    (1.0, 0.0)
-                } else {
+                let (c, s) = if rho > 0.0 && rho.is_finite() {
                     (wl[0] / rho, wl[1] / rho)
+                } else {
+                    (1.0, 0.0)
                 };
-                let rz = Rotation {
-                    m: [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
-                };
-                (r.mul(&rz), wl, theta, 0.0)
+                (r.mul(&Rotation::rz_cos_sin(c, s)), wl, theta, 0.0)
             }
             _ => {
+                let on_axis = wl[0] == 0.0 && wl[1] == 0.0;
                 let phi = if on_axis { 0.0 } else { view_frame_angle(wl) };
                 (r, wl, theta, phi)
             }

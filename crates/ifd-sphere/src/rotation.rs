@@ -28,6 +28,20 @@ impl Rotation {
     #[must_use]
     pub fn rz(a: f64) -> Self {
         let (s, c) = a.sin_cos();
+        Self::rz_cos_sin(c, s)
+    }
+
+    /// Rotation about `z` by the angle of cosine `c` and sine `s` (`c^2 +
+    /// s^2 = 1`), for callers that have them without the angle.
+    ///
+    /// ```
+    /// use ifd_sphere::Rotation;
+    /// let a = Rotation::rz(0.3);
+    /// let b = Rotation::rz_cos_sin(0.3f64.cos(), 0.3f64.sin());
+    /// assert_eq!(a, b);
+    /// ```
+    #[must_use]
+    pub fn rz_cos_sin(c: f64, s: f64) -> Self {
         Self {
             m: [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
         }

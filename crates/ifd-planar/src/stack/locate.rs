@@ -49,11 +49,17 @@ pub(super) fn locate_in(
         let l = ln_sigmas;
         let i = l.partition_point(|&v| v <= ln_sigma).clamp(1, n) - 1;
         let f = ((ln_sigma - l[i]) / (l[i + 1] - l[i])).clamp(0.0, 1.0);
-        return snap_to_level(i, f);
+        return snapped(i, f);
     }
     let t = ((ln_sigma - ln_sigma0) * inv_ln_ratio).clamp(0.0, n as f64);
     let i = (t.floor() as usize).min(n - 1);
-    snap_to_level(i, t - i as f64)
+    snapped(i, t - i as f64)
+}
+
+/// [`snap_to_level`] with `usize` levels.
+fn snapped(i: usize, f: f64) -> (usize, usize, f32, f32) {
+    let (a, b, wa, wb) = snap_to_level(i as u32, f);
+    (a as usize, b as usize, wa, wb)
 }
 
 /// Within this fraction of a level's spacing (in ln sigma), a sigma is
@@ -66,16 +72,22 @@ pub(crate) const LEVEL_SNAP: f64 = 1e-6;
 
 /// `(a, b, wa, wb)` for position `i + f` (`0 <= f <= 1`) between levels `i`
 /// and `i + 1`, snapped to a level within [`LEVEL_SNAP`]: then `wb == 0`
-/// (and `b == a`), so callers that skip zero weights do one lookup.
-#[inline]
-pub(crate) fn snap_to_level(i: usize, f: f64) -> (usize, usize, f32, f32) {
-    if f < LEVEL_SNAP {
-        (i, i, 1.0, 0.0)
-    } else if f > 1.0 - LEVEL_SNAP {
-        (i + 1, i + 1, 1.0, 0.0)
-    } else {
-        (i, i + 1, (1.0 - f) as f32, f as f32)
-    }
+/// (and `b == a`), so callers that skip zero weights do one lookup. Written
+/// with selects, no branches, so [`LevelRule`]'s rows run it in vector
+/// lanes; 32-bit levels (a stack has a few dozen).
+#[inline(always)]
+#[expect(
+    clippy::inline_always,
+    reason = "compiled into the AVX2 row loop of `gather::fill_levels`"
+)]
+fn snap_to_level(i: u32, f: f64) -> (u32, u32, f32, f32) {
+    let (lo, hi) = (f < LEVEL_SNAP, f > 1.0 - LEVEL_SNAP);
+    let a = if hi { i + 1 } else { i };
+    let b = if lo { i } else { i + 1 };
+    let snapped = lo || hi;
+    let wa = if snapped { 1.0 } else { (1.0 - f) as f32 };
+    let wb = if snapped { 0.0 } else { f as f32 };
+    (a, b, wa, wb)
 }
 
 /// The per-pixel level rule of one sigma on a log-uniform stack of several
@@ -83,8 +95,8 @@ pub(crate) fn snap_to_level(i: usize, f: f64) -> (usize, usize, f32, f32) {
 /// ln r` among the levels (`t_s = (ln s - ln sigma_0) / ln r`, `w =
 /// sigma_eff / (s sigma)` the pixel footprint's widening,
 /// [`crate::kernel::ln_widening`] of `widen = footprint variance / s^2`
-/// times `1 / sigma^2`), clamped, then bracketed and snapped as
-/// [`snap_to_level`] does, branch-free. The scalar loop ([`Self::at`]) and
+/// times `1 / sigma^2`), clamped, then bracketed and snapped by
+/// [`snap_to_level`], branch-free. The scalar loop ([`Self::at`]) and
 /// the vector path's rows (`gather::fill_levels`: [`Self::series`] over the
 /// row, then [`Self::at`] again where the widening needs its logarithm)
 /// take the same values bit for bit.
@@ -129,7 +141,7 @@ impl LevelRule {
     }
 
     /// The levels bracketing position `u` and their weights: [`snap_to_level`]
-    /// of `u` clamped to the levels, with selects for its branches.
+    /// of `u` clamped to the levels.
     #[inline(always)]
     #[expect(
         clippy::inline_always,
@@ -139,13 +151,6 @@ impl LevelRule {
         let u = u.clamp(0.0, f64::from(self.last));
         // 32-bit conversions (vector lanes convert 32-bit integers)
         let i = (u as u32).min(self.last - 1);
-        let f = u - f64::from(i);
-        let (lo, hi) = (f < LEVEL_SNAP, f > 1.0 - LEVEL_SNAP);
-        let a = if hi { i + 1 } else { i };
-        let b = if lo { i } else { i + 1 };
-        let snapped = lo || hi;
-        let wa = if snapped { 1.0 } else { (1.0 - f) as f32 };
-        let wb = if snapped { 0.0 } else { f as f32 };
-        (a, b, wa, wb)
+        snap_to_level(i, u - f64::from(i))
     }
 }
