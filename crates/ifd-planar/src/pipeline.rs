@@ -123,6 +123,7 @@ impl FilterPlan {
                 budget: eval_budget,
                 interpolation: options.interpolation,
                 direct_sigma: if constant_pose { DIRECT_SIGMA } else { 0.0 },
+                log_uniform: scale.is_map() || options.log_uniform,
             },
         )?;
         let stack = stack_plan_for_decomposition(

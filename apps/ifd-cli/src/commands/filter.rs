@@ -397,13 +397,23 @@ impl Filter {
         };
         let t2 = Instant::now();
         if self.verbose {
+            let levels = if plan.eval.level_error > 0.0 {
+                format!(
+                    ", {} levels per octave (blend bound {:.3}%)",
+                    plan.eval.samples_per_octave,
+                    100.0 * plan.eval.level_error
+                )
+            } else {
+                String::new()
+            };
             eprintln!(
-                "evaluation: {} interpolation, pyramid factor {}, {} terms direct; bound on its \
-                 error {:.3}%, budget {:.3}% (amplification {:.1}; measured errors are lower)",
+                "evaluation: {} interpolation, pyramid factor {}{levels}, {} terms direct; bound \
+                 on its error {:.3}%, budget {:.3}% (amplification {:.1}; measured errors are \
+                 lower)",
                 plan.eval.interpolation.name(),
                 plan.eval.pyramid_factor,
                 plan.direct_terms,
-                100.0 * plan.eval.error_bound,
+                100.0 * plan.eval.total_bound(),
                 100.0 * plan.eval_budget,
                 plan.eval.amplification
             );
