@@ -318,6 +318,10 @@ impl Sampling {
 /// an atom keeps at least half its scaled width.
 const MIN_VARIANCE_RATIO: f64 = 0.25;
 
+/// The floor [`ln_widening`] puts on its `x`: `MIN_VARIANCE_RATIO - 1`
+/// (the vector lanes of the level rule take the same floor).
+pub(crate) const WIDENING_FLOOR: f64 = MIN_VARIANCE_RATIO - 1.0;
+
 /// `ln(sigma_eff / (s sigma))` of [`Sampling::effective_sigma`] for
 /// `x = footprint_variance(s) / (s sigma)^2`: `ln(max(1 + x, 1/4)) / 2`
 /// (the same floor). For `|x| < 0.03` (atoms a few pixels wide) a series
@@ -341,15 +345,12 @@ pub(crate) fn widening_needs_log(x: f64) -> bool {
 
 /// [`ln_widening`]'s series branch, branch-free (its value wherever
 /// [`widening_needs_log`] is false): the per-pixel level rule over a row
-/// evaluates it for every pixel, in vector lanes, and redoes the few that
-/// need the logarithm.
-#[inline(always)]
-#[expect(
-    clippy::inline_always,
-    reason = "compiled into the AVX2 row loop of the level rule"
-)]
+/// evaluates it for every pixel, in vector lanes (`stack::gather`'s
+/// `fill_levels` writes these operations in AVX2, in this order), and
+/// redoes the few that need the logarithm.
+#[inline]
 pub(crate) fn ln_widening_series(x: f64) -> f64 {
-    let x = x.max(MIN_VARIANCE_RATIO - 1.0);
+    let x = x.max(WIDENING_FLOOR);
     let x2 = x * x;
     // constant factors, not divisions (two per term and pixel)
     let odd = x * (1.0 + x2 * (1.0 / 3.0 + x2 * (1.0 / 5.0)));

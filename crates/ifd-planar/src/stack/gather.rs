@@ -168,11 +168,7 @@ impl RowLevels {
     }
 
     /// Pixel `i`'s (group-major index) levels from `(a, b, wa, wb)`.
-    #[inline(always)]
-    #[expect(
-        clippy::inline_always,
-        reason = "compiled into the AVX2 row loop of `fill_levels`"
-    )]
+    #[inline]
     fn set(&mut self, i: usize, (a, _, wa, wb): (u32, u32, f32, f32)) {
         (self.a[i], self.wa[i], self.wb[i]) = (a, wa, wb);
     }
@@ -214,12 +210,7 @@ pub(crate) fn fill_levels(
     }
 }
 
-/// [`fill_levels`]' series pass, written for the compiler's vector lanes.
-#[inline(always)]
-#[expect(
-    clippy::inline_always,
-    reason = "compiled into `avx2::fill_levels` as well as here"
-)]
+/// [`fill_levels`]' series pass on CPUs without AVX2.
 fn series_levels(rule: LevelRule, t_s: &[f64], widen: &[f64], levels: &mut RowLevels, g: usize) {
     let w = levels.w;
     let r = g * w..(g + 1) * w;
@@ -286,7 +277,16 @@ mod avx2 {
         _mm256_sub_ps,
     };
 
+    use std::arch::x86_64::{
+        _CMP_GT_OQ, _CMP_LT_OQ, _mm_min_epi32, _mm_set1_epi32, _mm_storeu_ps, _mm_storeu_si128,
+        _mm_sub_epi32, _mm256_add_pd, _mm256_blendv_pd, _mm256_castpd_si256, _mm256_cmp_pd,
+        _mm256_cvtepi32_pd, _mm256_cvtpd_ps, _mm256_cvttpd_epi32, _mm256_loadu_pd, _mm256_max_pd,
+        _mm256_min_pd, _mm256_mul_pd, _mm256_or_pd, _mm256_set1_pd, _mm256_setzero_pd,
+        _mm256_sub_pd,
+    };
+
     use super::{FixedTerm, LANES, LevelRule, RowLevels, ScaledTerm};
+    use crate::stack::locate::LEVEL_SNAP;
     use crate::stack::{Interpolation, Level, ScaleStack};
 
     /// Eight floats into a vector.
@@ -731,7 +731,10 @@ mod avx2 {
         Lanes,
     }
 
-    /// The series pass of [`super::fill_levels`] in AVX2 lanes.
+    /// The series pass of [`super::fill_levels`] in AVX2 lanes, four
+    /// pixels per vector: [`LevelRule::series`]'s operations in its order
+    /// (separate multiplies and adds, as the scalar code rounds them), so
+    /// the same bits; the row's last `w % 4` pixels by the scalar rule.
     #[target_feature(enable = "avx2")]
     pub(super) fn fill_levels(
         rule: LevelRule,
@@ -740,7 +743,74 @@ mod avx2 {
         levels: &mut RowLevels,
         g: usize,
     ) {
-        super::series_levels(rule, t_s, widen, levels, g);
+        const PD: usize = 4;
+        let w = levels.w;
+        let base = g * w;
+        let floor = _mm256_set1_pd(crate::kernel::WIDENING_FLOOR);
+        let (one, half) = (_mm256_set1_pd(1.0), _mm256_set1_pd(0.5));
+        let (third, fifth) = (_mm256_set1_pd(1.0 / 3.0), _mm256_set1_pd(1.0 / 5.0));
+        let (quarter, sixth) = (_mm256_set1_pd(0.25), _mm256_set1_pd(1.0 / 6.0));
+        let inv_sigma2 = _mm256_set1_pd(rule.inv_sigma2);
+        let (ln_sigma, inv) = (_mm256_set1_pd(rule.ln_sigma), _mm256_set1_pd(rule.inv));
+        let last = _mm256_set1_pd(f64::from(rule.last));
+        let below_last = _mm_set1_epi32((rule.last - 1) as i32);
+        let (snap_lo, snap_hi) = (_mm256_set1_pd(LEVEL_SNAP), _mm256_set1_pd(1.0 - LEVEL_SNAP));
+        let n = w / PD * PD;
+        for x0 in (0..n).step_by(PD) {
+            let ts: &[f64; PD] = t_s[x0..x0 + PD].try_into().expect("four lanes");
+            let wd: &[f64; PD] = widen[x0..x0 + PD].try_into().expect("four lanes");
+            // SAFETY: reads exactly the four doubles of `ts` and `wd`.
+            let (ts, wd) = unsafe { (_mm256_loadu_pd(ts.as_ptr()), _mm256_loadu_pd(wd.as_ptr())) };
+            // kernel::ln_widening_series
+            let x = _mm256_max_pd(_mm256_mul_pd(wd, inv_sigma2), floor);
+            let x2 = _mm256_mul_pd(x, x);
+            let odd = _mm256_mul_pd(
+                x,
+                _mm256_add_pd(
+                    one,
+                    _mm256_mul_pd(x2, _mm256_add_pd(third, _mm256_mul_pd(x2, fifth))),
+                ),
+            );
+            let even = _mm256_mul_pd(
+                x2,
+                _mm256_add_pd(
+                    half,
+                    _mm256_mul_pd(x2, _mm256_add_pd(quarter, _mm256_mul_pd(x2, sixth))),
+                ),
+            );
+            let lw = _mm256_mul_pd(half, _mm256_sub_pd(odd, even));
+            // LevelRule::bracket: the position, clamped (finite positions:
+            // max/min are `clamp`), its level below, snapped
+            let u = _mm256_add_pd(ts, _mm256_mul_pd(_mm256_add_pd(ln_sigma, lw), inv));
+            let u = _mm256_min_pd(_mm256_max_pd(u, _mm256_setzero_pd()), last);
+            let i = _mm_min_epi32(_mm256_cvttpd_epi32(u), below_last);
+            let f = _mm256_sub_pd(u, _mm256_cvtepi32_pd(i));
+            let hi = _mm256_cmp_pd::<_CMP_GT_OQ>(f, snap_hi);
+            let snapped = _mm256_or_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(f, snap_lo), hi);
+            // the 64-bit `hi` masks as 32-bit lanes: a = i + 1 where set
+            let hi32 = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
+                _mm256_castpd_si256(hi),
+                _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6),
+            ));
+            let a = _mm_sub_epi32(i, hi32);
+            let wa = _mm256_cvtpd_ps(_mm256_blendv_pd(_mm256_sub_pd(one, f), one, snapped));
+            let wb = _mm256_cvtpd_ps(_mm256_blendv_pd(f, _mm256_setzero_pd(), snapped));
+            let at = base + x0;
+            let (da, dwa, dwb) = (
+                &mut levels.a[at..at + PD],
+                &mut levels.wa[at..at + PD],
+                &mut levels.wb[at..at + PD],
+            );
+            // SAFETY: writes exactly the four elements of each slice.
+            unsafe {
+                _mm_storeu_si128(da.as_mut_ptr().cast(), a);
+                _mm_storeu_ps(dwa.as_mut_ptr(), wa);
+                _mm_storeu_ps(dwb.as_mut_ptr(), wb);
+            }
+        }
+        for x in n..w {
+            levels.set(base + x, rule.series(t_s[x], widen[x]));
+        }
     }
 
     /// The least and the largest of eight lanes.
@@ -857,5 +927,70 @@ mod avx2 {
             add_out::<C>(&acc, out, x0);
         }
         n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{LevelRule, RowLevels, fill_levels, series_levels};
+
+    /// Every pixel's levels and weights, from the vector rows (AVX2 where
+    /// the CPU has it) and from the baseline series pass, bit for bit
+    /// [`LevelRule::at`]'s: positions below the first level and past the
+    /// last (clamped), on levels and within the snap of them, widenings that
+    /// take the series and the logarithm, rows whose length is not a multiple
+    /// of the lanes.
+    #[test]
+    fn row_levels_equal_the_rule_pixel_by_pixel() {
+        let rule = LevelRule {
+            ln_sigma: 1.3_f64.ln(),
+            inv_sigma2: 1.0 / (1.3 * 1.3),
+            inv: 1.0 / 2f64.sqrt().ln(),
+            last: 6,
+        };
+        let on_level = |k: f64| k - rule.ln_sigma * rule.inv;
+        let mut t_s = vec![-3.0, -0.7, 9.0, 40.0, on_level(2.0), on_level(3.0) + 5e-7];
+        t_s.extend([on_level(3.0) - 5e-7, on_level(4.0) + 2e-6, on_level(0.0)]);
+        let mut state = 0x2545_f491_u64;
+        while t_s.len() < 67 {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            t_s.push((state >> 11) as f64 / (1u64 << 53) as f64 * 8.0 - 1.0);
+        }
+        let w = t_s.len();
+        let widen: Vec<f64> = (0..w)
+            .map(|x| match x % 5 {
+                0 => 0.0,
+                1 => 1.0 / 12.0,
+                2 => 0.02,
+                3 => 0.5,    // needs the logarithm
+                _ => -0.999, // past the floor
+            })
+            .collect();
+        for pass in 0..2 {
+            let mut levels = RowLevels::new(2, w);
+            if pass == 0 {
+                fill_levels(rule, &t_s, &widen, &mut levels, 1);
+            } else {
+                series_levels(rule, &t_s, &widen, &mut levels, 1);
+            }
+            for x in 0..w {
+                let (a, b, wa, wb) = rule.at(t_s[x], widen[x]);
+                if pass == 1 && crate::kernel::widening_needs_log(widen[x] * rule.inv_sigma2) {
+                    continue; // the series pass leaves these to fill_levels
+                }
+                let got = levels.at(1, x);
+                assert_eq!(
+                    (got.0, got.1, got.2.to_bits(), got.3.to_bits()),
+                    (a as usize, b as usize, wa.to_bits(), wb.to_bits()),
+                    "pass {pass}, pixel {x}: t_s {}, widen {}",
+                    t_s[x],
+                    widen[x]
+                );
+            }
+            // group 0 untouched
+            assert!(levels.at(0, 0) == (0, 0, 0.0, 0.0));
+        }
     }
 }

@@ -73,13 +73,9 @@ pub(crate) const LEVEL_SNAP: f64 = 1e-6;
 /// `(a, b, wa, wb)` for position `i + f` (`0 <= f <= 1`) between levels `i`
 /// and `i + 1`, snapped to a level within [`LEVEL_SNAP`]: then `wb == 0`
 /// (and `b == a`), so callers that skip zero weights do one lookup. Written
-/// with selects, no branches, so [`LevelRule`]'s rows run it in vector
-/// lanes; 32-bit levels (a stack has a few dozen).
-#[inline(always)]
-#[expect(
-    clippy::inline_always,
-    reason = "compiled into the AVX2 row loop of `gather::fill_levels`"
-)]
+/// with selects, no branches (`gather::fill_levels` writes the same
+/// selects in AVX2 lanes); 32-bit levels (a stack has a few dozen).
+#[inline]
 fn snap_to_level(i: u32, f: f64) -> (u32, u32, f32, f32) {
     let (lo, hi) = (f < LEVEL_SNAP, f > 1.0 - LEVEL_SNAP);
     let a = if hi { i + 1 } else { i };
@@ -99,7 +95,8 @@ fn snap_to_level(i: u32, f: f64) -> (u32, u32, f32, f32) {
 /// [`snap_to_level`], branch-free. The scalar loop ([`Self::at`]) and
 /// the vector path's rows (`gather::fill_levels`: [`Self::series`] over the
 /// row, then [`Self::at`] again where the widening needs its logarithm)
-/// take the same values bit for bit.
+/// take the same values bit for bit (the rows write the series and the
+/// bracket's operations in AVX2 lanes, in the same order).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LevelRule {
     /// `ln sigma`.
@@ -130,11 +127,7 @@ impl LevelRule {
 
     /// [`Self::at`] where the widening takes its series (branch-free, for
     /// vector lanes).
-    #[inline(always)]
-    #[expect(
-        clippy::inline_always,
-        reason = "compiled into the AVX2 row loop of `gather::fill_levels`"
-    )]
+    #[inline]
     pub(crate) fn series(self, t_s: f64, widen: f64) -> (u32, u32, f32, f32) {
         let lw = crate::kernel::ln_widening_series(widen * self.inv_sigma2);
         self.bracket(t_s + (self.ln_sigma + lw) * self.inv)
@@ -142,11 +135,7 @@ impl LevelRule {
 
     /// The levels bracketing position `u` and their weights: [`snap_to_level`]
     /// of `u` clamped to the levels.
-    #[inline(always)]
-    #[expect(
-        clippy::inline_always,
-        reason = "compiled into the AVX2 row loop of `gather::fill_levels`"
-    )]
+    #[inline]
     fn bracket(self, u: f64) -> (u32, u32, f32, f32) {
         let u = u.clamp(0.0, f64::from(self.last));
         // 32-bit conversions (vector lanes convert 32-bit integers)
