@@ -281,7 +281,7 @@ impl Environment {
         d: &[[f64; 3]],
         w: &[f64],
         parts: usize,
-        owner: Option<&[u32]>,
+        owner: Option<(&[u32], &[usize])>,
         out: &mut [f64],
     ) {
         thread_local! {
@@ -331,7 +331,15 @@ impl Environment {
         let points = owner.last().map_or(0, |&p| p as usize + 1);
         out[..points * pc].fill(0.0);
         if self.precision.effective() == Precision::F32 {
-            self.lobe_sums_f32::<16>(l0, d, w, parts, Some(owner), out);
+            thread_local! {
+                /// The lobe-major order and its scratch, kept between batches.
+                static ORDER: std::cell::RefCell<(Vec<u32>, Vec<usize>)> =
+                    const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+            }
+            ORDER.with_borrow_mut(|(rank, order)| {
+                lobe_major(owner, rank, order);
+                self.lobe_sums_f32::<16>(l0, d, w, parts, Some((owner, order)), out);
+            });
             return;
         }
         let nb = self.l_max() + 1;
@@ -357,6 +365,42 @@ impl Environment {
     }
 }
 
+/// The lobe-major order of a batch's lobes (each point's lobes
+/// contiguous, `owner[k]` the point of lobe `k`): the first lobe of every
+/// point, then the second of every point, and so on (a counting sort by
+/// the rank within the point, stable). A chunk of lanes then holds the
+/// same lobe of sixteen points, whose first bands agree, so the chunk's SH
+/// sums skip the bands below it (an in-plane table's lobe `j` serves bands
+/// `j..=L`), where chunks of mixed lobes skip none. Each point still
+/// receives its lobes' sums in its own order: the same bits.
+fn lobe_major(owner: &[u32], rank: &mut Vec<u32>, order: &mut Vec<usize>) {
+    rank.clear();
+    let mut start = 0;
+    let mut counts: Vec<usize> = Vec::new();
+    for k in 0..owner.len() {
+        if owner[k] != owner[start] {
+            start = k;
+        }
+        let r = k - start;
+        if r == counts.len() {
+            counts.push(0);
+        }
+        counts[r] += 1;
+        rank.push(r as u32);
+    }
+    // counts -> first position of each rank
+    let mut at = 0;
+    for c in &mut counts {
+        (*c, at) = (at, at + *c);
+    }
+    order.clear();
+    order.resize(owner.len(), 0);
+    for (k, &r) in rank.iter().enumerate() {
+        order[counts[r as usize]] = k;
+        counts[r as usize] += 1;
+    }
+}
+
 /// [`Environment::lobe_sums_f32`]'s work for one point, compiled for the
 /// CPU's vectors as a whole ([`ifd_sphere::VectorKernel`]): per chunk of `N`
 /// lobes the SH kernel, the lanes' weights (zero below each lobe's first
@@ -370,9 +414,10 @@ struct LobeSumsF32<'a, const N: usize> {
     parts: usize,
     /// Scratch: `(L + 1) C` accumulators, `(L + 1) P` weights, `P C` sums.
     lanes: &'a mut [[f32; N]],
-    /// The point of each lobe (`None`: one point); its `P C` sums start at
+    /// The point of each lobe and the order the lanes take the lobes in
+    /// (`None`: one point, in order); a point's `P C` sums start at
     /// `out[point P C]`.
-    owner: Option<&'a [u32]>,
+    owner: Option<(&'a [u32], &'a [usize])>,
     out: &'a mut [f64],
 }
 
@@ -398,18 +443,35 @@ impl<const N: usize> ifd_sphere::VectorKernel for LobeSumsF32<'_, N> {
         let nb = env.l_max() + 1;
         let (acc, rest) = lanes.split_at_mut(nb * ch);
         let (wl, sums) = rest.split_at_mut(nb * parts);
-        for (j0, (l0s, ds)) in l0.chunks(N).zip(d.chunks(N)).enumerate() {
-            let lo = l0s.iter().copied().min().unwrap_or(nb).min(nb);
-            let dirs: [[f32; 3]; N] =
-                std::array::from_fn(|k| ds.get(k).map_or([0.0, 0.0, 1.0], |v| v.map(|x| x as f32)));
+        let n = d.len();
+        let lobe = |q: usize| owner.map_or(q, |(_, order)| order[q]);
+        for q0 in (0..n).step_by(N) {
+            let len = N.min(n - q0);
+            let lo = (q0..q0 + len)
+                .map(|q| l0[lobe(q)])
+                .min()
+                .unwrap_or(nb)
+                .min(nb);
+            let dirs: [[f32; 3]; N] = std::array::from_fn(|k| {
+                if k < len {
+                    d[lobe(q0 + k)].map(|x| x as f32)
+                } else {
+                    [0.0, 0.0, 1.0]
+                }
+            });
             env.sh
                 .band_sums_f32_lanes(lo, &dirs, &env.scaled32, ch, acc);
-            wl[lo * parts..].fill([0.0; N]);
-            for (k, &l0k) in l0s.iter().enumerate() {
-                let wk = &w[(j0 * N + k) * nb * parts..(j0 * N + k + 1) * nb * parts];
-                for (i, &v) in wk.iter().enumerate().skip(l0k.min(nb) * parts) {
-                    wl[i][k] = v as f32;
-                }
+            // the lanes' weights, zero below each lobe's first band
+            let lobes: [usize; N] = std::array::from_fn(|k| if k < len { lobe(q0 + k) } else { 0 });
+            for (j, lane) in wl.iter_mut().enumerate().skip(lo * parts) {
+                *lane = std::array::from_fn(|k| {
+                    let i = lobes[k];
+                    if k < len && j >= l0[i].min(nb) * parts {
+                        w[i * nb * parts + j] as f32
+                    } else {
+                        0.0
+                    }
+                });
             }
             for p in 0..parts {
                 for c in 0..ch {
@@ -429,9 +491,10 @@ impl<const N: usize> ifd_sphere::VectorKernel for LobeSumsF32<'_, N> {
                         *o += s.iter().map(|&v| f64::from(v)).sum::<f64>();
                     }
                 }
-                Some(own) => {
-                    for (k, &pt) in own[j0 * N..j0 * N + ds.len()].iter().enumerate() {
-                        let o = &mut out[pt as usize * parts * ch..(pt as usize + 1) * parts * ch];
+                Some((own, _)) => {
+                    for k in 0..len {
+                        let pt = own[lobe(q0 + k)] as usize;
+                        let o = &mut out[pt * parts * ch..(pt + 1) * parts * ch];
                         for (o, s) in o.iter_mut().zip(sums.iter()) {
                             *o += f64::from(s[k]);
                         }
@@ -1219,5 +1282,23 @@ impl Material {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::lobe_major;
+
+    /// Lobe-major order: by rank within the point, points in order within
+    /// a rank, for points of different lobe counts.
+    #[test]
+    fn lobe_major_orders_by_rank_then_point() {
+        let owner = [0, 0, 0, 1, 2, 2, 2, 2, 3, 3];
+        let (mut rank, mut order) = (Vec::new(), Vec::new());
+        lobe_major(&owner, &mut rank, &mut order);
+        assert_eq!(rank, [0, 1, 2, 0, 0, 1, 2, 3, 0, 1]);
+        assert_eq!(order, [0, 3, 4, 8, 1, 5, 9, 2, 6, 7]);
+        lobe_major(&[], &mut rank, &mut order);
+        assert!(order.is_empty());
     }
 }

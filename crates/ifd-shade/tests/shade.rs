@@ -764,7 +764,8 @@ fn f32_lanes_agree_with_the_f64_reference() {
 /// isotropic and anisotropic tables (two and four blended entries), a
 /// closed form, `f64` and `f32` lanes, a batch of points that is no multiple
 /// of the lanes with views below the horizon among them (unlit but for
-/// Phong): within 1e-9 (`f64`) and 1e-5 (`f32`) of the largest value.
+/// Phong): within 1e-9 (`f64`) and 1e-5 (`f32`) of the largest value; and
+/// equal bit for bit to [`ifd_shade::Material::shade_isd`] point by point.
 #[test]
 fn batched_shading_matches_sh_point_by_point() {
     use ifd_shade::{Environment, Frame, Material, Precision};
@@ -802,6 +803,15 @@ fn batched_shading_matches_sh_point_by_point() {
                 .unwrap();
             let (mut worst, mut scale, mut lit) = (0.0f64, 0.0f64, 0);
             for (i, (f, wo)) in points.iter().enumerate() {
+                // the batch (its lanes take the lobes lobe-major, across
+                // points) is the point-by-point path bit for bit
+                let mut alone = [0.0; 3];
+                m.shade_isd(&env, f, *wo, &mut s, &mut alone).unwrap();
+                assert_eq!(
+                    alone,
+                    batch[3 * i..3 * i + 3],
+                    "{spec} {precision:?} point {i}"
+                );
                 let mut one = [0.0; 3];
                 m.shade_sh(&reference, f, *wo, &mut one).unwrap();
                 lit += usize::from(one.iter().any(|x| *x != 0.0));
