@@ -333,11 +333,11 @@ impl Environment {
         if self.precision.effective() == Precision::F32 {
             thread_local! {
                 /// The lobe-major order and its scratch, kept between batches.
-                static ORDER: std::cell::RefCell<(Vec<u32>, Vec<usize>)> =
+                static ORDER: std::cell::RefCell<(Vec<usize>, Vec<usize>)> =
                     const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
             }
-            ORDER.with_borrow_mut(|(rank, order)| {
-                lobe_major(owner, rank, order);
+            ORDER.with_borrow_mut(|(counts, order)| {
+                lobe_major(owner, counts, order);
                 self.lobe_sums_f32::<16>(l0, d, w, parts, Some((owner, order)), out);
             });
             return;
@@ -373,11 +373,26 @@ impl Environment {
 /// sums skip the bands below it (an in-plane table's lobe `j` serves bands
 /// `j..=L`), where chunks of mixed lobes skip none. Each point still
 /// receives its lobes' sums in its own order: the same bits.
-fn lobe_major(owner: &[u32], rank: &mut Vec<u32>, order: &mut Vec<usize>) {
-    rank.clear();
+fn lobe_major(owner: &[u32], counts: &mut Vec<usize>, order: &mut Vec<usize>) {
+    let n = owner.len();
+    order.clear();
+    // lobes per point, when every point has as many (a material's batch)
+    let per = owner.iter().take_while(|&&p| p == owner[0]).count();
+    let uniform = per > 0
+        && n.is_multiple_of(per)
+        && owner
+            .chunks(per)
+            .zip(owner[0]..)
+            .all(|(c, point)| c.iter().all(|&p| p == point));
+    if uniform {
+        let points = n / per;
+        order.extend((0..per).flat_map(|r| (0..points).map(move |p| p * per + r)));
+        return;
+    }
+    // counts of each rank, then their first positions; then place
+    counts.clear();
     let mut start = 0;
-    let mut counts: Vec<usize> = Vec::new();
-    for k in 0..owner.len() {
+    for k in 0..n {
         if owner[k] != owner[start] {
             start = k;
         }
@@ -386,18 +401,20 @@ fn lobe_major(owner: &[u32], rank: &mut Vec<u32>, order: &mut Vec<usize>) {
             counts.push(0);
         }
         counts[r] += 1;
-        rank.push(r as u32);
     }
-    // counts -> first position of each rank
     let mut at = 0;
-    for c in &mut counts {
+    for c in counts.iter_mut() {
         (*c, at) = (at, at + *c);
     }
-    order.clear();
-    order.resize(owner.len(), 0);
-    for (k, &r) in rank.iter().enumerate() {
-        order[counts[r as usize]] = k;
-        counts[r as usize] += 1;
+    order.resize(n, 0);
+    start = 0;
+    for k in 0..n {
+        if owner[k] != owner[start] {
+            start = k;
+        }
+        let r = k - start;
+        order[counts[r]] = k;
+        counts[r] += 1;
     }
 }
 
@@ -444,34 +461,27 @@ impl<const N: usize> ifd_sphere::VectorKernel for LobeSumsF32<'_, N> {
         let (acc, rest) = lanes.split_at_mut(nb * ch);
         let (wl, sums) = rest.split_at_mut(nb * parts);
         let n = d.len();
-        let lobe = |q: usize| owner.map_or(q, |(_, order)| order[q]);
         for q0 in (0..n).step_by(N) {
             let len = N.min(n - q0);
-            let lo = (q0..q0 + len)
-                .map(|q| l0[lobe(q)])
-                .min()
-                .unwrap_or(nb)
-                .min(nb);
-            let dirs: [[f32; 3]; N] = std::array::from_fn(|k| {
-                if k < len {
-                    d[lobe(q0 + k)].map(|x| x as f32)
-                } else {
-                    [0.0, 0.0, 1.0]
-                }
+            // the chunk's lobes (padding lanes repeat its first)
+            let lobes: [usize; N] = std::array::from_fn(|k| {
+                let q = q0 + k.min(len - 1);
+                owner.map_or(q, |(_, order)| order[q])
             });
+            let lobes = &lobes[..len];
+            let lo = lobes.iter().map(|&i| l0[i]).min().unwrap_or(nb).min(nb);
+            let mut dirs = [[0.0f32, 0.0, 1.0]; N];
+            for (v, &i) in dirs.iter_mut().zip(lobes) {
+                *v = d[i].map(|x| x as f32);
+            }
             env.sh
                 .band_sums_f32_lanes(lo, &dirs, &env.scaled32, ch, acc);
-            // the lanes' weights, zero below each lobe's first band
-            let lobes: [usize; N] = std::array::from_fn(|k| if k < len { lobe(q0 + k) } else { 0 });
-            for (j, lane) in wl.iter_mut().enumerate().skip(lo * parts) {
-                *lane = std::array::from_fn(|k| {
-                    let i = lobes[k];
-                    if k < len && j >= l0[i].min(nb) * parts {
-                        w[i * nb * parts + j] as f32
-                    } else {
-                        0.0
-                    }
-                });
+            wl[lo * parts..].fill([0.0; N]);
+            for (k, &i) in lobes.iter().enumerate() {
+                let wk = &w[i * nb * parts..(i + 1) * nb * parts];
+                for (j, &v) in wk.iter().enumerate().skip(l0[i].min(nb) * parts) {
+                    wl[j][k] = v as f32;
+                }
             }
             for p in 0..parts {
                 for c in 0..ch {
@@ -492,8 +502,8 @@ impl<const N: usize> ifd_sphere::VectorKernel for LobeSumsF32<'_, N> {
                     }
                 }
                 Some((own, _)) => {
-                    for k in 0..len {
-                        let pt = own[lobe(q0 + k)] as usize;
+                    for (k, &i) in lobes.iter().enumerate() {
+                        let pt = own[i] as usize;
                         let o = &mut out[pt * parts * ch..(pt + 1) * parts * ch];
                         for (o, s) in o.iter_mut().zip(sums.iter()) {
                             *o += f64::from(s[k]);
@@ -729,6 +739,13 @@ pub struct Material {
     brdf: Brdf,
     l_max: usize,
     lobes: Lobes,
+    /// With a table: each lobe's first band (`<= L + 1`), and where each
+    /// of a point's lobe weights comes from and goes, `(source, target)`:
+    /// the table entry's weight `basis.index(l, j) P` and the lobes'
+    /// layout `(j (L + 1) + l) P`, for the bands each lobe serves (so the
+    /// per-point blend is one flat loop). Empty without a table.
+    firsts: Vec<usize>,
+    slots: Vec<(usize, usize)>,
 }
 
 /// Scratch buffers for one thread's shading.
@@ -794,10 +811,21 @@ impl Material {
                 });
             }
         };
+        let (mut firsts, mut slots) = (Vec::new(), Vec::new());
+        if let Lobes::Table(t) = &lobes {
+            let (kc, nb, basis) = (brdf.channels(), l_max + 1, t.basis());
+            for j in 0..basis.directions().len() {
+                let first = basis.first_band(j).min(nb);
+                firsts.push(first);
+                slots.extend((first..nb).map(|l| (basis.index(l, j) * kc, (j * nb + l) * kc)));
+            }
+        }
         Ok(Self {
             brdf: brdf.clone(),
             l_max,
             lobes,
+            firsts,
+            slots,
         })
     }
 
@@ -1001,27 +1029,26 @@ impl Material {
         let entries = &entries[..ne];
         let first_lobe = s.dirs.len();
         s.dirs.extend(dirs.iter().map(|&d| r.apply(d)));
-        s.first
-            .extend((0..dirs.len()).map(|j| basis.first_band(j).min(nb)));
+        s.first.extend_from_slice(&self.firsts);
         s.lobe_weights.resize(s.dirs.len() * nb * kc, 0.0);
-        for j in 0..dirs.len() {
-            for l in s.first[first_lobe + j]..nb {
-                let (src, dst) = (basis.index(l, j) * kc, ((first_lobe + j) * nb + l) * kc);
-                let out = &mut s.lobe_weights[dst..dst + kc];
-                match entries {
-                    // an isotropic table's two entries, unrolled
-                    [(a, wa), (b, wb)] => {
-                        let (a, b) = (&a[src..src + kc], &b[src..src + kc]);
-                        for p in 0..kc {
-                            out[p] = wa * f64::from(a[p]) + wb * f64::from(b[p]);
-                        }
+        let lobes = &mut s.lobe_weights[first_lobe * nb * kc..];
+        match entries {
+            // an isotropic table's two entries, unrolled, the choice made
+            // once per point
+            [(a, wa), (b, wb)] => {
+                for &(src, dst) in &self.slots {
+                    let (a, b) = (&a[src..src + kc], &b[src..src + kc]);
+                    for ((o, &x), &y) in lobes[dst..dst + kc].iter_mut().zip(a).zip(b) {
+                        *o = wa * f64::from(x) + wb * f64::from(y);
                     }
-                    _ => {
-                        for (p, o) in out.iter_mut().enumerate() {
-                            *o = entries
-                                .iter()
-                                .fold(0.0, |v, (e, w)| v + w * f64::from(e[src + p]));
-                        }
+                }
+            }
+            _ => {
+                for &(src, dst) in &self.slots {
+                    for (p, o) in lobes[dst..dst + kc].iter_mut().enumerate() {
+                        *o = entries
+                            .iter()
+                            .fold(0.0, |v, (e, w)| v + w * f64::from(e[src + p]));
                     }
                 }
             }
@@ -1294,11 +1321,16 @@ mod tests {
     #[test]
     fn lobe_major_orders_by_rank_then_point() {
         let owner = [0, 0, 0, 1, 2, 2, 2, 2, 3, 3];
-        let (mut rank, mut order) = (Vec::new(), Vec::new());
-        lobe_major(&owner, &mut rank, &mut order);
-        assert_eq!(rank, [0, 1, 2, 0, 0, 1, 2, 3, 0, 1]);
+        let (mut counts, mut order) = (Vec::new(), Vec::new());
+        lobe_major(&owner, &mut counts, &mut order);
         assert_eq!(order, [0, 3, 4, 8, 1, 5, 9, 2, 6, 7]);
-        lobe_major(&[], &mut rank, &mut order);
+        // as many lobes per point: the direct order
+        lobe_major(&[0, 0, 0, 1, 1, 1], &mut counts, &mut order);
+        assert_eq!(order, [0, 3, 1, 4, 2, 5]);
+        // equal runs that are not points' (a point split in two) take the sort
+        lobe_major(&[0, 0, 1, 1, 1, 1], &mut counts, &mut order);
+        assert_eq!(order, [0, 2, 1, 3, 4, 5]);
+        lobe_major(&[], &mut counts, &mut order);
         assert!(order.is_empty());
     }
 }
