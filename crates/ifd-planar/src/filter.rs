@@ -467,27 +467,32 @@ impl<'a> Filter<'a> {
             .unwrap_or_default();
         // A scale map on the vector path needs the log-uniform level rule.
         let scaled_vector = vector && self.stack.is_uniform() && self.stack.sigmas().len() > 1;
-        out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
-            let mut done = 0;
-            if vector {
-                done = self.vector_row::<C>(y, angle, scale, &fixed, scaled_vector, row);
-            }
-            for (x, px) in row.chunks_exact_mut(c).enumerate().skip(done) {
-                let i = y * w + x;
-                let (sin, cos) = angle.at(i).to_radians().sin_cos();
-                let (xf, yf) = (x as f32, y as f32);
-                match &constant_scale {
-                    Some((s, levels)) => {
-                        self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, 1.0, px);
-                    }
-                    None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), px),
+        let groups = self.sigma_groups.len();
+        let scratch = || RowScratch::new(w, if scaled_vector { groups } else { 0 });
+        out.par_chunks_mut(w * c)
+            .enumerate()
+            .for_each_init(scratch, |scr, (y, row)| {
+                let mut done = 0;
+                if vector {
+                    done = self.vector_row::<C>(y, angle, scale, &fixed, scaled_vector, scr, row);
                 }
-            }
-        });
+                for (x, px) in row.chunks_exact_mut(c).enumerate().skip(done) {
+                    let i = y * w + x;
+                    let (sin, cos) = angle.at(i).to_radians().sin_cos();
+                    let (xf, yf) = (x as f32, y as f32);
+                    match &constant_scale {
+                        Some((s, levels)) => {
+                            self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, 1.0, px);
+                        }
+                        None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), px),
+                    }
+                }
+            });
     }
 
     /// Row `y` through the vector gathers: the pixels done (a prefix of the
     /// row, possibly none).
+    #[expect(clippy::too_many_arguments, reason = "one row's inputs and scratch")]
     fn vector_row<const C: usize>(
         &self,
         y: usize,
@@ -495,35 +500,40 @@ impl<'a> Filter<'a> {
         scale: Field<'_>,
         fixed: &[FixedTerm],
         scaled_vector: bool,
+        scr: &mut RowScratch,
         row: &mut [f32],
     ) -> usize {
         let w = self.stack.width();
-        let (mut cs, mut ss) = (vec![0.0f32; w], vec![0.0f32; w]);
+        let RowScratch {
+            cs,
+            ss,
+            t_s,
+            widen,
+            levels,
+        } = scr;
         match scale {
             Field::Constant(s) => {
-                for (x, (c, sn)) in cs.iter_mut().zip(&mut ss).enumerate() {
+                for (x, (c, sn)) in cs.iter_mut().zip(ss.iter_mut()).enumerate() {
                     let (sin, cos) = angle.at(y * w + x).to_radians().sin_cos();
                     (*c, *sn) = (cos * s, sin * s);
                 }
-                gather::rotated_row::<C>(self.stack, fixed, y, &cs, &ss, row)
+                gather::rotated_row::<C>(self.stack, fixed, y, cs, ss, row)
             }
             Field::Map(_) if scaled_vector => {
                 // Per pixel: the rotation, t_s and the widening; then the
                 // levels and weights per distinct sigma, group-major, by
                 // the scalar loop's rule (the same values).
-                let (mut t_s, mut widen) = (vec![0.0f64; w], vec![0.0f64; w]);
-                for (x, (c, sn)) in cs.iter_mut().zip(&mut ss).enumerate() {
+                for (x, (c, sn)) in cs.iter_mut().zip(ss.iter_mut()).enumerate() {
                     let i = y * w + x;
                     let s = scale.at(i);
                     let (sin, cos) = angle.at(i).to_radians().sin_cos();
                     (*c, *sn) = (cos * s, sin * s);
                     (t_s[x], widen[x]) = self.scale_position(s);
                 }
-                let mut levels = RowLevels::new(self.sigma_groups.len(), w);
                 for (g, rep) in self.sigma_groups.iter().enumerate() {
-                    gather::fill_levels(self.level_rule(rep), &t_s, &widen, &mut levels, g);
+                    gather::fill_levels(self.level_rule(rep), t_s, widen, levels, g);
                 }
-                gather::scaled_row::<C>(self.stack, &self.scaled_terms, &levels, y, &cs, &ss, row)
+                gather::scaled_row::<C>(self.stack, &self.scaled_terms, levels, y, cs, ss, row)
             }
             Field::Map(_) => 0,
         }
@@ -686,6 +696,33 @@ fn sigma_groups(terms: &[Prepared]) -> (Vec<Prepared>, Vec<usize>) {
         })
         .collect();
     (groups, group_of)
+}
+
+/// One thread's buffers for [`Filter::per_pixel`]'s vector rows, reused
+/// from row to row (every row overwrites what it reads): each pixel's
+/// scaled rotation, scale position and widening, and the levels of each
+/// sigma group.
+struct RowScratch {
+    cs: Vec<f32>,
+    ss: Vec<f32>,
+    t_s: Vec<f64>,
+    widen: Vec<f64>,
+    levels: RowLevels,
+}
+
+impl RowScratch {
+    /// Buffers for rows of `w` pixels and `groups` sigma groups (0 without
+    /// a scale map).
+    fn new(w: usize, groups: usize) -> Self {
+        let per_pixel_scale = if groups > 0 { w } else { 0 };
+        Self {
+            cs: vec![0.0; w],
+            ss: vec![0.0; w],
+            t_s: vec![0.0; per_pixel_scale],
+            widen: vec![0.0; per_pixel_scale],
+            levels: RowLevels::new(groups, w),
+        }
+    }
 }
 
 /// The lookups of `terms` (with their levels) for a constant pose, zero
