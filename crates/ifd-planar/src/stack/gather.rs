@@ -246,7 +246,10 @@ pub(crate) fn scaled_row<const C: usize>(
             .a
             .iter()
             .zip(&levels.wb)
-            .any(|(&a, &wb)| a as usize + usize::from(wb != 0.0) >= n_levels)
+            // the highest level read (a fold without early exit: vector lanes)
+            .map(|(&a, &wb)| a.saturating_add(u32::from(wb != 0.0)))
+            .max()
+            .is_some_and(|top| top as usize >= n_levels)
     {
         return 0;
     }
