@@ -12,7 +12,9 @@ Variants:
 - `f32`: the default, `--precision f32` on the CPU's best vectors (sixteen
   f32 lanes on AVX-512);
 - `old` (with `--old BIN`): another build's `ifd` (e.g. the commit before
-  the f32 lanes), run as it ran by default.
+  the f32 lanes), run as it ran by default; the table then adds the median
+  (and range) over the rounds of each round's old / default ratio, which
+  cancels the machine's drift between rounds.
 
 The lobe tables are built once beforehand (`ifd sphere brdf`), so table
 building is not timed.
@@ -64,8 +66,9 @@ def main():
     rows = []
     with tempfile.TemporaryDirectory() as d:
         names = " | ".join(f"{v} fps" for v in variants)
-        print(f"| L | {names} | f32 / f64-avx2 | max diff / max |")
-        print("|---|" + "---|" * (len(variants) + 2))
+        paired = " old / f32, paired (range) |" if a.old else ""
+        print(f"| L | {names} | f32 / f64-avx2 |{paired} max diff / max |")
+        print("|---|" + "---|" * (len(variants) + 2 + bool(a.old)))
         for lmax in (int(x) for x in a.lmax.split(",")):
             table = os.path.join(d, f"ggx{lmax}.lobes")
             subprocess.run([IFD, "sphere", "brdf", "--lmax", str(lmax), "-o", table,
@@ -80,9 +83,20 @@ def main():
             fast = np.load(os.path.join(d, "f32.npy"))
             err = float(np.abs(fast - ref).max() / np.abs(ref).max())
             med = {v: statistics.median(x) for v, x in t.items()}
-            rows.append({"lmax": lmax, "seconds": med, "runs": t, "max_diff_over_max": err})
+            row = {"lmax": lmax, "seconds": med, "runs": t, "max_diff_over_max": err}
             fps = " | ".join(f"{1 / med[v]:.2f}" for v in variants)
-            print(f"| {lmax} | {fps} | {med['f64-avx2'] / med['f32']:.2f}x | {err:.1e} |",
+            cell = ""
+            if a.old:
+                # Each round ran the old build and the default one moments
+                # apart: their ratio within the round cancels the machine's
+                # drift between rounds (1.5x on a shared host), which the
+                # ratio of the medians keeps.
+                ratios = [o / f for o, f in zip(t["old"], t["f32"])]
+                row["old_over_f32_paired"] = ratios
+                cell = (f" {statistics.median(ratios):.2f}x ({min(ratios):.2f}-"
+                        f"{max(ratios):.2f}) |")
+            rows.append(row)
+            print(f"| {lmax} | {fps} | {med['f64-avx2'] / med['f32']:.2f}x |{cell} {err:.1e} |",
                   flush=True)
     if a.json:
         with open(a.json, "w") as f:
