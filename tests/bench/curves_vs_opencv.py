@@ -48,8 +48,8 @@ interleaved: one round of every configuration, then the next round; the
 median and the min-max range are reported.
 
 Output: a line per configuration (stdout) and a progress line per round
-(stderr); `--json FILE` with every point; a plot (`--plot`, by default
-docs/bench/ifd-vs-opencv-curves.png): a panel per image and case, PSNR
+(stderr); `--json FILE` with every point; a plot (`--plot`, by default the
+`--markdown` or `--json` path with `.png`, else in the temp folder): a panel per image and case, PSNR
 against time (log scale), a line per series; and a markdown summary (stdout,
 and `--markdown FILE`): for every series the time it needs to reach 40, 45,
 50, 55 and 60 dB, interpolating log(time) linearly in PSNR between the neighbouring
@@ -635,7 +635,7 @@ def main():
     ap.add_argument("--seed", type=int, default=1, help="seed of the pixel sample")
     ap.add_argument("--cache", help="directory keeping the decompositions between runs (default: a temp dir)")
     ap.add_argument("--json", help="write every point here")
-    ap.add_argument("--plot", help="the plot (default docs/bench/ifd-vs-opencv-curves.png; '' for none)")
+    ap.add_argument("--plot", help="the plot (default: beside --markdown, else --json, as .png; else in the temp folder; '' for none)")
     ap.add_argument("--markdown", help="write the summary here too")
     ap.add_argument("--replot", metavar="JSON", help="redraw plot and summary from an earlier --json; run nothing")
     ap.add_argument("--quick", action="store_true", help="smoke test: 320 px, bins 4,8,16, tols 0.02,0.01, 2 runs, 300 samples, one image")
@@ -643,11 +643,14 @@ def main():
 
     q = a.quick
     if a.plot is None:
-        a.plot = (
-            str(pathlib.Path(tempfile.gettempdir()) / "ifd-vs-opencv-curves-quick.png")
-            if q
-            else str(ROOT / "docs" / "bench" / "ifd-vs-opencv-curves.png")
-        )
+        # beside the summary or the points when written, else in the temp
+        # folder: never over a committed figure unless asked for by name
+        beside = a.markdown or a.json
+        if beside and not q:
+            a.plot = str(pathlib.Path(beside).with_suffix(".png"))
+        else:
+            name = "ifd-vs-opencv-curves-quick.png" if q else "ifd-vs-opencv-curves.png"
+            a.plot = str(pathlib.Path(tempfile.gettempdir()) / name)
 
     if a.replot:
         d = json.loads(pathlib.Path(a.replot).read_text())

@@ -463,7 +463,7 @@ impl<const N: usize> ifd_sphere::VectorKernel for LobeSumsF32<'_, N> {
         let n = d.len();
         for q0 in (0..n).step_by(N) {
             let len = N.min(n - q0);
-            // the chunk's lobes (padding lanes repeat its first)
+            // the chunk's lobes (the last one again past `len`, unused)
             let lobes: [usize; N] = std::array::from_fn(|k| {
                 let q = q0 + k.min(len - 1);
                 owner.map_or(q, |(_, order)| order[q])
