@@ -64,9 +64,10 @@ pub struct Filter {
     gpu: bool,
     /// How the prefiltered levels are read between samples: `auto` chooses,
     /// per decomposition, the cheapest of bilinear and the cubic B-spline
-    /// (and how finely levels are stored) whose evaluation error bound is
-    /// within `--eval-budget`; `linear` or `cubic` fix the interpolation.
-    /// See docs/planar-accuracy.md.
+    /// (and how finely levels are stored; with a scale map, 2 to 4 levels
+    /// per octave) whose evaluation error bound is within `--eval-budget`;
+    /// `linear` or `cubic` fix the interpolation. See
+    /// docs/planar-accuracy.md.
     #[arg(long, value_name = "MODE", default_value = "auto")]
     interp: InterpChoice,
     /// Budget on the evaluation error bound (relative RMS on white noise)
