@@ -54,8 +54,11 @@ against time (log scale), a line per series; and a markdown summary (stdout,
 and `--markdown FILE`): for every series the time it needs to reach 40, 45,
 50, 55 and 60 dB, interpolating log(time) linearly in PSNR between the neighbouring
 points of the series' lower envelope (its Pareto front), and the ratio of
-OpenCV's best series to ifd's best series at 45, 50, 55 and 60 dB. A time marked
-"<=" is the series' cheapest point, which is already past the target.
+OpenCV's best series to ifd's best series at 45, 50, 55 and 60 dB; then the
+same ratio computed round by round from each round's times ("paired": every
+round runs every point once, so the machine's drift between rounds cancels),
+its median and range. A time marked "<=" is the series' cheapest point, which
+is already past the target.
 
 Full run (roughly an hour on one core of a 2020s x86 machine, most of it
 OpenCV's angle+scale bins and ifd's finest tolerances; the progress lines on
@@ -79,6 +82,7 @@ import pathlib
 import platform
 import re
 import shlex
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -484,10 +488,48 @@ def summary(points, meta):
                     }
                 )
             lines.append(f"OpenCV best / {blabel} best: " + "; ".join(parts) + ".")
+            paired = paired_ratios(pts, iseries, cv_series)
+            if paired:
+                cells = []
+                for t in RATIO_TARGETS:
+                    rs = paired.get(t)
+                    cells.append(
+                        f"{t:.0f} dB {statistics.median(rs):.1f}x ({min(rs):.1f}-{max(rs):.1f})"
+                        if rs else f"{t:.0f} dB -"
+                    )
+                    for rec in ratios:
+                        if (rec["image"], rec["case"], rec["binary"], rec["psnr"]) == (image, case, blabel, t):
+                            rec["paired"] = rs
+                lines.append("")
+                lines.append(
+                    f"Paired, the median (range) over the rounds of each round's OpenCV best / {blabel} best "
+                    "(each round ran every point once, so the machine's drift between rounds cancels): "
+                    + "; ".join(cells) + "."
+                )
             lines.append("")
         while lines[-1] == "":
             lines.pop()
     return "\n".join(lines) + "\n", ratios
+
+
+def paired_ratios(pts, iseries, cv_series):
+    """For each ratio target, the ratio OpenCV best / ifd best computed
+    round by round (each point's time in that round, the envelopes and the
+    interpolation as in `summary`); targets either side misses in some
+    round are left out. Empty when the points carry no per-round times."""
+    runs = min((len(q.get("times_ms") or []) for q in pts), default=0)
+    out = {}
+    for r in range(runs):
+        at = {}
+        for s in set(iseries) | set(cv_series):
+            env = front([(q["psnr"], q["times_ms"][r]) for q in pts if q["series"] == s])
+            at[s] = {t: time_at(env, t) for t in RATIO_TARGETS}
+        for t in RATIO_TARGETS:
+            bi = [at[s][t][0] for s in iseries if at[s][t][0] is not None]
+            bc = [at[s][t][0] for s in cv_series if at[s][t][0] is not None]
+            if bi and bc:
+                out.setdefault(t, []).append(min(bc) / min(bi))
+    return {t: v for t, v in out.items() if len(v) == runs}
 
 
 # ---------------------------------------------------------------------------
