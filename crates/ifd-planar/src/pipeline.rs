@@ -110,8 +110,10 @@ impl FilterPlan {
         };
         check_kernel_fits(decomposition, smax, width, height)?;
         let prepared = PreparedDecomposition::new(decomposition)?;
-        let constant_pose =
-            !angle.is_map() && !scale.is_map() && !options.log_uniform && options.direct_terms;
+        // Levels log-uniform in sigma (read by blending neighbours), or at
+        // exactly the terms' sigmas for a constant scale.
+        let log_uniform = scale.is_map() || options.log_uniform;
+        let constant_pose = !angle.is_map() && !log_uniform && options.direct_terms;
         let eval_budget = options
             .eval_budget
             .unwrap_or_else(|| EvalPlan::budget_for(decomposition));
@@ -123,7 +125,7 @@ impl FilterPlan {
                 budget: eval_budget,
                 interpolation: options.interpolation,
                 direct_sigma: if constant_pose { DIRECT_SIGMA } else { 0.0 },
-                log_uniform: scale.is_map() || options.log_uniform,
+                log_uniform,
             },
         )?;
         let stack = stack_plan_for_decomposition(
@@ -136,7 +138,7 @@ impl FilterPlan {
         )?;
         // A constant scale reads levels at exactly its sigmas.
         let constant_scale = scale.range().0;
-        let level_sigmas = (!scale.is_map() && !options.log_uniform).then(|| {
+        let level_sigmas = (!log_uniform).then(|| {
             crate::stack::for_decomposition::level_sigmas(
                 decomposition,
                 constant_scale,

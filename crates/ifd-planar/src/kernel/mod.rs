@@ -318,8 +318,9 @@ impl Sampling {
 /// an atom keeps at least half its scaled width.
 const MIN_VARIANCE_RATIO: f64 = 0.25;
 
-/// The floor [`ln_widening`] puts on its `x`: `MIN_VARIANCE_RATIO - 1`
-/// (the vector lanes of the level rule take the same floor).
+/// The floor [`ln_widening`] (both branches) and [`widening_needs_log`] put
+/// on their `x`: `MIN_VARIANCE_RATIO - 1` (the vector lanes of the level
+/// rule take the same floor).
 pub(crate) const WIDENING_FLOOR: f64 = MIN_VARIANCE_RATIO - 1.0;
 
 /// `ln(sigma_eff / (s sigma))` of [`Sampling::effective_sigma`] for
@@ -330,7 +331,7 @@ pub(crate) const WIDENING_FLOOR: f64 = MIN_VARIANCE_RATIO - 1.0;
 #[inline]
 pub(crate) fn ln_widening(x: f64) -> f64 {
     if widening_needs_log(x) {
-        0.5 * x.max(MIN_VARIANCE_RATIO - 1.0).ln_1p()
+        0.5 * x.max(WIDENING_FLOOR).ln_1p()
     } else {
         ln_widening_series(x)
     }
@@ -340,7 +341,7 @@ pub(crate) fn ln_widening(x: f64) -> f64 {
 /// the floor), not the series.
 #[inline]
 pub(crate) fn widening_needs_log(x: f64) -> bool {
-    x.max(MIN_VARIANCE_RATIO - 1.0).abs() >= 0.03
+    x.max(WIDENING_FLOOR).abs() >= 0.03
 }
 
 /// [`ln_widening`]'s series branch, branch-free (its value wherever
