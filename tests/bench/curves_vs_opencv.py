@@ -458,6 +458,7 @@ def summary(points, meta):
         lines.append("")
         for blabel, iseries in ifd_groups.items():
             parts = []
+            paired = paired_ratios(pts, iseries, cv_series)
             for t in RATIO_TARGETS:
                 # (ms, how, series) of the fastest series that reaches t
                 best_i = min(((*at[s][t], s) for s in iseries if at[s][t][0] is not None), default=None)
@@ -476,19 +477,19 @@ def summary(points, meta):
                     parts.append(f"at {t:.0f} dB, {blabel} not reached ({best_c[2]} {fmt_ms(best_c[0], best_c[1])})")
                 else:
                     parts.append(f"at {t:.0f} dB, neither reached")
-                ratios.append(
-                    {
-                        "image": image,
-                        "case": case,
-                        "binary": blabel,
-                        "psnr": t,
-                        "ratio": r,
-                        "opencv": best_c and {"series": best_c[2], "ms": best_c[0], "upper_bound": best_c[1] == "le"},
-                        "ifd": best_i and {"series": best_i[2], "ms": best_i[0], "upper_bound": best_i[1] == "le"},
-                    }
-                )
+                rec = {
+                    "image": image,
+                    "case": case,
+                    "binary": blabel,
+                    "psnr": t,
+                    "ratio": r,
+                    "opencv": best_c and {"series": best_c[2], "ms": best_c[0], "upper_bound": best_c[1] == "le"},
+                    "ifd": best_i and {"series": best_i[2], "ms": best_i[0], "upper_bound": best_i[1] == "le"},
+                }
+                if paired:
+                    rec["paired"] = paired.get(t)
+                ratios.append(rec)
             lines.append(f"OpenCV best / {blabel} best: " + "; ".join(parts) + ".")
-            paired = paired_ratios(pts, iseries, cv_series)
             if paired:
                 cells = []
                 for t in RATIO_TARGETS:
@@ -497,9 +498,6 @@ def summary(points, meta):
                         f"{t:.0f} dB {statistics.median(rs):.1f}x ({min(rs):.1f}-{max(rs):.1f})"
                         if rs else f"{t:.0f} dB -"
                     )
-                    for rec in ratios:
-                        if (rec["image"], rec["case"], rec["binary"], rec["psnr"]) == (image, case, blabel, t):
-                            rec["paired"] = rs
                 lines.append("")
                 lines.append(
                     f"Paired, the median (range) over the rounds of each round's OpenCV best / {blabel} best "
