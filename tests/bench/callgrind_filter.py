@@ -14,12 +14,13 @@ of whether the lookups miss, where `perf` has no hardware counters, as in
 this VM) and the misses per term evaluation are reported too.
 
 Cases: a `--size` x `--size` upscaled camera.png (default 512), the 8:1
-Gaussian `gauss:sx=32,sy=4` (51 terms at the default tolerance), a swirl
+Gaussian `gauss:sx=32,sy=4` (51 terms at the default tolerance; `--tol`
+another fit), a swirl
 angle field (constant scale 1: one lookup per term) and angle + scale maps
 (scale 0.5..1: two lookups per term), each with the vector gathers (the
 default) and with `--scalar`; `--interp linear`. One thread.
 
-Usage: .venv/bin/python tests/bench/callgrind_filter.py [--ifd target/release/ifd] [--size 512]
+Usage: .venv/bin/python tests/bench/callgrind_filter.py [--ifd target/release/ifd] [--size 512] [--tol T]
 """
 
 import argparse
@@ -44,6 +45,7 @@ def main():
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--json", help="write the counts here")
     ap.add_argument("--cache-sim", action="store_true", help="also simulate the caches (slower)")
+    ap.add_argument("--tol", type=float, help="the fit's `--tol` (default: `ifd decompose`'s)")
     a = ap.parse_args()
     if shutil.which("valgrind") is None:
         sys.exit("valgrind is not installed (Debian: apt-get install valgrind)")
@@ -61,7 +63,8 @@ def main():
         np.save(tmp / "angle.npy", angle)
         np.save(tmp / "scale.npy", scale)
         d = tmp / "d.json"
-        p = subprocess.run([a.ifd, "decompose", "gauss:sx=32,sy=4,theta=0", "-o", str(d), "--json"], capture_output=True, text=True)
+        tol = [] if a.tol is None else ["--tol", str(a.tol)]
+        p = subprocess.run([a.ifd, "decompose", "gauss:sx=32,sy=4,theta=0", *tol, "-o", str(d), "--json"], capture_output=True, text=True)
         if p.returncode != 0:
             sys.exit(f"ifd decompose failed:\n{p.stderr}")
         terms = json.loads(p.stdout)["terms"]
