@@ -103,7 +103,8 @@ pub(crate) fn read_header(
     })
 }
 
-/// Reads `n` elements of `header`'s type, decoded by `decode`, checking the
+/// Reads `n` elements of `header`'s type, decoded by `decode` (all of them
+/// at once, from their bytes), checking the
 /// memory budget first (`extra` bytes per element for the decoded copy).
 fn read_values<T>(
     file: &mut std::fs::File,
@@ -112,7 +113,7 @@ fn read_values<T>(
     budget: MemoryBudget,
     extra: u64,
     bad: &dyn Fn(String) -> ImageError,
-    decode: impl Fn(&[u8], Dtype, bool) -> T,
+    decode: impl Fn(&[u8], Dtype, bool) -> Vec<T>,
 ) -> Result<Vec<T>, ImageError> {
     let size = header.dtype.size();
     let need = (n as u64).saturating_mul(size as u64);
@@ -138,10 +139,29 @@ fn read_values<T>(
             n * size
         ))
     })?;
-    Ok(raw
-        .chunks_exact(size)
-        .map(|b| decode(b, header.dtype, header.big_endian))
-        .collect())
+    Ok(decode(&raw, header.dtype, header.big_endian))
+}
+
+/// Every element of `raw` as `f32` ([`decode_value`]); little-endian
+/// `float32`, the common case, by a loop of its own (a plain conversion,
+/// not a `match` per element).
+fn decode_f32_values(raw: &[u8], dtype: Dtype, big: bool) -> Vec<f32> {
+    if dtype == Dtype::F32 && !big {
+        return raw
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+    }
+    raw.chunks_exact(dtype.size())
+        .map(|b| decode_value(b, dtype, big))
+        .collect()
+}
+
+/// Every element of `raw` as `f64` ([`decode_f64`]).
+fn decode_f64_values(raw: &[u8], dtype: Dtype, big: bool) -> Vec<f64> {
+    raw.chunks_exact(dtype.size())
+        .map(|b| decode_f64(b, dtype, big))
+        .collect()
 }
 
 /// `values` stored in Fortran order (first index fastest) for `shape`,
@@ -209,9 +229,7 @@ pub fn read_npy_array(path: &Path, budget: MemoryBudget) -> Result<NpyArray, Ima
         .iter()
         .try_fold(1usize, |a, &d| a.checked_mul(d))
         .ok_or_else(|| bad(format!("shape {:?} overflows", header.shape)))?;
-    let values = read_values(&mut file, &header, n, budget, 8, &bad, |b, d, big| {
-        decode_f64(b, d, big)
-    })?;
+    let values = read_values(&mut file, &header, n, budget, 8, &bad, decode_f64_values)?;
     let data = to_c_order(values, &header.shape, header.fortran);
     Ok(NpyArray {
         shape: header.shape,
@@ -310,7 +328,7 @@ pub(crate) fn read_npy(
         .checked_mul(w)
         .and_then(|v| v.checked_mul(c))
         .ok_or_else(|| bad(format!("shape {shape:?} overflows")))?;
-    let values = read_values(&mut file, &header, n, budget, 4, &bad, decode_value)?;
+    let values = read_values(&mut file, &header, n, budget, 4, &bad, decode_f32_values)?;
     // An HxW image is an HxWx1 array: the same reorder.
     let data = to_c_order(values, &[h, w, c], fortran);
     Image::from_vec(w, h, c, data)

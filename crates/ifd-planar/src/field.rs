@@ -93,6 +93,18 @@ impl FieldKind {
         }
     }
 
+    /// The least and the largest valid value of this kind: `v` is valid
+    /// exactly when `least <= v <= most` ([`Self::why_invalid`] is `None`;
+    /// NaN fails both comparisons, infinities one).
+    fn valid_range(self) -> (f32, f32) {
+        let least = match self {
+            FieldKind::Angle => -MAX_FIELD_VALUE,
+            FieldKind::Scale => MIN_FIELD_SCALE,
+            FieldKind::Entry => 0.0,
+        };
+        (least, MAX_FIELD_VALUE)
+    }
+
     /// Why `v` is not a valid value of this kind, or `None` when it is
     /// (the rule [`CheckedField::new`] applies to every value).
     #[must_use]
@@ -169,15 +181,31 @@ impl<'a> CheckedField<'a> {
                 }
                 let mut lo = (f32::INFINITY, 0);
                 let mut hi = (f32::NEG_INFINITY, 0);
-                for (i, &v) in m.iter().enumerate() {
-                    if let Some(why) = kind.why_invalid(v) {
-                        return Err(invalid(v, Some(i), why));
+                let (least, most) = kind.valid_range();
+                // Chunk by chunk: validity, least and largest without
+                // branches (vector lanes); a chunk with an invalid value is
+                // scanned again value by value to name the first one, and
+                // an extreme's pixel is its first occurrence, as in a
+                // sequential scan.
+                for (k, chunk) in m.chunks(CHUNK).enumerate() {
+                    let (valid, c_lo, c_hi) = scan_chunk(chunk, least, most);
+                    // the first value equal to `target`, and its pixel
+                    let first = |target: f32| {
+                        let j = chunk.iter().position(|&v| v == target).unwrap_or(0);
+                        (chunk[j], k * CHUNK + j)
+                    };
+                    if !valid {
+                        for (j, &v) in chunk.iter().enumerate() {
+                            if let Some(why) = kind.why_invalid(v) {
+                                return Err(invalid(v, Some(k * CHUNK + j), why));
+                            }
+                        }
                     }
-                    if v < lo.0 {
-                        lo = (v, i);
+                    if c_lo < lo.0 {
+                        lo = first(c_lo);
                     }
-                    if v > hi.0 {
-                        hi = (v, i);
+                    if c_hi > hi.0 {
+                        hi = first(c_hi);
                     }
                 }
                 (lo, hi)
@@ -326,6 +354,38 @@ impl<'a> CheckField<'a> for &CheckedField<'a> {
     }
 }
 
+/// The values [`CheckedField::new`] checks at a time.
+const CHUNK: usize = 64;
+
+/// Whether every value of `chunk` lies in `least..=most`, and the least
+/// and the largest value (meaningful when every value does), in eight
+/// independent lanes that the compiler keeps in vector registers.
+fn scan_chunk(chunk: &[f32], least: f32, most: f32) -> (bool, f32, f32) {
+    const L: usize = 8;
+    let mut bad = [0u32; L];
+    let (mut lo, mut hi) = ([f32::INFINITY; L], [f32::NEG_INFINITY; L]);
+    let mut lanes = chunk.chunks_exact(L);
+    for block in &mut lanes {
+        for j in 0..L {
+            let v = block[j];
+            bad[j] |= u32::from(!(least..=most).contains(&v));
+            lo[j] = if v < lo[j] { v } else { lo[j] };
+            hi[j] = if v > hi[j] { v } else { hi[j] };
+        }
+    }
+    for &v in lanes.remainder() {
+        bad[0] |= u32::from(!(least..=most).contains(&v));
+        lo[0] = if v < lo[0] { v } else { lo[0] };
+        hi[0] = if v > hi[0] { v } else { hi[0] };
+    }
+    let fold = |a: [f32; L], pick: fn(f32, f32) -> f32| a.into_iter().fold(a[0], pick);
+    (
+        bad.iter().all(|&b| b == 0),
+        fold(lo, f32::min),
+        fold(hi, f32::max),
+    )
+}
+
 /// `" at pixel (x, y)"` of pixel index `i` in an image `width` wide.
 pub(crate) fn pixel_location(i: usize, width: usize) -> String {
     format!(" at pixel ({}, {})", i % width, i / width)
@@ -362,6 +422,54 @@ mod tests {
                 ..
             }
         ));
+    }
+
+    #[test]
+    fn the_valid_range_is_the_rule() {
+        let values = [
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            -2e6,
+            -1e6,
+            -1.0,
+            -0.0,
+            0.0,
+            5e-4,
+            1e-3,
+            0.5,
+            1e6,
+            1.000_001e6,
+            f32::MAX,
+        ];
+        for kind in [FieldKind::Angle, FieldKind::Scale, FieldKind::Entry] {
+            let (least, most) = kind.valid_range();
+            for v in values {
+                assert_eq!(
+                    least <= v && v <= most,
+                    kind.why_invalid(v).is_none(),
+                    "{kind:?} {v}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn chunked_scan_matches_a_sequential_one() {
+        // extremes repeated across and within chunks: the first pixel of each
+        let mut m: Vec<f32> = (0..300)
+            .map(|i| ((i * 37) % 101) as f32 * 0.5 + 1.0)
+            .collect();
+        m[70] = 0.25;
+        m[130] = 0.25;
+        m[200] = 99.0;
+        m[201] = 99.0;
+        let f = CheckedField::new(Field::Map(&m), FieldKind::Scale, 20, 15).unwrap();
+        assert_eq!((f.min, f.max), ((0.25, 70), (99.0, 200)));
+        m[150] = f32::NAN;
+        m[260] = -1.0;
+        let e = CheckedField::new(Field::Map(&m), FieldKind::Scale, 20, 15).unwrap_err();
+        assert!(e.to_string().contains("(10, 7)"), "{e}");
     }
 
     #[test]

@@ -341,8 +341,12 @@ pub(crate) fn ln_widening(x: f64) -> f64 {
 /// the floor), not the series.
 #[inline]
 pub(crate) fn widening_needs_log(x: f64) -> bool {
-    x.max(WIDENING_FLOOR).abs() >= 0.03
+    x.max(WIDENING_FLOOR).abs() >= LOG_FROM
 }
+
+/// Where [`ln_widening`] leaves its series for the logarithm: `|x|` from
+/// here on.
+pub(crate) const LOG_FROM: f64 = 0.03;
 
 /// [`ln_widening`]'s series branch, branch-free (its value wherever
 /// [`widening_needs_log`] is false): the per-pixel level rule over a row

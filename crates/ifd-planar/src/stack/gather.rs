@@ -177,7 +177,8 @@ impl RowLevels {
 /// Group `g`'s levels over the row by `rule` from each pixel's `t_s` and
 /// `widen` ([`LevelRule`]): the series branch for every pixel (in AVX2
 /// lanes where the CPU has them), then [`LevelRule::at`] again for the
-/// pixels whose widening needs the logarithm; the same values as
+/// pixels whose widening needs the logarithm (the vector lanes find them
+/// with the same test in their lanes); the same values as
 /// [`LevelRule::at`] pixel by pixel.
 ///
 /// # Panics
@@ -193,15 +194,11 @@ pub(crate) fn fill_levels(
     let w = levels.w;
     assert!(t_s.len() == w && widen.len() == w && (g + 1) * w <= levels.a.len());
     #[cfg(target_arch = "x86_64")]
-    {
-        if vector_kernels().is_some() {
-            // SAFETY: the CPU has AVX2 (checked just now).
-            unsafe { avx2::fill_levels(rule, t_s, widen, levels, g) };
-        } else {
-            series_levels(rule, t_s, widen, levels, g);
-        }
+    if vector_kernels().is_some() {
+        // SAFETY: the CPU has AVX2 (checked just now).
+        unsafe { avx2::fill_levels(rule, t_s, widen, levels, g) };
+        return;
     }
-    #[cfg(not(target_arch = "x86_64"))]
     series_levels(rule, t_s, widen, levels, g);
     for x in 0..w {
         if crate::kernel::widening_needs_log(widen[x] * rule.inv_sigma2) {
@@ -282,13 +279,14 @@ mod avx2 {
 
     use std::arch::x86_64::{
         _CMP_GT_OQ, _CMP_LT_OQ, _mm_min_epi32, _mm_set1_epi32, _mm_storeu_ps, _mm_storeu_si128,
-        _mm_sub_epi32, _mm256_add_pd, _mm256_blendv_pd, _mm256_castpd_si256, _mm256_cmp_pd,
-        _mm256_cvtepi32_pd, _mm256_cvtpd_ps, _mm256_cvttpd_epi32, _mm256_loadu_pd, _mm256_max_pd,
-        _mm256_min_pd, _mm256_mul_pd, _mm256_or_pd, _mm256_set1_pd, _mm256_setzero_pd,
-        _mm256_sub_pd,
+        _mm_sub_epi32, _mm256_add_pd, _mm256_andnot_pd, _mm256_blendv_pd, _mm256_castpd_si256,
+        _mm256_cmp_pd, _mm256_cvtepi32_pd, _mm256_cvtpd_ps, _mm256_cvttpd_epi32, _mm256_loadu_pd,
+        _mm256_max_pd, _mm256_min_pd, _mm256_movemask_pd, _mm256_mul_pd, _mm256_or_pd,
+        _mm256_set1_pd, _mm256_setzero_pd, _mm256_sub_pd,
     };
 
     use super::{FixedTerm, LANES, LevelRule, RowLevels, ScaledTerm};
+    use crate::kernel::LOG_FROM;
     use crate::stack::locate::LEVEL_SNAP;
     use crate::stack::{Interpolation, Level, ScaleStack};
 
@@ -759,6 +757,7 @@ mod avx2 {
         let below_last = _mm_set1_epi32((rule.last - 1) as i32);
         let (snap_lo, snap_hi) = (_mm256_set1_pd(LEVEL_SNAP), _mm256_set1_pd(1.0 - LEVEL_SNAP));
         let n = w / PD * PD;
+        let (needs_log, sign) = (_mm256_set1_pd(LOG_FROM), _mm256_set1_pd(-0.0));
         for x0 in (0..n).step_by(PD) {
             let ts: &[f64; PD] = t_s[x0..x0 + PD].try_into().expect("four lanes");
             let wd: &[f64; PD] = widen[x0..x0 + PD].try_into().expect("four lanes");
@@ -766,6 +765,11 @@ mod avx2 {
             let (ts, wd) = unsafe { (_mm256_loadu_pd(ts.as_ptr()), _mm256_loadu_pd(wd.as_ptr())) };
             // kernel::ln_widening_series
             let x = _mm256_max_pd(_mm256_mul_pd(wd, inv_sigma2), floor);
+            // kernel::widening_needs_log: |x| >= LOG_FROM
+            let log_lanes = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GE_OQ>(
+                _mm256_andnot_pd(sign, x),
+                needs_log,
+            ));
             let x2 = _mm256_mul_pd(x, x);
             let odd = _mm256_mul_pd(
                 x,
@@ -810,9 +814,14 @@ mod avx2 {
                 _mm_storeu_ps(dwa.as_mut_ptr(), wa);
                 _mm_storeu_ps(dwb.as_mut_ptr(), wb);
             }
+            if log_lanes != 0 {
+                for x in (x0..x0 + PD).filter(|x| log_lanes & (1 << (x - x0)) != 0) {
+                    levels.set(base + x, rule.at(t_s[x], widen[x]));
+                }
+            }
         }
         for x in n..w {
-            levels.set(base + x, rule.series(t_s[x], widen[x]));
+            levels.set(base + x, rule.at(t_s[x], widen[x]));
         }
     }
 
@@ -842,7 +851,29 @@ mod avx2 {
         let la = unsafe { _mm256_loadu_si256(a.as_ptr().cast()) };
         let (wa, wb) = (load_at(&levels.wa, i), load_at(&levels.wb, i));
         // a + 1 where the lane reads a second level (the mask is -1 there)
-        let second = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_NEQ_OQ>(wb, _mm256_setzero_ps()));
+        let second_ps = _mm256_cmp_ps::<_CMP_NEQ_OQ>(wb, _mm256_setzero_ps());
+        let second = _mm256_castps_si256(second_ps);
+        if _mm256_movemask_epi8(_mm256_cmpeq_epi32(
+            la,
+            _mm256_permutevar8x32_epi32(la, _mm256_setzero_si256()),
+        )) == -1
+        {
+            // The common block: every lane on the same level `a` (and
+            // `a + 1` where its `wb` is not zero): the general rule below
+            // gives level `a` the weights `wa` and level `a + 1` the `wb`
+            // of the lanes that read it, zero elsewhere; the same values.
+            let used = u8::from(
+                _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NEQ_OQ>(wa, _mm256_setzero_ps())) != 0,
+            ) | (u8::from(_mm256_movemask_ps(second_ps) != 0) << 1);
+            let mut w = [_mm256_setzero_ps(); SPAN];
+            w[0] = wa;
+            w[1] = _mm256_and_ps(second_ps, wb);
+            return Block::Vector {
+                a: a[0] as usize,
+                used,
+                w,
+            };
+        }
         let lb = _mm256_sub_epi32(la, second);
         let (lo, hi) = min_max(la, lb);
         let n = (hi - lo) as usize + 1;
