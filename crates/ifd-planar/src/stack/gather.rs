@@ -391,20 +391,50 @@ mod avx2 {
         w: __m256,
         acc: &mut [__m256; C],
     ) -> bool {
-        let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
-        let Some((u, v, iu, iv)) = stencil_inside(level, px, py, 0, 1) else {
+        let Some(at) = bilinear_stencil(level, px, py) else {
             return false;
         };
+        bilinear_at::<C>(level, at, w, acc);
+        true
+    }
+
+    /// Where a bilinear lookup of `level` at `(px, py)` reads, when every
+    /// lane's stencil lies in the stored level: the fractions `(fu, fv)`
+    /// and each lane's first sample (see [`lookup`]). Levels on the same
+    /// grid share it.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn bilinear_stencil(
+        level: &Level,
+        px: __m256,
+        py: __m256,
+    ) -> Option<(__m256, __m256, __m256i)> {
+        let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
+        let (u, v, iu, iv) = stencil_inside(level, px, py, 0, 1)?;
         let fu = _mm256_sub_ps(u, _mm256_cvtepi32_ps(iu));
         let fv = _mm256_sub_ps(v, _mm256_cvtepi32_ps(iv));
         let idx = _mm256_add_epi32(_mm256_mullo_epi32(iv, _mm256_set1_epi32(nx)), iu);
-        // Memory safety: every read below is at most `nx + 1` samples (times
-        // C, plus C - 1) past `idx <= nx (ny - 1) - 2`, inside the level's
-        // `nx ny C` samples (`supports` checked the length).
+        // Memory safety: every read of `bilinear_at` is at most `nx + 1`
+        // samples (times C, plus C - 1) past `idx <= nx (ny - 1) - 2`, inside
+        // the level's `nx ny C` samples (`supports` checked the length).
         let idx = _mm256_min_epi32(
             _mm256_max_epi32(idx, _mm256_setzero_si256()),
             _mm256_set1_epi32(nx * (ny - 1) - 2),
         );
+        Some((fu, fv, idx))
+    }
+
+    /// Adds `w *` the bilinear lookups of `level` at `stencil` (from
+    /// [`bilinear_stencil`] on this level's grid) to `acc`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn bilinear_at<const C: usize>(
+        level: &Level,
+        (fu, fv, idx): (__m256, __m256, __m256i),
+        w: __m256,
+        acc: &mut [__m256; C],
+    ) {
+        let nx = level.layout.nx as i32;
         let data = level.data.as_slice();
         let p = data.as_ptr();
         let row = nx as usize * C;
@@ -414,7 +444,7 @@ mod avx2 {
             // `idx + nx + 1 < nx ny = data.len()` (above).
             let ((a, b), (c, d)) = unsafe { (pairs(p, idx), pairs(p.add(nx as usize), idx)) };
             acc[0] = blend(acc[0], w, fu, fv, [a, b, c, d]);
-            return true;
+            return;
         }
         let idx = _mm256_mullo_epi32(idx, _mm256_set1_epi32(C as i32));
         for (k, a) in acc.iter_mut().enumerate() {
@@ -430,7 +460,6 @@ mod avx2 {
             };
             *a = blend(*a, w, fu, fv, corners);
         }
-        true
     }
 
     /// The cubic B-spline weights of the samples at `-1, 0, 1, 2` for
@@ -612,7 +641,8 @@ mod avx2 {
     }
 
     /// One lookup per lane through the scalar, border-resolving path, in
-    /// lane order (each lane's sum in the same order as the scalar loop's).
+    /// lane order (each lane's sum in the same order as the scalar loop's);
+    /// `acc` by value, so that callers keep their sums in registers.
     #[inline(never)]
     #[target_feature(enable = "avx2")]
     fn scalar_lanes<const C: usize>(
@@ -620,17 +650,18 @@ mod avx2 {
         lookups: &[(usize, f32); LANES],
         px: __m256,
         py: __m256,
-        acc: &mut [__m256; C],
-    ) {
+        mut acc: [__m256; C],
+    ) -> [__m256; C] {
         let (px, py) = (store(px), store(py));
-        let mut lanes = spill(acc);
+        let mut lanes = spill(&acc);
         for (lane, sum) in lanes.iter_mut().enumerate() {
             let (li, w) = lookups[lane];
             if w != 0.0 {
                 stack.accumulate_fixed::<C>(li, px[lane], py[lane], w, sum);
             }
         }
-        fill(&lanes, acc);
+        fill(&lanes, &mut acc);
+        acc
     }
 
     /// Adds the block's sums into `out` (pixels `x0..x0 + 8`, interleaved).
@@ -702,7 +733,7 @@ mod avx2 {
                         continue;
                     }
                     if !lookup::<C>(stack, li, px, py, _mm256_set1_ps(w), &mut acc) {
-                        scalar_lanes::<C>(stack, &[(li, w); LANES], px, py, &mut acc);
+                        acc = scalar_lanes::<C>(stack, &[(li, w); LANES], px, py, acc);
                     }
                 }
             }
@@ -917,6 +948,19 @@ mod avx2 {
         let groups = levels.a.len() / w.max(1);
         let yf = _mm256_set1_ps(y as f32);
         let mut blocks = vec![Block::Lanes; groups];
+        let linear = matches!(stack.interpolation, Interpolation::Linear);
+        // level i and level i + 1 sample the same grid: one bilinear
+        // stencil serves both (the same values as computing it twice)
+        let same_grid: Vec<bool> = stack
+            .levels
+            .windows(2)
+            .map(|p| {
+                let (l, m) = (&p[0], &p[1]);
+                (l.layout.nx, l.layout.ny) == (m.layout.nx, m.layout.ny)
+                    && l.origin.to_bits() == m.origin.to_bits()
+                    && l.inv_step.to_bits() == m.inv_step.to_bits()
+            })
+            .collect();
         for x0 in (0..n).step_by(LANES) {
             for (g, b) in blocks.iter_mut().enumerate() {
                 *b = classify(levels, g, x0);
@@ -929,6 +973,23 @@ mod avx2 {
                 match &blocks[t.group] {
                     Block::Vector { a, used, w } => {
                         let tw = _mm256_set1_ps(t.weight);
+                        if *used == 0b11 && linear && same_grid[*a] {
+                            // The common pair: levels a and a + 1 on one
+                            // grid share the bilinear stencil (the same
+                            // values as computing it for each).
+                            let wv = [_mm256_mul_ps(tw, w[0]), _mm256_mul_ps(tw, w[1])];
+                            if let Some(at) = bilinear_stencil(&stack.levels[*a], px, py) {
+                                bilinear_at::<C>(&stack.levels[*a], at, wv[0], &mut acc);
+                                bilinear_at::<C>(&stack.levels[a + 1], at, wv[1], &mut acc);
+                            } else {
+                                for (k, wv) in wv.into_iter().enumerate() {
+                                    let ws = store(wv);
+                                    let l = std::array::from_fn(|lane| (a + k, ws[lane]));
+                                    acc = scalar_lanes::<C>(stack, &l, px, py, acc);
+                                }
+                            }
+                            continue;
+                        }
                         for (k, lw) in w.iter().enumerate() {
                             if used & (1 << k) == 0 {
                                 continue;
@@ -938,7 +999,7 @@ mod avx2 {
                             if !lookup::<C>(stack, li, px, py, wv, &mut acc) {
                                 let ws = store(wv);
                                 let l = std::array::from_fn(|lane| (li, ws[lane]));
-                                scalar_lanes::<C>(stack, &l, px, py, &mut acc);
+                                acc = scalar_lanes::<C>(stack, &l, px, py, acc);
                             }
                         }
                     }
