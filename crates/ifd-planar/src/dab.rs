@@ -51,7 +51,7 @@ impl Rotation {
     /// The rotation by `theta` degrees.
     #[must_use]
     pub fn degrees(theta: f32) -> Self {
-        let (sin, cos) = theta.to_radians().sin_cos();
+        let (sin, cos) = crate::trig::sin_cos_degrees(theta);
         Self { cos, sin }
     }
 }

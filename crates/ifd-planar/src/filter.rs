@@ -14,6 +14,7 @@ use crate::stack::gather::{self, FixedTerm, RowLevels, ScaledTerm};
 use crate::stack::lookup::Tap;
 use crate::stack::lookup::Taps;
 use crate::stack::{LevelRule, ScaleStack};
+use crate::trig::sin_cos_degrees;
 
 /// One decomposition term, prepared for lookups.
 #[derive(Clone, Copy, Debug)]
@@ -393,7 +394,7 @@ impl<'a> Filter<'a> {
         // A point lookup reads every term from the stack.
         self.check_scales(&scale, false)?;
         out.fill(0.0);
-        let (sin, cos) = theta.to_radians().sin_cos();
+        let (sin, cos) = sin_cos_degrees(theta);
         self.pixel_general::<0>(x, y, cos, sin, s, out);
         Ok(())
     }
@@ -478,7 +479,7 @@ impl<'a> Filter<'a> {
                 }
                 for (x, px) in row.chunks_exact_mut(c).enumerate().skip(done) {
                     let i = y * w + x;
-                    let (sin, cos) = angle.at(i).to_radians().sin_cos();
+                    let (sin, cos) = sin_cos_degrees(angle.at(i));
                     let (xf, yf) = (x as f32, y as f32);
                     match &constant_scale {
                         Some((s, levels)) => {
@@ -513,21 +514,16 @@ impl<'a> Filter<'a> {
         } = scr;
         match scale {
             Field::Constant(s) => {
-                for (x, (c, sn)) in cs.iter_mut().zip(ss.iter_mut()).enumerate() {
-                    let (sin, cos) = angle.at(y * w + x).to_radians().sin_cos();
-                    (*c, *sn) = (cos * s, sin * s);
-                }
+                row_rotations(angle, Field::Constant(s), y, w, cs, ss);
                 gather::rotated_row::<C>(self.stack, fixed, y, cs, ss, row)
             }
-            Field::Map(_) if scaled_vector => {
+            Field::Map(m) if scaled_vector => {
                 // Per pixel: the rotation, t_s and the widening; then the
                 // levels and weights per distinct sigma, group-major, by
                 // the scalar loop's rule (the same values).
-                for (x, (c, sn)) in cs.iter_mut().zip(ss.iter_mut()).enumerate() {
-                    let i = y * w + x;
-                    let s = scale.at(i);
-                    let (sin, cos) = angle.at(i).to_radians().sin_cos();
-                    (*c, *sn) = (cos * s, sin * s);
+                let scales = &m[y * w..(y + 1) * w];
+                row_rotations(angle, Field::Map(scales), y, w, cs, ss);
+                for (x, &s) in scales.iter().enumerate() {
                     (t_s[x], widen[x]) = self.scale_position(s);
                 }
                 for (g, rep) in self.sigma_groups.iter().enumerate() {
@@ -725,6 +721,29 @@ impl RowScratch {
     }
 }
 
+/// Row `y`'s rotations (`w` pixels) by `angle` scaled by `scale` (the
+/// row's scales or a constant): `cs = s cos`, `ss = s sin`, as the scalar
+/// loop computes them ([`sin_cos_degrees`]).
+fn row_rotations(
+    angle: Field<'_>,
+    scale: Field<'_>,
+    y: usize,
+    w: usize,
+    cs: &mut [f32],
+    ss: &mut [f32],
+) {
+    match angle {
+        Field::Map(m) => gather::rotations(&m[y * w..(y + 1) * w], scale, cs, ss),
+        Field::Constant(theta) => {
+            let (sin, cos) = sin_cos_degrees(theta);
+            for (x, (c, sn)) in cs.iter_mut().zip(ss.iter_mut()).enumerate() {
+                let s = scale.at(x);
+                (*c, *sn) = (cos * s, sin * s);
+            }
+        }
+    }
+}
+
 /// The lookups of `terms` (with their levels) for a constant pose, zero
 /// weights dropped.
 fn taps_of(
@@ -733,7 +752,7 @@ fn taps_of(
     s: f32,
     levels: &[(usize, usize, f32, f32)],
 ) -> Vec<Tap> {
-    let (sin, cos) = theta.to_radians().sin_cos();
+    let (sin, cos) = sin_cos_degrees(theta);
     let mut taps = Vec::with_capacity(2 * terms.len());
     for (t, &(a, b, wa, wb)) in terms.iter().zip(levels) {
         let ox = s * (cos * t.cx + sin * t.cy);

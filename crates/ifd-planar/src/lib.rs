@@ -76,6 +76,7 @@ mod reference;
 mod sparsa;
 mod stack;
 mod tiled;
+mod trig;
 
 pub use accuracy::{EvalPlan, PlanOptions};
 pub use border::Border;

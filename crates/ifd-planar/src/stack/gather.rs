@@ -7,6 +7,7 @@
 )]
 
 use super::{Interpolation, LevelRule, ScaleStack};
+use crate::field::Field;
 
 /// Pixels per vector block.
 pub(crate) const LANES: usize = 8;
@@ -121,6 +122,32 @@ pub(crate) fn rotated_row<const C: usize>(
     {
         let _ = (terms, y);
         0
+    }
+}
+
+/// `cs[x] = s cos theta[x]` and `ss[x] = s sin theta[x]` over a row of
+/// angles in degrees, `s` the row's `scale` (a map's row or a constant):
+/// [`crate::trig::sin_cos_degrees`]'s operations, in AVX2 lanes where the
+/// CPU has them, so the same bits as the scalar loop's rotations.
+///
+/// # Panics
+/// If the slices' lengths differ (a map's row included).
+pub(crate) fn rotations(theta: &[f32], scale: Field<'_>, cs: &mut [f32], ss: &mut [f32]) {
+    let w = theta.len();
+    assert!(cs.len() == w && ss.len() == w);
+    if let Field::Map(m) = scale {
+        assert_eq!(m.len(), w);
+    }
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if vector_kernels().is_some() {
+        // SAFETY: the CPU has AVX2 (checked just now).
+        done = unsafe { avx2::rotations(theta, scale, cs, ss) };
+    }
+    for x in done..w {
+        let (sin, cos) = crate::trig::sin_cos_degrees(theta[x]);
+        let s = scale.at(x);
+        (cs[x], ss[x]) = (cos * s, sin * s);
     }
 }
 
@@ -286,9 +313,14 @@ mod avx2 {
     };
 
     use super::{FixedTerm, LANES, LevelRule, RowLevels, ScaledTerm};
+    use crate::field::Field;
     use crate::kernel::LOG_FROM;
     use crate::stack::locate::LEVEL_SNAP;
     use crate::stack::{Interpolation, Level, ScaleStack};
+    use std::arch::x86_64::{
+        _MM_FROUND_NO_EXC, _MM_FROUND_TO_NEAREST_INT, _mm256_blendv_ps, _mm256_cvtps_epi32,
+        _mm256_round_ps, _mm256_slli_epi32, _mm256_xor_ps,
+    };
 
     /// Eight floats into a vector.
     #[inline]
@@ -763,6 +795,60 @@ mod avx2 {
         Lanes,
     }
 
+    /// [`super::rotations`] for the row's first `w / 8 * 8` pixels: the
+    /// count done.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn rotations(
+        theta: &[f32],
+        scale: Field<'_>,
+        cs: &mut [f32],
+        ss: &mut [f32],
+    ) -> usize {
+        use crate::trig::{COS, INV_RIGHT_ANGLE, RADIANS_PER_DEGREE, SIN};
+        let k = _mm256_set1_ps;
+        let n = theta.len() / LANES * LANES;
+        let (one, two) = (_mm256_set1_epi32(1), _mm256_set1_epi32(2));
+        for x0 in (0..n).step_by(LANES) {
+            let t = load_at(theta, x0);
+            // trig::sin_cos_degrees, operation by operation
+            let q = _mm256_round_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(
+                _mm256_mul_ps(t, k(INV_RIGHT_ANGLE)),
+            );
+            let x = _mm256_mul_ps(
+                _mm256_sub_ps(t, _mm256_mul_ps(q, k(90.0))),
+                k(RADIANS_PER_DEGREE),
+            );
+            let x2 = _mm256_mul_ps(x, x);
+            let horner = |coef: &[f32]| {
+                let (last, rest) = coef.split_last().expect("coefficients");
+                rest.iter().rev().fold(k(*last), |acc, &c| {
+                    _mm256_add_ps(k(c), _mm256_mul_ps(x2, acc))
+                })
+            };
+            let sp = _mm256_add_ps(x, _mm256_mul_ps(_mm256_mul_ps(x, x2), horner(&SIN)));
+            let cp = _mm256_add_ps(k(1.0), _mm256_mul_ps(x2, horner(&COS)));
+            let qi = _mm256_cvtps_epi32(q);
+            let swap = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(qi, one), one));
+            let (s, c) = (
+                _mm256_blendv_ps(sp, cp, swap),
+                _mm256_blendv_ps(cp, sp, swap),
+            );
+            // bit 1 of q (of q + 1) moved to the sign bit negates the sine (cosine)
+            let s_sign = _mm256_slli_epi32::<30>(_mm256_and_si256(qi, two));
+            let c_sign = _mm256_slli_epi32::<30>(_mm256_and_si256(_mm256_add_epi32(qi, one), two));
+            let s = _mm256_xor_ps(s, _mm256_castsi256_ps(s_sign));
+            let c = _mm256_xor_ps(c, _mm256_castsi256_ps(c_sign));
+            let sc = match scale {
+                Field::Constant(v) => k(v),
+                Field::Map(m) => load_at(m, x0),
+            };
+            let (cv, sv) = (store(_mm256_mul_ps(c, sc)), store(_mm256_mul_ps(s, sc)));
+            cs[x0..x0 + LANES].copy_from_slice(&cv);
+            ss[x0..x0 + LANES].copy_from_slice(&sv);
+        }
+        n
+    }
+
     /// The series pass of [`super::fill_levels`] in AVX2 lanes, four
     /// pixels per vector: [`LevelRule::series`]'s operations in its order
     /// (separate multiplies and adds, as the scalar code rounds them), so
@@ -1027,7 +1113,46 @@ mod avx2 {
 
 #[cfg(test)]
 mod tests {
-    use super::{LevelRule, RowLevels, fill_levels, series_levels};
+    use super::{LevelRule, RowLevels, fill_levels, rotations, series_levels};
+    use crate::field::Field;
+    use crate::trig::sin_cos_degrees;
+
+    /// The row rotations (AVX2 lanes where the CPU has them) bit for bit
+    /// the scalar loop's: every quadrant and its boundaries, negative and
+    /// large angles, a map's scales and a constant, a row whose length is
+    /// not a multiple of the lanes.
+    #[test]
+    fn row_rotations_equal_the_scalar_rule() {
+        let mut theta = vec![
+            0.0, 45.0, -45.0, 90.0, 135.0, 180.0, 270.0, -90.0, 1e6, -999_999.9,
+        ];
+        theta.extend([
+            44.999_996, 45.000_004, 134.999_99, 0.001, -0.001, 359.9, 720.5,
+        ]);
+        let mut state = 0x9e37_79b9_u64;
+        while theta.len() < 67 {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            theta.push(((state >> 11) as f64 / (1u64 << 53) as f64 * 1440.0 - 720.0) as f32);
+        }
+        let w = theta.len();
+        let scales: Vec<f32> = (0..w).map(|x| 0.25 + x as f32 * 0.031).collect();
+        for scale in [Field::Map(&scales), Field::Constant(0.7)] {
+            let (mut cs, mut ss) = (vec![0.0; w], vec![0.0; w]);
+            rotations(&theta, scale, &mut cs, &mut ss);
+            for x in 0..w {
+                let (sin, cos) = sin_cos_degrees(theta[x]);
+                let s = scale.at(x);
+                assert_eq!(
+                    (cs[x].to_bits(), ss[x].to_bits()),
+                    ((cos * s).to_bits(), (sin * s).to_bits()),
+                    "pixel {x}, angle {}",
+                    theta[x]
+                );
+            }
+        }
+    }
 
     /// Every pixel's levels and weights, from the vector rows (AVX2 where
     /// the CPU has it) and from the baseline series pass, bit for bit
