@@ -1041,10 +1041,8 @@ mod avx2 {
             .levels
             .windows(2)
             .map(|p| {
-                let (l, m) = (&p[0], &p[1]);
-                (l.layout.nx, l.layout.ny) == (m.layout.nx, m.layout.ny)
-                    && l.origin.to_bits() == m.origin.to_bits()
-                    && l.inv_step.to_bits() == m.inv_step.to_bits()
+                let grid = |l: &Level| (l.layout.step, l.layout.origin, l.layout.nx, l.layout.ny);
+                grid(&p[0]) == grid(&p[1])
             })
             .collect();
         for x0 in (0..n).step_by(LANES) {
@@ -1059,21 +1057,19 @@ mod avx2 {
                 match &blocks[t.group] {
                     Block::Vector { a, used, w } => {
                         let tw = _mm256_set1_ps(t.weight);
-                        if *used == 0b11 && linear && same_grid[*a] {
+                        if *used == 0b11
+                            && linear
+                            && same_grid[*a]
+                            && let Some(at) = bilinear_stencil(&stack.levels[*a], px, py)
+                        {
                             // The common pair: levels a and a + 1 on one
                             // grid share the bilinear stencil (the same
-                            // values as computing it for each).
+                            // values as computing it for each); a stencil
+                            // past the stored level goes through the loop
+                            // below, lane by lane.
                             let wv = [_mm256_mul_ps(tw, w[0]), _mm256_mul_ps(tw, w[1])];
-                            if let Some(at) = bilinear_stencil(&stack.levels[*a], px, py) {
-                                bilinear_at::<C>(&stack.levels[*a], at, wv[0], &mut acc);
-                                bilinear_at::<C>(&stack.levels[a + 1], at, wv[1], &mut acc);
-                            } else {
-                                for (k, wv) in wv.into_iter().enumerate() {
-                                    let ws = store(wv);
-                                    let l = std::array::from_fn(|lane| (a + k, ws[lane]));
-                                    acc = scalar_lanes::<C>(stack, &l, px, py, acc);
-                                }
-                            }
+                            bilinear_at::<C>(&stack.levels[*a], at, wv[0], &mut acc);
+                            bilinear_at::<C>(&stack.levels[a + 1], at, wv[1], &mut acc);
                             continue;
                         }
                         for (k, lw) in w.iter().enumerate() {
