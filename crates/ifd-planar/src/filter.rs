@@ -13,7 +13,7 @@ use crate::stack::for_decomposition::{is_direct, sigma_bounds};
 use crate::stack::gather::{self, FixedTerm, RowLevels, ScaledTerm};
 use crate::stack::lookup::Tap;
 use crate::stack::lookup::Taps;
-use crate::stack::{LevelRule, ScaleStack};
+use crate::stack::{LevelRule, ScalePosition, ScaleStack};
 use crate::trig::sin_cos_degrees;
 
 /// One decomposition term, prepared for lookups.
@@ -23,9 +23,9 @@ struct Prepared {
     cx: f32,
     cy: f32,
     sigma: f64,
-    ln_sigma: f64,
-    /// `1 / sigma^2`.
-    inv_sigma2: f64,
+    /// `ln sigma` and `1 / sigma^2` for the per-pixel level rule.
+    ln_sigma: f32,
+    inv_sigma2: f32,
 }
 
 /// A decomposition bound to a scale stack, ready to filter.
@@ -95,8 +95,8 @@ impl<'a> Filter<'a> {
                 cx: t.x as f32,
                 cy: t.y as f32,
                 sigma: t.sigma,
-                ln_sigma: t.sigma.ln(),
-                inv_sigma2: 1.0 / (t.sigma * t.sigma),
+                ln_sigma: t.sigma.ln() as f32,
+                inv_sigma2: (1.0 / (t.sigma * t.sigma)) as f32,
             })
             .collect();
         let (sigma_lo, sigma_hi) = d.sigma_range();
@@ -523,9 +523,7 @@ impl<'a> Filter<'a> {
                 // the scalar loop's rule (the same values).
                 let scales = &m[y * w..(y + 1) * w];
                 row_rotations(angle, Field::Map(scales), y, w, cs, ss);
-                for (x, &s) in scales.iter().enumerate() {
-                    (t_s[x], widen[x]) = self.scale_position(s);
-                }
+                gather::scale_positions(self.scale_position(), scales, t_s, widen);
                 for (g, rep) in self.sigma_groups.iter().enumerate() {
                     gather::fill_levels(self.level_rule(rep), t_s, widen, levels, g);
                 }
@@ -535,17 +533,13 @@ impl<'a> Filter<'a> {
         }
     }
 
-    /// The per-pixel scale `s` as [`LevelRule`] reads it: `t_s = (ln s - ln
-    /// sigma_0) / ln r` and `widen`, the pixel footprint's variance at `s`
-    /// over `s^2` (one expression for the scalar loop and the vector rows).
+    /// Where a per-pixel scale puts the levels of this (log-uniform) stack
+    /// for [`LevelRule`]: `t_s = (ln s - ln sigma_0) / ln r` and `widen`,
+    /// the pixel footprint's variance at `s` over `s^2` (one rule for the
+    /// scalar loop and the vector rows).
     #[inline]
-    fn scale_position(&self, s: f32) -> (f64, f64) {
-        let (ln0, inv) = self.stack.ln_params();
-        let s = f64::from(s);
-        (
-            (s.ln() - ln0) * inv,
-            self.sampling.footprint_variance(s) / (s * s),
-        )
+    fn scale_position(&self) -> ScalePosition {
+        ScalePosition::new(self.sampling, self.stack.ln_params())
     }
 
     /// The level rule of terms of `t`'s sigma on this (log-uniform, several
@@ -555,7 +549,7 @@ impl<'a> Filter<'a> {
         LevelRule {
             ln_sigma: t.ln_sigma,
             inv_sigma2: t.inv_sigma2,
-            inv,
+            inv: inv as f32,
             last: (self.stack.sigmas().len() - 1) as u32,
         }
     }
@@ -565,7 +559,7 @@ impl<'a> Filter<'a> {
     /// footprint's variance at `s` over `s^2` ([`LevelRule`]; the vector
     /// path's rows take the same values).
     #[inline]
-    fn uniform_level(&self, t: &Prepared, t_s: f64, widen: f64) -> (usize, usize, f32, f32) {
+    fn uniform_level(&self, t: &Prepared, t_s: f32, widen: f32) -> (usize, usize, f32, f32) {
         let (a, b, wa, wb) = self.level_rule(t).at(t_s, widen);
         (a as usize, b as usize, wa, wb)
     }
@@ -637,8 +631,12 @@ impl<'a> Filter<'a> {
         out: &mut [f32],
     ) {
         let last = self.stack.sigmas().len() - 1;
-        let (t_s, widen) = self.scale_position(s);
         let uniform = self.stack.is_uniform();
+        let (t_s, widen) = if uniform {
+            self.scale_position().at(s)
+        } else {
+            (0.0, 0.0)
+        };
         let cs = cos * s;
         let ss = sin * s;
         let mut acc = [0.0f32; C];
@@ -701,8 +699,8 @@ fn sigma_groups(terms: &[Prepared]) -> (Vec<Prepared>, Vec<usize>) {
 struct RowScratch {
     cs: Vec<f32>,
     ss: Vec<f32>,
-    t_s: Vec<f64>,
-    widen: Vec<f64>,
+    t_s: Vec<f32>,
+    widen: Vec<f32>,
     levels: RowLevels,
 }
 

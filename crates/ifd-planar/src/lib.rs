@@ -70,6 +70,7 @@ mod field;
 mod filter;
 mod fit;
 mod kernel;
+mod ln;
 mod pipeline;
 mod prepared;
 mod reference;

@@ -303,6 +303,19 @@ impl Sampling {
         }
     }
 
+    /// [`Self::footprint_variance`]`(s) / s^2` as `(v, c, below)`: `v / s^2 + c`
+    /// for `s < below`, 0 from `below` on (the per-pixel level rule's
+    /// widening, one expression for every sampling).
+    pub(crate) fn footprint_over_s2(self) -> (f64, f64, f64) {
+        const BOX: f64 = 1.0 / 12.0;
+        match self {
+            Self::Point => (BOX, 0.0, 1.0),
+            Self::Continuous => (0.0, 0.0, 0.0),
+            Self::Area => (BOX, -BOX, f64::INFINITY),
+            Self::Averaged => (BOX, 0.0, f64::INFINITY),
+        }
+    }
+
     /// The effective standard deviation of an atom of `sigma` at scale `s`:
     /// `sqrt((s sigma)^2 + footprint_variance(s))`, kept at least `s sigma / 2`.
     #[must_use]
@@ -321,17 +334,20 @@ const MIN_VARIANCE_RATIO: f64 = 0.25;
 /// The floor [`ln_widening`] (both branches) and [`widening_needs_log`] put
 /// on their `x`: `MIN_VARIANCE_RATIO - 1` (the vector lanes of the level
 /// rule take the same floor).
-pub(crate) const WIDENING_FLOOR: f64 = MIN_VARIANCE_RATIO - 1.0;
+pub(crate) const WIDENING_FLOOR: f32 = (MIN_VARIANCE_RATIO - 1.0) as f32;
 
 /// `ln(sigma_eff / (s sigma))` of [`Sampling::effective_sigma`] for
 /// `x = footprint_variance(s) / (s sigma)^2`: `ln(max(1 + x, 1/4)) / 2`
-/// (the same floor). For `|x| < 0.03` (atoms a few pixels wide) a series
-/// to `x^6` (error below `x^7 / 14 < 2e-12`) that costs no libm call, so
-/// a per-pixel scale map's level choice takes no logarithm per term.
+/// (the same floor), in `f32`, the precision of the per-pixel level rule
+/// that reads it. For `|x| < 0.03` (atoms a few pixels wide) a series to
+/// `x^4` that costs no logarithm, so a per-pixel scale map's level choice
+/// takes none per term: the terms left out sum to at most
+/// `|x|^5 / 10 / (1 - |x|) < 2.6e-9`, below the `f32` rounding of the level
+/// position it is added to.
 #[inline]
-pub(crate) fn ln_widening(x: f64) -> f64 {
+pub(crate) fn ln_widening(x: f32) -> f32 {
     if widening_needs_log(x) {
-        0.5 * x.max(WIDENING_FLOOR).ln_1p()
+        (0.5 * f64::from(x.max(WIDENING_FLOOR)).ln_1p()) as f32
     } else {
         ln_widening_series(x)
     }
@@ -340,26 +356,27 @@ pub(crate) fn ln_widening(x: f64) -> f64 {
 /// Whether [`ln_widening`] at `x` takes the logarithm (`|x| >= 0.03` after
 /// the floor), not the series.
 #[inline]
-pub(crate) fn widening_needs_log(x: f64) -> bool {
+pub(crate) fn widening_needs_log(x: f32) -> bool {
     x.max(WIDENING_FLOOR).abs() >= LOG_FROM
 }
 
 /// Where [`ln_widening`] leaves its series for the logarithm: `|x|` from
 /// here on.
-pub(crate) const LOG_FROM: f64 = 0.03;
+pub(crate) const LOG_FROM: f32 = 0.03;
 
 /// [`ln_widening`]'s series branch, branch-free (its value wherever
-/// [`widening_needs_log`] is false): the per-pixel level rule over a row
-/// evaluates it for every pixel, in vector lanes (`stack::gather`'s
-/// `fill_levels` writes these operations in AVX2, in this order), and
-/// redoes the few that need the logarithm.
+/// [`widening_needs_log`] is false): `(x - x^2/2 + x^3/3 - x^4/4) / 2` as
+/// odd and even parts. The per-pixel level rule over a row evaluates it for
+/// every pixel, in vector lanes (`stack::gather`'s `fill_levels` writes
+/// these operations in AVX2, in this order), and redoes the few that need
+/// the logarithm.
 #[inline]
-pub(crate) fn ln_widening_series(x: f64) -> f64 {
+pub(crate) fn ln_widening_series(x: f32) -> f32 {
     let x = x.max(WIDENING_FLOOR);
     let x2 = x * x;
-    // constant factors, not divisions (two per term and pixel)
-    let odd = x * (1.0 + x2 * (1.0 / 3.0 + x2 * (1.0 / 5.0)));
-    let even = x2 * (0.5 + x2 * (0.25 + x2 * (1.0 / 6.0)));
+    // constant factors, not divisions
+    let odd = x * (1.0 + x2 * (1.0 / 3.0));
+    let even = x2 * (0.5 + x2 * 0.25);
     0.5 * (odd - even)
 }
 
@@ -552,24 +569,53 @@ mod tests {
     use super::raster::to_local;
     use super::*;
 
-    /// The series and the libm branch against `ln(max(1 + x, 1/4)) / 2`,
-    /// across the switch and the floor, and against `effective_sigma`.
+    /// The series and the logarithm branch against `ln(max(1 + x, 1/4)) / 2`
+    /// in `f64`, across the switch and the floor, and against
+    /// `effective_sigma`: within the `f32` rounding of the values (the
+    /// series' values are below 0.016, its truncation below 2.6e-9).
     #[test]
     fn ln_widening_matches_the_logarithm() {
         for i in -1000..=1000 {
-            let x = f64::from(i) * 1e-4 * (1.0 + f64::from(i).abs() / 50.0);
-            let exact = 0.5 * (1.0 + x).max(0.25).ln();
+            let x = (f64::from(i) * 1e-4 * (1.0 + f64::from(i).abs() / 50.0)) as f32;
+            let exact = 0.5 * (1.0 + f64::from(x)).max(0.25).ln();
+            let tol = if widening_needs_log(x) { 6e-8 } else { 6e-9 };
             assert!(
-                (ln_widening(x) - exact).abs() < 2e-12,
+                (f64::from(ln_widening(x)) - exact).abs() < tol,
                 "{x}: {} vs {exact}",
                 ln_widening(x)
             );
         }
-        for (sampling, sigma, s) in [(Sampling::Point, 3.0, 0.5), (Sampling::Area, 0.3, 2.0)] {
+        for (sampling, sigma, s) in [
+            (Sampling::Point, 3.0, 0.5),
+            (Sampling::Point, 6.0, 0.5),
+            (Sampling::Area, 0.3, 2.0),
+        ] {
             let ss = s * sigma;
             let x = sampling.footprint_variance(s) / (ss * ss);
             let direct = (sampling.effective_sigma(sigma, s) / ss).ln();
-            assert!((ln_widening(x) - direct).abs() < 1e-12, "{sampling:?}");
+            // and the rounding of x to f32 (x = -0.69 here for Area, where
+            // the logarithm's slope is 1.6)
+            let got = f64::from(ln_widening(x as f32));
+            assert!((got - direct).abs() < 2e-7, "{sampling:?} {sigma}");
+        }
+    }
+
+    /// The parts of `footprint_variance(s) / s^2` give it back for every
+    /// sampling, on both sides of scale 1.
+    #[test]
+    fn footprint_parts_give_the_variance() {
+        for sampling in [
+            Sampling::Continuous,
+            Sampling::Point,
+            Sampling::Area,
+            Sampling::Averaged,
+        ] {
+            let (v, c, below) = sampling.footprint_over_s2();
+            for s in [0.1, 0.5, 0.999, 1.0, 1.5, 4.0] {
+                let parts = if s < below { v / (s * s) + c } else { 0.0 };
+                let want = sampling.footprint_variance(s) / (s * s);
+                assert!((parts - want).abs() < 1e-12, "{sampling:?} at {s}");
+            }
         }
     }
 

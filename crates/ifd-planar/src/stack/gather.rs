@@ -6,7 +6,7 @@
     reason = "AVX2 gathers and run-time dispatch; see the module documentation"
 )]
 
-use super::{Interpolation, LevelRule, ScaleStack};
+use super::{Interpolation, LevelRule, ScalePosition, ScaleStack};
 use crate::field::Field;
 
 /// Pixels per vector block.
@@ -201,6 +201,31 @@ impl RowLevels {
     }
 }
 
+/// Each pixel's `(t_s, widen)` of the row's `scales` by `rule`
+/// ([`ScalePosition::at`]; in AVX2 lanes where the CPU has them, the same
+/// values).
+///
+/// # Panics
+/// If the slices' lengths differ.
+pub(crate) fn scale_positions(
+    rule: ScalePosition,
+    scales: &[f32],
+    t_s: &mut [f32],
+    widen: &mut [f32],
+) {
+    let w = scales.len();
+    assert!(t_s.len() == w && widen.len() == w);
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if vector_kernels().is_some() {
+        // SAFETY: the CPU has AVX2 (checked just now).
+        done = unsafe { avx2::scale_positions(rule, scales, t_s, widen) };
+    }
+    for x in done..w {
+        (t_s[x], widen[x]) = rule.at(scales[x]);
+    }
+}
+
 /// Group `g`'s levels over the row by `rule` from each pixel's `t_s` and
 /// `widen` ([`LevelRule`]): the series branch for every pixel (in AVX2
 /// lanes where the CPU has them), then [`LevelRule::at`] again for the
@@ -213,37 +238,37 @@ impl RowLevels {
 /// groups.
 pub(crate) fn fill_levels(
     rule: LevelRule,
-    t_s: &[f64],
-    widen: &[f64],
+    t_s: &[f32],
+    widen: &[f32],
     levels: &mut RowLevels,
     g: usize,
 ) {
     let w = levels.w;
     assert!(t_s.len() == w && widen.len() == w && (g + 1) * w <= levels.a.len());
+    let mut done = 0;
     #[cfg(target_arch = "x86_64")]
     if vector_kernels().is_some() {
         // SAFETY: the CPU has AVX2 (checked just now).
-        unsafe { avx2::fill_levels(rule, t_s, widen, levels, g) };
-        return;
+        done = unsafe { avx2::fill_levels(rule, t_s, widen, levels, g) };
     }
-    series_levels(rule, t_s, widen, levels, g);
-    for x in 0..w {
+    series_levels(rule, &t_s[done..], &widen[done..], levels, g * w + done);
+    for x in done..w {
         if crate::kernel::widening_needs_log(widen[x] * rule.inv_sigma2) {
             levels.set(g * w + x, rule.at(t_s[x], widen[x]));
         }
     }
 }
 
-/// [`fill_levels`]' series pass on CPUs without AVX2.
-fn series_levels(rule: LevelRule, t_s: &[f64], widen: &[f64], levels: &mut RowLevels, g: usize) {
-    let w = levels.w;
-    let r = g * w..(g + 1) * w;
+/// [`fill_levels`]' series pass over pixels from group-major index `at`
+/// on (the row's tail, or all of it on CPUs without AVX2).
+fn series_levels(rule: LevelRule, t_s: &[f32], widen: &[f32], levels: &mut RowLevels, at: usize) {
+    let r = at..at + t_s.len();
     let (a, wa, wb) = (
         &mut levels.a[r.clone()],
         &mut levels.wa[r.clone()],
         &mut levels.wb[r],
     );
-    for x in 0..w {
+    for x in 0..t_s.len() {
         (a[x], _, wa[x], wb[x]) = rule.series(t_s[x], widen[x]);
     }
 }
@@ -305,17 +330,14 @@ mod avx2 {
     };
 
     use std::arch::x86_64::{
-        _CMP_GT_OQ, _CMP_LT_OQ, _mm_min_epi32, _mm_set1_epi32, _mm_storeu_ps, _mm_storeu_si128,
-        _mm_sub_epi32, _mm256_add_pd, _mm256_andnot_pd, _mm256_blendv_pd, _mm256_castpd_si256,
-        _mm256_cmp_pd, _mm256_cvtepi32_pd, _mm256_cvtpd_ps, _mm256_cvttpd_epi32, _mm256_loadu_pd,
-        _mm256_max_pd, _mm256_min_pd, _mm256_movemask_pd, _mm256_mul_pd, _mm256_or_pd,
-        _mm256_set1_pd, _mm256_setzero_pd, _mm256_sub_pd,
+        _CMP_GT_OQ, _CMP_LT_OQ, _mm256_andnot_ps, _mm256_div_ps, _mm256_max_ps, _mm256_min_ps,
+        _mm256_or_ps, _mm256_srai_epi32, _mm256_storeu_si256,
     };
 
-    use super::{FixedTerm, LANES, LevelRule, RowLevels, ScaledTerm};
+    use super::{FixedTerm, LANES, LevelRule, RowLevels, ScalePosition, ScaledTerm};
     use crate::field::Field;
-    use crate::kernel::LOG_FROM;
-    use crate::stack::locate::LEVEL_SNAP;
+    use crate::kernel::{LOG_FROM, WIDENING_FLOOR};
+    use crate::stack::locate::PIXEL_SNAP;
     use crate::stack::{Interpolation, Level, ScaleStack};
     use std::arch::x86_64::{
         _MM_FROUND_NO_EXC, _MM_FROUND_TO_NEAREST_INT, _mm256_blendv_ps, _mm256_cvtps_epi32,
@@ -849,97 +871,120 @@ mod avx2 {
         n
     }
 
-    /// The series pass of [`super::fill_levels`] in AVX2 lanes, four
-    /// pixels per vector: [`LevelRule::series`]'s operations in its order
-    /// (separate multiplies and adds, as the scalar code rounds them), so
-    /// the same bits; the row's last `w % 4` pixels by the scalar rule.
+    /// [`super::scale_positions`] for the row's first `w / 8 * 8` pixels:
+    /// [`ScalePosition::at`] operation by operation ([`crate::ln::ln`]'s
+    /// split of the bits and its series, then the widening's division and
+    /// select), so the same bits; the count done.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn scale_positions(
+        rule: ScalePosition,
+        scales: &[f32],
+        t_s: &mut [f32],
+        widen: &mut [f32],
+    ) -> usize {
+        use crate::ln::{ATANH, LN2_HI, LN2_LO, SQRT_HALF_BITS};
+        let k = _mm256_set1_ps;
+        let n = scales.len() / LANES * LANES;
+        let sqrt_half = _mm256_set1_epi32(SQRT_HALF_BITS as i32);
+        let mantissa = _mm256_set1_epi32(0x007f_ffff);
+        for x0 in (0..n).step_by(LANES) {
+            let s = load_at(scales, x0);
+            // ln::ln
+            let ix = _mm256_sub_epi32(
+                _mm256_castps_si256(_mm256_max_ps(s, k(f32::MIN_POSITIVE))),
+                sqrt_half,
+            );
+            let e = _mm256_cvtepi32_ps(_mm256_srai_epi32::<23>(ix));
+            let m =
+                _mm256_castsi256_ps(_mm256_add_epi32(_mm256_and_si256(ix, mantissa), sqrt_half));
+            let f = _mm256_div_ps(_mm256_sub_ps(m, k(1.0)), _mm256_add_ps(m, k(1.0)));
+            let z = _mm256_mul_ps(f, f);
+            let r = _mm256_add_ps(f, f);
+            let (top, rest) = ATANH.split_last().expect("coefficients");
+            let poly = rest.iter().rev().fold(k(*top), |acc, &c| {
+                _mm256_add_ps(k(c), _mm256_mul_ps(z, acc))
+            });
+            let p = _mm256_add_ps(r, _mm256_mul_ps(_mm256_mul_ps(r, z), poly));
+            let ln = _mm256_add_ps(
+                _mm256_mul_ps(e, k(LN2_HI)),
+                _mm256_add_ps(p, _mm256_mul_ps(e, k(LN2_LO))),
+            );
+            // ScalePosition::at
+            let ts = _mm256_mul_ps(_mm256_sub_ps(ln, k(rule.ln0)), k(rule.inv));
+            let wd = _mm256_add_ps(
+                _mm256_div_ps(k(rule.var), _mm256_mul_ps(s, s)),
+                k(rule.shift),
+            );
+            let wd = _mm256_and_ps(wd, _mm256_cmp_ps::<_CMP_LT_OQ>(s, k(rule.below)));
+            t_s[x0..x0 + LANES].copy_from_slice(&store(ts));
+            widen[x0..x0 + LANES].copy_from_slice(&store(wd));
+        }
+        n
+    }
+
+    /// [`super::fill_levels`] for the row's first `w / 8 * 8` pixels: the
+    /// series pass in AVX2 lanes, [`LevelRule::series`]'s operations in its
+    /// order (separate multiplies and adds, as the scalar code rounds
+    /// them), so the same bits, then [`LevelRule::at`] for the lanes whose
+    /// widening needs the logarithm; the count done.
     #[target_feature(enable = "avx2")]
     pub(super) fn fill_levels(
         rule: LevelRule,
-        t_s: &[f64],
-        widen: &[f64],
+        t_s: &[f32],
+        widen: &[f32],
         levels: &mut RowLevels,
         g: usize,
-    ) {
-        const PD: usize = 4;
+    ) -> usize {
+        let k = _mm256_set1_ps;
         let w = levels.w;
         let base = g * w;
-        let floor = _mm256_set1_pd(crate::kernel::WIDENING_FLOOR);
-        let (one, half) = (_mm256_set1_pd(1.0), _mm256_set1_pd(0.5));
-        let (third, fifth) = (_mm256_set1_pd(1.0 / 3.0), _mm256_set1_pd(1.0 / 5.0));
-        let (quarter, sixth) = (_mm256_set1_pd(0.25), _mm256_set1_pd(1.0 / 6.0));
-        let inv_sigma2 = _mm256_set1_pd(rule.inv_sigma2);
-        let (ln_sigma, inv) = (_mm256_set1_pd(rule.ln_sigma), _mm256_set1_pd(rule.inv));
-        let last = _mm256_set1_pd(f64::from(rule.last));
-        let below_last = _mm_set1_epi32((rule.last - 1) as i32);
-        let (snap_lo, snap_hi) = (_mm256_set1_pd(LEVEL_SNAP), _mm256_set1_pd(1.0 - LEVEL_SNAP));
-        let n = w / PD * PD;
-        let (needs_log, sign) = (_mm256_set1_pd(LOG_FROM), _mm256_set1_pd(-0.0));
-        for x0 in (0..n).step_by(PD) {
-            let ts: &[f64; PD] = t_s[x0..x0 + PD].try_into().expect("four lanes");
-            let wd: &[f64; PD] = widen[x0..x0 + PD].try_into().expect("four lanes");
-            // SAFETY: reads exactly the four doubles of `ts` and `wd`.
-            let (ts, wd) = unsafe { (_mm256_loadu_pd(ts.as_ptr()), _mm256_loadu_pd(wd.as_ptr())) };
+        let n = w / LANES * LANES;
+        let (floor, needs_log, sign) = (k(WIDENING_FLOOR), k(LOG_FROM), k(-0.0));
+        let (one, half, third, quarter) = (k(1.0), k(0.5), k(1.0 / 3.0), k(0.25));
+        let (inv_sigma2, ln_sigma, inv) = (k(rule.inv_sigma2), k(rule.ln_sigma), k(rule.inv));
+        let last = k(rule.last as f32);
+        let below_last = _mm256_set1_epi32((rule.last - 1) as i32);
+        let (snap_lo, snap_hi) = (k(PIXEL_SNAP), k(1.0 - PIXEL_SNAP));
+        for x0 in (0..n).step_by(LANES) {
+            let (ts, wd) = (load_at(t_s, x0), load_at(widen, x0));
             // kernel::ln_widening_series
-            let x = _mm256_max_pd(_mm256_mul_pd(wd, inv_sigma2), floor);
+            let x = _mm256_max_ps(_mm256_mul_ps(wd, inv_sigma2), floor);
             // kernel::widening_needs_log: |x| >= LOG_FROM
-            let log_lanes = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GE_OQ>(
-                _mm256_andnot_pd(sign, x),
+            let log_lanes = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(
+                _mm256_andnot_ps(sign, x),
                 needs_log,
             ));
-            let x2 = _mm256_mul_pd(x, x);
-            let odd = _mm256_mul_pd(
-                x,
-                _mm256_add_pd(
-                    one,
-                    _mm256_mul_pd(x2, _mm256_add_pd(third, _mm256_mul_pd(x2, fifth))),
-                ),
-            );
-            let even = _mm256_mul_pd(
-                x2,
-                _mm256_add_pd(
-                    half,
-                    _mm256_mul_pd(x2, _mm256_add_pd(quarter, _mm256_mul_pd(x2, sixth))),
-                ),
-            );
-            let lw = _mm256_mul_pd(half, _mm256_sub_pd(odd, even));
+            let x2 = _mm256_mul_ps(x, x);
+            let odd = _mm256_mul_ps(x, _mm256_add_ps(one, _mm256_mul_ps(x2, third)));
+            let even = _mm256_mul_ps(x2, _mm256_add_ps(half, _mm256_mul_ps(x2, quarter)));
+            let lw = _mm256_mul_ps(half, _mm256_sub_ps(odd, even));
             // LevelRule::bracket: the position, clamped (finite positions:
             // max/min are `clamp`), its level below, snapped
-            let u = _mm256_add_pd(ts, _mm256_mul_pd(_mm256_add_pd(ln_sigma, lw), inv));
-            let u = _mm256_min_pd(_mm256_max_pd(u, _mm256_setzero_pd()), last);
-            let i = _mm_min_epi32(_mm256_cvttpd_epi32(u), below_last);
-            let f = _mm256_sub_pd(u, _mm256_cvtepi32_pd(i));
-            let hi = _mm256_cmp_pd::<_CMP_GT_OQ>(f, snap_hi);
-            let snapped = _mm256_or_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(f, snap_lo), hi);
-            // the 64-bit `hi` masks as 32-bit lanes: a = i + 1 where set
-            let hi32 = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
-                _mm256_castpd_si256(hi),
-                _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6),
-            ));
-            let a = _mm_sub_epi32(i, hi32);
-            let wa = _mm256_cvtpd_ps(_mm256_blendv_pd(_mm256_sub_pd(one, f), one, snapped));
-            let wb = _mm256_cvtpd_ps(_mm256_blendv_pd(f, _mm256_setzero_pd(), snapped));
+            let u = _mm256_add_ps(ts, _mm256_mul_ps(_mm256_add_ps(ln_sigma, lw), inv));
+            let u = _mm256_min_ps(_mm256_max_ps(u, _mm256_setzero_ps()), last);
+            let i = _mm256_min_epi32(_mm256_cvttps_epi32(u), below_last);
+            let f = _mm256_sub_ps(u, _mm256_cvtepi32_ps(i));
+            let hi = _mm256_cmp_ps::<_CMP_GT_OQ>(f, snap_hi);
+            let snapped = _mm256_or_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(f, snap_lo), hi);
+            // a = i + 1 where `hi` is set (an all-ones lane is -1)
+            let a = _mm256_sub_epi32(i, _mm256_castps_si256(hi));
+            let wa = _mm256_blendv_ps(_mm256_sub_ps(one, f), one, snapped);
+            let wb = _mm256_blendv_ps(f, _mm256_setzero_ps(), snapped);
             let at = base + x0;
-            let (da, dwa, dwb) = (
-                &mut levels.a[at..at + PD],
-                &mut levels.wa[at..at + PD],
-                &mut levels.wb[at..at + PD],
-            );
-            // SAFETY: writes exactly the four elements of each slice.
-            unsafe {
-                _mm_storeu_si128(da.as_mut_ptr().cast(), a);
-                _mm_storeu_ps(dwa.as_mut_ptr(), wa);
-                _mm_storeu_ps(dwb.as_mut_ptr(), wb);
-            }
+            let da: &mut [u32; LANES] = (&mut levels.a[at..at + LANES])
+                .try_into()
+                .expect("eight lanes");
+            // SAFETY: writes exactly the eight integers of `da`.
+            unsafe { _mm256_storeu_si256(da.as_mut_ptr().cast(), a) };
+            levels.wa[at..at + LANES].copy_from_slice(&store(wa));
+            levels.wb[at..at + LANES].copy_from_slice(&store(wb));
             if log_lanes != 0 {
-                for x in (x0..x0 + PD).filter(|x| log_lanes & (1 << (x - x0)) != 0) {
+                for x in (x0..x0 + LANES).filter(|x| log_lanes & (1 << (x - x0)) != 0) {
                     levels.set(base + x, rule.at(t_s[x], widen[x]));
                 }
             }
         }
-        for x in n..w {
-            levels.set(base + x, rule.at(t_s[x], widen[x]));
-        }
+        n
     }
 
     /// The least and the largest of eight lanes.
@@ -1109,7 +1154,10 @@ mod avx2 {
 
 #[cfg(test)]
 mod tests {
-    use super::{LevelRule, RowLevels, fill_levels, rotations, series_levels};
+    use super::{
+        LevelRule, RowLevels, ScalePosition, fill_levels, rotations, scale_positions, series_levels,
+    };
+    use crate::Sampling;
     use crate::field::Field;
     use crate::trig::sin_cos_degrees;
 
@@ -1150,6 +1198,78 @@ mod tests {
         }
     }
 
+    /// Every pixel's `(t_s, widen)` from the vector rows (AVX2 where the
+    /// CPU has it) bit for bit [`ScalePosition::at`]'s, for every sampling:
+    /// scales across octaves, on both sides of 1, powers of two, tiny and
+    /// huge ones, a row whose length is not a multiple of the lanes.
+    #[test]
+    fn row_scale_positions_equal_the_rule_pixel_by_pixel() {
+        let mut scales = vec![
+            1.0,
+            0.5,
+            2.0,
+            0.999_999_9,
+            1.000_000_1,
+            std::f32::consts::FRAC_1_SQRT_2,
+            std::f32::consts::SQRT_2,
+            1e-30,
+            3e30,
+        ];
+        let mut state = 0x7f4a_7c15_u64;
+        while scales.len() < 75 {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            let u = (state >> 11) as f64 / (1u64 << 53) as f64;
+            scales.push((0.25 * 16f64.powf(u)) as f32);
+        }
+        let w = scales.len();
+        for sampling in [
+            Sampling::Continuous,
+            Sampling::Point,
+            Sampling::Area,
+            Sampling::Averaged,
+        ] {
+            let rule = ScalePosition::new(sampling, (1.5f64.ln(), 1.0 / 2f64.sqrt().ln()));
+            let (mut t_s, mut widen) = (vec![0.0; w], vec![0.0; w]);
+            scale_positions(rule, &scales, &mut t_s, &mut widen);
+            for x in 0..w {
+                let (want_t, want_w) = rule.at(scales[x]);
+                assert_eq!(
+                    (t_s[x].to_bits(), widen[x].to_bits()),
+                    (want_t.to_bits(), want_w.to_bits()),
+                    "{sampling:?}, pixel {x}: scale {}",
+                    scales[x]
+                );
+            }
+        }
+    }
+
+    /// [`ScalePosition`] against the `f64` formulas it stands for: `t_s`
+    /// within a few `f32` units, `widen` within `f32` rounding.
+    #[test]
+    fn scale_positions_match_the_f64_formulas() {
+        let (ln0, inv) = (1.5f64.ln(), 1.0 / 2f64.sqrt().ln());
+        for sampling in [Sampling::Point, Sampling::Area, Sampling::Averaged] {
+            let rule = ScalePosition::new(sampling, (ln0, inv));
+            for i in 0..=2000 {
+                let s = 0.25 + i as f32 * 0.002;
+                let (t_s, widen) = rule.at(s);
+                let s64 = f64::from(s);
+                let want_t = (s64.ln() - ln0) * inv;
+                let want_w = sampling.footprint_variance(s64) / (s64 * s64);
+                assert!(
+                    (f64::from(t_s) - want_t).abs() < 2e-6,
+                    "{sampling:?} {s}: t_s"
+                );
+                assert!(
+                    (f64::from(widen) - want_w).abs() < 1e-6 * want_w.abs().max(0.1),
+                    "{sampling:?} {s}: widen {widen} vs {want_w}"
+                );
+            }
+        }
+    }
+
     /// Every pixel's levels and weights, from the vector rows (AVX2 where
     /// the CPU has it) and from the baseline series pass, bit for bit
     /// [`LevelRule::at`]'s: positions below the first level and past the
@@ -1159,24 +1279,28 @@ mod tests {
     #[test]
     fn row_levels_equal_the_rule_pixel_by_pixel() {
         let rule = LevelRule {
-            ln_sigma: 1.3_f64.ln(),
+            ln_sigma: 1.3_f32.ln(),
             inv_sigma2: 1.0 / (1.3 * 1.3),
-            inv: 1.0 / 2f64.sqrt().ln(),
+            inv: 1.0 / 2f32.sqrt().ln(),
             last: 6,
         };
-        let on_level = |k: f64| k - rule.ln_sigma * rule.inv;
-        let mut t_s = vec![-3.0, -0.7, 9.0, 40.0, on_level(2.0), on_level(3.0) + 5e-7];
-        t_s.extend([on_level(3.0) - 5e-7, on_level(4.0) + 2e-6, on_level(0.0)]);
+        let on_level = |k: f32| k - rule.ln_sigma * rule.inv;
+        let mut t_s = vec![-3.0, -0.7, 9.0, 40.0, on_level(2.0), on_level(3.0) + 2e-5];
+        t_s.extend([on_level(3.0) - 2e-5, on_level(4.0) + 6e-5, on_level(0.0)]);
+        // just outside the snap, either side of a level
+        t_s.extend([on_level(3.0) - 4.5e-5, on_level(5.0) + 4.5e-5, on_level(1.0) + 1.5e-5]);
         let mut state = 0x2545_f491_u64;
         while t_s.len() < 67 {
             state = state
                 .wrapping_mul(6_364_136_223_846_793_005)
                 .wrapping_add(1);
-            t_s.push((state >> 11) as f64 / (1u64 << 53) as f64 * 8.0 - 1.0);
+            t_s.push(((state >> 11) as f64 / (1u64 << 53) as f64 * 8.0 - 1.0) as f32);
         }
         let w = t_s.len();
-        let widen: Vec<f64> = (0..w)
+        // no widening for the positions placed above, then each kind
+        let widen: Vec<f32> = (0..w)
             .map(|x| match x % 5 {
+                _ if x < 12 => 0.0,
                 0 => 0.0,
                 1 => 1.0 / 12.0,
                 2 => 0.02,
@@ -1184,18 +1308,20 @@ mod tests {
                 _ => -0.999, // past the floor
             })
             .collect();
+        let mut snapped = 0;
         for pass in 0..2 {
             let mut levels = RowLevels::new(2, w);
             if pass == 0 {
                 fill_levels(rule, &t_s, &widen, &mut levels, 1);
             } else {
-                series_levels(rule, &t_s, &widen, &mut levels, 1);
+                series_levels(rule, &t_s, &widen, &mut levels, w);
             }
             for x in 0..w {
                 let (a, b, wa, wb) = rule.at(t_s[x], widen[x]);
                 if pass == 1 && crate::kernel::widening_needs_log(widen[x] * rule.inv_sigma2) {
                     continue; // the series pass leaves these to fill_levels
                 }
+                snapped += usize::from(wb == 0.0);
                 let got = levels.at(1, x);
                 assert_eq!(
                     (got.0, got.1, got.2.to_bits(), got.3.to_bits()),
@@ -1208,5 +1334,7 @@ mod tests {
             // group 0 untouched
             assert!(levels.at(0, 0) == (0, 0, 0.0, 0.0));
         }
+        // the on-level and clamped positions snap (the case is not vacuous)
+        assert!(snapped >= 6, "{snapped}");
     }
 }

@@ -1,5 +1,6 @@
 //! Locating a sigma among the levels: the bracketing pair and its weights,
-//! snapped to a level within `LEVEL_SNAP`.
+//! snapped to a level within `LEVEL_SNAP` (`PIXEL_SNAP` for the per-pixel
+//! rule's `f32` positions), and where a per-pixel scale puts the levels.
 
 /// Locates sigmas among the levels of a [`ScaleStack`](super::ScaleStack)
 /// ([`ScaleStack::locator`](super::ScaleStack::locator)) exactly as the stack's own lookups do.
@@ -73,8 +74,8 @@ pub(crate) const LEVEL_SNAP: f64 = 1e-6;
 /// `(a, b, wa, wb)` for position `i + f` (`0 <= f <= 1`) between levels `i`
 /// and `i + 1`, snapped to a level within [`LEVEL_SNAP`]: then `wb == 0`
 /// (and `b == a`), so callers that skip zero weights do one lookup. Written
-/// with selects, no branches (`gather::fill_levels` writes the same
-/// selects in AVX2 lanes); 32-bit levels (a stack has a few dozen).
+/// with selects, no branches (the per-pixel [`LevelRule`] makes the same
+/// selects on `f32` positions); 32-bit levels (a stack has a few dozen).
 #[inline]
 fn snap_to_level(i: u32, f: f64) -> (u32, u32, f32, f32) {
     let (lo, hi) = (f < LEVEL_SNAP, f > 1.0 - LEVEL_SNAP);
@@ -86,25 +87,82 @@ fn snap_to_level(i: u32, f: f64) -> (u32, u32, f32, f32) {
     (a, b, wa, wb)
 }
 
+/// Within this fraction of a level's spacing, the per-pixel level rule
+/// ([`LevelRule`]) reads a position from that level alone. Its positions
+/// are `f32` sums of a few rounded terms, a few units of `2^-23` times the
+/// level index (at most a few dozen) off, so its snap is wider than
+/// [`LEVEL_SNAP`]: a sigma on a level up to that rounding still costs one
+/// lookup, for an error of at most this fraction of the difference between
+/// neighbouring levels.
+pub(crate) const PIXEL_SNAP: f32 = 3e-5;
+
+/// Where a per-pixel scale `s` puts the levels of a log-uniform stack, in
+/// `f32`: `t_s = (ln s - ln sigma_0) / ln r` and `widen`, the pixel
+/// footprint's variance at `s` over `s^2`
+/// ([`Sampling::footprint_variance`](crate::Sampling::footprint_variance)),
+/// the two per-pixel inputs of [`LevelRule`]. One sequence of operations
+/// ([`crate::ln::ln`], then a multiply and an add; a division for the
+/// widening) that the scalar loop ([`Self::at`]) and the vector rows
+/// (`gather::scale_positions`, AVX2) both follow.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ScalePosition {
+    /// `ln sigma_0`.
+    pub(crate) ln0: f32,
+    /// `1 / ln r`.
+    pub(crate) inv: f32,
+    /// `widen = var / s^2 + shift` for `s < below`, 0 from `below` on.
+    pub(crate) var: f32,
+    pub(crate) shift: f32,
+    pub(crate) below: f32,
+}
+
+impl ScalePosition {
+    /// The rule for `sampling` on a stack with `(ln sigma_0, 1 / ln r)`.
+    pub(crate) fn new(sampling: crate::Sampling, (ln0, inv): (f64, f64)) -> Self {
+        let (var, shift, below) = sampling.footprint_over_s2();
+        Self {
+            ln0: ln0 as f32,
+            inv: inv as f32,
+            var: var as f32,
+            shift: shift as f32,
+            below: below as f32,
+        }
+    }
+
+    /// `(t_s, widen)` at scale `s`.
+    #[inline]
+    pub(crate) fn at(self, s: f32) -> (f32, f32) {
+        let t_s = (crate::ln::ln(s) - self.ln0) * self.inv;
+        let widen = if s < self.below {
+            self.var / (s * s) + self.shift
+        } else {
+            0.0
+        };
+        (t_s, widen)
+    }
+}
+
 /// The per-pixel level rule of one sigma on a log-uniform stack of several
 /// levels, for a per-pixel scale `s`: position `t_s + (ln sigma + ln w) /
-/// ln r` among the levels (`t_s = (ln s - ln sigma_0) / ln r`, `w =
+/// ln r` among the levels (`t_s` and `widen` from [`ScalePosition`], `w =
 /// sigma_eff / (s sigma)` the pixel footprint's widening,
-/// [`crate::kernel::ln_widening`] of `widen = footprint variance / s^2`
-/// times `1 / sigma^2`), clamped, then bracketed and snapped by
-/// [`snap_to_level`], branch-free. The scalar loop ([`Self::at`]) and
-/// the vector path's rows (`gather::fill_levels`: [`Self::series`] over the
-/// row, then [`Self::at`] again where the widening needs its logarithm)
-/// take the same values bit for bit (the rows write the series and the
-/// bracket's operations in AVX2 lanes, in the same order).
+/// [`crate::kernel::ln_widening`] of `widen` times `1 / sigma^2`),
+/// clamped, then bracketed and snapped within [`PIXEL_SNAP`], branch-free,
+/// all in `f32` (the positions' rounding moves a weight by about `1e-6`,
+/// below what the `f32` weights carry anyway past a few levels). The
+/// scalar loop ([`Self::at`]) and the vector path's rows
+/// (`gather::fill_levels`: [`Self::series`] over the row, then
+/// [`Self::at`] again where the widening needs its logarithm) take the
+/// same values bit for bit (the rows write the series and the bracket's
+/// operations in AVX2 lanes, in the same order).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LevelRule {
     /// `ln sigma`.
-    pub(crate) ln_sigma: f64,
+    pub(crate) ln_sigma: f32,
     /// `1 / sigma^2`.
-    pub(crate) inv_sigma2: f64,
+    pub(crate) inv_sigma2: f32,
     /// `1 / ln r`.
-    pub(crate) inv: f64,
+    pub(crate) inv: f32,
     /// The last level's index (at least 1).
     pub(crate) last: u32,
 }
@@ -112,34 +170,35 @@ pub(crate) struct LevelRule {
 impl LevelRule {
     /// `(a, b, wa, wb)` at `t_s` and `widen`.
     #[inline]
-    pub(crate) fn at(self, t_s: f64, widen: f64) -> (u32, u32, f32, f32) {
-        if widen == 0.0 {
-            // the series is 0 here: `ln sigma + 0` is `ln sigma`, the same bits
-            return self.bracket(t_s + self.ln_sigma * self.inv);
-        }
-        let x = widen * self.inv_sigma2;
-        if crate::kernel::widening_needs_log(x) {
-            self.bracket(t_s + (self.ln_sigma + crate::kernel::ln_widening(x)) * self.inv)
-        } else {
-            self.series(t_s, widen)
-        }
+    pub(crate) fn at(self, t_s: f32, widen: f32) -> (u32, u32, f32, f32) {
+        let lw = crate::kernel::ln_widening(widen * self.inv_sigma2);
+        self.bracket(t_s + (self.ln_sigma + lw) * self.inv)
     }
 
     /// [`Self::at`] where the widening takes its series (branch-free, for
     /// vector lanes).
     #[inline]
-    pub(crate) fn series(self, t_s: f64, widen: f64) -> (u32, u32, f32, f32) {
+    pub(crate) fn series(self, t_s: f32, widen: f32) -> (u32, u32, f32, f32) {
         let lw = crate::kernel::ln_widening_series(widen * self.inv_sigma2);
         self.bracket(t_s + (self.ln_sigma + lw) * self.inv)
     }
 
-    /// The levels bracketing position `u` and their weights: [`snap_to_level`]
-    /// of `u` clamped to the levels.
+    /// The levels bracketing position `u` and their weights: `u` clamped
+    /// to the levels, the level below it (32-bit conversions: vector lanes
+    /// convert 32-bit integers) and the fraction above that level, snapped
+    /// within [`PIXEL_SNAP`] as [`snap_to_level`] snaps within
+    /// [`LEVEL_SNAP`].
     #[inline]
-    fn bracket(self, u: f64) -> (u32, u32, f32, f32) {
-        let u = u.clamp(0.0, f64::from(self.last));
-        // 32-bit conversions (vector lanes convert 32-bit integers)
+    fn bracket(self, u: f32) -> (u32, u32, f32, f32) {
+        let u = u.clamp(0.0, self.last as f32);
         let i = (u as u32).min(self.last - 1);
-        snap_to_level(i, u - f64::from(i))
+        let f = u - i as f32;
+        let (lo, hi) = (f < PIXEL_SNAP, f > 1.0 - PIXEL_SNAP);
+        let a = if hi { i + 1 } else { i };
+        let b = if lo { i } else { i + 1 };
+        let snapped = lo || hi;
+        let wa = if snapped { 1.0 } else { 1.0 - f };
+        let wb = if snapped { 0.0 } else { f };
+        (a, b, wa, wb)
     }
 }

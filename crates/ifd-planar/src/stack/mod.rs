@@ -14,7 +14,7 @@ mod separable;
 
 pub(crate) use build::check_finite;
 pub use locate::LevelLocator;
-pub(crate) use locate::LevelRule;
+pub(crate) use locate::{LevelRule, ScalePosition};
 pub use plan::{Interpolation, LevelLayout, MIN_SIGMA, StackLayout, StackOptions, StackPlan};
 pub(crate) use plan::{bspline_weights, pyramid_step};
 pub use separable::StackBuild;
