@@ -18,9 +18,8 @@ use crate::stack::{Interpolation, StackOptions, pyramid_step};
 /// ```
 #[must_use]
 pub fn lookup_error(interpolation: Interpolation, r: f64) -> f64 {
-    use std::f64::consts::{PI, TAU};
-    const NU: usize = 256;
-    const PHASES: usize = 16;
+    use std::f64::consts::PI;
+    let table = frequency_table();
     let mut num = 0.0;
     let mut den = 0.0;
     for i in 0..NU {
@@ -31,30 +30,64 @@ pub fn lookup_error(interpolation: Interpolation, r: f64) -> f64 {
             .sum();
         let g2 = g * g;
         den += g2 * PHASES as f64;
+        let taps = &table.taps[i];
         for p in 0..PHASES {
             let phi = p as f64 / PHASES as f64;
             let (re, im) = match interpolation {
                 Interpolation::Linear => {
-                    let (s, c) = (TAU * nu).sin_cos();
+                    let (s, c) = taps[2];
                     (1.0 - phi + phi * c, phi * s)
                 }
                 Interpolation::Cubic => {
                     let w = crate::stack::bspline_weights(phi as f32);
                     let (mut re, mut im) = (0.0, 0.0);
-                    for (k, wk) in (-1..=2).zip(w) {
-                        let (s, c) = (TAU * nu * f64::from(k)).sin_cos();
+                    for (&(s, c), wk) in taps.iter().zip(w) {
                         re += f64::from(wk) * c;
                         im += f64::from(wk) * s;
                     }
-                    let b0 = 2.0 / 3.0 + (TAU * nu).cos() / 3.0;
+                    let b0 = 2.0 / 3.0 + (std::f64::consts::TAU * nu).cos() / 3.0;
                     (re / b0, im / b0)
                 }
             };
-            let (s, c) = (TAU * nu * phi).sin_cos();
+            let (s, c) = table.shift[i * PHASES + p];
             num += g2 * ((re - c).powi(2) + (im - s).powi(2));
         }
     }
     (num / den).sqrt()
+}
+
+/// [`lookup_error`]'s frequencies (midpoints of `[-1/2, 1/2]`).
+const NU: usize = 256;
+/// [`lookup_error`]'s fractional phases.
+const PHASES: usize = 16;
+
+/// The sines and cosines [`lookup_error`] reads, which do not depend on
+/// `r`: computed once per process (a plan tries a few dozen `r`).
+struct FrequencyTable {
+    /// `sin_cos(2 pi nu k)` for the interpolation taps `k = -1..=2`, per
+    /// frequency.
+    taps: Vec<[(f64, f64); 4]>,
+    /// `sin_cos(2 pi nu phi)`, per frequency and phase.
+    shift: Vec<(f64, f64)>,
+}
+
+fn frequency_table() -> &'static FrequencyTable {
+    use std::f64::consts::TAU;
+    static TABLE: std::sync::OnceLock<FrequencyTable> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let nus = (0..NU).map(|i| (i as f64 + 0.5) / NU as f64 - 0.5);
+        FrequencyTable {
+            taps: nus
+                .clone()
+                .map(|nu| [-1.0, 0.0, 1.0, 2.0].map(|k: f64| (TAU * nu * k).sin_cos()))
+                .collect(),
+            shift: nus
+                .flat_map(|nu| {
+                    (0..PHASES).map(move |p| (TAU * nu * (p as f64 / PHASES as f64)).sin_cos())
+                })
+                .collect(),
+        }
+    })
 }
 
 /// Relative RMS error of reading a Gaussian between two levels of a

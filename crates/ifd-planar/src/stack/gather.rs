@@ -1288,7 +1288,11 @@ mod tests {
         let mut t_s = vec![-3.0, -0.7, 9.0, 40.0, on_level(2.0), on_level(3.0) + 2e-5];
         t_s.extend([on_level(3.0) - 2e-5, on_level(4.0) + 6e-5, on_level(0.0)]);
         // just outside the snap, either side of a level
-        t_s.extend([on_level(3.0) - 4.5e-5, on_level(5.0) + 4.5e-5, on_level(1.0) + 1.5e-5]);
+        t_s.extend([
+            on_level(3.0) - 4.5e-5,
+            on_level(5.0) + 4.5e-5,
+            on_level(1.0) + 1.5e-5,
+        ]);
         let mut state = 0x2545_f491_u64;
         while t_s.len() < 67 {
             state = state
