@@ -319,8 +319,8 @@ mod avx2 {
     use std::arch::x86_64::{
         __m256, __m256i, _CMP_GE_OQ, _CMP_NEQ_OQ, _mm256_add_epi32, _mm256_add_ps, _mm256_and_ps,
         _mm256_and_si256, _mm256_andnot_si256, _mm256_castps_si256, _mm256_castsi256_ps,
-        _mm256_castsi256_si128, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cmpgt_epi32,
-        _mm256_cvtepi32_ps, _mm256_cvtsi256_si32, _mm256_cvttps_epi32, _mm256_extracti128_si256,
+        _mm256_castsi256_si128, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cvtepi32_ps,
+        _mm256_cvtsi256_si32, _mm256_cvttps_epi32, _mm256_extracti128_si256,
         _mm256_i32gather_epi64, _mm256_i32gather_ps, _mm256_loadu_ps, _mm256_loadu_si256,
         _mm256_max_epi32, _mm256_min_epi32, _mm256_movemask_epi8, _mm256_movemask_ps,
         _mm256_mul_ps, _mm256_mullo_epi32, _mm256_permute2x128_si256, _mm256_permutevar8x32_epi32,
@@ -330,8 +330,8 @@ mod avx2 {
     };
 
     use std::arch::x86_64::{
-        _CMP_GT_OQ, _CMP_LT_OQ, _mm256_andnot_ps, _mm256_div_ps, _mm256_max_ps, _mm256_min_ps,
-        _mm256_or_ps, _mm256_srai_epi32, _mm256_storeu_si256,
+        _CMP_GT_OQ, _CMP_LT_OQ, _mm256_andnot_ps, _mm256_div_ps, _mm256_max_ps, _mm256_min_epu32,
+        _mm256_min_ps, _mm256_or_ps, _mm256_srai_epi32, _mm256_storeu_si256,
     };
 
     use super::{FixedTerm, LANES, LevelRule, RowLevels, ScalePosition, ScaledTerm};
@@ -340,8 +340,8 @@ mod avx2 {
     use crate::stack::locate::PIXEL_SNAP;
     use crate::stack::{Interpolation, Level, ScaleStack};
     use std::arch::x86_64::{
-        _MM_FROUND_NO_EXC, _MM_FROUND_TO_NEAREST_INT, _mm256_blendv_ps, _mm256_cvtps_epi32,
-        _mm256_round_ps, _mm256_slli_epi32, _mm256_xor_ps,
+        _MM_FROUND_NO_EXC, _MM_FROUND_TO_NEAREST_INT, _MM_FROUND_TO_NEG_INF, _mm256_blendv_ps,
+        _mm256_cvtps_epi32, _mm256_round_ps, _mm256_slli_epi32, _mm256_xor_ps,
     };
 
     /// Eight floats into a vector.
@@ -391,11 +391,16 @@ mod avx2 {
         }
     }
 
-    /// Level coordinates `(u, v)` of `(px, py)` and their floors `(iu, iv)`
-    /// when every lane's stencil, `before` samples before and `after` after
-    /// the one below the point (0 and 1 bilinear, 1 and 2 cubic), lies in
-    /// the stored level: the scalar lookups' test `u >= before`, `v >=
-    /// before`, `iu + after < nx`, `iv + after < ny`, lane by lane.
+    /// The fractions `(fu, fv)` of the level coordinates `(u, v)` of
+    /// `(px, py)` and their floors `(iu, iv)` when every lane's stencil,
+    /// `before` samples before and `after` after the one below the point (0
+    /// and 1 bilinear, 1 and 2 cubic), lies in the stored level: the scalar
+    /// lookups' test `u >= before`, `v >= before`, `iu + after < nx`,
+    /// `iv + after < ny`, lane by lane, as one unsigned compare per axis of
+    /// `floor(u) - before` against `nx - 1 - after - before` (a negative
+    /// floor wraps above it; NaN and values past `i32` convert to
+    /// `i32::MIN`, which does too). Where it holds, `u >= 0`, so
+    /// `u - floor(u)` is the scalar lookup's `u - trunc(u)`.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn stencil_inside(
@@ -410,29 +415,21 @@ mod avx2 {
         let inv = _mm256_set1_ps(level.inv_step);
         let u = _mm256_mul_ps(_mm256_sub_ps(px, origin), inv);
         let v = _mm256_mul_ps(_mm256_sub_ps(py, origin), inv);
-        let lo = _mm256_set1_ps(before as f32);
-        // Truncation of a value >= 0 is its floor; out-of-range values
-        // become i32::MIN and fail the integer tests.
-        let iu = _mm256_cvttps_epi32(u);
-        let iv = _mm256_cvttps_epi32(v);
-        let least = _mm256_set1_epi32(before - 1);
-        let inside = _mm256_and_si256(
-            _mm256_and_si256(
-                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(u, lo)),
-                _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(v, lo)),
-            ),
-            _mm256_and_si256(
-                _mm256_and_si256(
-                    _mm256_cmpgt_epi32(iu, least),
-                    _mm256_cmpgt_epi32(_mm256_set1_epi32(nx - after), iu),
-                ),
-                _mm256_and_si256(
-                    _mm256_cmpgt_epi32(iv, least),
-                    _mm256_cmpgt_epi32(_mm256_set1_epi32(ny - after), iv),
-                ),
-            ),
+        let (fl_u, fl_v) = (
+            _mm256_round_ps::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(u),
+            _mm256_round_ps::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(v),
         );
-        (_mm256_movemask_epi8(inside) == -1).then_some((u, v, iu, iv))
+        let (iu, iv) = (_mm256_cvtps_epi32(fl_u), _mm256_cvtps_epi32(fl_v));
+        let within = |i: __m256i, n: i32| {
+            let d = _mm256_sub_epi32(i, _mm256_set1_epi32(before));
+            _mm256_cmpeq_epi32(
+                _mm256_min_epu32(d, _mm256_set1_epi32(n - 1 - after - before)),
+                d,
+            )
+        };
+        let inside = _mm256_and_si256(within(iu, nx), within(iv, ny));
+        (_mm256_movemask_epi8(inside) == -1)
+            .then(|| (_mm256_sub_ps(u, fl_u), _mm256_sub_ps(v, fl_v), iu, iv))
     }
 
     /// The bilinear lookups of `level` (see [`lookup`]).
@@ -464,9 +461,7 @@ mod avx2 {
         py: __m256,
     ) -> Option<(__m256, __m256, __m256i)> {
         let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
-        let (u, v, iu, iv) = stencil_inside(level, px, py, 0, 1)?;
-        let fu = _mm256_sub_ps(u, _mm256_cvtepi32_ps(iu));
-        let fv = _mm256_sub_ps(v, _mm256_cvtepi32_ps(iv));
+        let (fu, fv, iu, iv) = stencil_inside(level, px, py, 0, 1)?;
         let idx = _mm256_add_epi32(_mm256_mullo_epi32(iv, _mm256_set1_epi32(nx)), iu);
         // Memory safety: every read of `bilinear_at` is at most `nx + 1`
         // samples (times C, plus C - 1) past `idx <= nx (ny - 1) - 2`, inside
@@ -594,11 +589,10 @@ mod avx2 {
         acc: &mut [__m256; C],
     ) -> bool {
         let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
-        let Some((u, v, iu, iv)) = stencil_inside(level, px, py, 1, 2) else {
+        let Some((fu, fv, iu, iv)) = stencil_inside(level, px, py, 1, 2) else {
             return false;
         };
-        let wx = bspline(_mm256_sub_ps(u, _mm256_cvtepi32_ps(iu)));
-        let wy = bspline(_mm256_sub_ps(v, _mm256_cvtepi32_ps(iv)));
+        let (wx, wy) = (bspline(fu), bspline(fv));
         // Sample (iu - 1, iv - 1) of each lane. Memory safety: every read
         // below is at most `3 nx + 3` samples (times C, plus C - 1) past
         // `base <= nx ny - 3 nx - 4`, inside the level's `nx ny C` samples.
