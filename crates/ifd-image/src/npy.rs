@@ -103,9 +103,9 @@ pub(crate) fn read_header(
     })
 }
 
-/// Reads `n` elements of `header`'s type, decoded by `decode` (all of them
-/// at once, from their bytes), checking the
-/// memory budget first (`extra` bytes per element for the decoded copy).
+/// Reads `n` elements of `header`'s type, decoded by `decode` a chunk at a
+/// time (appending to the values), checking the memory budget first
+/// (`extra` bytes per element for the decoded copy).
 fn read_values<T>(
     file: &mut std::fs::File,
     header: &Header,
@@ -113,7 +113,7 @@ fn read_values<T>(
     budget: MemoryBudget,
     extra: u64,
     bad: &dyn Fn(String) -> ImageError,
-    decode: impl Fn(&[u8], Dtype, bool) -> Vec<T>,
+    decode: impl Fn(&[u8], Dtype, bool, &mut Vec<T>),
 ) -> Result<Vec<T>, ImageError> {
     let size = header.dtype.size();
     let need = (n as u64).saturating_mul(size as u64);
@@ -131,40 +131,57 @@ fn read_values<T>(
         )));
     }
     budget.check((n as u64).saturating_mul(extra + size as u64))?;
-    let mut raw = vec![0u8; n * size];
-    file.read_exact(&mut raw).map_err(|_| {
-        bad(format!(
-            "truncated: shape {:?} needs {} data bytes",
-            header.shape,
-            n * size
-        ))
-    })?;
-    Ok(decode(&raw, header.dtype, header.big_endian))
+    // Read and decode a chunk at a time: no buffer of the whole file's
+    // bytes beside the values (a second allocation, and its page faults,
+    // as large as the array).
+    let mut values = Vec::with_capacity(n);
+    let mut raw = vec![0u8; n.min(READ_CHUNK) * size];
+    let mut left = n;
+    while left > 0 {
+        let k = left.min(READ_CHUNK);
+        let raw = &mut raw[..k * size];
+        file.read_exact(raw).map_err(|_| {
+            bad(format!(
+                "truncated: shape {:?} needs {} data bytes",
+                header.shape,
+                n * size
+            ))
+        })?;
+        decode(raw, header.dtype, header.big_endian, &mut values);
+        left -= k;
+    }
+    Ok(values)
 }
 
-/// Every element of `raw` as `f32` ([`decode_value`]); little-endian
-/// `float32`, the common case, by a loop of its own (a plain conversion,
-/// not a `match` per element).
-fn decode_f32_values(raw: &[u8], dtype: Dtype, big: bool) -> Vec<f32> {
+/// Elements read and decoded at a time.
+const READ_CHUNK: usize = 1 << 16;
+
+/// Every element of `raw` as `f32` ([`decode_value`]), appended to `out`;
+/// little-endian `float32`, the common case, by a loop of its own (a plain
+/// conversion, not a `match` per element).
+fn decode_f32_values(raw: &[u8], dtype: Dtype, big: bool, out: &mut Vec<f32>) {
     if dtype == Dtype::F32 && !big {
         // into a filled buffer, lane by lane (this loop vectorises; a
         // collecting iterator did not)
-        let mut out = vec![0.0f32; raw.len() / 4];
-        for (o, b) in out.iter_mut().zip(raw.chunks_exact(4)) {
+        let start = out.len();
+        out.resize(start + raw.len() / 4, 0.0);
+        for (o, b) in out[start..].iter_mut().zip(raw.chunks_exact(4)) {
             *o = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
         }
-        return out;
+        return;
     }
-    raw.chunks_exact(dtype.size())
-        .map(|b| decode_value(b, dtype, big))
-        .collect()
+    out.extend(
+        raw.chunks_exact(dtype.size())
+            .map(|b| decode_value(b, dtype, big)),
+    );
 }
 
-/// Every element of `raw` as `f64` ([`decode_f64`]).
-fn decode_f64_values(raw: &[u8], dtype: Dtype, big: bool) -> Vec<f64> {
-    raw.chunks_exact(dtype.size())
-        .map(|b| decode_f64(b, dtype, big))
-        .collect()
+/// Every element of `raw` as `f64` ([`decode_f64`]), appended to `out`.
+fn decode_f64_values(raw: &[u8], dtype: Dtype, big: bool, out: &mut Vec<f64>) {
+    out.extend(
+        raw.chunks_exact(dtype.size())
+            .map(|b| decode_f64(b, dtype, big)),
+    );
 }
 
 /// `values` stored in Fortran order (first index fastest) for `shape`,
@@ -501,8 +518,8 @@ mod tests {
         assert_eq!(buf.len(), 10 + hl + 6 * 4);
     }
 
-    /// Float32 and float64 arrays of several write chunks and a partial
-    /// last one come back bit for bit, signed zeros and non-finite values
+    /// Float32 and float64 arrays of several write (and read) chunks and a
+    /// partial last one come back bit for bit, signed zeros and non-finite values
     /// included (the chunked encoder and the lane-by-lane decoder).
     #[test]
     fn values_round_trip_across_chunks() {
@@ -521,14 +538,17 @@ mod tests {
         let hl = u16::from_le_bytes([buf[8], buf[9]]) as usize;
         let body = &buf[10 + hl..];
         assert_eq!(body.len(), w * h * c * 4);
-        let back = decode_f32_values(body, Dtype::F32, false);
+        let mut back = Vec::new();
+        decode_f32_values(body, Dtype::F32, false, &mut back);
         let bits = |d: &[f32]| d.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&back), bits(img.data()));
 
         let dir = tempfile::tempdir().expect("dir");
         let path = dir.path().join("d.npy");
-        let data: Vec<f64> = (0..9001).map(|i| f64::from(i) * -0.37).collect();
-        write_npy_f64(&path, &[9001], &data).expect("write");
+        // more values than a read chunk, and a partial last chunk
+        let n = READ_CHUNK + 1001;
+        let data: Vec<f64> = (0..n).map(|i| i as f64 * -0.37).collect();
+        write_npy_f64(&path, &[n], &data).expect("write");
         let a = read_npy_array(&path, MemoryBudget::default_for_machine()).expect("read");
         assert_eq!(a.data, data);
     }
