@@ -12,10 +12,14 @@ use std::process::ExitCode;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
+mod alloc;
 mod commands;
 mod input;
 mod options;
 mod output;
+
+#[global_allocator]
+static ALLOCATOR: alloc::HugePages = alloc::HugePages;
 
 /// Isotropic filter decomposition: apply huge, anisotropic, rotated, scaled,
 /// spatially varying filters at the cost of a few lookups per pixel.
