@@ -72,6 +72,9 @@ pub struct Filter<'a> {
     /// sigma only, so they are located once per distinct sigma.
     sigma_groups: Vec<Prepared>,
     scaled_terms: Vec<ScaledTerm>,
+    /// Where a per-pixel scale puts the levels of this stack (used where
+    /// the stack is log-uniform).
+    scale_position: ScalePosition,
 }
 
 impl<'a> Filter<'a> {
@@ -121,6 +124,7 @@ impl<'a> Filter<'a> {
             vector: true,
             sigma_groups,
             scaled_terms,
+            scale_position: ScalePosition::new(d.sampling(), stack.ln_params()),
         })
     }
 
@@ -523,7 +527,7 @@ impl<'a> Filter<'a> {
                 // the scalar loop's rule (the same values).
                 let scales = &m[y * w..(y + 1) * w];
                 row_rotations(angle, Field::Map(scales), y, w, cs, ss);
-                gather::scale_positions(self.scale_position(), scales, t_s, widen);
+                gather::scale_positions(self.scale_position, scales, t_s, widen);
                 for (g, rep) in self.sigma_groups.iter().enumerate() {
                     gather::fill_levels(self.level_rule(rep), t_s, widen, levels, g);
                 }
@@ -531,15 +535,6 @@ impl<'a> Filter<'a> {
             }
             Field::Map(_) => 0,
         }
-    }
-
-    /// Where a per-pixel scale puts the levels of this (log-uniform) stack
-    /// for [`LevelRule`]: `t_s = (ln s - ln sigma_0) / ln r` and `widen`,
-    /// the pixel footprint's variance at `s` over `s^2` (one rule for the
-    /// scalar loop and the vector rows).
-    #[inline]
-    fn scale_position(&self) -> ScalePosition {
-        ScalePosition::new(self.sampling, self.stack.ln_params())
     }
 
     /// The level rule of terms of `t`'s sigma on this (log-uniform, several
@@ -633,7 +628,7 @@ impl<'a> Filter<'a> {
         let last = self.stack.sigmas().len() - 1;
         let uniform = self.stack.is_uniform();
         let (t_s, widen) = if uniform {
-            self.scale_position().at(s)
+            self.scale_position.at(s)
         } else {
             (0.0, 0.0)
         };
