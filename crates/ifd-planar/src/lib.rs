@@ -54,7 +54,7 @@
 //! - **images larger than memory**: [`Tiling`], [`TileGrid`],
 //!   [`TiledField`], [`RegionReader`], [`RegionWriter`], [`filter_tiled`],
 //!   [`tile_halo`];
-//! - the CPU's vector kernels: [`vector_kernels`].
+//! - the CPU's vector kernels: [`vector_kernels`], [`wide_vector_kernels`].
 //!
 //! What tests, benches and studies need beyond that (the brute-force
 //! reference correlation, the SpaRSA solver, the dictionary) is in
@@ -98,6 +98,7 @@ pub use stack::for_decomposition::{
     stack_plan_for_decomposition,
 };
 pub use stack::gather::vector_kernels;
+pub use stack::gather512::wide_vector_kernels;
 pub use stack::lookup::Taps;
 pub use stack::refresh::{FixedTap, PixelRect, RefreshReport};
 pub use stack::{

@@ -170,13 +170,23 @@ impl Filter {
     }
 }
 
-/// How the CPU evaluates per-pixel maps, in words (for `-v`).
-fn per_pixel_kernel(interpolation: Interpolation, channels: usize, vector: bool) -> String {
-    match ifd_planar::vector_kernels() {
+/// How the CPU evaluates per-pixel maps, in words (for `-v`): with a
+/// constant scale, one channel and bilinear levels the wider kernel where
+/// the CPU has it.
+fn per_pixel_kernel(
+    interpolation: Interpolation,
+    channels: usize,
+    vector: bool,
+    constant_scale: bool,
+) -> String {
+    let wide = ifd_planar::wide_vector_kernels()
+        .filter(|_| constant_scale && channels == 1 && interpolation == Interpolation::Linear);
+    match (ifd_planar::vector_kernels(), wide) {
         _ if !vector => "scalar loop (--scalar)".into(),
-        None => "scalar loop (this CPU has no AVX2)".into(),
-        Some(_) if channels > 4 => "scalar loop (more than 4 channels)".into(),
-        Some(isa) => format!(
+        (None, _) => "scalar loop (this CPU has no AVX2)".into(),
+        (Some(_), _) if channels > 4 => "scalar loop (more than 4 channels)".into(),
+        (Some(_), Some(isa)) => format!("{isa} gathers, 16 pixels per vector (linear levels)"),
+        (Some(isa), None) => format!(
             "{isa} gathers, 8 pixels per vector ({} levels)",
             interpolation.name()
         ),
@@ -379,6 +389,7 @@ impl Filter {
             plan.eval.interpolation,
             image.channels(),
             plan.vector_kernels,
+            !scale.is_map(),
         );
         let t0 = Instant::now();
         let stack = plan.build_stack(&image).context("prefiltering")?;

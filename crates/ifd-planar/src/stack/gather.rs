@@ -113,6 +113,14 @@ pub(crate) fn rotated_row<const C: usize>(
     if !supports::<C>(stack) || cs.len() != ss.len() || out.len() < cs.len() * C {
         return 0;
     }
+    if C == 1 {
+        // sixteen lanes where the CPU has AVX-512F; the row's last
+        // `w % 16` pixels go to the caller's scalar loop
+        let done = super::gather512::rotated_row(stack, terms, y, cs, ss, out);
+        if done > 0 {
+            return done;
+        }
+    }
     #[cfg(target_arch = "x86_64")]
     {
         // SAFETY: `supports` checked that the CPU has AVX2.
@@ -123,6 +131,22 @@ pub(crate) fn rotated_row<const C: usize>(
         let _ = (terms, y);
         0
     }
+}
+
+/// The AVX2 kernel of [`rotated_row`] with one channel whatever wider
+/// vectors the CPU has (for the tests that compare the two).
+#[cfg(test)]
+pub(crate) fn avx2_rotated_row_for_tests(
+    stack: &ScaleStack,
+    terms: &[FixedTerm],
+    y: usize,
+    cs: &[f32],
+    ss: &[f32],
+    out: &mut [f32],
+) -> usize {
+    assert!(supports::<1>(stack) && cs.len() == ss.len() && out.len() >= cs.len());
+    // SAFETY: `supports` checked that the CPU has AVX2.
+    unsafe { avx2::rotated_row::<1>(stack, terms, y, cs, ss, out) }
 }
 
 /// `cs[x] = s cos theta[x]` and `ss[x] = s sin theta[x]` over a row of

@@ -3,6 +3,7 @@
 
 pub(crate) mod for_decomposition;
 pub(crate) mod gather;
+pub(crate) mod gather512;
 pub(crate) mod lookup;
 pub mod refresh;
 
