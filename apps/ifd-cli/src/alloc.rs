@@ -7,10 +7,13 @@
 //! accounting, a fifth of a `--tol 0.3` scale-map run's time (`perf`). With
 //! `/sys/kernel/mm/transparent_hugepage/enabled` at `madvise` (Debian's
 //! default) a block only gets 2 MiB pages if asked for them, so every block of
-//! at least [`HUGE_FROM`] bytes is advised `MADV_HUGEPAGE` (the 2 MiB-aligned
-//! part inside it) as soon as it is allocated, before its pages are touched.
-//! At `always` the advice changes nothing, at `never` the kernel ignores it;
-//! other systems use the system allocator unchanged.
+//! at least [`HUGE_FROM`] bytes starts on a 2 MiB boundary and is advised
+//! `MADV_HUGEPAGE` as soon as it is allocated, before this allocator or its
+//! owner writes to it (a zeroed block is zeroed after the advice; a block the
+//! system allocator reuses keeps the pages it has). At `always` the advice
+//! changes nothing, at `never` the kernel ignores it; other systems use the
+//! system allocator unchanged. Reallocating a large block allocates, copies and
+//! frees (the system's `realloc` could move pages instead).
 #![allow(
     unsafe_code,
     reason = "a GlobalAlloc wrapper and the madvise call; see the module documentation"
@@ -43,10 +46,10 @@ fn system_layout(layout: Layout) -> Layout {
 
 // SAFETY: every block comes from `System` with `system_layout` of the
 // caller's layout (its size, an alignment at least the caller's) and goes
-// back to it with the same; `realloc` between large and small blocks
+// back to it with the same; `realloc` of a large block (before or after)
 // allocates, copies the smaller size and frees, as `GlobalAlloc`'s default
-// does. `advise` only changes how the kernel backs pages of a block just
-// returned.
+// does; `alloc_zeroed` zeroes what it returns. `advise` only changes how the
+// kernel backs pages of a block just returned.
 unsafe impl GlobalAlloc for HugePages {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         // SAFETY: `system_layout` keeps the caller's non-zero size.
@@ -56,10 +59,22 @@ unsafe impl GlobalAlloc for HugePages {
     }
 
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        // SAFETY: as in `alloc`.
-        let p = unsafe { System.alloc_zeroed(system_layout(layout)) };
-        advise(p, layout.size());
-        p
+        let system = system_layout(layout);
+        if system == layout {
+            // SAFETY: as in `alloc`.
+            return unsafe { System.alloc_zeroed(layout) };
+        }
+        // A huge-page alignment: the system zeroes such blocks by writing
+        // them, which would fault every page in small before the advice.
+        // SAFETY: as in `alloc`; the zeroing writes exactly the block.
+        unsafe {
+            let p = System.alloc(system);
+            advise(p, layout.size());
+            if !p.is_null() {
+                std::ptr::write_bytes(p, 0, layout.size());
+            }
+            p
+        }
     }
 
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {

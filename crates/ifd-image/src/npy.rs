@@ -105,7 +105,8 @@ pub(crate) fn read_header(
 
 /// Reads `n` elements of `header`'s type, decoded by `decode` a chunk at a
 /// time (appending to the values), checking the memory budget first
-/// (`extra` bytes per element for the decoded copy).
+/// (`extra` bytes per element for the decoded copy, and the raw bytes as if
+/// held whole: a bound above what a chunked read holds).
 fn read_values<T>(
     file: &mut std::fs::File,
     header: &Header,

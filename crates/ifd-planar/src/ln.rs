@@ -12,7 +12,7 @@
 //! `ln x = e ln 2 + ln m` and, with `f = (m - 1) / (m + 1)`
 //! (`|f| <= 3 - 2 sqrt 2 < 0.1716`),
 //! `ln m = 2 atanh f = 2 (f + f^3/3 + f^5/5 + f^7/7 + f^9/9 + ...)`. The
-//! terms left out sum to less than `2 |f|^11 / 11 / (1 - f^2) < 7e-10`,
+//! terms left out sum to less than `2 |f|^11 / 11 / (1 - f^2) < 7.2e-10`,
 //! below `f32` rounding. `m - 1` is exact (`m` lies within a factor 2 of
 //! 1), `m + 1` and the quotient round once each, and `ln 2` is split into
 //! `LN2_HI` (nine significant bits: `e LN2_HI` is exact) and the rest, so

@@ -423,8 +423,9 @@ mod avx2 {
     /// `iv + after < ny`, lane by lane, as one unsigned compare per axis of
     /// `floor(u) - before` against `nx - 1 - after - before` (a negative
     /// floor wraps above it; NaN and values past `i32` convert to
-    /// `i32::MIN`, which does too). Where it holds, `u >= 0`, so
-    /// `u - floor(u)` is the scalar lookup's `u - trunc(u)`.
+    /// `i32::MIN`, which does too). Where it holds, `u >= 0` (or `-0`), so
+    /// `u - floor(u)` is the scalar lookup's `u - trunc(u)` (at `u = -0` a
+    /// zero of the other sign, which leaves every sum it enters unchanged).
     #[inline]
     #[target_feature(enable = "avx2")]
     fn stencil_inside(

@@ -2,7 +2,7 @@
 //! one-channel stack read bilinearly, sixteen pixels at a time with AVX-512
 //! gathers, on CPUs that have AVX-512F (detected at run time;
 //! `IFD_SIMD=avx2` or `IFD_SIMD=baseline` leaves it to the eight-lane AVX2
-//! kernels of [`super::gather`]).
+//! kernels of [`super::gather`], which `IFD_SIMD` does not switch off).
 //!
 //! Twice the lanes halve the position, stencil and blend arithmetic per
 //! pixel, which is most of a lookup's instructions once the loads are
@@ -70,8 +70,7 @@ pub(crate) fn available() -> bool {
 
 /// [`super::gather::rotated_row`] for a one-channel, bilinear stack on an
 /// AVX-512 CPU: the pixels done (a multiple of [`LANES`]; 0 when this kernel
-/// does not apply, and the caller takes the AVX2 kernel). The caller has
-/// checked `gather::supports::<1>(stack)` and the slices' lengths.
+/// does not apply, and the caller takes the AVX2 kernel).
 pub(crate) fn rotated_row(
     stack: &ScaleStack,
     terms: &[FixedTerm],
@@ -80,7 +79,12 @@ pub(crate) fn rotated_row(
     ss: &[f32],
     out: &mut [f32],
 ) -> usize {
-    if !(available() && stack.channels == 1 && stack.interpolation == Interpolation::Linear) {
+    // `supports`: levels of at least 2x2 samples, `nx ny` of them below
+    // `i32::MAX` (the gathers' index clamp relies on both)
+    if !(available()
+        && stack.interpolation == Interpolation::Linear
+        && super::gather::supports::<1>(stack))
+    {
         return 0;
     }
     #[cfg(target_arch = "x86_64")]
