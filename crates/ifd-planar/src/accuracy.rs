@@ -45,7 +45,7 @@ pub fn lookup_error(interpolation: Interpolation, r: f64) -> f64 {
                         re += f64::from(wk) * c;
                         im += f64::from(wk) * s;
                     }
-                    let b0 = 2.0 / 3.0 + (std::f64::consts::TAU * nu).cos() / 3.0;
+                    let b0 = 2.0 / 3.0 + table.cos[i] / 3.0;
                     (re / b0, im / b0)
                 }
             };
@@ -69,6 +69,9 @@ struct FrequencyTable {
     taps: Vec<[(f64, f64); 4]>,
     /// `sin_cos(2 pi nu phi)`, per frequency and phase.
     shift: Vec<(f64, f64)>,
+    /// `cos(2 pi nu)` (libm's `cos`, as the cubic prefilter's gain was
+    /// always computed), per frequency.
+    cos: Vec<f64>,
 }
 
 fn frequency_table() -> &'static FrequencyTable {
@@ -81,6 +84,7 @@ fn frequency_table() -> &'static FrequencyTable {
                 .clone()
                 .map(|nu| [-1.0, 0.0, 1.0, 2.0].map(|k: f64| (TAU * nu * k).sin_cos()))
                 .collect(),
+            cos: nus.clone().map(|nu| (TAU * nu).cos()).collect(),
             shift: nus
                 .flat_map(|nu| {
                     (0..PHASES).map(move |p| (TAU * nu * (p as f64 / PHASES as f64)).sin_cos())

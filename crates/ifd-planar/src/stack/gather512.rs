@@ -32,7 +32,7 @@ pub(crate) const LANES: usize = 16;
 
 /// The wider kernel a per-pixel angle at a constant scale takes on this
 /// CPU for a one-channel stack read bilinearly: `Some("avx512")` (sixteen
-/// pixels per vector) where the CPU has AVX-512F and `IFD_SIMD` (`avx2` or
+/// pixels per vector) where the CPU has AVX-512F (and FMA) and `IFD_SIMD` (`avx2` or
 /// `baseline`) does not cap it, else `None` (the
 /// [`vector_kernels`](crate::vector_kernels), eight pixels per vector). The
 /// same output either way.
@@ -46,26 +46,12 @@ pub fn wide_vector_kernels() -> Option<&'static str> {
     available().then_some("avx512")
 }
 
-/// Whether the AVX-512 kernel runs on this CPU: it has AVX-512F and
-/// `IFD_SIMD` does not cap the instruction set below it.
+/// Whether the AVX-512 kernel runs on this CPU: the crate's instruction
+/// set choice (the direct prefilter's, `separable`: AVX-512F with FMA
+/// unless `IFD_SIMD` caps it) is AVX-512.
 #[must_use]
 pub(crate) fn available() -> bool {
-    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *ON.get_or_init(|| {
-        let capped = matches!(
-            std::env::var("IFD_SIMD").as_deref(),
-            Ok("avx2" | "baseline")
-        );
-        #[cfg(target_arch = "x86_64")]
-        {
-            !capped && std::arch::is_x86_feature_detected!("avx512f")
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = capped;
-            false
-        }
-    })
+    super::separable::isa() == super::separable::Isa::Avx512
 }
 
 /// [`super::gather::rotated_row`] for a one-channel, bilinear stack on an

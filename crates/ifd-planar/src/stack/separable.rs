@@ -725,7 +725,9 @@ pub(crate) enum Isa {
 /// The chosen instruction set: 0 not yet chosen, else `Isa as u8 + 1`.
 static ISA: AtomicU8 = AtomicU8::new(0);
 
-fn isa() -> Isa {
+/// The instruction set chosen once per process: [`weighted_sum`]'s, and
+/// whether the per-pixel lookups may take AVX-512 (`gather512`).
+pub(super) fn isa() -> Isa {
     match ISA.load(Ordering::Relaxed) {
         1 => Isa::Baseline,
         2 => Isa::Avx2,
