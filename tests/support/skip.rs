@@ -7,11 +7,13 @@
 //! prints the reason and, when `IFD_SKIP_LOG` names a file (as
 //! `scripts/test-all.sh` does), appends one line `test name<TAB>reason` to
 //! it; the script moves those tests from the passed count to the skipped
-//! count and lists them. Skipping is only ever allowed by the opt-in
-//! variables `IFD_GPU_TESTS=skip` / `IFD_WINDOW_TESTS=skip`: without them the
-//! tests fail instead.
+//! count and lists them. A GPU or window test may only skip under the opt-in
+//! variables `IFD_GPU_TESTS=skip` / `IFD_WINDOW_TESTS=skip`: without them it
+//! fails instead. A unit test of a CPU or kernel feature (AVX-512, huge
+//! pages on request) skips where the machine lacks it.
 //!
-//! Included by the GPU and window tests with
+//! Included by the GPU and window tests, and by unit tests in `ifd-planar`
+//! and the `ifd` binary that need a CPU or kernel feature, with
 //! `#[path = "../../../tests/support/skip.rs"] mod skip;`.
 
 #![allow(dead_code, reason = "each test file uses what it needs")]

@@ -17,6 +17,10 @@ mod commands;
 mod input;
 mod options;
 mod output;
+/// Unit tests that cannot run on this machine record themselves as skipped.
+#[cfg(test)]
+#[path = "../../../tests/support/skip.rs"]
+mod test_skip;
 
 #[global_allocator]
 static ALLOCATOR: alloc::HugePages = alloc::HugePages;

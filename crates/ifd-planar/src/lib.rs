@@ -76,6 +76,10 @@ mod prepared;
 mod reference;
 mod sparsa;
 mod stack;
+/// Unit tests that cannot run on this machine record themselves as skipped.
+#[cfg(test)]
+#[path = "../../../tests/support/skip.rs"]
+mod test_skip;
 mod tiled;
 mod trig;
 
