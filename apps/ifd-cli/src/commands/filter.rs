@@ -65,14 +65,14 @@ pub struct Filter {
     /// How the prefiltered levels are read between samples: `auto` chooses,
     /// per decomposition, the cheapest of bilinear and the cubic B-spline
     /// (and how finely levels are stored; with a scale map, 2 to 4 levels
-    /// per octave) whose evaluation error bound is within `--eval-budget`;
+    /// per octave) whose expected evaluation error is within `--eval-budget`;
     /// `linear` or `cubic` fix the interpolation. See
     /// docs/planar-accuracy.md.
     #[arg(long, value_name = "MODE", default_value = "auto")]
     interp: InterpChoice,
-    /// Budget on the evaluation error bound (relative RMS on white noise)
-    /// that `--interp` plans for [default: half the decomposition's fit
-    /// error, at least 0.002]
+    /// Budget on the expected evaluation error (relative RMS on white noise)
+    /// that `--interp` plans for [default: a third of the decomposition's
+    /// fit error, at least 0.001]
     #[arg(long, value_name = "E")]
     eval_budget: Option<f64>,
     /// Filter tile by tile, output tiles of about PX pixels, streaming the
@@ -410,23 +410,19 @@ impl Filter {
         let t2 = Instant::now();
         if self.verbose {
             let levels = if plan.eval.level_error > 0.0 {
-                format!(
-                    ", {} levels per octave (blend bound {:.3}%)",
-                    plan.eval.samples_per_octave,
-                    100.0 * plan.eval.level_error
-                )
+                format!(", {} levels per octave", plan.eval.samples_per_octave)
             } else {
                 String::new()
             };
             eprintln!(
-                "evaluation: {} interpolation, pyramid factor {}{levels}, {} terms direct; bound \
-                 on its error {:.3}%, budget {:.3}% (amplification {:.1}; measured errors are \
-                 lower)",
+                "evaluation: {} interpolation, pyramid factor {}{levels}, {} terms direct; expected \
+                 error {:.3}% on white noise, budget {:.3}% (bound {:.3}%, amplification {:.1})",
                 plan.eval.interpolation.name(),
                 plan.eval.pyramid_factor,
                 plan.direct_terms,
-                100.0 * plan.eval.total_bound(),
+                100.0 * plan.eval.error_estimate,
                 100.0 * plan.eval_budget,
+                100.0 * plan.eval.total_bound(),
                 plan.eval.amplification
             );
             if per_pixel {
