@@ -30,7 +30,8 @@
 //! their levels' grids (and, on a log-uniform stack, where the scaled sigmas
 //! fall between levels). [`expected_error`] averages `||D||^2` over
 //! [`POSES`] poses spread evenly (a low-discrepancy sequence) over the
-//! rotations, the integer translations modulo the coarsest step and, with a
+//! rotations, the integer translations (bit-reversed: every pyramid step sees
+//! every phase) and, with a
 //! per-pixel scale, the scales (log-uniform over the planned range). No
 //! pixel is sampled: the same decomposition and plan always give the same
 //! number.
@@ -51,7 +52,7 @@ use std::f64::consts::{LN_2, PI};
 
 /// Poses averaged over: rotation, translation and (per-pixel scale) scale
 /// and level offset.
-pub(crate) const POSES: usize = 24;
+const POSES: usize = 24;
 
 /// Where the levels a term reads are.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,7 +104,8 @@ pub(crate) fn expected_error(
 }
 
 /// One pose: fractions in `[0, 1)` from the additive recurrence of the
-/// four-dimensional golden ratio (evenly spread in every dimension).
+/// five-dimensional golden ratio (evenly spread in every dimension and
+/// every projection).
 struct Pose {
     theta: f64,
     tx: f64,
@@ -114,13 +116,13 @@ struct Pose {
 
 impl Pose {
     fn nth(i: usize) -> Self {
-        // The root of x^5 = x + 1 (the generalised golden ratio for five
+        // The root of x^6 = x + 1 (the generalised golden ratio for five
         // dimensions): alpha_d = 1 / phi^d.
-        const PHI: f64 = 1.167_303_978_261_418_7;
+        const PHI: f64 = 1.134_724_138_401_519_4;
         let n = i as f64 + 0.5;
         let frac = |d: i32| (n / PHI.powi(d)).fract();
         Self {
-            theta: PI * frac(1),
+            theta: 2.0 * PI * frac(1),
             tx: frac(2),
             ty: frac(3),
             scale: frac(4),
