@@ -7,7 +7,7 @@ use crate::stack::for_decomposition::evaluated_directly;
 use crate::stack::{Interpolation, StackOptions, pyramid_step};
 
 mod white_noise;
-use white_noise::{Levels, expected_error};
+use white_noise::{Levels, WhiteNoise};
 
 /// Relative RMS error of one lookup along one axis (see the module docs) for
 /// a level whose Gaussian has `r` stored samples of standard deviation,
@@ -203,33 +203,30 @@ const FEWEST_PER_OCTAVE: usize = 2;
 /// that partly cancel.
 ///
 /// # The estimate
-/// For bilinear lookups the plan does not lean on the bound: the expected
-/// error on white noise has a closed form per pose (each term's error is a
-/// handful of shifted Gaussians, and Gaussians' inner products are
-/// Gaussians), averaged over rotations, translations and, with a per-pixel
-/// scale, scales and level blends ([`EvalPlan::error_estimate`]; derivation
-/// in the `white_noise` module). Filtering white noise measures within a few
-/// per cent of it. Cubic plans are held to their bound (an upper bound on
-/// the estimate; the B-spline's infinite-support weights make the exact sum
-/// long), so they are never less accurate than planned.
+/// The plan does not lean on the bound: the expected error on white noise
+/// has a closed form per pose (each term's error is a few shifted Gaussians:
+/// its level's at the samples a read weighs, minus the exact one; and
+/// Gaussians' inner products are Gaussians), averaged over rotations,
+/// translations and, with a per-pixel scale, scales and level blends
+/// ([`EvalPlan::error_estimate`]; derivation in the `white_noise` module).
+/// Filtering white noise measures within 15% of it.
 ///
 /// # The rule
 /// [`EvalPlan::choose`] takes the first of bilinear at pyramid factor 2 and
 /// 4, then the cubic B-spline at factor 2, 4, 8 and unsubsampled, whose
 /// estimate is within the budget (default [`EvalPlan::budget_for`]) over
 /// the scales used; when none is, the one with the lowest estimate (its
-/// smallest factor). On a log-uniform stack (a per-pixel scale,
+/// smallest factor; a finer factor that improves on the one before by less
+/// than 5% ends that interpolation's candidates). On a log-uniform stack (a per-pixel scale,
 /// [`PlanOptions::log_uniform`]) each candidate takes the fewest levels per
-/// octave, 2 to the default 4, within the budget: for bilinear the estimate
-/// includes the blend of neighbouring levels; for the cubic B-spline the
-/// blend's bound ([`level_blend_error`] times the amplification,
-/// [`EvalPlan::level_error`]) joins the lookups' in quadrature
-/// ([`EvalPlan::total_bound`]). Memory, for 4 levels per octave: about 5.3
-/// image-sized levels at factor 2, 8.5 at 4, 14 at 8 (every level below
-/// `factor` pixels is stored at full resolution); a cubic lookup costs four
-/// times the arithmetic of a bilinear one. Terms narrower than about 1.5 px
-/// are the floor: no interpolation of integer-sampled levels reproduces a
-/// Gaussian that narrow at a fractional position, and the bound says so.
+/// octave, 2 to the default 4, whose estimate (the blend of neighbouring
+/// levels included) is within the budget. Memory, for 4 levels per octave:
+/// about 5.3 image-sized levels at factor 2, 8.5 at 4, 14 at 8 (every level
+/// below `factor` pixels is stored at full resolution); a cubic lookup
+/// costs four times the arithmetic of a bilinear one. Terms narrower than
+/// about 1.5 px are the floor: no interpolation of integer-sampled levels
+/// reproduces a Gaussian that narrow at a fractional position, and the
+/// estimate says so.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EvalPlan {
     /// How levels are read.
@@ -241,9 +238,8 @@ pub struct EvalPlan {
     pub error_bound: f64,
     /// The expected relative RMS evaluation error on white noise, the
     /// lookups and (log-uniform stacks) the level blend together, averaged
-    /// over poses and scales: exact for bilinear lookups (see the type's
-    /// docs); for the cubic B-spline, [`Self::total_bound`]. The plan is
-    /// chosen on it.
+    /// over poses and scales (see the type's docs). The plan is chosen on
+    /// it.
     pub error_estimate: f64,
     /// `sum |w_t| ||g_t|| / ||k||` (scale-invariant).
     pub amplification: f64,
@@ -365,76 +361,74 @@ impl EvalPlan {
             None => candidates.to_vec(),
             Some(i) => factors.iter().map(|&f| (i, f)).collect(),
         };
+        let scales = (f64::from(scale_min), f64::from(scale_max));
+        let mut noise: Option<WhiteNoise<'_>> = None;
         let mut best: Option<Self> = None;
+        // The last estimate per interpolation, and the interpolations whose
+        // finer factors stopped helping (the blend of levels, or terms too
+        // narrow for any read, dominate): those are not tried further.
+        let mut last: Option<(Interpolation, f64)> = None;
+        let mut stalled: Vec<Interpolation> = Vec::new();
         for (interpolation, factor) in fixed {
-            let plan = Self::with(
+            if stalled.contains(&interpolation) {
+                continue;
+            }
+            let bounded = Self::bounded(
                 decomposition,
                 (scale_min, scale_max),
                 interpolation,
                 factor,
                 direct_sigma,
-            )?
-            .with_levels(decomposition, (scale_min, scale_max), log_uniform, budget);
+            )?;
+            let noise =
+                noise.get_or_insert_with(|| WhiteNoise::new(decomposition, scales, direct_sigma));
+            let plan = bounded.estimated(noise, log_uniform, budget);
             if plan.error_estimate <= budget {
                 return Ok(plan);
             }
             if best.is_none_or(|b| plan.error_estimate < 0.95 * b.error_estimate) {
                 best = Some(plan);
             }
+            if let Some((i, e)) = last
+                && i == interpolation
+                && plan.error_estimate >= 0.95 * e
+            {
+                stalled.push(interpolation);
+            }
+            last = Some((interpolation, plan.error_estimate));
         }
         Ok(best.expect("at least one candidate"))
     }
 
-    /// The levels per octave and the estimate: on a log-uniform stack
+    /// The estimate and the levels per octave: on a log-uniform stack
     /// (`log_uniform`) the fewest levels per octave, from
     /// [`FEWEST_PER_OCTAVE`] up to the default 4, whose estimate stays
-    /// within `budget` (the default 4 when none of fewer does), so a coarse
-    /// fit is read from fewer levels (less prefiltering and memory) and no
-    /// plan gets more levels than the default; otherwise the default levels
-    /// at the terms' sigmas.
-    fn with_levels(
-        self,
-        decomposition: &Decomposition,
-        (scale_min, scale_max): (f32, f32),
-        log_uniform: bool,
-        budget: f64,
-    ) -> Self {
+    /// within `budget` (the default 4 when that does not), so a coarse fit
+    /// is read from fewer levels (less prefiltering and memory) and no plan
+    /// gets more levels than the default; otherwise the default levels at
+    /// the terms' sigmas.
+    fn estimated(self, noise: &WhiteNoise<'_>, log_uniform: bool, budget: f64) -> Self {
         let default = StackOptions::default().samples_per_octave;
-        let scales = (f64::from(scale_min), f64::from(scale_max));
-        let estimate = |levels| match self.interpolation {
-            Interpolation::Linear => expected_error(
-                decomposition,
-                scales,
-                self.pyramid_factor,
-                self.direct_sigma,
-                levels,
-            ),
-            Interpolation::Cubic => self.error_bound.hypot(match levels {
-                Levels::AtSigmas => 0.0,
-                Levels::LogUniform { per_octave } => {
-                    self.amplification * level_blend_error(per_octave)
-                }
-            }),
-        };
+        let estimate = |levels| noise.expected((self.interpolation, self.pyramid_factor), levels);
         if !log_uniform {
-            // `with` estimated the levels at the terms' sigmas.
             return Self {
                 samples_per_octave: default,
                 level_error: 0.0,
+                error_estimate: estimate(Levels::AtSigmas),
                 ..self
             };
         }
-        let (n, e) = (FEWEST_PER_OCTAVE..default)
-            .map(|n| (n, estimate(Levels::LogUniform { per_octave: n })))
-            .find(|&(_, e)| e <= budget)
-            .unwrap_or_else(|| {
-                (
-                    default,
-                    estimate(Levels::LogUniform {
-                        per_octave: default,
-                    }),
-                )
-            });
+        let at = |n| estimate(Levels::LogUniform { per_octave: n });
+        // The most levels first: when they miss the budget, fewer will too.
+        let most = at(default);
+        let (n, e) = if most > budget {
+            (default, most)
+        } else {
+            (FEWEST_PER_OCTAVE..default)
+                .map(|n| (n, at(n)))
+                .find(|&(_, e)| e <= budget)
+                .unwrap_or((default, most))
+        };
         Self {
             samples_per_octave: n,
             level_error: self.amplification * level_blend_error(n),
@@ -460,6 +454,29 @@ impl EvalPlan {
     /// # Errors
     /// As [`EvalPlan::choose`].
     pub fn with(
+        decomposition: &Decomposition,
+        (scale_min, scale_max): (f32, f32),
+        interpolation: Interpolation,
+        pyramid_factor: f64,
+        direct_sigma: f64,
+    ) -> Result<Self, FilterError> {
+        let plan = Self::bounded(
+            decomposition,
+            (scale_min, scale_max),
+            interpolation,
+            pyramid_factor,
+            direct_sigma,
+        )?;
+        let scales = (f64::from(scale_min), f64::from(scale_max));
+        Ok(plan.estimated(
+            &WhiteNoise::new(decomposition, scales, direct_sigma),
+            false,
+            0.0,
+        ))
+    }
+
+    /// [`Self::with`] before its estimate (the bound in its place).
+    fn bounded(
         decomposition: &Decomposition,
         (scale_min, scale_max): (f32, f32),
         interpolation: Interpolation,
@@ -521,16 +538,7 @@ impl EvalPlan {
             interpolation,
             pyramid_factor,
             error_bound,
-            error_estimate: match interpolation {
-                Interpolation::Linear => expected_error(
-                    decomposition,
-                    (lo, hi),
-                    pyramid_factor,
-                    direct_sigma,
-                    Levels::AtSigmas,
-                ),
-                Interpolation::Cubic => error_bound,
-            },
+            error_estimate: error_bound,
             amplification,
             direct_sigma,
             samples_per_octave: StackOptions::default().samples_per_octave,
