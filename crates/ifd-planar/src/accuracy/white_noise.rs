@@ -31,8 +31,9 @@
 //!
 //! The error depends on the pose: the fractional positions of the `q_t` on
 //! their levels' grids (and, on a log-uniform stack, where the scaled sigmas
-//! fall between levels). [`expected_error`] averages `||D||^2` over
-//! [`POSES`] poses spread evenly (a low-discrepancy sequence) over the
+//! fall between levels). [`WhiteNoise::expected`] averages `||D||^2` over
+//! [`POSES`] poses (fewer for hundreds of terms, [`WhiteNoise::new`]) spread
+//! evenly (a low-discrepancy sequence) over the
 //! rotations (the full turn), the integer translations (bit-reversed: every
 //! pyramid step sees every phase) and, with a per-pixel scale, the scales
 //! (log-uniform over the planned range) and where they fall between levels.
