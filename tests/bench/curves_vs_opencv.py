@@ -37,8 +37,9 @@ the exact values on the sample. The kernel's own fit error (relative L2) is
 recorded for every ifd point too.
 
 Timing: one thread each (cv2.setNumThreads(1); RAYON_NUM_THREADS=1 for ifd).
-ifd's time is its prefiltering plus filtering as `ifd filter --verbose`
-reports them (not process start-up or file I/O, which are recorded apart as
+ifd's time is its planning (the evaluation plan's estimate), prefiltering
+and filtering as `ifd filter --verbose` reports them (the "prefilter" column
+includes the planning; not process start-up or file I/O, recorded apart as
 wall_ms); the decompositions are fitted once beforehand (`--cache DIR` keeps
 them between runs) and the fit time is excluded. OpenCV's time is the
 per-pixel selection plus every cv2.filter2D call and the copy/accumulation
@@ -333,8 +334,9 @@ def decompose(binary, tol, cache):
 
 
 def run_ifd(binary, img_npy, decomp, angle_npy, scale_npy, interp, scalar, extra, out_npy):
-    """One `ifd filter` run: the output, prefiltering and filtering (ms, as
-    reported by --verbose), the process's wall time (ms) and its notes."""
+    """One `ifd filter` run: the output, planning plus prefiltering and
+    filtering (ms, as reported by --verbose), the process's wall time (ms)
+    and its notes."""
     args = [binary, "filter", img_npy, "--decomp", decomp, "--angle-map", angle_npy]
     if scale_npy is not None:
         args += ["--scale-map", scale_npy]
@@ -348,18 +350,22 @@ def run_ifd(binary, img_npy, decomp, angle_npy, scale_npy, interp, scalar, extra
     wall = (time.perf_counter() - t0) * 1e3
     if p.returncode:
         fail("ifd filter", p)
-    m = None
+    m, planning = None, 0.0
     for line in p.stderr.splitlines():
         mm = re.search(r"prefiltering ([0-9.]+) ms.*, filtering ([0-9.]+) ms", line)
         if mm:
             m = mm
+            # Builds from before 2026-12-06 do not print their planning (a
+            # bound: microseconds).
+            mp = re.search(r"planning ([0-9.]+) ms", line)
+            planning = float(mp.group(1)) if mp else 0.0
     if m is None:
         fail("ifd filter (no timing line in its --verbose output)", p)
     notes = [l.strip() for l in p.stderr.splitlines() if l.startswith(("evaluation:", "per-pixel lookups:"))]
     out = np.load(out_npy)
     if out.ndim == 3 and out.shape[2] == 1:
         out = out[:, :, 0]
-    return out.astype(np.float32), float(m.group(1)), float(m.group(2)), wall, notes
+    return out.astype(np.float32), planning + float(m.group(1)), float(m.group(2)), wall, notes
 
 
 # ---------------------------------------------------------------------------

@@ -364,6 +364,7 @@ impl Filter {
             direct_terms: !self.gpu,
             ..self.options()
         };
+        let planning = Instant::now();
         let plan = FilterPlan::new(
             (w, h, image.channels()),
             &decomposition,
@@ -372,6 +373,7 @@ impl Filter {
             &options,
         )
         .with_context(|| format!("filtering with {}", self.decomp.display()))?;
+        let planning = planning.elapsed();
         // With --gpu, a stack the device cannot hold is refused before the
         // prefiltering, not after.
         let gpu = if self.gpu {
@@ -429,8 +431,10 @@ impl Filter {
                 eprintln!("per-pixel lookups: {kernel}");
             }
             eprintln!(
-                "{} terms; prefiltering {:.1} ms ({} levels, {}, {} build), filtering {:.1} ms",
+                "{} terms; planning {:.1} ms, prefiltering {:.1} ms ({} levels, {}, {} build), \
+                 filtering {:.1} ms",
                 decomposition.terms.len(),
+                planning.as_secs_f64() * 1e3,
                 (t1 - t0).as_secs_f64() * 1e3,
                 stack.sigmas().len(),
                 ifd_image::fmt_bytes(stack.bytes()),

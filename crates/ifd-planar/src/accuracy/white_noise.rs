@@ -116,7 +116,7 @@ impl<'a> WhiteNoise<'a> {
 
     /// The expected relative RMS error on white noise of lookups with
     /// `interpolation` (module docs) at pyramid factor `factor` from
-    /// `levels` (the poses on rayon's threads).
+    /// `levels` (the poses on rayon's threads, summed in order).
     pub(crate) fn expected(
         &self,
         (interpolation, factor): (Interpolation, f64),
@@ -148,6 +148,10 @@ impl<'a> WhiteNoise<'a> {
                     err2 / norm2
                 },
             )
+            .collect::<Vec<f64>>()
+            // Summed in pose order: the same bits on any number of threads
+            // (tiles and chunks of one image plan alike).
+            .iter()
             .sum();
         (sum / self.poses.len() as f64).max(0.0).sqrt()
     }
