@@ -77,6 +77,19 @@ pub fn edge_waves(w: usize, h: usize) -> Image {
     Image::from_vec(w, h, 1, data).expect("valid image")
 }
 
+/// A xorshift64 generator's draws in `[0, 1)` (53 bits each), from `seed`
+/// (not zero): the planar tests' and benches' random decompositions, fields
+/// and noise.
+pub fn xorshift(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// Noise from `uniform` (a generator's draws in `[0, 1)`, e.g.
 /// `ifd_sphere::SplitMix64::uniform`), `ch` channels (the spherical
 /// transform tests).

@@ -75,13 +75,7 @@ fn line_decomposition() -> (Decomposition, f64, f64) {
 
 /// `s` displaced Gaussians of varied sigma spread over a 30 px disc.
 fn random_decomposition(s: usize) -> Decomposition {
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = images::xorshift(0x9e37_79b9_7f4a_7c15);
     Decomposition::from_terms(
         (0..s)
             .map(|_| Term {

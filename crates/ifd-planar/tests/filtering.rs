@@ -941,13 +941,7 @@ fn the_planned_error_estimate_is_what_white_noise_measures() {
     let n = 512;
     // Uniform white noise, angles uniform over the half turn and scales
     // log-uniform over [0.7, 1.4], independent per pixel.
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = images::xorshift(0x9e37_79b9_7f4a_7c15);
     let noise: Vec<f32> = (0..n * n).map(|_| (next() - 0.5) as f32).collect();
     let angles: Vec<f32> = (0..n * n).map(|_| (180.0 * next()) as f32).collect();
     let scales: Vec<f32> = (0..n * n)

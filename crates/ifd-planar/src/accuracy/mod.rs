@@ -198,9 +198,10 @@ const FEWEST_PER_OCTAVE: usize = 2;
 /// decomposition's *amplification*: about 1-4 for positive kernels, 10-60
 /// for derivative and band-pass kernels whose weights cancel, and hundreds
 /// for hard-edged kernels fitted with sub-pixel atoms. The bound is a bound:
-/// measured errors are 2-10 times lower (`docs/planar-accuracy.md`), because
-/// the terms' errors are high-frequency patterns tied to their own positions
-/// that partly cancel.
+/// measured errors are 2-50 times lower (`docs/planar-accuracy.md`), because
+/// the terms' errors are high-frequency patterns tied to their own positions:
+/// patterns of terms apart are nearly uncorrelated and add nearly in
+/// quadrature, not linearly.
 ///
 /// # The estimate
 /// The plan does not lean on the bound: the expected error on white noise
