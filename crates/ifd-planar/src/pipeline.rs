@@ -20,9 +20,10 @@ pub struct FilterOptions {
     /// Fix the interpolation of levels (`None`: the cheapest within the
     /// budget, see [`EvalPlan::choose`]).
     pub interpolation: Option<Interpolation>,
-    /// Budget on the evaluation error bound. Default `None`: the
-    /// decomposition's own, [`EvalPlan::budget_for`] (half its fit's error,
-    /// at least [`EvalPlan::DEFAULT_BUDGET`]).
+    /// Budget on the expected evaluation error
+    /// ([`EvalPlan::error_estimate`]). Default `None`: the decomposition's
+    /// own, [`EvalPlan::budget_for`] (a third of its fit's error, at least
+    /// [`EvalPlan::DEFAULT_BUDGET`]).
     pub eval_budget: Option<f64>,
     /// Plan for an evaluator that reads every term from a log-uniformly
     /// spaced stack: no levels at exact sigmas, no direct terms.

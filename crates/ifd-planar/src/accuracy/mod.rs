@@ -157,7 +157,8 @@ const FEWEST_PER_OCTAVE: usize = 2;
 /// let d = Decomposition::from_terms(vec![t(-1.0, 0.0, 6.0), t(0.5, -9.0, 6.0), t(0.5, 9.0, 6.0)]);
 /// let plan = EvalPlan::choose(&d, 1.0, 1.0, PlanOptions::default())?;
 /// assert_eq!(plan.interpolation, Interpolation::Cubic);
-/// assert!(plan.error_bound <= EvalPlan::DEFAULT_BUDGET);
+/// assert!(plan.error_estimate <= EvalPlan::DEFAULT_BUDGET);
+/// assert!(plan.error_estimate < plan.error_bound);
 /// # Ok::<(), ifd_planar::FilterError>(())
 /// ```
 ///
@@ -216,9 +217,10 @@ const FEWEST_PER_OCTAVE: usize = 2;
 /// [`EvalPlan::choose`] takes the first of bilinear at pyramid factor 2 and
 /// 4, then the cubic B-spline at factor 2, 4, 8 and unsubsampled, whose
 /// estimate is within the budget (default [`EvalPlan::budget_for`]) over
-/// the scales used; when none is, the one with the lowest estimate (its
-/// smallest factor; a finer factor that improves on the one before by less
-/// than 5% ends that interpolation's candidates). On a log-uniform stack (a per-pixel scale,
+/// the scales used; when none is, the one with the lowest estimate (a later
+/// candidate replaces an earlier one only if 5% lower; a finer factor that
+/// improves on the one before by less than 5% ends that interpolation's
+/// candidates). On a log-uniform stack (a per-pixel scale,
 /// [`PlanOptions::log_uniform`]) each candidate takes the fewest levels per
 /// octave, 2 to the default 4, whose estimate (the blend of neighbouring
 /// levels included) is within the budget. Memory, for 4 levels per octave:

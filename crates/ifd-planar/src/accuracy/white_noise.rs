@@ -49,8 +49,10 @@
 //! times below the
 //! bound, so a rule on the bound stored levels finer than the accuracy asked
 //! for needed. This sum is the measured error's expectation: filtering white
-//! noise measures within 15% of it (tested; the rest is the poses' sampling,
-//! and on log-uniform stacks the estimate runs 8-15% high).
+//! noise measures within 15% of it (tested; the rest is the poses' sampling)
+//! at a constant scale; on log-uniform stacks the estimate runs 8-18% high,
+//! as its levels are exactly `2^(1/n)` apart where the stack fits a whole
+//! number of levels to the scale range, a little closer.
 
 use crate::decomposition::Decomposition;
 use crate::stack::for_decomposition::evaluated_directly;
@@ -125,7 +127,7 @@ impl<'a> WhiteNoise<'a> {
         levels: Levels,
     ) -> f64 {
         use rayon::prelude::*;
-        let sum: f64 = self
+        let each: Vec<f64> = self
             .poses
             .par_iter()
             .filter(|(_, _, norm2)| norm2.is_finite() && *norm2 > 0.0)
@@ -143,6 +145,7 @@ impl<'a> WhiteNoise<'a> {
                         parts,
                     );
                     let err2 = if grid_cost(parts) < pair_cost(terms, parts) {
+                        // (grid_cost is infinite past MAX_GRID_CELLS)
                         error2_on_grid(parts)
                     } else {
                         error2(terms, parts)
@@ -150,12 +153,16 @@ impl<'a> WhiteNoise<'a> {
                     err2 / norm2
                 },
             )
-            .collect::<Vec<f64>>()
-            // Summed in pose order: the same bits on any number of threads
-            // (tiles and chunks of one image plan alike).
-            .iter()
-            .sum();
-        (sum / self.poses.len() as f64).max(0.0).sqrt()
+            .collect();
+        // Summed in pose order: the same bits on any number of threads
+        // (tiles and chunks of one image plan alike). No pose with a norm,
+        // or a sum that is not a number (absurd scales through the API):
+        // infinite, never within a budget.
+        let mean = each.iter().sum::<f64>() / each.len() as f64;
+        if mean.is_nan() {
+            return f64::INFINITY;
+        }
+        mean.max(0.0).sqrt()
     }
 }
 
@@ -211,8 +218,11 @@ struct Placed {
 
 /// Points per axis of a cubic read: the interpolating B-spline's weights on
 /// the samples (its cardinal function) decay as `0.268^|j|`; beyond eight
-/// samples each side they weigh below `2e-5` together, a few per cent of
-/// the cubic reads' own error at worst, which they add to in quadrature.
+/// samples each side they weigh below `2e-5` together. The kept weights are
+/// scaled to sum to one (so constants stay exact); what the cut leaves
+/// alternates in sign from sample to sample, a pattern at the sampling's
+/// Nyquist frequency that the level's Gaussian (two samples wide or more)
+/// has already removed from the signal.
 const TAPS: usize = 16;
 
 /// One factor of a part: Gaussians at `start + j step` (`j < n`) weighted
@@ -260,6 +270,10 @@ impl Axis {
                 let first = 1 - (TAPS / 2) as i64;
                 for (i, wi) in w.iter_mut().enumerate() {
                     *wi = cardinal_cubic(phi - (first + i as i64) as f64);
+                }
+                let sum: f64 = w.iter().sum();
+                for wi in &mut w {
+                    *wi /= sum;
                 }
                 Self {
                     start: (m0 + first as f64) * h,
@@ -420,11 +434,26 @@ fn pair_cost(terms: &[Placed], parts: &[Part]) -> f64 {
     0.5 * (terms.len() as f64).powi(2) * per_term * per_term * 2.0 * per_axis
 }
 
-/// Multiply-adds of [`error2_on_grid`]: each part's window, and the grid.
+/// The most pixels [`error2_on_grid`] allocates (32 MiB of `f64` per
+/// thread); past it the pair sums, whose cost does not grow with the scale.
+const MAX_GRID_CELLS: f64 = 4_194_304.0;
+
+/// Multiply-adds of [`error2_on_grid`]: each part's window, and the grid;
+/// infinite for a grid of more than [`MAX_GRID_CELLS`] (or positions that
+/// are not numbers).
 fn grid_cost(parts: &[Part]) -> f64 {
-    let Some((x0, x1, y0, y1)) = bounds(parts) else {
-        return 0.0;
-    };
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for p in parts {
+        let r = GRID_SIGMAS * p.var.sqrt() + 1.0;
+        x0 = x0.min(p.x.start - r);
+        x1 = x1.max(p.x.start + p.x.span() + r);
+        y0 = y0.min(p.y.start - r);
+        y1 = y1.max(p.y.start + p.y.span() + r);
+    }
+    let area = (x1 - x0 + 1.0) * (y1 - y0 + 1.0);
+    if area.is_nan() || area > MAX_GRID_CELLS {
+        return f64::INFINITY;
+    }
     let windows: f64 = parts
         .iter()
         .map(|p| {
@@ -432,7 +461,7 @@ fn grid_cost(parts: &[Part]) -> f64 {
             (p.x.span() + r) * (p.y.span() + r) + 8.0 * (p.x.span() + p.y.span() + 2.0 * r)
         })
         .sum();
-    windows + (x1 - x0 + 1) as f64 * (y1 - y0 + 1) as f64
+    windows + area
 }
 
 /// Standard deviations a part's Gaussians are summed to on the grid: the
@@ -633,6 +662,36 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// A grid past `MAX_GRID_CELLS` is never chosen (the pair sums serve),
+    /// and scales whose norms are not numbers give an infinite estimate,
+    /// never one within a budget.
+    #[test]
+    fn huge_grids_and_absurd_scales_are_refused() {
+        let here = Part {
+            coef: 1.0,
+            var: 4.0,
+            x: Axis::point(0.0),
+            y: Axis::point(0.0),
+        };
+        let far = Part {
+            x: Axis::point(1e4),
+            y: Axis::point(1e4),
+            ..here
+        };
+        assert!(grid_cost(&[here]).is_finite());
+        assert_eq!(grid_cost(&[here, far]), f64::INFINITY);
+        let d = Decomposition::from_terms(vec![Term {
+            weight: 1.0,
+            x: 2.0,
+            y: 0.0,
+            sigma: 3.0,
+        }]);
+        let noise = WhiteNoise::new(&d, (1e-200, 1e-200), 0.0);
+        for i in [Interpolation::Linear, Interpolation::Cubic] {
+            assert_eq!(noise.expected((i, 2.0), Levels::AtSigmas), f64::INFINITY);
         }
     }
 

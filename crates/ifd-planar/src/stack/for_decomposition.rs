@@ -184,7 +184,7 @@ const MAX_DIRECT_REACH: f64 = 1024.0;
 /// of a decomposition sampled as `sampling` directly at the constant scale
 /// `s`: its effective sigma is below `below` and it lies within 1024 px of
 /// the centre (after scaling). The one rule for the filter, the levels it
-/// reads ([`level_sigmas`](crate::level_sigmas)) and the error bound ([`crate::EvalPlan`]).
+/// reads ([`level_sigmas`](crate::level_sigmas)) and the error bound and estimate ([`crate::EvalPlan`]).
 #[must_use]
 pub fn evaluated_directly(sampling: Sampling, t: &Term, s: f64, below: f64) -> bool {
     is_direct(sampling, t.sigma, t.x.hypot(t.y), s, below)
