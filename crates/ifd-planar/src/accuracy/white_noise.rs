@@ -31,12 +31,12 @@
 //!
 //! The error depends on the pose: the fractional positions of the `q_t` on
 //! their levels' grids (and, on a log-uniform stack, where the scaled sigmas
-//! fall between levels). [`WhiteNoise::expected`] averages `||D||^2` over
+//! fall between its levels, placed as the stack places them). [`WhiteNoise::expected`] averages `||D||^2` over
 //! [`POSES`] poses (fewer for hundreds of terms, [`WhiteNoise::new`]) spread
 //! evenly (a low-discrepancy sequence) over the
 //! rotations (the full turn), the integer translations (bit-reversed: every
 //! pyramid step sees every phase) and, with a per-pixel scale, the scales
-//! (log-uniform over the planned range) and where they fall between levels.
+//! (log-uniform over the planned range).
 //! No pixel is sampled: the same decomposition and plan always give the same
 //! number.
 //!
@@ -49,18 +49,16 @@
 //! times below the
 //! bound, so a rule on the bound stored levels finer than the accuracy asked
 //! for needed. This sum is the measured error's expectation: filtering white
-//! noise measures within 15% of it (tested; the rest is the poses' sampling)
-//! at a constant scale; on log-uniform stacks the estimate runs 8-18% high,
-//! as its levels are exactly `2^(1/n)` apart where the stack fits a whole
-//! number of levels to the scale range, a little closer.
+//! noise measures within 15% of it (tested; the rest is the poses'
+//! sampling).
 
 use crate::decomposition::Decomposition;
 use crate::stack::for_decomposition::evaluated_directly;
 use crate::stack::{Interpolation, pyramid_step};
 use std::f64::consts::{LN_2, PI};
 
-/// Poses averaged over: rotation, translation and (per-pixel scale) scale
-/// and level offset.
+/// Poses averaged over: rotation, translation and (per-pixel scale)
+/// scale.
 const POSES: usize = 24;
 
 /// Where the levels a term reads are.
@@ -81,6 +79,9 @@ pub(crate) enum Levels {
 pub(crate) struct WhiteNoise<'a> {
     decomposition: &'a Decomposition,
     direct_sigma: f64,
+    /// The sigmas a log-uniform stack for the scale range spans
+    /// ([`crate::stack::for_decomposition::sigma_bounds`]).
+    stack_sigmas: (f64, f64),
     /// Each pose, its scale and `||k_s||^2` there.
     poses: Vec<(Pose, f64, f64)>,
 }
@@ -111,9 +112,18 @@ impl<'a> WhiteNoise<'a> {
                 (pose, s, norm2)
             })
             .collect();
+        let terms = &decomposition.terms;
+        let sigma_range = terms.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), t| {
+            (lo.min(t.sigma), hi.max(t.sigma))
+        });
         Self {
             decomposition,
             direct_sigma,
+            stack_sigmas: crate::stack::for_decomposition::sigma_bounds(
+                decomposition.sampling,
+                sigma_range,
+                (scale_min, scale_max),
+            ),
             poses,
         }
     }
@@ -127,6 +137,12 @@ impl<'a> WhiteNoise<'a> {
         levels: Levels,
     ) -> f64 {
         use rayon::prelude::*;
+        let levels = match levels {
+            Levels::AtSigmas => Placement::AtSigmas,
+            Levels::LogUniform { per_octave } => {
+                Placement::log_uniform(self.stack_sigmas, per_octave)
+            }
+        };
         let each: Vec<f64> = self
             .poses
             .par_iter()
@@ -167,14 +183,13 @@ impl<'a> WhiteNoise<'a> {
 }
 
 /// One pose: fractions in `[0, 1)` from the additive recurrence of the
-/// five-dimensional golden ratio (evenly spread in every dimension and
-/// every projection).
+/// five-dimensional golden ratio, four of its dimensions (evenly spread in
+/// every dimension and every projection).
 struct Pose {
     theta: f64,
     tx: f64,
     ty: f64,
     scale: f64,
-    offset: f64,
 }
 
 impl Pose {
@@ -189,7 +204,6 @@ impl Pose {
             tx: frac(2),
             ty: frac(3),
             scale: frac(4),
-            offset: frac(5),
         }
     }
 }
@@ -327,6 +341,43 @@ fn cardinal_cubic(x: f64) -> f64 {
         .sum()
 }
 
+/// Where [`place`] puts the levels a term reads.
+#[derive(Clone, Copy, Debug)]
+enum Placement {
+    /// One level at the term's own sigma.
+    AtSigmas,
+    /// Levels `exp(ln_lo + k ln_rho)`, `k = 0..=last`: the stack's
+    /// ([`crate::stack::StackPlan`]'s log-uniform levels: a whole number of
+    /// them over the range, at most `per_octave` per octave apart).
+    LogUniform {
+        ln_lo: f64,
+        ln_rho: f64,
+        last: usize,
+    },
+}
+
+impl Placement {
+    /// The levels of a log-uniform stack over `(lo, hi)` with `per_octave`
+    /// levels per octave, as the stack places them.
+    fn log_uniform((lo, hi): (f64, f64), per_octave: usize) -> Self {
+        let octaves = (hi / lo).log2();
+        let last = if octaves > 1e-9 {
+            (octaves * per_octave.max(1) as f64 - 1e-9).ceil() as usize
+        } else {
+            0
+        };
+        Self::LogUniform {
+            ln_lo: lo.ln(),
+            ln_rho: if last == 0 {
+                0.0
+            } else {
+                octaves * LN_2 / last as f64
+            },
+            last,
+        }
+    }
+}
+
 #[allow(clippy::too_many_arguments)]
 fn place(
     decomposition: &Decomposition,
@@ -334,7 +385,7 @@ fn place(
     pose: &Pose,
     (interpolation, factor): (Interpolation, f64),
     direct_sigma: f64,
-    levels: Levels,
+    levels: Placement,
     terms: &mut Vec<Placed>,
     parts: &mut Vec<Part>,
 ) {
@@ -377,14 +428,20 @@ fn place(
             });
         };
         match levels {
-            Levels::AtSigmas => read(sigma, 1.0),
-            Levels::LogUniform { per_octave } => {
-                let ln_rho = LN_2 / per_octave.max(1) as f64;
-                let u = pose.offset + sigma.ln() / ln_rho;
-                let f = u - u.floor();
-                let sigma_a = sigma * (-f * ln_rho).exp();
-                read(sigma_a, 1.0 - f);
-                read(sigma_a * ln_rho.exp(), f);
+            Placement::AtSigmas => read(sigma, 1.0),
+            Placement::LogUniform { ln_lo, last: 0, .. } => read(ln_lo.exp(), 1.0),
+            Placement::LogUniform {
+                ln_lo,
+                ln_rho,
+                last,
+            } => {
+                // The bracketing levels and the weights linear in ln sigma,
+                // clamped to the stack as its lookups clamp.
+                let u = ((sigma.ln() - ln_lo) / ln_rho).clamp(0.0, last as f64);
+                let a = (u.floor() as usize).min(last - 1);
+                let f = u - a as f64;
+                read((ln_lo + a as f64 * ln_rho).exp(), 1.0 - f);
+                read((ln_lo + (a + 1) as f64 * ln_rho).exp(), f);
             }
         }
         terms.push(Placed {
@@ -641,7 +698,7 @@ mod tests {
         ]);
         let (mut terms, mut parts) = (Vec::new(), Vec::new());
         for interpolation in [Interpolation::Linear, Interpolation::Cubic] {
-            for levels in [Levels::AtSigmas, Levels::LogUniform { per_octave: 2 }] {
+            for levels in [Placement::AtSigmas, Placement::log_uniform((2.0, 9.0), 2)] {
                 for i in 0..6 {
                     let pose = Pose::nth(i);
                     let s = 0.8 + 0.1 * i as f64;
