@@ -565,16 +565,29 @@ impl EvalPlan {
 /// `||k||_2` of the continuous sum of Gaussians, in closed form:
 /// `sum_{t,u} w_t w_u g_{sqrt(sigma_t^2 + sigma_u^2)}(c_t - c_u)`.
 fn kernel_norm(decomposition: &Decomposition) -> f64 {
-    let terms = &decomposition.terms;
+    gaussian_sum_norm2(&decomposition.terms, 1.0, |sigma| sigma)
+        .max(0.0)
+        .sqrt()
+}
+
+/// `||sum_t w_t g_{sigma(sigma_t)}(. - s c_t)||^2` in closed form (the 2D
+/// Gaussians' inner products are Gaussians of the summed variances), each
+/// pair of terms once: the squared norm of a decomposition's kernel at
+/// scale `s` with sigmas `sigma` of the terms' (the bound's and, with the
+/// pixel footprint, the estimate's normalisation).
+fn gaussian_sum_norm2(terms: &[crate::Term], s: f64, sigma: impl Fn(f64) -> f64) -> f64 {
+    let sigmas: Vec<f64> = terms.iter().map(|t| sigma(t.sigma)).collect();
     let mut sum = 0.0;
-    for a in terms {
-        for b in terms {
-            let v = a.sigma * a.sigma + b.sigma * b.sigma;
-            let d2 = (a.x - b.x).powi(2) + (a.y - b.y).powi(2);
-            sum += a.weight * b.weight * (-d2 / (2.0 * v)).exp() / (2.0 * std::f64::consts::PI * v);
+    for (i, a) in terms.iter().enumerate() {
+        for (j, b) in terms.iter().enumerate().skip(i) {
+            let v = sigmas[i] * sigmas[i] + sigmas[j] * sigmas[j];
+            let d2 = s * s * ((a.x - b.x).powi(2) + (a.y - b.y).powi(2));
+            let g =
+                a.weight * b.weight * (-d2 / (2.0 * v)).exp() / (2.0 * std::f64::consts::PI * v);
+            sum += if i == j { g } else { 2.0 * g };
         }
     }
-    sum.max(0.0).sqrt()
+    sum
 }
 
 #[cfg(test)]

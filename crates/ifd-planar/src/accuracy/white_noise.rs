@@ -54,8 +54,8 @@
 
 use crate::decomposition::Decomposition;
 use crate::stack::for_decomposition::evaluated_directly;
-use crate::stack::{Interpolation, pyramid_step};
-use std::f64::consts::{LN_2, PI};
+use crate::stack::{Interpolation, LevelLocator, log_uniform_sigmas, pyramid_step};
+use std::f64::consts::PI;
 
 /// Poses averaged over: rotation, translation and (per-pixel scale)
 /// scale.
@@ -156,7 +156,7 @@ impl<'a> WhiteNoise<'a> {
                         pose,
                         (interpolation, factor),
                         self.direct_sigma,
-                        levels,
+                        &levels,
                         terms,
                         parts,
                     );
@@ -342,39 +342,25 @@ fn cardinal_cubic(x: f64) -> f64 {
 }
 
 /// Where [`place`] puts the levels a term reads.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 enum Placement {
     /// One level at the term's own sigma.
     AtSigmas,
-    /// Levels `exp(ln_lo + k ln_rho)`, `k = 0..=last`: the stack's
-    /// ([`crate::stack::StackPlan`]'s log-uniform levels: a whole number of
-    /// them over the range, at most `per_octave` per octave apart).
+    /// The levels of a log-uniform stack, located as the stack's lookups
+    /// locate them.
     LogUniform {
-        ln_lo: f64,
-        ln_rho: f64,
-        last: usize,
+        sigmas: Vec<f64>,
+        locator: LevelLocator,
     },
 }
 
 impl Placement {
-    /// The levels of a log-uniform stack over `(lo, hi)` with `per_octave`
-    /// levels per octave, as the stack places them.
+    /// The levels a log-uniform stack over `(lo, hi)` with `per_octave`
+    /// levels per octave stores ([`log_uniform_sigmas`]).
     fn log_uniform((lo, hi): (f64, f64), per_octave: usize) -> Self {
-        let octaves = (hi / lo).log2();
-        let last = if octaves > 1e-9 {
-            (octaves * per_octave.max(1) as f64 - 1e-9).ceil() as usize
-        } else {
-            0
-        };
-        Self::LogUniform {
-            ln_lo: lo.ln(),
-            ln_rho: if last == 0 {
-                0.0
-            } else {
-                octaves * LN_2 / last as f64
-            },
-            last,
-        }
+        let sigmas = log_uniform_sigmas(lo, hi, per_octave);
+        let locator = LevelLocator::new(&sigmas, true);
+        Self::LogUniform { sigmas, locator }
     }
 }
 
@@ -385,7 +371,7 @@ fn place(
     pose: &Pose,
     (interpolation, factor): (Interpolation, f64),
     direct_sigma: f64,
-    levels: Placement,
+    levels: &Placement,
     terms: &mut Vec<Placed>,
     parts: &mut Vec<Part>,
 ) {
@@ -429,19 +415,12 @@ fn place(
         };
         match levels {
             Placement::AtSigmas => read(sigma, 1.0),
-            Placement::LogUniform { ln_lo, last: 0, .. } => read(ln_lo.exp(), 1.0),
-            Placement::LogUniform {
-                ln_lo,
-                ln_rho,
-                last,
-            } => {
-                // The bracketing levels and the weights linear in ln sigma,
-                // clamped to the stack as its lookups clamp.
-                let u = ((sigma.ln() - ln_lo) / ln_rho).clamp(0.0, last as f64);
-                let a = (u.floor() as usize).min(last - 1);
-                let f = u - a as f64;
-                read((ln_lo + a as f64 * ln_rho).exp(), 1.0 - f);
-                read((ln_lo + (a + 1) as f64 * ln_rho).exp(), f);
+            Placement::LogUniform { sigmas, locator } => {
+                // The bracketing levels, weights linear in ln sigma (`wb`
+                // zero on a level), clamped to the stack.
+                let (a, b, wa, wb) = locator.locate(sigma);
+                read(sigmas[a], f64::from(wa));
+                read(sigmas[b], f64::from(wb));
             }
         }
         terms.push(Placed {
@@ -656,21 +635,10 @@ fn axis_product(a: &Axis, b: &Axis, var: f64) -> f64 {
 /// `||k_s||^2`: the squared norm of the sum of the terms' Gaussians at
 /// scale `s` (effective sigmas, offsets scaled).
 fn kernel_norm2(decomposition: &Decomposition, s: f64) -> f64 {
-    let terms = &decomposition.terms;
-    let sigmas: Vec<f64> = terms
-        .iter()
-        .map(|t| decomposition.sampling.effective_sigma(t.sigma, s))
-        .collect();
-    let mut sum = 0.0;
-    for (i, a) in terms.iter().enumerate() {
-        for (j, b) in terms.iter().enumerate().skip(i) {
-            let v = sigmas[i] * sigmas[i] + sigmas[j] * sigmas[j];
-            let d2 = s * s * ((a.x - b.x).powi(2) + (a.y - b.y).powi(2));
-            let g = a.weight * b.weight * (-d2 / (2.0 * v)).exp() / (2.0 * PI * v);
-            sum += if i == j { g } else { 2.0 * g };
-        }
-    }
-    sum
+    let sampling = decomposition.sampling;
+    super::gaussian_sum_norm2(&decomposition.terms, s, |sigma| {
+        sampling.effective_sigma(sigma, s)
+    })
 }
 
 #[cfg(test)]
@@ -708,7 +676,7 @@ mod tests {
                         &pose,
                         (interpolation, 2.0),
                         0.0,
-                        levels,
+                        &levels,
                         &mut terms,
                         &mut parts,
                     );

@@ -12,6 +12,26 @@ pub struct LevelLocator {
 }
 
 impl LevelLocator {
+    /// The locator of levels at `sigmas` (increasing, at least one):
+    /// log-uniformly spaced (`uniform`: a position is one multiply away) or
+    /// not (bisection).
+    pub(crate) fn new(sigmas: &[f64], uniform: bool) -> Self {
+        let ln_sigmas: Vec<f64> = sigmas.iter().map(|s| s.ln()).collect();
+        let ln_sigma0 = ln_sigmas[0];
+        let inv_ln_ratio = if !uniform {
+            f64::NAN
+        } else if sigmas.len() > 1 {
+            (sigmas.len() - 1) as f64 / (ln_sigmas[sigmas.len() - 1] - ln_sigma0)
+        } else {
+            0.0
+        };
+        Self {
+            ln_sigma0,
+            inv_ln_ratio,
+            ln_sigmas,
+        }
+    }
+
     /// `(a, b, wa, wb)`: the levels bracketing `sigma` and their weights,
     /// linear in `ln sigma`, clamped to the levels; a sigma on a level (to a
     /// relative 1e-6 of the spacing) reads that level alone (`b == a`,

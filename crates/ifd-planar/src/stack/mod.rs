@@ -17,7 +17,7 @@ pub(crate) use build::check_finite;
 pub use locate::LevelLocator;
 pub(crate) use locate::{LevelRule, ScalePosition};
 pub use plan::{Interpolation, LevelLayout, MIN_SIGMA, StackLayout, StackOptions, StackPlan};
-pub(crate) use plan::{bspline_weights, pyramid_step};
+pub(crate) use plan::{bspline_weights, log_uniform_sigmas, pyramid_step};
 pub use separable::StackBuild;
 
 use ifd_image::ImageView;
@@ -231,15 +231,11 @@ impl ScaleStack {
             build_levels(layout, data, border, &mut levels);
         }
         let sigmas: Vec<f64> = layout.levels.iter().map(|l| l.sigma).collect();
-        let ln_sigma0 = sigmas[0].ln();
-        let inv_ln_ratio = if !layout.uniform {
-            f64::NAN
-        } else if sigmas.len() > 1 {
-            (sigmas.len() - 1) as f64 / (sigmas[sigmas.len() - 1].ln() - ln_sigma0)
-        } else {
-            0.0
-        };
-        let ln_sigmas = sigmas.iter().map(|s| s.ln()).collect();
+        let LevelLocator {
+            ln_sigma0,
+            inv_ln_ratio,
+            ln_sigmas,
+        } = LevelLocator::new(&sigmas, layout.uniform);
         Ok(Self {
             width,
             height,

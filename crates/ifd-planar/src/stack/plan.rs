@@ -108,6 +108,35 @@ pub(crate) fn pyramid_step(sigma: f64, pyramid_factor: f64) -> usize {
     1usize << j
 }
 
+/// The sigmas of a log-uniform stack over `[sigma_min, sigma_max]`: a whole
+/// number of equal steps in `ln sigma`, the fewest at most
+/// `1 / samples_per_octave` of an octave each (one level when the range is
+/// one sigma). [`StackLayout::new`] stores these levels; the evaluation plan
+/// estimates its error on them.
+pub(crate) fn log_uniform_sigmas(
+    sigma_min: f64,
+    sigma_max: f64,
+    samples_per_octave: usize,
+) -> Vec<f64> {
+    let octaves = (sigma_max / sigma_min).log2();
+    let n = if octaves <= 1e-9 {
+        0
+    } else {
+        (octaves * samples_per_octave as f64 - 1e-9).ceil() as usize
+    };
+    (0..=n)
+        .map(|i| {
+            if n == 0 {
+                sigma_min
+            } else if i == n {
+                sigma_max
+            } else {
+                sigma_min * (octaves * i as f64 / n as f64).exp2()
+            }
+        })
+        .collect()
+}
+
 /// The cubic B-spline weights of the four samples at `-1, 0, 1, 2` for a
 /// fractional position `t` in `[0, 1)`.
 #[inline]
@@ -339,23 +368,7 @@ impl StackLayout {
         if options.margin > 1 << 20 {
             return Err(range_err(format!("margin {} px is absurd", options.margin)));
         }
-        let octaves = (sigma_max / sigma_min).log2();
-        let n = if octaves <= 1e-9 {
-            0
-        } else {
-            (octaves * options.samples_per_octave as f64 - 1e-9).ceil() as usize
-        };
-        let sigmas: Vec<f64> = (0..=n)
-            .map(|i| {
-                if n == 0 {
-                    sigma_min
-                } else if i == n {
-                    sigma_max
-                } else {
-                    sigma_min * (octaves * i as f64 / n as f64).exp2()
-                }
-            })
-            .collect();
+        let sigmas = log_uniform_sigmas(sigma_min, sigma_max, options.samples_per_octave);
         Self::from_sigmas(width, height, channels, &sigmas, options, true)
     }
 
