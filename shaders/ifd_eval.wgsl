@@ -60,7 +60,10 @@ struct Params {
     // SAMPLING_*: how the decomposition's kernel was sampled, which sets the
     // atoms' effective sigma at each scale (Sampling::effective_sigma).
     sampling: u32,
-    _pad0: u32,
+    // Within this fraction of the level spacing a sigma reads one level:
+    // LEVEL_SNAP, or 0.5 on a stack read at the nearest level (every sigma
+    // but one exactly half-way reads the level nearest it alone).
+    level_snap: f32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -338,11 +341,8 @@ fn lookup(li: u32, x: f32, y: f32) -> vec4<f32> {
     return bilinear(li, x, y);
 }
 
-// Within this fraction of the level spacing a sigma reads one level: f32
-// level positions of up to ~20 levels carry rounding errors near 2e-6, and
-// snapping changes a result by at most 1e-4 of the difference between
-// neighbouring levels.
-const LEVEL_SNAP: f32 = 1e-4;
+// params.level_snap (the host's LEVEL_SNAP, 1e-4, or NEAREST_SNAP, 0.5): the
+// fraction of the level spacing within which a sigma reads one level.
 
 // One bank entry at pixel (x, y) for pose (cs, ss, u_offset) at scale s.
 fn eval_entry(e: u32, x: f32, y: f32, cs: f32, ss: f32, u_offset: f32, s: f32) -> vec4<f32> {
@@ -384,11 +384,13 @@ fn eval_entry(e: u32, x: f32, y: f32, cs: f32, ss: f32, u_offset: f32, s: f32) -
         let u = clamp(ln_sigma * params.inv_ln_ratio + u_offset, 0.0, f32(last));
         var a = min(u32(u), last - 1u);
         var f = u - f32(a);
-        // A sigma on a level up to rounding reads that level alone (the CPU's
-        // snap_to_level, with a tolerance for f32 level positions).
-        if f < LEVEL_SNAP {
+        // A sigma on a level up to rounding (the CPU's snap_to_level, with a
+        // tolerance for f32 level positions), or nearest a level on a stack
+        // read at the nearest level, reads that level alone.
+        let snap = params.level_snap;
+        if f < snap {
             f = 0.0;
-        } else if f > 1.0 - LEVEL_SNAP {
+        } else if f > 1.0 - snap {
             a += 1u;
             f = 0.0;
         }

@@ -357,6 +357,68 @@ fn spatially_varying_filter_matches_cpu() {
     }
 }
 
+/// A log-uniform stack read at the nearest level
+/// (`StackOptions::nearest_level`, what `EvalPlan` chooses for loose
+/// budgets with a scale map): the shader reads each term's nearest level
+/// alone as the CPU does. Where a term's level position lies within f32
+/// rounding of half-way between two levels, the two sides may round apart
+/// and read neighbouring levels: a few such pixels (at most 1 in 10^4) may
+/// differ by up to the difference between the levels, every other pixel
+/// agrees to `TOL`.
+#[test]
+fn nearest_level_reads_match_cpu() {
+    let Some(ctx) = ctx() else { return };
+    let img = read("astronaut.png");
+    let (w, h) = (img.width(), img.height());
+    let d = decomposition(32, 16.0, 3);
+    let angles: Vec<f32> = (0..w * h)
+        .map(|i| ((i % w) as f32 * 0.9 - (i / w) as f32 * 0.4) % 360.0)
+        .collect();
+    let scales: Vec<f32> = (0..w * h)
+        .map(|i| 0.5 + 2.5 * ((i % w) + (i / w)) as f32 / (w + h) as f32)
+        .collect();
+    let options = StackOptions {
+        samples_per_octave: 3,
+        nearest_level: true,
+        ..StackOptions::default()
+    };
+    let stack =
+        stack_for_decomposition(&img, &d, 0.5, 3.0, Border::Reflect101, options).expect("stack");
+    assert!(stack.reads_nearest_level());
+    let filter = Filter::new(&stack, &d).expect("filter");
+    let (angle, scale) = (Field::Map(&angles), Field::Map(&scales));
+    let cpu = filter.apply(angle, scale).expect("cpu");
+    let gpu = filter_image(ctx, &stack, &d, angle, scale).expect("gpu");
+    let peak = cpu.data().iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let apart = gpu
+        .data()
+        .iter()
+        .zip(cpu.data())
+        .filter(|(a, b)| (*a - *b).abs() > TOL * peak)
+        .count();
+    eprintln!(
+        "nearest level: {apart} of {} values apart",
+        cpu.data().len()
+    );
+    assert!(apart * 10_000 <= cpu.data().len(), "{apart} values apart");
+    // The blend of the same levels differs from the nearest reads by far
+    // more than `TOL`: the test sees which rule the shader took.
+    let blend = StackOptions {
+        nearest_level: false,
+        ..options
+    };
+    let blended =
+        stack_for_decomposition(&img, &d, 0.5, 3.0, Border::Reflect101, blend).expect("stack");
+    let other = filter_image(ctx, &blended, &d, angle, scale).expect("gpu");
+    let differ = other
+        .data()
+        .iter()
+        .zip(cpu.data())
+        .filter(|(a, b)| (*a - *b).abs() > TOL * peak)
+        .count();
+    assert!(differ * 10 > cpu.data().len(), "{differ} values differ");
+}
+
 #[test]
 fn region_is_the_crop_of_the_full_result() {
     let Some(ctx) = ctx() else { return };

@@ -546,6 +546,7 @@ impl<'a> Filter<'a> {
             inv_sigma2: t.inv_sigma2,
             inv: inv as f32,
             last: (self.stack.sigmas().len() - 1) as u32,
+            snap: self.stack.pixel_snap(),
         }
     }
 

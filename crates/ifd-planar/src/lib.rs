@@ -136,7 +136,7 @@ pub mod internals {
     }
     /// The lookup error of a stack level against the exact convolution.
     pub mod accuracy {
-        pub use crate::accuracy::{level_blend_error, lookup_error};
+        pub use crate::accuracy::{level_blend_error, lookup_error, nearest_level_error};
     }
     /// The Mixture-of-Gaussians dictionary behind [`crate::decompose`].
     pub mod dictionary {

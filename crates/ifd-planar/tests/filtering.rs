@@ -976,7 +976,7 @@ fn the_planned_error_estimate_is_what_white_noise_measures() {
         .into_iter()
         .flat_map(|i| [false, true].map(|scaled| (i, scaled)));
     for (interpolation, scaled) in cases {
-        for budget in [1.0, 1e-6] {
+        for budget in [1.0, 0.06, 1e-6] {
             let angle = CheckedField::new(Field::Map(&angles), FieldKind::Angle, n, n).unwrap();
             let scale = if scaled {
                 CheckedField::new(Field::Map(&scales), FieldKind::Scale, n, n).unwrap()
@@ -1006,10 +1006,11 @@ fn the_planned_error_estimate_is_what_white_noise_measures() {
             let measured = (err2 / ref2).sqrt();
             let e = plan.eval;
             eprintln!(
-                "{interpolation:?}, scale map {scaled}, factor {}, {} per octave: measured {:.4}%, \
-                 estimate {:.4}%, bound {:.4}%",
+                "{interpolation:?}, scale map {scaled}, factor {}, {} per octave, nearest {}: \
+                 measured {:.4}%, estimate {:.4}%, bound {:.4}%",
                 e.pyramid_factor,
                 e.samples_per_octave,
+                e.nearest_level,
                 100.0 * measured,
                 100.0 * e.error_estimate,
                 100.0 * e.total_bound()
@@ -1017,13 +1018,19 @@ fn the_planned_error_estimate_is_what_white_noise_measures() {
             // The loosest budget takes the first candidate and the fewest
             // levels; the tightest the most accurate (bilinear: factor 4).
             if budget > 0.5 {
-                assert_eq!(e.pyramid_factor, 2.0);
-            } else if interpolation == Interpolation::Linear {
+                assert_eq!(e.pyramid_factor, 1.0);
+            } else if interpolation == Interpolation::Linear && budget < 1e-3 {
                 assert_eq!(e.pyramid_factor, 4.0);
             }
-            if scaled {
-                assert_eq!(e.samples_per_octave, if budget > 0.5 { 2 } else { 4 });
+            // With a scale map the loosest budget reads each term's nearest
+            // level (one lookup) from the fewest levels; the tightest blends
+            // two of the most.
+            if scaled && budget > 0.5 {
+                assert_eq!((e.samples_per_octave, e.nearest_level), (2, true));
+            } else if scaled && budget < 1e-3 {
+                assert_eq!((e.samples_per_octave, e.nearest_level), (4, false));
             }
+            assert!(!e.nearest_level || scaled);
             // Within 15% either way.
             let ratio = e.error_estimate / measured;
             assert!(

@@ -65,7 +65,8 @@ pub struct Filter {
     /// How the prefiltered levels are read between samples: `auto` chooses,
     /// per decomposition, the cheapest of bilinear and the cubic B-spline
     /// (and how finely levels are stored; with a scale map, 2 to 4 levels
-    /// per octave) whose expected evaluation error is within `--eval-budget`;
+    /// per octave blended, or up to 8 with each term reading its nearest
+    /// level) whose expected evaluation error is within `--eval-budget`;
     /// `linear` or `cubic` fix the interpolation. See
     /// docs/planar-accuracy.md.
     #[arg(long, value_name = "MODE", default_value = "auto")]
@@ -412,7 +413,15 @@ impl Filter {
         let t2 = Instant::now();
         if self.verbose {
             let levels = if plan.eval.level_error > 0.0 {
-                format!(", {} levels per octave", plan.eval.samples_per_octave)
+                let reads = if plan.eval.nearest_level {
+                    "the nearest read"
+                } else {
+                    "two blended"
+                };
+                format!(
+                    ", {} levels per octave ({reads})",
+                    plan.eval.samples_per_octave
+                )
             } else {
                 String::new()
             };

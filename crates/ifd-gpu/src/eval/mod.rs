@@ -52,8 +52,22 @@ struct Params {
     /// How the decomposition's kernel was sampled (`SAMPLING_*` in the
     /// shader): the atoms' effective sigma at each scale.
     sampling: u32,
-    pad: [u32; 3],
+    /// Within this fraction of the level spacing a sigma reads one level:
+    /// `1e-4` (f32 rounding of positions on a level), or 0.5 on a stack read
+    /// at the nearest level ([`ifd_planar::StackOptions::nearest_level`]).
+    level_snap: f32,
+    pad: [u32; 2],
 }
+
+/// `Params::level_snap` on a stack read blending levels: f32 level
+/// positions of up to ~20 levels carry rounding errors near 2e-6; snapping
+/// within 1e-4 of the spacing changes a result by at most 1e-4 of the
+/// difference between neighbouring levels.
+const LEVEL_SNAP: f32 = 1e-4;
+
+/// `Params::level_snap` on a stack read at the nearest level: the CPU's
+/// rule (every sigma but one exactly half-way reads one level).
+const NEAREST_SNAP: f32 = 0.5;
 
 /// The shader's `struct TermLevel`: the levels a term reads at a constant
 /// scale and their weights, located on the host as the CPU path locates them
@@ -298,7 +312,12 @@ impl GpuContext {
                             Sampling::Area => codes::SAMPLING_AREA,
                             Sampling::Averaged => codes::SAMPLING_AVERAGED,
                         },
-                        pad: [0; 3],
+                        level_snap: if stack.locator.reads_nearest_level() {
+                            NEAREST_SNAP
+                        } else {
+                            LEVEL_SNAP
+                        },
+                        pad: [0; 2],
                     };
                     let pb = buffer_init(
                         device,
@@ -370,7 +389,7 @@ mod layout_tests {
             "entry" => entry, "flags" => flags, "rot_off" => rot_off,
             "scale_off" => scale_off, "entry_off" => entry_off, "n_entries" => n_entries,
             "interpolation" => interpolation, "sampling" => sampling,
-            "_pad0" => pad, "_pad1" => pad + 4, "_pad2" => pad + 8,
+            "level_snap" => level_snap, "_pad1" => pad, "_pad2" => pad + 4,
         ]);
         mirror!(src, "Term", GpuTerm, [
             "weight" => weight, "cx" => cx, "cy" => cy, "ln_sigma" => ln_sigma,

@@ -130,12 +130,44 @@ pub fn level_blend_error(samples_per_octave: usize) -> f64 {
     mean_square.sqrt()
 }
 
+/// Relative RMS error of reading a Gaussian from the level of a
+/// log-uniform stack (`samples_per_octave` levels per octave) nearest it in
+/// `ln sigma` alone ([`StackOptions::nearest_level`]), averaged over the
+/// position between two levels as [`level_blend_error`] averages: the sigma
+/// is off by up to a factor `2^(1 / 2n)`. 14% at 2 levels per octave, 7.1%
+/// at 4, 4.7% at 6, 3.5% at 8 (the largest, half-way: 27%, 13%, 8.4%,
+/// 6.3%); for small offsets `sqrt(2)` times the relative sigma offset.
+///
+/// ```
+/// use ifd_planar::internals::accuracy::{level_blend_error, nearest_level_error};
+/// assert!((nearest_level_error(4) - 0.071).abs() < 1e-3);
+/// // blending two levels is far more accurate than reading the nearest
+/// assert!(nearest_level_error(8) > level_blend_error(2));
+/// ```
+#[must_use]
+pub fn nearest_level_error(samples_per_octave: usize) -> f64 {
+    const POSITIONS: usize = 64;
+    let rho = 2f64.powf(1.0 / samples_per_octave.max(1) as f64);
+    let mean_square = (0..POSITIONS)
+        .map(|i| {
+            let f = (i as f64 + 0.5) / POSITIONS as f64;
+            error_at(rho, f, if f < 0.5 { (1.0, 0.0) } else { (0.0, 1.0) }).powi(2)
+        })
+        .sum::<f64>()
+        / POSITIONS as f64;
+    mean_square.sqrt()
+}
+
 /// [`level_blend_error`]'s `e(f)` for levels `rho` apart.
 fn blend_error_at(rho: f64, f: f64) -> f64 {
+    error_at(rho, f, (1.0 - f, f))
+}
+
+/// The relative error of `wa g_1 + wb g_rho` for `g_{rho^f}`.
+fn error_at(rho: f64, f: f64, (wa, wb): (f64, f64)) -> f64 {
     use std::f64::consts::PI;
     let dot = |a: f64, b: f64| 1.0 / (2.0 * PI * (a * a + b * b));
     let (sa, sb, s) = (1.0, rho, rho.powf(f));
-    let (wa, wb) = (1.0 - f, f);
     let e2 =
         wa * wa * dot(sa, sa) + wb * wb * dot(sb, sb) + dot(s, s) + 2.0 * wa * wb * dot(sa, sb)
             - 2.0 * wa * dot(sa, s)
@@ -146,6 +178,56 @@ fn blend_error_at(rho: f64, f: f64) -> f64 {
 /// The fewest levels per octave a log-uniform stack is planned with
 /// ([`EvalPlan::choose`] with [`PlanOptions::log_uniform`]).
 const FEWEST_PER_OCTAVE: usize = 2;
+
+/// The most levels per octave a log-uniform stack read at the nearest level
+/// is planned with: at 8, its level error (3.5%, [`nearest_level_error`])
+/// is still above the blend's at 2 (3.0%), so the nearest level only serves
+/// budgets of a few per cent, and past 8 the levels cost more than the
+/// lookups they save for all but large decompositions.
+const NEAREST_MOST_PER_OCTAVE: usize = 8;
+
+/// What filtering through a stack costs, in units of one term read with
+/// one bilinear lookup at every pixel: `terms` terms read at the nearest
+/// level (`blend` false) or blending two ([`BLEND_TERM_COST`]; a cubic
+/// read costs [`CUBIC_TERM_COST`] times either), and prefiltering the levels
+/// at `sigmas` stored at `factor` (each [`LEVEL_COST`] plus
+/// [`LEVEL_SAMPLE_COST`] over its subsampling squared). Only its
+/// comparisons matter: [`EvalPlan::choose`] weighs blending against reading
+/// the nearest level with it.
+fn read_cost(
+    terms: usize,
+    blend: bool,
+    (interpolation, factor): (Interpolation, f64),
+    sigmas: &[f64],
+) -> f64 {
+    let per_term = match interpolation {
+        Interpolation::Linear => 1.0,
+        Interpolation::Cubic => CUBIC_TERM_COST,
+    } * if blend { BLEND_TERM_COST } else { 1.0 };
+    let levels: f64 = sigmas
+        .iter()
+        .map(|&sigma| {
+            let step = crate::stack::pyramid_step(sigma, factor) as f64;
+            LEVEL_COST + LEVEL_SAMPLE_COST / (step * step)
+        })
+        .sum();
+    terms as f64 * per_term + levels
+}
+
+/// [`read_cost`]'s constants, measured with `ifd filter -v` (1024x1024, a
+/// per-pixel angle and scale, one thread, AVX2 and AVX-512 machine,
+/// 2026-12-06): a term read at the nearest level took about 3 ms over the
+/// image, one blending two levels 1.3-1.5 times that (the two reads share
+/// the term's position and, on one grid, its stencil); a directly built
+/// level 1.5 ms plus 3 ms per image-sized level of samples; cubic reads
+/// about 3.4 times bilinear ones.
+const BLEND_TERM_COST: f64 = 1.4;
+/// See [`BLEND_TERM_COST`].
+const LEVEL_COST: f64 = 0.5;
+/// See [`BLEND_TERM_COST`].
+const LEVEL_SAMPLE_COST: f64 = 1.0;
+/// See [`BLEND_TERM_COST`].
+const CUBIC_TERM_COST: f64 = 3.4;
 
 /// The stack a decomposition is applied through, and the error it is
 /// expected to add (see the module docs for the rule and the bound).
@@ -214,16 +296,23 @@ const FEWEST_PER_OCTAVE: usize = 2;
 /// Filtering white noise measures within 15% of it.
 ///
 /// # The rule
-/// [`EvalPlan::choose`] takes the first of bilinear at pyramid factor 2 and
-/// 4, then the cubic B-spline at factor 2, 4, 8 and unsubsampled, whose
-/// estimate is within the budget (default [`EvalPlan::budget_for`]) over
-/// the scales used; when none is, the one with the lowest estimate (a later
-/// candidate replaces an earlier one only if 5% lower; a finer factor that
-/// improves on the one before by less than 5% ends that interpolation's
-/// candidates). On a log-uniform stack (a per-pixel scale,
-/// [`PlanOptions::log_uniform`]) each candidate takes the fewest levels per
-/// octave, 2 to the default 4, whose estimate (the blend of neighbouring
-/// levels included) is within the budget. Memory, for 4 levels per octave:
+/// [`EvalPlan::choose`] takes the first of bilinear at pyramid factor 1, 2
+/// and 4, then the cubic B-spline at factor 1, 2, 4, 8 and unsubsampled,
+/// whose estimate is within the budget (default [`EvalPlan::budget_for`])
+/// over the scales used; when none is, the one with the lowest estimate (a
+/// later candidate replaces an earlier one only if 5% lower; a finer factor
+/// that improves on the one before by less than 5% ends that
+/// interpolation's candidates). Factor 1 stores a level of sigma 2-4 px at
+/// every other pixel, 4-8 px at every fourth (one to two samples per
+/// sigma): a quarter of factor 2's samples, for loose budgets. On a
+/// log-uniform stack (a per-pixel scale, [`PlanOptions::log_uniform`])
+/// each candidate takes the fewest levels per octave, 2 to the default 4,
+/// whose estimate (the blend of neighbouring levels included) is within the
+/// budget; then, where reading each term's nearest level alone (one lookup
+/// instead of two) with more levels per octave, up to
+/// 8, is also within the budget and costs less
+/// (a cost model of lookups and levels measured on this project's
+/// benchmark machine), the nearest level. Memory, for 4 levels per octave:
 /// about 5.3 image-sized levels at factor 2, 8.5 at 4, 14 at 8 (every level
 /// below `factor` pixels is stored at full resolution); a cubic lookup
 /// costs four times the arithmetic of a bilinear one. Terms narrower than
@@ -251,9 +340,15 @@ pub struct EvalPlan {
     pub direct_sigma: f64,
     /// Levels per octave of sigma ([`StackOptions::samples_per_octave`]).
     pub samples_per_octave: usize,
+    /// Each term reads the level nearest its sigma alone
+    /// ([`StackOptions::nearest_level`]): one lookup instead of two, on a
+    /// log-uniform stack with more levels per octave.
+    pub nearest_level: bool,
     /// Bound on the relative RMS error of blending neighbouring levels of
-    /// a log-uniform stack ([`level_blend_error`] times the amplification);
-    /// 0 when the levels are the terms' own sigmas (a constant scale).
+    /// a log-uniform stack ([`level_blend_error`], or
+    /// [`nearest_level_error`] when read at the nearest level, times the
+    /// amplification); 0 when the levels are the terms' own sigmas (a
+    /// constant scale).
     pub level_error: f64,
 }
 
@@ -352,14 +447,16 @@ impl EvalPlan {
             )));
         }
         let candidates = [
+            (Interpolation::Linear, 1.0),
             (Interpolation::Linear, 2.0),
             (Interpolation::Linear, 4.0),
+            (Interpolation::Cubic, 1.0),
             (Interpolation::Cubic, 2.0),
             (Interpolation::Cubic, 4.0),
             (Interpolation::Cubic, 8.0),
             (Interpolation::Cubic, f64::INFINITY),
         ];
-        let factors = [2.0, 4.0, 8.0, f64::INFINITY];
+        let factors = [1.0, 2.0, 4.0, 8.0, f64::INFINITY];
         let fixed: Vec<(Interpolation, f64)> = match only {
             None => candidates.to_vec(),
             Some(i) => factors.iter().map(|&f| (i, f)).collect(),
@@ -403,13 +500,17 @@ impl EvalPlan {
         Ok(best.expect("at least one candidate"))
     }
 
-    /// The estimate and the levels per octave: on a log-uniform stack
-    /// (`log_uniform`) the fewest levels per octave, from
-    /// [`FEWEST_PER_OCTAVE`] up to the default 4, whose estimate stays
+    /// The estimate, the levels per octave and how a sigma between levels
+    /// is read: on a log-uniform stack (`log_uniform`) the fewest levels per
+    /// octave, from [`FEWEST_PER_OCTAVE`] up to the default 4, whose
+    /// estimate with the blend of the two levels around each sigma stays
     /// within `budget` (the default 4 when that does not), so a coarse fit
-    /// is read from fewer levels (less prefiltering and memory) and no plan
-    /// gets more levels than the default; otherwise the default levels at
-    /// the terms' sigmas.
+    /// is read from fewer levels (less prefiltering and memory) and no
+    /// blending plan gets more levels than the default; then, when the blend
+    /// is within budget, the fewest levels per octave up to
+    /// [`NEAREST_MOST_PER_OCTAVE`] at which reading the nearest level alone
+    /// is too, if that costs less ([`read_cost`]: half the lookups, more
+    /// levels). Otherwise the default levels at the terms' sigmas.
     fn estimated(self, noise: &WhiteNoise<'_>, log_uniform: bool, budget: f64) -> Self {
         let default = StackOptions::default().samples_per_octave;
         let estimate = |levels| noise.expected((self.interpolation, self.pyramid_factor), levels);
@@ -421,20 +522,63 @@ impl EvalPlan {
                 ..self
             };
         }
-        let at = |n| estimate(Levels::LogUniform { per_octave: n });
+        let at = |per_octave, nearest| {
+            estimate(Levels::LogUniform {
+                per_octave,
+                nearest,
+            })
+        };
         // The most levels first: when they miss the budget, fewer will too.
-        let most = at(default);
+        let most = at(default, false);
         let (n, e) = if most > budget {
             (default, most)
         } else {
             (FEWEST_PER_OCTAVE..default)
-                .map(|n| (n, at(n)))
+                .map(|n| (n, at(n, false)))
                 .find(|&(_, e)| e <= budget)
                 .unwrap_or((default, most))
         };
+        let blend = Self {
+            samples_per_octave: n,
+            nearest_level: false,
+            level_error: self.amplification * level_blend_error(n),
+            error_estimate: e,
+            ..self
+        };
+        if e > budget {
+            return blend;
+        }
+        let cost = |n, blend| {
+            read_cost(
+                noise.terms_read(),
+                blend,
+                (self.interpolation, self.pyramid_factor),
+                &noise.level_sigmas(n),
+            )
+        };
+        // The level counts at which reading the nearest level costs less
+        // than the blend (more levels cost more); the most of them first:
+        // when it misses the budget, fewer will too.
+        let blend_cost = cost(n, true);
+        let cheaper: Vec<usize> = (FEWEST_PER_OCTAVE..=NEAREST_MOST_PER_OCTAVE)
+            .take_while(|&n| cost(n, false) < blend_cost)
+            .collect();
+        let Some((&most, fewer)) = cheaper.split_last() else {
+            return blend;
+        };
+        let e_most = at(most, true);
+        if e_most > budget {
+            return blend;
+        }
+        let (n, e) = fewer
+            .iter()
+            .map(|&n| (n, at(n, true)))
+            .find(|&(_, e)| e <= budget)
+            .unwrap_or((most, e_most));
         Self {
             samples_per_octave: n,
-            level_error: self.amplification * level_blend_error(n),
+            nearest_level: true,
+            level_error: self.amplification * nearest_level_error(n),
             error_estimate: e,
             ..self
         }
@@ -545,18 +689,20 @@ impl EvalPlan {
             amplification,
             direct_sigma,
             samples_per_octave: StackOptions::default().samples_per_octave,
+            nearest_level: false,
             level_error: 0.0,
         })
     }
 
-    /// `options` with this plan's interpolation, pyramid factor and levels
-    /// per octave.
+    /// `options` with this plan's interpolation, pyramid factor, levels
+    /// per octave and level reads.
     #[must_use]
     pub fn apply(&self, options: StackOptions) -> StackOptions {
         StackOptions {
             interpolation: self.interpolation,
             pyramid_factor: self.pyramid_factor,
             samples_per_octave: self.samples_per_octave,
+            nearest_level: self.nearest_level,
             ..options
         }
     }

@@ -67,10 +67,13 @@ pub(crate) enum Levels {
     /// At the terms' own (effective) sigmas: one level per term.
     AtSigmas,
     /// Log-uniform, `per_octave` levels per octave: each term blends the two
-    /// levels around its sigma, weights linear in `ln sigma`.
+    /// levels around its sigma, weights linear in `ln sigma`, or (`nearest`)
+    /// reads the one nearest it.
     LogUniform {
         /// Levels per octave.
         per_octave: usize,
+        /// Each term reads its nearest level alone.
+        nearest: bool,
     },
 }
 
@@ -106,7 +109,7 @@ impl<'a> WhiteNoise<'a> {
         let fixed = (scale_min == scale_max).then(|| kernel_norm2(decomposition, scale_min));
         let poses = (0..n)
             .map(|i| {
-                let pose = Pose::nth(i);
+                let pose = Pose::nth(i, n);
                 let s = scale_min * (scale_max / scale_min).powf(pose.scale);
                 let norm2 = fixed.unwrap_or_else(|| kernel_norm2(decomposition, s));
                 (pose, s, norm2)
@@ -128,6 +131,23 @@ impl<'a> WhiteNoise<'a> {
         }
     }
 
+    /// The terms read through the stack (not [`evaluated_directly`]) at
+    /// the first pose's scale.
+    pub(crate) fn terms_read(&self) -> usize {
+        let d = self.decomposition;
+        let s = self.poses.first().map_or(1.0, |p| p.1);
+        d.terms
+            .iter()
+            .filter(|t| !evaluated_directly(d.sampling, t, s, self.direct_sigma))
+            .count()
+    }
+
+    /// The sigmas of the log-uniform stack with `per_octave` levels per
+    /// octave that the estimate places.
+    pub(crate) fn level_sigmas(&self, per_octave: usize) -> Vec<f64> {
+        log_uniform_sigmas(self.stack_sigmas.0, self.stack_sigmas.1, per_octave)
+    }
+
     /// The expected relative RMS error on white noise of lookups with
     /// `interpolation` (module docs) at pyramid factor `factor` from
     /// `levels` (the poses on rayon's threads, summed in order).
@@ -139,9 +159,10 @@ impl<'a> WhiteNoise<'a> {
         use rayon::prelude::*;
         let levels = match levels {
             Levels::AtSigmas => Placement::AtSigmas,
-            Levels::LogUniform { per_octave } => {
-                Placement::log_uniform(self.stack_sigmas, per_octave)
-            }
+            Levels::LogUniform {
+                per_octave,
+                nearest,
+            } => Placement::log_uniform(self.stack_sigmas, per_octave, nearest),
         };
         let each: Vec<f64> = self
             .poses
@@ -193,17 +214,24 @@ struct Pose {
 }
 
 impl Pose {
-    fn nth(i: usize) -> Self {
+    /// The `i`-th of `n` poses: rotation and translation from a
+    /// low-discrepancy sequence; the scale (the fraction of the scale
+    /// range, in `ln s`) at `(i + 1/2) / n`, evenly spaced: where a term
+    /// falls between two levels repeats with `ln s` (every level spacing),
+    /// and equal steps in `ln s` sample that period more evenly than the
+    /// sequence's (the error of reading the nearest level is a sawtooth of
+    /// it).
+    fn nth(i: usize, n: usize) -> Self {
         // The root of x^6 = x + 1 (the generalised golden ratio for five
         // dimensions): alpha_d = 1 / phi^d.
         const PHI: f64 = 1.134_724_138_401_519_4;
-        let n = i as f64 + 0.5;
-        let frac = |d: i32| (n / PHI.powi(d)).fract();
+        let k = i as f64 + 0.5;
+        let frac = |d: i32| (k / PHI.powi(d)).fract();
         Self {
             theta: 2.0 * PI * frac(1),
             tx: frac(2),
             ty: frac(3),
-            scale: frac(4),
+            scale: k / n as f64,
         }
     }
 }
@@ -356,10 +384,11 @@ enum Placement {
 
 impl Placement {
     /// The levels a log-uniform stack over `(lo, hi)` with `per_octave`
-    /// levels per octave stores ([`log_uniform_sigmas`]).
-    fn log_uniform((lo, hi): (f64, f64), per_octave: usize) -> Self {
+    /// levels per octave stores ([`log_uniform_sigmas`]), read at the
+    /// nearest level or not.
+    fn log_uniform((lo, hi): (f64, f64), per_octave: usize, nearest: bool) -> Self {
         let sigmas = log_uniform_sigmas(lo, hi, per_octave);
-        let locator = LevelLocator::new(&sigmas, true);
+        let locator = LevelLocator::new(&sigmas, true, nearest);
         Self::LogUniform { sigmas, locator }
     }
 }
@@ -417,7 +446,8 @@ fn place(
             Placement::AtSigmas => read(sigma, 1.0),
             Placement::LogUniform { sigmas, locator } => {
                 // The bracketing levels, weights linear in ln sigma (`wb`
-                // zero on a level), clamped to the stack.
+                // zero on a level, and off the half-way point when the
+                // stack is read at the nearest level), clamped to the stack.
                 let (a, b, wa, wb) = locator.locate(sigma);
                 read(sigmas[a], f64::from(wa));
                 read(sigmas[b], f64::from(wb));
@@ -666,9 +696,13 @@ mod tests {
         ]);
         let (mut terms, mut parts) = (Vec::new(), Vec::new());
         for interpolation in [Interpolation::Linear, Interpolation::Cubic] {
-            for levels in [Placement::AtSigmas, Placement::log_uniform((2.0, 9.0), 2)] {
+            for levels in [
+                Placement::AtSigmas,
+                Placement::log_uniform((2.0, 9.0), 2, false),
+                Placement::log_uniform((2.0, 9.0), 3, true),
+            ] {
                 for i in 0..6 {
-                    let pose = Pose::nth(i);
+                    let pose = Pose::nth(i, 6);
                     let s = 0.8 + 0.1 * i as f64;
                     place(
                         &d,

@@ -361,7 +361,6 @@ mod avx2 {
     use super::{FixedTerm, LANES, LevelRule, RowLevels, ScalePosition, ScaledTerm};
     use crate::field::Field;
     use crate::kernel::{LOG_FROM, WIDENING_FLOOR};
-    use crate::stack::locate::PIXEL_SNAP;
     use crate::stack::{Interpolation, Level, ScaleStack};
     use std::arch::x86_64::{
         _MM_FROUND_NO_EXC, _MM_FROUND_TO_NEAREST_INT, _MM_FROUND_TO_NEG_INF, _mm256_blendv_ps,
@@ -963,7 +962,7 @@ mod avx2 {
         let (inv_sigma2, ln_sigma, inv) = (k(rule.inv_sigma2), k(rule.ln_sigma), k(rule.inv));
         let last = k(rule.last as f32);
         let below_last = _mm256_set1_epi32((rule.last - 1) as i32);
-        let (snap_lo, snap_hi) = (k(PIXEL_SNAP), k(1.0 - PIXEL_SNAP));
+        let (snap_lo, snap_hi) = (k(rule.snap), k(1.0 - rule.snap));
         for x0 in (0..n).step_by(LANES) {
             let (ts, wd) = (load_at(t_s, x0), load_at(widen, x0));
             // kernel::ln_widening_series
@@ -1178,6 +1177,7 @@ mod tests {
     };
     use crate::Sampling;
     use crate::field::Field;
+    use crate::stack::locate::{NEAREST_SNAP, PIXEL_SNAP};
     use crate::trig::sin_cos_degrees;
 
     /// The row rotations (AVX2 lanes where the CPU has them) bit for bit
@@ -1294,14 +1294,22 @@ mod tests {
     /// [`LevelRule::at`]'s: positions below the first level and past the
     /// last (clamped), on levels and within the snap of them, widenings that
     /// take the series and the logarithm, rows whose length is not a multiple
-    /// of the lanes.
+    /// of the lanes; blending levels and reading the nearest one (where only
+    /// a position half-way between two reads both).
     #[test]
     fn row_levels_equal_the_rule_pixel_by_pixel() {
+        for snap in [PIXEL_SNAP, NEAREST_SNAP as f32] {
+            row_levels_with_snap(snap);
+        }
+    }
+
+    fn row_levels_with_snap(snap: f32) {
         let rule = LevelRule {
             ln_sigma: 1.3_f32.ln(),
             inv_sigma2: 1.0 / (1.3 * 1.3),
             inv: 1.0 / 2f32.sqrt().ln(),
             last: 6,
+            snap,
         };
         let on_level = |k: f32| k - rule.ln_sigma * rule.inv;
         let mut t_s = vec![-3.0, -0.7, 9.0, 40.0, on_level(2.0), on_level(3.0) + 2e-5];
@@ -1311,6 +1319,13 @@ mod tests {
             on_level(3.0) - 4.5e-5,
             on_level(5.0) + 4.5e-5,
             on_level(1.0) + 1.5e-5,
+        ]);
+        // half-way between levels, and either side of it
+        t_s.extend([
+            on_level(2.5),
+            on_level(2.5) + 2e-6,
+            on_level(2.5) - 2e-6,
+            on_level(4.5),
         ]);
         let mut state = 0x2545_f491_u64;
         while t_s.len() < 67 {
@@ -1323,7 +1338,7 @@ mod tests {
         // no widening for the positions placed above, then each kind
         let widen: Vec<f32> = (0..w)
             .map(|x| match x % 5 {
-                _ if x < 12 => 0.0,
+                _ if x < 16 => 0.0,
                 0 => 0.0,
                 1 => 1.0 / 12.0,
                 2 => 0.02,
@@ -1331,7 +1346,7 @@ mod tests {
                 _ => -0.999, // past the floor
             })
             .collect();
-        let mut snapped = 0;
+        let (mut snapped, mut read) = (0, 0);
         for pass in 0..2 {
             let mut levels = RowLevels::new(2, w);
             if pass == 0 {
@@ -1345,6 +1360,10 @@ mod tests {
                     continue; // the series pass leaves these to fill_levels
                 }
                 snapped += usize::from(wb == 0.0);
+                read += 1;
+                // read at the nearest level, only a position exactly
+                // half-way between two reads both
+                assert!(snap < 0.5 || wb == 0.0 || (wa, wb) == (0.5, 0.5));
                 let got = levels.at(1, x);
                 assert_eq!(
                     (got.0, got.1, got.2.to_bits(), got.3.to_bits()),
@@ -1357,7 +1376,9 @@ mod tests {
             // group 0 untouched
             assert!(levels.at(0, 0) == (0, 0, 0.0, 0.0));
         }
-        // the on-level and clamped positions snap (the case is not vacuous)
+        // the on-level and clamped positions snap (the case is not
+        // vacuous); read at the nearest level, all but those half-way
         assert!(snapped >= 6, "{snapped}");
+        assert!(snap < 0.5 || snapped + 2 * 2 >= read, "{snapped} of {read}");
     }
 }

@@ -9,13 +9,19 @@ pub struct LevelLocator {
     pub(super) ln_sigma0: f64,
     pub(super) inv_ln_ratio: f64,
     pub(super) ln_sigmas: Vec<f64>,
+    /// Within this fraction of the spacing a sigma reads one level:
+    /// [`LEVEL_SNAP`], or [`NEAREST_SNAP`] for a stack read at the nearest
+    /// level ([`StackOptions::nearest_level`](super::StackOptions::nearest_level)).
+    pub(super) snap: f64,
 }
 
 impl LevelLocator {
     /// The locator of levels at `sigmas` (increasing, at least one):
     /// log-uniformly spaced (`uniform`: a position is one multiply away) or
-    /// not (bisection).
-    pub(crate) fn new(sigmas: &[f64], uniform: bool) -> Self {
+    /// not (bisection); `nearest`: a sigma reads the level nearest it in
+    /// `ln sigma` alone ([`NEAREST_SNAP`]) instead of blending the two
+    /// around it.
+    pub(crate) fn new(sigmas: &[f64], uniform: bool, nearest: bool) -> Self {
         let ln_sigmas: Vec<f64> = sigmas.iter().map(|s| s.ln()).collect();
         let ln_sigma0 = ln_sigmas[0];
         let inv_ln_ratio = if !uniform {
@@ -29,21 +35,46 @@ impl LevelLocator {
             ln_sigma0,
             inv_ln_ratio,
             ln_sigmas,
+            snap: if nearest { NEAREST_SNAP } else { LEVEL_SNAP },
         }
     }
 
     /// `(a, b, wa, wb)`: the levels bracketing `sigma` and their weights,
     /// linear in `ln sigma`, clamped to the levels; a sigma on a level (to a
     /// relative 1e-6 of the spacing) reads that level alone (`b == a`,
-    /// `wb == 0`).
+    /// `wb == 0`), as does every sigma on a stack read at the nearest level
+    /// (but for one exactly half-way, which takes both halves).
     #[must_use]
     pub fn locate(&self, sigma: f64) -> (usize, usize, f32, f32) {
-        locate_in(
-            self.ln_sigma0,
-            self.inv_ln_ratio,
-            &self.ln_sigmas,
-            sigma.ln(),
-        )
+        self.locate_ln(sigma.ln())
+    }
+
+    /// [`Self::locate`] of `exp(ln_sigma)`.
+    pub(crate) fn locate_ln(&self, ln_sigma: f64) -> (usize, usize, f32, f32) {
+        let (n, snap) = (self.ln_sigmas.len() - 1, self.snap);
+        if n == 0 {
+            return (0, 0, 1.0, 0.0);
+        }
+        let (i, f) = if self.inv_ln_ratio.is_nan() {
+            // Levels at given sigmas: the bracketing pair by bisection,
+            // linear in ln sigma between them (exact on a level, to 1e-9).
+            let l = &self.ln_sigmas;
+            let i = l.partition_point(|&v| v <= ln_sigma).clamp(1, n) - 1;
+            (i, ((ln_sigma - l[i]) / (l[i + 1] - l[i])).clamp(0.0, 1.0))
+        } else {
+            let t = ((ln_sigma - self.ln_sigma0) * self.inv_ln_ratio).clamp(0.0, n as f64);
+            let i = (t.floor() as usize).min(n - 1);
+            (i, t - i as f64)
+        };
+        let (a, b, wa, wb) = snap_to_level(i as u32, f, snap);
+        (a as usize, b as usize, wa, wb)
+    }
+
+    /// Whether a sigma reads the level nearest it alone
+    /// ([`StackOptions::nearest_level`](super::StackOptions::nearest_level)).
+    #[must_use]
+    pub fn reads_nearest_level(&self) -> bool {
+        self.snap == NEAREST_SNAP
     }
 
     /// Whether the levels are log-uniformly spaced ([`ScaleStack::is_uniform`](super::ScaleStack::is_uniform)).
@@ -51,36 +82,6 @@ impl LevelLocator {
     pub fn is_uniform(&self) -> bool {
         !self.inv_ln_ratio.is_nan()
     }
-}
-
-/// [`ScaleStack::locate_ln`] on its parts.
-pub(super) fn locate_in(
-    ln_sigma0: f64,
-    inv_ln_ratio: f64,
-    ln_sigmas: &[f64],
-    ln_sigma: f64,
-) -> (usize, usize, f32, f32) {
-    let n = ln_sigmas.len() - 1;
-    if n == 0 {
-        return (0, 0, 1.0, 0.0);
-    }
-    if inv_ln_ratio.is_nan() {
-        // Levels at given sigmas: the bracketing pair by bisection, linear
-        // in ln sigma between them (exact on a level, to 1e-9).
-        let l = ln_sigmas;
-        let i = l.partition_point(|&v| v <= ln_sigma).clamp(1, n) - 1;
-        let f = ((ln_sigma - l[i]) / (l[i + 1] - l[i])).clamp(0.0, 1.0);
-        return snapped(i, f);
-    }
-    let t = ((ln_sigma - ln_sigma0) * inv_ln_ratio).clamp(0.0, n as f64);
-    let i = (t.floor() as usize).min(n - 1);
-    snapped(i, t - i as f64)
-}
-
-/// [`snap_to_level`] with `usize` levels.
-fn snapped(i: usize, f: f64) -> (usize, usize, f32, f32) {
-    let (a, b, wa, wb) = snap_to_level(i as u32, f);
-    (a as usize, b as usize, wa, wb)
 }
 
 /// Within this fraction of a level's spacing (in ln sigma), a sigma is
@@ -91,14 +92,22 @@ fn snapped(i: usize, f: f64) -> (usize, usize, f32, f32) {
 /// lookup per term.
 pub(crate) const LEVEL_SNAP: f64 = 1e-6;
 
+/// The snap of a stack read at the nearest level
+/// ([`StackOptions::nearest_level`](super::StackOptions::nearest_level)): every
+/// position within half a spacing of a level, that is every position but one
+/// exactly half-way between two (which takes both, half each), reads one
+/// level.
+pub(crate) const NEAREST_SNAP: f64 = 0.5;
+
 /// `(a, b, wa, wb)` for position `i + f` (`0 <= f <= 1`) between levels `i`
-/// and `i + 1`, snapped to a level within [`LEVEL_SNAP`]: then `wb == 0`
-/// (and `b == a`), so callers that skip zero weights do one lookup. Written
-/// with selects, no branches (the per-pixel [`LevelRule`] makes the same
-/// selects on `f32` positions); 32-bit levels (a stack has a few dozen).
+/// and `i + 1`, snapped to a level within `snap` ([`LEVEL_SNAP`] or
+/// [`NEAREST_SNAP`]): then `wb == 0` (and `b == a`), so callers that skip
+/// zero weights do one lookup. Written with selects, no branches (the
+/// per-pixel [`LevelRule`] makes the same selects on `f32` positions);
+/// 32-bit levels (a stack has a few dozen).
 #[inline]
-fn snap_to_level(i: u32, f: f64) -> (u32, u32, f32, f32) {
-    let (lo, hi) = (f < LEVEL_SNAP, f > 1.0 - LEVEL_SNAP);
+fn snap_to_level(i: u32, f: f64, snap: f64) -> (u32, u32, f32, f32) {
+    let (lo, hi) = (f < snap, f > 1.0 - snap);
     let a = if hi { i + 1 } else { i };
     let b = if lo { i } else { i + 1 };
     let snapped = lo || hi;
@@ -167,7 +176,7 @@ impl ScalePosition {
 /// ln r` among the levels (`t_s` and `widen` from [`ScalePosition`], `w =
 /// sigma_eff / (s sigma)` the pixel footprint's widening,
 /// [`crate::kernel::ln_widening`] of `widen` times `1 / sigma^2`),
-/// clamped, then bracketed and snapped within [`PIXEL_SNAP`], branch-free,
+/// clamped, then bracketed and snapped within `snap`, branch-free,
 /// all in `f32` (the positions' rounding moves a weight by about `1e-6`,
 /// below what the `f32` weights carry anyway past a few levels). The
 /// scalar loop ([`Self::at`]) and the vector path's rows
@@ -185,6 +194,10 @@ pub(crate) struct LevelRule {
     pub(crate) inv: f32,
     /// The last level's index (at least 1).
     pub(crate) last: u32,
+    /// Within this fraction of the spacing a position reads one level:
+    /// [`PIXEL_SNAP`], or `0.5` ([`NEAREST_SNAP`]) on a stack read at the
+    /// nearest level.
+    pub(crate) snap: f32,
 }
 
 impl LevelRule {
@@ -206,14 +219,14 @@ impl LevelRule {
     /// The levels bracketing position `u` and their weights: `u` clamped
     /// to the levels, the level below it (32-bit conversions: vector lanes
     /// convert 32-bit integers) and the fraction above that level, snapped
-    /// within [`PIXEL_SNAP`] as [`snap_to_level`] snaps within
-    /// [`LEVEL_SNAP`].
+    /// within `snap` ([`PIXEL_SNAP`] or [`NEAREST_SNAP`]) as
+    /// [`snap_to_level`] snaps within [`LEVEL_SNAP`] (or [`NEAREST_SNAP`]).
     #[inline]
     fn bracket(self, u: f32) -> (u32, u32, f32, f32) {
         let u = u.clamp(0.0, self.last as f32);
         let i = (u as u32).min(self.last - 1);
         let f = u - i as f32;
-        let (lo, hi) = (f < PIXEL_SNAP, f > 1.0 - PIXEL_SNAP);
+        let (lo, hi) = (f < self.snap, f > 1.0 - self.snap);
         let a = if hi { i + 1 } else { i };
         let b = if lo { i } else { i + 1 };
         let snapped = lo || hi;

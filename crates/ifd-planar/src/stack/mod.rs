@@ -25,7 +25,6 @@ use ifd_image::ImageView;
 use crate::border::Border;
 use crate::error::FilterError;
 use build::build_levels;
-use locate::locate_in;
 
 /// One stored level.
 #[derive(Clone, Debug)]
@@ -113,11 +112,9 @@ pub struct ScaleStack {
     channels: usize,
     border: Border,
     sigmas: Vec<f64>,
-    ln_sigma0: f64,
-    /// `1 / ln(r)`, 0 for a single level; NaN for levels at given sigmas.
-    inv_ln_ratio: f64,
-    /// `ln sigma` of every level (for stacks with levels at given sigmas).
-    ln_sigmas: Vec<f64>,
+    /// Where a sigma lies among the levels (its `1 / ln r` is 0 for a
+    /// single level, NaN for levels at given sigmas).
+    locator: LevelLocator,
     interpolation: Interpolation,
     build_method: StackBuild,
     pub(crate) levels: Vec<Level>,
@@ -231,20 +228,14 @@ impl ScaleStack {
             build_levels(layout, data, border, &mut levels);
         }
         let sigmas: Vec<f64> = layout.levels.iter().map(|l| l.sigma).collect();
-        let LevelLocator {
-            ln_sigma0,
-            inv_ln_ratio,
-            ln_sigmas,
-        } = LevelLocator::new(&sigmas, layout.uniform);
+        let locator = LevelLocator::new(&sigmas, layout.uniform, layout.nearest_level);
         Ok(Self {
             width,
             height,
             channels,
             border,
             sigmas,
-            ln_sigma0,
-            inv_ln_ratio,
-            ln_sigmas,
+            locator,
             interpolation: layout.interpolation,
             build_method,
             levels,
@@ -312,7 +303,7 @@ impl ScaleStack {
     /// sigmas ([`ScaleStack::with_sigmas`]).
     #[must_use]
     pub fn is_uniform(&self) -> bool {
-        !self.inv_ln_ratio.is_nan()
+        self.locator.is_uniform()
     }
 
     /// How the levels are read between their samples (what they store:
@@ -330,10 +321,26 @@ impl ScaleStack {
         sigma >= lo * (1.0 - 1e-6) && sigma <= hi * (1.0 + 1e-6)
     }
 
+    /// Whether a sigma between two levels reads the one nearest it alone
+    /// ([`StackOptions::nearest_level`]) rather than a blend of both.
+    #[must_use]
+    pub fn reads_nearest_level(&self) -> bool {
+        self.locator.reads_nearest_level()
+    }
+
+    /// The per-pixel level rule's snap ([`LevelRule::snap`]) on this stack.
+    pub(crate) fn pixel_snap(&self) -> f32 {
+        if self.reads_nearest_level() {
+            locate::NEAREST_SNAP as f32
+        } else {
+            locate::PIXEL_SNAP
+        }
+    }
+
     /// The two levels bracketing `sigma` and their weights (linear in
     /// `ln sigma`); clamps to the range.
     pub(crate) fn locate_ln(&self, ln_sigma: f64) -> (usize, usize, f32, f32) {
-        locate_in(self.ln_sigma0, self.inv_ln_ratio, &self.ln_sigmas, ln_sigma)
+        self.locator.locate_ln(ln_sigma)
     }
 
     /// What locating sigmas among the levels needs, without the samples
@@ -353,16 +360,12 @@ impl ScaleStack {
     /// ```
     #[must_use]
     pub fn locator(&self) -> LevelLocator {
-        LevelLocator {
-            ln_sigma0: self.ln_sigma0,
-            inv_ln_ratio: self.inv_ln_ratio,
-            ln_sigmas: self.ln_sigmas.clone(),
-        }
+        self.locator.clone()
     }
 
     /// `ln sigma_0` and `1 / ln r` (for callers that locate many sigmas).
     pub(crate) fn ln_params(&self) -> (f64, f64) {
-        (self.ln_sigma0, self.inv_ln_ratio)
+        (self.locator.ln_sigma0, self.locator.inv_ln_ratio)
     }
 }
 

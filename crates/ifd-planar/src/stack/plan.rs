@@ -32,6 +32,13 @@ pub struct StackOptions {
     /// How levels are read between their samples. Default
     /// [`Interpolation::Linear`].
     pub interpolation: Interpolation,
+    /// A sigma between two levels of a log-uniform stack reads the level
+    /// nearest it in `ln sigma` alone (one lookup, the sigma off by up to
+    /// half a level spacing) instead of blending the two around it (two
+    /// lookups). [`EvalPlan`](crate::EvalPlan) chooses it with a scale map
+    /// where the expected error allows, with more levels per octave.
+    /// Default false.
+    pub nearest_level: bool,
 }
 
 impl Default for StackOptions {
@@ -41,6 +48,7 @@ impl Default for StackOptions {
             pyramid_factor: 2.0,
             margin: 0,
             interpolation: Interpolation::Linear,
+            nearest_level: false,
         }
     }
 }
@@ -258,6 +266,8 @@ pub struct StackLayout {
     pub(super) interpolation: Interpolation,
     /// Levels log-uniformly spaced (else at given sigmas).
     pub(super) uniform: bool,
+    /// Read at the nearest level ([`StackOptions::nearest_level`]).
+    pub(super) nearest_level: bool,
 }
 
 impl StackLayout {
@@ -491,6 +501,7 @@ impl StackLayout {
             fft_height,
             interpolation: options.interpolation,
             uniform,
+            nearest_level: options.nearest_level,
         })
     }
 

@@ -838,6 +838,7 @@ mod tests {
                         pyramid_factor: factor,
                         margin,
                         interpolation,
+                        nearest_level: false,
                     };
                     let layout = StackLayout::new(w, h, c, 0.8, 9.0, options).unwrap();
                     assert!(layout.levels.iter().any(|l| l.step > 1));
