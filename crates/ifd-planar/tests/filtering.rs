@@ -834,7 +834,17 @@ fn vector_gathers_equal_the_scalar_loop_on_a_realistic_case() {
     let (w, h) = (203, 61);
     let d = anisotropic_decomposition();
     let angles = angle_field(w, h);
-    for (c, options) in (1..=4).flat_map(|c| [(c, StackOptions::default()), (c, cubic())]) {
+    // Also a stack read at the nearest level, at pyramid factor 1 (what
+    // loose plans take with a scale map).
+    let nearest = StackOptions {
+        nearest_level: true,
+        samples_per_octave: 3,
+        pyramid_factor: 1.0,
+        ..StackOptions::default()
+    };
+    for (c, options) in
+        (1..=4).flat_map(|c| [(c, StackOptions::default()), (c, cubic()), (c, nearest)])
+    {
         let img = test_image(w, h, c, 5 + c as u64);
         let (v, s) = vector_and_scalar(
             &img,
@@ -891,6 +901,7 @@ proptest! {
         s0 in 0.5f32..2.0,
         varying_scale in any::<bool>(),
         cubic_levels in any::<bool>(),
+        nearest_level in any::<bool>(),
         border in border_strategy(),
     ) {
         let img = test_image(w, h, c, seed);
@@ -908,6 +919,7 @@ proptest! {
             (Field::Constant(s0), (s0, s0))
         };
         let options = if cubic_levels { cubic() } else { StackOptions::default() };
+        let options = StackOptions { nearest_level, ..options };
         let (v, s) = vector_and_scalar(&img, &d, &angles, scale, range, border, options);
         for (x, y) in v.data().iter().zip(s.data()) {
             prop_assert!(x == y, "{} vs {}", x, y);
