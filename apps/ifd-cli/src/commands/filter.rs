@@ -171,17 +171,11 @@ impl Filter {
     }
 }
 
-/// How the CPU evaluates per-pixel maps, in words (for `-v`): with a
-/// constant scale, one channel and bilinear levels the wider kernel where
-/// the CPU has it.
-fn per_pixel_kernel(
-    interpolation: Interpolation,
-    channels: usize,
-    vector: bool,
-    constant_scale: bool,
-) -> String {
+/// How the CPU evaluates per-pixel maps, in words (for `-v`): with one
+/// channel and bilinear levels the wider kernel where the CPU has it.
+fn per_pixel_kernel(interpolation: Interpolation, channels: usize, vector: bool) -> String {
     let wide = ifd_planar::wide_vector_kernels()
-        .filter(|_| constant_scale && channels == 1 && interpolation == Interpolation::Linear);
+        .filter(|_| channels == 1 && interpolation == Interpolation::Linear);
     match (ifd_planar::vector_kernels(), wide) {
         _ if !vector => "scalar loop (--scalar)".into(),
         (None, _) => "scalar loop (this CPU has no AVX2)".into(),
@@ -392,7 +386,6 @@ impl Filter {
             plan.eval.interpolation,
             image.channels(),
             plan.vector_kernels,
-            !scale.is_map(),
         );
         let t0 = Instant::now();
         let stack = plan.build_stack(&image).context("prefiltering")?;

@@ -149,6 +149,23 @@ pub(crate) fn avx2_rotated_row_for_tests(
     unsafe { avx2::rotated_row::<1>(stack, terms, y, cs, ss, out) }
 }
 
+/// The AVX2 kernel of [`scaled_row`] with one channel whatever wider
+/// vectors the CPU has (for the tests that compare the two).
+#[cfg(test)]
+pub(crate) fn avx2_scaled_row_for_tests(
+    stack: &ScaleStack,
+    terms: &[ScaledTerm],
+    levels: &RowLevels,
+    y: usize,
+    cs: &[f32],
+    ss: &[f32],
+    out: &mut [f32],
+) -> usize {
+    assert!(supports::<1>(stack) && cs.len() == ss.len() && out.len() >= cs.len());
+    // SAFETY: `supports` checked that the CPU has AVX2.
+    unsafe { avx2::scaled_row::<1>(stack, terms, levels, y, cs, ss, out) }
+}
+
 /// `cs[x] = s cos theta[x]` and `ss[x] = s sin theta[x]` over a row of
 /// angles in degrees, `s` the row's `scale` (a map's row or a constant):
 /// [`crate::trig::sin_cos_degrees`]'s operations, in AVX2 lanes where the
@@ -192,10 +209,10 @@ pub(crate) struct ScaledTerm {
 /// or, with `wb == 0`, `a`; the term weight not included).
 #[derive(Clone, Debug)]
 pub(crate) struct RowLevels {
-    w: usize,
-    a: Vec<u32>,
-    wa: Vec<f32>,
-    wb: Vec<f32>,
+    pub(super) w: usize,
+    pub(super) a: Vec<u32>,
+    pub(super) wa: Vec<f32>,
+    pub(super) wb: Vec<f32>,
 }
 
 impl RowLevels {
@@ -211,7 +228,7 @@ impl RowLevels {
     }
 
     /// Pixel `x`'s `(a, b, wa, wb)` in group `g`.
-    fn at(&self, g: usize, x: usize) -> (usize, usize, f32, f32) {
+    pub(super) fn at(&self, g: usize, x: usize) -> (usize, usize, f32, f32) {
         let i = g * self.w + x;
         let a = self.a[i] as usize;
         let b = if self.wb[i] == 0.0 { a } else { a + 1 };
@@ -325,6 +342,14 @@ pub(crate) fn scaled_row<const C: usize>(
             .is_some_and(|top| top as usize >= n_levels)
     {
         return 0;
+    }
+    if C == 1 {
+        // sixteen lanes where the CPU has AVX-512F (one channel, bilinear);
+        // the row's last `w % 16` pixels go to the caller's scalar loop
+        let done = super::gather512::scaled_row(stack, terms, levels, y, cs, ss, out);
+        if done > 0 {
+            return done;
+        }
     }
     #[cfg(target_arch = "x86_64")]
     {
