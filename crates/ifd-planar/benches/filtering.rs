@@ -409,6 +409,18 @@ fn throughput(c: &mut Criterion) {
                     b.iter(|| vector_limit::gather(&stack, &at_pixel, &angles, s));
                 });
             }
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                let want = gather_bilinear(&stack, &terms, &angles, s);
+                let got = vector_limit::gather512(&stack, &terms, &angles, s);
+                eprintln!(
+                    "avx512 gather loop vs scalar gather loop: PSNR {:.1} dB",
+                    psnr(&got, &want)
+                );
+                g.bench_function(format!("gather_limit_avx512_{n}_terms"), |b| {
+                    b.iter(|| vector_limit::gather512(&stack, &terms, &angles, s));
+                });
+            }
         }
     }
     let stack = stack_for_decomposition(
@@ -444,9 +456,10 @@ fn throughput(c: &mut Criterion) {
 /// The plain gather loop of [`gather_bilinear`] eight pixels at a time with
 /// AVX2: rotation, positions, indices and weights as vectors, each bilinear
 /// lookup as two 64-bit gathers per row pair (the two horizontal
-/// neighbours at once), no border logic (indices clamped). The limit of
-/// ifd's vector kernels, which add the interior test, the scalar fallback
-/// and the scalar loop's order of operations (no FMA).
+/// neighbours at once), no border logic (indices clamped); and sixteen at a
+/// time with AVX-512 (each row's pairs as two 64-bit gathers of eight
+/// lanes). The limits of ifd's vector kernels, which add the interior test,
+/// the scalar fallback and the scalar loop's order of operations (no FMA).
 #[cfg(target_arch = "x86_64")]
 #[allow(
     unsafe_code,
@@ -464,6 +477,109 @@ mod vector_limit {
 
     use ifd_planar::ScaleStack;
     use rayon::prelude::*;
+    use std::arch::x86_64::{
+        _mm512_add_epi32, _mm512_add_ps, _mm512_castsi512_ps, _mm512_castsi512_si256,
+        _mm512_cvtepi32_ps, _mm512_cvttps_epi32, _mm512_extracti64x4_epi64, _mm512_fmadd_ps,
+        _mm512_fnmadd_ps, _mm512_i32gather_epi64, _mm512_loadu_ps, _mm512_max_ps, _mm512_min_ps,
+        _mm512_mul_ps, _mm512_mullo_epi32, _mm512_permutex2var_epi32, _mm512_set1_epi32,
+        _mm512_set1_ps, _mm512_setr_epi32, _mm512_setr_ps, _mm512_setzero_ps, _mm512_storeu_ps,
+        _mm512_sub_ps,
+    };
+
+    /// [`gather`] sixteen pixels at a time with AVX-512F (the caller checks
+    /// the CPU has it).
+    pub fn gather512(
+        stack: &ScaleStack,
+        terms: &[(f32, f32, f32, usize)],
+        angles: &[f32],
+        scale: f32,
+    ) -> Vec<f32> {
+        let w = stack.width();
+        let levels = super::level_views(stack);
+        let mut out = vec![0.0f32; w * stack.height()];
+        out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            // SAFETY: the caller checked that the CPU has AVX-512F.
+            unsafe { gather_row512(&levels, terms, &angles[y * w..(y + 1) * w], scale, y, row) };
+        });
+        out
+    }
+
+    #[target_feature(enable = "avx512f")]
+    fn gather_row512(
+        levels: &[super::LevelView<'_>],
+        terms: &[(f32, f32, f32, usize)],
+        angles: &[f32],
+        scale: f32,
+        y: usize,
+        row: &mut [f32],
+    ) {
+        let first = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+        let second = _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31);
+        let lane = _mm512_setr_ps(
+            0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0,
+        );
+        let zero = _mm512_setzero_ps();
+        for x0 in (0..row.len() / 16 * 16).step_by(16) {
+            let mut c = [0.0f32; 16];
+            let mut s = [0.0f32; 16];
+            for k in 0..16 {
+                let (sin, cos) = angles[x0 + k].to_radians().sin_cos();
+                (c[k], s[k]) = (cos * scale, sin * scale);
+            }
+            // SAFETY: sixteen floats each.
+            let (c, s) = unsafe { (_mm512_loadu_ps(c.as_ptr()), _mm512_loadu_ps(s.as_ptr())) };
+            let xf = _mm512_add_ps(_mm512_set1_ps(x0 as f32), lane);
+            let yf = _mm512_set1_ps(y as f32);
+            let mut acc = zero;
+            for &(weight, cx, cy, li) in terms {
+                let (data, origin, inv, nx, ny) = levels[li];
+                let (nx, ny) = (nx as i32, ny as i32);
+                let (cx, cy) = (_mm512_set1_ps(cx), _mm512_set1_ps(cy));
+                let px = _mm512_fmadd_ps(s, cy, _mm512_fmadd_ps(c, cx, xf));
+                let py = _mm512_fmadd_ps(c, cy, _mm512_fnmadd_ps(s, cx, yf));
+                let u = _mm512_mul_ps(
+                    _mm512_sub_ps(px, _mm512_set1_ps(origin)),
+                    _mm512_set1_ps(inv),
+                );
+                let v = _mm512_mul_ps(
+                    _mm512_sub_ps(py, _mm512_set1_ps(origin)),
+                    _mm512_set1_ps(inv),
+                );
+                let u = _mm512_min_ps(_mm512_max_ps(u, zero), _mm512_set1_ps((nx - 2) as f32));
+                let v = _mm512_min_ps(_mm512_max_ps(v, zero), _mm512_set1_ps((ny - 2) as f32));
+                let (iu, iv) = (_mm512_cvttps_epi32(u), _mm512_cvttps_epi32(v));
+                let fu = _mm512_sub_ps(u, _mm512_cvtepi32_ps(iu));
+                let fv = _mm512_sub_ps(v, _mm512_cvtepi32_ps(iv));
+                let idx = _mm512_add_epi32(_mm512_mullo_epi32(iv, _mm512_set1_epi32(nx)), iu);
+                let (lo, hi) = (
+                    _mm512_castsi512_si256(idx),
+                    _mm512_extracti64x4_epi64::<1>(idx),
+                );
+                let p = data.as_ptr();
+                // SAFETY: u and v are clamped to the level's interior, so
+                // every 8-byte read at idx (row 0) and idx + nx (row 1) is in it.
+                #[allow(clippy::cast_ptr_alignment, reason = "gathers need no alignment")]
+                let (r0l, r0h, r1l, r1h) = unsafe {
+                    let q = p.add(nx as usize);
+                    (
+                        _mm512_i32gather_epi64::<4>(lo, p.cast()),
+                        _mm512_i32gather_epi64::<4>(hi, p.cast()),
+                        _mm512_i32gather_epi64::<4>(lo, q.cast()),
+                        _mm512_i32gather_epi64::<4>(hi, q.cast()),
+                    )
+                };
+                let split = |l, h, k| _mm512_castsi512_ps(_mm512_permutex2var_epi32(l, k, h));
+                let (a, b) = (split(r0l, r0h, first), split(r0l, r0h, second));
+                let (cc, d) = (split(r1l, r1h, first), split(r1l, r1h, second));
+                let top = _mm512_fmadd_ps(fu, _mm512_sub_ps(b, a), a);
+                let bottom = _mm512_fmadd_ps(fu, _mm512_sub_ps(d, cc), cc);
+                let value = _mm512_fmadd_ps(fv, _mm512_sub_ps(bottom, top), top);
+                acc = _mm512_fmadd_ps(_mm512_set1_ps(weight), value, acc);
+            }
+            // SAFETY: sixteen floats of the row.
+            unsafe { _mm512_storeu_ps(row[x0..x0 + 16].as_mut_ptr(), acc) };
+        }
+    }
 
     pub fn gather(
         stack: &ScaleStack,

@@ -215,17 +215,18 @@ fn read_cost(
 }
 
 /// [`read_cost`]'s constants, measured with `ifd filter -v` (1024x1024, a
-/// per-pixel angle and scale, one thread, AVX2 and AVX-512 machine,
-/// 2026-12-06): a term read at the nearest level took about 3 ms over the
-/// image, one blending two levels 1.3-1.5 times that (the two reads share
-/// the term's position and, on one grid, its stencil); a directly built
-/// level 1.5 ms plus 3 ms per image-sized level of samples; cubic reads
-/// about 3.4 times bilinear ones.
-const BLEND_TERM_COST: f64 = 1.4;
+/// per-pixel angle and scale, one thread, the AVX-512 rows, 2026-12-06): a
+/// term read at the nearest level took about 2.3 ms over the image, one
+/// blending two levels 1.3 times that (the two reads share the term's
+/// position and, on one grid, its stencil); a directly built level about
+/// 1.5 ms plus 3.7 ms per image-sized level of samples (margins, chained
+/// links and first touches of its memory included); cubic reads about 3.4
+/// times bilinear ones.
+const BLEND_TERM_COST: f64 = 1.3;
 /// See [`BLEND_TERM_COST`].
-const LEVEL_COST: f64 = 0.5;
+const LEVEL_COST: f64 = 0.63;
 /// See [`BLEND_TERM_COST`].
-const LEVEL_SAMPLE_COST: f64 = 1.0;
+const LEVEL_SAMPLE_COST: f64 = 1.6;
 /// See [`BLEND_TERM_COST`].
 const CUBIC_TERM_COST: f64 = 3.4;
 

@@ -333,31 +333,27 @@ mod kernel {
     const SPAN: usize = 4;
 
     /// One sigma group's levels over a block of sixteen pixels
-    /// (`gather::avx2`'s `Block`).
+    /// (`gather::avx2`'s `Block`, its per-level weights kept apart in the
+    /// group's slot of a buffer that [`classify`] writes in place: a block
+    /// is rebuilt per group every sixteen pixels, and moving four vectors
+    /// each time cost a seventh of the row's time).
     #[derive(Clone, Copy)]
-    #[expect(
-        clippy::large_enum_variant,
-        reason = "one per sigma group, rebuilt in place every block: boxing would allocate"
-    )]
     enum Block {
         /// Every lane on levels `a .. a + SPAN`: per level, each lane's
-        /// weight on it (zero where the lane does not read it), `used`
-        /// marking the levels some lane reads.
-        Vector {
-            a: usize,
-            used: u8,
-            w: [__m512; SPAN],
-        },
+        /// weight on it in the group's weights (zero where the lane does not
+        /// read it), `used` marking the levels some lane reads.
+        Vector { a: usize, used: u8 },
         /// Lanes spread over more levels: each lane looks up its own.
         Lanes,
     }
 
     /// The block of sixteen lanes from pixel `x0` of group `g`
-    /// (`gather::avx2::classify`, the same weights): each lane reads level
-    /// `a` (weight `wa`) and, where `wb != 0`, `a + 1` (`wb`).
+    /// (`gather::avx2::classify`, the same weights, written into `w`): each
+    /// lane reads level `a` (weight `wa`) and, where `wb != 0`, `a + 1`
+    /// (`wb`).
     #[inline]
     #[target_feature(enable = "avx512f")]
-    fn classify(levels: &RowLevels, g: usize, x0: usize) -> Block {
+    fn classify(levels: &RowLevels, g: usize, x0: usize, w: &mut [__m512; SPAN]) -> Block {
         let i = g * levels.w + x0;
         let a: &[u32; LANES] = levels.a[i..i + LANES].try_into().expect("sixteen lanes");
         // SAFETY: reads exactly the sixteen integers of `a`.
@@ -366,7 +362,6 @@ mod kernel {
         let zero = _mm512_setzero_ps();
         // the lanes that read a second level
         let second = _mm512_cmp_ps_mask::<_CMP_NEQ_OQ>(wb, zero);
-        let mut w = [zero; SPAN];
         if _mm512_cmpeq_epi32_mask(la, _mm512_set1_epi32(a[0] as i32)) == u16::MAX {
             // The common block: every lane on level `a` (and `a + 1`
             // where its `wb` is not zero).
@@ -377,7 +372,6 @@ mod kernel {
             return Block::Vector {
                 a: a[0] as usize,
                 used,
-                w,
             };
         }
         let lb = _mm512_mask_add_epi32(la, second, la, _mm512_set1_epi32(1));
@@ -400,7 +394,6 @@ mod kernel {
         Block::Vector {
             a: lo as usize,
             used,
-            w,
         }
     }
 
@@ -421,6 +414,7 @@ mod kernel {
         let groups = levels.a.len() / w.max(1);
         let yf = _mm512_set1_ps(y as f32);
         let mut blocks = vec![Block::Lanes; groups];
+        let mut weights = vec![[_mm512_setzero_ps(); SPAN]; groups];
         // level i and level i + 1 sample the same grid: one stencil serves
         // both (the same values as computing it twice)
         let same_grid: Vec<bool> = stack
@@ -432,8 +426,8 @@ mod kernel {
             })
             .collect();
         for x0 in (0..n).step_by(LANES) {
-            for (g, b) in blocks.iter_mut().enumerate() {
-                *b = classify(levels, g, x0);
+            for (g, (b, w)) in blocks.iter_mut().zip(&mut weights).enumerate() {
+                *b = classify(levels, g, x0, w);
             }
             let xf = columns(x0);
             let (c, s) = (load_at(cs, x0), load_at(ss, x0));
@@ -441,7 +435,8 @@ mod kernel {
             for t in terms {
                 let (px, py) = positions(xf, yf, c, s, t.cx, t.cy);
                 match &blocks[t.group] {
-                    Block::Vector { a, used, w } => {
+                    Block::Vector { a, used } => {
+                        let w = &weights[t.group];
                         let tw = _mm512_set1_ps(t.weight);
                         if *used == 0b11
                             && same_grid[*a]
