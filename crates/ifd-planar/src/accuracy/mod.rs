@@ -310,10 +310,9 @@ const CUBIC_TERM_COST: f64 = 3.4;
 /// each candidate takes the fewest levels per octave, 2 to the default 4,
 /// whose estimate (the blend of neighbouring levels included) is within the
 /// budget; then, where reading each term's nearest level alone (one lookup
-/// instead of two) with more levels per octave, up to
-/// 8, is also within the budget and costs less
-/// (a cost model of lookups and levels measured on this project's
-/// benchmark machine), the nearest level. Memory, for 4 levels per octave:
+/// instead of two) from 2 to 8 levels per octave is also within the budget
+/// and costs less (a cost model of lookups and levels measured on this
+/// project's benchmark machine), the nearest level. Memory, for 4 levels per octave:
 /// about 5.3 image-sized levels at factor 2, 8.5 at 4, 14 at 8 (every level
 /// below `factor` pixels is stored at full resolution); a cubic lookup
 /// costs four times the arithmetic of a bilinear one. Terms narrower than

@@ -166,6 +166,64 @@ pub(crate) fn avx2_scaled_row_for_tests(
     unsafe { avx2::scaled_row::<1>(stack, terms, levels, y, cs, ss, out) }
 }
 
+/// The AVX2 rows of [`rotations`] and [`scale_positions`] whatever wider
+/// vectors the CPU has (for the tests that compare them with the rule): the
+/// pixels done, 0 without AVX2.
+#[cfg(test)]
+pub(crate) mod avx2_row_kernels_for_tests {
+    use super::{Field, ScalePosition};
+
+    pub(crate) fn rotations(
+        theta: &[f32],
+        scale: Field<'_>,
+        cs: &mut [f32],
+        ss: &mut [f32],
+    ) -> usize {
+        #[cfg(target_arch = "x86_64")]
+        if super::vector_kernels().is_some() {
+            // SAFETY: the CPU has AVX2 (checked just now).
+            return unsafe { super::avx2::rotations(theta, scale, cs, ss) };
+        }
+        let _ = (theta, scale, cs, ss);
+        0
+    }
+
+    pub(crate) fn scale_positions(
+        rule: ScalePosition,
+        scales: &[f32],
+        t_s: &mut [f32],
+        widen: &mut [f32],
+    ) -> usize {
+        #[cfg(target_arch = "x86_64")]
+        if super::vector_kernels().is_some() {
+            // SAFETY: the CPU has AVX2 (checked just now).
+            return unsafe { super::avx2::scale_positions(rule, scales, t_s, widen) };
+        }
+        let _ = (rule, scales, t_s, widen);
+        0
+    }
+}
+
+/// The AVX2 pass of [`fill_levels`] whatever wider vectors the CPU has
+/// (for the tests that compare it with the rule): the pixels done, 0
+/// without AVX2.
+#[cfg(test)]
+pub(crate) fn avx2_fill_levels_for_tests(
+    rule: LevelRule,
+    t_s: &[f32],
+    widen: &[f32],
+    levels: &mut RowLevels,
+    g: usize,
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if vector_kernels().is_some() {
+        // SAFETY: the CPU has AVX2 (checked just now).
+        return unsafe { avx2::fill_levels(rule, t_s, widen, levels, g) };
+    }
+    let _ = (rule, t_s, widen, levels, g);
+    0
+}
+
 /// `cs[x] = s cos theta[x]` and `ss[x] = s sin theta[x]` over a row of
 /// angles in degrees, `s` the row's `scale` (a map's row or a constant):
 /// [`crate::trig::sin_cos_degrees`]'s operations, in AVX2 lanes where the
@@ -179,9 +237,10 @@ pub(crate) fn rotations(theta: &[f32], scale: Field<'_>, cs: &mut [f32], ss: &mu
     if let Field::Map(m) = scale {
         assert_eq!(m.len(), w);
     }
-    let mut done = 0;
+    // sixteen lanes where the CPU has AVX-512F, else eight with AVX2
+    let mut done = super::gather512::rotations(theta, scale, cs, ss);
     #[cfg(target_arch = "x86_64")]
-    if vector_kernels().is_some() {
+    if done == 0 && vector_kernels().is_some() {
         // SAFETY: the CPU has AVX2 (checked just now).
         done = unsafe { avx2::rotations(theta, scale, cs, ss) };
     }
@@ -213,6 +272,10 @@ pub(crate) struct RowLevels {
     pub(super) a: Vec<u32>,
     pub(super) wa: Vec<f32>,
     pub(super) wb: Vec<f32>,
+    /// The largest [`LevelRule::last`] a group was filled with: no pixel
+    /// reads a level past it (the rule clamps `a + 1` where `wb != 0`, and
+    /// `a`, to it), so the kernels check it once instead of every pixel.
+    pub(super) last: u32,
 }
 
 impl RowLevels {
@@ -224,6 +287,7 @@ impl RowLevels {
             a: vec![0; n],
             wa: vec![0.0; n],
             wb: vec![0.0; n],
+            last: 0,
         }
     }
 
@@ -256,9 +320,10 @@ pub(crate) fn scale_positions(
 ) {
     let w = scales.len();
     assert!(t_s.len() == w && widen.len() == w);
-    let mut done = 0;
+    // sixteen lanes where the CPU has AVX-512F, else eight with AVX2
+    let mut done = super::gather512::scale_positions(rule, scales, t_s, widen);
     #[cfg(target_arch = "x86_64")]
-    if vector_kernels().is_some() {
+    if done == 0 && vector_kernels().is_some() {
         // SAFETY: the CPU has AVX2 (checked just now).
         done = unsafe { avx2::scale_positions(rule, scales, t_s, widen) };
     }
@@ -286,9 +351,11 @@ pub(crate) fn fill_levels(
 ) {
     let w = levels.w;
     assert!(t_s.len() == w && widen.len() == w && (g + 1) * w <= levels.a.len());
-    let mut done = 0;
+    levels.last = levels.last.max(rule.last);
+    // sixteen lanes where the CPU has AVX-512F
+    let mut done = super::gather512::fill_levels(rule, t_s, widen, levels, g);
     #[cfg(target_arch = "x86_64")]
-    if vector_kernels().is_some() {
+    if done == 0 && vector_kernels().is_some() {
         // SAFETY: the CPU has AVX2 (checked just now).
         done = unsafe { avx2::fill_levels(rule, t_s, widen, levels, g) };
     }
@@ -332,14 +399,8 @@ pub(crate) fn scaled_row<const C: usize>(
         || levels.w != w
         || out.len() < w * C
         || terms.iter().any(|t| (t.group + 1) * w > levels.a.len())
-        || levels
-            .a
-            .iter()
-            .zip(&levels.wb)
-            // the highest level read (a fold without early exit: vector lanes)
-            .map(|(&a, &wb)| a.saturating_add(u32::from(wb != 0.0)))
-            .max()
-            .is_some_and(|top| top as usize >= n_levels)
+        // the highest level any pixel reads
+        || levels.last as usize >= n_levels
     {
         return 0;
     }
@@ -1198,7 +1259,8 @@ mod avx2 {
 #[cfg(test)]
 mod tests {
     use super::{
-        LevelRule, RowLevels, ScalePosition, fill_levels, rotations, scale_positions, series_levels,
+        LevelRule, RowLevels, ScalePosition, avx2_fill_levels_for_tests,
+        avx2_row_kernels_for_tests, fill_levels, rotations, scale_positions, series_levels,
     };
     use crate::Sampling;
     use crate::field::Field;
@@ -1226,10 +1288,20 @@ mod tests {
         }
         let w = theta.len();
         let scales: Vec<f32> = (0..w).map(|x| 0.25 + x as f32 * 0.031).collect();
-        for scale in [Field::Map(&scales), Field::Constant(0.7)] {
+        // the dispatched rows (AVX-512 where the CPU has it), then the
+        // eight AVX2 lanes alone (their pixels)
+        for (scale, avx2) in [Field::Map(&scales), Field::Constant(0.7)]
+            .into_iter()
+            .flat_map(|s| [(s, false), (s, true)])
+        {
             let (mut cs, mut ss) = (vec![0.0; w], vec![0.0; w]);
-            rotations(&theta, scale, &mut cs, &mut ss);
-            for x in 0..w {
+            let n = if avx2 {
+                avx2_row_kernels_for_tests::rotations(&theta, scale, &mut cs, &mut ss)
+            } else {
+                rotations(&theta, scale, &mut cs, &mut ss);
+                w
+            };
+            for x in 0..n {
                 let (sin, cos) = sin_cos_degrees(theta[x]);
                 let s = scale.at(x);
                 assert_eq!(
@@ -1277,6 +1349,17 @@ mod tests {
             let rule = ScalePosition::new(sampling, (1.5f64.ln(), 1.0 / 2f64.sqrt().ln()));
             let (mut t_s, mut widen) = (vec![0.0; w], vec![0.0; w]);
             scale_positions(rule, &scales, &mut t_s, &mut widen);
+            // the AVX2 lanes alone (their pixels) after the dispatched rows
+            let (mut t_2, mut widen_2) = (vec![0.0; w], vec![0.0; w]);
+            let n =
+                avx2_row_kernels_for_tests::scale_positions(rule, &scales, &mut t_2, &mut widen_2);
+            for x in 0..n {
+                assert_eq!(
+                    (t_2[x].to_bits(), widen_2[x].to_bits()),
+                    (t_s[x].to_bits(), widen[x].to_bits()),
+                    "{sampling:?}, pixel {x}: AVX2 lanes"
+                );
+            }
             for x in 0..w {
                 let (want_t, want_w) = rule.at(scales[x]);
                 assert_eq!(
@@ -1372,16 +1455,33 @@ mod tests {
             })
             .collect();
         let (mut snapped, mut read) = (0, 0);
-        for pass in 0..2 {
+        // fill_levels (sixteen lanes where the CPU has AVX-512), the series
+        // pass alone, and the eight AVX2 lanes whatever wider ones the CPU
+        // has (then the series pass for the row's tail)
+        for pass in 0..3 {
             let mut levels = RowLevels::new(2, w);
-            if pass == 0 {
-                fill_levels(rule, &t_s, &widen, &mut levels, 1);
-            } else {
-                series_levels(rule, &t_s, &widen, &mut levels, w);
+            let mut series_from = 0;
+            match pass {
+                0 => fill_levels(rule, &t_s, &widen, &mut levels, 1),
+                1 => series_levels(rule, &t_s, &widen, &mut levels, w),
+                _ => {
+                    series_from = avx2_fill_levels_for_tests(rule, &t_s, &widen, &mut levels, 1);
+                    let tail = series_from..w;
+                    series_levels(
+                        rule,
+                        &t_s[tail.clone()],
+                        &widen[tail],
+                        &mut levels,
+                        w + series_from,
+                    );
+                }
             }
             for x in 0..w {
                 let (a, b, wa, wb) = rule.at(t_s[x], widen[x]);
-                if pass == 1 && crate::kernel::widening_needs_log(widen[x] * rule.inv_sigma2) {
+                if pass > 0
+                    && x >= series_from
+                    && crate::kernel::widening_needs_log(widen[x] * rule.inv_sigma2)
+                {
                     continue; // the series pass leaves these to fill_levels
                 }
                 snapped += usize::from(wb == 0.0);
@@ -1404,6 +1504,6 @@ mod tests {
         // the on-level and clamped positions snap (the case is not
         // vacuous); read at the nearest level, all but those half-way
         assert!(snapped >= 6, "{snapped}");
-        assert!(snap < 0.5 || snapped + 2 * 2 >= read, "{snapped} of {read}");
+        assert!(snap < 0.5 || snapped + 2 * 3 >= read, "{snapped} of {read}");
     }
 }

@@ -13,7 +13,9 @@
 //! angle case 1.5 times slower). A scale map's rows classify each sigma
 //! group's sixteen lanes as the AVX2 rows classify eight (one level, a
 //! blended pair sharing one stencil on one grid, up to four levels with
-//! per-lane weights, else lane by lane). The kernels write [`super::gather`]'s expressions in its order
+//! per-lane weights, else lane by lane). The rows' per-pixel rules (the
+//! rotations, a scale map's level positions and each sigma group's levels
+//! and weights) run sixteen lanes wide too. The kernels write [`super::gather`]'s expressions in its order
 //! with separate multiplies and adds (the stencil's inside test is the same
 //! unsigned compare of the floors, the fractions the same `u - floor(u)`),
 //! and hands a block with a lane outside the stored level to the scalar,
@@ -123,6 +125,83 @@ pub(crate) fn scaled_row(
     }
 }
 
+/// [`super::gather::fill_levels`]' vector pass in sixteen lanes where the
+/// CPU has AVX-512F: the pixels done from the row's start (a multiple of
+/// [`LANES`]; 0 when this kernel does not run), each pixel's levels and
+/// weights bit for bit `LevelRule::series` (the AVX2 pass's operations,
+/// wider), and the pixels whose widening needs the logarithm by
+/// `LevelRule::at`.
+pub(crate) fn fill_levels(
+    rule: super::LevelRule,
+    t_s: &[f32],
+    widen: &[f32],
+    levels: &mut RowLevels,
+    g: usize,
+) -> usize {
+    if !available() {
+        return 0;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: `available` checked that the CPU has AVX-512F.
+        unsafe { kernel::fill_levels(rule, t_s, widen, levels, g) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (rule, t_s, widen, levels, g);
+        0
+    }
+}
+
+/// [`super::gather::rotations`] in sixteen lanes where the CPU has
+/// AVX-512F: the pixels done from the row's start (a multiple of [`LANES`];
+/// 0 when this kernel does not run), bit for bit the scalar rule.
+pub(crate) fn rotations(
+    theta: &[f32],
+    scale: crate::field::Field<'_>,
+    cs: &mut [f32],
+    ss: &mut [f32],
+) -> usize {
+    if !available() {
+        return 0;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: `available` checked that the CPU has AVX-512F.
+        unsafe { kernel::rotations(theta, scale, cs, ss) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (theta, scale, cs, ss);
+        0
+    }
+}
+
+/// [`super::gather::scale_positions`] in sixteen lanes where the CPU has
+/// AVX-512F: the pixels done from the row's start (a multiple of
+/// [`LANES`]; 0 when this kernel does not run), bit for bit
+/// `ScalePosition::at`.
+pub(crate) fn scale_positions(
+    rule: super::ScalePosition,
+    scales: &[f32],
+    t_s: &mut [f32],
+    widen: &mut [f32],
+) -> usize {
+    if !available() {
+        return 0;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: `available` checked that the CPU has AVX-512F.
+        unsafe { kernel::scale_positions(rule, scales, t_s, widen) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (rule, scales, t_s, widen);
+        0
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 mod kernel {
     use std::arch::x86_64::{
@@ -134,12 +213,23 @@ mod kernel {
     };
 
     use super::LANES;
+    use crate::field::Field;
+    use crate::kernel::{LOG_FROM, WIDENING_FLOOR};
     use crate::stack::gather::{FixedTerm, RowLevels, ScaledTerm};
+    use crate::stack::{LevelRule, ScalePosition};
     use std::arch::x86_64::{
         __m512i, _CMP_NEQ_OQ, _mm512_castsi512_ps, _mm512_castsi512_si256, _mm512_cmp_ps_mask,
         _mm512_cmpeq_epi32_mask, _mm512_extracti64x4_epi64, _mm512_i32gather_epi64,
         _mm512_loadu_si512, _mm512_mask_add_epi32, _mm512_maskz_mov_ps, _mm512_permutex2var_epi32,
         _mm512_reduce_max_epi32, _mm512_reduce_min_epi32, _mm512_setr_epi32,
+    };
+    use std::arch::x86_64::{
+        _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LT_OQ, _mm512_abs_ps, _mm512_cvtepi32_ps, _mm512_cvttps_epi32,
+        _mm512_mask_mov_ps, _mm512_max_ps, _mm512_min_ps, _mm512_storeu_si512,
+    };
+    use std::arch::x86_64::{
+        _MM_FROUND_TO_NEAREST_INT, _mm512_and_si512, _mm512_castps_si512, _mm512_div_ps,
+        _mm512_slli_epi32, _mm512_srai_epi32, _mm512_sub_epi32, _mm512_xor_si512,
     };
 
     /// `roundscale`'s immediate for the floor.
@@ -395,6 +485,170 @@ mod kernel {
             a: lo as usize,
             used,
         }
+    }
+
+    /// `gather::avx2::rotations` in sixteen lanes: `trig::sin_cos_degrees`
+    /// operation by operation, times the row's scale.
+    #[target_feature(enable = "avx512f")]
+    pub(super) fn rotations(
+        theta: &[f32],
+        scale: Field<'_>,
+        cs: &mut [f32],
+        ss: &mut [f32],
+    ) -> usize {
+        use crate::trig::{COS, INV_RIGHT_ANGLE, RADIANS_PER_DEGREE, SIN};
+        const NEAREST: i32 = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;
+        let k = _mm512_set1_ps;
+        let n = theta.len().min(cs.len()).min(ss.len()) / LANES * LANES;
+        let (one, two) = (_mm512_set1_epi32(1), _mm512_set1_epi32(2));
+        for x0 in (0..n).step_by(LANES) {
+            let t = load_at(theta, x0);
+            let q = _mm512_roundscale_ps::<NEAREST>(_mm512_mul_ps(t, k(INV_RIGHT_ANGLE)));
+            let x = _mm512_mul_ps(
+                _mm512_sub_ps(t, _mm512_mul_ps(q, k(90.0))),
+                k(RADIANS_PER_DEGREE),
+            );
+            let x2 = _mm512_mul_ps(x, x);
+            let horner = |coef: &[f32]| {
+                let (last, rest) = coef.split_last().expect("coefficients");
+                rest.iter().rev().fold(k(*last), |acc, &c| {
+                    _mm512_add_ps(k(c), _mm512_mul_ps(x2, acc))
+                })
+            };
+            let sp = _mm512_add_ps(x, _mm512_mul_ps(_mm512_mul_ps(x, x2), horner(&SIN)));
+            let cp = _mm512_add_ps(k(1.0), _mm512_mul_ps(x2, horner(&COS)));
+            let qi = _mm512_cvtps_epi32(q);
+            let swap = _mm512_cmpeq_epi32_mask(_mm512_and_si512(qi, one), one);
+            let (s, c) = (
+                _mm512_mask_mov_ps(sp, swap, cp),
+                _mm512_mask_mov_ps(cp, swap, sp),
+            );
+            // bit 1 of q (of q + 1) moved to the sign bit negates the sine
+            // (cosine)
+            let s_sign = _mm512_slli_epi32::<30>(_mm512_and_si512(qi, two));
+            let c_sign = _mm512_slli_epi32::<30>(_mm512_and_si512(_mm512_add_epi32(qi, one), two));
+            let s = _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(s), s_sign));
+            let c = _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(c), c_sign));
+            let sc = match scale {
+                Field::Constant(v) => k(v),
+                Field::Map(m) => load_at(m, x0),
+            };
+            cs[x0..x0 + LANES].copy_from_slice(&store(_mm512_mul_ps(c, sc)));
+            ss[x0..x0 + LANES].copy_from_slice(&store(_mm512_mul_ps(s, sc)));
+        }
+        n
+    }
+
+    /// `gather::avx2::scale_positions` in sixteen lanes: `ln::ln`, then
+    /// `ScalePosition::at`, operation by operation.
+    #[target_feature(enable = "avx512f")]
+    pub(super) fn scale_positions(
+        rule: ScalePosition,
+        scales: &[f32],
+        t_s: &mut [f32],
+        widen: &mut [f32],
+    ) -> usize {
+        use crate::ln::{ATANH, LN2_HI, LN2_LO, SQRT_HALF_BITS};
+        let k = _mm512_set1_ps;
+        let n = scales.len().min(t_s.len()).min(widen.len()) / LANES * LANES;
+        let sqrt_half = _mm512_set1_epi32(SQRT_HALF_BITS as i32);
+        let mantissa = _mm512_set1_epi32(0x007f_ffff);
+        for x0 in (0..n).step_by(LANES) {
+            let s = load_at(scales, x0);
+            let ix = _mm512_sub_epi32(
+                _mm512_castps_si512(_mm512_max_ps(s, k(f32::MIN_POSITIVE))),
+                sqrt_half,
+            );
+            let e = _mm512_cvtepi32_ps(_mm512_srai_epi32::<23>(ix));
+            let m =
+                _mm512_castsi512_ps(_mm512_add_epi32(_mm512_and_si512(ix, mantissa), sqrt_half));
+            let f = _mm512_div_ps(_mm512_sub_ps(m, k(1.0)), _mm512_add_ps(m, k(1.0)));
+            let z = _mm512_mul_ps(f, f);
+            let r = _mm512_add_ps(f, f);
+            let (top, rest) = ATANH.split_last().expect("coefficients");
+            let poly = rest.iter().rev().fold(k(*top), |acc, &c| {
+                _mm512_add_ps(k(c), _mm512_mul_ps(z, acc))
+            });
+            let p = _mm512_add_ps(r, _mm512_mul_ps(_mm512_mul_ps(r, z), poly));
+            let ln = _mm512_add_ps(
+                _mm512_mul_ps(e, k(LN2_HI)),
+                _mm512_add_ps(p, _mm512_mul_ps(e, k(LN2_LO))),
+            );
+            let ts = _mm512_mul_ps(_mm512_sub_ps(ln, k(rule.ln0)), k(rule.inv));
+            let wd = _mm512_add_ps(
+                _mm512_div_ps(k(rule.var), _mm512_mul_ps(s, s)),
+                k(rule.shift),
+            );
+            let below = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(s, k(rule.below));
+            let wd = _mm512_maskz_mov_ps(below, wd);
+            t_s[x0..x0 + LANES].copy_from_slice(&store(ts));
+            widen[x0..x0 + LANES].copy_from_slice(&store(wd));
+        }
+        n
+    }
+
+    /// `gather::avx2::fill_levels` in sixteen lanes: the widening's series,
+    /// the position clamped, its level below and the snap, operation by
+    /// operation as `LevelRule::series` (no fused multiply-adds); lanes
+    /// whose widening needs the logarithm take `LevelRule::at` after.
+    #[target_feature(enable = "avx512f")]
+    pub(super) fn fill_levels(
+        rule: LevelRule,
+        t_s: &[f32],
+        widen: &[f32],
+        levels: &mut RowLevels,
+        g: usize,
+    ) -> usize {
+        let k = _mm512_set1_ps;
+        let w = levels.w;
+        let base = g * w;
+        let n = w.min(t_s.len()).min(widen.len()) / LANES * LANES;
+        let (floor, needs_log) = (k(WIDENING_FLOOR), k(LOG_FROM));
+        let (one, half, third, quarter) = (k(1.0), k(0.5), k(1.0 / 3.0), k(0.25));
+        let (inv_sigma2, ln_sigma, inv) = (k(rule.inv_sigma2), k(rule.ln_sigma), k(rule.inv));
+        let last = k(rule.last as f32);
+        let below_last = _mm512_set1_epi32((rule.last - 1) as i32);
+        let (snap_lo, snap_hi) = (k(rule.snap), k(1.0 - rule.snap));
+        let zero = _mm512_setzero_ps();
+        for x0 in (0..n).step_by(LANES) {
+            let (ts, wd) = (load_at(t_s, x0), load_at(widen, x0));
+            // kernel::ln_widening_series
+            let x = _mm512_max_ps(_mm512_mul_ps(wd, inv_sigma2), floor);
+            // kernel::widening_needs_log: |x| >= LOG_FROM
+            let log_lanes = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(_mm512_abs_ps(x), needs_log);
+            let x2 = _mm512_mul_ps(x, x);
+            let odd = _mm512_mul_ps(x, _mm512_add_ps(one, _mm512_mul_ps(x2, third)));
+            let even = _mm512_mul_ps(x2, _mm512_add_ps(half, _mm512_mul_ps(x2, quarter)));
+            let lw = _mm512_mul_ps(half, _mm512_sub_ps(odd, even));
+            // LevelRule::bracket: the position, clamped (finite positions:
+            // max/min are `clamp`), its level below, snapped
+            let u = _mm512_add_ps(ts, _mm512_mul_ps(_mm512_add_ps(ln_sigma, lw), inv));
+            let u = _mm512_min_ps(_mm512_max_ps(u, zero), last);
+            let i = _mm512_min_epi32(_mm512_cvttps_epi32(u), below_last);
+            let f = _mm512_sub_ps(u, _mm512_cvtepi32_ps(i));
+            let hi = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(f, snap_hi);
+            let snapped = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(f, snap_lo) | hi;
+            // a = i + 1 where `hi` is set
+            let a = _mm512_mask_add_epi32(i, hi, i, _mm512_set1_epi32(1));
+            let wa = _mm512_mask_mov_ps(_mm512_sub_ps(one, f), snapped, one);
+            let wb = _mm512_mask_mov_ps(f, snapped, zero);
+            let at = base + x0;
+            let da: &mut [u32; LANES] = (&mut levels.a[at..at + LANES])
+                .try_into()
+                .expect("sixteen lanes");
+            // SAFETY: writes exactly the sixteen integers of `da`.
+            unsafe { _mm512_storeu_si512(da.as_mut_ptr().cast(), a) };
+            levels.wa[at..at + LANES].copy_from_slice(&store(wa));
+            levels.wb[at..at + LANES].copy_from_slice(&store(wb));
+            if log_lanes != 0 {
+                for x in (x0..x0 + LANES).filter(|x| log_lanes & (1 << (x - x0)) != 0) {
+                    let (a, _, wa, wb) = rule.at(t_s[x], widen[x]);
+                    let i = base + x;
+                    (levels.a[i], levels.wa[i], levels.wb[i]) = (a, wa, wb);
+                }
+            }
+        }
+        n
     }
 
     /// `gather::avx2::scaled_row` for one channel read bilinearly, in
@@ -658,6 +912,8 @@ mod tests {
         });
         let width = 6 * LANES;
         let mut levels = RowLevels::new(3, width);
+        // six levels: reads up to level 5
+        levels.last = 5;
         let mut state = 0x9e37_79b9_u64;
         let mut next = || {
             state = state
