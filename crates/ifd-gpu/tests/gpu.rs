@@ -325,18 +325,25 @@ fn rgb_constant_filter_matches_cpu() {
     assert_close(&gpu, &cpu, "coffee RGB, 64 terms, -75 deg, s=2");
 }
 
+/// Per-pixel angles (a tilted ramp, degrees) and scales (0.5 to 3 along the
+/// diagonal) for a `w x h` image.
+fn varying_fields(w: usize, h: usize) -> (Vec<f32>, Vec<f32>) {
+    let angles = (0..w * h)
+        .map(|i| ((i % w) as f32 * 0.9 - (i / w) as f32 * 0.4) % 360.0)
+        .collect();
+    let scales = (0..w * h)
+        .map(|i| 0.5 + 2.5 * ((i % w) + (i / w)) as f32 / (w + h) as f32)
+        .collect();
+    (angles, scales)
+}
+
 #[test]
 fn spatially_varying_filter_matches_cpu() {
     let Some(ctx) = ctx() else { return };
     let img = read("astronaut.png");
     let (w, h) = (img.width(), img.height());
     let d = decomposition(32, 16.0, 3);
-    let angles: Vec<f32> = (0..w * h)
-        .map(|i| ((i % w) as f32 * 0.9 - (i / w) as f32 * 0.4) % 360.0)
-        .collect();
-    let scales: Vec<f32> = (0..w * h)
-        .map(|i| 0.5 + 2.5 * ((i % w) + (i / w)) as f32 / (w + h) as f32)
-        .collect();
+    let (angles, scales) = varying_fields(w, h);
     for border in [Border::Reflect101, Border::Constant(0.0)] {
         let stack = stack_for_decomposition(&img, &d, 0.5, 3.0, border, StackOptions::default())
             .expect("stack");
@@ -371,12 +378,7 @@ fn nearest_level_reads_match_cpu() {
     let img = read("astronaut.png");
     let (w, h) = (img.width(), img.height());
     let d = decomposition(32, 16.0, 3);
-    let angles: Vec<f32> = (0..w * h)
-        .map(|i| ((i % w) as f32 * 0.9 - (i / w) as f32 * 0.4) % 360.0)
-        .collect();
-    let scales: Vec<f32> = (0..w * h)
-        .map(|i| 0.5 + 2.5 * ((i % w) + (i / w)) as f32 / (w + h) as f32)
-        .collect();
+    let (angles, scales) = varying_fields(w, h);
     let options = StackOptions {
         samples_per_octave: 3,
         nearest_level: true,
