@@ -133,45 +133,40 @@ pub(crate) fn rotated_row<const C: usize>(
     }
 }
 
-/// The AVX2 kernel of [`rotated_row`] with one channel whatever wider
-/// vectors the CPU has (for the tests that compare the two).
+/// The AVX2 kernels whatever wider vectors the CPU has, for the tests that
+/// compare them with the AVX-512 kernels and the scalar rules: each returns
+/// the pixels done (0 without AVX2; the row kernels, one channel, assert
+/// that the CPU has it).
 #[cfg(test)]
-pub(crate) fn avx2_rotated_row_for_tests(
-    stack: &ScaleStack,
-    terms: &[FixedTerm],
-    y: usize,
-    cs: &[f32],
-    ss: &[f32],
-    out: &mut [f32],
-) -> usize {
-    assert!(supports::<1>(stack) && cs.len() == ss.len() && out.len() >= cs.len());
-    // SAFETY: `supports` checked that the CPU has AVX2.
-    unsafe { avx2::rotated_row::<1>(stack, terms, y, cs, ss, out) }
-}
+pub(crate) mod avx2_for_tests {
+    use super::{Field, FixedTerm, LevelRule, RowLevels, ScalePosition, ScaleStack, ScaledTerm};
 
-/// The AVX2 kernel of [`scaled_row`] with one channel whatever wider
-/// vectors the CPU has (for the tests that compare the two).
-#[cfg(test)]
-pub(crate) fn avx2_scaled_row_for_tests(
-    stack: &ScaleStack,
-    terms: &[ScaledTerm],
-    levels: &RowLevels,
-    y: usize,
-    cs: &[f32],
-    ss: &[f32],
-    out: &mut [f32],
-) -> usize {
-    assert!(supports::<1>(stack) && cs.len() == ss.len() && out.len() >= cs.len());
-    // SAFETY: `supports` checked that the CPU has AVX2.
-    unsafe { avx2::scaled_row::<1>(stack, terms, levels, y, cs, ss, out) }
-}
+    pub(crate) fn rotated_row(
+        stack: &ScaleStack,
+        terms: &[FixedTerm],
+        y: usize,
+        cs: &[f32],
+        ss: &[f32],
+        out: &mut [f32],
+    ) -> usize {
+        assert!(super::supports::<1>(stack) && cs.len() == ss.len() && out.len() >= cs.len());
+        // SAFETY: `supports` checked that the CPU has AVX2.
+        unsafe { super::avx2::rotated_row::<1>(stack, terms, y, cs, ss, out) }
+    }
 
-/// The AVX2 rows of [`rotations`] and [`scale_positions`] whatever wider
-/// vectors the CPU has (for the tests that compare them with the rule): the
-/// pixels done, 0 without AVX2.
-#[cfg(test)]
-pub(crate) mod avx2_row_kernels_for_tests {
-    use super::{Field, ScalePosition};
+    pub(crate) fn scaled_row(
+        stack: &ScaleStack,
+        terms: &[ScaledTerm],
+        levels: &RowLevels,
+        y: usize,
+        cs: &[f32],
+        ss: &[f32],
+        out: &mut [f32],
+    ) -> usize {
+        assert!(super::supports::<1>(stack) && cs.len() == ss.len() && out.len() >= cs.len());
+        // SAFETY: `supports` checked that the CPU has AVX2.
+        unsafe { super::avx2::scaled_row::<1>(stack, terms, levels, y, cs, ss, out) }
+    }
 
     pub(crate) fn rotations(
         theta: &[f32],
@@ -202,26 +197,22 @@ pub(crate) mod avx2_row_kernels_for_tests {
         let _ = (rule, scales, t_s, widen);
         0
     }
-}
 
-/// The AVX2 pass of [`fill_levels`] whatever wider vectors the CPU has
-/// (for the tests that compare it with the rule): the pixels done, 0
-/// without AVX2.
-#[cfg(test)]
-pub(crate) fn avx2_fill_levels_for_tests(
-    rule: LevelRule,
-    t_s: &[f32],
-    widen: &[f32],
-    levels: &mut RowLevels,
-    g: usize,
-) -> usize {
-    #[cfg(target_arch = "x86_64")]
-    if vector_kernels().is_some() {
-        // SAFETY: the CPU has AVX2 (checked just now).
-        return unsafe { avx2::fill_levels(rule, t_s, widen, levels, g) };
+    pub(crate) fn fill_levels(
+        rule: LevelRule,
+        t_s: &[f32],
+        widen: &[f32],
+        levels: &mut RowLevels,
+        g: usize,
+    ) -> usize {
+        #[cfg(target_arch = "x86_64")]
+        if super::vector_kernels().is_some() {
+            // SAFETY: the CPU has AVX2 (checked just now).
+            return unsafe { super::avx2::fill_levels(rule, t_s, widen, levels, g) };
+        }
+        let _ = (rule, t_s, widen, levels, g);
+        0
     }
-    let _ = (rule, t_s, widen, levels, g);
-    0
 }
 
 /// `cs[x] = s cos theta[x]` and `ss[x] = s sin theta[x]` over a row of
@@ -1259,8 +1250,8 @@ mod avx2 {
 #[cfg(test)]
 mod tests {
     use super::{
-        LevelRule, RowLevels, ScalePosition, avx2_fill_levels_for_tests,
-        avx2_row_kernels_for_tests, fill_levels, rotations, scale_positions, series_levels,
+        LevelRule, RowLevels, ScalePosition, avx2_for_tests, fill_levels, rotations,
+        scale_positions, series_levels,
     };
     use crate::Sampling;
     use crate::field::Field;
@@ -1296,7 +1287,7 @@ mod tests {
         {
             let (mut cs, mut ss) = (vec![0.0; w], vec![0.0; w]);
             let n = if avx2 {
-                avx2_row_kernels_for_tests::rotations(&theta, scale, &mut cs, &mut ss)
+                avx2_for_tests::rotations(&theta, scale, &mut cs, &mut ss)
             } else {
                 rotations(&theta, scale, &mut cs, &mut ss);
                 w
@@ -1351,8 +1342,7 @@ mod tests {
             scale_positions(rule, &scales, &mut t_s, &mut widen);
             // the AVX2 lanes alone (their pixels) after the dispatched rows
             let (mut t_2, mut widen_2) = (vec![0.0; w], vec![0.0; w]);
-            let n =
-                avx2_row_kernels_for_tests::scale_positions(rule, &scales, &mut t_2, &mut widen_2);
+            let n = avx2_for_tests::scale_positions(rule, &scales, &mut t_2, &mut widen_2);
             for x in 0..n {
                 assert_eq!(
                     (t_2[x].to_bits(), widen_2[x].to_bits()),
@@ -1465,7 +1455,7 @@ mod tests {
                 0 => fill_levels(rule, &t_s, &widen, &mut levels, 1),
                 1 => series_levels(rule, &t_s, &widen, &mut levels, w),
                 _ => {
-                    series_from = avx2_fill_levels_for_tests(rule, &t_s, &widen, &mut levels, 1);
+                    series_from = avx2_for_tests::fill_levels(rule, &t_s, &widen, &mut levels, 1);
                     let tail = series_from..w;
                     series_levels(
                         rule,

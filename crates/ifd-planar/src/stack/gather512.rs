@@ -63,6 +63,27 @@ pub(crate) fn available() -> bool {
     super::separable::isa() == super::separable::Isa::Avx512
 }
 
+/// `kernel::f(args)` where the CPU has AVX-512F ([`available`]), else 0
+/// pixels done: the one place the entry points below call the kernels
+/// compiled for it.
+macro_rules! on_avx512 {
+    ($f:ident($($arg:expr),* $(,)?)) => {{
+        #[cfg(target_arch = "x86_64")]
+        let done = if available() {
+            // SAFETY: `available` checked that the CPU has AVX-512F.
+            unsafe { kernel::$f($($arg),*) }
+        } else {
+            0
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let done = {
+            let _ = ($($arg,)*);
+            0
+        };
+        done
+    }};
+}
+
 /// [`super::gather::rotated_row`] for a one-channel, bilinear stack on an
 /// AVX-512 CPU: the pixels done (a multiple of [`LANES`]; 0 when this kernel
 /// does not apply, and the caller takes the AVX2 kernel).
@@ -76,22 +97,10 @@ pub(crate) fn rotated_row(
 ) -> usize {
     // `supports`: levels of at least 2x2 samples, `nx ny` of them below
     // `i32::MAX` (the gathers' index clamp relies on both)
-    if !(available()
-        && stack.interpolation == Interpolation::Linear
-        && super::gather::supports::<1>(stack))
-    {
+    if !(stack.interpolation == Interpolation::Linear && super::gather::supports::<1>(stack)) {
         return 0;
     }
-    #[cfg(target_arch = "x86_64")]
-    {
-        // SAFETY: `available` checked that the CPU has AVX-512F.
-        unsafe { kernel::rotated_row(stack, terms, y, cs, ss, out) }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = (terms, y, cs, ss, out);
-        0
-    }
+    on_avx512!(rotated_row(stack, terms, y, cs, ss, out))
 }
 
 /// [`super::gather::scaled_row`] for a one-channel, bilinear stack on an
@@ -107,22 +116,10 @@ pub(crate) fn scaled_row(
     ss: &[f32],
     out: &mut [f32],
 ) -> usize {
-    if !(available()
-        && stack.interpolation == Interpolation::Linear
-        && super::gather::supports::<1>(stack))
-    {
+    if !(stack.interpolation == Interpolation::Linear && super::gather::supports::<1>(stack)) {
         return 0;
     }
-    #[cfg(target_arch = "x86_64")]
-    {
-        // SAFETY: `available` checked that the CPU has AVX-512F.
-        unsafe { kernel::scaled_row(stack, terms, levels, y, cs, ss, out) }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = (terms, levels, y, cs, ss, out);
-        0
-    }
+    on_avx512!(scaled_row(stack, terms, levels, y, cs, ss, out))
 }
 
 /// [`super::gather::fill_levels`]' vector pass in sixteen lanes where the
@@ -138,19 +135,7 @@ pub(crate) fn fill_levels(
     levels: &mut RowLevels,
     g: usize,
 ) -> usize {
-    if !available() {
-        return 0;
-    }
-    #[cfg(target_arch = "x86_64")]
-    {
-        // SAFETY: `available` checked that the CPU has AVX-512F.
-        unsafe { kernel::fill_levels(rule, t_s, widen, levels, g) }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = (rule, t_s, widen, levels, g);
-        0
-    }
+    on_avx512!(fill_levels(rule, t_s, widen, levels, g))
 }
 
 /// [`super::gather::rotations`] in sixteen lanes where the CPU has
@@ -162,19 +147,7 @@ pub(crate) fn rotations(
     cs: &mut [f32],
     ss: &mut [f32],
 ) -> usize {
-    if !available() {
-        return 0;
-    }
-    #[cfg(target_arch = "x86_64")]
-    {
-        // SAFETY: `available` checked that the CPU has AVX-512F.
-        unsafe { kernel::rotations(theta, scale, cs, ss) }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = (theta, scale, cs, ss);
-        0
-    }
+    on_avx512!(rotations(theta, scale, cs, ss))
 }
 
 /// [`super::gather::scale_positions`] in sixteen lanes where the CPU has
@@ -187,19 +160,7 @@ pub(crate) fn scale_positions(
     t_s: &mut [f32],
     widen: &mut [f32],
 ) -> usize {
-    if !available() {
-        return 0;
-    }
-    #[cfg(target_arch = "x86_64")]
-    {
-        // SAFETY: `available` checked that the CPU has AVX-512F.
-        unsafe { kernel::scale_positions(rule, scales, t_s, widen) }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = (rule, scales, t_s, widen);
-        0
-    }
+    on_avx512!(scale_positions(rule, scales, t_s, widen))
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -761,25 +722,12 @@ mod kernel {
     ) -> usize {
         let n = cs.len().min(ss.len()).min(out.len()) / LANES * LANES;
         let yf = _mm512_set1_ps(y as f32);
-        let lanes = _mm512_setr_ps(
-            0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0,
-        );
         for x0 in (0..n).step_by(LANES) {
-            // pixel coordinates, exact below 2^24
-            let xf = _mm512_add_ps(_mm512_set1_ps(x0 as f32), lanes);
+            let xf = columns(x0);
             let (c, s) = (load_at(cs, x0), load_at(ss, x0));
             let mut acc = _mm512_setzero_ps();
             for t in terms {
-                // gather::avx2::positions
-                let (cx, cy) = (_mm512_set1_ps(t.cx), _mm512_set1_ps(t.cy));
-                let px = _mm512_add_ps(
-                    _mm512_add_ps(xf, _mm512_mul_ps(c, cx)),
-                    _mm512_mul_ps(s, cy),
-                );
-                let py = _mm512_add_ps(
-                    _mm512_sub_ps(yf, _mm512_mul_ps(s, cx)),
-                    _mm512_mul_ps(c, cy),
-                );
+                let (px, py) = positions(xf, yf, c, s, t.cx, t.cy);
                 for (li, w) in [(t.a, t.wa), (t.b, t.wb)] {
                     if w == 0.0 {
                         continue;
@@ -789,6 +737,8 @@ mod kernel {
                         sum
                     } else {
                         // lane by lane, the scalar lookup resolving borders
+                        // (`scalar_lanes`' loop, kept inline: called out of
+                        // line here, the whole row measured 5-10% slower)
                         let (pxs, pys) = (store(px), store(py));
                         let mut sums = store(acc);
                         for (lane, sum) in sums.iter_mut().enumerate() {
@@ -866,7 +816,8 @@ mod tests {
             let (mut wide, mut narrow) = (vec![0.25f32; width], vec![0.25f32; width]);
             let done = super::rotated_row(&stack, &terms, y, &cs, &ss, &mut wide);
             assert_eq!(done, width);
-            let done = gather::avx2_rotated_row_for_tests(&stack, &terms, y, &cs, &ss, &mut narrow);
+            let done =
+                gather::avx2_for_tests::rotated_row(&stack, &terms, y, &cs, &ss, &mut narrow);
             assert_eq!(done, width);
             for x in 0..width {
                 assert_eq!(wide[x].to_bits(), narrow[x].to_bits(), "row {y}, pixel {x}");
@@ -955,7 +906,7 @@ mod tests {
             let (mut wide, mut narrow) = (vec![0.25f32; width], vec![0.25f32; width]);
             let done = super::scaled_row(&stack, &terms, &levels, y, &cs, &ss, &mut wide);
             assert_eq!(done, width);
-            let done = gather::avx2_scaled_row_for_tests(
+            let done = gather::avx2_for_tests::scaled_row(
                 &stack,
                 &terms,
                 &levels,
