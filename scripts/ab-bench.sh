@@ -47,7 +47,7 @@ jobs = {
     "filter 512x512, angle + scale maps": [
         "filter", "testdata/astronaut.png", "--decomp", f"{out}/gauss8.json",
         "--angle-map", f"{out}/swirl.npy", "--scale-map", f"{out}/scale.npy", "-o", f"{out}/f.png"],
-    "smooth camera, S = 6": ["smooth", "testdata/camera.png", "--scale", "6", "-o", f"{out}/s.png"],
+    "smooth camera, S = 6": ["smooth", "testdata/camera.png", "--sigma", "6", "-o", f"{out}/s.png"],
     "sphere sh forest, L = 32": ["sphere", "sh", "testdata/forest.hdr", "--lmax", "32", "-o", f"{out}/sh.npy"],
     "render GGX sphere, L = 16, 384x384": [
         "render", "--env", "testdata/forest.hdr", "--brdf", "ggx:alpha=0.3", "--lmax", "16",

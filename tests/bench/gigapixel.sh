@@ -3,7 +3,7 @@
 # spatially varying 8:1 Gaussian of extent 257 (gauss:sx=32,sy=4, rotated per
 # pixel along circles) under --memory-budget MIB (default 4096), tile by tile,
 # and reports the peak resident memory and the time (/usr/bin/time -v).
-# With OP = smooth, smooths it instead (ifd smooth --scale 4, per pixel: the
+# With OP = smooth, smooths it instead (ifd smooth --sigma 4, per pixel: the
 # Hessian field, its tensor averaging and the anisotropic filters, tile by
 # tile).
 #
@@ -30,7 +30,7 @@ case $OP in
     "$IFD" decompose gauss:sx=32,sy=4,theta=0 -o g8.json >/dev/null
     set -- filter img.npy --decomp g8.json --angle-map angle.npy ;;
   smooth)
-    set -- smooth img.npy --scale 4 ;;
+    set -- smooth img.npy --sigma 4 ;;
   *) echo "unknown OP $OP (filter or smooth)" >&2; exit 2 ;;
 esac
 /usr/bin/time -v "$IFD" "$@" --memory-budget "$BUDGET" -v -o out.npy 2>&1 |

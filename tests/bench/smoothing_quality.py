@@ -8,9 +8,9 @@ method has one parameter calibrated (bisection, or the closest integer) so that
 its residual noise on a flat noisy image (0.5 + the same noise, 256x256, away
 from the border) equals the Gaussian's:
 
-- ifd smooth (per pixel and the paper's dab mode): --scale. Its Gaussians keep
-  sx * sy = scale^2, but on noise the Hessian finds "ridges" and the filters
-  follow them, so at --scale S it leaves more noise than the Gaussian; the
+- ifd smooth (per pixel and the paper's dab mode): --sigma. Its Gaussians keep
+  sx * sy = sigma^2, but on noise the Hessian finds "ridges" and the filters
+  follow them, so at --sigma S it leaves more noise than the Gaussian; the
   calibrated scale is larger than S.
 - cv2.bilateralFilter (float32): sigmaColor = 3 x the noise sigma (a common
   rule of thumb), sigmaSpace calibrated (d = 2 * ceil(2 sigmaSpace) + 1).
@@ -23,7 +23,7 @@ from the border) equals the Gaussian's:
 Measured: PSNR against the clean image, and edge preservation = correlation of
 Sobel gradient magnitudes with those of the clean image.
 
-Usage: .venv/bin/python tests/bench/smoothing_quality.py [--ifd target/release/ifd] [--scale 2] [--out docs/smoothing]
+Usage: .venv/bin/python tests/bench/smoothing_quality.py [--ifd target/release/ifd] [--sigma 2] [--out docs/smoothing]
 Writes markdown tables on stdout and a side-by-side crop into --out.
 """
 
@@ -65,7 +65,7 @@ class Ifd:
     def __call__(self, noisy, scale):
         src, out = self.tmp / "in.npy", self.tmp / "out.npy"
         np.save(src, noisy.astype(np.float32))
-        cmd = [self.exe, "smooth", str(src), "--scale", f"{scale:.6g}", "--mode", self.mode, "-o", str(out)]
+        cmd = [self.exe, "smooth", str(src), "--sigma", f"{scale:.6g}", "--mode", self.mode, "-o", str(out)]
         subprocess.run(cmd, check=True, capture_output=True)
         return np.load(out).astype(np.float64)
 
@@ -117,13 +117,13 @@ def calibrate(method, flat, target, lo, hi, steps=14, log=True):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--ifd", default=str(ROOT / "target" / "release" / "ifd"))
-    ap.add_argument("--scale", type=float, default=2.0)
+    ap.add_argument("--sigma", type=float, default=2.0)
     ap.add_argument("--out", default=str(ROOT / "docs" / "smoothing"))
     a = ap.parse_args()
     outdir = pathlib.Path(a.out)
     outdir.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(SEED)
-    s = a.scale
+    s = a.sigma
     with tempfile.TemporaryDirectory() as t:
         tmp = pathlib.Path(t)
         flat = 0.5 + rng.normal(0, NOISE, (256, 256))
@@ -134,7 +134,7 @@ def main():
         methods["cv2.GaussianBlur"] = (lambda x: cv2.GaussianBlur(x, (0, 0), s), f"sigma {s:g}", target)
         for name, m in [("ifd smooth per-pixel", per_pixel), ("ifd smooth dab", dab)]:
             p, r = calibrate(m, flat, target, s, 3 * s, steps=10)
-            methods[name] = (lambda x, m=m, p=p: m(x, p), f"--scale {p:.3f}", r)
+            methods[name] = (lambda x, m=m, p=p: m(x, p), f"--sigma {p:.3f}", r)
         p, r = calibrate(bilateral, flat, target, 0.5, 8 * s)
         methods["cv2.bilateralFilter"] = (lambda x, p=p: bilateral(x, p), f"sigmaSpace {p:.2f}, sigmaColor {3 * NOISE:g}", r)
         radius = math.ceil(2 * s)
@@ -149,7 +149,7 @@ def main():
             f"{best} iterations",
             residual(aniso_diffusion, flat, best),
         )
-        print(f"Residual noise on a flat image (input {NOISE}), footprint S = {s:g}: GaussianBlur {target:.4f}; ifd per pixel at --scale {s:g} (uncalibrated) {uncal:.4f}.")
+        print(f"Residual noise on a flat image (input {NOISE}), footprint S = {s:g}: GaussianBlur {target:.4f}; ifd per pixel at --sigma {s:g} (uncalibrated) {uncal:.4f}.")
         print()
         print("| method | calibrated parameter | residual noise |")
         print("|---|---|---|")

@@ -226,7 +226,7 @@ def test_shared_output_options_encode_alike(run_ifd, tmp_path, command):
         run_ifd("decompose", "gauss:sx=3,sy=1.5", "-o", d)
         args = ["filter", src, "--decomp", d, "--angle", "30"]
     elif command == "smooth":
-        args = ["smooth", src, "--scale", "1"]
+        args = ["smooth", src, "--sigma", "1"]
     else:
         args = ["convert", src]
     out_flag = [] if command == "convert" else ["-o"]

@@ -271,6 +271,8 @@ def test_brdf_filter_bad_input(run_ifd, tmp_path):
         (["--brdf", "lambert", "--nodes", 2, "--lmax", 8], "--nodes"),
         (["--brdf", "ggx:ax=0.1,ay=0.4"], "isotropic"),
         (["--brdf", f"merl:{tmp_path / 'nope.binary'}"], "nope.binary"),
+        # the SHRM Phong lobe (cosine folded in) is no reciprocal BRDF
+        (["--brdf", "phong:s=8"], "not a reciprocal"),
     ]:
         p = run_ifd("sphere", "brdf-filter", *extra, "-o", tmp_path / "o.binary", check=False)
         assert p.returncode == 2 and needle in p.stderr, (extra, p.stderr)

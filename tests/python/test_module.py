@@ -118,7 +118,7 @@ def test_hessian_and_smooth_equal_cli(tmp_path, run_ifd, camera):
     run_ifd("hessian", tmp_path / "img.npy", "--sigma", "3", "-o", tmp_path / "h.npy")
     assert np.array_equal(ifd.hessian(img, 3.0), np.load(tmp_path / "h.npy"))
     for mode in ["per-pixel", "dab"]:
-        run_ifd("smooth", tmp_path / "img.npy", "--scale", "4", "--max-aspect", "6",
+        run_ifd("smooth", tmp_path / "img.npy", "--sigma", "4", "--max-aspect", "6",
                 "--mode", mode, "--strength", "0.8", "-o", tmp_path / "s.npy")
         out = ifd.smooth(img, 4.0, max_aspect=6.0, mode=mode, strength=0.8)
         assert np.array_equal(out, np.load(tmp_path / "s.npy").reshape(out.shape)), mode
@@ -258,7 +258,8 @@ def test_float32_contiguous_input_is_not_copied(gauss_d):
         (lambda d: ifd.load("/nonexistent/d.json"), OSError, "/nonexistent/d.json"),
         (lambda d: ifd.hessian(np.zeros((32, 32), np.float32), 0.1), ValueError, "hessian sigma = 0.1"),
         (lambda d: ifd.smooth(np.zeros((32, 32), np.float32), 3.0, mode="brush"), ValueError, "mode"),
-        (lambda d: ifd.smooth(np.zeros((32, 32), np.float32), 1000.0), ValueError, "scale"),
+        (lambda d: ifd.smooth(np.zeros((32, 32), np.float32), 1000.0), ValueError, "sigma"),
+        (lambda d: ifd.smooth(np.zeros((32, 32), np.float32), sigma=0.1), ValueError, "sigma"),
         (lambda d: ifd.compare(np.zeros((4, 4), np.float32), np.zeros((4, 5), np.float32)), ValueError,
          "same shape"),
         (lambda d: ifd.sphere.sh(np.zeros((10, 30), np.float32), 4), ValueError, "2:1"),

@@ -112,7 +112,7 @@ CASES = [(0.5, 0.005), (1.0, 0.005), (2.0, 0.015), (3.0, 0.015), (6.0, 0.015)]
 def test_smooth_matches_brute_force_on_an_oblique_edge(run_ifd, tmp_path, scale, tol):
     img, dist = oblique_edge()
     src = save_npy(tmp_path / "in.npy", img.astype(np.float32))
-    run_ifd("smooth", src, "--scale", scale, "--max-aspect", 16, "-o", tmp_path / "o.npy", "--field", tmp_path / "f.npy")
+    run_ifd("smooth", src, "--sigma", scale, "--max-aspect", 16, "-o", tmp_path / "o.npy", "--field", tmp_path / "f.npy")
     out = np.load(tmp_path / "o.npy").astype(np.float64)
     field = np.load(tmp_path / "f.npy").astype(np.float64)
     assert field.shape == img.shape + (3,)
@@ -140,10 +140,10 @@ def test_smooth_matches_brute_force_on_an_oblique_edge(run_ifd, tmp_path, scale,
 def test_smooth_scale_limits_and_field_format(run_ifd, tmp_path):
     img, _ = oblique_edge(32)
     src = save_npy(tmp_path / "in.npy", img.astype(np.float32))
-    p = run_ifd("smooth", src, "--scale", "0.4", "-o", tmp_path / "o.npy", check=False)
-    assert p.returncode == 2 and "--scale 0.4: outside the supported range" in p.stderr, p.stderr
-    p = run_ifd("smooth", src, "--scale", "1", "-o", tmp_path / "o.npy", "--field", tmp_path / "f.png", check=False)
+    p = run_ifd("smooth", src, "--sigma", "0.4", "-o", tmp_path / "o.npy", check=False)
+    assert p.returncode == 2 and "--sigma 0.4: outside the supported range" in p.stderr, p.stderr
+    p = run_ifd("smooth", src, "--sigma", "1", "-o", tmp_path / "o.npy", "--field", tmp_path / "f.png", check=False)
     assert p.returncode == 2 and "--field" in p.stderr and ".npy" in p.stderr, p.stderr
     assert not (tmp_path / "o.npy").exists()
-    p = run_ifd("smooth", src, "--scale", "1", "--gpu", "-o", tmp_path / "o.npy", check=False)
+    p = run_ifd("smooth", src, "--sigma", "1", "--gpu", "-o", tmp_path / "o.npy", check=False)
     assert p.returncode == 2 and "CPU only" in p.stderr, p.stderr

@@ -110,9 +110,9 @@ def photo(tmp_path_factory):
     "args, tile",
     [
         # Tiles of 1 px are rounded up to twice the halo (the reach).
-        (("--scale", "4", "--mode", "per-pixel", "--strength", "0.8"), 1),
-        (("--scale", "4", "--mode", "dab"), 1),
-        (("--scale", "1.5", "--mode", "dab"), 100),  # direct kernels
+        (("--sigma", "4", "--mode", "per-pixel", "--strength", "0.8"), 1),
+        (("--sigma", "4", "--mode", "dab"), 1),
+        (("--sigma", "1.5", "--mode", "dab"), 100),  # direct kernels
     ],
     ids=["per-pixel", "dab", "direct"],
 )
@@ -142,7 +142,7 @@ def test_smooth_tiles_equal_the_whole_image(photo, run_ifd, args, tile):
 def test_smooth_over_the_budget_goes_tiled_by_itself(photo, run_ifd):
     d = photo["dir"]
     whole, auto = d / "s-whole.npy", d / "s-auto.npy"
-    args = ["--scale", "3"]
+    args = ["--sigma", "3"]
     run_ifd("smooth", photo["img"], *args, "-o", whole)
     p = run_ifd("smooth", photo["img"], *args, "--memory-budget", "40", "-v", "-o", auto)
     assert "tiled:" in p.stderr, p.stderr

@@ -312,9 +312,9 @@ fn smooth_gpu_matches_cpu_in_both_modes() {
     let small = small.to_string_lossy();
     let cpu = dir.path().join("cpu.npy").to_string_lossy().into_owned();
     let gpu = dir.path().join("gpu.npy").to_string_lossy().into_owned();
-    let (code, _, err) = ifd(&["smooth", &small, "--scale", "3", "-o", &cpu]);
+    let (code, _, err) = ifd(&["smooth", &small, "--sigma", "3", "-o", &cpu]);
     assert_eq!(code, 0, "{err}");
-    let (code, _, err) = ifd(&["smooth", &small, "--scale", "3", "--gpu", "-o", &gpu]);
+    let (code, _, err) = ifd(&["smooth", &small, "--sigma", "3", "--gpu", "-o", &gpu]);
     if gpu_missing_ok(code, &err) {
         return;
     }
@@ -323,11 +323,11 @@ fn smooth_gpu_matches_cpu_in_both_modes() {
     assert!(rel <= 1e-4, "GPU and CPU smoothing differ by {rel:e}");
     // The paper's mode (a grid of blended dabs) on both paths.
     let (code, _, err) = ifd(&[
-        "smooth", &small, "--scale", "3", "--mode", "dab", "-o", &cpu,
+        "smooth", &small, "--sigma", "3", "--mode", "dab", "-o", &cpu,
     ]);
     assert_eq!(code, 0, "{err}");
     let (code, _, err) = ifd(&[
-        "smooth", &small, "--scale", "3", "--gpu", "--mode", "dab", "-o", &gpu,
+        "smooth", &small, "--sigma", "3", "--gpu", "--mode", "dab", "-o", &gpu,
     ]);
     assert_eq!(code, 0, "{err}");
     let rel = relative_difference(&gpu, &cpu);

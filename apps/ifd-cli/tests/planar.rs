@@ -161,7 +161,7 @@ fn smooth_writes_a_smoothed_image_and_refuses_bad_options() {
     let data: Vec<f32> = (0..w * h).map(|i| clean(i % w) + 0.2 * noise()).collect();
     let img = save(d, "noisy.npy", w, h, data.clone());
     let out = path(d, "out.npy");
-    let (code, _, err) = ifd(&["smooth", &img, "--scale", "3", "-o", &out]);
+    let (code, _, err) = ifd(&["smooth", &img, "--sigma", "3", "-o", &out]);
     assert_eq!(code, 0, "{err}");
     let res = ifd_image::read(&out).unwrap();
     assert_eq!((res.width(), res.height(), res.channels()), (w, h, 1));
@@ -185,11 +185,12 @@ fn smooth_writes_a_smoothed_image_and_refuses_bad_options() {
     let step = res.get(w / 2 + 4, row, 0) - res.get(w / 2 - 5, row, 0);
     assert!(step > 0.4, "edge blurred away: step {step}");
     for (extra, needle) in [
-        (vec!["--scale", "0.4"], "scale"),
-        (vec!["--scale", "1000"], "scale"),
-        (vec!["--scale", "3", "--strength", "2"], "strength"),
-        (vec!["--scale", "3", "--max-aspect", "100"], "aspect"),
-        (vec!["--scale", "3", "--mode", "sideways"], "mode"),
+        (vec!["--sigma", "0.4"], "--sigma 0.4"),
+        (vec!["--sigma", "1000"], "--sigma 1000"),
+        (vec!["--scale", "3"], "--scale is now --sigma"),
+        (vec!["--sigma", "3", "--strength", "2"], "strength"),
+        (vec!["--sigma", "3", "--max-aspect", "100"], "aspect"),
+        (vec!["--sigma", "3", "--mode", "sideways"], "mode"),
     ] {
         let mut args = vec!["smooth", &*img, "-o", &*out];
         args.extend(extra);

@@ -438,7 +438,7 @@ fn hessian<'py>(
 
 /// Hessian-driven anisotropic smoothing: `ifd smooth` on the CPU.
 #[pyfunction]
-#[pyo3(signature = (image, scale, *, max_aspect=8.0, gamma=1.0, epsilon=0.02, hessian_sigma=None, strength=1.0, mode="per-pixel", border="reflect101"))]
+#[pyo3(signature = (image, sigma, *, max_aspect=8.0, gamma=1.0, epsilon=0.02, hessian_sigma=None, strength=1.0, mode="per-pixel", border="reflect101"))]
 #[expect(
     clippy::too_many_arguments,
     reason = "the keyword arguments of ifd.smooth"
@@ -446,7 +446,7 @@ fn hessian<'py>(
 fn smooth<'py>(
     py: Python<'py>,
     image: PyReadonlyArrayDyn<'py, f32>,
-    scale: f64,
+    sigma: f64,
     max_aspect: f64,
     gamma: f64,
     epsilon: f64,
@@ -474,7 +474,7 @@ fn smooth<'py>(
         }
     };
     let opts = SmoothOptions {
-        scale,
+        scale: sigma,
         hessian_sigma,
         aniso: AnisoParams {
             max_aspect,
@@ -484,7 +484,18 @@ fn smooth<'py>(
         border: parse_border(border)?,
         ..SmoothOptions::default()
     };
-    opts.aniso.validate().map_err(|e| errors::value("", e))?;
+    opts.validate().map_err(|e| match e {
+        // the options' `scale` is this function's `sigma`
+        ifd_smooth::SmoothError::OutOfRange {
+            name: "scale",
+            value,
+            range,
+        } => errors::value(
+            "sigma",
+            format!("{value} is outside the supported range {range}"),
+        ),
+        e => errors::value("", e),
+    })?;
     let out = py.detach(|| {
         timed(|| {
             let hbank = hessian_bank(opts.hessian_tol)?;

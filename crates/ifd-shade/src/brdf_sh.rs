@@ -197,13 +197,24 @@ impl BrdfSh {
     /// Projects a BRDF (a MERL file's holes as missing data).
     ///
     /// # Errors
-    /// As [`Self::project`].
+    /// [`ShadeError::Spec`] for `phong` (the SHRM lobe with the cosine folded
+    /// in: divided by the cosine it is not a reciprocal BRDF, and the
+    /// projection keeps the reciprocal part); otherwise as [`Self::project`].
     pub fn from_brdf(
         brdf: &Brdf,
         l_max: usize,
         n_theta: usize,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Self> {
+        if let crate::brdf::Model::Phong { .. } = brdf.model() {
+            return Err(ShadeError::Spec {
+                spec: brdf.spec().to_owned(),
+                reason: "phong is a shading lobe with the cosine folded in, not a reciprocal \
+                         BRDF, so its 4D projection (which keeps the reciprocal part) would not \
+                         be it; use blinn, ggx, ward, lambert or merl:FILE"
+                    .to_owned(),
+            });
+        }
         let ch = brdf.channels();
         let f = |wi: [f64; 3], wo: [f64; 3], out: &mut [f64]| -> bool {
             // the BRDF, not its cosine-weighted slice

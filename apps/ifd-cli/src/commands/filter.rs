@@ -50,7 +50,8 @@ pub struct Filter {
     border: Border,
     #[command(flatten)]
     output: ImageOutput,
-    /// Print timings.
+    /// Print the evaluation plan (interpolation, pyramid factor, levels,
+    /// expected error), the lookup path and the time of each step.
     #[arg(short, long)]
     verbose: bool,
     /// Evaluate on the GPU (wgpu, Vulkan): a hardware adapter when there is
@@ -84,7 +85,7 @@ pub struct Filter {
     #[arg(long, value_name = "PX", conflicts_with = "gpu")]
     tile: Option<usize>,
     /// Evaluate per-pixel maps with the scalar loop instead of the CPU's
-    /// vector gathers (AVX2, detected at run time): the same output bit for
+    /// vector gathers (AVX2 or AVX-512, detected at run time): the same output bit for
     /// bit, slower; for measuring.
     #[arg(long, conflicts_with = "gpu")]
     scalar: bool,

@@ -1,7 +1,12 @@
 //! `ifd gpu-info`.
 
+use std::fmt::Write as _;
+
 use anyhow::Result;
 use clap::Args;
+use serde_json::json;
+
+use crate::options::ReportOptions;
 
 /// Print the GPU adapter that `--gpu` uses (name, type, driver, limits,
 /// timestamp support), or why there is none.
@@ -14,26 +19,61 @@ pub struct GpuInfo {
     /// Also list every adapter found, best first.
     #[arg(long)]
     all: bool,
+    #[command(flatten)]
+    report: ReportOptions,
 }
 
 impl GpuInfo {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
-        if self.all {
-            let adapters = ifd_gpu::list_adapters();
-            println!("adapters found: {}", adapters.len());
-            for a in &adapters {
-                println!(
-                    "  {} ({:?}, {:?}, driver {} {})",
-                    a.name, a.device_type, a.backend, a.driver, a.driver_info
-                );
-            }
-        }
+        let adapters = self.all.then(ifd_gpu::list_adapters);
         let ctx = ifd_gpu::GpuContext::new()?;
-        println!("{}", ctx.describe());
-        if ctx.is_software() {
-            println!("note: a software (CPU) adapter: expect CPU-like speed");
+        // (a macro: the adapter type is wgpu's, not a dependency here)
+        macro_rules! describe {
+            ($a:expr) => {{
+                let a = $a;
+                json!({
+                    "name": a.name,
+                    "type": format!("{:?}", a.device_type),
+                    "backend": format!("{:?}", a.backend),
+                    "driver": a.driver,
+                    "driver_info": a.driver_info,
+                    "vendor": a.vendor,
+                    "device": a.device,
+                })
+            }};
         }
-        Ok(())
+        let limits = ctx.device().limits();
+        let report = json!({
+            "adapter": describe!(ctx.adapter_info()),
+            "software": ctx.is_software(),
+            "timestamp_queries": ctx.has_timestamps(),
+            "limits": {
+                "max_buffer_size": limits.max_buffer_size,
+                "max_storage_buffer_binding_size": limits.max_storage_buffer_binding_size,
+                "max_texture_dimension_2d": limits.max_texture_dimension_2d,
+                "max_compute_workgroups_per_dimension": limits.max_compute_workgroups_per_dimension,
+            },
+            "adapters": adapters.as_ref().map(|list| list.iter().map(|a| describe!(a)).collect::<Vec<_>>()),
+        });
+        self.report.emit_with(&report, || {
+            let mut text = String::new();
+            if let Some(list) = &adapters {
+                let _ = writeln!(text, "adapters found: {}", list.len());
+                for a in list {
+                    let _ = writeln!(
+                        text,
+                        "  {} ({:?}, {:?}, driver {} {})",
+                        a.name, a.device_type, a.backend, a.driver, a.driver_info
+                    );
+                }
+            }
+            text += &ctx.describe();
+            text.push('\n');
+            if ctx.is_software() {
+                text += "note: a software (CPU) adapter: expect CPU-like speed\n";
+            }
+            text
+        })
     }
 }

@@ -21,8 +21,8 @@ use crate::output::write_output;
 pub struct Hessian {
     /// The image.
     image: PathBuf,
-    /// Scale (standard deviation of the Gaussian), in pixels.
-    #[arg(long)]
+    /// Scale: the standard deviation of the Gaussian derivatives, in pixels.
+    #[arg(long, value_name = "PX")]
     sigma: f64,
     /// Border handling: reflect101, constant or constant:VALUE, replicate, wrap.
     #[arg(long, default_value = "reflect101")]

@@ -57,7 +57,8 @@ pub struct Render {
     /// asset's own materials and textures; another spec shades its geometry with that BRDF.
     #[arg(long, value_name = "SPEC")]
     brdf: Option<String>,
-    /// Maximum SH degree L (isd, isd-maps, sh).
+    /// Maximum SH degree L: required by --method isd, isd-maps and sh (and by
+    /// isd with --brdf mirror).
     #[arg(long, value_name = "L")]
     lmax: Option<usize>,
     /// Lobe table from `ifd sphere brdf` (built on the fly when needed and absent).
@@ -327,7 +328,14 @@ impl Render {
         if brdf_spec == "mirror" {
             return self.run_mirror(&scene, camera, tonemap, display);
         }
-        let brdf = Brdf::parse(&brdf_spec)?;
+        let brdf = Brdf::parse(&brdf_spec).map_err(|e| {
+            let message = e.to_string();
+            if message.contains("unknown BRDF") {
+                anyhow::anyhow!("{message}; ifd render also takes mirror")
+            } else {
+                e.into()
+            }
+        })?;
         if !brdf.is_isotropic() && !scene.has_tangents() {
             bail!(
                 "--brdf {}: an anisotropic BRDF needs tangents, and {} has no texture coordinates",
@@ -628,7 +636,7 @@ impl Render {
                         Precision::F64 => "f64",
                     }
                 }),
-                "vector_isa": ifd_sphere::vector_isa().name(),
+                "vector_isa": gpu_report.is_none().then(|| ifd_sphere::vector_isa().name()),
                 "seconds": secs, "render_seconds": render_secs,
                 "gpu": gpu_report,
                 "error_map": error_map,

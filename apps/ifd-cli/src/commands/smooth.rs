@@ -1,4 +1,4 @@
-//! `ifd smooth IMAGE --scale S -o OUT`.
+//! `ifd smooth IMAGE --sigma PX -o OUT`.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -17,7 +17,7 @@ use crate::output::{ImageOutput, write_output};
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum ModeArg {
     /// One filter per dab from the Hessian at its centre (the paper's brush),
-    /// dabs on a grid of spacing 2 x scale, blended bilinearly.
+    /// dabs on a grid of spacing 2 x sigma, blended bilinearly.
     Dab,
     /// Each pixel uses the filter from its own Hessian.
     PerPixel,
@@ -27,8 +27,8 @@ enum ModeArg {
 ///
 /// At each place the Hessian (computed with IFD) gives the orientation of
 /// edges and ridges; an anisotropic Gaussian smooths along them, not across.
-/// The Gaussian's footprint is fixed by --scale (sx * sy = scale^2, so the
-/// noise reduction equals an isotropic Gaussian of sigma = scale), its aspect
+/// The Gaussian's footprint is fixed by --sigma (sx * sy = sigma^2, so the
+/// noise reduction equals an isotropic Gaussian of that sigma), its aspect
 /// ratio grows from 1 (flat or noisy areas) to --max-aspect (strong, straight
 /// structures): aspect = 1 + (K - 1) A^gamma with anisotropy
 /// A = (n1 - n2) / (n1 + n2 + epsilon), n1 >= n2 the scale-normalised
@@ -37,10 +37,16 @@ enum ModeArg {
 pub struct Smooth {
     /// The image.
     image: PathBuf,
-    /// Footprint scale S in pixels (0.5 to 128). Below 2 the pixel-integrated
-    /// Gaussians are applied directly (a few taps per pixel, CPU only).
-    #[arg(long, value_name = "S")]
-    scale: f64,
+    /// The footprint: the standard deviation, in pixels, of the isotropic
+    /// Gaussian whose noise reduction the anisotropic ones match (sx * sy =
+    /// sigma^2), 0.5 to 128. Below 2 the pixel-integrated Gaussians are
+    /// applied directly (a few taps per pixel, CPU only).
+    #[arg(long, value_name = "PX", required_unless_present = "renamed_scale")]
+    sigma: Option<f64>,
+    /// The old name of --sigma, refused with a note (`--scale` is a scale
+    /// factor everywhere else).
+    #[arg(long = "scale", value_name = "PX", hide = true)]
+    renamed_scale: Option<f64>,
     /// Largest aspect ratio K of the Gaussian (1 to 16).
     #[arg(long, default_value_t = 8.0)]
     max_aspect: f64,
@@ -50,8 +56,9 @@ pub struct Smooth {
     /// Noise floor epsilon (scale-normalised Hessian units; images in [0, 1]).
     #[arg(long, default_value_t = 0.02)]
     epsilon: f64,
-    /// Hessian scale in pixels (default max(1.5, scale / 2)).
-    #[arg(long)]
+    /// Standard deviation of the Hessian's Gaussian derivatives, in pixels
+    /// (default max(1.5, sigma / 2)).
+    #[arg(long, value_name = "PX")]
     hessian_sigma: Option<f64>,
     /// Blend of the smoothed result into the image (0 to 1).
     #[arg(long, default_value_t = 1.0)]
@@ -98,6 +105,15 @@ impl Smooth {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
         let border = self.border;
+        let Some(sigma) = self.sigma else {
+            anyhow::bail!(
+                "--scale is now --sigma (the footprint's standard deviation in pixels): `ifd smooth IMAGE --sigma {} -o OUT`",
+                self.renamed_scale.unwrap_or(f64::NAN)
+            );
+        };
+        if self.renamed_scale.is_some() {
+            anyhow::bail!("--scale is now --sigma; give --sigma alone");
+        }
         if !(0.0..=1.0).contains(&self.strength) {
             anyhow::bail!("--strength {} is outside [0, 1]", self.strength);
         }
@@ -110,7 +126,7 @@ impl Smooth {
             );
         }
         let opts = SmoothOptions {
-            scale: self.scale,
+            scale: sigma,
             hessian_sigma: self.hessian_sigma,
             aniso: AnisoParams {
                 max_aspect: self.max_aspect,
@@ -122,13 +138,18 @@ impl Smooth {
         };
         if self.gpu && opts.evaluated_directly() {
             anyhow::bail!(
-                "--gpu: footprint scales below {} px (here {}) are evaluated directly, on the CPU only; drop --gpu",
+                "--gpu: footprints (--sigma) below {} px (here {}) are evaluated directly, on the CPU only; drop --gpu",
                 ifd_smooth::DIRECT_BELOW,
-                self.scale
+                sigma
             );
         }
-        opts.validate()
-            .map_err(|e| crate::input::name_option(e, None))?;
+        opts.validate().map_err(|e| {
+            // The library's `scale` is this command's --sigma.
+            let flag =
+                matches!(&e, ifd_smooth::SmoothError::OutOfRange { name, .. } if *name == "scale")
+                    .then_some("--sigma");
+            crate::input::name_option(e, flag)
+        })?;
         crate::output::check_output_path(&self.output.output)?;
         if self.tile == Some(0) {
             anyhow::bail!("--tile 0: the tile side must be at least 1 pixel");

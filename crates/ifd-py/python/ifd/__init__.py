@@ -195,7 +195,7 @@ def hessian(image: _ArrayLike, sigma: float, border: str = "reflect101") -> _np.
 
 def smooth(
     image: _ArrayLike,
-    scale: float,
+    sigma: float,
     max_aspect: float = 8.0,
     mode: str = "per-pixel",
     *,
@@ -207,8 +207,9 @@ def smooth(
 ) -> _np.ndarray:
     """Edge-respecting anisotropic smoothing driven by the image Hessian (``ifd smooth``).
 
-    The Gaussian's footprint is fixed by ``scale`` (``sx * sy = scale^2``,
-    0.5 to 128 px); its aspect ratio grows from 1 in flat areas to
+    The Gaussian's footprint is fixed by ``sigma`` (``sx * sy = sigma^2``,
+    0.5 to 128 px: the standard deviation of the isotropic Gaussian whose
+    noise reduction it matches; ``ifd smooth --sigma``); its aspect ratio grows from 1 in flat areas to
     ``max_aspect`` along strong, straight structures. ``mode`` is
     ``per-pixel`` (each pixel's own filter) or ``dab`` (the paper's brush dabs
     on a grid, blended). The filter decompositions are fitted on the first
@@ -216,7 +217,7 @@ def smooth(
     """
     return _ifd.smooth(
         _image(image, "image"),
-        float(scale),
+        float(sigma),
         max_aspect=max_aspect,
         gamma=gamma,
         epsilon=epsilon,

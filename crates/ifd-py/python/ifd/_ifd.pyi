@@ -100,7 +100,7 @@ def filter_alignment(
 def hessian(image: F32, sigma: float, *, border: str = "reflect101") -> F32: ...
 def smooth(
     image: F32,
-    scale: float,
+    sigma: float,
     *,
     max_aspect: float = 8.0,
     gamma: float = 1.0,
