@@ -9,7 +9,8 @@ use crate::filter::Filter;
 use crate::stack::for_decomposition::{DIRECT_SIGMA, evaluated_directly};
 use crate::{
     Border, CheckedField, Decomposition, Field, FieldKind, FilterError, Interpolation,
-    PreparedDecomposition, ScaleStack, StackOptions, StackPlan, stack_plan_for_decomposition,
+    PreparedDecomposition, Sampling, ScaleStack, StackOptions, StackPlan,
+    stack_plan_for_decomposition,
 };
 
 /// How [`FilterPlan::new`] plans.
@@ -128,6 +129,21 @@ impl FilterPlan {
                 direct_sigma: if constant_pose { DIRECT_SIGMA } else { 0.0 },
                 log_uniform,
             },
+        )?;
+        // the kernel's L2 norm at scale 1, from the plan's amplification
+        // (sum |w_t| ||g_t|| / ||k||)
+        let kernel_norm = decomposition
+            .terms
+            .iter()
+            .map(|t| t.weight.abs() / (2.0 * std::f64::consts::PI.sqrt() * t.sigma))
+            .sum::<f64>()
+            / eval.amplification;
+        check_dc_gain(
+            decomposition,
+            kernel_norm,
+            (constant_pose && !scale.is_map()).then(|| angle.range().0),
+            scale.range(),
+            eval.direct_sigma,
         )?;
         let stack = stack_plan_for_decomposition(
             (width, height, channels),
@@ -341,21 +357,29 @@ fn check_kernel_fits(
     w: usize,
     h: usize,
 ) -> Result<(), FilterError> {
-    let (size, extent) = if let Some((kw, kh)) = decomposition.kernel_size {
-        (format!("{kw}x{kh} px"), kw.max(kh) as f32 * smax)
-    } else {
-        // A hand-made decomposition without a kernel block: its support is
-        // where its terms reach, centre distance plus 3 sigma on each side.
-        let reach = decomposition
-            .terms
-            .iter()
-            .map(|t| t.x.abs().max(t.y.abs()) + 3.0 * t.sigma)
-            .fold(0.0f64, f64::max);
-        let side = (2.0 * reach).ceil();
-        (
+    // Where the terms reach, centre distance plus 3 sigma on each side: the
+    // support of a hand-made decomposition without a kernel block, and a
+    // check on a file whose kernel block is far smaller than its terms (a
+    // fit's atoms reach a few sigma past its kernel: only twice the kernel
+    // counts).
+    let reach = decomposition
+        .terms
+        .iter()
+        .map(|t| t.x.abs().max(t.y.abs()) + 3.0 * t.sigma)
+        .fold(0.0f64, f64::max);
+    let side = (2.0 * reach).ceil();
+    let (size, extent) = match decomposition.kernel_size {
+        Some((kw, kh)) if 2.0 * kw.max(kh) as f64 >= side => {
+            (format!("{kw}x{kh} px"), kw.max(kh) as f32 * smax)
+        }
+        Some((kw, kh)) => (
+            format!("{kw}x{kh} px, but its terms reach about {side}x{side} px"),
+            side as f32 * smax,
+        ),
+        None => (
             format!("about {side}x{side} px (its terms' reach)"),
             side as f32 * smax,
-        )
+        ),
     };
     if extent > w.max(h) as f32 {
         return Err(FilterError::InvalidParameter(format!(
@@ -364,6 +388,144 @@ fn check_kernel_fits(
         )));
     }
     Ok(())
+}
+
+/// The largest change of a fitted filter's DC gain that [`check_dc_gain`]
+/// lets through, relative to the larger of the fitted gain and the kernel's
+/// L2 norm (its response to white noise: the measure for filters that
+/// remove constants, such as derivatives): 2%.
+const MAX_DC_CHANGE: f64 = 0.02;
+
+/// `sum_k g_sigma(k - c)` over the integers `k`: the gain along one axis of
+/// a normalised Gaussian sampled at integer offsets from `c`, `1 + 2 sum_k
+/// cos(2 pi k c) exp(-2 pi^2 sigma^2 k^2)` (Poisson summation). Within
+/// `1e-8` of 1 from sigma 1 up; at 0.5 px between 0.97 and 1.03 with `c`,
+/// at 0.29 px (every atom of a fitted kernel at tiny scales) 1.38 at `c = 0`.
+fn sampled_gaussian_gain(sigma: f64, c: f64) -> f64 {
+    let a = 2.0 * std::f64::consts::PI * std::f64::consts::PI * sigma * sigma;
+    let w = 2.0 * std::f64::consts::PI * c;
+    1.0 + 2.0
+        * (1..=12)
+            .map(|k| {
+                let k = f64::from(k);
+                (w * k).cos() * (-a * k * k).exp()
+            })
+            .sum::<f64>()
+}
+
+/// The DC gain (what a flat image is multiplied by) of `decomposition`
+/// applied at scale `s`, as the filter computes it: a term read from the
+/// stack reads a level of sampled Gaussians centred on pixels, whose gain is
+/// `G(sigma_eff, 0)^2` whatever the term's offset; a term evaluated
+/// directly at the constant angle `theta` (degrees; `None`: no term is)
+/// is its Gaussian sampled at the pixels around its offset, `G(sigma_eff,
+/// q_x) G(sigma_eff, q_y)`. At the fitted sampling (scale 1, angle 0,
+/// exact offsets) this is the fitted kernel's sum.
+fn dc_gain(decomposition: &Decomposition, s: f64, direct: Option<(f64, f64)>) -> f64 {
+    let rotation = direct.map(|(theta, _)| theta.to_radians().sin_cos());
+    decomposition
+        .terms
+        .iter()
+        .map(|t| {
+            let sigma = decomposition.sampling.effective_sigma(t.sigma, s);
+            let g = match (rotation, direct) {
+                (Some((sin, cos)), Some((_, below)))
+                    if evaluated_directly(decomposition.sampling, t, s, below) =>
+                {
+                    let qx = s * (cos * t.x + sin * t.y);
+                    let qy = s * (-sin * t.x + cos * t.y);
+                    sampled_gaussian_gain(sigma, qx) * sampled_gaussian_gain(sigma, qy)
+                }
+                _ => sampled_gaussian_gain(sigma, 0.0).powi(2),
+            };
+            t.weight * g
+        })
+        .sum()
+}
+
+/// Refuses a fitted kernel (sampled at pixel centres or averaged over
+/// pixels) applied where its DC gain moves more than [`MAX_DC_CHANGE`] from
+/// the fitted one. A fit's atoms are Gaussians sampled at pixels; below
+/// about half a pixel of standard deviation their samples no longer add up
+/// to their weights, by an amount that depends on where they fall between
+/// pixels. A fit with such atoms (hard-edged kernels fit them, with weights
+/// that cancel) is exact at the sampling it was fitted at and can be far
+/// off elsewhere: a 9x3 box came out at -0.6 times a flat image at scale
+/// 1.2. Any kernel shrunk far enough gets there too (every atom is 0.29 px
+/// wide at tiny scales, its samples summing to 1.9). `angle` is the
+/// constant angle of a constant pose whose narrow terms are evaluated
+/// directly (below `direct_sigma`), `None` otherwise; a scale range is
+/// checked at 17 scales; `kernel_norm` is the kernel's L2 norm at scale 1.
+/// Continuous decompositions (terms given directly) are sums of sampled
+/// Gaussians by definition and are not checked.
+fn check_dc_gain(
+    decomposition: &Decomposition,
+    kernel_norm: f64,
+    angle: Option<f32>,
+    (smin, smax): (f32, f32),
+    direct_sigma: f64,
+) -> Result<(), FilterError> {
+    if !matches!(decomposition.sampling, Sampling::Point | Sampling::Area) {
+        return Ok(());
+    }
+    // the fitted gain: every term at its own offset, scale 1, angle 0
+    let fitted: f64 = decomposition
+        .terms
+        .iter()
+        .map(|t| {
+            t.weight * sampled_gaussian_gain(t.sigma, t.x) * sampled_gaussian_gain(t.sigma, t.y)
+        })
+        .sum();
+    let mass: f64 = decomposition.terms.iter().map(|t| t.weight.abs()).sum();
+    let direct = angle.map(|a| (f64::from(a), direct_sigma));
+    let (lo, hi) = (f64::from(smin), f64::from(smax));
+    let scales: Vec<f64> = if hi > lo {
+        (0..=16)
+            .map(|i| lo * (hi / lo).powf(f64::from(i) / 16.0))
+            .collect()
+    } else {
+        vec![lo]
+    };
+    // the relative change at each scale (the kernel's norm at scale s is
+    // its norm at 1 over s), the worst one
+    let change = |s: f64, gain: f64| (gain - fitted).abs() / fitted.abs().max(kernel_norm / s);
+    let Some((s, gain)) = scales
+        .iter()
+        .map(|&s| (s, dc_gain(decomposition, s, direct)))
+        .max_by(|a, b| change(a.0, a.1).total_cmp(&change(b.0, b.1)))
+    else {
+        return Ok(());
+    };
+    // (NaN, a kernel of no norm: nothing to measure against)
+    if !(change(s, gain) > MAX_DC_CHANGE) {
+        return Ok(());
+    }
+    let narrowest = decomposition
+        .terms
+        .iter()
+        .map(|t| decomposition.sampling.effective_sigma(t.sigma, s))
+        .fold(f64::INFINITY, f64::min);
+    let at = match angle {
+        Some(a) if hi <= lo => format!("at angle {a} and scale {}", s as f32),
+        _ => format!("at scale {}", s as f32),
+    };
+    let advice = if mass > 4.0 * fitted.abs().max(kernel_norm) {
+        format!(
+            "its atoms, down to {narrowest:.2} px with weights that cancel (sum |w| = {mass:.3}), \
+             represent the kernel only at the sampling it was fitted at (scale 1, angle 0); \
+             fit a smooth kernel, or apply this one there"
+        )
+    } else {
+        format!(
+            "its atoms are down to {narrowest:.2} px there, too narrow for Gaussians sampled at \
+             pixels; use larger scales"
+        )
+    };
+    Err(FilterError::InvalidParameter(format!(
+        "{at} the filter would multiply a flat image by {gain:.4} instead of the fitted \
+         {fitted:.4} (more than {:.0}% off): {advice}",
+        100.0 * MAX_DC_CHANGE
+    )))
 }
 
 #[cfg(test)]
@@ -443,6 +605,113 @@ mod tests {
         assert!(err < 2e-3, "max error {err}");
     }
 
+    /// The one-axis gain of a sampled Gaussian against the plain sum of its
+    /// samples.
+    #[test]
+    fn sampled_gaussian_gain_is_the_sum_of_the_samples() {
+        for sigma in [0.3, 0.5, 0.8, 1.5] {
+            for c in [0.0, 0.25, 0.5, -1.7] {
+                let sum: f64 = (-60..=60)
+                    .map(|k| {
+                        let d = f64::from(k) - c;
+                        (-d * d / (2.0 * sigma * sigma)).exp()
+                            / ((2.0 * std::f64::consts::PI).sqrt() * sigma)
+                    })
+                    .sum();
+                let g = sampled_gaussian_gain(sigma, c);
+                assert!((g - sum).abs() < 1e-12, "sigma {sigma} c {c}: {g} vs {sum}");
+            }
+        }
+    }
+
+    /// Filters a flat image of `w x h` at a constant pose, or with a flat
+    /// angle map (`map`), returning the output's range or the error.
+    fn flat_response(
+        d: &Decomposition,
+        angle: f32,
+        scale: f32,
+        map: bool,
+    ) -> Result<(f32, f32), FilterError> {
+        let (w, h) = (40, 32);
+        let img = Image::from_vec(w, h, 1, vec![0.5; w * h]).expect("image");
+        let angles = vec![angle; w * h];
+        let (a, sc) = constant_pose(angle, scale, (w, h));
+        let a = if map {
+            Field::Map(&angles).check(FieldKind::Angle, w, h)?
+        } else {
+            a
+        };
+        let out = filter_image(&img, d, a, sc, &FilterOptions::default())?;
+        let range = out
+            .data()
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            });
+        Ok((range.0 / 0.5, range.1 / 0.5))
+    }
+
+    /// A fitted kernel keeps a flat image's level wherever it is accepted,
+    /// and is refused where its sampled atoms would not: a 9x3 box (atoms
+    /// of 0.35 px with weights that cancel) away from its fitted sampling,
+    /// a Gaussian shrunk below half a pixel. The gains the refusals quote
+    /// are what the filter computes (a Python evaluation of the same sums
+    /// matched the filter's -0.601, 1.473 and -0.110 for the box).
+    #[test]
+    fn a_flat_image_keeps_its_level_or_the_pose_is_refused() {
+        let spec: crate::KernelSpec = "box:w=9,h=3".parse().expect("spec");
+        let boxed = crate::decompose_spec(
+            &spec,
+            &crate::DecomposeOptions::default(),
+            None,
+            |_, _, _| {},
+        )
+        .expect("fit");
+        let (lo, hi) = flat_response(&boxed, 0.0, 1.0, false).expect("the fitted pose");
+        assert!(
+            (lo - 1.0).abs() < 1e-3 && (hi - 1.0).abs() < 1e-3,
+            "{lo} {hi}"
+        );
+        for (angle, scale, map, gain) in [
+            (0.0, 1.2, false, "-0.6010"),
+            (0.0, 0.8, false, "1.4731"),
+            (0.0, 1.0, true, "-0.1096"),
+        ] {
+            let e = flat_response(&boxed, angle, scale, map).expect_err("refused");
+            let e = e.to_string();
+            assert!(
+                e.contains(gain) && e.contains("instead of the fitted 1.0000"),
+                "{e}"
+            );
+        }
+        let mut gauss = Decomposition::from_terms(vec![Term {
+            weight: 1.0,
+            x: 0.0,
+            y: 0.0,
+            sigma: 2.0,
+        }]);
+        gauss.sampling = Sampling::Point;
+        for (scale, map) in [(0.3, false), (0.3, true), (1.0, true), (2.5, false)] {
+            let (lo, hi) = flat_response(&gauss, 30.0, scale, map).expect("accepted");
+            assert!(
+                (lo - 1.0).abs() < 0.02 && (hi - 1.0).abs() < 0.02,
+                "{scale}: {lo} {hi}"
+            );
+        }
+        let e = flat_response(&gauss, 30.0, 0.2, true)
+            .expect_err("refused")
+            .to_string();
+        assert!(
+            e.contains("too narrow") && e.contains("at scale 0.2"),
+            "{e}"
+        );
+        // the same Gaussian given as terms (no fitted kernel) is applied as
+        // its sum of sampled Gaussians, unchecked
+        gauss.sampling = Sampling::Continuous;
+        let (lo, _) = flat_response(&gauss, 30.0, 0.2, true).expect("continuous");
+        assert!(lo > 1.02, "{lo}");
+    }
+
     #[test]
     fn a_kernel_larger_than_the_image_is_refused() {
         let mut d = Decomposition::from_terms(vec![Term {
@@ -456,6 +725,20 @@ mod tests {
         let e = FilterPlan::new((20, 20, 1), &d, &angle, &scale, &FilterOptions::default())
             .expect_err("too large");
         assert!(e.to_string().contains("larger than the 20x20 image"), "{e}");
+        // a kernel block far smaller than the terms' reach does not hide it
+        d.kernel_size = Some((1, 1));
+        let (angle, scale) = constant_pose(0.0, 2.0, (20, 20));
+        let e = FilterPlan::new((20, 20, 1), &d, &angle, &scale, &FilterOptions::default())
+            .expect_err("the terms reach past the image");
+        assert!(
+            e.to_string().contains("its terms reach about 12x12 px"),
+            "{e}"
+        );
+        d.terms[0].x = 1e30;
+        let (angle, scale) = constant_pose(0.0, 1.0, (20, 20));
+        assert!(
+            FilterPlan::new((20, 20, 1), &d, &angle, &scale, &FilterOptions::default()).is_err()
+        );
     }
 
     #[test]

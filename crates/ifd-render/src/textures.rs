@@ -146,7 +146,10 @@ impl RoughnessFamily {
         count: usize,
         progress: &dyn Fn(usize, usize),
     ) -> Result<Self> {
-        let (lo, hi) = (lo.max(alpha_of(0.0).sqrt()), hi.max(lo + 1e-6));
+        // the smallest roughness a table is built for (alpha 1e-3); a range
+        // wholly below it (an all-zero roughness map) is that one value
+        let lo = lo.max(alpha_of(0.0).sqrt());
+        let hi = hi.max(lo + 1e-6);
         // one roughness (a single-material asset): two tables bracket it
         let count = if hi - lo < 1e-3 { 2 } else { count.max(2) };
         let mut roughness = Vec::new();

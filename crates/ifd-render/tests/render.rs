@@ -365,6 +365,22 @@ fn obj_meshes_render_like_the_analytic_surface() {
 }
 
 #[test]
+fn roughness_ranges_below_the_smallest_table_build_one() {
+    use ifd_render::RoughnessFamily;
+    // An all-zero roughness map (common in glTF assets) gives the range
+    // (0, 0), wholly below the smallest roughness a table is built for: the
+    // family brackets that smallest one (its bounds once crossed).
+    let brdf = Brdf::parse("ggx:alpha=0.3").unwrap();
+    for range in [(0.0, 0.0), (0.0, 0.01), (0.02, 0.02)] {
+        let family = RoughnessFamily::build(&brdf, 4, range, 3, &|_, _| {}).unwrap();
+        let r = family.roughness();
+        assert!(r.windows(2).all(|w| w[0] < w[1]), "{range:?}: {r:?}");
+        let (_, _, w) = family.locate(0.0);
+        assert_eq!(w, 0.0, "{range:?}");
+    }
+}
+
+#[test]
 fn textured_sphere_matches_the_oracle() {
     use ifd_render::{RoughnessFamily, SurfaceMaps, Texture};
     let env = forest();
