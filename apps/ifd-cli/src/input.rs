@@ -13,11 +13,23 @@ pub struct InputOptions {
     #[arg(long)]
     pub srgb: bool,
     /// Replace NaN/Inf input values by this value (and report how many) instead of refusing the file.
-    #[arg(long, value_name = "VALUE")]
+    #[arg(long, value_name = "VALUE", value_parser = finite_f32)]
     pub replace_nonfinite: Option<f32>,
     /// Memory budget for one image, in MiB (default: 75% of physical memory).
     #[arg(long, value_name = "MIB")]
     pub memory_budget: Option<u64>,
+}
+
+/// A finite 32-bit float (NaN, infinities and values beyond `f32::MAX`
+/// refused): `--replace-nonfinite` must not put back what it replaces.
+fn finite_f32(text: &str) -> Result<f32, String> {
+    match text.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => {
+            Err("must be a finite 32-bit float (the value that replaces NaN and infinities)".into())
+        }
+        Err(e) => Err(e.to_string()),
+    }
 }
 
 impl InputOptions {
@@ -109,8 +121,9 @@ pub fn parse_size(text: &str, option: &str) -> Result<(usize, usize)> {
 pub fn name_option(e: ifd_smooth::SmoothError, flag: Option<&str>) -> anyhow::Error {
     match e {
         ifd_smooth::SmoothError::OutOfRange { name, value, range } => anyhow::anyhow!(
-            "{} {value}: outside the supported range {range}",
-            flag.map_or_else(|| format!("--{}", name.replace(' ', "-")), str::to_string)
+            "{} {}: outside the supported range {range}",
+            flag.map_or_else(|| format!("--{}", name.replace(' ', "-")), str::to_string),
+            ifd_sphere::short_number(value)
         ),
         e => e.into(),
     }

@@ -297,8 +297,10 @@ pub struct DisplayOptions {
 impl DisplayOptions {
     /// The tone curve, after checking the exposure.
     pub fn tonemap(self) -> Result<ifd_render::Tonemap> {
-        if !self.exposure.is_finite() {
-            bail!("--exposure {}: not finite", self.exposure);
+        // +-64 stops is a factor of 1.8e19 either way, far past what a
+        // display shows; beyond it bright radiance overflows f32
+        if !(self.exposure.is_finite() && self.exposure.abs() <= 64.0) {
+            bail!("--exposure {}: use -64 to 64 stops", self.exposure);
         }
         Ok(self.tonemap.into())
     }
@@ -370,6 +372,12 @@ pub struct EnvOptions {
 impl EnvOptions {
     /// The full-resolution map (background) and the one every method integrates.
     pub fn environments(&self, input: &InputOptions) -> Result<(EnvMap, EnvMap)> {
+        if !(self.env_rotate.is_finite() && self.env_rotate.abs() <= 1e6) {
+            bail!(
+                "--env-rotate {}: use an angle within +-1e6 degrees",
+                self.env_rotate
+            );
+        }
         // SH coefficients ((L+1)^2 x 1 or 3 .npy, from `ifd envmap prefilter`
         // or `ifd sphere sh`): the ISD and SH methods use them as they are
         if self

@@ -777,6 +777,38 @@ mod sphere {
     }
 
     #[test]
+    fn rotate_keeps_the_input_shape() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let c: Vec<f64> = (0..9).map(|i| 0.1 * f64::from(i)).collect();
+        for (name, shape) in [("one.npy", vec![9]), ("two.npy", vec![9, 1])] {
+            let path = p(d, name);
+            write_npy_f64(Path::new(&path), &shape, &c).unwrap();
+            for method in ["zhf", "tailored", "reference"] {
+                let r = p(d, "r.npy");
+                let (code, _, err) = ifd(&[
+                    "sphere",
+                    "rotate",
+                    &path,
+                    "--zyz",
+                    "0.1,0.2,0.3",
+                    "--method",
+                    method,
+                    "-o",
+                    &r,
+                ]);
+                assert_eq!(code, 0, "{err}");
+                let a = ifd_image::read_npy_array(
+                    Path::new(&r),
+                    ifd_image::MemoryBudget::default_for_machine(),
+                )
+                .unwrap();
+                assert_eq!(a.shape, shape, "{name} --method {method}");
+            }
+        }
+    }
+
+    #[test]
     fn optimized_directions_and_degenerate_sets_through_the_cli() {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();

@@ -68,15 +68,28 @@ pub fn dfg(nv: f64, r: f64) -> (f64, f64) {
 /// glTF-IBL-Sampler's table.
 #[must_use]
 pub fn dfg_table(size: usize) -> Vec<[f32; 2]> {
-    (0..size * size)
+    dfg_table_with_progress(size, &|| {})
+}
+
+/// [`dfg_table`], calling `row_done` after each row (from rayon's threads,
+/// in any order): for a progress bar on large tables (each texel is a
+/// quadrature; 1024 x 1024 takes minutes).
+#[must_use]
+pub fn dfg_table_with_progress(size: usize, row_done: &(dyn Fn() + Sync)) -> Vec<[f32; 2]> {
+    (0..size)
         .into_par_iter()
-        .map(|k| {
-            let (i, j) = (k % size, k / size);
-            let (a, b) = dfg(
-                (i as f64 + 0.5) / size as f64,
-                (j as f64 + 0.5) / size as f64,
-            );
-            [a as f32, b as f32]
+        .flat_map_iter(|j| {
+            let row: Vec<[f32; 2]> = (0..size)
+                .map(|i| {
+                    let (a, b) = dfg(
+                        (i as f64 + 0.5) / size as f64,
+                        (j as f64 + 0.5) / size as f64,
+                    );
+                    [a as f32, b as f32]
+                })
+                .collect();
+            row_done();
+            row
         })
         .collect()
 }

@@ -52,7 +52,7 @@ pub use crate::cube::{
     CubeLevel, FACE_FILE_NAMES, FACE_NAMES, equirect_coords, face_coords, face_texel,
     sample_bicubic, strip_to_equirect, world_to_ifd,
 };
-pub use crate::dfg::{dfg, dfg_table};
+pub use crate::dfg::{dfg, dfg_table, dfg_table_with_progress};
 pub use crate::error::{IblError, Result};
 pub use crate::ktx2::{VK_FORMAT_R16G16B16A16_SFLOAT, encode_ktx2_cube, write_ktx2_cube};
 pub use crate::lobe::{Lobe, band_limit_of};

@@ -417,6 +417,10 @@ pub struct WriteOptions {
     pub srgb_encode: bool,
     /// JPEG quality, 1-100 (default 95).
     pub jpeg_quality: Option<u8>,
+    /// Write NaN and infinite samples to the float formats that store them
+    /// (EXR, NPY) instead of refusing the image: for test inputs that must
+    /// hold them. Default false: a result with such samples is wrong.
+    pub allow_non_finite: bool,
 }
 
 /// What [`write_image`] did.
@@ -444,8 +448,9 @@ pub fn write(path: impl AsRef<Path>, image: &Image) -> Result<WriteReport, Image
 /// 3 for HDR (gray as RGB); any count for NPY.
 ///
 /// # Errors
-/// Unsupported extension or channel count, non-finite samples for an integer
-/// or RGBE format, negative values for HDR, and any I/O or encoder failure.
+/// Unsupported extension or channel count, NaN or infinite samples (unless
+/// [`WriteOptions::allow_non_finite`], for EXR and NPY), values beyond what
+/// RGBE holds or negative ones for HDR, and any I/O or encoder failure.
 pub fn write_image(
     path: &Path,
     image: &Image,
@@ -462,11 +467,25 @@ pub fn write_image(
     };
     let samples = image.data().len();
     let mut clipped = 0;
+    // No format gets NaN or infinite samples: a result that has them is
+    // wrong (a value or parameter overflowed 32-bit floats), whatever
+    // could store it.
+    if !(opts.allow_non_finite && matches!(format, FileFormat::Exr | FileFormat::Npy)) {
+        check_finite(path, image)?;
+    }
     let payload: Payload = match format {
         FileFormat::Npy => Payload::Npy,
         FileFormat::Exr | FileFormat::Hdr => {
             if format == FileFormat::Hdr {
-                check_finite(path, image, format)?;
+                if let Some(&v) = image.data().iter().find(|&&v| v >= MAX_RGBE) {
+                    return Err(ImageError::Write {
+                        path: path.to_path_buf(),
+                        reason: format!(
+                            "Radiance HDR stores values up to {MAX_RGBE:e}, and the image has \
+                             {v:e} (write .exr or .npy)"
+                        ),
+                    });
+                }
                 if image.data().iter().any(|&v| v < 0.0) {
                     return Err(ImageError::Write {
                         path: path.to_path_buf(),
@@ -493,7 +512,6 @@ pub fn write_image(
             Payload::Image(dyn_img.ok_or_else(bad_channels)?)
         }
         FileFormat::Png | FileFormat::Tiff | FileFormat::Jpeg => {
-            check_finite(path, image, format)?;
             if format == FileFormat::Jpeg && !(c == 1 || c == 3) {
                 return Err(bad_channels());
             }
@@ -567,14 +585,27 @@ fn to_dynamic(w: usize, h: usize, c: usize, sixteen: bool, q: Vec<u16>) -> Optio
     }
 }
 
-fn check_finite(path: &Path, image: &Image, format: FileFormat) -> Result<(), ImageError> {
+/// The largest value a Radiance RGBE pixel holds: a mantissa of 255/256 at
+/// the largest exponent, `2^127`.
+const MAX_RGBE: f32 = 1.69e38;
+
+/// Refuses an image with NaN or infinite samples, naming the first.
+fn check_finite(path: &Path, image: &Image) -> Result<(), ImageError> {
     let n = image.count_non_finite();
     if n > 0 {
+        let c = image.channels();
+        let i = image
+            .data()
+            .iter()
+            .position(|v| !v.is_finite())
+            .unwrap_or(0);
+        let (x, y, channel) = ((i / c) % image.width(), i / c / image.width(), i % c);
         return Err(ImageError::Write {
             path: path.to_path_buf(),
             reason: format!(
-                "{n} non-finite (NaN or infinite) values cannot be stored in {}",
-                format.name()
+                "the result has {n} non-finite (NaN or infinite) values, first at x={x}, y={y}, \
+                 channel {channel}: nothing written (an input or parameter too large for 32-bit \
+                 floats?)"
             ),
         });
     }
@@ -691,6 +722,26 @@ mod tests {
         let p = dir.path().join("n.png");
         let e = write(&p, &img).unwrap_err().to_string();
         assert!(e.contains("non-finite"), "{e}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        // No format takes a NaN or an infinity, even those that could
+        // store one; the message names the first.
+        let img = Image::from_vec(2, 1, 3, vec![0.0, 1.0, 2.0, 3.0, f32::INFINITY, 5.0]).unwrap();
+        for name in ["n.exr", "n.npy", "n.hdr", "n.tif"] {
+            let e = write(dir.path().join(name), &img).unwrap_err().to_string();
+            assert!(
+                e.contains("1 non-finite") && e.contains("x=1, y=0, channel 1"),
+                "{name}: {e}"
+            );
+        }
+        // RGBE holds up to 1.7e38: a larger value is refused, not written as 0
+        let big = Image::from_vec(1, 1, 3, vec![2e38, 1.0, 1.0]).unwrap();
+        let e = write(dir.path().join("b.hdr"), &big)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("up to 1.69e38"), "{e}");
+        let ok = Image::from_vec(1, 1, 3, vec![1.6e38, 1.0, 1.0]).unwrap();
+        write(dir.path().join("ok.hdr"), &ok).unwrap();
+        std::fs::remove_file(dir.path().join("ok.hdr")).unwrap();
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
         // A failure inside the encoder callback also leaves no file behind.
         let e = atomic_write(&p, |_| Err("boom".into())).unwrap_err();
@@ -819,7 +870,11 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("n.npy");
         let img = Image::from_vec(3, 1, 1, vec![1.0, f32::NAN, f32::INFINITY]).unwrap();
-        write(&p, &img).unwrap();
+        let fixture = WriteOptions {
+            allow_non_finite: true,
+            ..WriteOptions::default()
+        };
+        write_image(&p, &img, &fixture).unwrap();
         let e = read(&p).unwrap_err().to_string();
         assert!(e.contains("2 non-finite") && e.contains("x=1, y=0"), "{e}");
         let opts = ReadOptions {

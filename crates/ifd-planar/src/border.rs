@@ -169,11 +169,15 @@ impl FromStr for Border {
             "constant" => Ok(Border::Constant(0.0)),
             other => {
                 let v = other.strip_prefix("constant:").ok_or_else(bad)?;
-                let v: f32 = v.trim().parse().map_err(|_| bad())?;
-                if v.is_finite() {
-                    Ok(Border::Constant(v))
-                } else {
-                    Err(bad())
+                let not_finite = || {
+                    FilterError::InvalidParameter(format!(
+                        "border {s:?}: the constant must be a finite 32-bit float"
+                    ))
+                };
+                match v.trim().parse::<f32>() {
+                    Ok(v) if v.is_finite() => Ok(Border::Constant(v)),
+                    Ok(_) => Err(not_finite()),
+                    Err(_) => Err(bad()),
                 }
             }
         }
@@ -288,7 +292,13 @@ mod tests {
         );
         assert!("mirror2".parse::<Border>().is_err());
         assert!("constant:abc".parse::<Border>().is_err());
-        assert!("constant:nan".parse::<Border>().is_err());
+        for v in ["nan", "inf", "1e39"] {
+            let e = format!("constant:{v}")
+                .parse::<Border>()
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("must be a finite"), "{e}");
+        }
         let msg = "bogus".parse::<Border>().err().map(|e| e.to_string());
         assert!(msg.is_some_and(|m| m.contains("bogus")));
     }

@@ -277,19 +277,43 @@ impl Decomposition {
                 format!("size {}x{} is not odd", k.width, k.height),
             ));
         }
-        if let Some(p) = &repr.dictionary
-            && !(p.levels >= 1
-                && p.ratio.is_finite()
-                && p.ratio > 0.0
-                && p.sigmas_per_octave >= 1
-                && p.oversampling >= 1
-                && p.half_width.is_finite()
-                && p.half_width > 0.0)
-        {
-            return Err(invalid(
-                "dictionary".into(),
-                format!("out-of-range parameters {p:?}"),
-            ));
+        if let Some(p) = &repr.dictionary {
+            // the first field out of its range, named as the file names it
+            let bad = [
+                ("levels", p.levels as f64, p.levels >= 1, "at least 1"),
+                (
+                    "ratio",
+                    p.ratio,
+                    p.ratio.is_finite() && p.ratio > 0.0,
+                    "finite and positive",
+                ),
+                (
+                    "sigmas_per_octave",
+                    p.sigmas_per_octave as f64,
+                    p.sigmas_per_octave >= 1,
+                    "at least 1",
+                ),
+                (
+                    "oversampling",
+                    p.oversampling as f64,
+                    p.oversampling >= 1,
+                    "at least 1",
+                ),
+                (
+                    "half_width",
+                    p.half_width,
+                    p.half_width.is_finite() && p.half_width > 0.0,
+                    "finite and positive",
+                ),
+            ]
+            .into_iter()
+            .find(|(_, _, ok, _)| !ok);
+            if let Some((name, value, _, want)) = bad {
+                return Err(invalid(
+                    "dictionary".into(),
+                    format!("{name} is {value}, must be {want}"),
+                ));
+            }
         }
         // Version-1 files before `sampling`: a fitted kernel was sampled as
         // its spec samples (hard-edged specs by area), a kernel file by point.

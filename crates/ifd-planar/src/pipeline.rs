@@ -110,11 +110,24 @@ impl FilterPlan {
                 (lo, hi)
             }
         };
+        if decomposition.terms.len() > MAX_TERMS {
+            return Err(FilterError::InvalidParameter(format!(
+                "the decomposition has {} terms; filtering takes at most {MAX_TERMS} (planning \
+                 weighs every pair of terms: seconds at 10000, minutes past 30000; fits of real \
+                 kernels have hundreds)",
+                decomposition.terms.len()
+            )));
+        }
         check_kernel_fits(decomposition, smax, width, height)?;
         let prepared = PreparedDecomposition::new(decomposition)?;
         // Levels log-uniform in sigma (read by blending neighbours), or at
         // exactly the terms' sigmas for a constant scale.
-        let log_uniform = scale.is_map() || options.log_uniform;
+        // (also when the terms have more distinct widths than a stack at
+        // given sigmas holds: hand-made decompositions of thousands)
+        let log_uniform = scale.is_map()
+            || options.log_uniform
+            || crate::stack::for_decomposition::level_sigmas(decomposition, smin, 0.0).len()
+                > crate::stack::MAX_EXACT_LEVELS;
         let constant_pose = !angle.is_map() && !log_uniform && options.direct_terms;
         let eval_budget = options
             .eval_budget
@@ -390,6 +403,10 @@ fn check_kernel_fits(
     Ok(())
 }
 
+/// The most terms [`FilterPlan::new`] plans for: its error estimates and
+/// the kernel's norm sum over pairs of terms.
+pub(crate) const MAX_TERMS: usize = 16_384;
+
 /// The largest change of a fitted filter's DC gain that [`check_dc_gain`]
 /// lets through, relative to the larger of the fitted gain and the kernel's
 /// L2 norm (its response to white noise: the measure for filters that
@@ -497,7 +514,8 @@ fn check_dc_gain(
         return Ok(());
     };
     // (NaN, a kernel of no norm: nothing to measure against)
-    if !(change(s, gain) > MAX_DC_CHANGE) {
+    let worst = change(s, gain);
+    if worst.is_nan() || worst <= MAX_DC_CHANGE {
         return Ok(());
     }
     let narrowest = decomposition
@@ -739,6 +757,54 @@ mod tests {
         assert!(
             FilterPlan::new((20, 20, 1), &d, &angle, &scale, &FilterOptions::default()).is_err()
         );
+    }
+
+    #[test]
+    fn too_many_terms_are_refused() {
+        let t = Term {
+            weight: 1.0 / (MAX_TERMS + 1) as f64,
+            x: 0.0,
+            y: 0.0,
+            sigma: 2.0,
+        };
+        let d = Decomposition::from_terms(vec![t; MAX_TERMS + 1]);
+        let (angle, scale) = constant_pose(0.0, 1.0, (20, 20));
+        let e = FilterPlan::new((20, 20, 1), &d, &angle, &scale, &FilterOptions::default())
+            .expect_err("too many terms");
+        assert!(e.to_string().contains("16385 terms"), "{e}");
+    }
+
+    /// More distinct widths than a stack at given sigmas holds: the
+    /// constant pose reads log-uniform levels (it used to fail after
+    /// planning), and agrees with the same filter read through a map.
+    #[test]
+    fn thousands_of_widths_read_log_uniform_levels() {
+        let n = crate::stack::MAX_EXACT_LEVELS + 44;
+        let terms = (0..n)
+            .map(|i| Term {
+                weight: 1.0 / n as f64,
+                x: (i % 7) as f64 - 3.0,
+                y: (i % 5) as f64 - 2.0,
+                sigma: 2.0 + 2.0 * i as f64 / n as f64,
+            })
+            .collect();
+        let d = Decomposition::from_terms(terms);
+        let img = image(40, 32);
+        let (angle, scale) = constant_pose(20.0, 1.0, (40, 32));
+        let constant =
+            filter_image(&img, &d, angle, scale, &FilterOptions::default()).expect("constant pose");
+        let angles = vec![20.0f32; 40 * 32];
+        let map = Field::Map(&angles)
+            .check(FieldKind::Angle, 40, 32)
+            .expect("map");
+        let mapped = filter_image(&img, &d, map, scale, &FilterOptions::default()).expect("map");
+        let diff = constant
+            .data()
+            .iter()
+            .zip(mapped.data())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        assert!(diff < 1e-5, "{diff}");
     }
 
     #[test]

@@ -58,6 +58,16 @@ impl Camera {
                 "not finite",
             ));
         }
+        // scene coordinates are of order 1; far beyond, squares overflow
+        for (name, p) in [("--eye", eye), ("--target", target), ("--up", up)] {
+            if p.abs().max_element() > 1e15 {
+                return Err(bad(
+                    name,
+                    format!("{p}"),
+                    "is too large (components up to 1e15)",
+                ));
+            }
+        }
         let f = target - eye;
         if f.length() < 1e-12 {
             return Err(bad("--eye", format!("{eye}"), "equals --target"));

@@ -150,8 +150,9 @@ pub(crate) fn check_maps(scene: &Scene, maps: Option<&SurfaceMaps>) -> Result<()
 
 pub(crate) fn nothing_visible(scene: &Scene, camera: &Camera) -> RenderError {
     RenderError::NothingVisible(format!(
-        "no ray of the {}x{} image hits the {scene:?} (check --eye, --target, --fov)",
+        "no ray of the {}x{} image hits the {} (check --eye, --target, --fov)",
         camera.width(),
-        camera.height()
+        camera.height(),
+        scene.describe()
     ))
 }

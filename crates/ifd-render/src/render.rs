@@ -556,9 +556,9 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
     if object_pixels == 0 {
         if !job.lights.is_empty() {
             return Err(RenderError::NothingVisible(format!(
-                "no ray of the {w}x{h} image reaches the {:?}: the --light spheres hide or \
+                "no ray of the {w}x{h} image reaches the {}: the --light spheres hide or \
                  contain it, or the camera misses it (check --eye, --target, --fov)",
-                job.scene
+                job.scene.describe()
             )));
         }
         return Err(nothing_visible(&job.scene, &job.camera));

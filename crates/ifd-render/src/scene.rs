@@ -33,6 +33,20 @@ const RING: f64 = 1.0;
 const TUBE: f64 = 0.4;
 
 impl Scene {
+    /// A short name for messages: `sphere`, `torus`, `plane`, `mesh of N
+    /// triangles`, `glTF asset of N triangles` (the derived `Debug` prints
+    /// every vertex).
+    #[must_use]
+    pub fn describe(&self) -> String {
+        match self {
+            Self::Sphere => "sphere".into(),
+            Self::Torus => "torus".into(),
+            Self::Plane => "plane".into(),
+            Self::Mesh(m) => format!("mesh of {} triangles", m.triangles()),
+            Self::Gltf(a) => format!("glTF asset of {} triangles", a.mesh().triangles()),
+        }
+    }
+
     /// `sphere`, `torus`, `plane`, an `.obj` file (`obj_z_up`: the file is
     /// z-up already; OBJ files are y-up by convention) or a `.gltf`/`.glb`
     /// asset (read with the machine's default memory budget;

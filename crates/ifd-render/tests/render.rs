@@ -182,7 +182,21 @@ fn white_furnace_and_bad_cameras() {
         ..Job::new(Scene::Sphere, away, &one, &brdf, Some(&m), Method::Isd)
     };
     let e = render(&job, &|_, _| {}).unwrap_err().to_string();
-    assert!(e.contains("sees no object"), "{e}");
+    assert!(
+        e.contains("sees no object") && e.contains("hits the sphere"),
+        "{e}"
+    );
+    // a mesh is named by its size, not printed vertex by vertex
+    let obj = std::env::temp_dir().join(format!("ifd-away-{}.obj", std::process::id()));
+    std::fs::write(&obj, uv_sphere_obj(1.0, 16, false, false)).unwrap();
+    let mesh = Scene::parse(obj.to_str().unwrap(), false).unwrap();
+    std::fs::remove_file(&obj).unwrap();
+    let job = Job {
+        background: Some(&one),
+        ..Job::new(mesh, away, &one, &brdf, Some(&m), Method::Isd)
+    };
+    let e = render(&job, &|_, _| {}).unwrap_err().to_string();
+    assert!(e.contains("hits the mesh of") && e.len() < 300, "{e}");
     let e = Camera::new(DVec3::ZERO, DVec3::Z, DVec3::Z, 40.0, 8, 8)
         .unwrap_err()
         .to_string();
@@ -191,6 +205,10 @@ fn white_furnace_and_bad_cameras() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("--fov"), "{e}");
+    let e = Camera::new(DVec3::new(1e300, 0.0, 0.0), DVec3::X, DVec3::Z, 40.0, 8, 8)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--eye") && e.contains("too large"), "{e}");
 }
 
 #[test]

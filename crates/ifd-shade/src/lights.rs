@@ -544,12 +544,23 @@ fn unit(v: [f64; 3], what: &'static str) -> Result<[f64; 3]> {
     Ok([v[0] / n, v[1] / n, v[2] / n])
 }
 
+/// The largest radiance a light may have: images are 32-bit floats, and a
+/// light's contribution is its radiance times a solid angle and a BRDF.
+const MAX_RADIANCE: f64 = 1e30;
+
 fn check_radiance(r: &[f64]) -> Result<()> {
     if r.is_empty() || r.iter().any(|v| !v.is_finite() || *v < 0.0) {
         return Err(ShadeError::Parameter {
             name: "radiance",
             value: format!("{r:?}"),
             reason: "needs finite, non-negative values".into(),
+        });
+    }
+    if let Some(v) = r.iter().find(|&&v| v > MAX_RADIANCE) {
+        return Err(ShadeError::Parameter {
+            name: "radiance",
+            value: format!("{v:e}"),
+            reason: format!("at most {MAX_RADIANCE:e} (images are 32-bit floats)"),
         });
     }
     Ok(())
@@ -624,6 +635,8 @@ mod tests {
             "0,0,nan,1,1",
             "0,0,3,1,1,1",
             "a,b,c,d,e",
+            "0,0,2,0.1,1e300",
+            "0,0,2,0.1,1,1e31,1",
         ] {
             assert!(SphericalLight::parse(s).is_err(), "{s}");
         }

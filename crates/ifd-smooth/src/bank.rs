@@ -281,12 +281,24 @@ impl AspectBank {
         progress: impl FnMut(usize, usize),
     ) -> Result<(Self, String), SmoothError> {
         if let Some(p) = cache
-            && let Ok(b) = Self::load(p)
-            && b.options == options
-            && b.fit_revision == ifd_planar::FIT_REVISION
-            && b.aspects == log_spaced_aspects(options.max_aspect, options.steps_per_octave as f64)
+            && p.exists()
         {
-            return Ok((b, p.display().to_string()));
+            match Self::load(p) {
+                Ok(b)
+                    if b.options == options
+                        && b.fit_revision == ifd_planar::FIT_REVISION
+                        && b.aspects
+                            == log_spaced_aspects(
+                                options.max_aspect,
+                                options.steps_per_octave as f64,
+                            ) =>
+                {
+                    return Ok((b, p.display().to_string()));
+                }
+                // another version or other options: refitted quietly
+                Ok(_) => {}
+                Err(e) => eprintln!("note: ignoring the cached aspect bank: {e}; refitting"),
+            }
         }
         let b = Self::build(options, progress)?;
         if let Some(p) = cache {
@@ -334,6 +346,29 @@ impl AspectBank {
             return Err(bad(
                 "invalid terms (non-finite, non-positive sigma or empty)".into(),
             ));
+        }
+        // Every entry is a normalised Gaussian a few sigma_ref wide: its
+        // weights sum to 1 (its atoms are wider than a pixel, where sampled
+        // and continuous sums agree to 1e-3), its atoms lie within a few
+        // of its widths. A file that says otherwise was altered or damaged.
+        let width = bank.options.sigma_ref * bank.options.max_aspect;
+        for (i, (terms, a)) in bank.terms.iter().zip(&bank.aspects).enumerate() {
+            let dc: f64 = terms.iter().map(|t| t.weight).sum();
+            if (dc - 1.0).abs() > 1e-2 {
+                return Err(bad(format!(
+                    "entry {i} (aspect {a}) has weights summing to {dc:.4}, not 1"
+                )));
+            }
+            if let Some(t) = terms
+                .iter()
+                .find(|t| t.sigma > 4.0 * width || t.x.hypot(t.y) > 8.0 * width)
+            {
+                return Err(bad(format!(
+                    "entry {i} (aspect {a}) has a term of sigma {:e} at ({:e}, {:e}), far \
+                     outside a Gaussian of {width} px",
+                    t.sigma, t.x, t.y
+                )));
+            }
         }
         Ok(bank)
     }

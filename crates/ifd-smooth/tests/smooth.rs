@@ -382,5 +382,24 @@ fn a_cached_bank_from_older_fitting_code_is_refitted() {
     assert_eq!(fresh.fit_revision, ifd_planar::FIT_REVISION);
     assert_eq!(&fresh, bank.as_ref());
     assert_eq!(&AspectBank::load(&path).unwrap(), bank.as_ref());
+    // A damaged file of the current revision (weights ten times too large,
+    // an absurd sigma) is not trusted: refused by `load`, refitted.
+    for damage in 0..2 {
+        let mut bad = (**bank).clone();
+        if damage == 0 {
+            for t in bad.terms.iter_mut().flatten() {
+                t.weight *= 10.0;
+            }
+        } else {
+            bad.terms[1][0].sigma = 1e300;
+        }
+        bad.save(&path).unwrap();
+        let e = AspectBank::load(&path).unwrap_err().to_string();
+        assert!(e.contains("bank.json") && e.contains("entry"), "{e}");
+        let (fresh, source) =
+            AspectBank::load_or_build(bank.options, Some(&path), |_, _| {}).unwrap();
+        assert_eq!(source, "fitted");
+        assert_eq!(&fresh, bank.as_ref());
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

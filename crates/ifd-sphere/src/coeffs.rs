@@ -180,6 +180,15 @@ impl ShCoeffs {
     /// infinite coefficients (naming the count and the first row/column);
     /// [`SphereError::Length`] when the row count is not `(L + 1)^2`.
     pub fn read_npy(path: &Path) -> Result<Self> {
+        Ok(Self::read_npy_shaped(path)?.0)
+    }
+
+    /// As [`Self::read_npy`], also returning the file's shape (`[(L + 1)^2]`
+    /// or `[(L + 1)^2, C]`), so that a result can be written in the same shape.
+    ///
+    /// # Errors
+    /// As [`Self::read_npy`].
+    pub fn read_npy_shaped(path: &Path) -> Result<(Self, Vec<usize>)> {
         let (shape, data) = read_npy_f64(path)?;
         let (rows, cols) = match shape.as_slice() {
             [r] => (*r, 1),
@@ -204,10 +213,11 @@ impl ShCoeffs {
                 ),
             });
         }
-        Self::from_rows(rows, cols, data).map_err(|e| SphereError::File {
+        let coeffs = Self::from_rows(rows, cols, data).map_err(|e| SphereError::File {
             path: path.to_path_buf(),
             reason: e.to_string(),
-        })
+        })?;
+        Ok((coeffs, shape))
     }
 }
 

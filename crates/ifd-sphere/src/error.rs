@@ -81,11 +81,19 @@ pub enum SphereError {
         /// The accepted limit.
         limit: f64,
     },
-    /// A direction of zero length or with non-finite components.
-    #[error("direction {index} = ({x}, {y}, {z}) is not a finite non-zero vector")]
+    /// A direction that cannot be normalised (zero, too short or too long,
+    /// non-finite components) or, in a set read from a file, is not a unit vector.
+    #[error(
+        "direction {index} = ({}, {}, {}) {reason}",
+        short_number(*.x),
+        short_number(*.y),
+        short_number(*.z)
+    )]
     BadDirection {
         /// Position in the set.
         index: usize,
+        /// What is wrong with it (a clause such as "is the zero vector").
+        reason: &'static str,
         /// x.
         x: f64,
         /// y.
@@ -165,4 +173,16 @@ pub(crate) fn check_degree(l_max: usize) -> Result<()> {
         });
     }
     Ok(())
+}
+
+/// `x` for a message: as Rust prints it when its magnitude lies in
+/// `[1e-4, 1e7)` (or it is 0 or not finite), else in scientific notation, so
+/// that 1e300 is not printed with 301 digits.
+#[must_use]
+pub fn short_number(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e7).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
 }

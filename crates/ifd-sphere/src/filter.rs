@@ -225,9 +225,9 @@ impl Decomposition {
         {
             return Err(bad(format!(
                 "beta[{i}] = {} does not belong to the {} profile ({} expected)",
-                self.beta[i],
+                crate::error::short_number(self.beta[i]),
                 self.profile.name(),
-                want[i]
+                crate::error::short_number(want[i])
             )));
         }
         let w = &self.weights;

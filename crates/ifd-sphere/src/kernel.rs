@@ -50,12 +50,17 @@ impl Kernel {
     /// # Errors
     /// [`SphereError::Parse`] naming the text.
     pub fn parse(text: &str) -> Result<Self> {
+        const KERNELS: [&str; 4] = ["phong", "vmf", "gauss", "aniso-gauss"];
         let perr = |reason: &str| SphereError::Parse {
             what: "kernel spec",
             text: text.into(),
             reason: reason.into(),
         };
         let (name, args) = text.split_once(':').unwrap_or((text, ""));
+        // the name first: an unknown kernel is reported as such, whatever its values
+        if !KERNELS.contains(&name.trim()) {
+            return Err(perr("unknown kernel (phong, vmf, gauss, aniso-gauss)"));
+        }
         let mut kv = std::collections::BTreeMap::new();
         for part in args.split(',').filter(|s| !s.trim().is_empty()) {
             let (k, v) = part

@@ -61,6 +61,13 @@ impl Compare {
         let range = self
             .data_range
             .unwrap_or_else(|| ifd_image::default_data_range(a.data(), b.data()));
+        if !(range.is_finite() && range > 0.0) {
+            bail!(
+                "the images are not both within [0, 1], so the data range is max - min of {}, \
+                 which is {range}; give --data-range",
+                self.a.display()
+            );
+        }
         let cmp = ifd_image::compare(&a, &b, range).context("comparing images")?;
         if self.report.json {
             println!("{}", serde_json::to_string_pretty(&to_json(&cmp))?);

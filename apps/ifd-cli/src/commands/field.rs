@@ -74,9 +74,33 @@ impl FieldCmd {
         ifd_image::MemoryBudget::default_for_machine()
             .check((w * h * 4) as u64)
             .with_context(|| format!("--size {w}x{h}"))?;
+        // angles in degrees and scales are data: an image format would clip them to [0, 1]
+        if !self
+            .output
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
+        {
+            bail!(
+                "-o {}: the field is data, written as .npy only",
+                self.output.display()
+            );
+        }
         crate::output::check_output_folder(&self.output)?;
         if !(self.min.is_finite() && self.max.is_finite()) {
-            bail!("--min and --max must be finite");
+            bail!(
+                "--min and --max must be finite float32 values (magnitude below 3.4e38), got \
+                 --min {} --max {}",
+                self.min,
+                self.max
+            );
+        }
+        if !(self.max - self.min).is_finite() {
+            bail!(
+                "--min {} --max {}: their difference overflows float32 (magnitude 3.4e38 or more)",
+                ifd_sphere::short_number(f64::from(self.min)),
+                ifd_sphere::short_number(f64::from(self.max))
+            );
         }
         let (cx, cy) = ((w as f32 - 1.0) / 2.0, (h as f32 - 1.0) / 2.0);
         let rmax = (cx * cx + cy * cy).sqrt().max(1.0);

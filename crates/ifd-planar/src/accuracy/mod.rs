@@ -463,6 +463,8 @@ impl EvalPlan {
         };
         let scales = (f64::from(scale_min), f64::from(scale_max));
         let mut noise: Option<WhiteNoise<'_>> = None;
+        // the kernel's norm, a sum over pairs of terms: once per plan
+        let mut norm: Option<f64> = None;
         let mut best: Option<Self> = None;
         // The last estimate per interpolation, and the interpolations whose
         // finer factors stopped helping (the blend of levels, or terms too
@@ -473,8 +475,13 @@ impl EvalPlan {
             if stalled.contains(&interpolation) {
                 continue;
             }
+            let norm = match norm {
+                Some(n) => n,
+                None => *norm.insert(checked_kernel_norm(decomposition)?),
+            };
             let bounded = Self::bounded(
                 decomposition,
+                norm,
                 (scale_min, scale_max),
                 interpolation,
                 factor,
@@ -609,6 +616,7 @@ impl EvalPlan {
     ) -> Result<Self, FilterError> {
         let plan = Self::bounded(
             decomposition,
+            checked_kernel_norm(decomposition)?,
             (scale_min, scale_max),
             interpolation,
             pyramid_factor,
@@ -625,24 +633,14 @@ impl EvalPlan {
     /// [`Self::with`] before its estimate (the bound in its place).
     fn bounded(
         decomposition: &Decomposition,
+        norm: f64,
         (scale_min, scale_max): (f32, f32),
         interpolation: Interpolation,
         pyramid_factor: f64,
         direct_sigma: f64,
     ) -> Result<Self, FilterError> {
         let terms = &decomposition.terms;
-        if terms.is_empty() {
-            return Err(FilterError::InvalidParameter(
-                "the decomposition has no terms".into(),
-            ));
-        }
         crate::stack::for_decomposition::check_scale_range(scale_min, scale_max)?;
-        let norm = kernel_norm(decomposition);
-        if !(norm.is_finite() && norm > 0.0) {
-            return Err(FilterError::InvalidParameter(format!(
-                "the decomposition's kernel has norm {norm}: nothing to apply"
-            )));
-        }
         let g_norm = |sigma: f64| 1.0 / (2.0 * std::f64::consts::PI.sqrt() * sigma);
         let amplification = terms
             .iter()
@@ -653,7 +651,9 @@ impl EvalPlan {
         // r, jumps with the scale).
         let (lo, hi) = (f64::from(scale_min), f64::from(scale_max));
         let n = if hi > lo * 1.0001 { 9 } else { 1 };
-        let mut cache: Vec<(f64, f64)> = Vec::new();
+        // lookup errors by r (to 1e-6): few distinct values for fitted
+        // decompositions, thousands for hand-made ones
+        let mut cache: std::collections::HashMap<u64, f64> = std::collections::HashMap::new();
         let mut error_bound: f64 = 0.0;
         for i in 0..n {
             let s = if n == 1 {
@@ -669,13 +669,9 @@ impl EvalPlan {
                 let sigma = decomposition.sampling.effective_sigma(t.sigma, s);
                 let r = sigma / pyramid_step(sigma, pyramid_factor) as f64;
                 let key = (r * 1e6).round() / 1e6;
-                let e = if let Some(&(_, e)) = cache.iter().find(|(k, _)| *k == key) {
-                    e
-                } else {
-                    let e = lookup_error(interpolation, key);
-                    cache.push((key, e));
-                    e
-                };
+                let e = *cache
+                    .entry(key.to_bits())
+                    .or_insert_with(|| lookup_error(interpolation, key));
                 // ||g_sigma_eff|| / ||k_s|| = ||g_{sigma_eff / s}|| / ||k||.
                 sum += t.weight.abs() * g_norm(sigma / s) * std::f64::consts::SQRT_2 * e;
             }
@@ -706,6 +702,23 @@ impl EvalPlan {
             ..options
         }
     }
+}
+
+/// [`kernel_norm`] of a decomposition with terms, refused when it has none
+/// or its kernel's norm is zero or not finite.
+fn checked_kernel_norm(decomposition: &Decomposition) -> Result<f64, FilterError> {
+    if decomposition.terms.is_empty() {
+        return Err(FilterError::InvalidParameter(
+            "the decomposition has no terms".into(),
+        ));
+    }
+    let norm = kernel_norm(decomposition);
+    if !(norm.is_finite() && norm > 0.0) {
+        return Err(FilterError::InvalidParameter(format!(
+            "the decomposition's kernel has norm {norm}: nothing to apply"
+        )));
+    }
+    Ok(norm)
 }
 
 /// `||k||_2` of the continuous sum of Gaussians, in closed form:

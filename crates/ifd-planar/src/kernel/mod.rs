@@ -726,6 +726,16 @@ mod tests {
             KernelError::BadValue { .. }
         ));
         assert!(err("gauss:sx=abc").to_string().contains("abc"));
+        assert!(
+            err("gauss:sx=2,theta=1e300")
+                .to_string()
+                .contains("1e6 degrees")
+        );
+        assert!(
+            err("gabor:sigma=4,freq=0.6")
+                .to_string()
+                .contains("Nyquist")
+        );
         assert!(matches!(
             Kernel::new(3, 3, vec![0.0; 9]),
             Err(KernelError::AllZero { .. })

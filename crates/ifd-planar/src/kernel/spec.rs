@@ -34,6 +34,14 @@ impl Keys {
                 reason: "not finite".into(),
             });
         }
+        // an angle that large has lost its degrees to rounding
+        if key == "theta" && x.abs() > 1e6 {
+            return Err(KernelError::BadValue {
+                key: key.to_string(),
+                value: v,
+                reason: "use an angle within +-1e6 degrees".into(),
+            });
+        }
         Ok(Some(x))
     }
 
@@ -168,6 +176,15 @@ impl FromStr for KernelSpec {
                     spec: name.clone(),
                     key: "freq",
                 })?;
+                if freq.abs() > 0.5 {
+                    return Err(KernelError::BadValue {
+                        key: "freq".into(),
+                        value: format!("{freq}"),
+                        reason: "above 0.5 cycles per pixel (the Nyquist frequency): sampled \
+                                 at pixels it would alias to a lower one"
+                            .into(),
+                    });
+                }
                 let theta = keys.num("theta")?.unwrap_or(0.0);
                 let radius = keys.radius(true)?;
                 keys.finish("sigma, freq, theta, radius/r")?;

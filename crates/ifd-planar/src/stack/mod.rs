@@ -17,7 +17,7 @@ pub(crate) use build::check_finite;
 pub use locate::LevelLocator;
 pub(crate) use locate::{LevelRule, ScalePosition};
 pub use plan::{Interpolation, LevelLayout, MIN_SIGMA, StackLayout, StackOptions, StackPlan};
-pub(crate) use plan::{bspline_weights, log_uniform_sigmas, pyramid_step};
+pub(crate) use plan::{MAX_EXACT_LEVELS, bspline_weights, log_uniform_sigmas, pyramid_step};
 pub use separable::StackBuild;
 
 use ifd_image::ImageView;

@@ -15,6 +15,10 @@ pub const MAX_SIGMA: f64 = 1.0e5;
 pub(super) const MAX_FFT_ELEMENTS: usize = 1 << 29;
 /// Largest pyramid subsampling exponent.
 pub(super) const MAX_PYRAMID_LEVEL: u32 = 12;
+/// The most levels a stack at given sigmas ([`StackLayout::with_sigmas`])
+/// holds; a filter whose terms have more distinct widths reads log-uniform
+/// levels instead.
+pub(crate) const MAX_EXACT_LEVELS: usize = 256;
 
 /// Parameters of a [`ScaleStack`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -411,9 +415,9 @@ impl StackLayout {
         };
         // The checks of `new` (sizes, range, options).
         Self::new(width, height, channels, lo, hi, options)?;
-        if sigmas.len() > 256 || sigmas.windows(2).any(|p| p[1] <= p[0]) {
+        if sigmas.len() > MAX_EXACT_LEVELS || sigmas.windows(2).any(|p| p[1] <= p[0]) {
             return Err(FilterError::InvalidRange(format!(
-                "{} level sigmas must be strictly increasing and at most 256",
+                "{} level sigmas must be strictly increasing and at most {MAX_EXACT_LEVELS}",
                 sigmas.len()
             )));
         }

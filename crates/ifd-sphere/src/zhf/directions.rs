@@ -40,15 +40,30 @@ pub enum Chooser {
     },
 }
 
-/// Normalises `d`, or reports it as [`SphereError::BadDirection`].
+/// Normalises `d`, or reports it as [`SphereError::BadDirection`], saying
+/// why: a NaN or infinite component, a length that overflows `f64` (finite
+/// components of about 1e154 or more), the zero vector, or a length of at
+/// most 1e-300 (too short to normalise).
 ///
 /// # Errors
-/// For zero-length or non-finite vectors.
+/// For zero-length, too short, too long or non-finite vectors.
 pub fn check_direction(index: usize, d: [f64; 3]) -> Result<[f64; 3]> {
     let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    if n.is_nan() || n <= 1e-300 || !n.is_finite() {
+    let reason = if d.iter().any(|v| !v.is_finite()) {
+        Some("has a NaN or infinite component")
+    } else if !n.is_finite() {
+        Some("is too long to normalise: its length overflows float64 (scale it down)")
+    } else if d == [0.0; 3] {
+        Some("is the zero vector")
+    } else if n <= 1e-300 {
+        Some("is too short to normalise: its length is below 1e-300 (scale it up)")
+    } else {
+        None
+    };
+    if let Some(reason) = reason {
         return Err(SphereError::BadDirection {
             index,
+            reason,
             x: d[0],
             y: d[1],
             z: d[2],
@@ -324,6 +339,7 @@ impl DirectionSet {
             if !n.is_finite() || (n - 1.0).abs() > 1e-6 {
                 return Err(SphereError::BadDirection {
                     index: i,
+                    reason: "is not a unit vector (to 1e-6)",
                     x: d[0],
                     y: d[1],
                     z: d[2],

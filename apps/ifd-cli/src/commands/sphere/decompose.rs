@@ -171,6 +171,13 @@ impl DecomposeCmd {
         // size check first: the kernel projection and the direction optimiser
         // would otherwise run for a long time before M is refused
         check_isd_degree(self.lmax).with_context(|| format!("--lmax {}", self.lmax))?;
+        // a condition number is at least 1; NaN would switch the guard off
+        if !(self.max_cond.is_finite() && self.max_cond >= 1.0) {
+            bail!(
+                "--max-cond {}: the largest accepted condition number must be finite and at least 1",
+                ifd_sphere::short_number(self.max_cond)
+            );
+        }
         let profile = Profile::parse(&self.profile)?;
         let kc = self.kernel_coeffs()?;
         let dirs = self.direction_set()?;

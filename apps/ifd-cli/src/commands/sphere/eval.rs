@@ -27,6 +27,7 @@ pub(super) struct EvalCmd {
 
 impl EvalCmd {
     pub(super) fn run(self) -> Result<()> {
+        super::check_npy_output(&self.output, "-o", "the table of SH values")?;
         let (shape, data) = read_npy_f64(&self.dirs)?;
         let [n, 3] = shape.as_slice() else {
             bail!(
@@ -42,8 +43,8 @@ impl EvalCmd {
         let mut out = vec![0.0; n * k];
         let mut y32 = vec![0.0f32; k];
         for i in 0..*n {
-            let d = [data[3 * i], data[3 * i + 1], data[3 * i + 2]];
-            ifd_sphere::check_direction(i, d)
+            // normalised here, so that the f32 path sees a unit vector too
+            let d = ifd_sphere::check_direction(i, [data[3 * i], data[3 * i + 1], data[3 * i + 2]])
                 .with_context(|| format!("--dirs {}", self.dirs.display()))?;
             if self.f32 {
                 sh.eval_f32_into([d[0] as f32, d[1] as f32, d[2] as f32], &mut y32);

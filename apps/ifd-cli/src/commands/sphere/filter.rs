@@ -109,6 +109,15 @@ impl FilterCmd {
         note_input_negatives(&self.envmap, a.negatives_clamped, self.keep_negatives);
         let integral = dec.kernel_integral()?;
         let l1: f64 = dec.weights.data.iter().map(|v| v.abs()).sum();
+        if !integral.is_finite() || !l1.is_finite() {
+            let largest = dec.weights.data.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            bail!(
+                "{}: the kernel's integral overflows (the weights are too large, the largest \
+                 |weight| being {}): scale them down",
+                self.decomp.display(),
+                ifd_sphere::short_number(largest)
+            );
+        }
         let scale = if self.raw {
             1.0
         } else if integral.abs() > 1e-9 * l1.max(f64::MIN_POSITIVE) {
@@ -130,6 +139,20 @@ impl FilterCmd {
             bar.set_position(done as u64);
         })?;
         bar.finish_and_clear();
+        let overflowed = out.data().iter().filter(|v| !v.is_finite()).count();
+        if overflowed > 0 {
+            let hint = if self.raw {
+                "the kernel, used --raw (unnormalised), is too large: scale its weights down or \
+                 drop --raw"
+            } else {
+                "the map or the kernel is too large"
+            };
+            bail!(
+                "{}: {overflowed} of the result's {} values overflow float32: {hint}",
+                self.decomp.display(),
+                out.data().len()
+            );
+        }
         let secs = start.elapsed().as_secs_f64();
         let clamped = clamp_output_negatives(&self.output, &mut out, "result")?;
         crate::output::write_output(&self.output, &out, &ifd_image::WriteOptions::default())?;

@@ -1,7 +1,7 @@
 //! `ifd sphere radial`: radial reflection maps for any BRDF (ISD Sec. 6.1,
 //! Eq. 23-24).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -100,6 +100,15 @@ pub struct RadialCmd {
 impl RadialCmd {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
+        // renamed options first: they name the new spelling whatever else is wrong
+        if self.light.is_some() {
+            bail!(
+                "--light is a spherical light X,Y,Z,R,L in `ifd render`; a radial profile is --light-profile"
+            );
+        }
+        if self.size.is_some() {
+            bail!("--size is always WxH; the map's cells are --cells AxBxC[xD]");
+        }
         let brdf = Brdf::parse(&self.brdf)?;
         if self.lmax > ifd_shade::MAX_TABLE_DEGREE {
             bail!(
@@ -109,26 +118,16 @@ impl RadialCmd {
             );
         }
         let size = self.parse_size(&brdf)?;
-        for p in [
-            Some(&self.output),
-            self.coeffs.as_ref(),
-            self.preview.as_ref(),
-        ]
-        .into_iter()
-        .flatten()
-        {
-            crate::output::check_output_folder(p)?;
+        // every output is checked before any work, so that a bad one leaves nothing behind
+        super::check_npy_output(&self.output, "-o", "the radial map")?;
+        if let Some(p) = &self.coeffs {
+            super::check_npy_output(p, "--coeffs", "the zonal coefficient table")?;
+        }
+        if let Some(p) = &self.preview {
+            crate::output::check_output_path(p).context("--preview")?;
         }
         if self.check > 100_000 {
             bail!("--check {}: at most 100000 entries", self.check);
-        }
-        if self.light.is_some() {
-            bail!(
-                "--light is a spherical light X,Y,Z,R,L in `ifd render`; a radial profile is --light-profile"
-            );
-        }
-        if self.size.is_some() {
-            bail!("--size is always WxH; the map's cells are --cells AxBxC[xD]");
         }
         let start = std::time::Instant::now();
         // the light: a profile, or the radial part of a map
@@ -187,6 +186,7 @@ impl RadialCmd {
             bar.set_position(d as u64);
         })?;
         bar.finish_and_clear();
+        check_finite(&map, &light, self.env.as_deref(), &self.radiance)?;
         let build_seconds = start.elapsed().as_secs_f64();
         let data: Vec<f64> = map.data.iter().map(|v| f64::from(*v)).collect();
         ifd_image::write_npy_f64(
@@ -258,6 +258,12 @@ impl RadialCmd {
     }
 }
 
+/// The largest accepted `--radiance`: the map is stored as float32 (whose
+/// range ends at 3.4e38), and a reflection may exceed the light's radiance.
+const MAX_RADIANCE: f64 = 1e30;
+
+/// Parses `--radiance L` or `R,G,B`: finite, non-negative and at most
+/// [`MAX_RADIANCE`].
 fn parse_radiance(text: &str) -> Result<Vec<f64>> {
     let v: Vec<f64> = text
         .split(',')
@@ -267,7 +273,44 @@ fn parse_radiance(text: &str) -> Result<Vec<f64>> {
     if !(v.len() == 1 || v.len() == 3) || v.iter().any(|x| !x.is_finite() || *x < 0.0) {
         bail!("--radiance {text:?}: expected one or three finite, non-negative numbers");
     }
+    if v.iter().any(|x| *x > MAX_RADIANCE) {
+        bail!(
+            "--radiance {text:?}: at most {MAX_RADIANCE:e} (the map is stored as float32, whose \
+             range ends at 3.4e38)"
+        );
+    }
     Ok(v)
+}
+
+/// Refuses a map or zonal coefficients with non-finite values (a light too
+/// bright for float32) before anything is written, naming the option that
+/// set the light.
+fn check_finite(
+    map: &RadialMap,
+    light: &ZonalLighting,
+    env: Option<&Path>,
+    radiance: &str,
+) -> Result<()> {
+    let bad = map.data.iter().filter(|v| !v.is_finite()).count();
+    let bad_coeffs = light.coeffs().iter().filter(|v| !v.is_finite()).count();
+    if bad + bad_coeffs == 0 {
+        return Ok(());
+    }
+    let what = if bad > 0 {
+        format!(
+            "{bad} of the map's {} values overflow float32",
+            map.data.len()
+        )
+    } else {
+        format!("{bad_coeffs} zonal coefficients are not finite")
+    };
+    if let Some(env) = env {
+        bail!(
+            "--env {}: {what}: the environment map is too bright",
+            env.display()
+        );
+    }
+    bail!("--radiance {radiance:?}: {what}: the light is too bright");
 }
 
 /// Tiles `theta_o` side by side (phi_o = 0), scaled to the maximum.
