@@ -273,12 +273,21 @@ def test_brdf_filter_bad_input(run_ifd, tmp_path):
         (["--brdf", f"merl:{tmp_path / 'nope.binary'}"], "nope.binary"),
         # the SHRM Phong lobe (cosine folded in) is no reciprocal BRDF
         (["--brdf", "phong:s=8"], "not a reciprocal"),
+        # huge numbers are named briefly
+        (["--brdf", "blinn:s=1e300"], "s=1e300 is outside"),
     ]:
         p = run_ifd("sphere", "brdf-filter", *extra, "-o", tmp_path / "o.binary", check=False)
         assert p.returncode == 2 and needle in p.stderr, (extra, p.stderr)
     p = run_ifd("sphere", "brdf-filter", "--brdf", "lambert", "-o", tmp_path / "o.exr", check=False)
     assert p.returncode == 2 and ".binary" in p.stderr
     assert not (tmp_path / "o.binary").exists()
+    # a MERL file with a value no BRDF has is named with it
+    v = np.full((90 * 90 * 180, 3), 0.1)
+    v[5, 1] = 1e300
+    _write_merl(tmp_path / "huge.binary", v)
+    p = run_ifd("sphere", "brdf-filter", "--brdf", f"merl:{tmp_path / 'huge.binary'}", "-o",
+                tmp_path / "o.binary", check=False)
+    assert p.returncode == 2 and "huge.binary" in p.stderr and "too large" in p.stderr, p.stderr
 
 
 def test_visibility_command(run_json, run_ifd, tmp_path):

@@ -405,8 +405,19 @@ impl EnvOptions {
             }
             return Ok((env.clone(), env));
         }
-        let full = EnvMap::new(input.read(&self.env)?.image, self.env_rotate)
-            .with_context(|| format!("{}", self.env.display()))?;
+        let full =
+            EnvMap::new(input.read(&self.env)?.image, self.env_rotate).with_context(|| {
+                // a .npy that is neither: say what it lacks as SH coefficients too
+                let as_sh = self
+                    .env
+                    .extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
+                    .then(|| ifd_sphere::ShCoeffs::read_npy(&self.env).err())
+                    .flatten()
+                    .map(|e| format!(" (nor SH coefficients: {e})"))
+                    .unwrap_or_default();
+                format!("{}{as_sh}", self.env.display())
+            })?;
         let (mw, mh) = (full.image().width(), full.image().height());
         let (ew, eh) = match &self.env_size {
             Some(s) => parse_size(s, "--env-size")?,

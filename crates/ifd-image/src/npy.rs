@@ -76,6 +76,13 @@ pub(crate) fn read_header(
     file.read_exact(&mut header).map_err(io)?;
     let header = String::from_utf8_lossy(&header);
     let descr = dict_value(&header, "descr").ok_or_else(|| bad("header has no 'descr'".into()))?;
+    if descr.trim_start().starts_with('[') {
+        return Err(bad(
+            "a structured dtype (named record fields) is not supported (use a plain float32 or \
+             float64 array)"
+                .into(),
+        ));
+    }
     let descr = descr.trim_matches(|c| c == '\'' || c == '"');
     let (big_endian, dtype) = parse_descr(descr).ok_or_else(|| {
         bad(format!(

@@ -246,7 +246,10 @@ impl Brdf {
                 Ok(v)
             } else {
                 let lb = if open_lo { "(" } else { "[" };
-                Err(err(format!("{k}={v} is outside {lb}{lo}, {hi}]")))
+                Err(err(format!(
+                    "{k}={} is outside {lb}{lo}, {hi}]",
+                    ifd_sphere::short_number(v)
+                )))
             }
         };
         let albedo = in_range("albedo", get("albedo").unwrap_or(1.0), 0.0, 1.0, false)?;

@@ -113,6 +113,12 @@ impl Merl {
                         "non-finite value {x} at sample {i} of channel {c}"
                     )));
                 }
+                // (the BRDF is kept in f32; measured values are below 1e4)
+                if x * SCALE[c] > 1e30 {
+                    return Err(ferr(format!(
+                        "value {x:e} at sample {i} of channel {c} is too large for a BRDF"
+                    )));
+                }
                 if x < 0.0 {
                     invalid += 1;
                     valid[i] = false;
