@@ -352,7 +352,28 @@ pub(crate) fn read_npy(
         .checked_mul(w)
         .and_then(|v| v.checked_mul(c))
         .ok_or_else(|| bad(format!("shape {shape:?} overflows")))?;
-    let values = read_values(&mut file, &header, n, budget, 4, &bad, decode_f32_values)?;
+    // float64 values finite but past f32's range would read as infinities
+    // and be called non-finite: the first is named as what it is
+    let overflow = std::cell::Cell::new(None::<(usize, f64)>);
+    let decode = |raw: &[u8], dtype: Dtype, big: bool, out: &mut Vec<f32>| {
+        let start = out.len();
+        decode_f32_values(raw, dtype, big, out);
+        if dtype == Dtype::F64 && overflow.get().is_none() {
+            let past = raw
+                .chunks_exact(8)
+                .map(|b| decode_f64(b, dtype, big))
+                .enumerate()
+                .find(|(_, x)| x.is_finite() && x.abs() > f64::from(f32::MAX));
+            overflow.set(past.map(|(j, x)| (start + j, x)));
+        }
+    };
+    let values = read_values(&mut file, &header, n, budget, 4, &bad, decode)?;
+    if let Some((i, x)) = overflow.get() {
+        return Err(bad(format!(
+            "value {x:e} (element {i} of the file) is beyond the range of the 32-bit floats \
+             ifd computes in (3.4e38); rescale the data"
+        )));
+    }
     // An HxW image is an HxWx1 array: the same reorder.
     let data = to_c_order(values, &[h, w, c], fortran);
     Image::from_vec(w, h, c, data)
