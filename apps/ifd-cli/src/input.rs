@@ -123,7 +123,7 @@ pub fn name_option(e: ifd_smooth::SmoothError, flag: Option<&str>) -> anyhow::Er
         ifd_smooth::SmoothError::OutOfRange { name, value, range } => anyhow::anyhow!(
             "{} {}: outside the supported range {range}",
             flag.map_or_else(|| format!("--{}", name.replace(' ', "-")), str::to_string),
-            ifd_sphere::short_number(value)
+            ifd_image::short_number(value)
         ),
         e => e.into(),
     }

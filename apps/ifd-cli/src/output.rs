@@ -88,6 +88,24 @@ pub fn check_output_path(path: &Path) -> Result<()> {
     check_output_folder(path)
 }
 
+/// Refuses, before any work, a data output (coefficients, SH values, a
+/// field of angles) whose name does not end in `.npy`: it is written as
+/// `.npy` whatever the name says, and an image format would clip it. Also
+/// refuses a folder that does not exist.
+pub fn check_npy_output(path: &Path, option: &str, what: &str) -> Result<()> {
+    let npy = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("npy"));
+    if !npy {
+        anyhow::bail!(
+            "{option} {}: {what} is data, written as .npy only",
+            path.display()
+        );
+    }
+    check_output_folder(path)
+}
+
 /// Refuses an output file (of any kind) whose folder does not exist or is a
 /// file, before any work.
 pub fn check_output_folder(path: &Path) -> Result<()> {

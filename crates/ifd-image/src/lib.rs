@@ -27,7 +27,7 @@ mod npy;
 mod npy_stream;
 
 pub use crate::budget::{MemoryBudget, physical_memory};
-pub use crate::error::{ImageError, fmt_bytes};
+pub use crate::error::{ImageError, fmt_bytes, short_number};
 pub use crate::files::{atomic_write, output_folder_problem, remove_pending_outputs};
 pub use crate::image::{Image, ImageView};
 pub use crate::io::{

@@ -356,15 +356,17 @@ pub(crate) fn read_npy(
     // and be called non-finite: the first is named as what it is
     let overflow = std::cell::Cell::new(None::<(usize, f64)>);
     let decode = |raw: &[u8], dtype: Dtype, big: bool, out: &mut Vec<f32>| {
-        let start = out.len();
-        decode_f32_values(raw, dtype, big, out);
-        if dtype == Dtype::F64 && overflow.get().is_none() {
-            let past = raw
-                .chunks_exact(8)
-                .map(|b| decode_f64(b, dtype, big))
-                .enumerate()
-                .find(|(_, x)| x.is_finite() && x.abs() > f64::from(f32::MAX));
-            overflow.set(past.map(|(j, x)| (start + j, x)));
+        if dtype != Dtype::F64 {
+            return decode_f32_values(raw, dtype, big, out);
+        }
+        // one pass: each value decoded once, checked, narrowed (as
+        // `decode_value` narrows it)
+        for b in raw.chunks_exact(8) {
+            let x = decode_f64(b, dtype, big);
+            if overflow.get().is_none() && x.is_finite() && x.abs() > f64::from(f32::MAX) {
+                overflow.set(Some((out.len(), x)));
+            }
+            out.push(x as f32);
         }
     };
     let values = read_values(&mut file, &header, n, budget, 4, &bad, decode)?;

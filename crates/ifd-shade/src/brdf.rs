@@ -248,7 +248,7 @@ impl Brdf {
                 let lb = if open_lo { "(" } else { "[" };
                 Err(err(format!(
                     "{k}={} is outside {lb}{lo}, {hi}]",
-                    ifd_sphere::short_number(v)
+                    ifd_image::short_number(v)
                 )))
             }
         };

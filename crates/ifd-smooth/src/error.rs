@@ -4,7 +4,7 @@
 #[derive(Debug, thiserror::Error)]
 pub enum SmoothError {
     /// A parameter outside its supported range.
-    #[error("{name} = {} is outside the supported range {range}", short(*value))]
+    #[error("{name} = {} is outside the supported range {range}", ifd_image::short_number(*value))]
     OutOfRange {
         /// The parameter.
         name: &'static str,
@@ -49,15 +49,5 @@ pub(crate) fn check_range(
             value,
             range: format!("[{lo}, {hi}]"),
         })
-    }
-}
-
-/// `value` for a message: in exponent form when very large or small (a
-/// plain `1e-300` prints three hundred digits).
-fn short(value: f64) -> String {
-    if value == 0.0 || !value.is_finite() || (1e-4..1e7).contains(&value.abs()) {
-        format!("{value}")
-    } else {
-        format!("{value:e}")
     }
 }

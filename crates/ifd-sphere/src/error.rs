@@ -85,9 +85,9 @@ pub enum SphereError {
     /// non-finite components) or, in a set read from a file, is not a unit vector.
     #[error(
         "direction {index} = ({}, {}, {}) {reason}",
-        short_number(*.x),
-        short_number(*.y),
-        short_number(*.z)
+        ifd_image::short_number(*.x),
+        ifd_image::short_number(*.y),
+        ifd_image::short_number(*.z)
     )]
     BadDirection {
         /// Position in the set.
@@ -173,16 +173,4 @@ pub(crate) fn check_degree(l_max: usize) -> Result<()> {
         });
     }
     Ok(())
-}
-
-/// `x` for a message: as Rust prints it when its magnitude lies in
-/// `[1e-4, 1e7)` (or it is 0 or not finite), else in scientific notation, so
-/// that 1e300 is not printed with 301 digits.
-#[must_use]
-pub fn short_number(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() || (1e-4..1e7).contains(&x.abs()) {
-        format!("{x}")
-    } else {
-        format!("{x:e}")
-    }
 }

@@ -225,9 +225,9 @@ impl Decomposition {
         {
             return Err(bad(format!(
                 "beta[{i}] = {} does not belong to the {} profile ({} expected)",
-                crate::error::short_number(self.beta[i]),
+                ifd_image::short_number(self.beta[i]),
                 self.profile.name(),
-                crate::error::short_number(want[i])
+                ifd_image::short_number(want[i])
             )));
         }
         let w = &self.weights;

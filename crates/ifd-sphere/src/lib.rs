@@ -81,7 +81,7 @@ mod zhf;
 mod zhf_plane;
 
 pub use crate::coeffs::{ShCoeffs, read_npy_f64, write_npy_f64};
-pub use crate::error::{MAX_DEGREE, Result, SphereError, short_number};
+pub use crate::error::{MAX_DEGREE, Result, SphereError};
 pub use crate::filter::{Decomposition, MapLayout, Prefiltered, meridian_frame};
 pub use crate::kernel::{Kernel, project_band, project_function, vmf_factors};
 pub use crate::profile::{IsdBasis, MAX_ISD_DEGREE, Profile, check_isd_degree, isd_matrix};

@@ -75,18 +75,7 @@ impl FieldCmd {
             .check((w * h * 4) as u64)
             .with_context(|| format!("--size {w}x{h}"))?;
         // angles in degrees and scales are data: an image format would clip them to [0, 1]
-        if !self
-            .output
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
-        {
-            bail!(
-                "-o {}: the field is data, written as .npy only",
-                self.output.display()
-            );
-        }
-        crate::output::check_output_folder(&self.output)?;
+        crate::output::check_npy_output(&self.output, "-o", "the field")?;
         if !(self.min.is_finite() && self.max.is_finite()) {
             bail!(
                 "--min and --max must be finite float32 values (magnitude below 3.4e38), got \
@@ -98,8 +87,8 @@ impl FieldCmd {
         if !(self.max - self.min).is_finite() {
             bail!(
                 "--min {} --max {}: their difference overflows float32 (magnitude 3.4e38 or more)",
-                ifd_sphere::short_number(f64::from(self.min)),
-                ifd_sphere::short_number(f64::from(self.max))
+                ifd_image::short_number(f64::from(self.min)),
+                ifd_image::short_number(f64::from(self.max))
             );
         }
         let (cx, cy) = ((w as f32 - 1.0) / 2.0, (h as f32 - 1.0) / 2.0);

@@ -65,7 +65,7 @@ impl BrdfFilterCmd {
         if !self.kappa.is_finite() || self.kappa < 0.0 || self.kappa > 1e6 {
             bail!(
                 "--kappa {}: use a finite value in [0, 1e6]",
-                ifd_sphere::short_number(self.kappa)
+                ifd_image::short_number(self.kappa)
             );
         }
         let nodes = self.nodes.unwrap_or((2 * self.lmax + 4).max(24));

@@ -175,7 +175,7 @@ impl DecomposeCmd {
         if !(self.max_cond.is_finite() && self.max_cond >= 1.0) {
             bail!(
                 "--max-cond {}: the largest accepted condition number must be finite and at least 1",
-                ifd_sphere::short_number(self.max_cond)
+                ifd_image::short_number(self.max_cond)
             );
         }
         let profile = Profile::parse(&self.profile)?;

@@ -27,7 +27,7 @@ pub(super) struct EvalCmd {
 
 impl EvalCmd {
     pub(super) fn run(self) -> Result<()> {
-        super::check_npy_output(&self.output, "-o", "the table of SH values")?;
+        crate::output::check_npy_output(&self.output, "-o", "the table of SH values")?;
         let (shape, data) = read_npy_f64(&self.dirs)?;
         let [n, 3] = shape.as_slice() else {
             bail!(

@@ -115,7 +115,7 @@ impl FilterCmd {
                 "{}: the kernel's integral overflows (the weights are too large, the largest \
                  |weight| being {}): scale them down",
                 self.decomp.display(),
-                ifd_sphere::short_number(largest)
+                ifd_image::short_number(largest)
             );
         }
         let scale = if self.raw {

@@ -88,23 +88,6 @@ pub(super) fn stores_negatives(path: &Path) -> Result<bool> {
     ))
 }
 
-/// Refuses, before any work, a data output (coefficients, SH values, a map)
-/// whose name does not end in `.npy`: it is written as `.npy` whatever the
-/// name says. Also refuses a folder that does not exist.
-pub(super) fn check_npy_output(path: &Path, option: &str, what: &str) -> Result<()> {
-    let npy = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("npy"));
-    if !npy {
-        anyhow::bail!(
-            "{option} {}: {what} is data, written as .npy only",
-            path.display()
-        );
-    }
-    crate::output::check_output_folder(path)
-}
-
 /// Reports negative input samples (clamped, or kept with `--keep-negatives`).
 pub(super) fn note_input_negatives(path: &Path, count: usize, kept: bool) {
     if count > 0 {

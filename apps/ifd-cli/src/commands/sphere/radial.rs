@@ -119,9 +119,9 @@ impl RadialCmd {
         }
         let size = self.parse_size(&brdf)?;
         // every output is checked before any work, so that a bad one leaves nothing behind
-        super::check_npy_output(&self.output, "-o", "the radial map")?;
+        crate::output::check_npy_output(&self.output, "-o", "the radial map")?;
         if let Some(p) = &self.coeffs {
-            super::check_npy_output(p, "--coeffs", "the zonal coefficient table")?;
+            crate::output::check_npy_output(p, "--coeffs", "the zonal coefficient table")?;
         }
         if let Some(p) = &self.preview {
             crate::output::check_output_path(p).context("--preview")?;

@@ -67,7 +67,7 @@ fn parse_triple(s: &str) -> Result<(f64, f64, f64)> {
 impl RotateCmd {
     pub(super) fn run(self) -> Result<()> {
         let (a, b, c) = parse_triple(&self.zyz)?;
-        super::check_npy_output(&self.output, "-o", "the SH coefficient table")?;
+        crate::output::check_npy_output(&self.output, "-o", "the SH coefficient table")?;
         let (f, shape) = ShCoeffs::read_npy_shaped(&self.coeffs)?;
         let r = Rotation::from_zyz(a, b, c);
         let l = f.l_max();

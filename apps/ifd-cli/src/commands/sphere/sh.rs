@@ -60,7 +60,7 @@ impl ShCmd {
             );
         }
         // unwritable outputs are refused before the work
-        super::check_npy_output(&self.output, "-o", "the SH coefficient table")?;
+        crate::output::check_npy_output(&self.output, "-o", "the SH coefficient table")?;
         if let Some(path) = &self.reconstruct {
             stores_negatives(path)?;
             crate::output::check_output_path(path).context("--reconstruct")?;
