@@ -89,12 +89,12 @@ impl CellLanes {
 
 /// `sum_b w_b k(d . l_b)` over the bright samples, cells far from `d`
 /// through their totals (the thresholds are precomputed cosines: one dot
-/// product decides per cell). Call inside a [`ifd_sphere::VectorKernel`]
+/// product decides per cell). Call inside a [`ifd_simd::VectorKernel`]
 /// (it is `#[inline(always)]`).
 #[inline(always)]
 #[expect(
     clippy::inline_always,
-    reason = "compiled into each target of `ifd_sphere::run_vectorized`"
+    reason = "compiled into each target of `ifd_simd::run_vectorized`"
 )]
 pub(crate) fn direct_sum(lobe: &Lobe, lanes: &CellLanes, d: [f64; 3]) -> [f64; 3] {
     match *lobe {
@@ -118,7 +118,7 @@ pub(crate) fn direct_sum(lobe: &Lobe, lanes: &CellLanes, d: [f64; 3]) -> [f64; 3
 #[inline(always)]
 #[expect(
     clippy::inline_always,
-    reason = "compiled into each target of `ifd_sphere::run_vectorized`"
+    reason = "compiled into each target of `ifd_simd::run_vectorized`"
 )]
 #[allow(
     clippy::needless_bitwise_bool,
@@ -189,7 +189,7 @@ pub(crate) struct DirectRow<'a> {
     pub(crate) out: &'a mut [[f64; 3]],
 }
 
-impl ifd_sphere::VectorKernel for DirectRow<'_> {
+impl ifd_simd::VectorKernel for DirectRow<'_> {
     type Output = ();
     #[inline(always)]
     #[allow(

@@ -140,7 +140,7 @@ impl Lobe {
             t[i / MOMENT_LANES][i % MOMENT_LANES] = ct;
             f[i / MOMENT_LANES][i % MOMENT_LANES] = self.eval(ct) * s * w;
         }
-        ifd_sphere::run_vectorized(Moments {
+        ifd_simd::run_vectorized(Moments {
             l_max,
             t: &t,
             f: &f,
@@ -237,7 +237,7 @@ struct Moments<'a> {
     f: &'a [[f64; MOMENT_LANES]],
 }
 
-impl ifd_sphere::VectorKernel for Moments<'_> {
+impl ifd_simd::VectorKernel for Moments<'_> {
     type Output = Vec<f64>;
     #[inline(always)]
     #[allow(

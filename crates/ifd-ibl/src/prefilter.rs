@@ -371,7 +371,7 @@ impl Baker {
                     for (i, d) in dirs.iter_mut().enumerate() {
                         *d = world_to_ifd(face_texel(face, i, j, n).0);
                     }
-                    ifd_sphere::run_vectorized(DirectRow {
+                    ifd_simd::run_vectorized(DirectRow {
                         lobe,
                         lanes: &lanes,
                         dirs,

@@ -10,9 +10,9 @@ use crate::field::{CheckField, CheckedField, Field, FieldKind};
 use crate::kernel::Sampling;
 use crate::prepared::Prepare;
 use crate::stack::for_decomposition::{is_direct, sigma_bounds};
-use crate::stack::gather::{self, FixedTerm, RowLevels, ScaledTerm};
 use crate::stack::lookup::Tap;
 use crate::stack::lookup::Taps;
+use crate::stack::rows::{self, FixedTerm, RowLevels, ScaledTerm};
 use crate::stack::{LevelRule, ScalePosition, ScaleStack};
 use crate::trig::sin_cos_degrees;
 
@@ -443,8 +443,8 @@ impl<'a> Filter<'a> {
 
     /// Per-pixel angle and/or scale over the whole image. `C` is the channel
     /// count when it is 1 to 4 (accumulators in registers), 0 for any count.
-    /// Rows go eight pixels at a time through the vector gathers where they
-    /// can ([`gather`]), the rest of each row through the scalar loop; both
+    /// Rows go eight or sixteen pixels at a time through the vector
+    /// gathers where they can ([`rows`]), the rest of each row through the scalar loop; both
     /// give the same values.
     fn per_pixel<const C: usize>(&self, angle: Field<'_>, scale: Field<'_>, out: &mut [f32]) {
         let (w, c) = (self.stack.width(), self.stack.channels());
@@ -452,7 +452,7 @@ impl<'a> Filter<'a> {
             Field::Constant(s) => Some((s, self.term_levels(s))),
             Field::Map(_) => None,
         };
-        let vector = self.vector && gather::supports::<C>(self.stack);
+        let vector = self.vector && rows::supports::<C>(self.stack);
         let fixed: Vec<FixedTerm> = constant_scale
             .as_ref()
             .map(|(_, levels)| {
@@ -519,7 +519,7 @@ impl<'a> Filter<'a> {
         match scale {
             Field::Constant(s) => {
                 row_rotations(angle, Field::Constant(s), y, w, cs, ss);
-                gather::rotated_row::<C>(self.stack, fixed, y, cs, ss, row)
+                rows::rotated_row::<C>(self.stack, fixed, y, cs, ss, row)
             }
             Field::Map(m) if scaled_vector => {
                 // Per pixel: the rotation, t_s and the widening; then the
@@ -527,11 +527,11 @@ impl<'a> Filter<'a> {
                 // the scalar loop's rule (the same values).
                 let scales = &m[y * w..(y + 1) * w];
                 row_rotations(angle, Field::Map(scales), y, w, cs, ss);
-                gather::scale_positions(self.scale_position, scales, t_s, widen);
+                rows::scale_positions(self.scale_position, scales, t_s, widen);
                 for (g, rep) in self.sigma_groups.iter().enumerate() {
-                    gather::fill_levels(self.level_rule(rep), t_s, widen, levels, g);
+                    rows::fill_levels(self.level_rule(rep), t_s, widen, levels, g);
                 }
-                gather::scaled_row::<C>(self.stack, &self.scaled_terms, levels, y, cs, ss, row)
+                rows::scaled_row::<C>(self.stack, &self.scaled_terms, levels, y, cs, ss, row)
             }
             Field::Map(_) => 0,
         }
@@ -727,7 +727,7 @@ fn row_rotations(
     ss: &mut [f32],
 ) {
     match angle {
-        Field::Map(m) => gather::rotations(&m[y * w..(y + 1) * w], scale, cs, ss),
+        Field::Map(m) => rows::rotations(&m[y * w..(y + 1) * w], scale, cs, ss),
         Field::Constant(theta) => {
             let (sin, cos) = sin_cos_degrees(theta);
             for (x, (c, sn)) in cs.iter_mut().zip(ss.iter_mut()).enumerate() {

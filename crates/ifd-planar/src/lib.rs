@@ -54,7 +54,8 @@
 //! - **images larger than memory**: [`Tiling`], [`TileGrid`],
 //!   [`TiledField`], [`RegionReader`], [`RegionWriter`], [`filter_tiled`],
 //!   [`tile_halo`];
-//! - the CPU's vector kernels: [`vector_kernels`], [`wide_vector_kernels`].
+//! - the CPU's vector kernels: chosen once per process by `ifd_simd`
+//!   ([`ifd_simd::isa`], capped by `IFD_SIMD`), the same bits on each.
 //!
 //! What tests, benches and studies need beyond that (the brute-force
 //! reference correlation, the SpaRSA solver, the dictionary) is in
@@ -101,8 +102,6 @@ pub use stack::for_decomposition::{
     DIRECT_SIGMA, evaluated_directly, level_sigmas, sigma_bounds, stack_for_decomposition,
     stack_plan_for_decomposition,
 };
-pub use stack::gather::vector_kernels;
-pub use stack::gather512::wide_vector_kernels;
 pub use stack::lookup::Taps;
 pub use stack::refresh::{FixedTap, PixelRect, RefreshReport};
 pub use stack::{

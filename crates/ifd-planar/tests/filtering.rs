@@ -811,7 +811,7 @@ fn vector_and_scalar(
             .apply(Field::Map(angles), scale)
             .expect("apply")
     };
-    if ifd_planar::vector_kernels().is_none() {
+    if ifd_simd::isa() == ifd_simd::Isa::Baseline {
         eprintln!("no vector kernels on this CPU: vector and scalar runs are the same loop");
     }
     (run(true), run(false))

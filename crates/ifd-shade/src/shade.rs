@@ -134,13 +134,12 @@ impl Precision {
     /// use ifd_shade::Precision;
     /// assert_eq!(Precision::F64.effective(), Precision::F64);
     /// let p = Precision::F32.effective();
-    /// let baseline = ifd_sphere::vector_isa() == ifd_sphere::VectorIsa::Baseline;
+    /// let baseline = ifd_simd::isa() == ifd_simd::Isa::Baseline;
     /// assert_eq!(p == Precision::F64, cfg!(target_arch = "x86_64") && baseline);
     /// ```
     #[must_use]
     pub fn effective(self) -> Self {
-        let no_fma = cfg!(target_arch = "x86_64")
-            && ifd_sphere::vector_isa() == ifd_sphere::VectorIsa::Baseline;
+        let no_fma = cfg!(target_arch = "x86_64") && ifd_simd::isa() == ifd_simd::Isa::Baseline;
         if no_fma { Self::F64 } else { self }
     }
 }
@@ -293,7 +292,7 @@ impl Environment {
         LANES.with_borrow_mut(|buf| {
             buf.resize((nb * ch + nb * parts + parts * ch) * N, 0.0);
             let (lanes, _) = buf.as_chunks_mut::<N>();
-            ifd_sphere::run_vectorized(LobeSumsF32 {
+            ifd_simd::run_vectorized(LobeSumsF32 {
                 env: self,
                 l0,
                 d,
@@ -419,7 +418,7 @@ fn lobe_major(owner: &[u32], counts: &mut Vec<usize>, order: &mut Vec<usize>) {
 }
 
 /// [`Environment::lobe_sums_f32`]'s work for one point, compiled for the
-/// CPU's vectors as a whole ([`ifd_sphere::VectorKernel`]): per chunk of `N`
+/// CPU's vectors as a whole ([`ifd_simd::VectorKernel`]): per chunk of `N`
 /// lobes the SH kernel, the lanes' weights (zero below each lobe's first
 /// band), their weighted sums per part and channel in the lanes, and the
 /// lanes' sums in `f64`.
@@ -438,7 +437,7 @@ struct LobeSumsF32<'a, const N: usize> {
     out: &'a mut [f64],
 }
 
-impl<const N: usize> ifd_sphere::VectorKernel for LobeSumsF32<'_, N> {
+impl<const N: usize> ifd_simd::VectorKernel for LobeSumsF32<'_, N> {
     type Output = ();
     #[inline(always)]
     #[allow(

@@ -74,9 +74,10 @@ mod profile;
 mod rng;
 mod rotation;
 mod sh;
-mod simd;
 mod tabulated;
 mod transform;
+#[cfg(test)]
+mod vector_tests;
 mod zhf;
 mod zhf_plane;
 
@@ -90,10 +91,6 @@ pub use crate::rotation::{Rotation, ShRotation};
 pub use crate::sh::{
     ShEvaluator, direction, eval_sh, gauss_legendre, legendre_all, legendre_p, pi_l, sh_count,
     sh_index,
-};
-pub use crate::simd::{
-    VectorIsa, VectorKernel, run_vectorized, set_vector_isa, set_vector_kernels, vector_isa,
-    vector_kernels,
 };
 pub use crate::tabulated::BandTables;
 pub use crate::transform::{

@@ -84,7 +84,7 @@ impl LegendreTable {
     #[inline(always)]
     #[expect(
         clippy::inline_always,
-        reason = "compiled into each target of `simd::run_vectorized`"
+        reason = "compiled into each target of `ifd_simd::run_vectorized`"
     )]
     pub(crate) fn column<const N: usize>(
         &self,
@@ -322,7 +322,7 @@ impl ShEvaluator {
         channels: usize,
         out: &mut [f64],
     ) {
-        crate::simd::run_vectorized(BandSums {
+        ifd_simd::run_vectorized(BandSums {
             sh: self,
             l0,
             dirs,
@@ -336,7 +336,7 @@ impl ShEvaluator {
     #[inline(always)]
     #[expect(
         clippy::inline_always,
-        reason = "compiled into each target of `simd::run_vectorized`"
+        reason = "compiled into each target of `ifd_simd::run_vectorized`"
     )]
     fn band_sums_kernel<const N: usize>(
         &self,
@@ -462,7 +462,7 @@ impl ShEvaluator {
         channels: usize,
         acc: &mut [[f32; N]],
     ) {
-        crate::simd::run_vectorized(BandSumsF32 {
+        ifd_simd::run_vectorized(BandSumsF32 {
             sh: self,
             l0,
             dirs,
@@ -473,13 +473,13 @@ impl ShEvaluator {
     }
 
     /// [`Self::band_sums_f32`] without the dispatch, to call from inside a
-    /// [`crate::VectorKernel`] (it is `#[inline(always)]`: compiled into the
+    /// [`ifd_simd::VectorKernel`] (it is `#[inline(always)]`: compiled into the
     /// caller's target). Literal channel counts (1, 3) get their own
     /// unrolled loops.
     #[inline(always)]
     #[expect(
         clippy::inline_always,
-        reason = "compiled into each target of `simd::run_vectorized`"
+        reason = "compiled into each target of `ifd_simd::run_vectorized`"
     )]
     pub fn band_sums_f32_lanes<const N: usize>(
         &self,
@@ -502,7 +502,7 @@ impl ShEvaluator {
     #[inline(always)]
     #[expect(
         clippy::inline_always,
-        reason = "compiled into each target of `simd::run_vectorized`"
+        reason = "compiled into each target of `ifd_simd::run_vectorized`"
     )]
     fn band_sums_f32_kernel<const N: usize>(
         &self,
@@ -580,7 +580,7 @@ impl ShEvaluator {
     }
 }
 
-/// [`ShEvaluator::band_sums`]' arguments, run as a [`crate::VectorKernel`].
+/// [`ShEvaluator::band_sums`]' arguments, run as a [`ifd_simd::VectorKernel`].
 struct BandSums<'a, const N: usize> {
     sh: &'a ShEvaluator,
     l0: usize,
@@ -590,7 +590,7 @@ struct BandSums<'a, const N: usize> {
     out: &'a mut [f64],
 }
 
-impl<const N: usize> crate::simd::VectorKernel for BandSums<'_, N> {
+impl<const N: usize> ifd_simd::VectorKernel for BandSums<'_, N> {
     type Output = ();
     #[inline(always)]
     #[allow(
@@ -610,7 +610,7 @@ impl<const N: usize> crate::simd::VectorKernel for BandSums<'_, N> {
     }
 }
 
-/// [`ShEvaluator::band_sums_f32`]'s arguments, run as a [`crate::VectorKernel`].
+/// [`ShEvaluator::band_sums_f32`]'s arguments, run as a [`ifd_simd::VectorKernel`].
 struct BandSumsF32<'a, const N: usize> {
     sh: &'a ShEvaluator,
     l0: usize,
@@ -620,7 +620,7 @@ struct BandSumsF32<'a, const N: usize> {
     acc: &'a mut [[f32; N]],
 }
 
-impl<const N: usize> crate::simd::VectorKernel for BandSumsF32<'_, N> {
+impl<const N: usize> ifd_simd::VectorKernel for BandSumsF32<'_, N> {
     type Output = ();
     #[inline(always)]
     #[allow(
@@ -647,7 +647,7 @@ impl<const N: usize> crate::simd::VectorKernel for BandSumsF32<'_, N> {
 #[inline(always)]
 #[expect(
     clippy::inline_always,
-    reason = "compiled into each target of `simd::run_vectorized`"
+    reason = "compiled into each target of `ifd_simd::run_vectorized`"
 )]
 fn add_band<const N: usize>(
     acc: &mut [[f32; N]],

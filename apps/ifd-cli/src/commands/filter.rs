@@ -172,18 +172,16 @@ impl Filter {
     }
 }
 
-/// How the CPU evaluates per-pixel maps, in words (for `-v`): with one
-/// channel and bilinear levels the wider kernel where the CPU has it.
+/// How the CPU evaluates per-pixel maps, in words (for `-v`).
 fn per_pixel_kernel(interpolation: Interpolation, channels: usize, vector: bool) -> String {
-    let wide = ifd_planar::wide_vector_kernels()
-        .filter(|_| channels == 1 && interpolation == Interpolation::Linear);
-    match (ifd_planar::vector_kernels(), wide) {
+    let isa = ifd_simd::isa();
+    match isa {
         _ if !vector => "scalar loop (--scalar)".into(),
-        (None, _) => "scalar loop (this CPU has no AVX2)".into(),
-        (Some(_), _) if channels > 4 => "scalar loop (more than 4 channels)".into(),
-        (Some(_), Some(isa)) => format!("{isa} gathers, 16 pixels per vector (linear levels)"),
-        (Some(isa), None) => format!(
-            "{isa} gathers, 8 pixels per vector ({} levels)",
+        ifd_simd::Isa::Baseline => "scalar loop (no AVX2 with FMA, or IFD_SIMD=baseline)".into(),
+        _ if channels > 4 => "scalar loop (more than 4 channels)".into(),
+        _ => format!(
+            "{isa} gathers, {} pixels per vector ({} levels)",
+            isa.f32_lanes(),
             interpolation.name()
         ),
     }

@@ -2,16 +2,16 @@
 //! log-uniformly spaced standard deviations (the `fhat_l` of Eq. 3).
 
 pub(crate) mod for_decomposition;
-pub(crate) mod gather;
-pub(crate) mod gather512;
 pub(crate) mod lookup;
 pub mod refresh;
+pub(crate) mod rows;
 
 mod build;
 mod locate;
 mod plan;
 mod sample;
 mod separable;
+mod weighted_sum;
 
 pub(crate) use build::check_finite;
 pub use locate::LevelLocator;

@@ -140,7 +140,7 @@ impl EquirectTransform {
     #[inline(always)]
     #[allow(
         clippy::inline_always,
-        reason = "compiled into each target of `simd::run_vectorized`"
+        reason = "compiled into each target of `ifd_simd::run_vectorized`"
     )]
     fn legendre_sums(
         &self,
@@ -282,7 +282,7 @@ impl EquirectTransform {
                 let last = (first + per_group).min(n_pairs);
                 let mut out = vec![0.0; n_coef];
                 let mut pass = PairPass::new(self, ch);
-                crate::simd::run_vectorized(GroupPass {
+                ifd_simd::run_vectorized(GroupPass {
                     t: self,
                     pass: &mut pass,
                     img,
@@ -475,7 +475,7 @@ const _: () = assert!(ANALYSIS_LANES == 8);
 #[inline(always)]
 #[allow(
     clippy::inline_always,
-    reason = "compiled into each target of `simd::run_vectorized`"
+    reason = "compiled into each target of `ifd_simd::run_vectorized`"
 )]
 fn lane_sum(x: [f64; ANALYSIS_LANES]) -> f64 {
     let a = [x[0] + x[4], x[1] + x[5], x[2] + x[6], x[3] + x[7]];
@@ -504,7 +504,7 @@ struct GroupPass<'a> {
     out: &'a mut [f64],
 }
 
-impl crate::simd::VectorKernel for GroupPass<'_> {
+impl ifd_simd::VectorKernel for GroupPass<'_> {
     type Output = ();
     #[inline(always)]
     #[allow(
@@ -558,12 +558,12 @@ impl PairPass {
 
     /// Adds the Legendre sums of the row pairs `pairs` (at most
     /// [`PAIRS_PER_BLOCK`]) to `out` (compiled into each target of
-    /// `crate::simd::run_vectorized`, as the Legendre sums it calls).
+    /// `ifd_simd::run_vectorized`, as the Legendre sums it calls).
     #[expect(clippy::too_many_arguments, reason = "one block's inputs and output")]
     #[inline(always)]
     #[allow(
         clippy::inline_always,
-        reason = "compiled into each target of `simd::run_vectorized`"
+        reason = "compiled into each target of `ifd_simd::run_vectorized`"
     )]
     fn run(
         &mut self,

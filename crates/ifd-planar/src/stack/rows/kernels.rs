@@ -1,0 +1,923 @@
+//! The row kernels, written once over [`Lanes`]: the per-pixel rules (the
+//! rotations, a scale map's level positions, each sigma group's levels and
+//! weights) and the lookups (bilinear and cubic B-spline, any channel count;
+//! a scale map's blocks classified by the levels their lanes read), `N`
+//! pixels of a row at a time. Each instruction set's file compiles them for
+//! its lanes through [`entry_points`].
+//!
+//! Every expression is the scalar loop's, in its order, with separate
+//! multiplies and adds (see [`super`]): the lanes' results are the scalar
+//! loop's bits. The bodies are `#[inline(always)]` so that they are compiled
+//! into each `#[target_feature]` entry point with its instruction set, and
+//! call only `#[inline(always)]` helpers and [`Lanes`] primitives (a closure
+//! or an out-of-line helper would be compiled for the baseline).
+#![allow(
+    unsafe_code,
+    reason = "the bodies call `Lanes` primitives and gathers; see the `rows` module documentation"
+)]
+#![expect(
+    clippy::inline_always,
+    reason = "each body is compiled into the `#[target_feature]` entry points of each instruction set"
+)]
+
+use super::lanes::Lanes;
+use super::{FixedTerm, RowLevels, ScaledTerm};
+use crate::field::Field;
+use crate::kernel::{LOG_FROM, WIDENING_FLOOR};
+use crate::stack::{Interpolation, Level, LevelRule, ScalePosition, ScaleStack};
+
+/// The row kernels' entry points for one instruction set's lanes, each
+/// compiled for `$features` (`#[target_feature]`) around the body of the
+/// same name below: `rotated_row`, `scaled_row`, `rotations`,
+/// `scale_positions`, `fill_levels`. Each does the whole blocks of `N`
+/// pixels from pixel `from` and returns the pixel after the last it did.
+///
+/// # Safety (of each entry point)
+/// The CPU has `$features` (the dispatch in [`super`] asks
+/// [`ifd_simd::has`]).
+macro_rules! entry_points {
+    ($lanes:ident, $features:literal) => {
+        /// [`super::kernels::rotated_row`] on these lanes.
+        #[target_feature(enable = $features)]
+        pub(super) unsafe fn rotated_row<const C: usize>(
+            stack: &crate::stack::ScaleStack,
+            terms: &[super::FixedTerm],
+            y: usize,
+            (cs, ss): (&[f32], &[f32]),
+            out: &mut [f32],
+            from: usize,
+        ) -> usize {
+            // SAFETY: compiled for the lanes' instruction set (the caller
+            // checked the CPU has it).
+            unsafe {
+                super::kernels::rotated_row::<$lanes, C>(stack, terms, y, (cs, ss), out, from)
+            }
+        }
+
+        /// [`super::kernels::scaled_row`] on these lanes.
+        #[target_feature(enable = $features)]
+        pub(super) unsafe fn scaled_row<const C: usize>(
+            stack: &crate::stack::ScaleStack,
+            terms: &[super::ScaledTerm],
+            levels: &super::RowLevels,
+            y: usize,
+            (cs, ss): (&[f32], &[f32]),
+            out: &mut [f32],
+            from: usize,
+        ) -> usize {
+            // SAFETY: as `rotated_row`.
+            unsafe {
+                super::kernels::scaled_row::<$lanes, C>(
+                    stack,
+                    terms,
+                    levels,
+                    y,
+                    (cs, ss),
+                    out,
+                    from,
+                )
+            }
+        }
+
+        /// [`super::kernels::rotations`] on these lanes.
+        #[target_feature(enable = $features)]
+        pub(super) unsafe fn rotations(
+            theta: &[f32],
+            scale: crate::field::Field<'_>,
+            cs: &mut [f32],
+            ss: &mut [f32],
+            from: usize,
+        ) -> usize {
+            // SAFETY: as `rotated_row`.
+            unsafe { super::kernels::rotations::<$lanes>(theta, scale, cs, ss, from) }
+        }
+
+        /// [`super::kernels::scale_positions`] on these lanes.
+        #[target_feature(enable = $features)]
+        pub(super) unsafe fn scale_positions(
+            rule: crate::stack::ScalePosition,
+            scales: &[f32],
+            t_s: &mut [f32],
+            widen: &mut [f32],
+            from: usize,
+        ) -> usize {
+            // SAFETY: as `rotated_row`.
+            unsafe { super::kernels::scale_positions::<$lanes>(rule, scales, t_s, widen, from) }
+        }
+
+        /// [`super::kernels::fill_levels`] on these lanes.
+        #[target_feature(enable = $features)]
+        pub(super) unsafe fn fill_levels(
+            rule: crate::stack::LevelRule,
+            t_s: &[f32],
+            widen: &[f32],
+            levels: &mut super::RowLevels,
+            g: usize,
+            from: usize,
+        ) -> usize {
+            // SAFETY: as `rotated_row`.
+            unsafe { super::kernels::fill_levels::<$lanes>(rule, t_s, widen, levels, g, from) }
+        }
+    };
+}
+pub(super) use entry_points;
+
+/// The end of the whole blocks of `V::N` pixels from `from` in `w` pixels.
+#[inline(always)]
+fn block_end<V: Lanes>(from: usize, w: usize) -> usize {
+    from + w.saturating_sub(from) / V::N * V::N
+}
+
+/// Adds the filtered values of the row's blocks from `from` into `out`
+/// (`C` interleaved channels) for per-pixel rotations `cs[x] = s cos`,
+/// `ss[x] = s sin` at a constant scale.
+///
+/// # Safety
+/// Compiled for `V`'s instruction set (see [`Lanes`]); the stack passed
+/// `super::fits::<C>` and `out` holds `cs.len() * C` samples.
+#[inline(always)]
+pub(super) unsafe fn rotated_row<V: Lanes, const C: usize>(
+    stack: &ScaleStack,
+    terms: &[FixedTerm],
+    y: usize,
+    (cs, ss): (&[f32], &[f32]),
+    out: &mut [f32],
+    from: usize,
+) -> usize {
+    let end = block_end::<V>(from, cs.len());
+    // SAFETY: as the caller promises.
+    unsafe {
+        let yf = V::splat(y as f32);
+        for x0 in (from..end).step_by(V::N) {
+            let xf = V::columns(x0);
+            let (c, s) = (V::load(&cs[x0..]), V::load(&ss[x0..]));
+            let mut acc = [V::zero(); C];
+            for t in terms {
+                let (px, py) = positions::<V>((xf, yf), (c, s), t.cx, t.cy);
+                for (li, w) in [(t.a, t.wa), (t.b, t.wb)] {
+                    if w == 0.0 {
+                        continue;
+                    }
+                    let wv = V::splat(w);
+                    if !lookup::<V, C>(stack, li, (px, py), wv, &mut acc) {
+                        acc = scalar_lanes::<V, C>(stack, li, (px, py), wv, &acc);
+                    }
+                }
+            }
+            add_out::<V, C>(&acc, out, x0);
+        }
+    }
+    end
+}
+
+/// The most levels one block's vector lookups span (a lookup each);
+/// blocks whose lanes spread wider go lane by lane.
+const SPAN: usize = 4;
+
+/// One sigma group's levels over a block (its per-level weights are kept
+/// apart, in the group's slot of a buffer that [`classify`] writes in
+/// place: a block is rebuilt per group every block, and moving the weights
+/// each time cost a seventh of the row's time).
+#[derive(Clone, Copy)]
+enum Block {
+    /// Every lane on levels `a .. a + SPAN`: per level, each lane's weight
+    /// on it in the group's weights (zero where the lane does not read it),
+    /// `used` marking the levels some lane reads. A lane reads its two
+    /// levels in the scalar loop's order, lower first, so its sum is the
+    /// scalar loop's.
+    Vector { a: usize, used: u8 },
+    /// Lanes spread over more levels: each lane looks up its own.
+    Lanes,
+}
+
+/// As [`rotated_row`] with a per-pixel scale: `levels` gives the levels
+/// and weights of the terms of each sigma group at each pixel.
+///
+/// # Safety
+/// As [`rotated_row`]; besides, `levels` covers every term's group over
+/// the row and no level past the stack's (`super::scaled_row` checks).
+#[inline(always)]
+pub(super) unsafe fn scaled_row<V: Lanes, const C: usize>(
+    stack: &ScaleStack,
+    terms: &[ScaledTerm],
+    levels: &RowLevels,
+    y: usize,
+    (cs, ss): (&[f32], &[f32]),
+    out: &mut [f32],
+    from: usize,
+) -> usize {
+    let w = cs.len();
+    let end = block_end::<V>(from, w);
+    let groups = levels.a.len() / w.max(1);
+    let linear = matches!(stack.interpolation, Interpolation::Linear);
+    // level i and level i + 1 sample the same grid: one bilinear stencil
+    // serves both (the same values as computing it twice)
+    let same_grid: Vec<bool> = stack
+        .levels
+        .windows(2)
+        .map(|p| {
+            let grid = |l: &Level| (l.layout.step, l.layout.origin, l.layout.nx, l.layout.ny);
+            grid(&p[0]) == grid(&p[1])
+        })
+        .collect();
+    let mut blocks = vec![Block::Lanes; groups];
+    // SAFETY: as the caller promises.
+    unsafe {
+        let mut weights = vec![[V::zero(); SPAN]; groups];
+        let yf = V::splat(y as f32);
+        for x0 in (from..end).step_by(V::N) {
+            for (g, (b, wt)) in blocks.iter_mut().zip(&mut weights).enumerate() {
+                *b = classify::<V>(levels, g, x0, wt);
+            }
+            let xf = V::columns(x0);
+            let (c, s) = (V::load(&cs[x0..]), V::load(&ss[x0..]));
+            let mut acc = [V::zero(); C];
+            for t in terms {
+                let (px, py) = positions::<V>((xf, yf), (c, s), t.cx, t.cy);
+                match blocks[t.group] {
+                    Block::Vector { a, used } => {
+                        let wt = &weights[t.group];
+                        let tw = V::splat(t.weight);
+                        if used == 0b11
+                            && linear
+                            && same_grid[a]
+                            && let Some(at) = bilinear_stencil::<V>(&stack.levels[a], px, py)
+                        {
+                            // The common pair: levels a and a + 1 on one
+                            // grid share the bilinear stencil; a stencil
+                            // past the stored level goes through the loop
+                            // below, lane by lane.
+                            bilinear_at::<V, C>(&stack.levels[a], at, V::mul(tw, wt[0]), &mut acc);
+                            bilinear_at::<V, C>(
+                                &stack.levels[a + 1],
+                                at,
+                                V::mul(tw, wt[1]),
+                                &mut acc,
+                            );
+                            continue;
+                        }
+                        for (k, lw) in wt.iter().enumerate() {
+                            if used & (1 << k) == 0 {
+                                continue;
+                            }
+                            let li = a + k;
+                            let wv = V::mul(tw, *lw);
+                            if !lookup::<V, C>(stack, li, (px, py), wv, &mut acc) {
+                                acc = scalar_lanes::<V, C>(stack, li, (px, py), wv, &acc);
+                            }
+                        }
+                    }
+                    Block::Lanes => {
+                        // each lane's two lookups in the scalar order
+                        let (mut pxs, mut pys) = (V::Floats::default(), V::Floats::default());
+                        V::store(px, pxs.as_mut());
+                        V::store(py, pys.as_mut());
+                        let mut sums = spill::<V, C>(&acc);
+                        lanes_levels::<C, _>(
+                            stack,
+                            (levels, t, x0),
+                            (pxs.as_ref(), pys.as_ref()),
+                            &mut sums,
+                        );
+                        acc = fill::<V, C>(&sums);
+                    }
+                }
+            }
+            add_out::<V, C>(&acc, out, x0);
+        }
+    }
+    end
+}
+
+/// The block of `V::N` lanes from pixel `x0` of group `g`: each lane reads
+/// level `a` (weight `wa`) and, where `wb != 0`, `a + 1` (`wb`); the
+/// per-level weights written into `w`.
+#[inline(always)]
+unsafe fn classify<V: Lanes>(
+    levels: &RowLevels,
+    g: usize,
+    x0: usize,
+    w: &mut [V::F; SPAN],
+) -> Block {
+    let i = g * levels.w + x0;
+    let a = &levels.a[i..i + V::N];
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        let la = V::load_u32(a);
+        let (wa, wb) = (V::load(&levels.wa[i..]), V::load(&levels.wb[i..]));
+        let zero = V::zero();
+        // the lanes that read a second level
+        let second = V::ne(wb, zero);
+        if V::all(V::eq_i(la, V::splat_i(a[0] as i32))) {
+            // The common block: every lane on level `a` (and `a + 1` where
+            // its `wb` is not zero); the general rule below gives the same
+            // weights.
+            let used = u8::from(V::any(V::ne(wa, zero))) | (u8::from(V::any(second)) << 1);
+            w[0] = wa;
+            w[1] = V::zero_unless(second, wb);
+            return Block::Vector {
+                a: a[0] as usize,
+                used,
+            };
+        }
+        let lb = V::inc_where(la, second);
+        let (lo, hi) = (V::reduce_min(la), V::reduce_max(lb));
+        let n = (hi - lo) as usize + 1;
+        if n > SPAN {
+            return Block::Lanes;
+        }
+        // level lo + k: each lane's weight on it (wa where a is it, wb where
+        // a + 1 is; a lane without a second level adds nothing)
+        let one_level = V::eq_i(la, lb);
+        let mut used = 0u8;
+        for (k, wk) in w.iter_mut().enumerate().take(n) {
+            let level = V::splat_i(lo + k as i32);
+            let on_a = V::eq_i(la, level);
+            let on_b = V::andnot_m(one_level, V::eq_i(lb, level));
+            *wk = V::add(V::zero_unless(on_a, wa), V::zero_unless(on_b, wb));
+            used |= u8::from(V::any(V::ne(*wk, zero))) << k;
+        }
+        Block::Vector {
+            a: lo as usize,
+            used,
+        }
+    }
+}
+
+/// Adds `w *` the lookups of level `li` at `(px, py)` to `acc` when every
+/// lane's stencil lies in the stored level (the scalar lookup's interior
+/// test, lane by lane); returns false, touching nothing, otherwise.
+#[inline(always)]
+unsafe fn lookup<V: Lanes, const C: usize>(
+    stack: &ScaleStack,
+    li: usize,
+    (px, py): (V::F, V::F),
+    w: V::F,
+    acc: &mut [V::F; C],
+) -> bool {
+    let level = &stack.levels[li];
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        match stack.interpolation {
+            Interpolation::Linear => match bilinear_stencil::<V>(level, px, py) {
+                Some(at) => {
+                    bilinear_at::<V, C>(level, at, w, acc);
+                    true
+                }
+                None => false,
+            },
+            Interpolation::Cubic => cubic::<V, C>(level, (px, py), w, acc),
+        }
+    }
+}
+
+/// [`stencil_inside`]'s fractions and floors.
+type Inside<V> = (
+    <V as Lanes>::F,
+    <V as Lanes>::F,
+    <V as Lanes>::I,
+    <V as Lanes>::I,
+);
+
+/// The fractions `(fu, fv)` of the level coordinates `(u, v)` of `(px, py)`
+/// and their floors `(iu, iv)` when every lane's stencil, `before` samples
+/// before and `after` after the one below the point (0 and 1 bilinear, 1
+/// and 2 cubic), lies in the stored level: the scalar lookups' test `u >=
+/// before`, `v >= before`, `iu + after < nx`, `iv + after < ny`, lane by
+/// lane, as one unsigned compare per axis of `floor(u) - before` against
+/// `nx - 1 - after - before` (a negative floor wraps above it; NaN and
+/// values past `i32` convert to `i32::MIN`, which does too). Where it holds,
+/// `u >= 0` (or `-0`), so `u - floor(u)` is the scalar lookup's `u -
+/// trunc(u)` (at `u = -0` a zero of the other sign, which leaves every sum
+/// it enters unchanged).
+#[inline(always)]
+unsafe fn stencil_inside<V: Lanes>(
+    level: &Level,
+    (px, py): (V::F, V::F),
+    before: i32,
+    after: i32,
+) -> Option<Inside<V>> {
+    let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        let (origin, inv) = (V::splat(level.origin), V::splat(level.inv_step));
+        let u = V::mul(V::sub(px, origin), inv);
+        let v = V::mul(V::sub(py, origin), inv);
+        let (fl_u, fl_v) = (V::floor(u), V::floor(v));
+        let (iu, iv) = (V::to_int(fl_u), V::to_int(fl_v));
+        let first = V::splat_i(before);
+        let inside = V::and_m(
+            V::le_u(V::sub_i(iu, first), V::splat_i(nx - 1 - after - before)),
+            V::le_u(V::sub_i(iv, first), V::splat_i(ny - 1 - after - before)),
+        );
+        if V::all(inside) {
+            Some((V::sub(u, fl_u), V::sub(v, fl_v), iu, iv))
+        } else {
+            None
+        }
+    }
+}
+
+/// Where a bilinear lookup of `level` at `(px, py)` reads, when every
+/// lane's stencil lies in the stored level: the fractions `(fu, fv)` and
+/// each lane's first sample (see [`stencil_inside`]). Levels on the same
+/// grid share it.
+#[inline(always)]
+unsafe fn bilinear_stencil<V: Lanes>(
+    level: &Level,
+    px: V::F,
+    py: V::F,
+) -> Option<(V::F, V::F, V::I)> {
+    let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        let (fu, fv, iu, iv) = stencil_inside::<V>(level, (px, py), 0, 1)?;
+        let idx = V::add_i(V::mul_i(iv, V::splat_i(nx)), iu);
+        // Memory safety: every read of `bilinear_at` is at most `nx + 1`
+        // samples (times C, plus C - 1) past `idx <= nx (ny - 1) - 2`,
+        // inside the level's `nx ny C` samples (`fits` checked the length).
+        let idx = V::min_i(V::max_i(idx, V::splat_i(0)), V::splat_i(nx * (ny - 1) - 2));
+        Some((fu, fv, idx))
+    }
+}
+
+/// Adds `w *` the bilinear lookups of `level` at `stencil` (from
+/// [`bilinear_stencil`] on this level's grid) to `acc`.
+#[inline(always)]
+unsafe fn bilinear_at<V: Lanes, const C: usize>(
+    level: &Level,
+    (fu, fv, idx): (V::F, V::F, V::I),
+    w: V::F,
+    acc: &mut [V::F; C],
+) {
+    let nx = level.layout.nx;
+    let p = level.data.as_ptr();
+    let row = nx * C;
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise);
+    // the reads are inside the level (the clamp in `bilinear_stencil`).
+    unsafe {
+        if C == 1 {
+            // (a, b) and (c, d) as pairs of neighbouring floats, read at
+            // `idx` from `p` and `p + nx`: they end at `idx + nx + 1 < nx
+            // ny`.
+            let ((a, b), (c, d)) = (V::gather_pairs(p, idx), V::gather_pairs(p.add(nx), idx));
+            acc[0] = blend::<V>(acc[0], w, (fu, fv), [a, b, c, d]);
+            return;
+        }
+        let idx = V::mul_i(idx, V::splat_i(C as i32));
+        for (k, a) in acc.iter_mut().enumerate() {
+            // the largest index read is `idx + row + C + k <= nx ny C - 1`
+            let corners = [
+                V::gather(p.add(k), idx),
+                V::gather(p.add(C + k), idx),
+                V::gather(p.add(row + k), idx),
+                V::gather(p.add(row + C + k), idx),
+            ];
+            *a = blend::<V>(*a, w, (fu, fv), corners);
+        }
+    }
+}
+
+/// `acc + w * bilinear(corners)`, in the scalar lookup's order of
+/// operations.
+#[inline(always)]
+unsafe fn blend<V: Lanes>(
+    acc: V::F,
+    w: V::F,
+    (fu, fv): (V::F, V::F),
+    [a, b, c, d]: [V::F; 4],
+) -> V::F {
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        let r0 = V::add(a, V::mul(fu, V::sub(b, a)));
+        let r1 = V::add(c, V::mul(fu, V::sub(d, c)));
+        let value = V::add(r0, V::mul(fv, V::sub(r1, r0)));
+        V::add(acc, V::mul(w, value))
+    }
+}
+
+/// The cubic B-spline weights of the samples at `-1, 0, 1, 2` for
+/// fractions `t` in `[0, 1)`, as `bspline_weights` computes them.
+#[inline(always)]
+unsafe fn bspline<V: Lanes>(t: V::F) -> [V::F; 4] {
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        let sixth = V::splat(1.0 / 6.0);
+        let t2 = V::mul(t, t);
+        let t3 = V::mul(t2, t);
+        let s = V::sub(V::splat(1.0), t);
+        [
+            V::mul(V::mul(V::mul(s, s), s), sixth),
+            V::mul(
+                V::add(
+                    V::sub(V::mul(V::splat(3.0), t3), V::mul(V::splat(6.0), t2)),
+                    V::splat(4.0),
+                ),
+                sixth,
+            ),
+            V::mul(
+                V::add(
+                    V::add(
+                        V::add(V::mul(V::splat(-3.0), t3), V::mul(V::splat(3.0), t2)),
+                        V::mul(V::splat(3.0), t),
+                    ),
+                    V::splat(1.0),
+                ),
+                sixth,
+            ),
+            V::mul(t3, sixth),
+        ]
+    }
+}
+
+/// `w[0] r[0] + w[1] r[1] + w[2] r[2] + w[3] r[3]`, summed left to right.
+#[inline(always)]
+unsafe fn dot4<V: Lanes>(w: &[V::F; 4], r: [V::F; 4]) -> V::F {
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        V::add(
+            V::add(
+                V::add(V::mul(w[0], r[0]), V::mul(w[1], r[1])),
+                V::mul(w[2], r[2]),
+            ),
+            V::mul(w[3], r[3]),
+        )
+    }
+}
+
+/// The cubic B-spline lookups of `level` (see [`lookup`]): 4x4
+/// coefficients around each lane's position, in the scalar lookup's order
+/// of operations.
+#[inline(always)]
+unsafe fn cubic<V: Lanes, const C: usize>(
+    level: &Level,
+    (px, py): (V::F, V::F),
+    w: V::F,
+    acc: &mut [V::F; C],
+) -> bool {
+    let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise);
+    // the reads are inside the level (the clamp below).
+    unsafe {
+        let Some((fu, fv, iu, iv)) = stencil_inside::<V>(level, (px, py), 1, 2) else {
+            return false;
+        };
+        let (wx, wy) = (bspline::<V>(fu), bspline::<V>(fv));
+        // Sample (iu - 1, iv - 1) of each lane. Memory safety: every read
+        // below is at most `3 nx + 3` samples (times C, plus C - 1) past
+        // `base <= nx ny - 3 nx - 4`, inside the level's `nx ny C` samples.
+        let one = V::splat_i(1);
+        let base = V::add_i(
+            V::mul_i(V::sub_i(iv, one), V::splat_i(nx)),
+            V::sub_i(iu, one),
+        );
+        let base = V::min_i(
+            V::max_i(base, V::splat_i(0)),
+            V::splat_i(nx * ny - 3 * nx - 4),
+        );
+        let p = level.data.as_ptr();
+        let row = nx as usize * C;
+        if C == 1 {
+            let mut sum = V::zero();
+            for (j, wyj) in wy.iter().enumerate() {
+                let q = p.add(j * row);
+                let (r0, r1) = V::gather_pairs(q, base);
+                let (r2, r3) = V::gather_pairs(q.add(2), base);
+                sum = V::add(sum, V::mul(*wyj, dot4::<V>(&wx, [r0, r1, r2, r3])));
+            }
+            acc[0] = V::add(acc[0], V::mul(w, sum));
+            return true;
+        }
+        let base = V::mul_i(base, V::splat_i(C as i32));
+        for (j, wyj) in wy.iter().enumerate() {
+            let wj = V::mul(w, *wyj);
+            for (k, a) in acc.iter_mut().enumerate() {
+                let q = p.add(j * row + k);
+                let r = [
+                    V::gather(q, base),
+                    V::gather(q.add(C), base),
+                    V::gather(q.add(2 * C), base),
+                    V::gather(q.add(3 * C), base),
+                ];
+                *a = V::add(*a, V::mul(wj, dot4::<V>(&wx, r)));
+            }
+        }
+        true
+    }
+}
+
+/// The block's positions for displacement `(cx, cy)`: `x + cs cx + ss cy`,
+/// `y - ss cx + cs cy`, in the scalar loop's order.
+#[inline(always)]
+unsafe fn positions<V: Lanes>(
+    (xf, yf): (V::F, V::F),
+    (c, s): (V::F, V::F),
+    cx: f32,
+    cy: f32,
+) -> (V::F, V::F) {
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        let (cx, cy) = (V::splat(cx), V::splat(cy));
+        let px = V::add(V::add(xf, V::mul(c, cx)), V::mul(s, cy));
+        let py = V::add(V::sub(yf, V::mul(s, cx)), V::mul(c, cy));
+        (px, py)
+    }
+}
+
+/// The accumulators' lanes, channel-major.
+#[inline(always)]
+unsafe fn spill<V: Lanes, const C: usize>(acc: &[V::F; C]) -> [V::Floats; C] {
+    let mut sums = [V::Floats::default(); C];
+    for (v, s) in acc.iter().zip(&mut sums) {
+        // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+        unsafe { V::store(*v, s.as_mut()) };
+    }
+    sums
+}
+
+/// The inverse of [`spill`].
+#[inline(always)]
+unsafe fn fill<V: Lanes, const C: usize>(sums: &[V::Floats; C]) -> [V::F; C] {
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        let mut acc = [V::zero(); C];
+        for (v, s) in acc.iter_mut().zip(sums) {
+            *v = V::load(s.as_ref());
+        }
+        acc
+    }
+}
+
+/// Adds the block's sums into `out` (pixels `x0..x0 + N`, interleaved).
+#[inline(always)]
+unsafe fn add_out<V: Lanes, const C: usize>(acc: &[V::F; C], out: &mut [f32], x0: usize) {
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        if C == 1 {
+            let dst = &mut out[x0..x0 + V::N];
+            V::store(V::add(V::load(dst), acc[0]), dst);
+            return;
+        }
+        let sums = spill::<V, C>(acc);
+        let dst = &mut out[x0 * C..(x0 + V::N) * C];
+        for (lane, px) in dst.chunks_exact_mut(C).enumerate() {
+            for (o, s) in px.iter_mut().zip(&sums) {
+                *o += s.as_ref()[lane];
+            }
+        }
+    }
+}
+
+/// One lookup of level `li` per lane through the scalar, border-resolving
+/// path, each with its weight in `w` (lanes of weight 0 skipped), in lane
+/// order.
+#[inline(always)]
+unsafe fn scalar_lanes<V: Lanes, const C: usize>(
+    stack: &ScaleStack,
+    li: usize,
+    (px, py): (V::F, V::F),
+    w: V::F,
+    acc: &[V::F; C],
+) -> [V::F; C] {
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        let (mut pxs, mut pys, mut ws) = (
+            V::Floats::default(),
+            V::Floats::default(),
+            V::Floats::default(),
+        );
+        V::store(px, pxs.as_mut());
+        V::store(py, pys.as_mut());
+        V::store(w, ws.as_mut());
+        let mut sums = spill::<V, C>(acc);
+        lanes_level::<C, _>(
+            stack,
+            li,
+            (pxs.as_ref(), pys.as_ref(), ws.as_ref()),
+            &mut sums,
+        );
+        fill::<V, C>(&sums)
+    }
+}
+
+/// [`scalar_lanes`]' loop (plain scalar code, out of line: the rare path
+/// of blocks at the borders).
+#[inline(never)]
+fn lanes_level<const C: usize, A: AsRef<[f32]> + AsMut<[f32]>>(
+    stack: &ScaleStack,
+    li: usize,
+    (px, py, w): (&[f32], &[f32], &[f32]),
+    sums: &mut [A; C],
+) {
+    for lane in 0..px.len() {
+        if w[lane] != 0.0 {
+            let mut s: [f32; C] = std::array::from_fn(|k| sums[k].as_ref()[lane]);
+            stack.accumulate_fixed::<C>(li, px[lane], py[lane], w[lane], &mut s);
+            for (sum, v) in sums.iter_mut().zip(s) {
+                sum.as_mut()[lane] = v;
+            }
+        }
+    }
+}
+
+/// A block of term `t` whose lanes spread over more levels than [`SPAN`]:
+/// each lane's one or two lookups in the scalar loop's order.
+#[inline(never)]
+fn lanes_levels<const C: usize, A: AsRef<[f32]> + AsMut<[f32]>>(
+    stack: &ScaleStack,
+    (levels, t, x0): (&RowLevels, &ScaledTerm, usize),
+    (px, py): (&[f32], &[f32]),
+    sums: &mut [A; C],
+) {
+    for lane in 0..px.len() {
+        let (a, b, wa, wb) = levels.at(t.group, x0 + lane);
+        let mut s: [f32; C] = std::array::from_fn(|k| sums[k].as_ref()[lane]);
+        stack.accumulate_fixed::<C>(a, px[lane], py[lane], t.weight * wa, &mut s);
+        if wb != 0.0 {
+            stack.accumulate_fixed::<C>(b, px[lane], py[lane], t.weight * wb, &mut s);
+        }
+        for (sum, v) in sums.iter_mut().zip(s) {
+            sum.as_mut()[lane] = v;
+        }
+    }
+}
+
+/// `coef[0] + x (coef[1] + x (coef[2] + ...))`, Horner's rule from the last
+/// coefficient, as the scalar rules evaluate their series.
+#[inline(always)]
+unsafe fn horner<V: Lanes>(x: V::F, coef: &[f32]) -> V::F {
+    let (last, rest) = coef.split_last().expect("coefficients");
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        let mut acc = V::splat(*last);
+        for &c in rest.iter().rev() {
+            acc = V::add(V::splat(c), V::mul(x, acc));
+        }
+        acc
+    }
+}
+
+/// `cs[x] = s cos theta[x]`, `ss[x] = s sin theta[x]` for the row's blocks
+/// from `from`: [`crate::trig::sin_cos_degrees`] operation by operation,
+/// times the row's scale.
+///
+/// # Safety
+/// Compiled for `V`'s instruction set (see [`Lanes`]).
+#[inline(always)]
+pub(super) unsafe fn rotations<V: Lanes>(
+    theta: &[f32],
+    scale: Field<'_>,
+    cs: &mut [f32],
+    ss: &mut [f32],
+    from: usize,
+) -> usize {
+    use crate::trig::{COS, INV_RIGHT_ANGLE, RADIANS_PER_DEGREE, SIN};
+    let end = block_end::<V>(from, theta.len().min(cs.len()).min(ss.len()));
+    // SAFETY: as the caller promises.
+    unsafe {
+        let k = |x: f32| V::splat(x);
+        let (one, two) = (V::splat_i(1), V::splat_i(2));
+        let (inv_right, right, radians) = (k(INV_RIGHT_ANGLE), k(90.0), k(RADIANS_PER_DEGREE));
+        let unit = k(1.0);
+        for x0 in (from..end).step_by(V::N) {
+            let t = V::load(&theta[x0..]);
+            // trig::sin_cos_degrees, operation by operation
+            let q = V::round(V::mul(t, inv_right));
+            let x = V::mul(V::sub(t, V::mul(q, right)), radians);
+            let x2 = V::mul(x, x);
+            let sp = V::add(x, V::mul(V::mul(x, x2), horner::<V>(x2, &SIN)));
+            let cp = V::add(unit, V::mul(x2, horner::<V>(x2, &COS)));
+            let qi = V::to_int(q);
+            let swap = V::eq_i(V::and_i(qi, one), one);
+            let (s, c) = (V::select(swap, cp, sp), V::select(swap, sp, cp));
+            // bit 1 of q (of q + 1) moved to the sign bit negates the sine
+            // (cosine)
+            let s_sign = V::shl30(V::and_i(qi, two));
+            let c_sign = V::shl30(V::and_i(V::add_i(qi, one), two));
+            let s = V::from_bits(V::xor_i(V::to_bits(s), s_sign));
+            let c = V::from_bits(V::xor_i(V::to_bits(c), c_sign));
+            let sc = match scale {
+                Field::Constant(v) => V::splat(v),
+                Field::Map(m) => V::load(&m[x0..]),
+            };
+            V::store(V::mul(c, sc), &mut cs[x0..]);
+            V::store(V::mul(s, sc), &mut ss[x0..]);
+        }
+    }
+    end
+}
+
+/// Each pixel's `(t_s, widen)` of the row's `scales` by `rule` for the
+/// blocks from `from`: [`ScalePosition::at`] operation by operation
+/// ([`crate::ln::ln`]'s split of the bits and its series, then the
+/// widening's division and select).
+///
+/// # Safety
+/// Compiled for `V`'s instruction set (see [`Lanes`]).
+#[inline(always)]
+pub(super) unsafe fn scale_positions<V: Lanes>(
+    rule: ScalePosition,
+    scales: &[f32],
+    t_s: &mut [f32],
+    widen: &mut [f32],
+    from: usize,
+) -> usize {
+    use crate::ln::{ATANH, LN2_HI, LN2_LO, SQRT_HALF_BITS};
+    let end = block_end::<V>(from, scales.len().min(t_s.len()).min(widen.len()));
+    // SAFETY: as the caller promises.
+    unsafe {
+        let k = |x: f32| V::splat(x);
+        let sqrt_half = V::splat_i(SQRT_HALF_BITS as i32);
+        let mantissa = V::splat_i(0x007f_ffff);
+        let (one, tiny, ln2_hi, ln2_lo) = (k(1.0), k(f32::MIN_POSITIVE), k(LN2_HI), k(LN2_LO));
+        let (ln0, inv, var, shift, below) = (
+            k(rule.ln0),
+            k(rule.inv),
+            k(rule.var),
+            k(rule.shift),
+            k(rule.below),
+        );
+        for x0 in (from..end).step_by(V::N) {
+            let s = V::load(&scales[x0..]);
+            // ln::ln
+            let ix = V::sub_i(V::to_bits(V::max(s, tiny)), sqrt_half);
+            let e = V::to_float(V::sra23(ix));
+            let m = V::from_bits(V::add_i(V::and_i(ix, mantissa), sqrt_half));
+            let f = V::div(V::sub(m, one), V::add(m, one));
+            let z = V::mul(f, f);
+            let r = V::add(f, f);
+            let p = V::add(r, V::mul(V::mul(r, z), horner::<V>(z, &ATANH)));
+            let ln = V::add(V::mul(e, ln2_hi), V::add(p, V::mul(e, ln2_lo)));
+            // ScalePosition::at
+            let ts = V::mul(V::sub(ln, ln0), inv);
+            let wd = V::add(V::div(var, V::mul(s, s)), shift);
+            let wd = V::zero_unless(V::lt(s, below), wd);
+            V::store(ts, &mut t_s[x0..]);
+            V::store(wd, &mut widen[x0..]);
+        }
+    }
+    end
+}
+
+/// Group `g`'s levels over the row's blocks from `from` by `rule`: the
+/// series pass, [`LevelRule::series`]'s operations in its order, then
+/// [`LevelRule::at`] for the lanes whose widening needs the logarithm.
+///
+/// # Safety
+/// Compiled for `V`'s instruction set (see [`Lanes`]).
+#[inline(always)]
+pub(super) unsafe fn fill_levels<V: Lanes>(
+    rule: LevelRule,
+    t_s: &[f32],
+    widen: &[f32],
+    levels: &mut RowLevels,
+    g: usize,
+    from: usize,
+) -> usize {
+    let w = levels.w;
+    let base = g * w;
+    let end = block_end::<V>(from, w.min(t_s.len()).min(widen.len()));
+    // SAFETY: as the caller promises.
+    unsafe {
+        let k = |x: f32| V::splat(x);
+        let (floor, needs_log) = (k(WIDENING_FLOOR), k(LOG_FROM));
+        let (one, half, third, quarter) = (k(1.0), k(0.5), k(1.0 / 3.0), k(0.25));
+        let (inv_sigma2, ln_sigma, inv) = (k(rule.inv_sigma2), k(rule.ln_sigma), k(rule.inv));
+        let last = k(rule.last as f32);
+        let below_last = V::splat_i((rule.last - 1) as i32);
+        let (snap_lo, snap_hi) = (k(rule.snap), k(1.0 - rule.snap));
+        let zero = V::zero();
+        for x0 in (from..end).step_by(V::N) {
+            let (ts, wd) = (V::load(&t_s[x0..]), V::load(&widen[x0..]));
+            // kernel::ln_widening_series
+            let x = V::max(V::mul(wd, inv_sigma2), floor);
+            // kernel::widening_needs_log: |x| >= LOG_FROM
+            let log_lanes = V::bits(V::ge(V::abs(x), needs_log));
+            let x2 = V::mul(x, x);
+            let odd = V::mul(x, V::add(one, V::mul(x2, third)));
+            let even = V::mul(x2, V::add(half, V::mul(x2, quarter)));
+            let lw = V::mul(half, V::sub(odd, even));
+            // LevelRule::bracket: the position, clamped (finite positions:
+            // max/min are `clamp`), its level below, snapped
+            let u = V::add(ts, V::mul(V::add(ln_sigma, lw), inv));
+            let u = V::min(V::max(u, zero), last);
+            let i = V::min_i(V::trunc_int(u), below_last);
+            let f = V::sub(u, V::to_float(i));
+            let hi = V::gt(f, snap_hi);
+            let snapped = V::or_m(V::lt(f, snap_lo), hi);
+            let a = V::inc_where(i, hi);
+            let wa = V::select(snapped, one, V::sub(one, f));
+            let wb = V::select(snapped, zero, f);
+            let at = base + x0;
+            V::store_u32(a, &mut levels.a[at..]);
+            V::store(wa, &mut levels.wa[at..]);
+            V::store(wb, &mut levels.wb[at..]);
+            if log_lanes != 0 {
+                for x in (x0..x0 + V::N).filter(|x| log_lanes & (1 << (x - x0)) != 0) {
+                    levels.set(base + x, rule.at(t_s[x], widen[x]));
+                }
+            }
+        }
+    }
+    end
+}
