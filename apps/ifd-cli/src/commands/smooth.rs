@@ -41,12 +41,8 @@ pub struct Smooth {
     /// Gaussian whose noise reduction the anisotropic ones match (sx * sy =
     /// sigma^2), 0.5 to 128. Below 2 the pixel-integrated Gaussians are
     /// applied directly (a few taps per pixel, CPU only).
-    #[arg(long, value_name = "PX", required_unless_present = "renamed_scale")]
-    sigma: Option<f64>,
-    /// The old name of --sigma, refused with a note (`--scale` is a scale
-    /// factor everywhere else).
-    #[arg(long = "scale", value_name = "PX", hide = true)]
-    renamed_scale: Option<f64>,
+    #[arg(long, value_name = "PX")]
+    sigma: f64,
     /// Largest aspect ratio K of the Gaussian (1 to 16).
     #[arg(long, default_value_t = 8.0)]
     max_aspect: f64,
@@ -105,15 +101,7 @@ impl Smooth {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
         let border = self.border;
-        let Some(sigma) = self.sigma else {
-            anyhow::bail!(
-                "--scale is now --sigma (the footprint's standard deviation in pixels): `ifd smooth IMAGE --sigma {} -o OUT`",
-                self.renamed_scale.unwrap_or(f64::NAN)
-            );
-        };
-        if self.renamed_scale.is_some() {
-            anyhow::bail!("--scale is now --sigma; give --sigma alone");
-        }
+        let sigma = self.sigma;
         if !(0.0..=1.0).contains(&self.strength) {
             anyhow::bail!("--strength {} is outside [0, 1]", self.strength);
         }

@@ -20,9 +20,6 @@ pub(super) struct DfgCmd {
     /// Table side N (the table is N x N), 2 to 1024.
     #[arg(long, value_name = "N", default_value_t = 128)]
     table_size: usize,
-    /// Renamed: --table-size N (--size is always WxH).
-    #[arg(long, hide = true)]
-    size: Option<String>,
     /// Output image (.exr, .png, .npy, ...).
     #[arg(short, long)]
     output: PathBuf,
@@ -50,9 +47,6 @@ fn dfg_table_with_progress(size: usize) -> Vec<[f32; 2]> {
 
 impl DfgCmd {
     pub(super) fn run(self) -> Result<()> {
-        if self.size.is_some() {
-            bail!("--size is always WxH; the DFG table's side is --table-size N");
-        }
         let size = self.table_size;
         if !(2..=MAX_TABLE_SIZE).contains(&size) {
             bail!(

@@ -44,9 +44,6 @@ pub struct RadialCmd {
     /// frame; the map's axis cells place it).
     #[arg(long, value_name = "PROFILE", conflicts_with = "env")]
     light_profile: Option<String>,
-    /// Renamed: --light-profile (--light is a spherical light X,Y,Z,R,L in `ifd render`).
-    #[arg(long, hide = true)]
-    light: Option<String>,
     /// Or: an environment map (2:1 equirectangular) whose radial part about --axis is the light.
     #[arg(long, value_name = "FILE")]
     env: Option<PathBuf>,
@@ -77,9 +74,6 @@ pub struct RadialCmd {
     /// Map cells: T_OxT_ZxP_Z, or T_OxP_OxT_ZxP_Z for anisotropic BRDFs.
     #[arg(long, value_name = "AxBxC[xD]", default_value = "16x32x32")]
     cells: String,
-    /// Renamed: --cells (--size is always WxH).
-    #[arg(long, hide = true)]
-    size: Option<String>,
     /// Output map (float64 .npy, shape (T_o, P_o, T_z, P_z, C)).
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
@@ -100,15 +94,6 @@ pub struct RadialCmd {
 impl RadialCmd {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
-        // renamed options first: they name the new spelling whatever else is wrong
-        if self.light.is_some() {
-            bail!(
-                "--light is a spherical light X,Y,Z,R,L in `ifd render`; a radial profile is --light-profile"
-            );
-        }
-        if self.size.is_some() {
-            bail!("--size is always WxH; the map's cells are --cells AxBxC[xD]");
-        }
         let brdf = Brdf::parse(&self.brdf)?;
         if self.lmax > ifd_shade::MAX_TABLE_DEGREE {
             bail!(
