@@ -17,6 +17,7 @@ mod commands;
 mod input;
 mod options;
 mod output;
+mod progress;
 /// Unit tests that cannot run on this machine record themselves as skipped.
 #[cfg(test)]
 #[path = "../../../tests/support/skip.rs"]

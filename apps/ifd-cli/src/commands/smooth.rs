@@ -9,7 +9,6 @@ use clap::{Args, ValueEnum};
 use ifd_planar::Border;
 use ifd_smooth::{AnisoParams, AspectBank, HessianBank, Mode, SmoothOptions, Smoother};
 use ifd_smooth::{SmoothTiles, smooth_tiled};
-use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::input::InputOptions;
 use crate::output::{ImageOutput, write_output};
@@ -155,12 +154,7 @@ impl Smooth {
             (Some(self.read_whole()?), None)
         };
         let t0 = Instant::now();
-        let bar = ProgressBar::new(0);
-        bar.set_style(
-            ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} [{elapsed}]")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        bar.set_message("decomposing filters");
+        let bar = crate::progress::bar("decomposing filters", "", 0);
         let hbank = HessianBank::new(opts.hessian_tol)?;
         let cache = if self.no_cache {
             None
@@ -168,10 +162,7 @@ impl Smooth {
             AspectBank::default_cache()
         };
         let (bank, source) =
-            AspectBank::load_or_build(opts.bank, cache.as_deref(), |done, total| {
-                bar.set_length(total as u64);
-                bar.set_position(done as u64);
-            })?;
+            AspectBank::load_or_build(opts.bank, cache.as_deref(), crate::progress::track(&bar))?;
         bar.finish_and_clear();
         if self.verbose {
             eprintln!("aspect bank: {source}");
@@ -331,13 +322,7 @@ impl Smooth {
             .as_deref()
             .map(|p| ifd_image::NpyWriter::create(p, w, h, 3))
             .transpose()?;
-        let bar = ProgressBar::new(count as u64);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "smoothing tiles {bar:30} {pos}/{len} [{elapsed} < {eta}]",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
+        let bar = crate::progress::bar("smoothing tiles", "", count as u64);
         smooth_tiled(
             &tiles,
             opts,

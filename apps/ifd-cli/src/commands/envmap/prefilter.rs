@@ -97,7 +97,6 @@ impl PrefilterCmd {
         reason = "one linear bake: read, plan, filter, write"
     )]
     pub(super) fn run(self) -> Result<()> {
-        use indicatif::{ProgressBar, ProgressStyle};
         let mapping = RoughnessMapping::parse(&self.roughness)?;
         let n = self.face_size;
         let single = self.lobe.starts_with("phong:");
@@ -173,11 +172,7 @@ impl PrefilterCmd {
                 baker.input_negatives()
             );
         }
-        let bar = ProgressBar::new(all.len() as u64);
-        bar.set_style(
-            ProgressStyle::with_template("prefiltering {bar:30} {pos}/{len} levels [{elapsed}]")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
+        let bar = crate::progress::bar("prefiltering", "levels", all.len() as u64);
         let mut chain = Vec::with_capacity(levels);
         let mut report = Vec::with_capacity(levels);
         for (m, (r, lobe)) in lobes.iter().enumerate() {

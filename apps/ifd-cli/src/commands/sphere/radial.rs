@@ -11,7 +11,6 @@ use ifd_shade::Material;
 use ifd_shade::ZonalLighting;
 use ifd_shade::{LobeTable, default_theta_entries};
 use ifd_shade::{MapSize, RadialMap, RadialProfile};
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use crate::options::ReportOptions;
@@ -161,15 +160,8 @@ impl RadialCmd {
             None => None,
         };
         let material = Material::new(&brdf, self.lmax, table)?;
-        let bar = ProgressBar::new(0);
-        bar.set_style(
-            ProgressStyle::with_template("map {bar:30} {pos}/{len} views [{elapsed}<{eta}]")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        let map = RadialMap::build(&material, &light, size, &|d, t| {
-            bar.set_length(t as u64);
-            bar.set_position(d as u64);
-        })?;
+        let bar = crate::progress::bar("map", "views", 0);
+        let map = RadialMap::build(&material, &light, size, &crate::progress::track(&bar))?;
         bar.finish_and_clear();
         check_finite(&map, &light, self.env.as_deref(), &self.radiance)?;
         let build_seconds = start.elapsed().as_secs_f64();
