@@ -94,9 +94,6 @@ def test_bad_input_exits_2_with_a_message(tmp_path):
     p = run_window(tmp_path, "--reset", "--brdf", "ggx:alpha=0.3", "--compare", "split-sum",
                    "--exit", check=False)
     assert p.returncode == 2 and "glTF BRDF" in p.stderr, p.stderr
-    # the old spelling of --device is refused with the new one, not reinterpreted
-    p = run_window(tmp_path, "--reset", "--gpu", "on", "--exit", check=False)
-    assert p.returncode == 2 and "--device auto|gpu|cpu" in p.stderr, p.stderr
 
 
 def test_monte_carlo_reference_and_error_against_l(tmp_path):

@@ -393,8 +393,6 @@ def test_dfg_table_matches_brute_force(run_ifd, tmp_path):
     (["--face-size", 16, "--mips", 9], "--mips"),
     (["--lobe", "cooktorrance"], "unknown lobe"),
     (["--lobe", "phong:s=-3"], "phong:s=S"),
-    (["--brdf", "ggx"], "--lobe"),
-    (["-o", "x"], "names one file"),
     (["--format", "dds"], "--format"),
     (["--roughness", "quadratic"], "--roughness"),
     (["--eps", "2"], "--eps"),
@@ -471,8 +469,6 @@ def test_shrm_table4_runs_and_checks_its_input(run_ifd, tmp_path):
     assert all(float(r["rel_diff"]) < 0.06 for r in t)
     # the angular support shrinks as the lobe sharpens
     assert float(t[1]["support_texels"]) < float(t[0]["support_texels"])
-    q = run_ifd("envmap", "shrm", TESTDATA / "forest.hdr", "--table", 4, check=False)
-    assert q.returncode == 2 and "ifd paper shrm-table" in q.stderr, q.stderr
     for args, needle in [(["--exponents", "0.5"], "--exponents"),
                          (["--size", "64x32", "--exponents", "2000"], "rows"),
                          (["--eps-angular", "1"], "--eps-angular")]:

@@ -46,9 +46,6 @@ struct Args {
     /// (any adapter, software included), cpu.
     #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
     device: DeviceArg,
-    /// Renamed: --device auto|gpu|cpu (`--gpu` is a switch in `ifd`).
-    #[arg(long, hide = true)]
-    gpu: Option<String>,
     /// Memory budget for images, MiB (default: 75% of physical memory).
     #[arg(long, value_name = "MIB")]
     memory_budget: Option<u64>,
@@ -62,9 +59,6 @@ struct Args {
     /// when this is given).
     #[arg(long, value_name = "DIR", conflicts_with = "no_journal")]
     journal_dir: Option<PathBuf>,
-    /// Renamed: --journal-dir (a folder is always a --*-dir flag).
-    #[arg(long, hide = true)]
-    journal: Option<PathBuf>,
     /// Do not journal edits.
     #[arg(long)]
     no_journal: bool,
@@ -255,23 +249,8 @@ fn window(args: &Args, budget: MemoryBudget) -> anyhow::Result<()> {
     }
 }
 
-/// Old spellings are refused with the new one, never reinterpreted.
-fn renamed(args: &Args) -> Option<&'static str> {
-    if args.gpu.is_some() {
-        Some("--gpu auto|on|off is now --device auto|gpu|cpu (`--gpu` is a switch in `ifd`)")
-    } else if args.journal.is_some() {
-        Some("--journal DIR is now --journal-dir DIR")
-    } else {
-        None
-    }
-}
-
 fn main() -> ExitCode {
     let args = Args::parse();
-    if let Some(old) = renamed(&args) {
-        eprintln!("error: {old}");
-        return ExitCode::from(2);
-    }
     let budget = args
         .memory_budget
         .map_or_else(MemoryBudget::default_for_machine, |m| {

@@ -541,22 +541,3 @@ fn killed_replay_is_recovered_from_the_journal() {
         .collect();
     assert!(left.is_empty(), "{left:?}");
 }
-
-/// Old spellings of renamed flags are refused with the new one before any
-/// work (no window, no replay), never reinterpreted.
-#[test]
-fn renamed_flags_name_their_new_spelling() {
-    for (args, needle) in [
-        (["--gpu", "off"], "--device auto|gpu|cpu"),
-        (["--journal", "/nonexistent"], "--journal-dir"),
-    ] {
-        let out = Command::new(env!("CARGO_BIN_EXE_ifd-brush"))
-            .args(args)
-            .arg("--exit")
-            .output()
-            .expect("run ifd-brush");
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
-        assert!(err.contains(needle), "{args:?}: {err}");
-    }
-}

@@ -17,6 +17,7 @@ mod commands;
 mod input;
 mod options;
 mod output;
+mod progress;
 /// Unit tests that cannot run on this machine record themselves as skipped.
 #[cfg(test)]
 #[path = "../../../tests/support/skip.rs"]
@@ -62,12 +63,6 @@ enum Command {
     Envmap(commands::envmap::Envmap),
     /// Reproduce the papers' tables and figures (`ifd paper list`).
     Paper(commands::paper::Paper),
-    /// Moved: `ifd paper isd-mirror`.
-    #[command(hide = true, disable_help_flag = true)]
-    Mirror(commands::paper::Moved),
-    /// Moved: `ifd paper isd-visibility`.
-    #[command(hide = true, disable_help_flag = true)]
-    Visibility(commands::paper::Moved),
 }
 
 /// `--scale -1` must reach the command's own check (which names the option
@@ -76,20 +71,6 @@ enum Command {
 fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
     cmd.allow_negative_numbers(true)
         .mut_subcommands(allow_negative_numbers)
-}
-
-/// Old spellings that clap cannot refuse by name (the flags they came with
-/// are gone too): refused with the new spelling before parsing.
-fn moved_spelling(args: &[String]) -> Option<&'static str> {
-    let command = args.get(1).map(String::as_str);
-    if command == Some("render") && args.iter().any(|a| a.starts_with("--convergence")) {
-        return Some(
-            "`ifd render --convergence` has moved: the convergence study is `ifd paper \
-             isd-convergence` (the same --brdf, scene, camera and environment flags; the degrees \
-             are --degrees A..B[:S])",
-        );
-    }
-    None
 }
 
 /// A reader that closes the pipe early (`ifd info x.exr | head -3`) makes
@@ -123,13 +104,6 @@ fn quiet_on_closed_stdout() {
 
 fn main() -> ExitCode {
     quiet_on_closed_stdout();
-    let args: Vec<String> = std::env::args_os()
-        .map(|a| a.to_string_lossy().into_owned())
-        .collect();
-    if let Some(message) = moved_spelling(&args) {
-        eprintln!("error: {message}");
-        return ExitCode::from(2);
-    }
     let matches = allow_negative_numbers(Cli::command()).get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     // Ctrl-C or SIGTERM mid-write: outputs are written to hidden temporary
@@ -158,16 +132,6 @@ fn main() -> ExitCode {
         Command::Sphere(c) => c.run(),
         Command::Render(c) => c.run(),
         Command::Paper(c) => c.run(),
-        Command::Mirror(_) => crate::commands::paper::Moved::refuse(
-            "ifd mirror",
-            "ifd paper isd-mirror",
-            "--reference is now --reference-grid",
-        ),
-        Command::Visibility(_) => crate::commands::paper::Moved::refuse(
-            "ifd visibility",
-            "ifd paper isd-visibility",
-            "--dirs is now --rays",
-        ),
         Command::Envmap(c) => c.run(),
         Command::Convert(c) => c.run(),
         Command::Info(c) => c.run(),

@@ -946,8 +946,7 @@ mod sphere {
 }
 
 /// One grammar: reports are a human summary by default and JSON with
-/// `--json`; enum-like values are refused with the list; old spellings are
-/// refused with the new one, never reinterpreted.
+/// `--json`; enum-like values are refused with the list.
 mod grammar {
     use super::*;
 
@@ -982,76 +981,6 @@ mod grammar {
         let (code, _, err) = ifd(&["envmap", "prefilter", "x.hdr", "--format", "dds"]);
         assert_eq!(code, 2);
         assert!(err.contains("ktx2") && err.contains("exr"), "{err}");
-    }
-
-    #[test]
-    fn old_spellings_name_the_new_ones() {
-        let dir = tempfile::tempdir().unwrap();
-        let o = dir.path().join("o");
-        let o = o.to_str().unwrap();
-        let forest = testdata("forest.hdr");
-        for (args, needle) in [
-            (vec!["mirror", "--env", &forest], "ifd paper isd-mirror"),
-            (
-                vec!["visibility", "--env", &forest],
-                "ifd paper isd-visibility",
-            ),
-            (
-                vec!["sphere", "condition", "--lmax", "4"],
-                "ifd paper isd-condition",
-            ),
-            (vec!["sphere", "sparsity"], "ifd paper zhf-sparsity"),
-            (
-                vec!["envmap", "shrm", &forest, "--table", "5"],
-                "ifd paper shrm-table",
-            ),
-            (
-                vec!["envmap", "prefilter", &forest, "-o", o],
-                "names one file",
-            ),
-            (
-                vec![
-                    "envmap",
-                    "prefilter",
-                    &forest,
-                    "--out-dir",
-                    o,
-                    "--brdf",
-                    "ggx",
-                ],
-                "--lobe",
-            ),
-            (
-                vec!["envmap", "dfg", "--size", "8", "-o", o],
-                "--table-size",
-            ),
-            (
-                vec![
-                    "render",
-                    "--env",
-                    &forest,
-                    "--brdf",
-                    "lambert",
-                    "--convergence",
-                    "2..4",
-                    "-o",
-                    o,
-                ],
-                "ifd paper isd-convergence",
-            ),
-            (
-                vec![
-                    "sphere", "radial", "--brdf", "lambert", "--lmax", "2", "--light", "overcast",
-                    "-o", o,
-                ],
-                "a radial profile is --light-profile",
-            ),
-        ] {
-            let (code, _, err) = ifd(&args);
-            assert_eq!(code, 2, "{args:?}: {err}");
-            assert!(err.contains(needle), "{args:?}: {err}");
-            assert!(!Path::new(o).exists(), "{args:?} wrote {o}");
-        }
     }
 
     #[test]

@@ -192,7 +192,6 @@ fn smooth_writes_a_smoothed_image_and_refuses_bad_options() {
     for (extra, needle) in [
         (vec!["--sigma", "0.4"], "--sigma 0.4"),
         (vec!["--sigma", "1000"], "--sigma 1000"),
-        (vec!["--scale", "3"], "--scale is now --sigma"),
         (vec!["--sigma", "3", "--strength", "2"], "strength"),
         (vec!["--sigma", "3", "--max-aspect", "100"], "aspect"),
         (vec!["--sigma", "3", "--mode", "sideways"], "mode"),

@@ -75,9 +75,6 @@ struct Args {
     /// (any adapter, software included), cpu.
     #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
     device: DeviceArg,
-    /// Renamed: --device auto|gpu|cpu (`--gpu` is a switch in `ifd`).
-    #[arg(long, hide = true)]
-    gpu: Option<String>,
     /// Save a screenshot of the window (PNG) once the frame is shown; prints
     /// the viewport's rectangle in it (JSON with --json).
     #[arg(long, value_name = "PATH.png")]
@@ -157,11 +154,6 @@ fn parse_vec(text: &str, option: &str) -> anyhow::Result<DVec3> {
 
 /// The settings: stored ones (unless --reset), then the options.
 fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
-    if args.gpu.is_some() {
-        anyhow::bail!(
-            "--gpu auto|on|off is now --device auto|gpu|cpu (`--gpu` is a switch in `ifd`)"
-        );
-    }
     let mut s = if args.reset { None } else { stored }.unwrap_or_default();
     if let Some(e) = &args.env {
         s.env = Some(e.clone());

@@ -6,7 +6,6 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use ifd_planar::decompose_spec;
 use ifd_planar::{DecomposeOptions, Decomposition, Kernel, KernelSpec, decompose};
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use crate::input::InputOptions;
@@ -129,11 +128,7 @@ impl Decompose {
             opts.dictionary.min_sigma = m;
         }
         opts.margin = self.margin;
-        let bar = ProgressBar::new_spinner();
-        bar.set_style(
-            ProgressStyle::with_template("{spinner} fitting {msg} [{elapsed}]")
-                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-        );
+        let bar = crate::progress::spinner("fitting");
         let tick = |iter: usize, objective: f64, nnz: usize| {
             if iter.is_multiple_of(10) {
                 bar.set_message(format!(

@@ -9,7 +9,6 @@ use clap::{Args, ValueEnum};
 use ifd_planar::Border;
 use ifd_smooth::{AnisoParams, AspectBank, HessianBank, Mode, SmoothOptions, Smoother};
 use ifd_smooth::{SmoothTiles, smooth_tiled};
-use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::input::InputOptions;
 use crate::output::{ImageOutput, write_output};
@@ -41,12 +40,8 @@ pub struct Smooth {
     /// Gaussian whose noise reduction the anisotropic ones match (sx * sy =
     /// sigma^2), 0.5 to 128. Below 2 the pixel-integrated Gaussians are
     /// applied directly (a few taps per pixel, CPU only).
-    #[arg(long, value_name = "PX", required_unless_present = "renamed_scale")]
-    sigma: Option<f64>,
-    /// The old name of --sigma, refused with a note (`--scale` is a scale
-    /// factor everywhere else).
-    #[arg(long = "scale", value_name = "PX", hide = true)]
-    renamed_scale: Option<f64>,
+    #[arg(long, value_name = "PX")]
+    sigma: f64,
     /// Largest aspect ratio K of the Gaussian (1 to 16).
     #[arg(long, default_value_t = 8.0)]
     max_aspect: f64,
@@ -105,15 +100,7 @@ impl Smooth {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
         let border = self.border;
-        let Some(sigma) = self.sigma else {
-            anyhow::bail!(
-                "--scale is now --sigma (the footprint's standard deviation in pixels): `ifd smooth IMAGE --sigma {} -o OUT`",
-                self.renamed_scale.unwrap_or(f64::NAN)
-            );
-        };
-        if self.renamed_scale.is_some() {
-            anyhow::bail!("--scale is now --sigma; give --sigma alone");
-        }
+        let sigma = self.sigma;
         if !(0.0..=1.0).contains(&self.strength) {
             anyhow::bail!("--strength {} is outside [0, 1]", self.strength);
         }
@@ -167,12 +154,7 @@ impl Smooth {
             (Some(self.read_whole()?), None)
         };
         let t0 = Instant::now();
-        let bar = ProgressBar::new(0);
-        bar.set_style(
-            ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} [{elapsed}]")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        bar.set_message("decomposing filters");
+        let bar = crate::progress::bar("decomposing filters", "", 0);
         let hbank = HessianBank::new(opts.hessian_tol)?;
         let cache = if self.no_cache {
             None
@@ -180,10 +162,7 @@ impl Smooth {
             AspectBank::default_cache()
         };
         let (bank, source) =
-            AspectBank::load_or_build(opts.bank, cache.as_deref(), |done, total| {
-                bar.set_length(total as u64);
-                bar.set_position(done as u64);
-            })?;
+            AspectBank::load_or_build(opts.bank, cache.as_deref(), crate::progress::track(&bar))?;
         bar.finish_and_clear();
         if self.verbose {
             eprintln!("aspect bank: {source}");
@@ -343,13 +322,7 @@ impl Smooth {
             .as_deref()
             .map(|p| ifd_image::NpyWriter::create(p, w, h, 3))
             .transpose()?;
-        let bar = ProgressBar::new(count as u64);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "smoothing tiles {bar:30} {pos}/{len} [{elapsed} < {eta}]",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
+        let bar = crate::progress::bar("smoothing tiles", "", count as u64);
         smooth_tiled(
             &tiles,
             opts,

@@ -9,7 +9,6 @@ use ifd_image::{FileFormat, NpyReader, NpyWriter};
 use ifd_planar::FilterOptions;
 use ifd_planar::{Decomposition, FieldKind};
 use ifd_planar::{TileGrid, TiledField, filter_tiled};
-use indicatif::{ProgressBar, ProgressStyle};
 
 /// The formats that stream, for messages.
 pub const STREAMING: &str = ".npy (C order; numpy.save writes it)";
@@ -181,11 +180,7 @@ pub fn run(t: &TiledRun<'_>) -> Result<()> {
         );
     }
     let mut writer = NpyWriter::create(t.output, w, h, c)?;
-    let bar = ProgressBar::new(tiles as u64);
-    bar.set_style(
-        ProgressStyle::with_template("filtering tiles {bar:30} {pos}/{len} [{elapsed} < {eta}]")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let bar = crate::progress::bar("filtering tiles", "", tiles as u64);
     let angle = match &mut amap {
         Some(m) => TiledField::Map(m),
         None => TiledField::Constant(t.angle.unwrap_or(0.0)),

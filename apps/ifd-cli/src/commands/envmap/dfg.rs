@@ -5,7 +5,6 @@ use std::time::Instant;
 
 use anyhow::{Result, bail};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use crate::options::ReportOptions;
@@ -20,9 +19,6 @@ pub(super) struct DfgCmd {
     /// Table side N (the table is N x N), 2 to 1024.
     #[arg(long, value_name = "N", default_value_t = 128)]
     table_size: usize,
-    /// Renamed: --table-size N (--size is always WxH).
-    #[arg(long, hide = true)]
-    size: Option<String>,
     /// Output image (.exr, .png, .npy, ...).
     #[arg(short, long)]
     output: PathBuf,
@@ -38,11 +34,7 @@ const MAX_TABLE_SIZE: usize = 1024;
 /// The `size x size` table of [`ifd_ibl::dfg_table`] with a progress bar
 /// by rows.
 fn dfg_table_with_progress(size: usize) -> Vec<[f32; 2]> {
-    let bar = ProgressBar::new(size as u64);
-    bar.set_style(
-        ProgressStyle::with_template("DFG table {bar:30} {pos}/{len} rows [{elapsed}<{eta}]")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let bar = crate::progress::bar("DFG table", "rows", size as u64);
     let table = ifd_ibl::dfg_table_with_progress(size, &|| bar.inc(1));
     bar.finish_and_clear();
     table
@@ -50,9 +42,6 @@ fn dfg_table_with_progress(size: usize) -> Vec<[f32; 2]> {
 
 impl DfgCmd {
     pub(super) fn run(self) -> Result<()> {
-        if self.size.is_some() {
-            bail!("--size is always WxH; the DFG table's side is --table-size N");
-        }
         let size = self.table_size;
         if !(2..=MAX_TABLE_SIZE).contains(&size) {
             bail!(

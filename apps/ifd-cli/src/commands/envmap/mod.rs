@@ -20,9 +20,6 @@ enum EnvmapCommand {
     Prefilter(Box<prefilter::PrefilterCmd>),
     /// Write the split-sum DFG table (x = N.V, y = roughness; R = scale, G = bias).
     Dfg(dfg::DfgCmd),
-    /// Moved: `ifd paper shrm-table4` and `ifd paper shrm-table5`.
-    #[command(hide = true, disable_help_flag = true)]
-    Shrm(crate::commands::paper::Moved),
 }
 
 impl Envmap {
@@ -30,11 +27,6 @@ impl Envmap {
         match self.command {
             EnvmapCommand::Prefilter(c) => c.run(),
             EnvmapCommand::Dfg(c) => c.run(),
-            EnvmapCommand::Shrm(_) => crate::commands::paper::Moved::refuse(
-                "ifd envmap shrm --table N",
-                "ifd paper shrm-table4 or shrm-table5",
-                "--table is gone",
-            ),
         }
     }
 }

@@ -43,9 +43,6 @@ pub(super) struct PrefilterCmd {
     /// width, s = 1/(2 alpha^2) - 1/2), or phong:s=S (one level filtered with exponent S).
     #[arg(long, value_name = "ggx|phong|phong:s=S", default_value = "ggx")]
     lobe: String,
-    /// Renamed: --lobe.
-    #[arg(long, hide = true)]
-    brdf: Option<String>,
     /// Irradiance face size (0: no irradiance map).
     #[arg(long, default_value_t = 32, value_name = "N")]
     irradiance_size: usize,
@@ -59,11 +56,8 @@ pub(super) struct PrefilterCmd {
     #[arg(long, default_value_t = 1e-3)]
     eps: f64,
     /// Output folder (created if missing; files in it are replaced).
-    #[arg(long, value_name = "DIR", required_unless_present = "output")]
-    out_dir: Option<PathBuf>,
-    /// Renamed: the output folder is --out-dir (-o is always one file).
-    #[arg(short, long, hide = true)]
-    output: Option<PathBuf>,
+    #[arg(long, value_name = "DIR")]
+    out_dir: PathBuf,
     #[command(flatten)]
     input: InputOptions,
     #[command(flatten)]
@@ -103,18 +97,6 @@ impl PrefilterCmd {
         reason = "one linear bake: read, plan, filter, write"
     )]
     pub(super) fn run(self) -> Result<()> {
-        use indicatif::{ProgressBar, ProgressStyle};
-        if self.output.is_some() {
-            bail!("-o/--output names one file; the output folder is --out-dir DIR");
-        }
-        let Some(out_dir) = self.out_dir.clone() else {
-            bail!("the output folder is required: --out-dir DIR");
-        };
-        if self.brdf.is_some() {
-            bail!(
-                "--brdf is a BRDF spec elsewhere; the prefilter's lobe is --lobe ggx|phong|phong:s=S"
-            );
-        }
         let mapping = RoughnessMapping::parse(&self.roughness)?;
         let n = self.face_size;
         let single = self.lobe.starts_with("phong:");
@@ -190,11 +172,7 @@ impl PrefilterCmd {
                 baker.input_negatives()
             );
         }
-        let bar = ProgressBar::new(all.len() as u64);
-        bar.set_style(
-            ProgressStyle::with_template("prefiltering {bar:30} {pos}/{len} levels [{elapsed}]")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
+        let bar = crate::progress::bar("prefiltering", "levels", all.len() as u64);
         let mut chain = Vec::with_capacity(levels);
         let mut report = Vec::with_capacity(levels);
         for (m, (r, lobe)) in lobes.iter().enumerate() {
@@ -231,7 +209,7 @@ impl PrefilterCmd {
         let sh = baker.source_sh(self.sh_lmax)?;
         let bake_s = t0.elapsed().as_secs_f64();
         // write everything into a staging folder, then move it into place
-        let files = Staging::new(&out_dir)?;
+        let files = Staging::new(&self.out_dir)?;
         let mut half_clamped = 0;
         if exr {
             for (m, level) in chain.iter().enumerate() {

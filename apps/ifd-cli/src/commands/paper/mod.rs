@@ -3,7 +3,7 @@
 //! with what each regenerates, and the studies that stay scripts (they need
 //! a Python peer or `cargo bench`) with their commands.
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 use clap::{Args, Subcommand};
 
 pub mod all;
@@ -111,25 +111,5 @@ fn list() {
     println!("\nscripted studies (run from the repository root):");
     for (name, what, script) in SCRIPTED {
         println!("  {name:<24} {what}\n  {:<24} {script}", "");
-    }
-}
-
-/// An old spelling of a command that moved: every argument is taken and the
-/// command refuses to run, naming the new spelling (never reinterpreted).
-#[derive(Debug, Args)]
-pub struct Moved {
-    /// Anything the old command took.
-    #[arg(trailing_var_arg = true, allow_hyphen_values = true, hide = true)]
-    rest: Vec<String>,
-}
-
-impl Moved {
-    /// Refuses to run, naming the new spelling (and `renamed`, the flags
-    /// renamed in the move, if any).
-    pub fn refuse(old: &str, new: &str, renamed: &str) -> Result<()> {
-        if renamed.is_empty() {
-            bail!("`{old}` has moved: use `{new}` (see `ifd paper list`)")
-        }
-        bail!("`{old}` has moved: use `{new}` ({renamed}; see `ifd paper list`)")
     }
 }

@@ -57,7 +57,6 @@ pub(super) struct BrdfCmd {
 impl BrdfCmd {
     pub(super) fn run(self) -> Result<()> {
         use ifd_shade::{LobeTable, MAX_TABLE_DEGREE, default_theta_entries};
-        use indicatif::{ProgressBar, ProgressStyle};
         if self.lmax > MAX_TABLE_DEGREE {
             bail!(
                 "--lmax {}: lobe tables support L <= {MAX_TABLE_DEGREE}",
@@ -72,20 +71,20 @@ impl BrdfCmd {
             .unwrap_or_else(|| default_theta_entries(&brdf));
         let np = self.phi_entries.unwrap_or((2 * nt).min(128));
         let start = std::time::Instant::now();
-        let bar = ProgressBar::new(0);
-        bar.set_style(
-            ProgressStyle::with_template("slices {bar:30} {pos}/{len} [{elapsed}<{eta}]")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
+        let bar = crate::progress::bar("slices", "", 0);
         let kind = match self.lobes.as_str() {
             "shared" => ifd_shade::LobeKind::Shared,
             "in-plane" => ifd_shade::LobeKind::InPlane,
             _ => ifd_shade::LobeKind::default_for(&brdf),
         };
-        let table = LobeTable::build_with(&brdf, self.lmax, nt, np, kind, &|done, total| {
-            bar.set_length(total as u64);
-            bar.set_position(done as u64);
-        })?;
+        let table = LobeTable::build_with(
+            &brdf,
+            self.lmax,
+            nt,
+            np,
+            kind,
+            &crate::progress::track(&bar),
+        )?;
         bar.finish_and_clear();
         table.write(&self.output)?;
         let h = table.header();

@@ -9,7 +9,6 @@ use ifd_shade::Brdf;
 use ifd_shade::BrdfSh;
 use ifd_shade::{Merl, merl_format::from_half_diff};
 use ifd_sphere::ShEvaluator;
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde_json::json;
 
@@ -95,15 +94,8 @@ impl BrdfFilterCmd {
         }
         let clean = self.clean.as_deref().map(Brdf::parse).transpose()?;
         let start = std::time::Instant::now();
-        let bar = ProgressBar::new(0);
-        bar.set_style(
-            ProgressStyle::with_template("projecting {bar:30} {pos}/{len} [{elapsed}<{eta}]")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        let sh4 = BrdfSh::from_brdf(&brdf, self.lmax, nodes, &|d, t| {
-            bar.set_length(t as u64);
-            bar.set_position(d as u64);
-        })?;
+        let bar = crate::progress::bar("projecting", "", 0);
+        let sh4 = BrdfSh::from_brdf(&brdf, self.lmax, nodes, &crate::progress::track(&bar))?;
         bar.finish_and_clear();
         let filtered = sh4.filtered(self.kappa);
         let sh = ShEvaluator::new(self.lmax)?;

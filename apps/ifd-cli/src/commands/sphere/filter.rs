@@ -66,7 +66,6 @@ pub(super) struct FilterCmd {
 
 impl FilterCmd {
     pub(super) fn run(self) -> Result<()> {
-        use indicatif::{ProgressBar, ProgressStyle};
         let dec = read_decomposition(&self.decomp)?;
         let l = dec.l_max();
         stores_negatives(&self.output)?;
@@ -130,11 +129,7 @@ impl FilterCmd {
             );
         };
         let pre = Prefiltered::new(&a.coeffs, &dec)?;
-        let bar = ProgressBar::new(oh as u64);
-        bar.set_style(
-            ProgressStyle::with_template("filtering {bar:30} {pos}/{len} rows [{elapsed}]")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
+        let bar = crate::progress::bar("filtering", "rows", oh as u64);
         let mut out = dec.filter_map(&pre, ow, oh, scale, &|done, _| {
             bar.set_position(done as u64);
         })?;

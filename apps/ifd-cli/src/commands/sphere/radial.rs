@@ -11,7 +11,6 @@ use ifd_shade::Material;
 use ifd_shade::ZonalLighting;
 use ifd_shade::{LobeTable, default_theta_entries};
 use ifd_shade::{MapSize, RadialMap, RadialProfile};
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use crate::options::ReportOptions;
@@ -44,9 +43,6 @@ pub struct RadialCmd {
     /// frame; the map's axis cells place it).
     #[arg(long, value_name = "PROFILE", conflicts_with = "env")]
     light_profile: Option<String>,
-    /// Renamed: --light-profile (--light is a spherical light X,Y,Z,R,L in `ifd render`).
-    #[arg(long, hide = true)]
-    light: Option<String>,
     /// Or: an environment map (2:1 equirectangular) whose radial part about --axis is the light.
     #[arg(long, value_name = "FILE")]
     env: Option<PathBuf>,
@@ -77,9 +73,6 @@ pub struct RadialCmd {
     /// Map cells: T_OxT_ZxP_Z, or T_OxP_OxT_ZxP_Z for anisotropic BRDFs.
     #[arg(long, value_name = "AxBxC[xD]", default_value = "16x32x32")]
     cells: String,
-    /// Renamed: --cells (--size is always WxH).
-    #[arg(long, hide = true)]
-    size: Option<String>,
     /// Output map (float64 .npy, shape (T_o, P_o, T_z, P_z, C)).
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
@@ -100,15 +93,6 @@ pub struct RadialCmd {
 impl RadialCmd {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
-        // renamed options first: they name the new spelling whatever else is wrong
-        if self.light.is_some() {
-            bail!(
-                "--light is a spherical light X,Y,Z,R,L in `ifd render`; a radial profile is --light-profile"
-            );
-        }
-        if self.size.is_some() {
-            bail!("--size is always WxH; the map's cells are --cells AxBxC[xD]");
-        }
         let brdf = Brdf::parse(&self.brdf)?;
         if self.lmax > ifd_shade::MAX_TABLE_DEGREE {
             bail!(
@@ -176,15 +160,8 @@ impl RadialCmd {
             None => None,
         };
         let material = Material::new(&brdf, self.lmax, table)?;
-        let bar = ProgressBar::new(0);
-        bar.set_style(
-            ProgressStyle::with_template("map {bar:30} {pos}/{len} views [{elapsed}<{eta}]")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        let map = RadialMap::build(&material, &light, size, &|d, t| {
-            bar.set_length(t as u64);
-            bar.set_position(d as u64);
-        })?;
+        let bar = crate::progress::bar("map", "views", 0);
+        let map = RadialMap::build(&material, &light, size, &crate::progress::track(&bar))?;
         bar.finish_and_clear();
         check_finite(&map, &light, self.env.as_deref(), &self.radiance)?;
         let build_seconds = start.elapsed().as_secs_f64();
