@@ -160,12 +160,12 @@ else
   fail "unused dependencies (cargo machete)"
 fi
 
-step "module import cycles inside crates (scripts/module_cycles.py)"
+step "import cycles between files and modules of each crate (scripts/module_cycles.py)"
 if python3 scripts/module_cycles.py >"$LOG_DIR/module-cycles.log" 2>&1; then
-  ok "no module cycles"
+  ok "no import cycles"
 else
   cat "$LOG_DIR/module-cycles.log"
-  fail "module cycles"
+  fail "import cycles (scripts/module_cycles.py names the files and lines)"
 fi
 
 step "public APIs against docs/reference/api (scripts/public_api.py)"
@@ -178,7 +178,7 @@ fi
 
 step "ARCHITECTURE.md against the code (scripts/check_architecture.py)"
 if python3 scripts/check_architecture.py >"$LOG_DIR/architecture.log" 2>&1; then
-  ok "ARCHITECTURE.md matches the manifests, modules and unsafe code"
+  ok "ARCHITECTURE.md matches the manifests, the unsafe_code allowances, its paths and crates"
 else
   cat "$LOG_DIR/architecture.log"
   fail "ARCHITECTURE.md has drifted from the code"
