@@ -222,7 +222,7 @@ impl Render {
                         Precision::F64 => "f64",
                     }
                 }),
-                "vector_isa": gpu_report.is_none().then(|| ifd_sphere::vector_isa().name()),
+                "vector_isa": gpu_report.is_none().then(|| ifd_simd::isa().name()),
                 "seconds": secs, "render_seconds": render_secs,
                 "gpu": gpu_report,
                 "error_map": error_map,
