@@ -60,12 +60,13 @@ enum Command {
     Render(Box<commands::render::Render>),
     /// Image-based lighting for engines: prefiltered GGX radiance mips, irradiance, SH (KTX2), the DFG table.
     Envmap(commands::envmap::Envmap),
-    /// Reproduce the papers' tables and figures (`ifd paper list`).
-    Paper(commands::paper::Paper),
-    /// Moved: `ifd paper isd-mirror`.
+    /// Moved: the `ifd-paper` binary.
+    #[command(hide = true, disable_help_flag = true)]
+    Paper(commands::paper::Moved),
+    /// Moved: `ifd-paper isd-mirror`.
     #[command(hide = true, disable_help_flag = true)]
     Mirror(commands::paper::Moved),
-    /// Moved: `ifd paper isd-visibility`.
+    /// Moved: `ifd-paper isd-visibility`.
     #[command(hide = true, disable_help_flag = true)]
     Visibility(commands::paper::Moved),
 }
@@ -84,7 +85,7 @@ fn moved_spelling(args: &[String]) -> Option<&'static str> {
     let command = args.get(1).map(String::as_str);
     if command == Some("render") && args.iter().any(|a| a.starts_with("--convergence")) {
         return Some(
-            "`ifd render --convergence` has moved: the convergence study is `ifd paper \
+            "`ifd render --convergence` has moved: the convergence study is `ifd-paper \
              isd-convergence` (the same --brdf, scene, camera and environment flags; the degrees \
              are --degrees A..B[:S])",
         );
@@ -157,15 +158,17 @@ fn main() -> ExitCode {
         Command::Field(c) => c.run(),
         Command::Sphere(c) => c.run(),
         Command::Render(c) => c.run(),
-        Command::Paper(c) => c.run(),
+        Command::Paper(_) => {
+            crate::commands::paper::Moved::refuse("ifd paper NAME", "ifd-paper NAME", "")
+        }
         Command::Mirror(_) => crate::commands::paper::Moved::refuse(
             "ifd mirror",
-            "ifd paper isd-mirror",
+            "ifd-paper isd-mirror",
             "--reference is now --reference-grid",
         ),
         Command::Visibility(_) => crate::commands::paper::Moved::refuse(
             "ifd visibility",
-            "ifd paper isd-visibility",
+            "ifd-paper isd-visibility",
             "--dirs is now --rays",
         ),
         Command::Envmap(c) => c.run(),

@@ -20,7 +20,7 @@ enum EnvmapCommand {
     Prefilter(Box<prefilter::PrefilterCmd>),
     /// Write the split-sum DFG table (x = N.V, y = roughness; R = scale, G = bias).
     Dfg(dfg::DfgCmd),
-    /// Moved: `ifd paper shrm-table4` and `ifd paper shrm-table5`.
+    /// Moved: `ifd-paper shrm-table4` and `ifd-paper shrm-table5`.
     #[command(hide = true, disable_help_flag = true)]
     Shrm(crate::commands::paper::Moved),
 }
@@ -32,7 +32,7 @@ impl Envmap {
             EnvmapCommand::Dfg(c) => c.run(),
             EnvmapCommand::Shrm(_) => crate::commands::paper::Moved::refuse(
                 "ifd envmap shrm --table N",
-                "ifd paper shrm-table4 or shrm-table5",
+                "ifd-paper shrm-table4 or shrm-table5",
                 "--table is gone",
             ),
         }

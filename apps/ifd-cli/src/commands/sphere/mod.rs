@@ -45,10 +45,10 @@ enum SphereCommand {
     Radial(radial::RadialCmd),
     /// Filter noisy or sparse BRDF data with a separable vMF kernel on the 4D SH basis (ISD Sec. 6.3).
     BrdfFilter(brdf_filter::BrdfFilterCmd),
-    /// Moved: `ifd paper isd-condition`.
+    /// Moved: `ifd-paper isd-condition`.
     #[command(hide = true, disable_help_flag = true)]
     Condition(crate::commands::paper::Moved),
-    /// Moved: `ifd paper zhf-sparsity`.
+    /// Moved: `ifd-paper zhf-sparsity`.
     #[command(hide = true, disable_help_flag = true)]
     Sparsity(crate::commands::paper::Moved),
 }
@@ -67,12 +67,12 @@ impl Sphere {
             SphereCommand::BrdfFilter(c) => c.run(),
             SphereCommand::Condition(_) => crate::commands::paper::Moved::refuse(
                 "ifd sphere condition",
-                "ifd paper isd-condition",
+                "ifd-paper isd-condition",
                 "",
             ),
             SphereCommand::Sparsity(_) => crate::commands::paper::Moved::refuse(
                 "ifd sphere sparsity",
-                "ifd paper zhf-sparsity",
+                "ifd-paper zhf-sparsity",
                 "",
             ),
         }
