@@ -192,7 +192,7 @@ mod tests {
     use super::*;
 
     /// `docs/reference/cli/ifd.json` is what this binary defines, and the
-    /// tree alone follows the grammar (the three binaries together are
+    /// tree alone follows the grammar (the binaries together are
     /// checked by `ifd-clidoc`'s tests, against the checked-in files).
     #[test]
     fn the_command_line_matches_its_checked_in_schema_and_the_grammar() {
