@@ -340,8 +340,8 @@ fn smooth_gpu_matches_cpu_in_both_modes() {
 /// `ifd sphere ...`: layouts, reconstruction clamping, limits, decomposition inputs.
 mod sphere {
     use super::{ifd, testdata};
+    use ifd_image::write_npy_f64;
     use ifd_sphere::ShCoeffs;
-    use ifd_sphere::write_npy_f64;
     use ifd_sphere::{Kernel, project_function};
     use ifd_sphere::{direction, gauss_legendre, sh_index};
     use std::f64::consts::PI;
