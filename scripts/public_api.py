@@ -30,7 +30,7 @@ import sys
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "reference" / "api"
 # crates whose surface is listed (the libraries others build on); ifd-py's is
-# Python's (its stubs), ifd-clidoc and ifd-paper are dev-only; ifd-app is the
+# Python's (its stubs), ifd-clidoc is dev-only and ifd-paper the studies'; ifd-app is the
 # apps' shell
 CRATES = [
     "ifd-image", "ifd-planar", "ifd-smooth", "ifd-sphere", "ifd-shade",

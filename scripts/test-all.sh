@@ -218,15 +218,17 @@ else
 fi
 
 step "reference comparisons (pytest tests/python)"
-# `cargo test --workspace` has just built the `ifd` binary (its integration
-# tests run it) with the workspace's unified features. `cargo build -p ifd-cli`
-# would resolve features for ifd-cli alone and rebuild wgpu and its
-# dependencies (3 minutes cold) for the same program, so the tests' binary is
-# used whenever that build compiled; otherwise it is built here.
+# `cargo test --workspace` has just built the `ifd` and `ifd-paper` binaries
+# (their integration tests run them) with the workspace's unified features.
+# `cargo build -p ifd-cli` would resolve features for ifd-cli alone and rebuild
+# wgpu and its dependencies (3 minutes cold) for the same program, so the
+# tests' binaries are used whenever that build compiled; otherwise they are
+# built here. The tests find `ifd-paper` beside `ifd` (or at IFD_PAPER_BIN).
 IFD_BIN=${CARGO_TARGET_DIR:-$ROOT/target}/debug/ifd
 export IFD_BIN
-if { [ -x "$IFD_BIN" ] && ! grep -q '^error: could not compile' "$LOG_DIR/cargo-test.log"; } ||
-  cargo build --quiet -p ifd-cli >"$LOG_DIR/build-cli.log" 2>&1; then
+if { [ -x "$IFD_BIN" ] && [ -x "$(dirname "$IFD_BIN")/ifd-paper" ] &&
+  ! grep -q '^error: could not compile' "$LOG_DIR/cargo-test.log"; } ||
+  cargo build --quiet -p ifd-cli -p ifd-paper >"$LOG_DIR/build-cli.log" 2>&1; then
   .venv/bin/python -m pytest -q -p no:cacheprovider tests/python 2>&1 | tee "$LOG_DIR/pytest.log" | tail -25
   read -r pp pf ps px < <(awk '/ passed| failed| error| skipped| xfailed| xpassed/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p = $i; if ($(i+1) ~ /^(failed|errors?)/) f += $i; if ($(i+1) ~ /^skipped/) s = $i; if ($(i+1) ~ /^(xfailed|xpassed)/) x += $i } } END { print p + 0, f + 0, s + 0, x + 0 }' <(tail -1 "$LOG_DIR/pytest.log"))
   passed=$((passed + pp))
@@ -237,7 +239,7 @@ if { [ -x "$IFD_BIN" ] && ! grep -q '^error: could not compile' "$LOG_DIR/cargo-
   [ "$pp" -eq 0 ] && [ "$pf" -eq 0 ] && fail "pytest ran no test"
 else
   tail -20 "$LOG_DIR/build-cli.log"
-  fail "building the ifd binary"
+  fail "building the ifd and ifd-paper binaries"
 fi
 
 echo

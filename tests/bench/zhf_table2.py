@@ -18,7 +18,7 @@ tabulated.rs `BandTables::rotate`):
   tabulated (Eq. 11, lookups): per lobe (9 + 8 for the bilinear taps)  +  4 per (lobe, band
         served) = 4 N^2  +  D + N^2.
   sparse: the same with the dense (M^-1)^T replaced by its nonzeros for the order-N shared set of
-        `ifd paper zhf-sparsity` (read from docs/zhf-sparsity.md; orders 2..8), as the paper counts
+        `ifd-paper zhf-sparsity` (read from docs/zhf-sparsity.md; orders 2..8), as the paper counts
         its hard-coded sparse multiplication. Our code multiplies densely; the sparse column is
         what hard-coding the found sets would cost.
 zxzxz: the paper's Table II totals (its optimised CPU implementation), quoted.

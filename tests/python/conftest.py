@@ -1,4 +1,4 @@
-"""Shared fixtures: the `ifd` binary, the bundled test data, a scratch folder."""
+"""Shared fixtures: the `ifd` and `ifd-paper` binaries, the bundled test data, a scratch folder."""
 
 import json
 import os
@@ -36,6 +36,41 @@ def run_ifd(ifd_bin):
         if check and p.returncode != 0:
             raise AssertionError(f"ifd {' '.join(map(str, args))} failed ({p.returncode}):\n{p.stderr}")
         return p
+
+    return run
+
+
+def _paper_binary() -> pathlib.Path:
+    """`IFD_PAPER_BIN`, else `ifd-paper` beside the `ifd` binary (`cargo build -p ifd-paper`)."""
+    if "IFD_PAPER_BIN" in os.environ:
+        return pathlib.Path(os.environ["IFD_PAPER_BIN"])
+    return _binary().with_name("ifd-paper")
+
+
+@pytest.fixture(scope="session")
+def run_paper():
+    """Runs `ifd-paper ARGS...` (the papers' studies); returns the CompletedProcess (text mode)."""
+    b = _paper_binary()
+    if not b.exists():
+        pytest.fail(f"{b} not built: run `cargo build -p ifd-paper` first")
+
+    def run(*args, check=True):
+        p = subprocess.run([str(b), *map(str, args)], capture_output=True, text=True)
+        if check and p.returncode != 0:
+            raise AssertionError(f"ifd-paper {' '.join(map(str, args))} failed ({p.returncode}):\n{p.stderr}")
+        return p
+
+    return run
+
+
+@pytest.fixture(scope="session")
+def run_paper_json(run_paper):
+    """Runs `ifd-paper ARGS... --json`; returns the parsed report."""
+
+    def run(*args):
+        if "--json" not in map(str, args):
+            args = (*args, "--json")
+        return json.loads(run_paper(*args).stdout)
 
     return run
 

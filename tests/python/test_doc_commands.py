@@ -3,7 +3,7 @@
 Each ```sh, ```bash and ```console block is one test (id `FILE:LINE`, the line of its
 opening fence). The block runs with `bash` and `set -e` in a fresh temporary folder that
 holds a copy of `testdata/`, so relative paths such as `testdata/astronaut.png` work, with
-`ifd`, `ifd-brush` and `ifd-envrender` (the binaries beside the one conftest.py finds:
+`ifd`, `ifd-paper`, `ifd-brush` and `ifd-envrender` (the binaries beside the one conftest.py finds:
 `IFD_BIN`, else `target/debug/ifd`) and the repository's `.venv/bin` (for `python`) first
 on PATH. The test asserts exit code 0 and that every output the block names exists
 afterwards: the value of `-o`, `--output`, `--out`, `--out-dir` and the other output flags
@@ -68,7 +68,7 @@ SKIPPED = {
     ("docs/guide/python.md", "pip install ./crates/ifd-py"): "builds with cargo and pip (minutes)",
     ("docs/guide/python.md", ".venv/bin/python examples/python/compare_with_opencv.py --size 512 --runs 3"):
         "runs from the repository root and takes minutes",
-    ("docs/guide/rendering.md", "ifd paper isd-convergence --env testdata/forest.hdr --degrees 2..36:2 "
+    ("docs/guide/rendering.md", "ifd-paper isd-convergence --env testdata/forest.hdr --degrees 2..36:2 "
      "--brdf phong:s=8 --brdf phong:s=32 --brdf phong:s=128 --brdf ggx:alpha=0.5 --brdf ggx:alpha=0.3 "
      "--brdf lambert --size 128x128 --no-sh --csv docs/shading-convergence.csv "
      "--plot docs/shading-convergence.png --grid docs/shading-grid.png"):
@@ -222,12 +222,12 @@ def named_outputs(script: str) -> list[str]:
 
 @pytest.fixture(scope="session")
 def doc_env(ifd_bin, tmp_path_factory):
-    """PATH with ifd, ifd-brush and ifd-envrender first, and a private state folder."""
+    """PATH with ifd, ifd-paper, ifd-brush and ifd-envrender first, and a private state folder."""
     base = tmp_path_factory.mktemp("doc-env")
     bindir = base / "bin"
     bindir.mkdir()
     (bindir / "ifd").symlink_to(ifd_bin.resolve())
-    for app in ("ifd-brush", "ifd-envrender"):
+    for app in ("ifd-paper", "ifd-brush", "ifd-envrender"):
         exe = ifd_bin.resolve().with_name(app)
         if exe.exists():
             (bindir / app).symlink_to(exe)
@@ -275,7 +275,7 @@ def test_doc_block_runs(block, doc_env, tmp_path):
     script = block.script()
     if GPU_WORDS.search(script) and os.environ.get("IFD_GPU_TESTS") == "skip":
         pytest.skip("uses the GPU (IFD_GPU_TESTS=skip)")
-    for app in ("ifd-brush", "ifd-envrender"):
+    for app in ("ifd-paper", "ifd-brush", "ifd-envrender"):
         uses = re.search(rf"(^|[\s;&|(]){app}\b", script, re.M)
         if uses and not shutil.which(app, path=doc_env["PATH"].split(os.pathsep)[0]):
             pytest.fail(f"{block.id} runs {app}, which is not built beside the ifd binary "

@@ -455,8 +455,8 @@ def test_cube_strip_input_round_trips(run_ifd, tmp_path, forest_small):
         assert rel_rms(b, a) < 0.02, n
 
 
-def test_shrm_table4_runs_and_checks_its_input(run_ifd, tmp_path):
-    p = run_ifd("paper", "shrm-table4", TESTDATA / "forest.hdr", "--size", "64x32", "--exponents", "8,32",
+def test_shrm_table4_runs_and_checks_its_input(run_ifd, run_paper, tmp_path):
+    p = run_paper("shrm-table4", TESTDATA / "forest.hdr", "--size", "64x32", "--exponents", "8,32",
                 "--runs", 1, "--min-seconds", 0, "--csv", tmp_path / "t4.csv")
     rows = [l for l in p.stdout.splitlines() if l.startswith("| 8 ") or l.startswith("| 32 ")]
     assert len(rows) == 2
@@ -472,15 +472,15 @@ def test_shrm_table4_runs_and_checks_its_input(run_ifd, tmp_path):
     for args, needle in [(["--exponents", "0.5"], "--exponents"),
                          (["--size", "64x32", "--exponents", "2000"], "rows"),
                          (["--eps-angular", "1"], "--eps-angular")]:
-        q = run_ifd("paper", "shrm-table4", TESTDATA / "forest.hdr", *args, check=False)
+        q = run_paper("shrm-table4", TESTDATA / "forest.hdr", *args, check=False)
         assert q.returncode == 2 and needle in q.stderr, (args, q.stderr)
 
 
-def test_shrm_table5_orders_match_the_paper(run_ifd, tmp_path):
+def test_shrm_table5_orders_match_the_paper(run_paper, tmp_path):
     """Table 5's F_B, P_B (the BRDF energy criterion of Sec. 5.1 on the
     microfacet BRDF of Eq. 11) against the paper's, and the SHRM's maps against
     angular integration on a small map."""
-    p = run_ifd("paper", "shrm-table5", TESTDATA / "forest.hdr", "--size", "32x16",
+    p = run_paper("shrm-table5", TESTDATA / "forest.hdr", "--size", "32x16",
                 "--sigmas", "0.2,0.4", "--maps", 1, "--csv", tmp_path / "t5.csv")
     import csv
 

@@ -119,8 +119,8 @@ def test_render_light_is_added_and_drawn(run_ifd, tmp_path):
     assert gain.min() > -0.05 * gain.max(), (gain.min(), gain.max())
 
 
-def test_mirror_command(run_json, run_ifd, tmp_path):
-    rep = run_json("paper", "isd-mirror", "--env", TESTDATA / "forest.hdr", "--size", "48x48", "--reference-grid", 8,
+def test_mirror_command(run_paper_json, run_paper, run_ifd, tmp_path):
+    rep = run_paper_json("isd-mirror", "--env", TESTDATA / "forest.hdr", "--size", "48x48", "--reference-grid", 8,
                    "--runs", 1, "--lmax", 24, "--out-dir", tmp_path)
     rows = {r["method"]: r for r in rep["rows"]}
     assert set(rows) == {"none", "ss4x4", "ss16x16", "isd-direct", "isd"}
@@ -131,9 +131,9 @@ def test_mirror_command(run_json, run_ifd, tmp_path):
     assert "| isd |" in (tmp_path / "table.md").read_text()
     for extra, needle in [(["--lmax", 0], "--lmax"), (["--size", "0x5"], "--size"),
                           (["--supersample", "0"], "--supersample")]:
-        p = run_ifd("paper", "isd-mirror", "--env", TESTDATA / "forest.hdr", *extra, check=False)
+        p = run_paper("isd-mirror", "--env", TESTDATA / "forest.hdr", *extra, check=False)
         assert p.returncode == 2 and needle in p.stderr, (extra, p.stderr)
-    p = run_ifd("paper", "isd-mirror", "--env", tmp_path / "nope.hdr", check=False)
+    p = run_paper("isd-mirror", "--env", tmp_path / "nope.hdr", check=False)
     assert p.returncode == 2 and "nope.hdr" in p.stderr
 
 
@@ -285,8 +285,8 @@ def test_brdf_filter_bad_input(run_ifd, tmp_path):
     assert p.returncode == 2 and "huge.binary" in p.stderr and "too large" in p.stderr, p.stderr
 
 
-def test_visibility_command(run_json, run_ifd, tmp_path):
-    rep = run_json("paper", "isd-visibility", "--env", TESTDATA / "forest.hdr", "--env-size", "32x16",
+def test_visibility_command(run_paper_json, run_paper, tmp_path):
+    rep = run_paper_json("isd-visibility", "--env", TESTDATA / "forest.hdr", "--env-size", "32x16",
                    "--size", "32x32", "--degrees", "4..12:4", "--rays", 1024, "--out-dir", tmp_path)
     rows = rep["rows"]
     assert [r["l"] for r in rows] == [4, 8, 12]
@@ -300,15 +300,15 @@ def test_visibility_command(run_json, run_ifd, tmp_path):
     for extra, needle in [(["--degrees", "5..2"], "--degrees"), (["--degrees", "1..40"], "--degrees"),
                           (["--rays", 3], "--rays"), (["--scene", "cube"], "--scene"),
                           (["--env-size", "30x16"], "divide")]:
-        p = run_ifd("paper", "isd-visibility", "--env", TESTDATA / "forest.hdr", *extra, check=False)
+        p = run_paper("isd-visibility", "--env", TESTDATA / "forest.hdr", *extra, check=False)
         assert p.returncode == 2 and needle in p.stderr, (extra, p.stderr)
 
 
-def test_sparsity_search_command(run_json, run_ifd, tmp_path):
+def test_sparsity_search_command(run_paper_json, run_paper, tmp_path):
     """ZHF Sec. 5-6: bands 2-3 reach the paper's Table I (64%, 67%) and the
     shared order-4 set beats random draws from the same candidates; the
     directions returned factorise exactly (checked here with numpy)."""
-    rep = run_json("paper", "zhf-sparsity", "--bands", "2..3", "--orders", "4..4", "--stall", 200,
+    rep = run_paper_json("zhf-sparsity", "--bands", "2..3", "--orders", "4..4", "--stall", 200,
                    "--generations", 2000, "--restarts", 8, "--random", 500,
                    "--markdown", tmp_path / "t.md")
     b = {r["l"]: r for r in rep["bands"]}
@@ -328,7 +328,7 @@ def test_sparsity_search_command(run_json, run_ifd, tmp_path):
     assert abs(zeros - b[2]["sparsity"]) < 1e-12, (zeros, b[2]["sparsity"])
     for extra, needle in [(["--bands", "0..3"], "--bands"), (["--orders", "1..4"], "--orders"),
                           (["--population", 2], "--population"), (["--restarts", 0], "--restarts")]:
-        p = run_ifd("paper", "zhf-sparsity", *extra, check=False)
+        p = run_paper("zhf-sparsity", *extra, check=False)
         assert p.returncode == 2 and needle in p.stderr, (extra, p.stderr)
 
 

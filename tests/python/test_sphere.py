@@ -235,7 +235,7 @@ def test_bad_inputs_fail_cleanly(run_ifd, tmp_path):
         assert "row 4, column 2" in p.stderr and "bad.sh.npy" in p.stderr
 
 
-def test_decompose_and_condition(run_ifd, tmp_path):
+def test_decompose_and_condition(run_ifd, run_paper, tmp_path):
     out = json.loads(run_ifd("sphere", "decompose", "--json", "aniso-gauss:s1=0.3,s2=0.05", "--lmax", 8,
                              "--directions", "shared", "-o", tmp_path / "d.json").stdout)
     assert out["lobes"] == 81 and out["directions"] == 17 and out["channels"] == 1
@@ -247,7 +247,7 @@ def test_decompose_and_condition(run_ifd, tmp_path):
     assert out["profile"] == "gauss"
     p = run_ifd("sphere", "decompose", "phong:s=-3", "--lmax", 4, "-o", tmp_path / "x.json", check=False)
     assert p.returncode == 2 and "phong:s=-3" in p.stderr
-    rows = json.loads(run_ifd("paper", "isd-condition", "--json", "--lmax", 6, "--plot", tmp_path / "c.png",
+    rows = json.loads(run_paper("isd-condition", "--json", "--lmax", 6, "--plot", tmp_path / "c.png",
                               "--csv", tmp_path / "c.csv").stdout)
     assert (tmp_path / "c.png").stat().st_size > 1000
     csv = (tmp_path / "c.csv").read_text().splitlines()

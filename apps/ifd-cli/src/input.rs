@@ -114,17 +114,3 @@ pub fn parse_size(text: &str, option: &str) -> Result<(usize, usize)> {
         ),
     }
 }
-
-/// A smoothing library error about a parameter's range, said in terms of the
-/// command's option: `flag`, or the parameter's name as a flag (`hessian
-/// sigma` -> `--hessian-sigma`); other errors as they are.
-pub fn name_option(e: ifd_smooth::SmoothError, flag: Option<&str>) -> anyhow::Error {
-    match e {
-        ifd_smooth::SmoothError::OutOfRange { name, value, range } => anyhow::anyhow!(
-            "{} {}: outside the supported range {range}",
-            flag.map_or_else(|| format!("--{}", name.replace(' ', "-")), str::to_string),
-            ifd_image::short_number(value)
-        ),
-        e => e.into(),
-    }
-}

@@ -61,8 +61,6 @@ enum Command {
     Render(Box<commands::render::Render>),
     /// Image-based lighting for engines: prefiltered GGX radiance mips, irradiance, SH (KTX2), the DFG table.
     Envmap(commands::envmap::Envmap),
-    /// Reproduce the papers' tables and figures (`ifd paper list`).
-    Paper(commands::paper::Paper),
 }
 
 /// `--scale -1` must reach the command's own check (which names the option
@@ -131,7 +129,6 @@ fn main() -> ExitCode {
         Command::Field(c) => c.run(),
         Command::Sphere(c) => c.run(),
         Command::Render(c) => c.run(),
-        Command::Paper(c) => c.run(),
         Command::Envmap(c) => c.run(),
         Command::Convert(c) => c.run(),
         Command::Info(c) => c.run(),
@@ -153,7 +150,7 @@ mod tests {
     use super::*;
 
     /// `docs/reference/cli/ifd.json` is what this binary defines, and the
-    /// tree alone follows the grammar (the three binaries together are
+    /// tree alone follows the grammar (the binaries together are
     /// checked by `ifd-clidoc`'s tests, against the checked-in files).
     #[test]
     fn the_command_line_matches_its_checked_in_schema_and_the_grammar() {

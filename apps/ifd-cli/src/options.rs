@@ -140,59 +140,6 @@ fn number(f: f64) -> String {
     }
 }
 
-/// A CSV table (header line, then rows) as a JSON report `{"rows": [...]}`,
-/// one object per row, numbers as numbers.
-#[must_use]
-pub fn csv_report(csv: &str) -> Value {
-    let mut lines = csv.lines();
-    let header = csv_fields(lines.next().unwrap_or(""));
-    let rows: Vec<Value> = lines
-        .filter(|l| !l.is_empty())
-        .map(|line| {
-            let map = header
-                .iter()
-                .zip(csv_fields(line))
-                .map(|(k, v)| {
-                    let value = match v.parse::<f64>() {
-                        Ok(x) if x.is_finite() => serde_json::json!(x),
-                        _ if v == "true" || v == "false" => Value::Bool(v == "true"),
-                        _ => Value::String(v),
-                    };
-                    (k.clone(), value)
-                })
-                .collect();
-            Value::Object(map)
-        })
-        .collect();
-    serde_json::json!({ "rows": rows })
-}
-
-/// The fields of one CSV line: commas inside double quotes do not split, the
-/// quotes are dropped and `""` stands for one quote.
-fn csv_fields(line: &str) -> Vec<String> {
-    let mut fields = vec![String::new()];
-    let mut quoted = false;
-    let mut chars = line.chars().peekable();
-    while let Some(c) = chars.next() {
-        match c {
-            '"' if quoted && chars.peek() == Some(&'"') => {
-                chars.next();
-                if let Some(f) = fields.last_mut() {
-                    f.push('"');
-                }
-            }
-            '"' => quoted = !quoted,
-            ',' if !quoted => fields.push(String::new()),
-            c => {
-                if let Some(f) = fields.last_mut() {
-                    f.push(c);
-                }
-            }
-        }
-    }
-    fields
-}
-
 /// Parses `X,Y,Z` given to `option`: three finite numbers.
 pub fn parse_vec(text: &str, option: &str) -> Result<DVec3> {
     let v: Vec<f64> = text
@@ -331,11 +278,6 @@ pub struct SceneOptions {
 }
 
 impl SceneOptions {
-    /// The scene the options name.
-    pub fn scene(&self) -> Result<ifd_render::Scene> {
-        self.scene_with(ifd_image::MemoryBudget::default_for_machine())
-    }
-
     /// The scene the options name, a glTF asset read under `budget`.
     pub fn scene_with(&self, budget: ifd_image::MemoryBudget) -> Result<ifd_render::Scene> {
         Ok(ifd_render::Scene::parse_with(
@@ -446,10 +388,6 @@ mod tests {
         assert!(text.contains("rows:\n  [0]\n    a  1\n"), "{text}");
         assert!(text.contains("list     1, 2.5\n"), "{text}");
         assert_eq!(number(1.5e-7), "1.5000e-7");
-        let rows = csv_report("brdf,L\n\"ggx:ax=0.3,ay=0.6\",4\n\"a\"\"b\",5\n");
-        assert_eq!(rows["rows"][0]["brdf"], "ggx:ax=0.3,ay=0.6");
-        assert_eq!(rows["rows"][0]["L"], 4.0);
-        assert_eq!(rows["rows"][1]["brdf"], "a\"b");
         assert_eq!(number(123_456.0), "123456");
     }
 }

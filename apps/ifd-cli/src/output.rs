@@ -114,33 +114,3 @@ pub fn check_output_folder(path: &Path) -> Result<()> {
     }
     Ok(())
 }
-
-/// Writes each named linear image into `dir` as `NAME.exr` and as
-/// `NAME.png` (ACES tone curve at `exposure` stops, sRGB), then the PNGs side
-/// by side, 4 white pixels apart, as `strip.png` (the figures of the
-/// comparison commands). The images must share one size.
-pub fn write_figure(dir: &Path, images: &[(&str, &ifd_image::Image)], exposure: f32) -> Result<()> {
-    let tm = ifd_render::Tonemap::Aces;
-    let opts = WriteOptions::default();
-    let mut shown = Vec::new();
-    for (name, im) in images {
-        write_output(&dir.join(format!("{name}.exr")), im, &opts)?;
-        let mut d = (*im).clone();
-        for v in d.data_mut() {
-            *v = tm.display(*v, exposure);
-        }
-        write_output(&dir.join(format!("{name}.png")), &d, &opts)?;
-        shown.push(d);
-    }
-    let Some(first) = shown.first() else {
-        return Ok(());
-    };
-    let (w, h, ch) = (first.width(), first.height(), first.channels());
-    let gap = 4;
-    let total = shown.len() * (w + gap) - gap;
-    let mut strip = ifd_image::Image::from_vec(total, h, ch, vec![1.0; total * h * ch])?;
-    for (i, d) in shown.iter().enumerate() {
-        strip.paste(i * (w + gap), 0, d);
-    }
-    write_output(&dir.join("strip.png"), &strip, &opts)
-}

@@ -1,4 +1,4 @@
-//! The rules that make the three binaries read as one tool
+//! The rules that make the four binaries read as one tool
 //! (`../shared/STYLE.md`, "Command-line grammar").
 
 use std::collections::BTreeMap;

@@ -1,4 +1,5 @@
-//! The command lines of `ifd`, `ifd-brush` and `ifd-envrender` as data.
+//! The command lines of `ifd`, `ifd-brush`, `ifd-envrender` and `ifd-paper` as
+//! data.
 //!
 //! Three jobs, one representation:
 //!
@@ -8,7 +9,7 @@
 //!   help. Each binary checks its schema into `docs/reference/cli/<bin>.json`
 //!   and a test compares it with what the binary defines ([`check_file`]), so
 //!   a change to a command line is deliberate and visible in review.
-//! - [`check_grammar`] checks the rules that make the three binaries read as
+//! - [`check_grammar`] checks the rules that make the four binaries read as
 //!   one tool (`../shared/STYLE.md`, "Command-line grammar"): a flag name has
 //!   one kind and one value shape everywhere, `-o/--output` is always a file,
 //!   a folder is always a `--*-dir` flag, `--size` is always `WxH`, `--json`
@@ -51,11 +52,11 @@ pub struct Exception {
     pub reason: &'static str,
 }
 
-/// The flags allowed several shapes across the three binaries: none.
+/// The flags allowed several shapes across the four binaries: none.
 pub const EXCEPTIONS: &[Exception] = &[];
 
 /// The binaries whose schemas are checked in under `docs/reference/cli/`.
-pub const BINARIES: [&str; 3] = ["ifd", "ifd-brush", "ifd-envrender"];
+pub const BINARIES: [&str; 4] = ["ifd", "ifd-brush", "ifd-envrender", "ifd-paper"];
 
 pub(crate) fn str_of<'a>(v: &'a Value, key: &str) -> &'a str {
     v[key].as_str().unwrap_or("")
@@ -63,7 +64,7 @@ pub(crate) fn str_of<'a>(v: &'a Value, key: &str) -> &'a str {
 
 #[cfg(test)]
 mod workspace {
-    //! The checked-in schemas of the three binaries (each binary's own test
+    //! The checked-in schemas of the four binaries (each binary's own test
     //! keeps its file current) read as one tool, and the Markdown reference
     //! is the one they generate.
     use super::*;
@@ -82,7 +83,7 @@ mod workspace {
     }
 
     #[test]
-    fn the_three_binaries_follow_one_grammar() {
+    fn the_four_binaries_follow_one_grammar() {
         let schemas = schemas();
         let refs: Vec<&Value> = schemas.iter().collect();
         let problems = check_grammar(&refs, EXCEPTIONS);
@@ -103,8 +104,8 @@ mod workspace {
         assert!(
             old == text,
             "{} is stale: regenerate the schemas with IFD_BLESS=1 cargo test -p ifd-cli -p \
-             ifd-brush -p ifd-envrender --bins, then this page with IFD_BLESS=1 cargo test -p \
-             ifd-clidoc",
+             ifd-brush -p ifd-envrender -p ifd-paper --bins, then this page with IFD_BLESS=1 \
+             cargo test -p ifd-clidoc",
             path.display()
         );
     }

@@ -16,9 +16,9 @@ pub fn markdown(trees: &[&Value]) -> String {
         "# Command-line reference\n\n\
          Generated from the binaries' definitions (`docs/reference/cli/*.json`); do not edit \
          by hand. To regenerate: `IFD_BLESS=1 cargo test -p ifd-cli -p ifd-brush -p \
-         ifd-envrender --bins` (the schemas), then `IFD_BLESS=1 cargo test -p ifd-clidoc` \
-         (this page). Every flag has one \
-         meaning across the three binaries (checked by `ifd-clidoc`'s grammar test).\n\n",
+         ifd-envrender -p ifd-paper --bins` (the schemas), then `IFD_BLESS=1 cargo test -p \
+         ifd-clidoc` (this page). Every flag has one meaning across the four binaries \
+         (checked by `ifd-clidoc`'s grammar test).\n\n",
     );
     let mut sections = Vec::new();
     for tree in trees {

@@ -10,13 +10,13 @@
 //! counter-clockwise on screen, `x` = column, `y` = row.
 //!
 //! ```no_run
-//! use ifd_gpu::{GpuContext, filter_image};
+//! use ifd_gpu::{GpuContext, filter_stack};
 //! use ifd_planar::{Border, Decomposition, Field, StackOptions, stack_for_decomposition};
 //! let ctx = GpuContext::new()?; // hardware, else lavapipe; GpuError::NoAdapter if neither
 //! let img = ifd_image::read("testdata/camera.png")?;
 //! let d = Decomposition::load(std::path::Path::new("d.json"))?;
 //! let stack = stack_for_decomposition(&img, &d, 1.0, 1.0, Border::Reflect101, StackOptions::default())?;
-//! let out = filter_image(&ctx, &stack, &d, Field::Constant(30.0), Field::Constant(1.0))?;
+//! let out = filter_stack(&ctx, &stack, &d, Field::Constant(30.0), Field::Constant(1.0))?;
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
@@ -116,5 +116,5 @@ pub use shading::{
     EnvVariant, GpuEnvironment, GpuMaterial, GpuRender, GpuShaded, GpuShader, GpuSurfaces,
     SurfacePoint, ToneCurve,
 };
-pub use smooth::{GpuHessian, GpuSmoother, filter_image};
+pub use smooth::{GpuHessian, GpuSmoother, filter_stack};
 pub use stack::GpuStack;

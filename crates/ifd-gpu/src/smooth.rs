@@ -391,15 +391,16 @@ fn entry_value((i, t): (usize, f64)) -> f32 {
     (i as f64 + t) as f32
 }
 
-/// Filters a whole image on the GPU: uploads `stack` and `decomposition`,
-/// evaluates with `angle` and `scale` (constants or per-pixel maps) and reads
-/// the result back. The GPU counterpart of
-/// `Filter::new(stack, decomposition)?.apply(angle, scale)`.
+/// Filters a whole image on the GPU from its prefiltered `stack`: uploads
+/// `stack` and `decomposition`, evaluates with `angle` and `scale`
+/// (constants or per-pixel maps) and reads the result back. The GPU
+/// counterpart of `Filter::new(stack, decomposition)?.apply(angle, scale)`
+/// (`ifd_planar::filter_image` builds the stack itself, from the image).
 ///
 /// # Errors
 /// The errors of [`GpuStack::upload`], [`GpuPose::new`] and
 /// [`GpuContext::evaluate`].
-pub fn filter_image(
+pub fn filter_stack(
     ctx: &GpuContext,
     stack: &ScaleStack,
     decomposition: &ifd_planar::Decomposition,

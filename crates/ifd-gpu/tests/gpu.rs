@@ -14,7 +14,7 @@ use std::sync::OnceLock;
 
 use ifd_gpu::{
     GpuCanvas, GpuContext, GpuDecomposition, GpuError, GpuHessian, GpuPose, GpuSmoother, GpuStack,
-    Region, filter_image,
+    Region, filter_stack,
 };
 use ifd_image::Image;
 use ifd_planar::{
@@ -192,7 +192,7 @@ fn constant_filter_matches_cpu_every_border() {
             .expect("filter")
             .apply(Field::Constant(30.0), Field::Constant(1.5))
             .expect("cpu");
-        let gpu = filter_image(ctx, &stack, &d, Field::Constant(30.0), Field::Constant(1.5))
+        let gpu = filter_stack(ctx, &stack, &d, Field::Constant(30.0), Field::Constant(1.5))
             .expect("gpu");
         assert_close(
             &gpu,
@@ -225,7 +225,7 @@ fn cubic_levels_match_cpu() {
                 .expect("filter")
                 .apply(angle, Field::Constant(1.3))
                 .expect("cpu");
-            let gpu = filter_image(ctx, &stack, &d, angle, Field::Constant(1.3)).expect("gpu");
+            let gpu = filter_stack(ctx, &stack, &d, angle, Field::Constant(1.3)).expect("gpu");
             assert_close(&gpu, &cpu, &format!("camera, cubic levels, {border}"));
         }
     }
@@ -263,7 +263,7 @@ fn stacks_at_the_terms_sigmas_match_cpu() {
         let filter = Filter::new(&stack, &d).expect("filter");
         for angle in [Field::Constant(-20.0), Field::Map(&angles)] {
             let cpu = filter.apply(angle, Field::Constant(scale)).expect("cpu");
-            let gpu = filter_image(ctx, &stack, &d, angle, Field::Constant(scale)).expect("gpu");
+            let gpu = filter_stack(ctx, &stack, &d, angle, Field::Constant(scale)).expect("gpu");
             assert_close(
                 &gpu,
                 &cpu,
@@ -271,7 +271,7 @@ fn stacks_at_the_terms_sigmas_match_cpu() {
             );
         }
         let scales = vec![scale; w * h];
-        let err = filter_image(ctx, &stack, &d, Field::Constant(0.0), Field::Map(&scales))
+        let err = filter_stack(ctx, &stack, &d, Field::Constant(0.0), Field::Map(&scales))
             .expect_err("a scale map on levels at given sigmas");
         assert!(err.to_string().contains("log-uniformly spaced"), "{err}");
         // A scale-map pose made for a log-uniform stack of the same size is
@@ -314,7 +314,7 @@ fn rgb_constant_filter_matches_cpu() {
         .expect("filter")
         .apply(Field::Constant(-75.0), Field::Constant(2.0))
         .expect("cpu");
-    let gpu = filter_image(
+    let gpu = filter_stack(
         ctx,
         &stack,
         &d,
@@ -358,7 +358,7 @@ fn spatially_varying_filter_matches_cpu() {
             (Field::Constant(10.0), Field::Map(&scales), "scale map"),
         ] {
             let cpu = filter.apply(angle, scale).expect("cpu");
-            let gpu = filter_image(ctx, &stack, &d, angle, scale).expect("gpu");
+            let gpu = filter_stack(ctx, &stack, &d, angle, scale).expect("gpu");
             assert_close(&gpu, &cpu, &format!("astronaut RGB, {what}, {border}"));
         }
     }
@@ -390,7 +390,7 @@ fn nearest_level_reads_match_cpu() {
     let filter = Filter::new(&stack, &d).expect("filter");
     let (angle, scale) = (Field::Map(&angles), Field::Map(&scales));
     let cpu = filter.apply(angle, scale).expect("cpu");
-    let gpu = filter_image(ctx, &stack, &d, angle, scale).expect("gpu");
+    let gpu = filter_stack(ctx, &stack, &d, angle, scale).expect("gpu");
     let peak = cpu.data().iter().fold(0.0f32, |m, v| m.max(v.abs()));
     let apart = gpu
         .data()
@@ -411,7 +411,7 @@ fn nearest_level_reads_match_cpu() {
     };
     let blended =
         stack_for_decomposition(&img, &d, 0.5, 3.0, Border::Reflect101, blend).expect("stack");
-    let other = filter_image(ctx, &blended, &d, angle, scale).expect("gpu");
+    let other = filter_stack(ctx, &blended, &d, angle, scale).expect("gpu");
     let differ = other
         .data()
         .iter()
@@ -492,7 +492,7 @@ fn many_channels_split_into_groups() {
         .expect("filter")
         .apply(Field::Constant(120.0), Field::Constant(1.0))
         .expect("cpu");
-    let gpu = filter_image(
+    let gpu = filter_stack(
         ctx,
         &stack,
         &d,
@@ -664,7 +664,7 @@ fn small_limits_split_or_fail_clearly() {
         .expect("filter")
         .apply(Field::Constant(5.0), Field::Constant(1.0))
         .expect("cpu");
-    let gpu = filter_image(
+    let gpu = filter_stack(
         &small,
         &stack,
         &d,

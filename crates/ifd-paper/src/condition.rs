@@ -1,4 +1,4 @@
-//! The condition-number study of ISD Fig. 13 (`ifd paper isd-condition`):
+//! The condition-number study of ISD Fig. 13 (`ifd-paper isd-condition`):
 //! [`condition_study`] computes the 2-norm condition number of the full ISD
 //! matrix `M` (Eq. 17) for every [`Profile`], degrees `1..=L`, with per-band
 //! and with shared Fibonacci directions, and [`condition_plot`] draws it.

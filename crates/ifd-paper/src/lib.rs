@@ -1,5 +1,5 @@
 //! Code only the reproductions of the papers' tables and figures need, kept
-//! out of the product crates (the `ifd paper` commands are its front end).
+//! out of the product crates (its binary, `ifd-paper`, is their front end).
 //!
 //! - [`convergence`]: ISD Fig. 4, the error of ISD shading and of its SH
 //!   reference against the exact texel quadrature as `L` grows, as CSV and a

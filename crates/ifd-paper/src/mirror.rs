@@ -1,4 +1,4 @@
-//! ISD Fig. 6 (`ifd paper isd-mirror`): anti-aliased reflections off a
+//! ISD Fig. 6 (`ifd-paper isd-mirror`): anti-aliased reflections off a
 //! bumpy mirror sphere, ISD's filter (Eq. 26-29, [`ifd_render::render_mirror`])
 //! against supersampling and a jittered reference, timed side by side and
 //! measured over the bumpy and the smooth region.

@@ -1,4 +1,4 @@
-//! ISD Fig. 7 (`ifd paper isd-visibility`): self-shadowed ISD shading on a
+//! ISD Fig. 7 (`ifd-paper isd-visibility`): self-shadowed ISD shading on a
 //! mesh (Eq. 25, Appendix A) against its ray-traced reference, as `L` grows,
 //! beside unshadowed ISD.
 //!

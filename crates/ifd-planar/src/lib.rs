@@ -59,7 +59,7 @@
 //!
 //! What tests, benches and studies need beyond that (the brute-force
 //! reference correlation, the SpaRSA solver, the dictionary) is in
-//! [`internals`]: not part of the API.
+//! `internals`, hidden from these pages: not part of the API.
 
 mod accuracy;
 mod border;
@@ -114,6 +114,13 @@ pub use tiled::{
 
 /// Not the API: what tests, benches, examples and studies need beyond it.
 /// Paths here may change without notice.
+// Hidden from the documentation (and so from the public API list,
+// docs/reference/api/ifd-planar.txt): public only for the crates' own tests,
+// benches and doc examples, ifd-smooth's tests (the reference correlation)
+// and ifd-paper's dictionary study (the dictionary's parameters). Not a
+// cargo feature: every user is a dev-dependency, and a feature would need
+// ifd-planar's own tests and doc examples to turn it on for themselves.
+#[doc(hidden)]
 pub mod internals {
     /// The brute-force references the fast paths are tested against.
     pub mod reference {

@@ -1,7 +1,7 @@
 //! Anti-aliased mirror reflections of an environment map (ISD Sec. 6.2,
 //! Eq. 26-29) off any [`Reflector`]: a scene's surface, bumpy through a
 //! normal map ([`SceneMirror`], `ifd render --brdf mirror`), or the studies'
-//! procedural bumps (`ifd paper isd-mirror`).
+//! procedural bumps (`ifd-paper isd-mirror`).
 
 use std::f64::consts::PI;
 
@@ -295,7 +295,7 @@ fn unit_float(h: u64) -> f64 {
 /// Anti-aliased mirror reflections of an environment map (ISD Sec. 6.2,
 /// Eq. 26-29) off any [`Reflector`]: a scene's surface, bumpy through a
 /// normal map ([`SceneMirror`], `ifd render --brdf mirror`), or the studies'
-/// procedural bumps (`ifd paper isd-mirror`).
+/// procedural bumps (`ifd-paper isd-mirror`).
 ///
 /// # What a pixel integrates
 /// Eq. 26: `I(p) = int g(dp) E(r(n(p + dp), wo)) ddp`, the environment seen

@@ -169,7 +169,11 @@ impl ShCoeffs {
     /// # Errors
     /// [`SphereError::Image`] wrapping the I/O error, naming the file.
     pub fn write_npy(&self, path: &Path) -> Result<()> {
-        write_npy_f64(path, &[sh_count(self.l_max), self.channels], &self.data)
+        Ok(ifd_image::write_npy_f64(
+            path,
+            &[sh_count(self.l_max), self.channels],
+            &self.data,
+        )?)
     }
 
     /// Reads a float64 or float32 `.npy` file of shape `((L + 1)^2, C)` or
@@ -219,15 +223,6 @@ impl ShCoeffs {
         })?;
         Ok((coeffs, shape))
     }
-}
-
-/// Writes a C-order float64 `.npy` file atomically
-/// ([`ifd_image::write_npy_f64`], the project's one `.npy` implementation).
-///
-/// # Errors
-/// [`SphereError::Image`] wrapping the I/O error, naming the file.
-pub fn write_npy_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<()> {
-    Ok(ifd_image::write_npy_f64(path, shape, data)?)
 }
 
 /// Reads a float64 or float32 (or uint8/uint16) `.npy` array of any shape

@@ -43,7 +43,8 @@
 //!   fast path): [`ShEvaluator`], [`eval_sh`], [`legendre_p`],
 //!   [`legendre_all`], [`gauss_legendre`], [`direction`], [`pi_l`],
 //!   [`sh_count`], [`sh_index`]; coefficients [`ShCoeffs`] and their `.npy`
-//!   format ([`read_npy_f64`], [`write_npy_f64`]).
+//!   format ([`read_npy_f64`]; arrays are written with
+//!   `ifd_image::write_npy_f64`).
 //! - **Map transforms** (`transform/`): [`EquirectTransform`] (FFT +
 //!   Legendre analysis at pixel centres or texel-exact, synthesis),
 //!   [`analyze_map`] by shape, [`analyze_cubemap`], [`project_samples`],
@@ -81,7 +82,7 @@ mod vector_tests;
 mod zhf;
 mod zhf_plane;
 
-pub use crate::coeffs::{ShCoeffs, read_npy_f64, write_npy_f64};
+pub use crate::coeffs::{ShCoeffs, read_npy_f64};
 pub use crate::error::{MAX_DEGREE, Result, SphereError};
 pub use crate::filter::{Decomposition, MapLayout, Prefiltered, meridian_frame};
 pub use crate::kernel::{Kernel, project_band, project_function, vmf_factors};

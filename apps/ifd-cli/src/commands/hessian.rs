@@ -39,7 +39,7 @@ impl Hessian {
     pub fn run(self) -> Result<()> {
         let border = self.border;
         ifd_smooth::check_sigma(self.sigma)
-            .map_err(|e| crate::input::name_option(e, Some("--sigma")))?;
+            .map_err(|e| super::smooth::name_option(e, Some("--sigma")))?;
         crate::output::check_output_path(&self.output)?;
         let img = self.input.read(&self.image)?.image;
         let bank = HessianBank::new(0.01)?;

@@ -9,7 +9,6 @@ pub mod filter;
 pub mod gpu_info;
 pub mod hessian;
 pub mod info;
-pub mod paper;
 pub mod render;
 pub mod smooth;
 pub mod sphere;

@@ -135,7 +135,7 @@ impl Smooth {
             let flag =
                 matches!(&e, ifd_smooth::SmoothError::OutOfRange { name, .. } if *name == "scale")
                     .then_some("--sigma");
-            crate::input::name_option(e, flag)
+            name_option(e, flag)
         })?;
         crate::output::check_output_path(&self.output.output)?;
         if self.tile == Some(0) {
@@ -388,4 +388,19 @@ fn field_image(
         3,
         field,
     )?)
+}
+
+/// A smoothing library error about a parameter's range, said in terms of the
+/// command's option: `flag`, or the parameter's name as a flag (`hessian
+/// sigma` -> `--hessian-sigma`); other errors as they are (`ifd smooth` and
+/// `ifd hessian`).
+pub(crate) fn name_option(e: ifd_smooth::SmoothError, flag: Option<&str>) -> anyhow::Error {
+    match e {
+        ifd_smooth::SmoothError::OutOfRange { name, value, range } => anyhow::anyhow!(
+            "{} {}: outside the supported range {range}",
+            flag.map_or_else(|| format!("--{}", name.replace(' ', "-")), str::to_string),
+            ifd_image::short_number(value)
+        ),
+        e => e.into(),
+    }
 }

@@ -4,7 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use ifd_sphere::{read_npy_f64, write_npy_f64};
+use ifd_image::write_npy_f64;
+use ifd_sphere::read_npy_f64;
 
 use ifd_sphere::ShEvaluator;
 

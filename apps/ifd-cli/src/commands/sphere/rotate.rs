@@ -101,7 +101,7 @@ impl RotateCmd {
             }
         };
         // the input's shape: ((L+1)^2,) stays 1-D
-        ifd_sphere::write_npy_f64(&self.output, &shape, g.data())?;
+        ifd_image::write_npy_f64(&self.output, &shape, g.data())?;
         Ok(())
     }
 }

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Storage, interpolation error and build time of lobe tables (docs/shading.md):
-#   bash scripts/table_study.sh > docs/shading-tables.csv
+#   bash crates/ifd-paper/scripts/table_study.sh > docs/shading-tables.csv
 # (run from the repository root after `cargo build -p ifd-cli`).
 set -euo pipefail
 B=${IFD_BIN:-${CARGO_TARGET_DIR:-target}/debug/ifd}

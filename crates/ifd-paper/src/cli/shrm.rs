@@ -1,4 +1,4 @@
-//! `ifd paper shrm-table4` and `shrm-table5`: Ramamoorthi and Hanrahan
+//! `ifd-paper shrm-table4` and `shrm-table5`: Ramamoorthi and Hanrahan
 //! (2002), Tables 4 and 5.
 
 use std::fmt::Write as _;
@@ -7,8 +7,9 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 
+use super::csv_report;
 use crate::input::InputOptions;
-use crate::options::{ReportOptions, csv_report};
+use crate::options::ReportOptions;
 
 /// Reproduces Tables 4 and 5 of Ramamoorthi and Hanrahan (2002).
 ///
@@ -45,7 +46,7 @@ pub struct Shrm {
     input: InputOptions,
 }
 
-/// `ifd paper shrm-table4`: the Phong lobe, angular against frequency space.
+/// `ifd-paper shrm-table4`: the Phong lobe, angular against frequency space.
 #[derive(Debug, Args)]
 pub struct ShrmTable4 {
     #[command(flatten)]
@@ -65,7 +66,7 @@ pub struct ShrmTable4 {
     plot: Option<PathBuf>,
 }
 
-/// `ifd paper shrm-table5`: the microfacet BRDF of Eq. 11, SHRM against
+/// `ifd-paper shrm-table5`: the microfacet BRDF of Eq. 11, SHRM against
 /// angular reflection maps.
 #[derive(Debug, Args)]
 pub struct ShrmTable5 {

@@ -1,6 +1,6 @@
-"""Plot docs/dictionary-study.csv (written by the dictionary_study example).
+"""Plot docs/dictionary-study.csv (written by the dictionary_study example of ifd-paper).
 
-    .venv/bin/python docs/plot_dictionary_study.py docs/dictionary-study.csv docs/dictionary-study.png
+    .venv/bin/python crates/ifd-paper/scripts/plot_dictionary_study.py docs/dictionary-study.csv docs/dictionary-study.png
 
 One panel per filter: relative L2 error (log) against the number of terms,
 one line per dictionary configuration, joining the fits at decreasing target

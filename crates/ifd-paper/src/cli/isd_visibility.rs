@@ -1,4 +1,4 @@
-//! `ifd paper isd-visibility`: self-shadowed ISD shading on a mesh against a
+//! `ifd-paper isd-visibility`: self-shadowed ISD shading on a mesh against a
 //! ray-traced reference (ISD Sec. 6.1, Eq. 25, Appendix A, Fig. 7).
 
 use std::fmt::Write as _;
@@ -32,7 +32,7 @@ use crate::options::ReportOptions;
 /// against L as CSV and a plot (with the unshadowed ISD error for
 /// comparison) into --out-dir, and prints a report (JSON with --json).
 ///
-/// Example: `ifd paper isd-visibility --env testdata/forest.hdr --brdf phong:s=8 --out-dir vis`
+/// Example: `ifd-paper isd-visibility --env testdata/forest.hdr --brdf phong:s=8 --out-dir vis`
 #[derive(Debug, Args)]
 #[command(mut_arg("size", |a| a.default_value("96x96")), mut_arg("eye", |a| a.default_value("0,-2.4,1.7")))]
 pub struct Visibility {
@@ -126,7 +126,7 @@ impl Visibility {
             eprintln!("{m}");
         })?;
         if let Some(dir) = &self.out_dir {
-            crate::output::write_figure(
+            super::write_figure(
                 dir,
                 &[
                     ("unshadowed", &s.unshadowed),

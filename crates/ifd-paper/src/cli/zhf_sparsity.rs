@@ -1,4 +1,4 @@
-//! `ifd paper zhf-sparsity`: the ZHF paper's sparsity search (Sec. 5-6, Table
+//! `ifd-paper zhf-sparsity`: the ZHF paper's sparsity search (Sec. 5-6, Table
 //! I, Fig. 3).
 
 use std::fmt::Write as _;
@@ -20,7 +20,7 @@ use crate::options::ReportOptions;
 /// draws from the same candidates (Fig. 3). Prints the report (every set's directions
 /// included) and, with --markdown, a table against the paper's Table I.
 ///
-/// Example: `ifd paper zhf-sparsity --bands 2..12 --orders 2..8 --markdown sparsity.md` (minutes:
+/// Example: `ifd-paper zhf-sparsity --bands 2..12 --orders 2..8 --markdown sparsity.md` (minutes:
 /// the search is long on purpose, see `ifd_paper::sparsity`)
 #[derive(Debug, Args)]
 pub struct SparsityCmd {

@@ -1,7 +1,7 @@
 """The SH degree L each glTF roughness needs: ISD's error against the exact integral over L.
 
 Run from the repository root after building:
-    .venv/bin/python tests/bench/isd_degree_study.py [--ifd PATH] [--out docs/split-sum]
+    .venv/bin/python crates/ifd-paper/scripts/isd_degree_study.py [--ifd PATH] [--out docs/split-sum]
 
 For each perceptual roughness (0.2 to 1) of a glTF metal (metallic 1, base colour 0.9: the
 specular lobe alone, the hardest case; a dielectric's diffuse part needs less), the unit sphere

@@ -1,4 +1,4 @@
-//! `ifd paper isd-mirror`: anti-aliased environment-map reflections on a bumpy mirror
+//! `ifd-paper isd-mirror`: anti-aliased environment-map reflections on a bumpy mirror
 //! (ISD Sec. 6.2, Fig. 6), ISD's filter against supersampling.
 
 use std::fmt::Write as _;
@@ -26,7 +26,7 @@ use crate::options::ReportOptions;
 /// --runs interleaved runs, and the ratio to 4x4; JSON with --json), and writes each
 /// image (EXR and PNG), a side-by-side strip and table.md into --out-dir.
 ///
-/// Example: `ifd paper isd-mirror --env testdata/forest.hdr --out-dir mirror-out`
+/// Example: `ifd-paper isd-mirror --env testdata/forest.hdr --out-dir mirror-out`
 #[derive(Debug, Args)]
 #[command(mut_arg("eye", |a| a.default_value("0,-3.2,1.1")), mut_arg("fov", |a| a.default_value("42")))]
 pub struct Mirror {
@@ -145,7 +145,7 @@ impl Mirror {
         if let Some(dir) = &self.out_dir {
             let named: Vec<(&str, &ifd_image::Image)> =
                 images.iter().map(|(n, im)| (n.as_str(), im)).collect();
-            crate::output::write_figure(dir, &named, self.exposure)?;
+            super::write_figure(dir, &named, self.exposure)?;
             let table = markdown(&rows, ss4);
             crate::output::write_text(&dir.join("table.md"), &table)?;
         }

@@ -23,7 +23,7 @@ from the border) equals the Gaussian's:
 Measured: PSNR against the clean image, and edge preservation = correlation of
 Sobel gradient magnitudes with those of the clean image.
 
-Usage: .venv/bin/python tests/bench/smoothing_quality.py [--ifd target/release/ifd] [--sigma 2] [--out docs/smoothing]
+Usage: .venv/bin/python crates/ifd-paper/scripts/smoothing_quality.py [--ifd target/release/ifd] [--sigma 2] [--out docs/smoothing]
 Writes markdown tables on stdout and a side-by-side crop into --out.
 """
 
@@ -38,7 +38,7 @@ import cv2
 import numpy as np
 from skimage.restoration import denoise_tv_chambolle
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
+ROOT = pathlib.Path(__file__).resolve().parents[3]
 NOISE = 0.05
 SEED = 2026
 INNER = (slice(16, -16), slice(16, -16))

@@ -1,7 +1,7 @@
 """The split sum's error on the bundled glTF sphere grid, per metalness, roughness and view angle.
 
 Run from the repository root after building:
-    .venv/bin/python tests/bench/split_sum_assets_study.py [--ifd PATH] [--out docs/split-sum]
+    .venv/bin/python crates/ifd-paper/scripts/split_sum_assets_study.py [--ifd PATH] [--out docs/split-sum]
 
 `testdata/spheres.glb` (25 spheres: metallic 0, 0.25, 0.5, 0.75, 1 upwards, roughness 0.1, 0.3,
 0.5, 0.75, 1 to the right, base colour from the asset) is rendered through its own camera at

@@ -1,4 +1,4 @@
-//! `ifd paper isd-convergence`: ISD Fig. 4, the relative RMS error of ISD and
+//! `ifd-paper isd-convergence`: ISD Fig. 4, the relative RMS error of ISD and
 //! of its SH reference against the exact oracle as L grows, per BRDF.
 
 use std::path::PathBuf;
@@ -7,11 +7,9 @@ use anyhow::Result;
 use clap::Args;
 use ifd_shade::Brdf;
 
-use crate::commands::render::is_display;
+use super::{csv_report, is_display};
 use crate::input::InputOptions;
-use crate::options::{
-    CameraOptions, DisplayOptions, EnvOptions, ReportOptions, SceneOptions, csv_report,
-};
+use crate::options::{CameraOptions, DisplayOptions, EnvOptions, ReportOptions, SceneOptions};
 
 /// ISD Fig. 4: render the oracle once per --brdf, then ISD and SH at every
 /// degree of --degrees; print the CSV of errors (brdf, L, method, rel_rms,
@@ -79,7 +77,9 @@ impl IsdConvergence {
             .iter()
             .map(|s| Brdf::parse(s))
             .collect::<std::result::Result<Vec<_>, _>>()?;
-        let scene = self.scene.scene()?;
+        let scene = self
+            .scene
+            .scene_with(ifd_image::MemoryBudget::default_for_machine())?;
         let camera = self.camera.camera()?;
         let tonemap = self.display.tonemap()?;
         let (_, env) = self.env.environments(&self.input)?;

@@ -6,7 +6,7 @@ the kernel's window plus the fit's margin of zeros; hard-edged kernels are
 also fitted between pixel centres (a grid twice as fine); the whole-plane DC
 error is how much a constant image changes.
 
-Usage: .venv/bin/python tests/bench/decompose_report.py [--ifd target/release/ifd]
+Usage: .venv/bin/python crates/ifd-paper/scripts/decompose_report.py [--ifd target/release/ifd]
 Prints a markdown table (used in BENCHMARKS.md, "Planar IFD").
 """
 
@@ -17,7 +17,7 @@ import subprocess
 import sys
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
+ROOT = pathlib.Path(__file__).resolve().parents[3]
 
 SMOOTH = [
     "gauss:sx=12,sy=3,theta=30",

@@ -2,8 +2,8 @@
 //! dictionary choices, on the accuracy-target filters.
 //!
 //! ```text
-//! cargo run --release -p ifd-planar --example dictionary_study -- study docs/dictionary-study.csv
-//! cargo run --release -p ifd-planar --example dictionary_study -- one gauss:sx=24,sy=3,theta=30 ratio=0.5 spo=4 over=1 dlevels=0 gap=0.01 tol=0.01
+//! cargo run --release -p ifd-paper --example dictionary_study -- study docs/dictionary-study.csv
+//! cargo run --release -p ifd-paper --example dictionary_study -- one gauss:sx=24,sy=3,theta=30 ratio=0.5 spo=4 over=1 dlevels=0 gap=0.01 tol=0.01
 //! ```
 //!
 //! `study` varies one parameter at a time around the defaults (sigma/spacing

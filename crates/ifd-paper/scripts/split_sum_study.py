@@ -1,7 +1,7 @@
 """How far engines' split-sum shading is from the exact integral of the glTF BRDF.
 
 Run from the repository root after building:
-    .venv/bin/python tests/bench/split_sum_study.py [--ifd PATH] [--out docs/split-sum]
+    .venv/bin/python crates/ifd-paper/scripts/split_sum_study.py [--ifd PATH] [--out docs/split-sum]
 
 For each environment (the bundled forest map and `testdata/sunrise.hdr`, a 256x128
 solid-angle average of `../shared/testdata/envmaps/sunrise.hdr`, both read at 128x64 by
@@ -30,7 +30,7 @@ import tempfile
 import numpy as np
 from ifd_paths import ifd_binary
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
+ROOT = pathlib.Path(__file__).resolve().parents[3]
 ENVS = {"forest": ROOT / "testdata" / "forest.hdr", "sunrise": ROOT / "testdata" / "sunrise.hdr"}
 METHODS = ["split-sum", "split-sum-sample-renderer", "isd"]
 SIZE = 96

@@ -1,4 +1,4 @@
-//! `ifd paper all`: every study in one run, each into a Markdown page with
+//! `ifd-paper all`: every study in one run, each into a Markdown page with
 //! what the paper reports beside what this run measured, and its figures.
 
 use std::fmt::Write as _;
@@ -24,7 +24,7 @@ pub struct All {
     /// --quick run needs a folder of its own).
     #[arg(long, value_name = "DIR")]
     out_dir: Option<PathBuf>,
-    /// Run only this study (a name from `ifd paper list`); repeatable.
+    /// Run only this study (a name from `ifd-paper list`); repeatable.
     #[arg(long, value_name = "NAME")]
     only: Vec<String>,
 }
@@ -132,7 +132,7 @@ const STUDIES: &[Study] = &[
     },
 ];
 
-/// The studies `ifd paper all` runs, for `ifd paper list`.
+/// The studies `ifd-paper all` runs, for `ifd-paper list`.
 pub fn names() -> impl Iterator<Item = &'static str> {
     STUDIES.iter().map(|s| s.name)
 }
@@ -154,14 +154,14 @@ impl All {
             .find(|n| !STUDIES.iter().any(|s| s.name == n.as_str()))
         {
             bail!(
-                "--only {bad}: not a study run by `ifd paper all` (one of: {})",
+                "--only {bad}: not a study run by `ifd-paper all` (one of: {})",
                 names().collect::<Vec<_>>().join(", ")
             );
         }
         if !Path::new("testdata/forest.hdr").is_file() {
-            bail!("testdata/forest.hdr not found: run `ifd paper all` from the repository root");
+            bail!("testdata/forest.hdr not found: run `ifd-paper all` from the repository root");
         }
-        let exe = std::env::current_exe().context("locating the ifd binary")?;
+        let exe = std::env::current_exe().context("locating the ifd-paper binary")?;
         std::fs::create_dir_all(&out_dir)
             .with_context(|| format!("--out-dir {}", out_dir.display()))?;
         let chosen: Vec<&Study> = STUDIES
@@ -188,20 +188,19 @@ impl All {
                 .split_whitespace()
                 .map(|a| a.replace("{out}", &dir_text))
                 .collect();
-            eprintln!("[{}/{}] ifd paper {} ...", i + 1, chosen.len(), study.name);
+            eprintln!("[{}/{}] ifd-paper {} ...", i + 1, chosen.len(), study.name);
             let start = Instant::now();
             let out = std::process::Command::new(&exe)
-                .arg("paper")
                 .arg(study.name)
                 .args(&args)
                 .stdin(std::process::Stdio::null())
                 .output()
-                .with_context(|| format!("running ifd paper {}", study.name))?;
+                .with_context(|| format!("running ifd-paper {}", study.name))?;
             let secs = start.elapsed().as_secs_f64();
             if !out.status.success() {
                 let err = String::from_utf8_lossy(&out.stderr);
                 bail!(
-                    "ifd paper {} failed ({}):\n{}",
+                    "ifd-paper {} failed ({}):\n{}",
                     study.name,
                     out.status,
                     err.trim_end()
@@ -233,7 +232,7 @@ impl All {
     fn write_index(out_dir: &Path) -> Result<()> {
         let mut index = String::from(
             "# The papers' tables and figures, regenerated\n\n\
-             Written by `ifd paper all` (run from the repository root; `--quick` for small \
+             Written by `ifd-paper all` (run from the repository root; `--quick` for small \
              sizes). Each page has what the paper reports, the command and its run time, the \
              report, and the figures.\n\n| study | page |\n|---|---|\n",
         );
@@ -270,11 +269,11 @@ impl All {
         let _ = writeln!(page, "## What the paper reports\n\n{}\n", study.paper);
         let _ = writeln!(
             page,
-            "## This run\n\n{}, {secs:.1} s on this machine ({} threads):\n\n```sh\nifd paper {} {}\n```\n",
+            "## This run\n\n{}, {secs:.1} s on this machine ({} threads):\n\n```sh\nifd-paper {} {}\n```\n",
             if self.quick {
-                "Small sizes (`ifd paper all --quick`: checks that the study runs, not the paper's sizes)"
+                "Small sizes (`ifd-paper all --quick`: checks that the study runs, not the paper's sizes)"
             } else {
-                "The documentation's sizes (`ifd paper all`)"
+                "The documentation's sizes (`ifd-paper all`)"
             },
             rayon::current_num_threads(),
             study.name,

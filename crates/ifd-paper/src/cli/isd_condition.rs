@@ -1,4 +1,4 @@
-//! `ifd paper isd-condition`: ISD Fig. 13, the condition number of the ISD
+//! `ifd-paper isd-condition`: ISD Fig. 13, the condition number of the ISD
 //! system against L for every lobe profile, per-band and shared directions.
 
 use std::path::PathBuf;
@@ -10,10 +10,10 @@ use ifd_paper::condition::{condition_study, is_singular};
 use ifd_sphere::MAX_ISD_DEGREE;
 use serde_json::json;
 
-use crate::commands::sphere::sharing_name;
+use super::sharing_name;
 use crate::options::ReportOptions;
 
-/// `ifd paper isd-condition --lmax L --plot cond.png` (ISD Fig. 13).
+/// `ifd-paper isd-condition --lmax L --plot cond.png` (ISD Fig. 13).
 ///
 /// Plot: x = L (1..=lmax), y = cond(M) on a log scale with a labelled tick every
 /// decade; colours (legend on the right): zonal black, legendre blue, phong red,
