@@ -7,8 +7,8 @@ use std::path::PathBuf;
 use clap::{Arg, ArgAction, Command};
 use serde_json::{Value, json};
 
-/// The JSON schema of a command tree (hidden commands and flags left out:
-/// they are old spellings kept only to be refused with a message).
+/// The JSON schema of a command tree (hidden commands and flags, if a
+/// binary ever has any, left out: they are not part of its grammar).
 #[must_use]
 pub fn schema(mut cmd: Command) -> Value {
     cmd.build();

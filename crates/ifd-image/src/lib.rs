@@ -7,6 +7,10 @@
 //!   atomic writes; clear errors naming the file.
 //! - [`compare`], [`psnr`] and [`Metrics`] (`metrics.rs`): PSNR and SSIM
 //!   defined exactly as scikit-image defines them.
+//! - What every ifd crate shares beyond images: the memory budget of large
+//!   work ([`MemoryBudget`], [`physical_memory`]), atomic output files
+//!   ([`atomic_write`]), and how messages print numbers and sizes
+//!   ([`short_number`], [`fmt_bytes`]).
 //!
 //! ```
 //! use ifd_image::{compare, read};
@@ -22,18 +26,20 @@ mod error;
 mod files;
 mod image;
 mod io;
+mod messages;
 mod metrics;
 mod npy;
 mod npy_stream;
 
 pub use crate::budget::{MemoryBudget, physical_memory};
-pub use crate::error::{ImageError, fmt_bytes, short_number};
+pub use crate::error::ImageError;
 pub use crate::files::{atomic_write, output_folder_problem, remove_pending_outputs};
 pub use crate::image::{Image, ImageView};
 pub use crate::io::{
     BitDepth, FileFormat, LoadedImage, NonFinitePolicy, ReadOptions, WriteOptions, WriteReport,
     linear_to_srgb, read, read_image, read_image_bytes, srgb_to_linear, write, write_image,
 };
+pub use crate::messages::{fmt_bytes, short_number};
 pub use crate::metrics::{
     Comparison, Metrics, SSIM_SIGMA, SSIM_TRUNCATE, compare, crop_border, default_data_range, psnr,
     psnr_from_mse, ssim_radius,
