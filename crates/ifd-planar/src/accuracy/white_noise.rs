@@ -666,7 +666,7 @@ fn axis_product(a: &Axis, b: &Axis, var: f64) -> f64 {
 /// scale `s` (effective sigmas, offsets scaled).
 fn kernel_norm2(decomposition: &Decomposition, s: f64) -> f64 {
     let sampling = decomposition.sampling;
-    super::gaussian_sum_norm2(&decomposition.terms, s, |sigma| {
+    super::norm::gaussian_sum_norm2(&decomposition.terms, s, |sigma| {
         sampling.effective_sigma(sigma, s)
     })
 }
