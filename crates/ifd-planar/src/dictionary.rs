@@ -35,9 +35,9 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::Term;
 use crate::kernel::Kernel;
 use crate::sparsa::LinearOperator;
+use crate::term::Term;
 
 /// Truncation of the 1D factors, in standard deviations.
 const CUTOFF_SIGMAS: f64 = 6.0;

@@ -34,7 +34,11 @@ fn kernel_norm(decomposition: &Decomposition) -> f64 {
 /// pair of terms once: the squared norm of a decomposition's kernel at
 /// scale `s` with sigmas `sigma` of the terms' (the bound's and, with the
 /// pixel footprint, the estimate's normalisation).
-pub(super) fn gaussian_sum_norm2(terms: &[crate::Term], s: f64, sigma: impl Fn(f64) -> f64) -> f64 {
+pub(super) fn gaussian_sum_norm2(
+    terms: &[crate::term::Term],
+    s: f64,
+    sigma: impl Fn(f64) -> f64,
+) -> f64 {
     let sigmas: Vec<f64> = terms.iter().map(|t| sigma(t.sigma)).collect();
     let mut sum = 0.0;
     for (i, a) in terms.iter().enumerate() {
@@ -52,7 +56,7 @@ pub(super) fn gaussian_sum_norm2(terms: &[crate::Term], s: f64, sigma: impl Fn(f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::decomposition::Term;
+    use crate::term::Term;
 
     #[test]
     fn kernel_norm_of_one_gaussian() {

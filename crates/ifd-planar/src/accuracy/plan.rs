@@ -496,7 +496,7 @@ impl EvalPlan {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::decomposition::Term;
+    use crate::term::Term;
 
     /// A fit's budget follows its error, and the estimate, not the bound,
     /// is held to it: the 8:1 Gaussian at `--tol 0.1` (18 terms, 4.8 to

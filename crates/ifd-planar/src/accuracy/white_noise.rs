@@ -674,7 +674,7 @@ fn kernel_norm2(decomposition: &Decomposition, s: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::decomposition::Term;
+    use crate::term::Term;
 
     /// The pair sums (integrals) and the grid (pixel sums) agree where the
     /// Gaussians are a few pixels wide, bilinear and cubic, on one level
