@@ -12,7 +12,8 @@ use rustfft::{Fft, FftPlanner};
 use super::{Analysis, Negatives, count_negatives_of_finite_map};
 use crate::coeffs::ShCoeffs;
 use crate::error::{Result, SphereError, check_degree};
-use crate::sh::{LegendreTable, gauss_legendre, sh_count};
+use crate::legendre::gauss_legendre;
+use crate::sh::{LegendreTable, sh_count};
 
 /// A reusable plan for SH analysis/synthesis of `W x H` equirectangular maps
 /// up to degree `L` (FFT plans and recurrence tables).
