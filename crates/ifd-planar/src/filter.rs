@@ -186,7 +186,7 @@ impl<'a> Filter<'a> {
 
     /// Whether the per-pixel paths (an angle or scale map) may evaluate eight
     /// pixels at a time with the CPU's vector gathers, where it has them
-    /// ([`crate::vector_kernels`]); on by default. The output is the same bit
+    /// ([`ifd_simd::isa`]); on by default. The output is the same bit
     /// for bit either way: turning them off is for measuring.
     ///
     /// ```

@@ -77,6 +77,7 @@ mod prepared;
 mod reference;
 mod sparsa;
 mod stack;
+mod term;
 /// Unit tests that cannot run on this machine record themselves as skipped.
 #[cfg(test)]
 #[path = "../../../tests/support/skip.rs"]
@@ -88,7 +89,7 @@ pub use accuracy::{EvalPlan, PlanOptions};
 pub use border::Border;
 pub use dab::{Rotation, ScaledFilter};
 pub use decomposition::{
-    Decomposition, DecompositionFileError, FORMAT as DECOMPOSITION_FORMAT, FitReport, Term,
+    Decomposition, DecompositionFileError, FORMAT as DECOMPOSITION_FORMAT, FitReport,
     VERSION as DECOMPOSITION_VERSION,
 };
 pub use error::FilterError;
@@ -108,6 +109,7 @@ pub use stack::{
     Interpolation, LevelLayout, LevelLocator, ScaleStack, StackBuild, StackLayout, StackOptions,
     StackPlan,
 };
+pub use term::Term;
 pub use tiled::{
     RegionReader, RegionWriter, TileGrid, TiledField, Tiling, filter_tiled, halo as tile_halo,
 };

@@ -5,9 +5,10 @@
 
 use std::borrow::Cow;
 
-use crate::decomposition::{Decomposition, Term};
+use crate::decomposition::Decomposition;
 use crate::error::FilterError;
 use crate::kernel::Sampling;
+use crate::term::Term;
 
 /// A decomposition whose terms are all finite with positive sigmas, with at
 /// least one term, and the numbers every evaluation path needs from them.

@@ -63,6 +63,7 @@ mod error;
 mod gbuffer;
 mod gltf;
 mod hit;
+mod job;
 mod mc;
 mod mesh;
 mod mirror;
@@ -81,6 +82,7 @@ pub use crate::error::{RenderError, Result};
 pub use crate::gbuffer::{Pixel, Surface, pixel, pixels};
 pub use crate::gltf::{GltfAsset, GltfCamera, GltfPoint};
 pub use crate::hit::Hit;
+pub use crate::job::{Job, Method, Rendered};
 pub use crate::mc::{EnvSampler, estimate as estimate_mc, pixel_seed};
 pub use crate::mesh::Mesh;
 pub use crate::mirror::{
@@ -88,7 +90,7 @@ pub use crate::mirror::{
     render as render_mirror,
 };
 pub use crate::oracle::{MAX_K as ORACLE_MAX_K, Oracle, TOLERANCE as ORACLE_TOLERANCE};
-pub use crate::render::{Job, Method, Rendered, render};
+pub use crate::render::render;
 pub use crate::scene::Scene;
 pub use crate::split_sum::{SplitSum, SplitSumVariant};
 pub use crate::textures::{RoughnessFamily, SurfaceMaps, Texture, alpha_of, perturb_normal};

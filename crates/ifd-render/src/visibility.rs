@@ -340,7 +340,7 @@ pub fn reference(
 /// texel of the (piecewise-constant) map.
 ///
 /// [`Shadows`] holds what a frame needs (the visibility per vertex, the
-/// product matrix, the reference's nodes); [`crate::render::Job::shadows`]
+/// product matrix, the reference's nodes); [`crate::Job::shadows`]
 /// renders with it (`ifd render --shadows`): `isd` by the three steps,
 /// `quadrature` by the ray-traced reference.
 #[derive(Clone, Debug)]

@@ -38,8 +38,12 @@
 //!   format ([`TableHeader`], [`TABLE_VERSION`], [`brdf_digest`]),
 //!   [`default_theta_entries`], [`view_frame_angle`], [`MAX_TABLE_DEGREE`].
 //! - **Shading** (`shade.rs`): Eq. 22, ISD and the SH reference:
-//!   [`Environment`], [`Material`], [`Frame`], [`Bands`], [`BandMaps`],
-//!   [`Scratch`].
+//!   [`Material`], [`Scratch`]; the lighting it shades under, per band
+//!   (`bands.rs`, [`Bands`]): the environment's SH coefficients
+//!   (`environment/`, [`Environment`], [`Precision`]; their `f32` vector
+//!   lanes in `environment/lanes.rs`) or their equirectangular band maps
+//!   (`band_maps.rs`, [`BandMaps`]); the surface point's frame (`frame.rs`,
+//!   [`Frame`]).
 //! - **Zonal lighting** (`lights.rs`): spherical light sources (Eq. 33-34) and
 //!   radially symmetric light (Eq. 23) with their quadrature reference:
 //!   [`SphericalLight`], [`ZonalLighting`], [`cap_coefficients`],
@@ -48,9 +52,13 @@
 //!   [`RadialMap`], [`RadialProfile`], [`MapSize`].
 //! - Errors: [`ShadeError`], [`Result`].
 
+mod band_maps;
+mod bands;
 mod brdf;
 mod brdf_sh;
+mod environment;
 mod error;
+mod frame;
 mod gltf;
 mod lights;
 mod merl;
@@ -61,9 +69,13 @@ mod slice;
 mod table;
 mod zonal;
 
+pub use crate::band_maps::BandMaps;
+pub use crate::bands::Bands;
 pub use crate::brdf::{Brdf, MAX_EXPONENT, Model, blinn_exact_norm};
 pub use crate::brdf_sh::{BrdfSampler, BrdfSh};
+pub use crate::environment::{Environment, Precision};
 pub use crate::error::{Result, ShadeError};
+pub use crate::frame::Frame;
 pub use crate::gltf::{
     DIELECTRIC_F0 as GLTF_DIELECTRIC_F0, GltfMaterial, MIN_ROUGHNESS as GLTF_MIN_ROUGHNESS,
 };
@@ -72,7 +84,7 @@ pub use crate::lights::{
 };
 pub use crate::merl::Merl;
 pub use crate::radial::{MapSize, RadialMap, RadialProfile};
-pub use crate::shade::{BandMaps, Bands, Environment, Frame, Material, Precision, Scratch};
+pub use crate::shade::{Material, Scratch};
 pub use crate::slice::{MAX_SLICE_NODES, SLICE_TOLERANCE, project_slice, slice_nodes};
 pub use crate::table::{
     LobeBasis, LobeKind, LobeLayout, LobeTable, MAX_TABLE_DEGREE, TableHeader,

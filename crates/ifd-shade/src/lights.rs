@@ -9,9 +9,10 @@
 use ifd_sphere::ShCoeffs;
 use ifd_sphere::{ShEvaluator, gauss_legendre, legendre_all, pi_l};
 
+use crate::bands::Bands;
 use crate::brdf::Brdf;
 use crate::error::{Result, ShadeError};
-use crate::shade::{Bands, Frame};
+use crate::frame::Frame;
 use glam::DVec3;
 
 /// Lighting `sum_l e_l y_l^0(a . w)` about a unit axis `a`, per channel.
@@ -36,7 +37,7 @@ use glam::DVec3;
 /// since `pi_l sqrt((2l + 1) / (4 pi)) = 1`: one Legendre recurrence per
 /// lobe instead of an SH evaluation (Eq. 34 is this with the paper's
 /// `sqrt(4 pi / (2l + 1)) e_l y_l^0`). [`ZonalLighting`] implements
-/// [`Bands`] this way, so [`crate::shade::Material::shade_isd`] shades under
+/// [`Bands`] this way, so [`crate::Material::shade_isd`] shades under
 /// it unchanged.
 ///
 /// **A spherical cap** of half-angle `alpha` and radiance `Le` (a sphere of
@@ -569,7 +570,8 @@ fn check_radiance(r: &[f64]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shade::{Frame, Material};
+    use crate::frame::Frame;
+    use crate::shade::Material;
 
     /// The closed-form cap coefficients against Gauss-Legendre projection of
     /// the step profile (independent: quadrature of `P_l` on the cap).

@@ -4,9 +4,11 @@
 
 use rayon::prelude::*;
 
+use crate::bands::Bands;
 use crate::error::{Result, ShadeError};
+use crate::frame::Frame;
 use crate::lights::{ZonalLighting, cap_coefficients, zonal_projection, zonal_quadrature};
-use crate::shade::{Bands, Frame, Material};
+use crate::shade::Material;
 use crate::zonal::legendre_moments;
 
 /// A radially symmetric light profile `f(t)`, `t` the cosine to the axis.

@@ -15,7 +15,8 @@ use std::f64::consts::PI;
 
 use crate::coeffs::ShCoeffs;
 use crate::error::{Result, SphereError};
-use crate::sh::{ShEvaluator, gauss_legendre, sh_count};
+use crate::legendre::gauss_legendre;
+use crate::sh::{ShEvaluator, sh_count};
 
 /// A spherical filter given in closed form.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -369,11 +370,11 @@ mod vmf_tests {
     fn vmf_factors_match_quadrature() {
         for kappa in [0.5, 4.0, 80.0, 900.0] {
             let a = vmf_factors(kappa, 30);
-            let (x, w) = crate::sh::gauss_legendre(2000);
+            let (x, w) = crate::legendre::gauss_legendre(2000);
             let mut p = vec![0.0; 31];
             let mut num = vec![0.0; 31];
             for (t, wt) in x.iter().zip(&w) {
-                crate::sh::legendre_all(30, *t, &mut p);
+                crate::legendre::legendre_all(30, *t, &mut p);
                 // exp(kappa (t - 1)) normalised below by the l = 0 integral
                 let f = (kappa * (t - 1.0)).exp();
                 for l in 0..=30 {

@@ -40,9 +40,10 @@
 //!
 //! # The API, by topic (the modules are private; everything is here)
 //! - **SH evaluation** (`sh.rs`, stable recurrences, `f64` and an `f32`
-//!   fast path): [`ShEvaluator`], [`eval_sh`], [`legendre_p`],
-//!   [`legendre_all`], [`gauss_legendre`], [`direction`], [`pi_l`],
-//!   [`sh_count`], [`sh_index`]; coefficients [`ShCoeffs`] and their `.npy`
+//!   fast path): [`ShEvaluator`], [`eval_sh`], [`direction`], [`pi_l`],
+//!   [`sh_count`], [`sh_index`]; Legendre polynomials and quadrature
+//!   (`legendre.rs`): [`legendre_p`], [`legendre_all`],
+//!   [`gauss_legendre`]; coefficients [`ShCoeffs`] and their `.npy`
 //!   format ([`read_npy_f64`]; arrays are written with
 //!   `ifd_image::write_npy_f64`).
 //! - **Map transforms** (`transform/`): [`EquirectTransform`] (FFT +
@@ -71,6 +72,7 @@ mod coeffs;
 mod error;
 mod filter;
 mod kernel;
+mod legendre;
 mod profile;
 mod rng;
 mod rotation;
@@ -86,13 +88,11 @@ pub use crate::coeffs::{ShCoeffs, read_npy_f64};
 pub use crate::error::{MAX_DEGREE, Result, SphereError};
 pub use crate::filter::{Decomposition, MapLayout, Prefiltered, meridian_frame};
 pub use crate::kernel::{Kernel, project_band, project_function, vmf_factors};
+pub use crate::legendre::{gauss_legendre, legendre_all, legendre_p};
 pub use crate::profile::{IsdBasis, MAX_ISD_DEGREE, Profile, check_isd_degree, isd_matrix};
 pub use crate::rng::SplitMix64;
 pub use crate::rotation::{Rotation, ShRotation};
-pub use crate::sh::{
-    ShEvaluator, direction, eval_sh, gauss_legendre, legendre_all, legendre_p, pi_l, sh_count,
-    sh_index,
-};
+pub use crate::sh::{ShEvaluator, direction, eval_sh, pi_l, sh_count, sh_index};
 pub use crate::tabulated::BandTables;
 pub use crate::transform::{
     Analysis, EquirectTransform, Negatives, Projection, analyze_cubemap, analyze_equirect,

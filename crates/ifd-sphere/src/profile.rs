@@ -6,7 +6,8 @@ use nalgebra::DMatrix;
 
 use crate::coeffs::ShCoeffs;
 use crate::error::{Result, SphereError, check_degree};
-use crate::sh::{ShEvaluator, gauss_legendre, legendre_all, legendre_p, pi_l, sh_count};
+use crate::legendre::{gauss_legendre, legendre_all, legendre_p};
+use crate::sh::{ShEvaluator, pi_l, sh_count};
 use crate::zhf::{DirectionSet, RzhCoeffs, condition_number};
 
 /// A family of isotropic mother functions `phi_l`, one per band.

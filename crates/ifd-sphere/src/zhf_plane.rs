@@ -339,7 +339,7 @@ mod tests {
                 let k = ((2 * l + 1) as f64 / (4.0 * std::f64::consts::PI)).sqrt();
                 for (j, d) in basis.directions()[..=l].iter().enumerate() {
                     let t = d[0] * w[0] + d[1] * w[1] + d[2] * w[2];
-                    crate::sh::legendre_all(l, t, &mut p);
+                    crate::legendre::legendre_all(l, t, &mut p);
                     direct += lam[plane_index(l, j)] * k * p[l];
                 }
             }

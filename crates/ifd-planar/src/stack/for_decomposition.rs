@@ -4,11 +4,12 @@
 //! [`stack_plan_for_decomposition`]).
 
 use crate::border::Border;
-use crate::decomposition::{Decomposition, Term};
+use crate::decomposition::Decomposition;
 use crate::error::FilterError;
 use crate::kernel::Sampling;
 use crate::prepared::Prepare;
 use crate::stack::{MIN_SIGMA, ScaleStack, StackLayout, StackOptions, StackPlan};
+use crate::term::Term;
 use ifd_image::ImageView;
 
 /// Builds the scale stack a decomposition needs for scales in

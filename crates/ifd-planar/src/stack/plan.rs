@@ -3,7 +3,7 @@
 
 use ifd_image::ImageView;
 
-use super::{ScaleStack, separable};
+use super::ScaleStack;
 use crate::border::Border;
 use crate::error::FilterError;
 
@@ -163,6 +163,13 @@ pub(crate) fn bspline_weights(t: f32) -> [f32; 4] {
         t3 * (1.0 / 6.0),
     ]
 }
+
+/// Terms of the cubic B-spline prefilter kept on each side by the direct
+/// builds: the prefilter is `sqrt 3 z^|k|`, `z = sqrt 3 - 2`, so the
+/// neglected tail is `2 sqrt 3 z^(K + 1) / (1 - z) < 2e-7` of the samples'
+/// range, and a change moves coefficients at most `K` samples away by more
+/// than that.
+pub const CUBIC_TAPS: usize = 12;
 
 /// Geometry of one stored level.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -465,7 +472,7 @@ impl StackLayout {
         // samples `CUBIC_TAPS` further out, so those must not see the FFT's
         // periodic wrap either.
         let extra = if options.interpolation == Interpolation::Cubic {
-            separable::CUBIC_TAPS * max_step
+            CUBIC_TAPS * max_step
         } else {
             0
         };

@@ -6,7 +6,8 @@
 use ifd_image::Image;
 use rayon::prelude::*;
 
-use super::separable::{CUBIC_TAPS, Source, reach, window};
+use super::plan::CUBIC_TAPS;
+use super::separable::{Source, reach, window};
 use super::{Interpolation, LevelLayout, ScaleStack, check_finite};
 use crate::border::Border;
 use crate::error::FilterError;

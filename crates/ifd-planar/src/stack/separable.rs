@@ -46,6 +46,7 @@
 use rayon::prelude::*;
 
 use super::LevelLayout;
+use super::plan::CUBIC_TAPS;
 use super::weighted_sum::weighted_sum;
 use crate::border::Border;
 
@@ -567,13 +568,6 @@ pub(super) fn build_levels(src: &Source<'_>, layout: &super::StackLayout) -> Vec
     }
     out
 }
-
-/// Terms of the cubic B-spline prefilter kept on each side by the direct
-/// builds: the prefilter is `sqrt 3 z^|k|`, `z = sqrt 3 - 2`, so the
-/// neglected tail is `2 sqrt 3 z^(K + 1) / (1 - z) < 2e-7` of the samples'
-/// range, and a change moves coefficients at most `K` samples away by more
-/// than that.
-pub const CUBIC_TAPS: usize = 12;
 
 /// Cubic B-spline coefficients of the inner `(nx - 2K) x (ny - 2K)` samples
 /// of an `nx x ny x c` block ([`CUBIC_TAPS`] `= K`): the separable

@@ -237,7 +237,7 @@ impl RzhBasis {
             let k = (((2 * l + 1) as f64) / (4.0 * std::f64::consts::PI)).sqrt();
             for (j, d) in self.dirs.band(l).iter().enumerate() {
                 let t = d[0] * w[0] + d[1] * w[1] + d[2] * w[2];
-                crate::sh::legendre_all(l, t, &mut p);
+                crate::legendre::legendre_all(l, t, &mut p);
                 let v = k * p[l];
                 for (c, o) in out.iter_mut().enumerate() {
                     *o += z.data[(l * l + j) * z.channels + c] * v;

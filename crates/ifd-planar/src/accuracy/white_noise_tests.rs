@@ -1,0 +1,100 @@
+//! Unit tests of `white_noise.rs`.
+
+use super::*;
+use crate::term::Term;
+
+/// The pair sums (integrals) and the grid (pixel sums) agree where the
+/// Gaussians are a few pixels wide, bilinear and cubic, on one level
+/// per term and on blended levels with pyramid steps.
+#[test]
+fn pair_sums_and_the_pixel_grid_agree() {
+    let t = |weight, x, y, sigma| Term {
+        weight,
+        x,
+        y,
+        sigma,
+    };
+    // Asymmetric on purpose: offsets off the axes, sigmas 3.2 to 6.5.
+    let d = Decomposition::from_terms(vec![
+        t(0.8, 1.5, -2.0, 3.2),
+        t(-0.6, -9.0, 4.0, 4.1),
+        t(0.5, 11.0, 3.5, 6.5),
+        t(0.25, -3.0, -12.0, 5.3),
+    ]);
+    let (mut terms, mut parts) = (Vec::new(), Vec::new());
+    for interpolation in [Interpolation::Linear, Interpolation::Cubic] {
+        for levels in [
+            Placement::AtSigmas,
+            Placement::log_uniform((2.0, 9.0), 2, false),
+            Placement::log_uniform((2.0, 9.0), 3, true),
+        ] {
+            for i in 0..6 {
+                let pose = Pose::nth(i, 6);
+                let s = 0.8 + 0.1 * i as f64;
+                place(
+                    &d,
+                    s,
+                    &pose,
+                    (interpolation, 2.0),
+                    0.0,
+                    &levels,
+                    &mut terms,
+                    &mut parts,
+                );
+                let (pairs, grid) = (error2(&terms, &parts), error2_on_grid(&parts));
+                assert!(
+                    (pairs / grid - 1.0).abs() < 1e-3,
+                    "{interpolation:?} {levels:?} pose {i}: {pairs} {grid}"
+                );
+            }
+        }
+    }
+}
+
+/// A grid past `MAX_GRID_CELLS` is never chosen (the pair sums serve),
+/// and scales whose norms are not numbers give an infinite estimate,
+/// never one within a budget.
+#[test]
+fn huge_grids_and_absurd_scales_are_refused() {
+    let here = Part {
+        coef: 1.0,
+        var: 4.0,
+        x: Axis::point(0.0),
+        y: Axis::point(0.0),
+    };
+    let far = Part {
+        x: Axis::point(1e4),
+        y: Axis::point(1e4),
+        ..here
+    };
+    assert!(grid_cost(&[here]).is_finite());
+    assert_eq!(grid_cost(&[here, far]), f64::INFINITY);
+    let d = Decomposition::from_terms(vec![Term {
+        weight: 1.0,
+        x: 2.0,
+        y: 0.0,
+        sigma: 3.0,
+    }]);
+    let noise = WhiteNoise::new(&d, (1e-200, 1e-200), 0.0);
+    for i in [Interpolation::Linear, Interpolation::Cubic] {
+        assert_eq!(noise.expected((i, 2.0), Levels::AtSigmas), f64::INFINITY);
+    }
+}
+
+/// The cardinal cubic spline interpolates (1 at 0, 0 at the other
+/// integers) and reproduces constants and lines from the kept taps.
+#[test]
+fn cardinal_cubic_interpolates() {
+    assert!((cardinal_cubic(0.0) - 1.0).abs() < 1e-12);
+    for k in 1..6 {
+        assert!(cardinal_cubic(f64::from(k)).abs() < 1e-12, "{k}");
+        assert!(cardinal_cubic(-f64::from(k)).abs() < 1e-12, "{k}");
+    }
+    for phi in [0.1, 0.37, 0.5, 0.9] {
+        let a = Axis::read(3.0 + phi, 1.0, Interpolation::Cubic);
+        let sum: f64 = a.w[..a.n].iter().sum();
+        let first: f64 = (0..a.n).map(|j| a.w[j] * (a.start + j as f64)).sum();
+        assert!((sum - 1.0).abs() < 3e-5, "{phi}: {sum}");
+        assert!((first - (3.0 + phi)).abs() < 3e-4, "{phi}: {first}");
+    }
+}
