@@ -11,7 +11,7 @@
 // on a log-uniform stack.
 // A plain filter is one entry with b = 1; anisotropic smoothing blends two
 // entries of the aspect-ratio bank, b = (1 - t, t). Every step mirrors the
-// CPU path `ifd_planar::Filter` (crates/ifd-planar/src/filter.rs, stack.rs):
+// CPU path `ifd_planar::Filter` (crates/ifd-planar/src/filter/, stack/):
 // the same level location, the same fast bilinear path and the same
 // border handling outside the stored region, so the two agree to f32
 // rounding.

@@ -1,0 +1,314 @@
+//! The per-pixel paths of [`Filter::apply`] (an angle or scale map): the
+//! scalar loop that is the reference, one pixel at a time, and the rows that
+//! go through the vector gathers ([`rows`]) with the same values.
+
+use rayon::prelude::*;
+
+use super::{Filter, Prepared};
+use crate::field::Field;
+use crate::stack::LevelRule;
+use crate::stack::rows::{self, FixedTerm, RowLevels};
+use crate::trig::sin_cos_degrees;
+
+impl Filter<'_> {
+    /// Per-pixel angle and/or scale over the whole image. `C` is the channel
+    /// count when it is 1 to 4 (accumulators in registers), 0 for any count.
+    /// Rows go eight or sixteen pixels at a time through the vector
+    /// gathers where they can ([`rows`]), the rest of each row through the scalar loop; both
+    /// give the same values.
+    pub(super) fn per_pixel<const C: usize>(
+        &self,
+        angle: Field<'_>,
+        scale: Field<'_>,
+        out: &mut [f32],
+    ) {
+        let (w, c) = (self.stack.width(), self.stack.channels());
+        let constant_scale = match scale {
+            Field::Constant(s) => Some((s, self.term_levels(s))),
+            Field::Map(_) => None,
+        };
+        let vector = self.vector && rows::supports::<C>(self.stack);
+        let fixed: Vec<FixedTerm> = constant_scale
+            .as_ref()
+            .map(|(_, levels)| {
+                self.terms
+                    .iter()
+                    .zip(levels)
+                    .map(|(t, &(a, b, wa, wb))| FixedTerm {
+                        cx: t.cx,
+                        cy: t.cy,
+                        a,
+                        b,
+                        wa,
+                        wb,
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        // A scale map on the vector path needs the log-uniform level rule.
+        let scaled_vector = vector && self.stack.is_uniform() && self.stack.sigmas().len() > 1;
+        let groups = self.sigma_groups.len();
+        let scratch = || RowScratch::new(w, if scaled_vector { groups } else { 0 });
+        out.par_chunks_mut(w * c)
+            .enumerate()
+            .for_each_init(scratch, |scr, (y, row)| {
+                let mut done = 0;
+                if vector {
+                    done = self.vector_row::<C>(y, angle, scale, &fixed, scaled_vector, scr, row);
+                }
+                for (x, px) in row.chunks_exact_mut(c).enumerate().skip(done) {
+                    let i = y * w + x;
+                    let (sin, cos) = sin_cos_degrees(angle.at(i));
+                    let (xf, yf) = (x as f32, y as f32);
+                    match &constant_scale {
+                        Some((s, levels)) => {
+                            self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, 1.0, px);
+                        }
+                        None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), px),
+                    }
+                }
+            });
+    }
+
+    /// Row `y` through the vector gathers: the pixels done (a prefix of the
+    /// row, possibly none).
+    #[expect(clippy::too_many_arguments, reason = "one row's inputs and scratch")]
+    fn vector_row<const C: usize>(
+        &self,
+        y: usize,
+        angle: Field<'_>,
+        scale: Field<'_>,
+        fixed: &[FixedTerm],
+        scaled_vector: bool,
+        scr: &mut RowScratch,
+        row: &mut [f32],
+    ) -> usize {
+        let w = self.stack.width();
+        let RowScratch {
+            cs,
+            ss,
+            t_s,
+            widen,
+            levels,
+        } = scr;
+        match scale {
+            Field::Constant(s) => {
+                row_rotations(angle, Field::Constant(s), y, w, cs, ss);
+                rows::rotated_row::<C>(self.stack, fixed, y, cs, ss, row)
+            }
+            Field::Map(m) if scaled_vector => {
+                // Per pixel: the rotation, t_s and the widening; then the
+                // levels and weights per distinct sigma, group-major, by
+                // the scalar loop's rule (the same values).
+                let scales = &m[y * w..(y + 1) * w];
+                row_rotations(angle, Field::Map(scales), y, w, cs, ss);
+                rows::scale_positions(self.scale_position, scales, t_s, widen);
+                for (g, rep) in self.sigma_groups.iter().enumerate() {
+                    rows::fill_levels(self.level_rule(rep), t_s, widen, levels, g);
+                }
+                rows::scaled_row::<C>(self.stack, &self.scaled_terms, levels, y, cs, ss, row)
+            }
+            Field::Map(_) => 0,
+        }
+    }
+
+    /// The level rule of terms of `t`'s sigma on this (log-uniform, several
+    /// levels) stack.
+    fn level_rule(&self, t: &Prepared) -> LevelRule {
+        let (_, inv) = self.stack.ln_params();
+        LevelRule {
+            ln_sigma: t.ln_sigma,
+            inv_sigma2: t.inv_sigma2,
+            inv: inv as f32,
+            last: (self.stack.sigmas().len() - 1) as u32,
+            snap: self.stack.pixel_snap(),
+        }
+    }
+
+    /// Term `t`'s levels and weights at scale `s` on a log-uniform stack of
+    /// several levels: `t_s = (ln s - ln sigma_0) / ln r`, `widen` the pixel
+    /// footprint's variance at `s` over `s^2` ([`LevelRule`]; the vector
+    /// path's rows take the same values).
+    #[inline]
+    fn uniform_level(&self, t: &Prepared, t_s: f32, widen: f32) -> (usize, usize, f32, f32) {
+        let (a, b, wa, wb) = self.level_rule(t).at(t_s, widen);
+        (a as usize, b as usize, wa, wb)
+    }
+
+    /// One pixel with constant scale (levels precomputed) and a per-pixel
+    /// rotation; `cs = s cos theta`, `ss = s sin theta`. Adds `weight *` the
+    /// filtered value into `out`.
+    #[inline]
+    #[expect(clippy::too_many_arguments, reason = "hot inner call, all scalars")]
+    pub(crate) fn pixel_rotated<const C: usize>(
+        &self,
+        levels: &[(usize, usize, f32, f32)],
+        x: f32,
+        y: f32,
+        cs: f32,
+        ss: f32,
+        weight: f32,
+        out: &mut [f32],
+    ) {
+        let mut acc = [0.0f32; C];
+        for (t, &(a, b, wa, wb)) in self.terms.iter().zip(levels) {
+            let px = x + cs * t.cx + ss * t.cy;
+            let py = y - ss * t.cx + cs * t.cy;
+            // With `C == 0` the lookups add straight into `out`, so the
+            // weight goes into each tap; otherwise into the sum below.
+            let (wa, wb) = if C == 0 {
+                (wa * weight, wb * weight)
+            } else {
+                (wa, wb)
+            };
+            self.add::<C>(a, px, py, wa, &mut acc, out);
+            if wb != 0.0 {
+                self.add::<C>(b, px, py, wb, &mut acc, out);
+            }
+        }
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o += weight * a;
+        }
+    }
+
+    /// Adds `weight *` the bilinear lookup of level `li` to `acc` when
+    /// `C > 0`, else to `out`.
+    #[inline]
+    fn add<const C: usize>(
+        &self,
+        li: usize,
+        x: f32,
+        y: f32,
+        weight: f32,
+        acc: &mut [f32; C],
+        out: &mut [f32],
+    ) {
+        if C == 0 {
+            self.stack.accumulate(li, x, y, weight, out);
+        } else {
+            self.stack.accumulate_fixed::<C>(li, x, y, weight, acc);
+        }
+    }
+
+    /// One pixel, everything per pixel. Adds into `out`.
+    #[inline]
+    pub(super) fn pixel_general<const C: usize>(
+        &self,
+        x: f32,
+        y: f32,
+        cos: f32,
+        sin: f32,
+        s: f32,
+        out: &mut [f32],
+    ) {
+        let last = self.stack.sigmas().len() - 1;
+        let uniform = self.stack.is_uniform();
+        let (t_s, widen) = if uniform {
+            self.scale_position.at(s)
+        } else {
+            (0.0, 0.0)
+        };
+        let cs = cos * s;
+        let ss = sin * s;
+        let mut acc = [0.0f32; C];
+        for t in &self.terms {
+            let px = x + cs * t.cx + ss * t.cy;
+            let py = y - ss * t.cx + cs * t.cy;
+            if last == 0 {
+                self.add::<C>(0, px, py, t.weight, &mut acc, out);
+                continue;
+            }
+            if !uniform {
+                // Levels at given sigmas: bisection.
+                let sigma = self.sampling.effective_sigma(t.sigma, f64::from(s));
+                let (a, b, wa, wb) = self.stack.locate_ln(sigma.ln());
+                self.add::<C>(a, px, py, t.weight * wa, &mut acc, out);
+                if wb != 0.0 {
+                    self.add::<C>(b, px, py, t.weight * wb, &mut acc, out);
+                }
+                continue;
+            }
+            let (a, b, wa, wb) = self.uniform_level(t, t_s, widen);
+            self.add::<C>(a, px, py, t.weight * wa, &mut acc, out);
+            if wb != 0.0 {
+                self.add::<C>(b, px, py, t.weight * wb, &mut acc, out);
+            }
+        }
+        if C > 0 {
+            for (o, a) in out.iter_mut().zip(acc) {
+                *o += a;
+            }
+        }
+    }
+}
+
+/// The distinct sigmas of `terms` (a representative term each, in order of
+/// first appearance) and each term's index among them.
+pub(super) fn sigma_groups(terms: &[Prepared]) -> (Vec<Prepared>, Vec<usize>) {
+    let mut groups: Vec<Prepared> = Vec::new();
+    let group_of = terms
+        .iter()
+        .map(|t| {
+            if let Some(g) = groups
+                .iter()
+                .position(|r| r.sigma.to_bits() == t.sigma.to_bits())
+            {
+                g
+            } else {
+                groups.push(*t);
+                groups.len() - 1
+            }
+        })
+        .collect();
+    (groups, group_of)
+}
+
+/// One thread's buffers for [`Filter::per_pixel`]'s vector rows, reused
+/// from row to row (every row overwrites what it reads): each pixel's
+/// scaled rotation, scale position and widening, and the levels of each
+/// sigma group.
+struct RowScratch {
+    cs: Vec<f32>,
+    ss: Vec<f32>,
+    t_s: Vec<f32>,
+    widen: Vec<f32>,
+    levels: RowLevels,
+}
+
+impl RowScratch {
+    /// Buffers for rows of `w` pixels and `groups` sigma groups (0 without
+    /// a scale map).
+    fn new(w: usize, groups: usize) -> Self {
+        let per_pixel_scale = if groups > 0 { w } else { 0 };
+        Self {
+            cs: vec![0.0; w],
+            ss: vec![0.0; w],
+            t_s: vec![0.0; per_pixel_scale],
+            widen: vec![0.0; per_pixel_scale],
+            levels: RowLevels::new(groups, w),
+        }
+    }
+}
+
+/// Row `y`'s rotations (`w` pixels) by `angle` scaled by `scale` (the
+/// row's scales or a constant): `cs = s cos`, `ss = s sin`, as the scalar
+/// loop computes them ([`sin_cos_degrees`]).
+fn row_rotations(
+    angle: Field<'_>,
+    scale: Field<'_>,
+    y: usize,
+    w: usize,
+    cs: &mut [f32],
+    ss: &mut [f32],
+) {
+    match angle {
+        Field::Map(m) => rows::rotations(&m[y * w..(y + 1) * w], scale, cs, ss),
+        Field::Constant(theta) => {
+            let (sin, cos) = sin_cos_degrees(theta);
+            for (x, (c, sn)) in cs.iter_mut().zip(ss.iter_mut()).enumerate() {
+                let s = scale.at(x);
+                (*c, *sn) = (cos * s, sin * s);
+            }
+        }
+    }
+}
