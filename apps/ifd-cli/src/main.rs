@@ -71,6 +71,20 @@ fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
         .mut_subcommands(allow_negative_numbers)
 }
 
+/// `ifd --version`: the version, the commit the binary was built from and
+/// the vector path the CPU kernels take here (`ifd_simd`: avx512, avx2 or
+/// baseline; `IFD_SIMD` caps it).
+fn version_line() -> &'static str {
+    let line = format!(
+        "{} (commit {}, vector path {})",
+        env!("CARGO_PKG_VERSION"),
+        env!("IFD_COMMIT"),
+        ifd_simd::isa().name()
+    );
+    // once per process: clap keeps `'static` strings
+    Box::leak(line.into_boxed_str())
+}
+
 /// A reader that closes the pipe early (`ifd info x.exr | head -3`) makes
 /// `println!` panic; end quietly instead, as a process killed by SIGPIPE
 /// does (status 141), and on other failures to write the standard output
@@ -102,7 +116,9 @@ fn quiet_on_closed_stdout() {
 
 fn main() -> ExitCode {
     quiet_on_closed_stdout();
-    let matches = allow_negative_numbers(Cli::command()).get_matches();
+    let matches = allow_negative_numbers(Cli::command())
+        .version(version_line())
+        .get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     // Ctrl-C or SIGTERM mid-write: outputs are written to hidden temporary
     // files renamed into place when complete; remove those, so that an

@@ -941,6 +941,41 @@ mod grammar {
         assert!(err.contains("ktx2") && err.contains("exr"), "{err}");
     }
 
+    /// `ifd --version` names the version, the commit and the vector path.
+    #[test]
+    fn version_names_the_commit_and_the_vector_path() {
+        let (code, out, err) = ifd(&["--version"]);
+        assert_eq!(code, 0, "{err}");
+        let line = out.trim();
+        assert!(
+            line.starts_with(&format!("ifd {} (commit ", env!("CARGO_PKG_VERSION"))),
+            "{line}"
+        );
+        let commit = line
+            .split("(commit ")
+            .nth(1)
+            .and_then(|r| r.split(',').next())
+            .unwrap_or_default();
+        assert!(
+            commit == "unknown"
+                || (commit.len() == 12 && commit.chars().all(|c| c.is_ascii_hexdigit())),
+            "{line}"
+        );
+        assert!(
+            ["avx512)", "avx2)", "baseline)"]
+                .iter()
+                .any(|p| line.ends_with(&format!("vector path {p}"))),
+            "{line}"
+        );
+        // IFD_SIMD caps the path
+        let out = common::run(
+            common::ifd_command()
+                .env("IFD_SIMD", "baseline")
+                .arg("--version"),
+        );
+        assert!(out.1.trim().ends_with("vector path baseline)"), "{}", out.1);
+    }
+
     /// Nothing was released, so spellings from before the grammar settled
     /// (and the studies, now the `ifd-paper` binary) get clap's ordinary
     /// error, not a command of their own.
