@@ -33,7 +33,7 @@ OUT = ROOT / "docs" / "reference" / "api"
 # Python's (its stubs), ifd-clidoc is dev-only and ifd-paper the studies'; ifd-app is the
 # apps' shell
 CRATES = [
-    "ifd-image", "ifd-planar", "ifd-smooth", "ifd-sphere", "ifd-shade",
+    "ifd-simd", "ifd-image", "ifd-planar", "ifd-smooth", "ifd-sphere", "ifd-shade",
     "ifd-render", "ifd-ibl", "ifd-gpu", "ifd-plot", "ifd-app",
 ]
 
