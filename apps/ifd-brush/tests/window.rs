@@ -117,7 +117,7 @@ fn window_under_xvfb_shows_image_and_controls() {
         let log = dir.join(format!("stderr-{gpu}.txt"));
         let mut child = win
             .command()
-            .args(["--image", input.to_str().expect("utf8")])
+            .arg(&input)
             .args(["--replay", strokes.to_str().expect("utf8")])
             .args(["--save", out.to_str().expect("utf8")])
             .args(["--screenshot", shot.to_str().expect("utf8")])
@@ -272,7 +272,7 @@ fn automation_failure_exits_2_with_the_message() {
     let shot = not_a_folder.join("shot.png");
     let out = win
         .command_under(&["timeout", "300"])
-        .args(["--image", input.to_str().expect("utf8")])
+        .arg(&input)
         .args(["--screenshot", shot.to_str().expect("utf8")])
         .args(["--device", "cpu"])
         .arg("--exit")
