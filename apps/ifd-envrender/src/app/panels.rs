@@ -497,7 +497,8 @@ pub(super) fn viewport(app: &mut EnvApp, ui: &mut egui::Ui) {
         // while it is computed, so that ISD's view does not jump
         let second = if app.settings.reference {
             Some(("reference", app.refs.texture.as_ref()))
-        } else if app.settings.compare != Compare::Off {
+        } else if app.settings.compare != Compare::Off && app.settings.brdf_is_gltf() {
+            // (the worker compares the glTF BRDF only)
             let t = if app.split.image.is_none() {
                 None
             } else if app.settings.compare_image {
