@@ -126,7 +126,7 @@ EOF
 for dev in gpu cpu; do
   # the first run fits the aspect bank (cached) and is not counted
   for ((i = -1; i < runs; i++)); do
-    "$brush" --image "$data/camera.png" --replay "$work/strokes.json" --device "$dev" \
+    "$brush" "$data/camera.png" --replay "$work/strokes.json" --device "$dev" \
       --no-journal --exit 2>> "$work/brush-$dev-$i.log" >/dev/null
   done
 done

@@ -17,7 +17,7 @@
 //!
 //! # Replay without a person
 //! ```text
-//! ifd-brush --image IN.png --replay STROKES.json --save OUT.exr --exit
+//! ifd-brush IN.png --replay STROKES.json --save OUT.exr --exit
 //! ```
 //! replays the strokes headlessly (no window) and saves the result; add
 //! `--screenshot SHOT.png` to do it in a window and capture it.

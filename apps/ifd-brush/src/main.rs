@@ -19,8 +19,9 @@ use ifd_image::MemoryBudget;
 #[derive(Parser, Debug)]
 #[command(version)]
 struct Args {
-    /// Image to open (PNG, JPEG, TIFF, EXR, HDR).
-    #[arg(long, value_name = "IN")]
+    /// Image to open (PNG, JPEG, TIFF, EXR, HDR); default: the bundled
+    /// test image.
+    #[arg(value_name = "IMAGE")]
     image: Option<PathBuf>,
     /// Replay recorded strokes (see the crate docs for the format).
     #[arg(long, value_name = "STROKES.json")]

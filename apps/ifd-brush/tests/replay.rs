@@ -113,7 +113,7 @@ fn headless_replay_equals_library_region_smoothing() {
     let out = dir.path().join("out.exr");
     let rec = dir.path().join("recorded.json");
     let status = Command::new(env!("CARGO_BIN_EXE_ifd-brush"))
-        .args(["--image", input.to_str().expect("utf8")])
+        .arg(&input)
         .args(["--replay", sfile.to_str().expect("utf8")])
         .args(["--save", out.to_str().expect("utf8")])
         .args(["--record", rec.to_str().expect("utf8")])
@@ -460,7 +460,7 @@ fn killed_replay_is_recovered_from_the_journal() {
     let bank = common::bank_cache();
     let arg = |p: &std::path::Path| p.to_str().expect("utf8").to_string();
     let mut child = Command::new(env!("CARGO_BIN_EXE_ifd-brush"))
-        .args(["--image", &arg(&input), "--replay", &arg(&sfile)])
+        .args([&arg(&input), "--replay", &arg(&sfile)])
         .args(["--journal-dir", &arg(&journal_dir), "--bank", &arg(&bank)])
         .args(["--device", "cpu", "--replay-pace", "400", "--exit"])
         .stderr(Stdio::piped())
@@ -500,7 +500,7 @@ fn killed_replay_is_recovered_from_the_journal() {
     // The next start on the image recovers the journal.
     let out = dir.path().join("recovered.exr");
     let o = Command::new(env!("CARGO_BIN_EXE_ifd-brush"))
-        .args(["--image", &arg(&input), "--journal-dir", &arg(&journal_dir)])
+        .args([&arg(&input), "--journal-dir", &arg(&journal_dir)])
         .args(["--bank", &arg(&bank), "--device", "cpu", "--recover"])
         .args(["--save", &arg(&out), "--exit"])
         .output()

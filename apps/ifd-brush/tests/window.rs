@@ -10,60 +10,28 @@ mod common;
 #[path = "../../../tests/support/skip.rs"]
 mod skip;
 
+#[path = "../../../tests/support/xvfb.rs"]
+mod xvfb;
+
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
-fn have(cmd: &str) -> bool {
-    Command::new("sh")
-        .args(["-c", &format!("command -v {cmd}")])
-        .stdout(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-}
+/// The shared window-test set-up ([`xvfb::WindowTest`]) for `ifd-brush`,
+/// with the test's bank cache.
+struct WindowTest(xvfb::WindowTest);
 
-/// The set-up every window test shares: Xvfb (or a skip that says why,
-/// when `IFD_WINDOW_TESTS=skip` allows it), a temporary folder with the
-/// app's state folder and a private `XDG_RUNTIME_DIR`, and the command that
-/// starts the app in a virtual 1280x800 screen.
-struct WindowTest {
-    dir: tempfile::TempDir,
-    state: std::path::PathBuf,
-    runtime: std::path::PathBuf,
+impl std::ops::Deref for WindowTest {
+    type Target = xvfb::WindowTest;
+    fn deref(&self) -> &xvfb::WindowTest {
+        &self.0
+    }
 }
 
 impl WindowTest {
     /// `None` when Xvfb is missing and the test may be skipped.
     fn new() -> Option<Self> {
-        if !have("xvfb-run") || !have("Xvfb") {
-            assert!(
-                skip::allowed("IFD_WINDOW_TESTS"),
-                "Xvfb/xvfb-run not installed for the window test (apt-get install xvfb xauth; \
-                 scripts/test-all.sh does) or set IFD_WINDOW_TESTS=skip"
-            );
-            skip::skip("Xvfb/xvfb-run not installed (IFD_WINDOW_TESTS=skip)");
-            return None;
-        }
-        let dir = tempfile::tempdir().expect("tempdir");
-        let state = dir.path().join("state");
-        std::fs::create_dir(&state).expect("state dir");
-        let runtime = dir.path().join("xdg");
-        std::fs::create_dir(&runtime).expect("xdg dir");
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700))
-                .expect("chmod");
-        }
-        Some(Self {
-            dir,
-            state,
-            runtime,
-        })
-    }
-
-    fn path(&self) -> &Path {
-        self.dir.path()
+        xvfb::WindowTest::new().map(Self)
     }
 
     /// `xvfb-run ... ifd-brush` with the state and runtime folders set and
@@ -74,19 +42,12 @@ impl WindowTest {
 
     /// [`Self::command`] run by `wrapper` (e.g. `["timeout", "300"]`).
     fn command_under(&self, wrapper: &[&str]) -> Command {
-        let mut c = match wrapper.split_first() {
-            Some((program, args)) => {
-                let mut c = Command::new(program);
-                c.args(args).arg("xvfb-run");
-                c
-            }
-            None => Command::new("xvfb-run"),
-        };
-        c.args(["-a", "-s", "-screen 0 1280x800x24"])
-            .arg(env!("CARGO_BIN_EXE_ifd-brush"))
-            .args(["--bank", common::bank_cache().to_str().expect("utf8")])
-            .env("IFD_BRUSH_STATE_DIR", &self.state)
-            .env("XDG_RUNTIME_DIR", &self.runtime);
+        let mut c = self.0.command(
+            wrapper,
+            env!("CARGO_BIN_EXE_ifd-brush"),
+            "IFD_BRUSH_STATE_DIR",
+        );
+        c.args(["--bank", common::bank_cache().to_str().expect("utf8")]);
         c
     }
 }
@@ -117,7 +78,7 @@ fn window_under_xvfb_shows_image_and_controls() {
         let log = dir.join(format!("stderr-{gpu}.txt"));
         let mut child = win
             .command()
-            .args(["--image", input.to_str().expect("utf8")])
+            .arg(&input)
             .args(["--replay", strokes.to_str().expect("utf8")])
             .args(["--save", out.to_str().expect("utf8")])
             .args(["--screenshot", shot.to_str().expect("utf8")])
@@ -272,7 +233,7 @@ fn automation_failure_exits_2_with_the_message() {
     let shot = not_a_folder.join("shot.png");
     let out = win
         .command_under(&["timeout", "300"])
-        .args(["--image", input.to_str().expect("utf8")])
+        .arg(&input)
         .args(["--screenshot", shot.to_str().expect("utf8")])
         .args(["--device", "cpu"])
         .arg("--exit")

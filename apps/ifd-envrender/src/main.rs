@@ -8,7 +8,9 @@ use std::sync::{Arc, Mutex};
 use anyhow::Context as _;
 use clap::Parser;
 use glam::DVec3;
-use ifd_envrender::app::{Automation, EnvApp, ReferenceReport, SplitSumReport, StartOptions};
+use ifd_envrender::app::{
+    Automation, EnvApp, ReferenceReport, ScreenReport, SplitSumReport, StartOptions,
+};
 use ifd_envrender::orbit::Orbit;
 use ifd_envrender::settings::{Compare, STORAGE_KEY, Settings, Variant, is_gltf};
 use ifd_gpu::DeviceChoice;
@@ -101,8 +103,10 @@ struct Args {
     /// With --compare: show the split-sum image instead of its difference.
     #[arg(long, requires = "compare")]
     compare_image: bool,
-    /// Print the report of --screenshot, --reference-spp and --compare as JSON (machine-readable)
-    /// instead of a human summary.
+    /// Print the report as JSON (machine-readable) instead of a human
+    /// summary: the window's size and each view's rectangle in it, the
+    /// viewport's in the screenshot, and the numbers of --reference-spp and
+    /// --compare.
     #[arg(long)]
     json: bool,
 }
@@ -290,13 +294,13 @@ fn run(args: &Args) -> anyhow::Result<()> {
     }
     let split_sum = Arc::new(Mutex::new(None::<SplitSumReport>));
     let failure = Arc::new(Mutex::new(None::<String>));
-    let viewport = Arc::new(Mutex::new(None::<[usize; 4]>));
+    let screen = Arc::new(Mutex::new(None::<ScreenReport>));
     let reference = Arc::new(Mutex::new(None::<ReferenceReport>));
     let automation = Automation {
         screenshot: args.screenshot.clone(),
         exit: args.exit,
         failure: Arc::clone(&failure),
-        viewport: Arc::clone(&viewport),
+        screen: Arc::clone(&screen),
         reference_spp: args.reference_spp,
         reference: Arc::clone(&reference),
         split_sum: Arc::clone(&split_sum),
@@ -355,9 +359,26 @@ fn run(args: &Args) -> anyhow::Result<()> {
         anyhow::bail!(msg);
     }
     let mut report = serde_json::json!({});
-    if let Some(r) = viewport.lock().ok().and_then(|v| *v) {
-        report["viewport"] =
-            serde_json::json!({"x": r[0], "y": r[1], "width": r[2], "height": r[3]});
+    if let Some(r) = screen.lock().ok().and_then(|mut v| v.take()) {
+        let rect = |p: &ifd_app::PixelRect| serde_json::json!({"x": p.x, "y": p.y, "width": p.width, "height": p.height});
+        if args.screenshot.is_some()
+            && let Some((_, isd)) = r.views.first()
+        {
+            // ISD's view in the screenshot (the first of `views`)
+            report["viewport"] = rect(isd);
+        }
+        report["window"] = serde_json::json!({"width": r.window[0], "height": r.window[1]});
+        report["area"] = rect(&r.area);
+        report["views"] = r
+            .views
+            .iter()
+            .map(|(name, p)| {
+                let mut v = rect(p);
+                v["name"] = serde_json::json!(name);
+                v
+            })
+            .collect();
+        report["shading"] = serde_json::json!(if r.gpu { "gpu" } else { "cpu" });
     }
     if let Some((spp, rel, psnr, curve)) = reference.lock().ok().and_then(|mut r| r.take()) {
         report["reference"] = serde_json::json!({
@@ -382,8 +403,9 @@ fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The report as aligned `name  value` lines (the viewport, the reference's
-/// errors and its error-against-L curve).
+/// The report as aligned `name  value` lines (the viewport, the window and
+/// its views, the split sum's difference, the reference's errors and its
+/// error-against-L curve).
 fn human(report: &serde_json::Value) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
@@ -392,6 +414,25 @@ fn human(report: &serde_json::Value) -> String {
             s,
             "viewport   {}x{} at {},{}",
             v["width"], v["height"], v["x"], v["y"]
+        );
+    }
+    if let Some(w) = report.get("window") {
+        let _ = write!(s, "window     {}x{}", w["width"], w["height"]);
+        for v in report["views"].as_array().into_iter().flatten() {
+            let _ = write!(
+                s,
+                "; {} {}x{} at {},{}",
+                v["name"].as_str().unwrap_or("?"),
+                v["width"],
+                v["height"],
+                v["x"],
+                v["y"]
+            );
+        }
+        let _ = writeln!(
+            s,
+            " ({} shading)",
+            report["shading"].as_str().unwrap_or("?")
         );
     }
     if let Some(r) = report.get("split_sum") {

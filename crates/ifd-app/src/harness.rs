@@ -40,6 +40,12 @@ impl Headless {
         }
     }
 
+    /// Resizes the screen to `size` points (a window resized): the next
+    /// frame is laid out in it.
+    pub fn resize(&mut self, size: [f32; 2]) {
+        self.screen = Rect::from_min_size(pos2(0.0, 0.0), vec2(size[0], size[1]));
+    }
+
     /// The context (to create the app with).
     #[must_use]
     pub fn ctx(&self) -> &egui::Context {

@@ -12,10 +12,14 @@
 //! - [`Finish`] (`automation.rs`): the end of an automated run, settle,
 //!   screenshot, exit, or a failure for `main` to report;
 //! - [`Headless`] and [`FrameTimes`] (`harness.rs`): the headless frame
-//!   harness of the frame-time tests, with the frame-time summary and plot.
+//!   harness of the frame-time tests, with the frame-time summary and plot;
+//! - [`fit_views`] and [`PixelRect`] (`layout.rs`): images shown whole in
+//!   the window's area, side by side or stacked, scaled down to fit, and
+//!   the rectangles automated runs report.
 
 mod automation;
 mod harness;
+mod layout;
 
 use std::path::Path;
 
@@ -25,6 +29,7 @@ use ifd_image::Image;
 
 pub use crate::automation::{Finish, FinishStep, SETTLE_FRAMES};
 pub use crate::harness::{FRAME_GOAL_MS, FrameTimes, Headless};
+pub use crate::layout::{PixelRect, fit_views};
 
 /// `--device` values.
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]

@@ -9,7 +9,7 @@ use ifd_image::Image;
 use ifd_sphere::{Negatives, analyze_equirect_box};
 use ifd_sphere::{Rotation, ShCoeffs, ShRotation};
 
-use crate::equirect_grid::EquirectGrid;
+use crate::equirect_grid::{EquirectGrid, atan2_approx};
 use crate::error::{RenderError, Result};
 
 /// An equirectangular environment (`W = 2H`, row 0 at the zenith), rotated by
@@ -180,14 +180,6 @@ impl EnvMap {
         self.grid.texel(d)
     }
 
-    /// [`Self::texel`] found from `near`, the texel of a nearby direction
-    /// (e.g. the pixel before on a row), in a step or two instead of a guess
-    /// from the angles; the same texel whatever `near` is.
-    #[must_use]
-    pub(crate) fn texel_near(&self, d: [f64; 3], near: Option<usize>) -> usize {
-        self.grid.texel_near(d, near)
-    }
-
     /// Texel `t`'s value (`t` from [`Self::texel`]; panics beyond the map).
     pub(crate) fn texel_value(&self, t: usize, out: &mut [f64]) {
         let ch = self.img.channels();
@@ -205,9 +197,32 @@ impl EnvMap {
     /// (wrapping in azimuth, clamped at the poles' rows): the lookup of a
     /// mirror reflection.
     pub fn lookup_bilinear(&self, d: [f64; 3], out: &mut [f64]) {
+        self.bilinear_at(d[2].clamp(-1.0, 1.0).acos(), d[1].atan2(d[0]), out);
+    }
+
+    /// The background seen in direction `d` (unit): the map bilinear between
+    /// texel centres, as [`Self::lookup_bilinear`], with the angles from the
+    /// texel search's polynomial `atan2` (within `1e-7` rad: no `acos` or
+    /// `atan2` per pixel). A view magnifies the map (a 1024-texel-wide map is
+    /// 0.35 degrees a texel, several pixels of a 40-degree view), and the
+    /// nearest texel showed its squares; the CPU renderer's background and
+    /// the GPU path's G-buffer both read this.
+    pub fn background(&self, d: [f64; 3], out: &mut [f64]) {
+        let [x, y, z] = d;
+        let rho2 = x * x + y * y;
+        if !(rho2 > 0.0 && rho2.is_finite() && z.is_finite()) {
+            // the poles' axis, or not a direction
+            self.lookup_bilinear(d, out);
+            return;
+        }
+        self.bilinear_at(atan2_approx(rho2.sqrt(), z), atan2_approx(y, x), out);
+    }
+
+    /// The map at polar angle `theta` and azimuth `phi` (before the
+    /// rotation), bilinear between texel centres.
+    fn bilinear_at(&self, theta: f64, phi: f64, out: &mut [f64]) {
         let (w, h, ch) = (self.img.width(), self.img.height(), self.img.channels());
-        let t = d[2].clamp(-1.0, 1.0).acos();
-        let p = (d[1].atan2(d[0]) - self.rotation).rem_euclid(2.0 * PI);
+        let (t, p) = (theta, (phi - self.rotation).rem_euclid(2.0 * PI));
         let fu = p / (2.0 * PI) * w as f64 - 0.5;
         let fv = (t / PI * h as f64 - 0.5).clamp(0.0, (h - 1) as f64);
         let (u0, v0) = (fu.floor(), fv.floor());

@@ -142,7 +142,7 @@ impl EquirectGrid {
 /// `atan2(y, x)` for finite `(x, y) != (0, 0)` within `1e-7` rad: the
 /// octant's reduction to `atan(r)`, `0 <= r <= 1`, and Hastings' degree-17
 /// odd polynomial for it (Abramowitz and Stegun 4.4.49, `|error| <= 2e-8`).
-fn atan2_approx(y: f64, x: f64) -> f64 {
+pub(crate) fn atan2_approx(y: f64, x: f64) -> f64 {
     let (ax, ay) = (x.abs(), y.abs());
     let swap = ay > ax;
     let r = if swap { ax / ay } else { ay / ax };

@@ -70,7 +70,8 @@ pub struct Job<'a> {
     pub camera: Camera,
     /// The environment every method integrates (already downsampled).
     pub env: &'a EnvMap,
-    /// The map shown behind the object (`None`: black).
+    /// The map shown behind the object, bilinear ([`EnvMap::background`];
+    /// `None`: black).
     pub background: Option<&'a EnvMap>,
     /// The BRDF (the oracle evaluates it directly). For the glTF BRDF
     /// (`gltf:..`) the ISD methods shade with a material of its three parts

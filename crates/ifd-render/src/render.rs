@@ -238,8 +238,6 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
             let l = degree.unwrap_or(0);
             let mut scratch = Scratch::new(l, ch);
             let mut vis = vec![0.0; job.shadows.map_or(0, |s| (s.l_max() + 1).pow(2))];
-            // the background texel of the last background pixel
-            let mut near = None;
             for x in 0..w {
                 let Pixel { dir: d, surface } = pixel(&job.scene, &job.camera, job.maps, x, y);
                 out.fill(0.0);
@@ -374,9 +372,7 @@ pub fn render(job: &Job<'_>, progress: &(dyn Fn(usize, usize) + Sync)) -> Result
                         }
                     }
                 } else if let Some(bg) = job.background {
-                    let t = bg.texel_near(d, near);
-                    bg.texel_value(t, &mut out);
-                    near = Some(t);
+                    bg.background(d, &mut out);
                 }
                 for c in 0..ch {
                     px[x * ch + c] = out[c] as f32;
@@ -449,8 +445,6 @@ fn batched_row(
     let mut waiting: Vec<(usize, [f64; 3])> = Vec::with_capacity(per);
     let mut points: Vec<(Frame, [f64; 3])> = Vec::with_capacity(per);
     let mut shaded = vec![0.0; per * ch];
-    // the background texel of the last background pixel
-    let mut near = None;
     let mut flush = |waiting: &mut Vec<(usize, [f64; 3])>,
                      points: &mut Vec<(Frame, [f64; 3])>,
                      px: &mut [f32]|
@@ -479,9 +473,7 @@ fn batched_row(
             }
             None => {
                 if let Some(bg) = job.background {
-                    let t = bg.texel_near(p.dir, near);
-                    bg.texel_value(t, &mut out);
-                    near = Some(t);
+                    bg.background(p.dir, &mut out);
                     for (o, v) in px[x * ch..(x + 1) * ch].iter_mut().zip(&out) {
                         *o = *v as f32;
                     }

@@ -777,3 +777,66 @@ fn gltf_brdf_isd_matches_the_oracle_and_monte_carlo_converges() {
     eprintln!("gltf: Monte Carlo relative RMS {ea:.4} at 16 spp, {eb:.4} at 256");
     assert!(eb <= 0.35 * ea && eb < 0.05, "{eb} vs {ea}");
 }
+
+/// The background is the map filtered bilinearly, not its nearest texel
+/// (issue 54): vertical stripes one texel wide (0.1 and 0.9), magnified
+/// about 8 pixels a texel by the view, show no run of equal pixels along a
+/// row, where the nearest texel made 8-pixel-wide bars (7 of 8 horizontal
+/// neighbours equal); every background pixel is
+/// `EnvMap::lookup_bilinear` of its direction, within the polynomial
+/// `atan2`'s error.
+#[test]
+fn the_background_is_the_map_filtered_bilinearly() {
+    let (w, h) = (256, 128);
+    let stripes = (0..w * h)
+        .map(|i| if i % w % 2 == 0 { 0.1 } else { 0.9 })
+        .collect();
+    let env = EnvMap::new(Image::from_vec(w, h, 1, stripes).unwrap(), 0.0).unwrap();
+    // 40 degrees over 240 pixels: 1/6 degree a pixel; a texel is 1.4 degrees
+    let camera = Camera::new(
+        DVec3::new(0.0, -8.0, 0.0),
+        DVec3::ZERO,
+        DVec3::Z,
+        40.0,
+        320,
+        240,
+    )
+    .unwrap();
+    let brdf = Brdf::parse("lambert").unwrap();
+    let m = material(&brdf, 2);
+    let job = Job {
+        background: Some(&env),
+        ..Job::new(Scene::Sphere, camera, &env, &brdf, Some(&m), Method::Isd)
+    };
+    let r = render(&job, &|_, _| {}).unwrap();
+    let (iw, ih) = (r.image.width(), r.image.height());
+    let (mut pairs, mut equal) = (0usize, 0usize);
+    for y in 0..ih {
+        for x in 0..iw - 1 {
+            let (i, j) = (y * iw + x, y * iw + x + 1);
+            if !r.mask[i] && !r.mask[j] {
+                pairs += 1;
+                equal += usize::from(r.image.data()[i] == r.image.data()[j]);
+            }
+        }
+    }
+    let share = equal as f64 / pairs as f64;
+    eprintln!("background: {equal} of {pairs} horizontal neighbours equal ({share:.3})");
+    assert!(pairs > iw * ih / 2, "{pairs} background pairs");
+    assert!(
+        share < 0.05,
+        "{share:.3} of the background's horizontal neighbours are equal: the map is read at \
+         its nearest texel (blocky), not filtered"
+    );
+    let px = ifd_render::pixels(&Scene::Sphere, &camera, None).unwrap();
+    let mut worst = 0.0f64;
+    for (i, p) in px.iter().enumerate().filter(|(i, _)| !r.mask[*i]) {
+        let mut v = [0.0];
+        env.lookup_bilinear(p.dir, &mut v);
+        worst = worst.max((f64::from(r.image.data()[i]) - v[0]).abs());
+    }
+    assert!(
+        worst < 1e-5,
+        "the background is {worst} from the bilinear lookup"
+    );
+}

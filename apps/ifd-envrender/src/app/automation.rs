@@ -1,14 +1,15 @@
 //! Runs without a person (`--screenshot`, `--exit`): wait for the first
 //! complete frame (and the reference, when asked), then the end that both
 //! apps share ([`ifd_app::Finish`]: settle, screenshot, close), reporting
-//! the viewport's rectangle in the screenshot. A failure closes the window
-//! with a message that `main` reports (exit status 2).
+//! the window's size and each view's rectangle in it (the screenshot's
+//! pixels). A failure closes the window with a message that `main` reports
+//! (exit status 2).
 
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use ifd_app::FinishStep;
+use ifd_app::{FinishStep, PixelRect};
 
 use super::EnvApp;
 
@@ -21,9 +22,9 @@ pub struct Automation {
     pub exit: bool,
     /// Where a failed automated run leaves its message.
     pub failure: Arc<Mutex<Option<String>>>,
-    /// Where the viewport's rectangle in the screenshot is reported
-    /// (`[x, y, width, height]`, physical pixels).
-    pub viewport: Arc<Mutex<Option<[usize; 4]>>>,
+    /// Where the window's size and the views' rectangles are reported
+    /// at the end of the run (physical pixels: the screenshot's).
+    pub screen: Arc<Mutex<Option<ScreenReport>>>,
     /// Wait for the Monte Carlo reference to reach this many samples per
     /// pixel (and, from 64, the error-against-`L` curve) before finishing.
     pub reference_spp: Option<usize>,
@@ -33,6 +34,22 @@ pub struct Automation {
     /// Wait for the split sum's difference from ISD (with a comparison on)
     /// and report it here.
     pub split_sum: Arc<Mutex<Option<SplitSumReport>>>,
+}
+
+/// Where things are on the screen at the end of an automated run, in
+/// physical pixels (the screenshot's).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ScreenReport {
+    /// The window's inner size (the screenshot's), `[width, height]`.
+    pub window: [i64; 2],
+    /// The central area that holds the views (beside the panel, above the
+    /// status bar).
+    pub area: PixelRect,
+    /// Each view's name (`isd`, then `reference`, `split-sum` or
+    /// `split-sum-difference`) and rectangle.
+    pub views: Vec<(String, PixelRect)>,
+    /// Whether the frame was shaded on the GPU (else on the CPU).
+    pub gpu: bool,
 }
 
 /// The reference's result at the end of an automated run.
@@ -113,7 +130,7 @@ impl EnvApp {
                 FinishStep::Pending => {}
                 FinishStep::Finished => {
                     self.stage = Stage::Done;
-                    self.report_viewport(ctx);
+                    self.report_screen(ctx);
                 }
                 FinishStep::Failed | FinishStep::Done => self.stage = Stage::Done,
             },
@@ -121,19 +138,24 @@ impl EnvApp {
         }
     }
 
-    /// Reports the viewport's rectangle (physical pixels) for the
-    /// screenshot's reader.
-    fn report_viewport(&self, ctx: &egui::Context) {
-        if self.automation.screenshot.is_some()
-            && let (Some(r), Ok(mut slot)) = (self.viewport, self.automation.viewport.lock())
-        {
-            let ppp = ctx.pixels_per_point();
-            *slot = Some([
-                (r.min.x * ppp).round() as usize,
-                (r.min.y * ppp).round() as usize,
-                (r.width() * ppp).round() as usize,
-                (r.height() * ppp).round() as usize,
-            ]);
+    /// Reports the window's size and the views' rectangles (physical
+    /// pixels) for the screenshot's reader and the window tests.
+    fn report_screen(&self, ctx: &egui::Context) {
+        let Some(layout) = &self.layout else {
+            return;
+        };
+        let ppp = ctx.pixels_per_point();
+        let window = PixelRect::from_points(ctx.content_rect(), ppp);
+        let report = ScreenReport {
+            window: [window.width, window.height],
+            area: PixelRect::from_points(layout.area, ppp),
+            views: (layout.views.iter())
+                .map(|(name, r)| ((*name).to_owned(), PixelRect::from_points(*r, ppp)))
+                .collect(),
+            gpu: self.shades_on_gpu(),
+        };
+        if let Ok(mut slot) = self.automation.screen.lock() {
+            *slot = Some(report);
         }
     }
 }

@@ -118,8 +118,10 @@ impl GpuView {
                     &view,
                     wgpu::SamplerDescriptor {
                         label: Some("ifd-envrender view"),
+                        // pixel for pixel when the view fits, linear
+                        // when it is scaled down to fit the window
                         mag_filter: wgpu::FilterMode::Nearest,
-                        min_filter: wgpu::FilterMode::Nearest,
+                        min_filter: wgpu::FilterMode::Linear,
                         ..wgpu::SamplerDescriptor::default()
                     },
                 );

@@ -15,7 +15,7 @@ use ifd_gpu::GpuContext;
 use ifd_gpu::GpuShader;
 use ifd_render::Tonemap;
 
-pub use automation::{Automation, ReferenceReport, SplitSumReport};
+pub use automation::{Automation, ReferenceReport, ScreenReport, SplitSumReport};
 pub use gpu_view::GpuView;
 
 use crate::reference::{self, RefEvent, Request};
@@ -59,6 +59,16 @@ pub(crate) struct SplitState {
     difference_texture: Option<egui::TextureHandle>,
 }
 
+/// Where the views are in the window (points), as the last frame drew them.
+#[derive(Clone, Debug)]
+pub struct Layout {
+    /// The central area beside the panel and above the status bar.
+    pub area: egui::Rect,
+    /// Each view's name (`isd`, then `reference`, `split-sum` or
+    /// `split-sum-difference`) and rectangle.
+    pub views: Vec<(&'static str, egui::Rect)>,
+}
+
 /// How the app starts.
 pub struct StartOptions {
     /// The window's device (`None`: headless harness, or a GL backend).
@@ -92,7 +102,8 @@ pub struct EnvApp {
     automation: Automation,
     stage: automation::Stage,
     finish: ifd_app::Finish,
-    viewport: Option<egui::Rect>,
+    /// Where the views were drawn in the last frame.
+    layout: Option<Layout>,
     reference: reference::Handle,
     pub(crate) refs: RefState,
     pub(crate) split: SplitState,
@@ -143,7 +154,7 @@ impl EnvApp {
             automation: start.automation,
             stage: automation::Stage::WaitFrame,
             finish,
-            viewport: None,
+            layout: None,
             reference,
             refs: RefState::default(),
             split: SplitState::default(),
@@ -154,6 +165,19 @@ impl EnvApp {
     #[must_use]
     pub fn errors(&self) -> &[String] {
         &self.errors
+    }
+
+    /// Where the views were drawn in the last frame (`None` before the
+    /// first).
+    #[must_use]
+    pub fn layout(&self) -> Option<&Layout> {
+        self.layout.as_ref()
+    }
+
+    /// Whether frames are shaded on the GPU (else by the CPU renderer).
+    #[must_use]
+    pub fn shades_on_gpu(&self) -> bool {
+        self.gpu.is_some() && self.fallback.is_none()
     }
 
     /// Frames received from the worker.
@@ -226,7 +250,7 @@ impl EnvApp {
             {
                 t.set(
                     worker::display_image(img, tm, self.settings.exposure),
-                    egui::TextureOptions::NEAREST,
+                    VIEW_TEXTURE,
                 );
             }
             if let Some(t) = &mut self.split.texture
@@ -234,7 +258,7 @@ impl EnvApp {
             {
                 t.set(
                     worker::display_image(img, tm, self.settings.exposure),
-                    egui::TextureOptions::NEAREST,
+                    VIEW_TEXTURE,
                 );
             }
             self.sent = Some(self.settings.clone());
@@ -550,10 +574,17 @@ fn show_in(
     image: egui::ColorImage,
 ) {
     match slot {
-        Some(t) => t.set(image, egui::TextureOptions::NEAREST),
-        None => *slot = Some(ctx.load_texture(name, image, egui::TextureOptions::NEAREST)),
+        Some(t) => t.set(image, VIEW_TEXTURE),
+        None => *slot = Some(ctx.load_texture(name, image, VIEW_TEXTURE)),
     }
 }
+
+/// How a view's texture is sampled: pixel for pixel when it fits, linear
+/// when it is shown smaller than rendered (a view scaled to fit the window).
+pub(crate) const VIEW_TEXTURE: egui::TextureOptions = egui::TextureOptions {
+    minification: egui::TextureFilter::Linear,
+    ..egui::TextureOptions::NEAREST
+};
 
 /// `img` with `other`'s channels: the GPU's frame is RGB, grey maps
 /// repeat their one channel in it (the CPU renders one channel).

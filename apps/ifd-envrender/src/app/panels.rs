@@ -492,45 +492,56 @@ pub(super) fn viewport(app: &mut EnvApp, ui: &mut egui::Ui) {
             Some(g) if app.fallback.is_none() => g.texture(),
             _ => app.cpu_texture.as_ref().map(|t| (t.id(), t.size())),
         };
-        let [w, h] = app.settings.size;
         let ppp = ui.ctx().pixels_per_point();
-        // one image pixel per screen pixel
-        let size = vec2(w as f32, h as f32) / ppp;
-        let (rect, resp) = ui.allocate_exact_size(size, Sense::click_and_drag());
-        if let Some((id, _)) = tex {
-            ui.painter().image(
-                id,
-                rect,
-                egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
-                Color32::WHITE,
-            );
-        } else {
-            ui.painter().rect_filled(rect, 0.0, Color32::from_gray(16));
-        }
-        app.viewport = Some(rect);
-        let beside = if app.settings.reference {
-            app.refs.texture.as_ref()
-        } else if app.settings.compare != Compare::Off && app.split.image.is_some() {
-            if app.settings.compare_image {
+        // the view beside ISD's, when one is asked for: its place is kept
+        // while it is computed, so that ISD's view does not jump
+        let second = if app.settings.reference {
+            Some(("reference", app.refs.texture.as_ref()))
+        } else if app.settings.compare != Compare::Off && app.settings.brdf_is_gltf() {
+            // (the worker compares the glTF BRDF only)
+            let t = if app.split.image.is_none() {
+                None
+            } else if app.settings.compare_image {
                 app.split.texture.as_ref()
             } else {
                 app.split
                     .difference
                     .as_ref()
                     .and(app.split.difference_texture.as_ref())
-            }
+            };
+            let name = if app.settings.compare_image {
+                "split-sum"
+            } else {
+                "split-sum-difference"
+            };
+            Some((name, t))
         } else {
             None
         };
-        if let Some(t) = beside {
-            let r = egui::Rect::from_min_size(rect.right_top() + vec2(8.0, 0.0), size);
-            ui.painter().image(
-                t.id(),
-                r,
-                egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
-                Color32::WHITE,
-            );
+        // the views whole inside the area: pixel for pixel when they fit,
+        // else scaled down (the texture is rendered at --size and shown
+        // scaled), side by side or stacked
+        let area = ui.available_rect_before_wrap();
+        let count = 1 + usize::from(second.is_some());
+        let rects = ifd_app::fit_views(area, app.settings.size, count, 8.0, ppp);
+        let rect = rects[0];
+        let resp = ui.allocate_rect(rect, Sense::click_and_drag());
+        let whole = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
+        if let Some((id, _)) = tex {
+            ui.painter().image(id, rect, whole, Color32::WHITE);
+        } else {
+            ui.painter().rect_filled(rect, 0.0, Color32::from_gray(16));
         }
+        let mut views = vec![("isd", rect)];
+        if let (Some((name, t)), Some(r)) = (second, rects.get(1).copied()) {
+            if let Some(t) = t {
+                ui.painter().image(t.id(), r, whole, Color32::WHITE);
+            } else {
+                ui.painter().rect_filled(r, 0.0, Color32::from_gray(16));
+            }
+            views.push((name, r));
+        }
+        app.layout = Some(super::Layout { area, views });
         let cam = &mut app.settings.camera;
         if resp.dragged() {
             let d = resp.drag_delta();

@@ -55,7 +55,8 @@ fn f32x3(v: [f64; 3]) -> [f32; 3] {
 
 impl SurfacePoint {
     /// The record of one pixel; `background` gives the radiance behind the
-    /// object (black without one; channel 0 repeated for a grey map).
+    /// object (bilinear, [`EnvMap::background`], as the CPU renderer's;
+    /// black without one; channel 0 repeated for a grey map).
     #[must_use]
     pub fn from_pixel(p: &Pixel, background: Option<&EnvMap>) -> Self {
         Self::from_pixel_with(p, background, None)
@@ -91,7 +92,7 @@ impl SurfacePoint {
         let mut c = [0.0; 3];
         if let Some(bg) = background {
             let mut v = vec![0.0; bg.channels()];
-            bg.lookup(p.dir, &mut v);
+            bg.background(p.dir, &mut v);
             c = std::array::from_fn(|k| v[k.min(v.len() - 1)]);
         }
         Self {
