@@ -35,16 +35,35 @@ pub struct ReportOptions {
 }
 
 impl ReportOptions {
+    /// Prints `report`: pretty JSON with `--json`, else every figure as
+    /// aligned `name value` lines ([`human`]), for a report short enough to
+    /// be its own summary.
+    pub fn emit(self, report: &Value) -> Result<()> {
+        self.emit_with(report, || human(report))
+    }
+
+    /// Prints `report` with `--json`, else the text `summary` writes (with
+    /// or without `-v`: it holds every figure).
+    pub fn emit_with(self, report: &Value, summary: impl FnOnce() -> String) -> Result<()> {
+        if self.json {
+            println!("{}", serde_json::to_string_pretty(report)?);
+        } else {
+            print!("{}", summary());
+        }
+        Ok(())
+    }
+
     /// Prints `report`: pretty JSON with `--json`, with `-v` every figure as
     /// aligned `name value` lines ([`human`]), else the short summary
     /// `summary` writes.
-    pub fn emit(self, report: &Value, summary: impl FnOnce() -> String) -> Result<()> {
-        self.emit_with(report, summary, || human(report))
+    pub fn emit_summary(self, report: &Value, summary: impl FnOnce() -> String) -> Result<()> {
+        self.emit_detailed(report, summary, || human(report))
     }
 
     /// Prints `report` with `--json`, the text `detail` writes with `-v`,
-    /// else the short summary `summary` writes.
-    pub fn emit_with(
+    /// else the short summary `summary` writes (at most [`SUMMARY_LINES`]
+    /// lines).
+    pub fn emit_detailed(
         self,
         report: &Value,
         summary: impl FnOnce() -> String,

@@ -72,7 +72,7 @@ impl Compare {
         }
         let cmp = ifd_image::compare(&a, &b, range).context("comparing images")?;
         self.report
-            .emit_with(&to_json(&cmp), || table(&cmp, false), || table(&cmp, true))
+            .emit_detailed(&to_json(&cmp), || table(&cmp, false), || table(&cmp, true))
     }
 }
 

@@ -235,5 +235,5 @@ fn report(d: &Decomposition, options: ReportOptions, wrote: &[&Path]) -> Result<
         let _ = writeln!(text, "time          {:.2} s", r.seconds);
         text
     };
-    options.emit_with(&v, || listing(false), || listing(true))
+    options.emit_detailed(&v, || listing(false), || listing(true))
 }

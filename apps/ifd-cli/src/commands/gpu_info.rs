@@ -90,6 +90,6 @@ impl GpuInfo {
             text
         };
         self.report
-            .emit_with(&report, || text(false), || text(true))
+            .emit_detailed(&report, || text(false), || text(true))
     }
 }

@@ -81,6 +81,6 @@ impl Info {
             }
             text
         };
-        self.report.emit_with(&v, || text(false), || text(true))
+        self.report.emit_detailed(&v, || text(false), || text(true))
     }
 }

@@ -62,8 +62,7 @@ impl DfgCmd {
         // three lines: kept as the summary
         let report = json!({"size": size, "output": self.output.display().to_string(),
                "seconds": t.elapsed().as_secs_f64()});
-        self.report
-            .emit(&report, || crate::options::human(&report))?;
+        self.report.emit(&report)?;
         Ok(())
     }
 }

@@ -307,7 +307,7 @@ impl PrefilterCmd {
                 "total": total_s,
             },
         });
-        self.report.emit(&report, summary)?;
+        self.report.emit_summary(&report, summary)?;
         Ok(())
     }
 }

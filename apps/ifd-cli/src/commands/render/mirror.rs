@@ -104,7 +104,7 @@ impl Render {
             "samples_per_pixel": match method { AaMethod::Isd => None, _ => Some(self.spp) },
             "seconds": secs, "render_seconds": render_secs,
         });
-        self.report.emit(&report, summary)?;
+        self.report.emit_summary(&report, summary)?;
         Ok(())
     }
 }

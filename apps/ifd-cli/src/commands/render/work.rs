@@ -264,7 +264,7 @@ impl Render {
             "gpu": gpu_report,
             "error_map": error_map,
         });
-        self.report.emit(&report, summary)?;
+        self.report.emit_summary(&report, summary)?;
         Ok(())
     }
 

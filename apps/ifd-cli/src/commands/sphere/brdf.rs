@@ -96,7 +96,7 @@ impl BrdfCmd {
             });
         let secs = start.elapsed().as_secs_f64();
         let lobes = table.basis().directions().len();
-        self.report.emit(
+        self.report.emit_summary(
             &json!({
                 "brdf": h.brdf, "lmax": h.l_max, "isotropic": h.isotropic,
                 "channels": h.channels, "theta_entries": h.n_theta, "phi_entries": h.n_phi,

@@ -204,7 +204,7 @@ impl BrdfFilterCmd {
                 seconds(secs)
             )
         };
-        self.report.emit(
+        self.report.emit_summary(
             &json!({
                 "brdf": brdf.spec(), "lmax": self.lmax, "kappa": self.kappa, "nodes": nodes,
                 "basis_per_direction": filtered.basis_len(), "holes": sh4.has_holes(),

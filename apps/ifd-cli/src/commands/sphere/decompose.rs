@@ -204,8 +204,7 @@ impl DecomposeCmd {
                "directions": dec.directions.all().len(),
                "channels": channels,
                "condition_number": dec.condition_number});
-        self.report
-            .emit(&report, || crate::options::human(&report))?;
+        self.report.emit(&report)?;
         Ok(())
     }
 }

@@ -155,7 +155,7 @@ impl FilterCmd {
             MapLayout::Equirect => "equirect",
             MapLayout::CubemapStrip => "cubemap-strip",
         };
-        self.report.emit(
+        self.report.emit_summary(
             &json!({
                 "lmax": l, "channels": out.channels(), "projection": projection.name(),
                 "layout": layout,

@@ -211,7 +211,7 @@ impl RadialCmd {
             }
             text + &format!("time {}\n", seconds(build_seconds))
         };
-        self.report.emit(
+        self.report.emit_summary(
             &json!({
                 "brdf": brdf.spec(), "lmax": self.lmax, "channels": ch,
                 "light_profile": self.light_profile, "env": self.env, "isotropic": map.isotropic,

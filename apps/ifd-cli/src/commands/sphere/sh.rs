@@ -106,7 +106,7 @@ impl ShCmd {
             crate::output::write_output(path, &rec, &ifd_image::WriteOptions::default())?;
         }
         let layout = if cube { "cubemap-strip" } else { "equirect" };
-        self.report.emit(
+        self.report.emit_summary(
             &json!({
                 "lmax": self.lmax, "channels": a.coeffs.channels(),
                 "layout": layout,
