@@ -2,10 +2,11 @@
 //! as a perfect mirror, anti-aliased by ISD's filter (Eq. 26-29) or by
 //! supersampling the pixel filter; the outputs and the report.
 
+use std::fmt::Write as _;
+
 use anyhow::{Result, bail};
 use ifd_render::{AaMethod, IsdFilter, MirrorScene, PixelFilter, SceneMirror};
 use serde_json::json;
-use std::fmt::Write as _;
 
 use super::Render;
 use super::config::{MirrorConfig, View};
