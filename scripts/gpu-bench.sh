@@ -79,7 +79,7 @@ fi
 log() { echo "==> $*" >&2; }
 
 log "adapter"
-"$ifd" gpu-info > "$work/adapter.txt" 2> "$work/gpu-info.log"
+"$ifd" gpu-info -v > "$work/adapter.txt" 2> "$work/gpu-info.log"
 
 log "planar: fitting a decomposition with $terms terms"
 "$ifd" decompose gauss:sx=24,sy=3,theta=0 --max-terms "$terms" --tol 0.001 --json \

@@ -15,24 +15,35 @@ use serde_json::Value;
 
 use crate::input::{InputOptions, parse_size};
 
-/// How a command reports its figures: a human summary by default, the
-/// machine-readable JSON report with `--json`.
+/// The most lines a command's default summary prints: what it wrote, sizes,
+/// the time and the accuracy. The rest is for `--json` and `-v`.
+pub const SUMMARY_LINES: usize = 8;
+
+/// How a command reports its figures: a short summary by default (at most
+/// [`SUMMARY_LINES`] lines), every figure with `-v`, the machine-readable
+/// JSON report with `--json`.
 #[derive(Debug, Args, Clone, Copy)]
 pub struct ReportOptions {
     /// Print the report as one JSON object (machine-readable) instead of the
     /// human summary.
     #[arg(long)]
     pub json: bool,
+    /// Print the whole report (every figure: per level, per channel, the
+    /// timings) instead of the short summary.
+    #[arg(short, long)]
+    pub verbose: bool,
 }
 
 impl ReportOptions {
-    /// Prints `report`: pretty JSON with `--json`, else the human summary made
-    /// from it by [`human`].
+    /// Prints `report`: pretty JSON with `--json`, else every figure as
+    /// aligned `name value` lines ([`human`]), for a report short enough to
+    /// be its own summary.
     pub fn emit(self, report: &Value) -> Result<()> {
         self.emit_with(report, || human(report))
     }
 
-    /// Prints `report` with `--json`, else the summary `summary` writes.
+    /// Prints `report` with `--json`, else the text `summary` writes (with
+    /// or without `-v`: it holds every figure).
     pub fn emit_with(self, report: &Value, summary: impl FnOnce() -> String) -> Result<()> {
         if self.json {
             println!("{}", serde_json::to_string_pretty(report)?);
@@ -40,6 +51,54 @@ impl ReportOptions {
             print!("{}", summary());
         }
         Ok(())
+    }
+
+    /// Prints `report`: pretty JSON with `--json`, with `-v` every figure as
+    /// aligned `name value` lines ([`human`]), else the short summary
+    /// `summary` writes.
+    pub fn emit_summary(self, report: &Value, summary: impl FnOnce() -> String) -> Result<()> {
+        self.emit_detailed(report, summary, || human(report))
+    }
+
+    /// Prints `report` with `--json`, the text `detail` writes with `-v`,
+    /// else the short summary `summary` writes (at most [`SUMMARY_LINES`]
+    /// lines).
+    pub fn emit_detailed(
+        self,
+        report: &Value,
+        summary: impl FnOnce() -> String,
+        detail: impl FnOnce() -> String,
+    ) -> Result<()> {
+        if self.json {
+            println!("{}", serde_json::to_string_pretty(report)?);
+        } else if self.verbose {
+            print!("{}", detail());
+        } else {
+            print!("{}", summary());
+        }
+        Ok(())
+    }
+}
+
+/// `PATH (SIZE)`: a file written and its size on disk (the path alone when
+/// its size cannot be read).
+#[must_use]
+pub fn written(path: &std::path::Path) -> String {
+    match std::fs::metadata(path) {
+        Ok(m) => format!("{} ({})", path.display(), ifd_image::fmt_bytes(m.len())),
+        Err(_) => path.display().to_string(),
+    }
+}
+
+/// Seconds for a summary: `0.84 s`, `12.3 s`, `152 s`.
+#[must_use]
+pub fn seconds(s: f64) -> String {
+    if s < 10.0 {
+        format!("{s:.2} s")
+    } else if s < 100.0 {
+        format!("{s:.1} s")
+    } else {
+        format!("{s:.0} s")
     }
 }
 
@@ -123,7 +182,7 @@ fn inline(v: &Value) -> String {
 
 /// A float with 6 significant digits, trailing zeros dropped, in scientific
 /// notation outside `[1e-3, 1e6)`.
-fn number(f: f64) -> String {
+pub fn number(f: f64) -> String {
     if f == 0.0 || !f.is_finite() {
         return f.to_string();
     }

@@ -202,6 +202,11 @@ fn gpu_info_names_the_adapter() {
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("adapters found:"), "{out}");
     assert!(out.contains("adapter: "), "{out}");
+    // the limits are in the whole report (-v), not the summary
+    assert!(!out.contains("max_storage_buffer_binding_size"), "{out}");
+    let (code, out, err) = ifd(&["gpu-info", "--all", "-v"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("adapters found:"), "{out}");
     assert!(out.contains("max_storage_buffer_binding_size"), "{out}");
 }
 
@@ -1269,5 +1274,247 @@ mod render_options {
             assert!(err.contains(needle), "{extra:?}: {err}");
             assert!(!dir.path().join("x.exr").exists());
         }
+    }
+}
+
+/// Issue 54: a command that reports prints a summary a person reads (at most
+/// eight lines: what it wrote, sizes, the time, the accuracy) by default,
+/// the whole report with `-v` and the JSON report with `--json`.
+mod summaries {
+    use super::*;
+
+    /// `SUMMARY_LINES` in `src/options.rs`.
+    const MOST_LINES: usize = 8;
+
+    /// Runs `args` three ways: the default summary must hold at most
+    /// [`MOST_LINES`] lines and not be JSON, `--json` must parse as one
+    /// object, `-v` must print at least as much as the summary. Returns the
+    /// summary.
+    fn check(args: &[&str]) -> String {
+        let (code, summary, err) = ifd(args);
+        assert_eq!(code, 0, "{args:?}: {err}");
+        let lines = summary.lines().count();
+        assert!(
+            (1..=MOST_LINES).contains(&lines),
+            "{args:?}: the default summary has {lines} lines (at most {MOST_LINES}):\n{summary}"
+        );
+        assert!(
+            serde_json::from_str::<serde_json::Value>(&summary).is_err(),
+            "{args:?}: the default output is JSON:\n{summary}"
+        );
+        let json_args: Vec<&str> = args.iter().copied().chain(["--json"]).collect();
+        let (code, json, err) = ifd(&json_args);
+        assert_eq!(code, 0, "{json_args:?}: {err}");
+        let v: serde_json::Value =
+            serde_json::from_str(&json).unwrap_or_else(|e| panic!("{json_args:?}: {e}:\n{json}"));
+        assert!(v.is_object(), "{json_args:?}: {json}");
+        let verbose_args: Vec<&str> = args.iter().copied().chain(["-v"]).collect();
+        let (code, detail, err) = ifd(&verbose_args);
+        assert_eq!(code, 0, "{verbose_args:?}: {err}");
+        assert!(
+            detail.lines().count() >= lines,
+            "{verbose_args:?}: -v prints less than the summary:\n{detail}\nvs\n{summary}"
+        );
+        summary
+    }
+
+    fn p(dir: &Path, name: &str) -> String {
+        dir.join(name).to_string_lossy().into_owned()
+    }
+
+    #[test]
+    fn every_reporting_command_prints_at_most_eight_lines_by_default() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let cam = testdata("camera.png");
+        let coffee = testdata("coffee.png");
+        let forest = testdata("forest.hdr");
+        let exr = testdata("forest_dwab.exr");
+        // an image of 9 channels: its per-channel tables are longer than 8 lines
+        let (w, h, c) = (16usize, 12usize, 9usize);
+        let data: Vec<f64> = (0..w * h * c).map(|i| (i % 17) as f64 / 16.0).collect();
+        let wide = p(d, "wide.npy");
+        ifd_image::write_npy_f64(Path::new(&wide), &[h, w, c], &data).unwrap();
+        let other: Vec<f64> = data.iter().map(|x| 0.9 * x).collect();
+        let wide2 = p(d, "wide2.npy");
+        ifd_image::write_npy_f64(Path::new(&wide2), &[h, w, c], &other).unwrap();
+
+        check(&["info", &cam]);
+        check(&["info", &coffee]);
+        let info = check(&["info", &wide]);
+        assert!(info.contains("all channels"), "{info}");
+        check(&["compare", &cam, &cam]);
+        check(&["compare", &coffee, &coffee]);
+        let cmp = check(&["compare", &wide, &wide2]);
+        assert!(cmp.contains("overall"), "{cmp}");
+        let (_, all, _) = ifd(&["compare", &wide, &wide2, "-v"]);
+        assert_eq!(all.lines().count(), 3 + c, "{all}");
+        let dec = p(d, "d.json");
+        let s = check(&[
+            "decompose",
+            "gauss:sx=6,sy=2",
+            "-o",
+            &dec,
+            "--plot",
+            &p(d, "plot.png"),
+        ]);
+        assert!(s.contains(&dec) && s.contains("terms"), "{s}");
+        check(&["sphere", "sh", &exr, "--lmax", "4", "-o", &p(d, "c.npy")]);
+        check(&[
+            "sphere",
+            "sh",
+            &exr,
+            "--lmax",
+            "4",
+            "-o",
+            &p(d, "c.npy"),
+            "--reconstruct",
+            &p(d, "rec.exr"),
+        ]);
+        let sd = p(d, "s.json");
+        check(&[
+            "sphere",
+            "decompose",
+            "vmf:kappa=10",
+            "--lmax",
+            "4",
+            "-o",
+            &sd,
+        ]);
+        check(&[
+            "sphere",
+            "filter",
+            &exr,
+            "--decomp",
+            &sd,
+            "--size",
+            "32x16",
+            "-o",
+            &p(d, "f.npy"),
+        ]);
+        check(&[
+            "sphere",
+            "brdf",
+            "lambert",
+            "--lmax",
+            "4",
+            "-o",
+            &p(d, "l.lobes"),
+        ]);
+        check(&[
+            "sphere",
+            "radial",
+            "--brdf",
+            "lambert",
+            "--lmax",
+            "2",
+            "--light-profile",
+            "overcast",
+            "--cells",
+            "2x2x2",
+            "-o",
+            &p(d, "rad.npy"),
+            "--coeffs",
+            &p(d, "rc.npy"),
+            "--preview",
+            &p(d, "rad.png"),
+            "--check",
+            "4",
+        ]);
+        check(&[
+            "sphere",
+            "brdf-filter",
+            "--brdf",
+            "ggx:alpha=0.5",
+            "--lmax",
+            "2",
+            "--kappa",
+            "10",
+            "--clean",
+            "ggx:alpha=0.5",
+            "-o",
+            &p(d, "bf.npy"),
+        ]);
+        let render = |extra: &[&str]| {
+            let out = p(d, "r.png");
+            let mut args = vec![
+                "render", "--env", &forest, "--size", "16x16", "--lmax", "4", "-o", &out,
+            ];
+            args.extend_from_slice(extra);
+            let s = check(&args);
+            assert!(s.starts_with(&format!("wrote {out} (16x16")), "{s}");
+            s
+        };
+        render(&["--brdf", "ggx:alpha=0.3"]);
+        render(&[
+            "--brdf",
+            "ggx:alpha=0.3",
+            "--mask",
+            &p(d, "m.npy"),
+            "--gbuffer",
+            &p(d, "g.npy"),
+        ]);
+        let s = render(&["--brdf", "ggx:alpha=0.5", "--error-map", &p(d, "e.npy")]);
+        assert!(s.contains("relative RMS"), "{s}");
+        render(&["--brdf", "ggx:alpha=0.5", "--method", "quadrature"]);
+        render(&["--brdf", "mirror"]);
+        let s = check(&[
+            "envmap",
+            "prefilter",
+            &forest,
+            "--face-size",
+            "16",
+            "--irradiance-size",
+            "4",
+            "--out-dir",
+            &p(d, "ibl"),
+        ]);
+        assert!(s.contains("radiance.ktx2") && s.contains("sh.npy"), "{s}");
+        check(&[
+            "envmap",
+            "prefilter",
+            &forest,
+            "--face-size",
+            "16",
+            "--irradiance-size",
+            "4",
+            "--format",
+            "exr",
+            "--out-dir",
+            &p(d, "ibl-exr"),
+        ]);
+        check(&["envmap", "dfg", "--table-size", "8", "-o", &p(d, "dfg.npy")]);
+    }
+
+    /// `gpu-info`'s summary (it needs an adapter: lavapipe where there is no
+    /// GPU; skipped without one under `IFD_GPU_TESTS=skip`).
+    #[test]
+    fn gpu_info_prints_a_short_summary() {
+        let (code, _, err) = ifd(&["gpu-info"]);
+        if gpu_missing_ok(code, &err) {
+            return;
+        }
+        let s = check(&["gpu-info"]);
+        assert!(s.starts_with("adapter: "), "{s}");
+    }
+
+    /// The check above can fail: a report of every figure is longer.
+    #[test]
+    fn the_whole_report_is_longer_than_a_summary() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("ibl");
+        let (code, detail, err) = ifd(&[
+            "envmap",
+            "prefilter",
+            &testdata("forest.hdr"),
+            "--face-size",
+            "16",
+            "--out-dir",
+            out.to_str().unwrap(),
+            "-v",
+        ]);
+        assert_eq!(code, 0, "{err}");
+        assert!(detail.lines().count() > MOST_LINES, "{detail}");
+        assert!(detail.contains("levels:"), "{detail}");
     }
 }

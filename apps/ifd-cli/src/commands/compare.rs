@@ -1,5 +1,6 @@
 //! `ifd compare A B`.
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
@@ -8,6 +9,7 @@ use ifd_image::{Comparison, Metrics};
 use serde_json::json;
 
 use crate::input::InputOptions;
+use crate::options::SUMMARY_LINES;
 
 /// Compare two images of the same size and channel count.
 ///
@@ -69,12 +71,8 @@ impl Compare {
             );
         }
         let cmp = ifd_image::compare(&a, &b, range).context("comparing images")?;
-        if self.report.json {
-            println!("{}", serde_json::to_string_pretty(&to_json(&cmp))?);
-        } else {
-            print_table(&cmp);
-        }
-        Ok(())
+        self.report
+            .emit_detailed(&to_json(&cmp), || table(&cmp, false), || table(&cmp, true))
     }
 }
 
@@ -97,22 +95,34 @@ fn to_json(c: &Comparison) -> serde_json::Value {
     v
 }
 
-fn print_table(c: &Comparison) {
-    println!("data range {}", c.data_range);
-    println!(
+/// The table: the data range, a header, a row per channel (when there are
+/// several) and the overall row. The summary (`every` false) leaves out the
+/// channels' rows when the table would pass [`SUMMARY_LINES`] lines.
+fn table(c: &Comparison, every: bool) -> String {
+    let mut text = String::new();
+    let _ = writeln!(text, "data range {}", c.data_range);
+    let _ = writeln!(
+        text,
         "{:<9} {:>10} {:>9} {:>12} {:>12}",
         "channel", "PSNR [dB]", "SSIM", "max |a-b|", "mean |a-b|"
     );
-    let row = |name: &str, m: &Metrics| {
-        println!(
+    let mut row = |name: &str, m: &Metrics| {
+        let _ = writeln!(
+            text,
             "{name:<9} {:>10.4} {:>9.6} {:>12.6e} {:>12.6e}",
             m.psnr, m.ssim, m.max_abs, m.mean_abs
         );
     };
-    if c.channels.len() > 1 {
+    let n = c.channels.len();
+    let per_channel = n > 1 && (every || n + 3 <= SUMMARY_LINES);
+    if per_channel {
         for (i, m) in c.channels.iter().enumerate() {
             row(&i.to_string(), m);
         }
     }
     row("overall", &c.overall);
+    if n > 1 && !per_channel {
+        let _ = writeln!(text, "({n} channels: -v lists each)");
+    }
+    text
 }

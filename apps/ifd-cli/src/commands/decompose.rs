@@ -1,5 +1,6 @@
 //! `ifd decompose SPEC|FILE`.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
@@ -9,6 +10,7 @@ use ifd_planar::{DecomposeOptions, Decomposition, Kernel, KernelSpec, decompose}
 use serde_json::json;
 
 use crate::input::InputOptions;
+use crate::options::{ReportOptions, written};
 use crate::output::write_output;
 
 /// Decompose a 2D filter into a sparse sum of displaced isotropic Gaussians.
@@ -159,35 +161,43 @@ impl Decompose {
             let img = ifd_plot::decomposition_plot(&kernel, &decomposition)?;
             write_output(plot, &img, &ifd_image::WriteOptions::default())?;
         }
-        report(&decomposition, self.report.json)
+        let mut wrote = vec![self.output.as_path()];
+        wrote.extend(self.plot.as_deref());
+        report(&decomposition, self.report, &wrote)
     }
 }
 
-fn report(d: &Decomposition, as_json: bool) -> Result<()> {
+fn report(d: &Decomposition, options: ReportOptions, wrote: &[&Path]) -> Result<()> {
     let Some(r) = &d.report else {
         bail!("the fit produced no report");
     };
-    if as_json {
-        let v = json!({
-            "terms": r.terms,
-            "rel_l2_error": r.rel_l2_error,
-            "max_error": r.max_error,
-            "dc_error": r.dc_error,
-            "iterations": r.iterations,
-            "seconds": r.seconds,
-            "dictionary_atoms": r.dictionary_atoms,
-            "oversample": r.oversample,
-            "kernel_sum": r.kernel_sum,
-            "dc_gain": r.dc_gain,
-            "full_plane_dc_error": r.full_plane_dc_error(),
-            "fine_rel_l2_error": r.fine_rel_l2_error,
-            "kernel_size": d.kernel_size,
-            "spec": d.spec,
-        });
-        println!("{}", serde_json::to_string_pretty(&v)?);
-    } else {
+    let v = json!({
+        "terms": r.terms,
+        "rel_l2_error": r.rel_l2_error,
+        "max_error": r.max_error,
+        "dc_error": r.dc_error,
+        "iterations": r.iterations,
+        "seconds": r.seconds,
+        "dictionary_atoms": r.dictionary_atoms,
+        "oversample": r.oversample,
+        "kernel_sum": r.kernel_sum,
+        "dc_gain": r.dc_gain,
+        "full_plane_dc_error": r.full_plane_dc_error(),
+        "fine_rel_l2_error": r.fine_rel_l2_error,
+        "kernel_size": d.kernel_size,
+        "spec": d.spec,
+    });
+    // the listing, every line (-v); the summary leaves out the DC error in
+    // the window and the iterations, and says what was written
+    let listing = |detail: bool| {
+        let mut text = String::new();
+        if !detail {
+            let files: Vec<String> = wrote.iter().map(|p| written(p)).collect();
+            let _ = writeln!(text, "wrote         {}", files.join(", "));
+        }
         if let Some((w, h)) = d.kernel_size {
-            println!(
+            let _ = writeln!(
+                text,
                 "kernel        {w}x{h}{}",
                 d.spec
                     .as_ref()
@@ -195,27 +205,35 @@ fn report(d: &Decomposition, as_json: bool) -> Result<()> {
                     .unwrap_or_default()
             );
         }
-        println!(
+        let _ = writeln!(
+            text,
             "terms         {} (of {} atoms)",
             r.terms, r.dictionary_atoms
         );
-        println!("rel. L2 error {:.3}%", 100.0 * r.rel_l2_error);
+        let _ = writeln!(text, "rel. L2 error {:.3}%", 100.0 * r.rel_l2_error);
         if let Some(e) = r.fine_rel_l2_error {
-            println!(
+            let _ = writeln!(
+                text,
                 "  between px  {:.3}% (fitted on a grid {}x finer)",
                 100.0 * e,
                 r.oversample
             );
         }
-        println!("max error     {:.3}% of max |k|", 100.0 * r.max_error);
-        println!("DC error      {:.3e} (in the window)", r.dc_error);
+        let _ = writeln!(text, "max error     {:.3}% of max |k|", 100.0 * r.max_error);
+        if detail {
+            let _ = writeln!(text, "DC error      {:.3e} (in the window)", r.dc_error);
+        }
         if let (Some(e), Some(k), Some(g)) = (r.full_plane_dc_error(), r.kernel_sum, r.dc_gain) {
-            println!(
+            let _ = writeln!(
+                text,
                 "DC gain       {g:.6} (kernel {k:.6}): a constant image changes by {e:.3e} of its value"
             );
         }
-        println!("iterations    {}", r.iterations);
-        println!("time          {:.2} s", r.seconds);
-    }
-    Ok(())
+        if detail {
+            let _ = writeln!(text, "iterations    {}", r.iterations);
+        }
+        let _ = writeln!(text, "time          {:.2} s", r.seconds);
+        text
+    };
+    options.emit_detailed(&v, || listing(false), || listing(true))
 }

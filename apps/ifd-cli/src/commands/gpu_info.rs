@@ -56,7 +56,9 @@ impl GpuInfo {
             },
             "adapters": adapters.as_ref().map(|list| list.iter().map(|a| describe!(a)).collect::<Vec<_>>()),
         });
-        self.report.emit_with(&report, || {
+        // the adapters found (--all, asked for), then the chosen one: its
+        // first two lines and timestamp support by default, every limit with -v
+        let text = |detail: bool| {
             let mut text = String::new();
             if let Some(list) = &adapters {
                 let _ = writeln!(text, "adapters found: {}", list.len());
@@ -68,12 +70,26 @@ impl GpuInfo {
                     );
                 }
             }
-            text += &ctx.describe();
-            text.push('\n');
+            let described = ctx.describe();
+            if detail {
+                text += &described;
+                text.push('\n');
+            } else {
+                for line in described.lines().filter(|l| {
+                    l.starts_with("adapter: ")
+                        || l.starts_with("driver: ")
+                        || l.starts_with("timestamp queries: ")
+                }) {
+                    text += line;
+                    text.push('\n');
+                }
+            }
             if ctx.is_software() {
                 text += "note: a software (CPU) adapter: expect CPU-like speed\n";
             }
             text
-        })
+        };
+        self.report
+            .emit_detailed(&report, || text(false), || text(true))
     }
 }

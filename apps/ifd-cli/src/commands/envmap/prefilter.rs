@@ -1,5 +1,6 @@
 //! `ifd envmap prefilter`: bake the IBL assets engines load.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -12,7 +13,7 @@ use ifd_ibl::{RoughnessMapping, check_chain};
 use serde_json::json;
 
 use crate::input::InputOptions;
-use crate::options::ReportOptions;
+use crate::options::{ReportOptions, seconds};
 
 /// Bakes what engines load for image-based lighting, from an equirectangular
 /// (2:1) map or a cube strip (6:1, faces +X,-X,+Y,-Y,+Z,-Z, y up):
@@ -258,7 +259,36 @@ impl PrefilterCmd {
         files.write_sh_npy("sh.npy", &sh)?;
         let written = files.commit()?;
         let (bright, threshold) = baker.bright_texels();
-        self.report.emit(&json!({
+        let total_s = start.elapsed().as_secs_f64();
+        let capped = report.iter().filter(|l| l["capped"] == true).count();
+        let summary = || {
+            let mut text = files_summary(&self.out_dir, &written);
+            let truncated = if capped > 0 {
+                format!(", {capped} truncated at --eps {}", self.eps)
+            } else {
+                String::new()
+            };
+            let irradiance = irradiance
+                .as_ref()
+                .map(|(l, _, _)| format!(", irradiance {0}x{0}", l.size))
+                .unwrap_or_default();
+            let _ = writeln!(
+                text,
+                "{levels} radiance level(s) of {n}x{n} to {m}x{m} faces ({} lobe, {} roughness{truncated}){irradiance}, SH L = {}",
+                self.lobe,
+                self.roughness,
+                self.sh_lmax,
+                m = (n >> levels.saturating_sub(1)).max(1),
+            );
+            text + &format!(
+                "time {} (read {}, analysis {}, bake {})\n",
+                seconds(total_s),
+                seconds(read_s),
+                seconds(analysis_s),
+                seconds(bake_s)
+            )
+        };
+        let report = json!({
             "input": self.envmap.display().to_string(),
             "width": env.width(), "height": env.height(),
             "face_size": n, "mips": levels,
@@ -274,11 +304,50 @@ impl PrefilterCmd {
             "files": written,
             "seconds": {
                 "read": read_s, "analysis": analysis_s, "bake": bake_s,
-                "total": start.elapsed().as_secs_f64(),
+                "total": total_s,
             },
-        }))?;
+        });
+        self.report.emit_summary(&report, summary)?;
         Ok(())
     }
+}
+
+/// The files written into `dir`: their count and total size, then one line
+/// per kind (the faces of a level as one `radiance_*.exr` entry).
+fn files_summary(dir: &Path, names: &[String]) -> String {
+    let size = |name: &str| std::fs::metadata(dir.join(name)).map_or(0, |m| m.len());
+    let mut groups: Vec<(String, usize, u64)> = Vec::new();
+    for name in names {
+        let key = match name.split_once('_') {
+            Some((stem, _)) if name.to_ascii_lowercase().ends_with(".exr") => {
+                format!("{stem}_*.exr")
+            }
+            _ => name.clone(),
+        };
+        match groups.iter_mut().find(|g| g.0 == key) {
+            Some(g) => {
+                g.1 += 1;
+                g.2 += size(name);
+            }
+            None => groups.push((key, 1, size(name))),
+        }
+    }
+    let total: u64 = groups.iter().map(|g| g.2).sum();
+    let mut text = format!(
+        "wrote {} file(s) to {} ({})\n",
+        names.len(),
+        dir.display(),
+        ifd_image::fmt_bytes(total)
+    );
+    for (key, count, bytes) in groups {
+        let count = if count > 1 {
+            format!("{count} files, ")
+        } else {
+            String::new()
+        };
+        let _ = writeln!(text, "  {key} ({count}{})", ifd_image::fmt_bytes(bytes));
+    }
+    text
 }
 
 fn lobe_json(lobe: &Lobe) -> serde_json::Value {

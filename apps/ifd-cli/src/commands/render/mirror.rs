@@ -2,6 +2,8 @@
 //! as a perfect mirror, anti-aliased by ISD's filter (Eq. 26-29) or by
 //! supersampling the pixel filter; the outputs and the report.
 
+use std::fmt::Write as _;
+
 use anyhow::{Result, bail};
 use ifd_render::{AaMethod, IsdFilter, MirrorScene, PixelFilter, SceneMirror};
 use serde_json::json;
@@ -71,7 +73,29 @@ impl Render {
             crate::output::write_output(m, &mask, &ifd_image::WriteOptions::default())?;
         }
         crate::output::write_output(&self.output, &img, &ifd_image::WriteOptions::default())?;
-        self.report.emit(&json!({
+        let secs = start.elapsed().as_secs_f64();
+        let summary = || {
+            let spp = match method {
+                AaMethod::Isd => None,
+                _ => Some(self.spp),
+            };
+            let mut text = self.summary_head(
+                (camera.width(), camera.height()),
+                l_max,
+                "mirror",
+                spp,
+                secs,
+            );
+            if isd.is_some() {
+                let _ = writeln!(
+                    text,
+                    "Eq. 29 filtered {} of the {object_pixels} object pixels",
+                    r.filtered
+                );
+            }
+            text
+        };
+        let report = json!({
             "method": self.method.name(), "brdf": "mirror", "lmax": l_max,
             "scene": self.scene.scene, "width": camera.width(), "height": camera.height(),
             "env_size": [full.image().width(), full.image().height()],
@@ -79,8 +103,9 @@ impl Render {
             "eq29_pixels": isd.as_ref().map(|_| r.filtered),
             "isd_threshold_radians": isd.as_ref().map(IsdFilter::threshold),
             "samples_per_pixel": match method { AaMethod::Isd => None, _ => Some(self.spp) },
-            "seconds": start.elapsed().as_secs_f64(), "render_seconds": render_secs,
-        }))?;
+            "seconds": secs, "render_seconds": render_secs,
+        });
+        self.report.emit_summary(&report, summary)?;
         Ok(())
     }
 }

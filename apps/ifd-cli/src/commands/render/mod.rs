@@ -10,6 +10,7 @@ mod config;
 mod mirror;
 mod work;
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Result;
@@ -229,6 +230,40 @@ pub(crate) fn is_display(path: &std::path::Path) -> Result<bool> {
 }
 
 impl Render {
+    /// The first lines of the summary: the image written (size on disk, the
+    /// method, the BRDF, the scene, the time), then the other files written.
+    pub(super) fn summary_head(
+        &self,
+        (w, h): (usize, usize),
+        l_max: Option<usize>,
+        brdf: &str,
+        samples: Option<usize>,
+        secs: f64,
+    ) -> String {
+        let bytes = std::fs::metadata(&self.output)
+            .map(|m| format!(", {}", ifd_image::fmt_bytes(m.len())))
+            .unwrap_or_default();
+        let degree = l_max.map(|l| format!(" L = {l}")).unwrap_or_default();
+        let samples = samples.map(|n| format!(", {n} spp")).unwrap_or_default();
+        let mut text = format!(
+            "wrote {} ({w}x{h}{bytes}): {}{degree}{samples}, {brdf} on {}, {}\n",
+            self.output.display(),
+            self.method.name(),
+            self.scene.scene,
+            crate::options::seconds(secs)
+        );
+        let others: Vec<String> = [&self.mask, &self.gbuffer, &self.stderr, &self.error_map]
+            .into_iter()
+            .flatten()
+            .filter(|p| p.exists())
+            .map(|p| crate::options::written(p))
+            .collect();
+        if !others.is_empty() {
+            let _ = writeln!(text, "also wrote {}", others.join(", "));
+        }
+        text
+    }
+
     /// Runs the command: the flags checked, then the work.
     pub fn run(self) -> Result<()> {
         let config::RenderConfig { view, shading } = config::check(&self)?;

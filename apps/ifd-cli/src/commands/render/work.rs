@@ -2,6 +2,7 @@
 //! tables, the render (on the CPU or the GPU), the oracle of --error-map,
 //! the outputs and the report.
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
@@ -11,6 +12,7 @@ use serde_json::json;
 
 use super::config::{BrdfConfig, View};
 use super::{Render, RenderPrecision, is_display};
+use crate::options::number;
 
 impl Render {
     /// Renders the scene with the BRDF of `c`, writes the outputs and the
@@ -205,28 +207,64 @@ impl Render {
             crate::output::write_output(p, se, &ifd_image::WriteOptions::default())?;
         }
         crate::output::write_output(output, &img, &ifd_image::WriteOptions::default())?;
-        self.report.emit(&json!({
-                "method": self.method.name(), "brdf": brdf.spec(), "lmax": l_max,
-                "scene": self.scene.scene, "width": w, "height": h, "shadows": self.shadows,
-                "env_size": [ew, eh], "object_pixels": r.object_pixels,
-                "closed_form": material.as_ref().map(Material::is_closed_form),
-                "quadrature_max_k": (method == Method::Quadrature).then_some(r.max_k),
-                "quadrature_unconverged_pixels": (method == Method::Quadrature).then_some(r.not_converged),
-                "quadrature_max_residual": (method == Method::Quadrature).then_some(r.max_residual),
-                "spp": (method == Method::Mc).then_some(self.spp),
-                // the CPU's isd lanes as they ran (f32 falls back to f64
-                // without AVX2 + FMA) and the instruction set
-                "lanes": (method == Method::Isd && gpu_report.is_none()).then(|| {
-                    match job.precision.effective() {
-                        Precision::F32 => "f32",
-                        Precision::F64 => "f64",
-                    }
-                }),
-                "vector_isa": gpu_report.is_none().then(|| ifd_simd::isa().name()),
-                "seconds": secs, "render_seconds": render_secs,
-                "gpu": gpu_report,
-                "error_map": error_map,
-            }))?;
+        let summary = || {
+            let spp = (method == Method::Mc).then_some(self.spp);
+            let mut text = self.summary_head((w, h), l_max, brdf.spec(), spp, secs);
+            let f = |v: &serde_json::Value, k: &str, scale: f64| {
+                v[k].as_f64()
+                    .map_or_else(|| "-".to_owned(), |x| number(scale * x))
+            };
+            if method == Method::Quadrature {
+                let _ = writeln!(
+                    text,
+                    "quadrature: {} pixel(s) not converged, largest residual {}",
+                    r.not_converged,
+                    number(r.max_residual)
+                );
+            }
+            if let Some(g) = &gpu_report {
+                let _ = writeln!(
+                    text,
+                    "GPU {}: {} frame(s), median {} ms per frame ({} ms GPU time)",
+                    g["adapter"].as_str().unwrap_or("?"),
+                    g["frames"],
+                    f(g, "frame_seconds_median", 1e3),
+                    f(g, "gpu_seconds_median", 1e3),
+                );
+            }
+            if let Some(e) = &error_map {
+                let _ = writeln!(
+                    text,
+                    "against the oracle: relative RMS {}, largest difference {}",
+                    f(e, "relative_rms", 1.0),
+                    f(e, "max_abs_difference", 1.0),
+                );
+            }
+            text
+        };
+        let report = json!({
+            "method": self.method.name(), "brdf": brdf.spec(), "lmax": l_max,
+            "scene": self.scene.scene, "width": w, "height": h, "shadows": self.shadows,
+            "env_size": [ew, eh], "object_pixels": r.object_pixels,
+            "closed_form": material.as_ref().map(Material::is_closed_form),
+            "quadrature_max_k": (method == Method::Quadrature).then_some(r.max_k),
+            "quadrature_unconverged_pixels": (method == Method::Quadrature).then_some(r.not_converged),
+            "quadrature_max_residual": (method == Method::Quadrature).then_some(r.max_residual),
+            "spp": (method == Method::Mc).then_some(self.spp),
+            // the CPU's isd lanes as they ran (f32 falls back to f64
+            // without AVX2 + FMA) and the instruction set
+            "lanes": (method == Method::Isd && gpu_report.is_none()).then(|| {
+                match job.precision.effective() {
+                    Precision::F32 => "f32",
+                    Precision::F64 => "f64",
+                }
+            }),
+            "vector_isa": gpu_report.is_none().then(|| ifd_simd::isa().name()),
+            "seconds": secs, "render_seconds": render_secs,
+            "gpu": gpu_report,
+            "error_map": error_map,
+        });
+        self.report.emit_summary(&report, summary)?;
         Ok(())
     }
 

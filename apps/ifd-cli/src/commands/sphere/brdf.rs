@@ -7,7 +7,7 @@ use clap::Args;
 
 use serde_json::json;
 
-use crate::options::ReportOptions;
+use crate::options::{ReportOptions, number, seconds, written};
 
 /// `ifd sphere brdf SPEC --lmax L -o table.lobes`.
 ///
@@ -94,17 +94,39 @@ impl BrdfCmd {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
                 (a.min(x), b.max(x))
             });
-        self.report.emit(&json!({
-            "brdf": h.brdf, "lmax": h.l_max, "isotropic": h.isotropic,
-            "channels": h.channels, "theta_entries": h.n_theta, "phi_entries": h.n_phi,
-            "lobes": table.basis().directions().len(),
-            "lobe_layout": h.lobes.name(),
-            "weight_bytes": table.weight_bytes(),
-            "interpolation_error": h.interpolation_error,
-            "interpolation_rms": h.interpolation_rms,
-            "albedo_min": amin, "albedo_max": amax,
-            "seconds": start.elapsed().as_secs_f64(),
-        }))?;
+        let secs = start.elapsed().as_secs_f64();
+        let lobes = table.basis().directions().len();
+        self.report.emit_summary(
+            &json!({
+                "brdf": h.brdf, "lmax": h.l_max, "isotropic": h.isotropic,
+                "channels": h.channels, "theta_entries": h.n_theta, "phi_entries": h.n_phi,
+                "lobes": lobes,
+                "lobe_layout": h.lobes.name(),
+                "weight_bytes": table.weight_bytes(),
+                "interpolation_error": h.interpolation_error,
+                "interpolation_rms": h.interpolation_rms,
+                "albedo_min": amin, "albedo_max": amax,
+                "seconds": secs,
+            }),
+            || {
+                format!(
+                    "wrote {}: {} lobe table, L = {}, {lobes} lobes ({}), {}x{} views\n\
+                     interpolation error {} (RMS {}), albedo {} to {}\n\
+                     time {}\n",
+                    written(&self.output),
+                    h.brdf,
+                    h.l_max,
+                    h.lobes.name(),
+                    h.n_theta,
+                    h.n_phi,
+                    number(h.interpolation_error),
+                    number(h.interpolation_rms),
+                    number(amin),
+                    number(amax),
+                    seconds(secs),
+                )
+            },
+        )?;
         Ok(())
     }
 }

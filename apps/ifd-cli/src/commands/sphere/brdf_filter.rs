@@ -1,6 +1,7 @@
 //! `ifd sphere brdf-filter`: noisy and sparse BRDF data filtered with a
 //! separable vMF kernel on the 4D SH basis (ISD Sec. 6.3, Eq. 30-32).
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{Result, bail};
@@ -12,7 +13,7 @@ use ifd_sphere::ShEvaluator;
 use rayon::prelude::*;
 use serde_json::json;
 
-use crate::options::ReportOptions;
+use crate::options::{ReportOptions, number, seconds, written};
 
 /// Filter a BRDF (typically a noisy or sparse MERL measurement) with the
 /// separable von Mises-Fisher kernel of ISD Sec. 6.3 on the 4D SH basis.
@@ -176,15 +177,45 @@ impl BrdfFilterCmd {
             let m = filtered.basis_len();
             ifd_image::write_npy_f64(&self.output, &[m, m, ch], filtered.coeffs())?;
         }
-        self.report.emit(&json!({
-            "brdf": brdf.spec(), "lmax": self.lmax, "kappa": self.kappa, "nodes": nodes,
-            "basis_per_direction": filtered.basis_len(), "holes": sh4.has_holes(),
-            "coefficient_asymmetry": sh4.asymmetry(),
-            "albedo_min": albedo.0, "albedo_max": albedo.1,
-            "reciprocity_max_abs": recip, "value_max": peak,
-            "errors": errors,
-            "seconds": start.elapsed().as_secs_f64(),
-        }))?;
+        let secs = start.elapsed().as_secs_f64();
+        let summary = || {
+            let mut text = format!(
+                "wrote {}: {} filtered at L = {}, kappa = {}\n",
+                written(&self.output),
+                brdf.spec(),
+                self.lmax,
+                number(self.kappa)
+            );
+            if let Some(e) = &errors {
+                let f = |k: &str| e[k].as_f64().map_or_else(|| "-".to_owned(), number);
+                let _ = writeln!(
+                    text,
+                    "relative L2 error against the clean BRDF: input {}, filtered {}",
+                    f("input_vs_clean"),
+                    f("filtered_vs_clean")
+                );
+            }
+            text + &format!(
+                "albedo {} to {}, reciprocity error {} (largest value {})\ntime {}\n",
+                number(albedo.0),
+                number(albedo.1),
+                number(recip),
+                number(peak),
+                seconds(secs)
+            )
+        };
+        self.report.emit_summary(
+            &json!({
+                "brdf": brdf.spec(), "lmax": self.lmax, "kappa": self.kappa, "nodes": nodes,
+                "basis_per_direction": filtered.basis_len(), "holes": sh4.has_holes(),
+                "coefficient_asymmetry": sh4.asymmetry(),
+                "albedo_min": albedo.0, "albedo_max": albedo.1,
+                "reciprocity_max_abs": recip, "value_max": peak,
+                "errors": errors,
+                "seconds": secs,
+            }),
+            summary,
+        )?;
         Ok(())
     }
 }

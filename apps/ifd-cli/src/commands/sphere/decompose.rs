@@ -197,13 +197,14 @@ impl DecomposeCmd {
         let text = dec.to_json()?;
         crate::output::write_text(&self.output, &text)?;
         let channels = dec.weights.channels;
-        self.report
-            .emit(&json!({"lmax": self.lmax, "profile": profile.name(),
-                   "sharing": sharing_name(dec.directions.sharing()),
-                   "lobes": dec.weights.data.len() / channels.max(1),
-                   "directions": dec.directions.all().len(),
-                   "channels": channels,
-                   "condition_number": dec.condition_number}))?;
+        // seven lines: kept as the summary
+        let report = json!({"lmax": self.lmax, "profile": profile.name(),
+               "sharing": sharing_name(dec.directions.sharing()),
+               "lobes": dec.weights.data.len() / channels.max(1),
+               "directions": dec.directions.all().len(),
+               "channels": channels,
+               "condition_number": dec.condition_number});
+        self.report.emit(&report)?;
         Ok(())
     }
 }

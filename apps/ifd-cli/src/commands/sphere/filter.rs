@@ -14,7 +14,7 @@ use super::{
     stores_negatives,
 };
 use crate::input::{InputOptions, parse_size};
-use crate::options::ReportOptions;
+use crate::options::{ReportOptions, number, seconds, written};
 
 /// `ifd sphere filter ENV --decomp d.json [--size WxH] [--raw] -o OUT`.
 ///
@@ -151,18 +151,33 @@ impl FilterCmd {
         let secs = start.elapsed().as_secs_f64();
         let clamped = clamp_output_negatives(&self.output, &mut out, "result")?;
         crate::output::write_output(&self.output, &out, &ifd_image::WriteOptions::default())?;
-        self.report.emit(&json!({
-            "lmax": l, "channels": out.channels(), "projection": projection.name(),
-            "layout": match MapLayout::from_size(ow, oh)? {
-                MapLayout::Equirect => "equirect",
-                MapLayout::CubemapStrip => "cubemap-strip",
+        let layout = match MapLayout::from_size(ow, oh)? {
+            MapLayout::Equirect => "equirect",
+            MapLayout::CubemapStrip => "cubemap-strip",
+        };
+        self.report.emit_summary(
+            &json!({
+                "lmax": l, "channels": out.channels(), "projection": projection.name(),
+                "layout": layout,
+                "width": ow, "height": oh,
+                "kernel_integral": integral, "scale": scale,
+                "input_negatives": a.negatives_clamped,
+                "output_negatives_clamped": clamped,
+                "seconds": secs,
+            }),
+            || {
+                format!(
+                    "wrote {}: {ow}x{oh} {layout}, {} channel(s), filtered at L = {l}\n\
+                     kernel integral {}, scaled by {}\n\
+                     time {}\n",
+                    written(&self.output),
+                    out.channels(),
+                    number(integral),
+                    number(scale),
+                    seconds(secs),
+                )
             },
-            "width": ow, "height": oh,
-            "kernel_integral": integral, "scale": scale,
-            "input_negatives": a.negatives_clamped,
-            "output_negatives_clamped": clamped,
-            "seconds": secs,
-        }))?;
+        )?;
         Ok(())
     }
 }

@@ -1,6 +1,7 @@
 //! `ifd sphere radial`: radial reflection maps for any BRDF (ISD Sec. 6.1,
 //! Eq. 23-24).
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
@@ -13,8 +14,8 @@ use ifd_shade::{LobeTable, default_theta_entries};
 use ifd_shade::{MapSize, RadialMap, RadialProfile};
 use serde_json::json;
 
-use crate::options::ReportOptions;
 use crate::options::parse_vec;
+use crate::options::{ReportOptions, number, seconds, written};
 
 /// Tabulate a BRDF's reflection under radially symmetric distant light (ISD
 /// Eq. 24): a radial reflection map, generalising Stone's (Phong only) to any
@@ -180,16 +181,49 @@ impl RadialCmd {
         let check = (self.check > 0)
             .then(|| check(&map, &brdf, &light, profile.as_ref(), self.check))
             .transpose()?;
-        self.report.emit(&json!({
-            "brdf": brdf.spec(), "lmax": self.lmax, "channels": ch,
-            "light_profile": self.light_profile, "env": self.env, "isotropic": map.isotropic,
-            "shape": [size.theta_o, size.phi_o, size.theta_z, size.phi_z, ch],
-            "map_bytes_f32": map.bytes(),
-            "coefficient_bytes_f32": 4 * light.coeffs().len(),
-            "coefficients": light.coeffs(),
-            "build_seconds": build_seconds,
-            "check": check,
-        }))?;
+        let shape = [size.theta_o, size.phi_o, size.theta_z, size.phi_z, ch];
+        let summary = || {
+            let shape: Vec<String> = shape.iter().map(usize::to_string).collect();
+            let mut text = format!(
+                "wrote {}: radial map {} of {} at L = {}\n",
+                written(&self.output),
+                shape.join("x"),
+                brdf.spec(),
+                self.lmax
+            );
+            for (p, what) in [
+                (&self.coeffs, "the zonal coefficients"),
+                (&self.preview, "a preview"),
+            ] {
+                if let Some(p) = p {
+                    let _ = writeln!(text, "wrote {}: {what}", written(p));
+                }
+            }
+            if let Some(c) = &check {
+                let f = |k: &str| c[k].as_f64().map_or_else(|| "-".to_owned(), number);
+                let _ = writeln!(
+                    text,
+                    "check: largest error {} of the map's max, relative RMS {} ({} entries)",
+                    f("max_error_of_map_max"),
+                    f("relative_rms"),
+                    c["entries"]
+                );
+            }
+            text + &format!("time {}\n", seconds(build_seconds))
+        };
+        self.report.emit_summary(
+            &json!({
+                "brdf": brdf.spec(), "lmax": self.lmax, "channels": ch,
+                "light_profile": self.light_profile, "env": self.env, "isotropic": map.isotropic,
+                "shape": shape,
+                "map_bytes_f32": map.bytes(),
+                "coefficient_bytes_f32": 4 * light.coeffs().len(),
+                "coefficients": light.coeffs(),
+                "build_seconds": build_seconds,
+                "check": check,
+            }),
+            summary,
+        )?;
         Ok(())
     }
 

@@ -1,5 +1,6 @@
 //! `ifd sphere sh`: project an environment map onto SH.
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
@@ -11,7 +12,7 @@ use serde_json::json;
 
 use super::{ProjectionArg, clamp_output_negatives, note_input_negatives, stores_negatives};
 use crate::input::InputOptions;
-use crate::options::ReportOptions;
+use crate::options::{ReportOptions, seconds, written};
 
 /// `ifd sphere sh ENVMAP --lmax L -o coeffs.npy [--reconstruct out.hdr]`.
 ///
@@ -104,14 +105,32 @@ impl ShCmd {
             rec_clamped = clamp_output_negatives(path, &mut rec, "reconstruction")?;
             crate::output::write_output(path, &rec, &ifd_image::WriteOptions::default())?;
         }
-        self.report.emit(&json!({
-            "lmax": self.lmax, "channels": a.coeffs.channels(),
-            "layout": if cube { "cubemap-strip" } else { "equirect" },
-            "projection": projection.name(),
-            "width": w, "height": h,
-            "negatives": a.negatives_clamped, "seconds": secs,
-            "reconstruct_negatives_clamped": rec_clamped,
-        }))?;
+        let layout = if cube { "cubemap-strip" } else { "equirect" };
+        self.report.emit_summary(
+            &json!({
+                "lmax": self.lmax, "channels": a.coeffs.channels(),
+                "layout": layout,
+                "projection": projection.name(),
+                "width": w, "height": h,
+                "negatives": a.negatives_clamped, "seconds": secs,
+                "reconstruct_negatives_clamped": rec_clamped,
+            }),
+            || {
+                let mut text = format!(
+                    "wrote {}: SH up to L = {}, {} channel(s), of {} ({w}x{h} {layout}, {} \
+                     projection)\n",
+                    written(&self.output),
+                    self.lmax,
+                    a.coeffs.channels(),
+                    self.envmap.display(),
+                    projection.name(),
+                );
+                if let Some(p) = &self.reconstruct {
+                    let _ = writeln!(text, "wrote {}: the reconstruction", written(p));
+                }
+                text + &format!("time {}\n", seconds(secs))
+            },
+        )?;
         Ok(())
     }
 }
