@@ -379,7 +379,13 @@ fn write_gbuffer(path: &std::path::Path, job: &Job<'_>) -> Result<()> {
         })
         .collect();
     let img = ifd_image::Image::from_vec(w, h, 6, data)?;
-    crate::output::write_output(path, &img, &ifd_image::WriteOptions::default())?;
+    // NaN is the documented value where the BRDF has no roughness or
+    // metalness (a .npy holds it as such)
+    let options = ifd_image::WriteOptions {
+        allow_non_finite: true,
+        ..ifd_image::WriteOptions::default()
+    };
+    crate::output::write_output(path, &img, &options)?;
     Ok(())
 }
 
