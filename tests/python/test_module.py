@@ -97,6 +97,30 @@ def test_filter_equals_cli(tmp_path, run_ifd, gauss_d, args, kw):
     assert np.array_equal(out, cli), np.abs(out - cli).max()
 
 
+def test_filter_takes_a_spec_or_a_kernel_and_caches_the_fit(tmp_path, monkeypatch):
+    """``ifd.filter(img, "SPEC")`` fits once (the fit cache shared with
+    ``ifd filter --kernel``) and equals filtering with ``ifd.decompose(SPEC)``;
+    a kernel array is fitted as given."""
+    monkeypatch.setenv("IFD_CACHE_DIR", str(tmp_path))
+    img = load_gray("camera.png")[:96, :128]
+    spec = "gauss:sx=5,sy=1.5,theta=25"
+    a = ifd.filter(img, spec, angle=10.0)
+    entries = list((tmp_path / "decompositions").iterdir())
+    assert len(entries) == 1, entries
+    b = ifd.filter(img, spec, angle=10.0)
+    assert list((tmp_path / "decompositions").iterdir()) == entries
+    ref = ifd.filter(img, ifd.decompose(spec), angle=10.0)
+    assert np.array_equal(a, ref) and np.array_equal(b, ref)
+    y, x = np.mgrid[-6:7, -6:7]
+    k = np.exp(-(x**2 / 8.0 + y**2 / 2.0))
+    k /= k.sum()
+    c = ifd.filter(img, k)
+    assert np.array_equal(c, ifd.filter(img, ifd.decompose(k)))
+    assert len(list((tmp_path / "decompositions").iterdir())) == 2
+    with pytest.raises(ValueError, match="gauss:sx=-1"):
+        ifd.filter(img, "gauss:sx=-1")
+
+
 def test_filter_uint8_and_2d_follow_the_cli_range_rules(tmp_path, run_ifd, gauss_d):
     path, d = gauss_d
     run_ifd("filter", TESTDATA / "camera.png", "--decomp", path, "--angle", "40",

@@ -202,3 +202,82 @@ fn smooth_writes_a_smoothed_image_and_refuses_bad_options() {
         refused(&args, &[needle], Some(&out));
     }
 }
+
+/// `ifd filter --kernel SPEC` fits on first use and reads the fit back from
+/// the cache the second time; its output is that of `ifd decompose` then
+/// `ifd filter --decomp`, bit for bit; `--no-cache` fits again; a damaged
+/// entry is refitted with a note; `--tol` without `--kernel`, and both
+/// `--kernel` and `--decomp`, are refused.
+#[test]
+fn filter_with_a_kernel_spec_fits_once_and_caches() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let cache = dir.path().join("cache");
+    let img = save(
+        dir.path(),
+        "img.npy",
+        48,
+        40,
+        (0..48 * 40).map(|i| ((i * 7919) % 101) as f32 / 101.0).collect(),
+    );
+    let spec = "gauss:sx=4,sy=1.5,theta=20";
+    let run = |args: &[&str]| {
+        common::run(
+            common::ifd_command()
+                .env("IFD_CACHE_DIR", &cache)
+                .args(args),
+        )
+    };
+    let (a, b, c) = (
+        path(dir.path(), "a.npy"),
+        path(dir.path(), "b.npy"),
+        path(dir.path(), "c.npy"),
+    );
+    let out = run(&["filter", &img, "--kernel", spec, "--angle", "30", "-v", "-o", &a]);
+    assert_eq!(out.0, 0, "{}", out.2);
+    assert!(out.2.contains("fitted in") && out.2.contains("kept in"), "{}", out.2);
+    let out = run(&["filter", &img, "--kernel", spec, "--angle", "30", "-v", "-o", &b]);
+    assert_eq!(out.0, 0, "{}", out.2);
+    assert!(out.2.contains("read from the fit cache"), "{}", out.2);
+    let d = path(dir.path(), "d.json");
+    let (code, _, err) = ifd(&["decompose", spec, "-o", &d]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = ifd(&["filter", &img, "--decomp", &d, "--angle", "30", "-o", &c]);
+    assert_eq!(code, 0, "{err}");
+    let bytes = |p: &str| std::fs::read(p).expect("output");
+    assert_eq!(bytes(&a), bytes(&b), "cached fit, another output");
+    assert_eq!(bytes(&a), bytes(&c), "--kernel against decompose + --decomp");
+    // --no-cache fits again; a damaged entry is refitted with a note
+    let out = run(&["filter", &img, "--kernel", spec, "--no-cache", "-v", "-o", &b]);
+    assert!(out.0 == 0 && out.2.contains("fitted in") && !out.2.contains("kept in"), "{}", out.2);
+    let entries: Vec<_> = std::fs::read_dir(cache.join("decompositions"))
+        .expect("cache folder")
+        .map(|e| e.expect("entry").path())
+        .collect();
+    assert_eq!(entries.len(), 1, "{entries:?}");
+    let text = std::fs::read_to_string(&entries[0]).expect("entry");
+    std::fs::write(&entries[0], text.replacen("\"weight\": ", "\"weight\": 3", 1)).expect("damage");
+    let out = run(&["filter", &img, "--kernel", spec, "--angle", "30", "-v", "-o", &b]);
+    assert_eq!(out.0, 0, "{}", out.2);
+    assert!(out.2.contains("ignoring the cached fit"), "{}", out.2);
+    assert_eq!(bytes(&a), bytes(&b));
+    let out = run(&["filter", &img, "--kernel", spec, "-v", "-o", &b]);
+    assert!(out.2.contains("read from the fit cache"), "{}", out.2);
+    // refusals
+    refused(&["filter", &img, "--decomp", &d, "--tol", "0.1", "-o", &b], &["--kernel"], None);
+    refused(
+        &["filter", &img, "--decomp", &d, "--kernel", spec, "-o", &b],
+        &["cannot be used with"],
+        None,
+    );
+    refused(&["filter", &img, "-o", &b], &["--decomp", "--kernel"], None);
+    refused(
+        &["filter", &img, "--kernel", spec, "--tol", "0", "-o", &b],
+        &["--tol 0"],
+        None,
+    );
+    refused(
+        &["filter", &img, "--kernel", "gauss:sx=-1", "-o", &b],
+        &["gauss:sx=-1"],
+        None,
+    );
+}

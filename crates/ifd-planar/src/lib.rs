@@ -34,7 +34,8 @@
 //! - **decompose it**: [`decompose`], [`decompose_spec`] (spec to
 //!   decomposition, as every front end does), [`DecomposeOptions`],
 //!   [`measure`] (a decomposition's error against its kernel),
-//!   [`FIT_REVISION`] (bumped when fits change, so cached banks are refitted);
+//!   [`FIT_REVISION`] (bumped when fits change, so cached fits are refitted),
+//!   fits kept between runs ([`FitCache`], [`FitSource`], [`cache_root`]);
 //!   the result is a [`Decomposition`] of [`Term`]s with its [`FitReport`],
 //!   read and written as JSON ([`DECOMPOSITION_FORMAT`],
 //!   [`DECOMPOSITION_VERSION`], [`DecompositionFileError`]);
@@ -70,6 +71,7 @@ mod error;
 mod field;
 mod filter;
 mod fit;
+mod fit_cache;
 mod kernel;
 mod ln;
 mod pipeline;
@@ -96,6 +98,7 @@ pub use error::FilterError;
 pub use field::{CheckField, CheckedField, Field, FieldKind, MAX_FIELD_VALUE, MIN_FIELD_SCALE};
 pub use filter::Filter;
 pub use fit::{DecomposeError, DecomposeOptions, FIT_REVISION, decompose, decompose_spec, measure};
+pub use fit_cache::{FitCache, FitSource, cache_root};
 pub use kernel::{Kernel, KernelError, KernelSpec, MAX_RADIUS as MAX_KERNEL_RADIUS, Sampling};
 pub use pipeline::{FilterOptions, FilterPlan, filter_image};
 pub use prepared::{Prepare, PreparedDecomposition};

@@ -250,6 +250,55 @@ fn decompose_filter(
     Ok(PyDecomposition { inner })
 }
 
+/// A built-in spec (`spec`) or an odd-sized float64 kernel (`kernel`)
+/// fitted at `tol` through the fit cache shared with `ifd filter --kernel`
+/// (read back when the same filter was fitted with the same options before).
+#[pyfunction]
+#[pyo3(signature = (spec=None, kernel=None, *, tol=0.01))]
+fn fit_cached(
+    py: Python<'_>,
+    spec: Option<&str>,
+    kernel: Option<PyReadonlyArrayDyn<'_, f64>>,
+    tol: f64,
+) -> PyResult<PyDecomposition> {
+    let opts = DecomposeOptions {
+        tol,
+        ..DecomposeOptions::default()
+    };
+    let cache = ifd_planar::FitCache::shared();
+    let inner = match (spec, kernel) {
+        (Some(text), None) => {
+            let spec: KernelSpec = text
+                .parse()
+                .map_err(|e| errors::value(&format!("filter spec {text:?}"), e))?;
+            py.detach(|| cache.fit_spec(&spec, &opts, None, |_, _, _| {}))
+                .map_err(|e| errors::value(&format!("decomposing {spec}"), e))?
+                .0
+        }
+        (None, Some(k)) => {
+            let (shape, values) = arrays::values_f64("kernel", &k)?;
+            let [h, w] = shape[..] else {
+                return Err(errors::value(
+                    "kernel",
+                    format!("expected an (H, W) array, got shape {shape:?}"),
+                ));
+            };
+            let kernel =
+                Kernel::new(w, h, values.to_vec()).map_err(|e| errors::value("kernel", e))?;
+            py.detach(|| cache.fit_kernel(&kernel, &opts, |_, _, _| {}))
+                .map_err(|e| errors::value("decomposition failed", e))?
+                .0
+        }
+        _ => {
+            return Err(errors::value(
+                "",
+                "give exactly one of a filter spec and a kernel array",
+            ));
+        }
+    };
+    Ok(PyDecomposition { inner })
+}
+
 /// A field argument: a constant, else an `(H, W)` float32 map.
 fn checked_field<'a>(
     what: &str,
@@ -575,6 +624,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyDecomposition>()?;
     m.add_function(wrap_pyfunction!(_decomposition_from_json, m)?)?;
     m.add_function(wrap_pyfunction!(decompose_filter, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_cached, m)?)?;
     m.add_function(wrap_pyfunction!(filter, m)?)?;
     m.add_function(wrap_pyfunction!(filter_alignment, m)?)?;
     m.add_function(wrap_pyfunction!(hessian, m)?)?;

@@ -1,4 +1,4 @@
-//! `ifd filter IMAGE --decomp d.json`.
+//! `ifd filter IMAGE --decomp d.json` or `ifd filter IMAGE --kernel SPEC`.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -23,8 +23,28 @@ pub struct Filter {
     /// The image to filter.
     image: PathBuf,
     /// The decomposition (from `ifd decompose`).
-    #[arg(long, value_name = "FILE")]
-    decomp: PathBuf,
+    #[arg(
+        long,
+        value_name = "FILE",
+        required_unless_present = "kernel",
+        conflicts_with = "kernel"
+    )]
+    decomp: Option<PathBuf>,
+    /// The filter as a spec (`gauss:sx=16,sy=2,theta=30`; `ifd decompose
+    /// --help` lists them) or a kernel file (.npy, .png, .exr; odd sizes, used
+    /// as given: a kernel that does not sum to 1 changes the brightness),
+    /// fitted on first use at --tol and kept in the fit cache
+    /// ($IFD_CACHE_DIR, else $XDG_CACHE_HOME/ifd, else ~/.cache/ifd) for the
+    /// next run.
+    #[arg(long, value_name = "SPEC|FILE")]
+    kernel: Option<String>,
+    /// Target relative L2 error of the fit of --kernel [default: 0.01]
+    #[arg(long, value_name = "E", requires = "kernel")]
+    tol: Option<f64>,
+    /// Fit --kernel afresh instead of reading it from (and keeping it in)
+    /// the fit cache.
+    #[arg(long, requires = "kernel")]
+    no_cache: bool,
     /// Rotation in degrees, counter-clockwise on screen, for every pixel.
     #[arg(
         long,
@@ -94,6 +114,73 @@ pub struct Filter {
 }
 
 impl Filter {
+    /// What filters the image, for messages: the decomposition file or the
+    /// --kernel spec.
+    fn filter_name(&self) -> String {
+        match (&self.decomp, &self.kernel) {
+            (Some(d), _) => d.display().to_string(),
+            (None, Some(k)) => k.clone(),
+            (None, None) => String::new(),
+        }
+    }
+
+    /// The decomposition: read from --decomp, or --kernel fitted (or read
+    /// from the fit cache); with `-v`, where it came from.
+    fn decomposition(&self) -> Result<Decomposition> {
+        if let Some(path) = &self.decomp {
+            return Ok(Decomposition::load(path)?);
+        }
+        let Some(filter) = &self.kernel else {
+            bail!("give --decomp FILE or --kernel SPEC");
+        };
+        let opts = ifd_planar::DecomposeOptions {
+            tol: self.tol.unwrap_or(0.01),
+            ..ifd_planar::DecomposeOptions::default()
+        };
+        if let Err(ifd_planar::DecomposeError::Invalid { value, reason, .. }) = opts.validate() {
+            bail!("--tol {value}: {reason}");
+        }
+        let cache = if self.no_cache {
+            ifd_planar::FitCache::off()
+        } else {
+            ifd_planar::FitCache::shared()
+        };
+        let (kernel, spec) = super::decompose::load_kernel(filter, &self.input)?;
+        let t = Instant::now();
+        let bar = crate::progress::spinner(&format!("fitting {filter}"));
+        let tick = |iter: usize, _: f64, _: usize| {
+            if iter.is_multiple_of(10) {
+                bar.tick();
+            }
+        };
+        let (d, source) = match &spec {
+            Some(s) => cache.fit_spec(s, &opts, None, tick),
+            None => cache.fit_kernel(&kernel, &opts, tick),
+        }
+        .with_context(|| format!("fitting --kernel {filter}"))?;
+        bar.finish_and_clear();
+        if self.verbose {
+            let r = d.report.as_ref();
+            let fit = format!(
+                "{} terms, {:.3}% relative L2 error",
+                d.terms.len(),
+                100.0 * r.map_or(f64::NAN, |r| r.rel_l2_error)
+            );
+            match source {
+                ifd_planar::FitSource::Cached(p) => {
+                    eprintln!("fit: {fit}, read from the fit cache ({})", p.display());
+                }
+                ifd_planar::FitSource::Fitted(kept) => eprintln!(
+                    "fit: {fit}, fitted in {:.2} s{}",
+                    t.elapsed().as_secs_f64(),
+                    kept.map(|p| format!(", kept in {}", p.display()))
+                        .unwrap_or_default()
+                ),
+            }
+        }
+        Ok(d)
+    }
+
     fn options(&self) -> FilterOptions {
         FilterOptions {
             border: self.border,
@@ -166,7 +253,7 @@ impl Filter {
             format!(
                 "filtering {} with {}",
                 self.image.display(),
-                self.decomp.display()
+                self.filter_name()
             )
         })
     }
@@ -288,7 +375,6 @@ impl Filter {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
         crate::output::check_output_path(&self.output.output)?;
-        let decomposition = Decomposition::load(&self.decomp)?;
         if let Some(b) = self.eval_budget
             && !(b.is_finite() && b > 0.0)
         {
@@ -297,6 +383,7 @@ impl Filter {
         if self.tile == Some(0) {
             bail!("--tile 0: the tile side must be at least 1 pixel");
         }
+        let decomposition = self.decomposition()?;
         if self.tile.is_some() {
             return self.run_tiled(&decomposition);
         }
@@ -366,7 +453,7 @@ impl Filter {
             &scale,
             &options,
         )
-        .with_context(|| format!("filtering with {}", self.decomp.display()))?;
+        .with_context(|| format!("filtering with {}", self.filter_name()))?;
         let planning = planning.elapsed();
         // With --gpu, a stack the device cannot hold is refused before the
         // prefiltering, not after.

@@ -144,15 +144,24 @@ def load(path: _Union[str, _os.PathLike]) -> Decomposition:
 
 def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
     image: _ArrayLike,
-    decomposition: Decomposition,
+    decomposition: _Union[Decomposition, str, _ArrayLike],
     angle: _Field = 0.0,
     scale: _Field = 1.0,
     border: str = "reflect101",
     *,
     interp: str = "auto",
     eval_budget: _Optional[float] = None,
+    tol: float = 0.01,
 ) -> _np.ndarray:
     """Filter ``image`` with ``decomposition`` rotated by ``angle`` and scaled by ``scale``.
+
+    ``decomposition`` is a :class:`Decomposition`, or the filter itself: a
+    spec such as ``"gauss:sx=16,sy=2,theta=30"`` or an odd-sized 2D kernel
+    array (used as given: a kernel that does not sum to 1 changes the
+    brightness), fitted at ``tol`` on first use and kept in the fit cache
+    shared with ``ifd filter --kernel`` (``$IFD_CACHE_DIR``, else
+    ``$XDG_CACHE_HOME/ifd``, else ``~/.cache/ifd``), so that the next call
+    with the same filter reads it back.
 
     ``angle`` (degrees, counter-clockwise on screen) and ``scale`` are numbers
     or per-pixel ``(H, W)`` maps. Each output pixel is
@@ -164,7 +173,18 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
     and ``--eval-budget``.
 
     Returns float32 of the image's shape.
+
+    >>> import numpy as np
+    >>> img = np.random.default_rng(0).random((64, 64), dtype=np.float32)
+    >>> out = filter(img, "gauss:sx=4,sy=1,theta=30", angle=15.0)
+    >>> out.shape
+    (64, 64)
     """
+    if isinstance(decomposition, str):
+        decomposition = _ifd.fit_cached(decomposition, None, tol=tol)
+    elif not isinstance(decomposition, Decomposition):
+        kernel = _np.ascontiguousarray(_np.asarray(decomposition), dtype=_np.float64)
+        decomposition = _ifd.fit_cached(None, kernel, tol=tol)
     img = _image(image, "image")
     a, amap = _field(angle, "angle")
     s, smap = _field(scale, "scale")

@@ -74,6 +74,12 @@ def decompose_filter(
     min_sigma: Optional[float] = None,
     margin: Optional[int] = None,
 ) -> Decomposition: ...
+def fit_cached(
+    spec: Optional[str] = None,
+    kernel: Optional[F64] = None,
+    *,
+    tol: float = 0.01,
+) -> Decomposition: ...
 def filter(
     image: F32,
     decomposition: Decomposition,
