@@ -217,7 +217,9 @@ fn filter_with_a_kernel_spec_fits_once_and_caches() {
         "img.npy",
         48,
         40,
-        (0..48 * 40).map(|i| ((i * 7919) % 101) as f32 / 101.0).collect(),
+        (0..48 * 40)
+            .map(|i| ((i * 7919) % 101) as f32 / 101.0)
+            .collect(),
     );
     let spec = "gauss:sx=4,sy=1.5,theta=20";
     let run = |args: &[&str]| {
@@ -232,10 +234,18 @@ fn filter_with_a_kernel_spec_fits_once_and_caches() {
         path(dir.path(), "b.npy"),
         path(dir.path(), "c.npy"),
     );
-    let out = run(&["filter", &img, "--kernel", spec, "--angle", "30", "-v", "-o", &a]);
+    let out = run(&[
+        "filter", &img, "--kernel", spec, "--angle", "30", "-v", "-o", &a,
+    ]);
     assert_eq!(out.0, 0, "{}", out.2);
-    assert!(out.2.contains("fitted in") && out.2.contains("kept in"), "{}", out.2);
-    let out = run(&["filter", &img, "--kernel", spec, "--angle", "30", "-v", "-o", &b]);
+    assert!(
+        out.2.contains("fitted in") && out.2.contains("kept in"),
+        "{}",
+        out.2
+    );
+    let out = run(&[
+        "filter", &img, "--kernel", spec, "--angle", "30", "-v", "-o", &b,
+    ]);
     assert_eq!(out.0, 0, "{}", out.2);
     assert!(out.2.contains("read from the fit cache"), "{}", out.2);
     let d = path(dir.path(), "d.json");
@@ -245,25 +255,52 @@ fn filter_with_a_kernel_spec_fits_once_and_caches() {
     assert_eq!(code, 0, "{err}");
     let bytes = |p: &str| std::fs::read(p).expect("output");
     assert_eq!(bytes(&a), bytes(&b), "cached fit, another output");
-    assert_eq!(bytes(&a), bytes(&c), "--kernel against decompose + --decomp");
+    assert_eq!(
+        bytes(&a),
+        bytes(&c),
+        "--kernel against decompose + --decomp"
+    );
     // --no-cache fits again; a damaged entry is refitted with a note
-    let out = run(&["filter", &img, "--kernel", spec, "--no-cache", "-v", "-o", &b]);
-    assert!(out.0 == 0 && out.2.contains("fitted in") && !out.2.contains("kept in"), "{}", out.2);
+    let out = run(&[
+        "filter",
+        &img,
+        "--kernel",
+        spec,
+        "--no-cache",
+        "-v",
+        "-o",
+        &b,
+    ]);
+    assert!(
+        out.0 == 0 && out.2.contains("fitted in") && !out.2.contains("kept in"),
+        "{}",
+        out.2
+    );
     let entries: Vec<_> = std::fs::read_dir(cache.join("decompositions"))
         .expect("cache folder")
         .map(|e| e.expect("entry").path())
         .collect();
     assert_eq!(entries.len(), 1, "{entries:?}");
     let text = std::fs::read_to_string(&entries[0]).expect("entry");
-    std::fs::write(&entries[0], text.replacen("\"weight\": ", "\"weight\": 3", 1)).expect("damage");
-    let out = run(&["filter", &img, "--kernel", spec, "--angle", "30", "-v", "-o", &b]);
+    std::fs::write(
+        &entries[0],
+        text.replacen("\"weight\": ", "\"weight\": 3", 1),
+    )
+    .expect("damage");
+    let out = run(&[
+        "filter", &img, "--kernel", spec, "--angle", "30", "-v", "-o", &b,
+    ]);
     assert_eq!(out.0, 0, "{}", out.2);
     assert!(out.2.contains("ignoring the cached fit"), "{}", out.2);
     assert_eq!(bytes(&a), bytes(&b));
     let out = run(&["filter", &img, "--kernel", spec, "-v", "-o", &b]);
     assert!(out.2.contains("read from the fit cache"), "{}", out.2);
     // refusals
-    refused(&["filter", &img, "--decomp", &d, "--tol", "0.1", "-o", &b], &["--kernel"], None);
+    refused(
+        &["filter", &img, "--decomp", &d, "--tol", "0.1", "-o", &b],
+        &["--kernel"],
+        None,
+    );
     refused(
         &["filter", &img, "--decomp", &d, "--kernel", spec, "-o", &b],
         &["cannot be used with"],

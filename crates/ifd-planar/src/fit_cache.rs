@@ -140,12 +140,7 @@ impl FitCache {
         for v in kernel.data() {
             h.write(&v.to_bits().to_le_bytes());
         }
-        let source = format!(
-            "kernel:{}x{}:{:016x}",
-            kernel.width(),
-            kernel.height(),
-            h.0
-        );
+        let source = format!("kernel:{}x{}:{:016x}", kernel.width(), kernel.height(), h.0);
         let key = entry_key(&source, opts, None);
         self.fit_with(&key, kernel, || decompose(kernel, opts, progress))
     }
@@ -224,7 +219,8 @@ fn read_entry(path: &Path, key: &str, kernel: &Kernel) -> Result<Option<Decompos
     }
     let (err, _, _) = measure(&kernel.padded(report.margin), &d);
     let recorded = report.rel_l2_error;
-    if !((err - recorded).abs() <= 1e-9 + 1e-6 * recorded) {
+    let agrees = (err - recorded).abs() <= 1e-9 + 1e-6 * recorded;
+    if !agrees {
         return Err(format!(
             "its terms fit the kernel to {:.4}%, its report says {:.4}%",
             100.0 * err,
@@ -300,23 +296,36 @@ mod tests {
         let dir = temp("keys");
         let cache = FitCache::new(&dir);
         let spec: KernelSpec = "gauss:sx=3,sy=1.5".parse().expect("spec");
-        let (a, how) = cache.fit_spec(&spec, &opts(), None, |_, _, _| {}).expect("fit");
+        let (a, how) = cache
+            .fit_spec(&spec, &opts(), None, |_, _, _| {})
+            .expect("fit");
         let FitSource::Fitted(Some(path)) = how else {
             panic!("{how:?}")
         };
-        let (b, how) = cache.fit_spec(&spec, &opts(), None, |_, _, _| {}).expect("fit");
+        let (b, how) = cache
+            .fit_spec(&spec, &opts(), None, |_, _, _| {})
+            .expect("fit");
         assert_eq!(how, FitSource::Cached(path.clone()));
         assert_eq!(a.terms, b.terms);
         let tighter = DecomposeOptions {
             tol: 0.02,
             ..opts()
         };
-        let (_, how) = cache.fit_spec(&spec, &tighter, None, |_, _, _| {}).expect("fit");
-        assert!(matches!(how, FitSource::Fitted(Some(ref p)) if *p != path), "{how:?}");
+        let (_, how) = cache
+            .fit_spec(&spec, &tighter, None, |_, _, _| {})
+            .expect("fit");
+        assert!(
+            matches!(how, FitSource::Fitted(Some(ref p)) if *p != path),
+            "{how:?}"
+        );
         let kernel = spec.to_kernel().expect("kernel");
-        let (_, how) = cache.fit_kernel(&kernel, &opts(), |_, _, _| {}).expect("fit");
+        let (_, how) = cache
+            .fit_kernel(&kernel, &opts(), |_, _, _| {})
+            .expect("fit");
         assert!(matches!(how, FitSource::Fitted(Some(_))), "{how:?}");
-        let (_, how) = cache.fit_kernel(&kernel, &opts(), |_, _, _| {}).expect("fit");
+        let (_, how) = cache
+            .fit_kernel(&kernel, &opts(), |_, _, _| {})
+            .expect("fit");
         assert!(matches!(how, FitSource::Cached(_)), "{how:?}");
         assert_eq!(std::fs::read_dir(&dir).expect("dir").count(), 3);
         std::fs::remove_dir_all(&dir).ok();
@@ -329,7 +338,9 @@ mod tests {
         let dir = temp("damaged");
         let cache = FitCache::new(&dir);
         let spec: KernelSpec = "gauss:sx=3,sy=1.5".parse().expect("spec");
-        let (good, how) = cache.fit_spec(&spec, &opts(), None, |_, _, _| {}).expect("fit");
+        let (good, how) = cache
+            .fit_spec(&spec, &opts(), None, |_, _, _| {})
+            .expect("fit");
         let FitSource::Fitted(Some(path)) = how else {
             panic!("{how:?}")
         };
@@ -339,16 +350,28 @@ mod tests {
         *w = serde_json::json!(w.as_f64().expect("weight") * 10.0);
         std::fs::write(&path, v.to_string()).expect("write");
         let kernel = spec.to_kernel().expect("kernel");
-        assert!(read_entry(&path, &entry_key(&format!("spec:{spec}"), &opts(), None), &kernel)
+        assert!(
+            read_entry(
+                &path,
+                &entry_key(&format!("spec:{spec}"), &opts(), None),
+                &kernel
+            )
             .expect_err("altered")
-            .contains("fit the kernel"));
-        let (again, how) = cache.fit_spec(&spec, &opts(), None, |_, _, _| {}).expect("fit");
+            .contains("fit the kernel")
+        );
+        let (again, how) = cache
+            .fit_spec(&spec, &opts(), None, |_, _, _| {})
+            .expect("fit");
         assert_eq!(how, FitSource::Fitted(Some(path.clone())));
         assert_eq!(again.terms, good.terms);
         std::fs::write(&path, &text[..text.len() / 2]).expect("truncate");
-        let (_, how) = cache.fit_spec(&spec, &opts(), None, |_, _, _| {}).expect("fit");
+        let (_, how) = cache
+            .fit_spec(&spec, &opts(), None, |_, _, _| {})
+            .expect("fit");
         assert_eq!(how, FitSource::Fitted(Some(path.clone())));
-        let (_, how) = cache.fit_spec(&spec, &opts(), None, |_, _, _| {}).expect("fit");
+        let (_, how) = cache
+            .fit_spec(&spec, &opts(), None, |_, _, _| {})
+            .expect("fit");
         assert_eq!(how, FitSource::Cached(path));
         std::fs::remove_dir_all(&dir).ok();
     }
@@ -371,7 +394,10 @@ mod tests {
                     })
                 })
                 .collect();
-            handles.into_iter().map(|h| h.join().expect("thread")).collect()
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("thread"))
+                .collect()
         });
         assert!(fits.windows(2).all(|p| p[0].terms == p[1].terms));
         let entries: Vec<_> = std::fs::read_dir(&dir)

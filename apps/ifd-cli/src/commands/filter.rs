@@ -19,6 +19,10 @@ use crate::output::ImageOutput;
 /// lookup per term into a scale stack prefiltered once by FFT, whatever the
 /// filter's size, angle or scale.
 #[derive(Debug, Args)]
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "each bool is a command-line switch"
+)]
 pub struct Filter {
     /// The image to filter.
     image: PathBuf,

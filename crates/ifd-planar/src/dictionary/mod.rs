@@ -141,7 +141,11 @@ impl Clone for Scratch {
 impl Scratch {
     /// `n` buffers of `len` samples (contents unspecified).
     fn take(&self, n: usize, len: usize) -> Vec<Vec<f64>> {
-        let mut pool = self.0.lock().map(|mut p| std::mem::take(&mut *p)).unwrap_or_default();
+        let mut pool = self
+            .0
+            .lock()
+            .map(|mut p| std::mem::take(&mut *p))
+            .unwrap_or_default();
         pool.truncate(n);
         for b in &mut pool {
             b.resize(len, 0.0);
@@ -428,15 +432,18 @@ impl LinearOperator for Dictionary {
             .iter()
             .filter_map(|g| {
                 let nx = g.xs.len();
-                let rows = g
-                    .py
-                    .iter()
-                    .enumerate()
-                    .filter(|(j, _)| x[g.offset + j * nx..g.offset + (j + 1) * nx].iter().any(|v| *v != 0.0))
-                    .fold(None, |r: Option<(usize, usize)>, (_, py)| {
-                        let (a, b) = r.unwrap_or((py.start, py.end()));
-                        Some((a.min(py.start), b.max(py.end())))
-                    })?;
+                let rows =
+                    g.py.iter()
+                        .enumerate()
+                        .filter(|(j, _)| {
+                            x[g.offset + j * nx..g.offset + (j + 1) * nx]
+                                .iter()
+                                .any(|v| *v != 0.0)
+                        })
+                        .fold(None, |r: Option<(usize, usize)>, (_, py)| {
+                            let (a, b) = r.unwrap_or((py.start, py.end()));
+                            Some((a.min(py.start), b.max(py.end())))
+                        })?;
                 Some((g, rows.0 * w..rows.1 * w))
             })
             .collect();
