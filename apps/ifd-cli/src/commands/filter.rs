@@ -24,7 +24,24 @@ pub struct Filter {
     image: PathBuf,
     /// The decomposition (from `ifd decompose`).
     #[arg(long, value_name = "FILE")]
-    decomp: PathBuf,
+    decomp: Option<PathBuf>,
+    /// The kernel by name: `gauss` with --sigma-map (a Gaussian per pixel).
+    #[arg(long, value_name = "SPEC", conflicts_with = "decomp")]
+    kernel: Option<String>,
+    /// A normalised anisotropic Gaussian per pixel (with `--kernel gauss`):
+    /// an HxWx3 float .npy of the image's size holding, per pixel, the
+    /// standard deviation along the major axis, the one along the minor axis
+    /// (pixels, 0 < minor <= major, aspect major/minor up to 16, sigmas up
+    /// to a quarter of the image's larger side and 512) and the major axis'
+    /// angle in degrees counter-clockwise on screen. Uses the aspect bank of
+    /// `ifd smooth` and its cache; footprints sqrt(major*minor) below 2 px
+    /// or minor sigmas below 1 px are sampled directly. CPU only.
+    #[arg(
+        long,
+        value_name = "NPY",
+        conflicts_with_all = ["decomp", "angle", "angle_map", "scale", "scale_map", "gpu", "tile"]
+    )]
+    sigma_map: Option<PathBuf>,
     /// Rotation in degrees, counter-clockwise on screen, for every pixel.
     #[arg(
         long,
@@ -143,7 +160,7 @@ impl Filter {
         Ok((bytes > self.input.budget().limit()).then_some(bytes))
     }
 
-    fn run_tiled(&self, decomposition: &Decomposition) -> Result<()> {
+    fn run_tiled(&self, decomposition: &Decomposition, decomp: &Path) -> Result<()> {
         super::tiled::run(&super::tiled::TiledRun {
             image: &self.image,
             decomposition,
@@ -166,7 +183,7 @@ impl Filter {
             format!(
                 "filtering {} with {}",
                 self.image.display(),
-                self.decomp.display()
+                decomp.display()
             )
         })
     }
@@ -287,8 +304,32 @@ fn filter_gpu(
 impl Filter {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
+        if let Some(map) = &self.sigma_map {
+            return super::sigma_map::run(&super::sigma_map::SigmaMapRun {
+                image: &self.image,
+                kernel: self.kernel.as_deref(),
+                map,
+                border: self.border,
+                output: &self.output,
+                verbose: self.verbose,
+                input: &self.input,
+            });
+        }
+        let decomp = match (&self.decomp, &self.kernel) {
+            (Some(d), _) => d.clone(),
+            (None, Some(k)) => bail!(
+                "--kernel {k:?}: a kernel by name is taken only as `--kernel {} --sigma-map \
+                 M.npy`; otherwise give --decomp FILE (from `ifd decompose`)",
+                super::sigma_map::KERNEL
+            ),
+            (None, None) => {
+                bail!(
+                    "give --decomp FILE (from `ifd decompose`), or --kernel gauss --sigma-map M.npy"
+                )
+            }
+        };
         crate::output::check_output_path(&self.output.output)?;
-        let decomposition = Decomposition::load(&self.decomp)?;
+        let decomposition = Decomposition::load(&decomp)?;
         if let Some(b) = self.eval_budget
             && !(b.is_finite() && b > 0.0)
         {
@@ -298,7 +339,7 @@ impl Filter {
             bail!("--tile 0: the tile side must be at least 1 pixel");
         }
         if self.tile.is_some() {
-            return self.run_tiled(&decomposition);
+            return self.run_tiled(&decomposition, &decomp);
         }
         if !self.gpu
             && let Some(bytes) = self.too_large_whole(&decomposition)?
@@ -313,7 +354,7 @@ impl Filter {
                     super::tiled::STREAMING
                 );
             }
-            return self.run_tiled(&decomposition);
+            return self.run_tiled(&decomposition, &decomp);
         }
         let image = match self.input.read(&self.image) {
             Ok(l) => l.image,
@@ -366,7 +407,7 @@ impl Filter {
             &scale,
             &options,
         )
-        .with_context(|| format!("filtering with {}", self.decomp.display()))?;
+        .with_context(|| format!("filtering with {}", decomp.display()))?;
         let planning = planning.elapsed();
         // With --gpu, a stack the device cannot hold is refused before the
         // prefiltering, not after.
