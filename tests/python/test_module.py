@@ -120,6 +120,31 @@ def test_filter_takes_a_spec_or_a_kernel_and_caches_the_fit(tmp_path, monkeypatc
     with pytest.raises(ValueError, match="gauss:sx=-1"):
         ifd.filter(img, "gauss:sx=-1")
 
+def test_filter_sigma_map_equals_cli(tmp_path, run_ifd):
+    rng = np.random.default_rng(5)
+    h, w = 48, 64
+    img = rng.random((h, w, 3), dtype=np.float32)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float32)
+    # Footprints 1 to 4 px (small ones sampled directly), aspects 1 to 8, a swirl of angles.
+    footprint = 1.0 + 3.0 * x / (w - 1)
+    aspect = 1.0 + 7.0 * y / (h - 1)
+    m = np.stack([footprint * np.sqrt(aspect), footprint / np.sqrt(aspect), swirl(h, w)], axis=-1)
+    m = m.astype(np.float32)
+    np.save(tmp_path / "img.npy", img)
+    np.save(tmp_path / "M.npy", m)
+    run_ifd("filter", tmp_path / "img.npy", "--kernel", "gauss", "--sigma-map", tmp_path / "M.npy",
+            "-o", tmp_path / "out.npy")
+    cli = np.load(tmp_path / "out.npy")
+    out = ifd.filter(img, "gauss", sigma_map=m)
+    assert out.dtype == np.float32 and out.shape == img.shape
+    assert np.array_equal(out, cli), np.abs(out - cli).max()
+    with pytest.raises(ValueError, match="only kernel"):
+        ifd.filter(img, "box:w=3", sigma_map=m)
+    bad = m.copy()
+    bad[2, 5, 1] = bad[2, 5, 0] * 2
+    with pytest.raises(ValueError, match=r"\(5, 2\), channel 1.*swap"):
+        ifd.filter(img, "gauss", sigma_map=bad)
+
 
 def test_filter_uint8_and_2d_follow_the_cli_range_rules(tmp_path, run_ifd, gauss_d):
     path, d = gauss_d

@@ -14,8 +14,18 @@ fn path(dir: &Path, name: &str) -> String {
 }
 
 fn save(dir: &Path, name: &str, w: usize, h: usize, data: Vec<f32>) -> String {
+    save_channels(dir, name, (w, h, 1), data)
+}
+
+/// As [`save`], with `c` channels.
+fn save_channels(
+    dir: &Path,
+    name: &str,
+    (w, h, c): (usize, usize, usize),
+    data: Vec<f32>,
+) -> String {
     let p = path(dir, name);
-    let img = Image::from_vec(w, h, 1, data).expect("test image");
+    let img = Image::from_vec(w, h, c, data).expect("test image");
     // (inputs may hold NaN: that is what some tests refuse)
     let fixture = ifd_image::WriteOptions {
         allow_non_finite: true,
@@ -317,4 +327,139 @@ fn filter_with_a_kernel_spec_fits_once_and_caches() {
         &["gauss:sx=-1"],
         None,
     );
+}
+
+#[test]
+fn filter_sigma_map_writes_a_gaussian_per_pixel_and_refuses_bad_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (w, h) = (64, 48);
+    let img = save(
+        d,
+        "img.npy",
+        w,
+        h,
+        (0..w * h)
+            .map(|i| ((i * 7919) % 101) as f32 / 100.0)
+            .collect(),
+    );
+    // (major, minor, angle) per pixel, with one pixel changed.
+    let map = |name: &str, at: (usize, usize), px: [f32; 3]| {
+        let mut m: Vec<f32> = (0..w * h).flat_map(|_| [4.0, 2.0, 30.0]).collect();
+        let i = (at.1 * w + at.0) * 3;
+        m[i..i + 3].copy_from_slice(&px);
+        save_channels(d, name, (w, h, 3), m)
+    };
+    let good = map("good.npy", (10, 20), [6.0, 1.5, -45.0]);
+    let out = path(d, "out.npy");
+    let (code, _, err) = ifd(&[
+        "filter",
+        &img,
+        "--kernel",
+        "gauss",
+        "--sigma-map",
+        &good,
+        "-o",
+        &out,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let res = ifd_image::read(&out).unwrap();
+    assert_eq!((res.width(), res.height(), res.channels()), (w, h, 1));
+    // Normalised Gaussians: the mean is kept (up to the border).
+    let mean = |d: &[f32]| d.iter().map(|v| f64::from(*v)).sum::<f64>() / d.len() as f64;
+    let input = ifd_image::read(&img).unwrap();
+    assert!((mean(res.data()) - mean(input.data())).abs() < 0.01);
+
+    let o = path(d, "refused.png");
+    let run = |m: &str, needles: &[&str]| {
+        refused(
+            &[
+                "filter",
+                &img,
+                "--kernel",
+                "gauss",
+                "--sigma-map",
+                m,
+                "-o",
+                &o,
+            ],
+            needles,
+            Some(&o),
+        );
+    };
+    let narrow = save_channels(d, "narrow.npy", (w - 1, h, 3), vec![2.0; (w - 1) * h * 3]);
+    run(&narrow, &["sigma map", "63x48x3", "64x48x3"]);
+    let one = save(d, "one.npy", w, h, vec![2.0; w * h]);
+    run(&one, &["sigma map", "64x48x1", "64x48x3"]);
+    run(
+        &map("nan.npy", (5, 2), [4.0, f32::NAN, 0.0]),
+        &["(5, 2)", "channel 1 (minor sigma)", "not finite"],
+    );
+    run(
+        &map("inf.npy", (7, 3), [4.0, 2.0, f32::INFINITY]),
+        &["(7, 3)", "channel 2 (angle)", "not finite"],
+    );
+    run(
+        &map("zero.npy", (3, 1), [0.0, 0.0, 0.0]),
+        &["(3, 1)", "channel 0 (major sigma)", "positive"],
+    );
+    run(
+        &map("neg.npy", (0, 4), [2.0, -1.0, 0.0]),
+        &["(0, 4)", "channel 1 (minor sigma)", "positive"],
+    );
+    run(
+        &map("swapped.npy", (9, 9), [1.0, 3.0, 0.0]),
+        &["(9, 9)", "channel 1 (minor sigma)", "swap"],
+    );
+    run(
+        &map("aspect.npy", (2, 8), [8.0, 0.4, 0.0]),
+        &["(2, 8)", "channel 1", "aspect ratio", "16"],
+    );
+    run(
+        &map("absurd.npy", (4, 0), [20.0, 10.0, 0.0]),
+        &["(4, 0)", "channel 0 (major sigma)", "absurd", "16 px"],
+    );
+    // The 512 px cap, on an image wide enough for a quarter of it to allow more.
+    let wide = save(d, "wide.npy", 2100, 1, vec![0.5; 2100]);
+    let mut m: Vec<f32> = (0..2100).flat_map(|_| [2.0, 2.0, 0.0]).collect();
+    m[3 * 17] = 600.0;
+    let wide_map = save_channels(d, "wide-map.npy", (2100, 1, 3), m);
+    refused(
+        &[
+            "filter",
+            &wide,
+            "--kernel",
+            "gauss",
+            "--sigma-map",
+            &wide_map,
+            "-o",
+            &o,
+        ],
+        &["(17, 0)", "channel 0", "absurd", "512"],
+        Some(&o),
+    );
+    // Only `--kernel gauss`, and only the sigma map's options.
+    let with = |extra: &[&str], needles: &[&str]| {
+        let mut args = vec!["filter", &*img, "-o", &*o];
+        args.extend(extra);
+        refused(&args, needles, Some(&o));
+    };
+    with(
+        &["--kernel", "box:w=3", "--sigma-map", &good],
+        &["box:w=3", "only kernel", "gauss"],
+    );
+    with(&["--sigma-map", &good], &["--kernel gauss"]);
+    with(&["--kernel", "gauss"], &["--sigma-map"]);
+    let dec = path(d, "d.json");
+    for extra in [
+        ["--decomp", &*dec],
+        ["--angle", "10"],
+        ["--angle-map", &*one],
+        ["--scale", "2"],
+        ["--scale-map", &*one],
+    ] {
+        let mut args = vec!["--kernel", "gauss", "--sigma-map", &*good];
+        args.extend(extra);
+        with(&args, &["cannot be used with"]);
+    }
 }

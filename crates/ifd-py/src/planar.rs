@@ -395,6 +395,64 @@ fn filter<'py>(
     Ok(arrays::image_array(py, out, squeeze))
 }
 
+/// A normalised anisotropic Gaussian per pixel from an `(H, W, 3)` sigma
+/// map (major sigma, minor sigma, angle in degrees counter-clockwise on
+/// screen): `ifd filter --kernel gauss --sigma-map`, with the aspect bank
+/// `ifd smooth` uses (read from and written to its cache, as the CLI does).
+#[pyfunction]
+#[pyo3(signature = (image, sigma_map, *, border="reflect101"))]
+fn filter_sigma_map<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArrayDyn<'py, f32>,
+    sigma_map: PyReadonlyArrayDyn<'py, f32>,
+    border: &str,
+) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+    let squeeze = image.ndim() == 2;
+    let view = arrays::image_view("image", &image)?;
+    if sigma_map.ndim() != 3 {
+        return Err(errors::value(
+            "sigma_map",
+            format!(
+                "expected an (H, W, 3) array of (major sigma, minor sigma, angle), got shape {:?}",
+                sigma_map.shape()
+            ),
+        ));
+    }
+    let map = arrays::image_view("sigma_map", &sigma_map)?;
+    let border = parse_border(border)?;
+    let options = ifd_smooth::BankOptions::default();
+    // Bad maps are refused before the bank is loaded or fitted.
+    ifd_smooth::sigma_map_gaussians(map, (view.width(), view.height()), options.max_aspect)
+        .map_err(|e| errors::value("sigma_map", e))?;
+    let out = py.detach(|| {
+        timed(|| {
+            let bank = cached_aspect_bank(options)?;
+            ifd_smooth::filter_sigma_map(view, map, &bank, border).map_err(|e| errors::value("", e))
+        })
+    })?;
+    Ok(arrays::image_array(py, out, squeeze))
+}
+
+/// The aspect bank of `options` as the CLI gets it: from the cache file
+/// shared with `ifd smooth` and ifd-brush, else fitted and written there;
+/// kept for the process.
+fn cached_aspect_bank(options: ifd_smooth::BankOptions) -> PyResult<Arc<AspectBank>> {
+    static BANKS: Cache<ifd_smooth::BankOptions, AspectBank> = OnceLock::new();
+    let banks = BANKS.get_or_init(|| Mutex::new(Vec::new()));
+    let mut banks = banks
+        .lock()
+        .map_err(|_| errors::value("", "a previous call panicked"))?;
+    if let Some((_, b)) = banks.iter().find(|(o, _)| *o == options) {
+        return Ok(Arc::clone(b));
+    }
+    let cache = AspectBank::default_cache();
+    let (bank, _) = AspectBank::load_or_build(options, cache.as_deref(), |_, _| {})
+        .map_err(|e| errors::value("", e))?;
+    let bank = Arc::new(bank);
+    banks.push((options, Arc::clone(&bank)));
+    Ok(bank)
+}
+
 /// The subsampling factor chunk origins must be multiples of for chunks to
 /// give the whole image's result (`FilterPlan::alignment`), for an image of
 /// `shape` `(H, W, C)` filtered with a constant or per-pixel angle at scales
@@ -626,6 +684,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(decompose_filter, m)?)?;
     m.add_function(wrap_pyfunction!(fit_cached, m)?)?;
     m.add_function(wrap_pyfunction!(filter, m)?)?;
+    m.add_function(wrap_pyfunction!(filter_sigma_map, m)?)?;
     m.add_function(wrap_pyfunction!(filter_alignment, m)?)?;
     m.add_function(wrap_pyfunction!(hessian, m)?)?;
     m.add_function(wrap_pyfunction!(smooth, m)?)?;

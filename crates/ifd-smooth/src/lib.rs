@@ -21,6 +21,17 @@
 //!   levels (`S < 2` px), tables of pixel-integrated anisotropic Gaussians
 //!   applied tap by tap: [`DirectKernels`], [`Tap`], [`DIRECT_BELOW`],
 //!   [`integrated_kernel`], [`cell_integral`], [`covariance`].
+//! - **Per-pixel Gaussians** (`gaussians.rs`): an anisotropic Gaussian of
+//!   any angle, aspect ratio and footprint at any point, from the aspect
+//!   bank (or evaluated directly when small), what smoothing and the sigma
+//!   map apply per pixel: [`PixelGaussians`], [`AnisoGaussian`],
+//!   [`BankLookups`], [`SmallFootprints`], [`SAMPLED_BELOW`],
+//!   [`SAMPLED_MINOR_BELOW`].
+//! - **Sigma map** (`sigma_map.rs`): a normalised anisotropic Gaussian per
+//!   pixel from an `H x W x 3` map (major sigma, minor sigma, angle), `ifd
+//!   filter --kernel gauss --sigma-map`: [`filter_sigma_map`],
+//!   [`sigma_map_gaussians`], [`SIGMA_MAP_SAMPLING`],
+//!   [`SIGMA_MAP_MAX_SIGMA`], [`SIGMA_MAP_CHANNELS`].
 //! - **Smoothing** (`smooth/`): the [`Smoother`], which owns one prefiltered
 //!   scale stack and smooths a whole image or a [`Dab`], in the paper's mode
 //!   (one filter per dab, from the Hessian at the dab's centre) or per pixel
@@ -49,19 +60,28 @@
 mod bank;
 mod direct;
 mod error;
+mod gaussians;
 mod hessian;
 mod orientation;
+mod sigma_map;
 mod smooth;
 mod tiled;
 
 pub use bank::{AspectBank, BANK_SAMPLING, BankOptions, locate_aspect, log_spaced_aspects};
 pub use direct::{DIRECT_BELOW, DirectKernels, Tap, cell_integral, covariance, integrated_kernel};
 pub use error::SmoothError;
+pub use gaussians::{
+    AnisoGaussian, BankLookups, PixelGaussians, SAMPLED_BELOW, SAMPLED_MINOR_BELOW, SmallFootprints,
+};
 pub use hessian::{
     HESSIAN_SIGMA_RANGE, HESSIAN_SIGMA0, HessianBank, HessianFilters, check_sigma, hessian_image,
     hessian_stack_options,
 };
 pub use orientation::{AnisoParams, Orientation, tensor};
+pub use sigma_map::{
+    SIGMA_MAP_CHANNELS, SIGMA_MAP_MAX_SIGMA, SIGMA_MAP_SAMPLING, filter_sigma_map,
+    sigma_map_gaussians,
+};
 pub use smooth::{
     Dab, DabRegion, Mode, RegionRefresh, SCALE_RANGE, SmoothOptions, Smoother,
     anchored_dab_grid_corners, dab_grid_corners, nearest_pixel, smoother_stack_options,

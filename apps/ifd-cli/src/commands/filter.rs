@@ -49,6 +49,20 @@ pub struct Filter {
     /// the fit cache.
     #[arg(long, requires = "kernel")]
     no_cache: bool,
+    /// A normalised anisotropic Gaussian per pixel (with `--kernel gauss`):
+    /// an HxWx3 float .npy of the image's size holding, per pixel, the
+    /// standard deviation along the major axis, the one along the minor axis
+    /// (pixels, 0 < minor <= major, aspect major/minor up to 16, sigmas up
+    /// to a quarter of the image's larger side and 512) and the major axis'
+    /// angle in degrees counter-clockwise on screen. Uses the aspect bank of
+    /// `ifd smooth` and its cache; footprints sqrt(major*minor) below 2 px
+    /// or minor sigmas below 1 px are sampled directly. CPU only.
+    #[arg(
+        long,
+        value_name = "NPY",
+        conflicts_with_all = ["decomp", "angle", "angle_map", "scale", "scale_map", "gpu", "tile"]
+    )]
+    sigma_map: Option<PathBuf>,
     /// Rotation in degrees, counter-clockwise on screen, for every pixel.
     #[arg(
         long,
@@ -378,6 +392,17 @@ fn filter_gpu(
 impl Filter {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
+        if let Some(map) = &self.sigma_map {
+            return super::sigma_map::run(&super::sigma_map::SigmaMapRun {
+                image: &self.image,
+                kernel: self.kernel.as_deref(),
+                map,
+                border: self.border,
+                output: &self.output,
+                verbose: self.verbose,
+                input: &self.input,
+            });
+        }
         crate::output::check_output_path(&self.output.output)?;
         if let Some(b) = self.eval_budget
             && !(b.is_finite() && b > 0.0)

@@ -152,6 +152,7 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
     interp: str = "auto",
     eval_budget: _Optional[float] = None,
     tol: float = 0.01,
+    sigma_map: _Optional[_ArrayLike] = None,
 ) -> _np.ndarray:
     """Filter ``image`` with ``decomposition`` rotated by ``angle`` and scaled by ``scale``.
 
@@ -172,6 +173,14 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
     ``constant:VALUE``. ``interp``/``eval_budget`` are the CLI's ``--interp``
     and ``--eval-budget``.
 
+    With ``sigma_map`` (and ``decomposition="gauss"``, the only kernel it
+    takes), each pixel gets its own normalised anisotropic Gaussian: an
+    ``(H, W, 3)`` array of the standard deviation along the major axis, the
+    one along the minor axis (pixels, ``0 < minor <= major``) and the major
+    axis' angle in degrees counter-clockwise on screen; ``angle`` and
+    ``scale`` must be left out. ``ifd filter --kernel gauss --sigma-map``
+    (bitwise equal results), with the aspect bank ``ifd smooth`` uses.
+
     Returns float32 of the image's shape.
 
     >>> import numpy as np
@@ -180,12 +189,23 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
     >>> out.shape
     (64, 64)
     """
+    img = _image(image, "image")
+    if sigma_map is not None:
+        if not (isinstance(decomposition, str) and decomposition == "gauss"):
+            raise ValueError(
+                f"sigma_map: the only kernel it takes is 'gauss', not {decomposition!r}"
+            )
+        if not (isinstance(angle, (int, float)) and angle == 0.0) or not (
+            isinstance(scale, (int, float)) and scale == 1.0
+        ):
+            raise ValueError("sigma_map: angle and scale come from the map; leave them out")
+        m = _np.ascontiguousarray(_np.asarray(sigma_map, dtype=_np.float32))
+        return _ifd.filter_sigma_map(img, m, border=border)
     if isinstance(decomposition, str):
         decomposition = _ifd.fit_cached(decomposition, None, tol=tol)
     elif not isinstance(decomposition, Decomposition):
         kernel = _np.ascontiguousarray(_np.asarray(decomposition), dtype=_np.float64)
         decomposition = _ifd.fit_cached(None, kernel, tol=tol)
-    img = _image(image, "image")
     a, amap = _field(angle, "angle")
     s, smap = _field(scale, "scale")
     return _ifd.filter(

@@ -93,6 +93,7 @@ def filter(
     eval_budget: Optional[float] = None,
     scale_range: Optional[tuple[float, float]] = None,
 ) -> F32: ...
+def filter_sigma_map(image: F32, sigma_map: F32, *, border: str = "reflect101") -> F32: ...
 def filter_alignment(
     decomposition: Decomposition,
     shape: tuple[int, int, int],

@@ -12,14 +12,13 @@ mod refresh;
 use std::sync::Arc;
 
 use ifd_image::{Image, ImageView};
-use ifd_planar::{
-    Filter, PreparedDecomposition, Rotation, ScaleStack, ScaledFilter, StackLayout, StackPlan, Taps,
-};
+use ifd_planar::{Filter, PreparedDecomposition, ScaleStack, StackLayout, StackPlan, Taps};
 use rayon::prelude::*;
 
 use crate::bank::{AspectBank, BANK_SAMPLING};
 use crate::direct::DirectKernels;
 use crate::error::SmoothError;
+use crate::gaussians::{AnisoGaussian, BankLookups, PixelGaussians, SmallFootprints};
 use crate::hessian::{HessianBank, hessian_stack_options};
 use crate::orientation::{Orientation, tensor};
 
@@ -289,17 +288,35 @@ impl Smoother {
             .collect()
     }
 
-    /// The bank's filters bound to the footprint scale: stack levels are
-    /// resolved once, so each lookup below is `s` bilinear samples.
-    fn scaled<'f, 'a>(
-        &self,
-        filters: &'f [Filter<'a>],
-    ) -> Result<Vec<ScaledFilter<'f, 'a>>, SmoothError> {
+    /// The bank bound to the stack at the footprint scale (stack levels
+    /// resolved once, so each lookup is `s` bilinear samples), or the
+    /// direct tables below [`DIRECT_BELOW`](crate::DIRECT_BELOW): the
+    /// per-pixel Gaussians shared with the sigma map ([`PixelGaussians`]).
+    fn gaussians<'f>(
+        &'f self,
+        filters: &'f [Filter<'f>],
+    ) -> Result<PixelGaussians<'f, 'f>, SmoothError> {
         let s = self.filter_scale();
-        filters
-            .iter()
-            .map(|f| f.at_scale(s).map_err(SmoothError::from))
-            .collect()
+        let lookups = if self.direct.is_some() {
+            None
+        } else {
+            Some(BankLookups::Fixed(
+                filters
+                    .iter()
+                    .map(|f| f.at_scale(s).map_err(SmoothError::from))
+                    .collect::<Result<Vec<_>, _>>()?,
+            ))
+        };
+        let small = self
+            .direct
+            .as_ref()
+            .map(|(kernels, image)| SmallFootprints::Tables { kernels, image });
+        Ok(PixelGaussians::new(
+            &self.bank,
+            lookups,
+            small,
+            self.opts.border,
+        ))
     }
 
     fn filter_scale(&self) -> f32 {
@@ -307,37 +324,24 @@ impl Smoother {
     }
 
     /// Adds `weight *` the smoothed value at `(x, y)` for filter `o` to
-    /// `out`: the blend of two bank entries, `s_i + s_{i+1}` lookups (the
-    /// blend of two decompositions is the decomposition of the blended
-    /// filter, so blending the results is exact).
+    /// `out` ([`PixelGaussians::accumulate`] at the footprint scale; pixel
+    /// centres when the filters are evaluated directly: whole images and
+    /// dabs evaluate at pixels).
     fn add_smoothed(
         &self,
-        scaled: &[ScaledFilter<'_, '_>],
+        gauss: &PixelGaussians<'_, '_>,
         x: f32,
         y: f32,
         o: Orientation,
         weight: f32,
         out: &mut [f32],
     ) {
-        if let Some((k, img)) = &self.direct {
-            // Pixel centres: `x`, `y` are integers on this path (whole
-            // images and dabs evaluate at pixels).
-            let p = (x as usize, y as usize);
-            k.accumulate(img, self.opts.border, p, (o.theta, o.aspect), weight, out);
-            return;
-        }
-        let rot = Rotation::degrees(o.theta);
-        for (i, wi) in self.blend(o) {
-            scaled[i].accumulate(x, y, weight * wi, rot, out);
-        }
-    }
-
-    /// The bank entries of filter `o` and their blend weights: `(i, 1 - t)`
-    /// and, unless `t = 0`, `(i + 1, t)` ([`AspectBank::locate`]).
-    fn blend(&self, o: Orientation) -> impl Iterator<Item = (usize, f32)> {
-        let (i, t) = self.bank.locate(f64::from(o.aspect));
-        let t = t as f32;
-        std::iter::once((i, 1.0 - t)).chain((t > 0.0).then_some((i + 1, t)))
+        let g = AnisoGaussian {
+            theta: o.theta,
+            aspect: o.aspect,
+            footprint: self.opts.scale as f32,
+        };
+        gauss.accumulate(x, y, g, weight, out);
     }
 
     /// Smooths the whole image.
@@ -376,7 +380,7 @@ impl Smoother {
             )));
         }
         let filters = self.filters()?;
-        let scaled = self.scaled(&filters)?;
+        let gauss = self.gaussians(&filters)?;
         let mut out = vec![0.0f32; rect.width * rect.height * c];
         out.par_chunks_mut(rect.width * c)
             .enumerate()
@@ -387,7 +391,7 @@ impl Smoother {
                     match mode {
                         Mode::PerPixel => {
                             let o = self.field[y * w + x];
-                            self.add_smoothed(&scaled, x as f32, y as f32, o, 1.0, px);
+                            self.add_smoothed(&gauss, x as f32, y as f32, o, 1.0, px);
                         }
                         // Dab centres on a grid of spacing g; each pixel
                         // blends the results of the filters of its four
@@ -399,7 +403,7 @@ impl Smoother {
                                     continue;
                                 }
                                 let o = self.orientation_at(cx, cy);
-                                self.add_smoothed(&scaled, x, y, o, wgt, px);
+                                self.add_smoothed(&gauss, x, y, o, wgt, px);
                             }
                         }
                     }
@@ -440,7 +444,7 @@ impl Smoother {
         let (x0, y0) = (bbox.x0, bbox.y0);
         let (x1, y1) = (x0 + bbox.width - 1, y0 + bbox.height - 1);
         let filters = self.filters()?;
-        let scaled = self.scaled(&filters)?;
+        let gauss = self.gaussians(&filters)?;
         let rh = y1 - y0 + 1;
         let rw = x1 - x0 + 1;
         // Paper's mode: one constant filter (the blend of two bank entries at
@@ -456,7 +460,7 @@ impl Smoother {
                     .for_each(|(j, row)| {
                         for (i, px) in row.chunks_exact_mut(c).enumerate() {
                             let (x, y) = ((x0 + i) as f32, (y0 + j) as f32);
-                            self.add_smoothed(&scaled, x, y, o, 1.0, px);
+                            self.add_smoothed(&gauss, x, y, o, 1.0, px);
                         }
                     });
                 Some(region)
@@ -464,7 +468,8 @@ impl Smoother {
             Mode::Dab => {
                 let o = self.orientation_at(dab.x, dab.y);
                 let mut taps = Taps::default();
-                for (i, wi) in self.blend(o) {
+                let scaled = gauss.fixed().unwrap_or_default();
+                for (i, wi) in gauss.blend(o.aspect) {
                     taps.extend(scaled[i].taps(o.theta, wi));
                 }
                 Some(taps.apply_region(&self.stack, x0, y0, rw, rh)?)
@@ -491,7 +496,7 @@ impl Smoother {
                     } else {
                         sm.fill(0.0);
                         let o = self.field[y * w + x];
-                        self.add_smoothed(&scaled, x as f32, y as f32, o, 1.0, &mut sm);
+                        self.add_smoothed(&gauss, x as f32, y as f32, o, 1.0, &mut sm);
                         &sm
                     };
                     for (p, s) in row[x * c..(x + 1) * c].iter_mut().zip(sm) {
