@@ -19,6 +19,12 @@ use crate::output::ImageOutput;
 /// lookup per term into a scale stack prefiltered once by FFT, whatever the
 /// filter's size, angle or scale.
 #[derive(Debug, Args)]
+#[command(group(
+    clap::ArgGroup::new("filter")
+        .required(true)
+        .multiple(true)
+        .args(["decomp", "kernel", "sigma_map"])
+))]
 #[expect(
     clippy::struct_excessive_bools,
     reason = "each bool is a command-line switch"
@@ -30,7 +36,6 @@ pub struct Filter {
     #[arg(
         long,
         value_name = "FILE",
-        required_unless_present = "kernel",
         conflicts_with = "kernel"
     )]
     decomp: Option<PathBuf>,
@@ -146,11 +151,23 @@ impl Filter {
     /// from the fit cache); with `-v`, where it came from.
     fn decomposition(&self) -> Result<Decomposition> {
         if let Some(path) = &self.decomp {
+            if self.tol.is_some() || self.no_cache {
+                bail!(
+                    "--tol and --no-cache apply to a fit of --kernel, not to --decomp {}",
+                    path.display()
+                );
+            }
             return Ok(Decomposition::load(path)?);
         }
         let Some(filter) = &self.kernel else {
             bail!("give --decomp FILE or --kernel SPEC");
         };
+        if filter == super::sigma_map::KERNEL {
+            bail!(
+                "--kernel {filter}: give its sigmas (`gauss:sx=8,sy=2,theta=30`), or a Gaussian per \
+                 pixel with --sigma-map M.npy"
+            );
+        }
         let opts = ifd_planar::DecomposeOptions {
             tol: self.tol.unwrap_or(0.01),
             ..ifd_planar::DecomposeOptions::default()
