@@ -345,7 +345,14 @@ impl Dictionary {
             .collect()
     }
 
-    /// Adds group `g`'s rows `j` of `A x` into `out` (`H x W`).
+    /// Adds group `g`'s rows `j` of `A x` into `out` (`H x W`), compiled for
+    /// the CPU's vectors ([`ifd_simd::run_vectorized`]: the row sums are
+    /// element-wise, so every instruction set gives the same bits).
+    #[inline(always)]
+    #[expect(
+        clippy::inline_always,
+        reason = "compiled into each target of `ifd_simd::run_vectorized`"
+    )]
     fn forward_group(&self, g: &Group, x: &[f64], out: &mut [f64], t: &mut Vec<f64>) {
         let w = self.width;
         let nx = g.xs.len();
@@ -383,7 +390,13 @@ impl Dictionary {
         }
     }
 
-    /// Group `g`'s row `j` of `A^T r` into `out` (length `n_x`).
+    /// Group `g`'s row `j` of `A^T r` into `out` (length `n_x`), compiled
+    /// for the CPU's vectors as [`Dictionary::forward_group`] is.
+    #[inline(always)]
+    #[expect(
+        clippy::inline_always,
+        reason = "compiled into each target of `ifd_simd::run_vectorized`"
+    )]
     fn adjoint_row(&self, g: &Group, j: usize, r: &[f64], out: &mut [f64], p: &mut Vec<f64>) {
         let w = self.width;
         let py = &g.py[j];
@@ -406,6 +419,51 @@ impl Dictionary {
                 .map(|(a, b)| a * b)
                 .sum();
         }
+    }
+}
+
+/// [`Dictionary::forward_group`]'s arguments, run as an
+/// [`ifd_simd::VectorKernel`].
+struct Forward<'a> {
+    dict: &'a Dictionary,
+    g: &'a Group,
+    x: &'a [f64],
+    out: &'a mut [f64],
+    t: &'a mut Vec<f64>,
+}
+
+impl ifd_simd::VectorKernel for Forward<'_> {
+    type Output = ();
+    #[inline(always)]
+    #[expect(
+        clippy::inline_always,
+        reason = "the kernel is compiled into each target of `run_vectorized`"
+    )]
+    fn run(self) {
+        self.dict.forward_group(self.g, self.x, self.out, self.t);
+    }
+}
+
+/// [`Dictionary::adjoint_row`]'s arguments, run as an
+/// [`ifd_simd::VectorKernel`].
+struct Adjoint<'a> {
+    dict: &'a Dictionary,
+    g: &'a Group,
+    j: usize,
+    r: &'a [f64],
+    out: &'a mut [f64],
+    p: &'a mut Vec<f64>,
+}
+
+impl ifd_simd::VectorKernel for Adjoint<'_> {
+    type Output = ();
+    #[inline(always)]
+    #[expect(
+        clippy::inline_always,
+        reason = "the kernel is compiled into each target of `run_vectorized`"
+    )]
+    fn run(self) {
+        self.dict.adjoint_row(self.g, self.j, self.r, self.out, self.p);
     }
 }
 
@@ -453,7 +511,13 @@ impl LinearOperator for Dictionary {
             .zip(&active)
             .for_each_init(Vec::new, |t, (acc, (g, range))| {
                 acc[range.clone()].fill(0.0);
-                self.forward_group(g, x, acc, t);
+                ifd_simd::run_vectorized(Forward {
+                    dict: self,
+                    g,
+                    x,
+                    out: acc,
+                    t,
+                });
             });
         out.par_chunks_mut(4096).enumerate().for_each(|(c, chunk)| {
             chunk.fill(0.0);
@@ -485,7 +549,14 @@ impl LinearOperator for Dictionary {
         tasks
             .into_par_iter()
             .for_each_init(Vec::new, |p, (g, j, o)| {
-                self.adjoint_row(g, j, r, o, p);
+                ifd_simd::run_vectorized(Adjoint {
+                    dict: self,
+                    g,
+                    j,
+                    r,
+                    out: o,
+                    p,
+                });
             });
     }
 
