@@ -33,11 +33,7 @@ pub struct Filter {
     /// The image to filter.
     image: PathBuf,
     /// The decomposition (from `ifd decompose`).
-    #[arg(
-        long,
-        value_name = "FILE",
-        conflicts_with = "kernel"
-    )]
+    #[arg(long, value_name = "FILE", conflicts_with = "kernel")]
     decomp: Option<PathBuf>,
     /// The filter as a spec (`gauss:sx=16,sy=2,theta=30`; `ifd decompose
     /// --help` lists them) or a kernel file (.npy, .png, .exr; odd sizes, used

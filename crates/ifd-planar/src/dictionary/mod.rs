@@ -463,7 +463,8 @@ impl ifd_simd::VectorKernel for Adjoint<'_> {
         reason = "the kernel is compiled into each target of `run_vectorized`"
     )]
     fn run(self) {
-        self.dict.adjoint_row(self.g, self.j, self.r, self.out, self.p);
+        self.dict
+            .adjoint_row(self.g, self.j, self.r, self.out, self.p);
     }
 }
 

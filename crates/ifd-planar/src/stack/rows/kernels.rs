@@ -1,6 +1,4 @@
-//! The row kernels, written once over [`Lanes`]: the per-pixel rules (the
-//! rotations, a scale map's level positions, each sigma group's levels and
-//! weights) and the lookups (bilinear and cubic B-spline, any channel count;
+//! The row kernels, written once over [`Lanes`]: the lookups (bilinear and cubic B-spline, any channel count;
 //! a scale map's blocks classified by the levels their lanes read), `N`
 //! pixels of a row at a time. Each instruction set's file compiles them for
 //! its lanes through [`entry_points`].
@@ -20,11 +18,9 @@
     reason = "each body is compiled into the `#[target_feature]` entry points of each instruction set"
 )]
 
-use super::lanes::Lanes;
+use super::lanes::{Lanes, block_end};
 use super::{FixedTerm, RowLevels, ScaledTerm};
-use crate::field::Field;
-use crate::kernel::{LOG_FROM, WIDENING_FLOOR};
-use crate::stack::{Interpolation, Level, LevelRule, ScalePosition, ScaleStack};
+use crate::stack::{Interpolation, Level, ScaleStack};
 
 /// The row kernels' entry points for one instruction set's lanes, each
 /// compiled for `$features` (`#[target_feature]`) around the body of the
@@ -79,7 +75,7 @@ macro_rules! entry_points {
             }
         }
 
-        /// [`super::kernels::rotations`] on these lanes.
+        /// [`super::rules::rotations`] on these lanes.
         #[target_feature(enable = $features)]
         pub(super) unsafe fn rotations(
             theta: &[f32],
@@ -89,10 +85,10 @@ macro_rules! entry_points {
             from: usize,
         ) -> usize {
             // SAFETY: as `rotated_row`.
-            unsafe { super::kernels::rotations::<$lanes>(theta, scale, cs, ss, from) }
+            unsafe { super::rules::rotations::<$lanes>(theta, scale, cs, ss, from) }
         }
 
-        /// [`super::kernels::scale_positions`] on these lanes.
+        /// [`super::rules::scale_positions`] on these lanes.
         #[target_feature(enable = $features)]
         pub(super) unsafe fn scale_positions(
             rule: crate::stack::ScalePosition,
@@ -102,10 +98,10 @@ macro_rules! entry_points {
             from: usize,
         ) -> usize {
             // SAFETY: as `rotated_row`.
-            unsafe { super::kernels::scale_positions::<$lanes>(rule, scales, t_s, widen, from) }
+            unsafe { super::rules::scale_positions::<$lanes>(rule, scales, t_s, widen, from) }
         }
 
-        /// [`super::kernels::fill_levels`] on these lanes.
+        /// [`super::rules::fill_levels`] on these lanes.
         #[target_feature(enable = $features)]
         pub(super) unsafe fn fill_levels(
             rule: crate::stack::LevelRule,
@@ -116,17 +112,11 @@ macro_rules! entry_points {
             from: usize,
         ) -> usize {
             // SAFETY: as `rotated_row`.
-            unsafe { super::kernels::fill_levels::<$lanes>(rule, t_s, widen, levels, g, from) }
+            unsafe { super::rules::fill_levels::<$lanes>(rule, t_s, widen, levels, g, from) }
         }
     };
 }
 pub(super) use entry_points;
-
-/// The end of the whole blocks of `V::N` pixels from `from` in `w` pixels.
-#[inline(always)]
-fn block_end<V: Lanes>(from: usize, w: usize) -> usize {
-    from + w.saturating_sub(from) / V::N * V::N
-}
 
 /// Adds the filtered values of the row's blocks from `from` into `out`
 /// (`C` interleaved channels) for per-pixel rotations `cs[x] = s cos`,
@@ -740,184 +730,4 @@ fn lanes_levels<const C: usize, A: AsRef<[f32]> + AsMut<[f32]>>(
             sum.as_mut()[lane] = v;
         }
     }
-}
-
-/// `coef[0] + x (coef[1] + x (coef[2] + ...))`, Horner's rule from the last
-/// coefficient, as the scalar rules evaluate their series.
-#[inline(always)]
-unsafe fn horner<V: Lanes>(x: V::F, coef: &[f32]) -> V::F {
-    let (last, rest) = coef.split_last().expect("coefficients");
-    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
-    unsafe {
-        let mut acc = V::splat(*last);
-        for &c in rest.iter().rev() {
-            acc = V::add(V::splat(c), V::mul(x, acc));
-        }
-        acc
-    }
-}
-
-/// `cs[x] = s cos theta[x]`, `ss[x] = s sin theta[x]` for the row's blocks
-/// from `from`: [`crate::trig::sin_cos_degrees`] operation by operation,
-/// times the row's scale.
-///
-/// # Safety
-/// Compiled for `V`'s instruction set (see [`Lanes`]).
-#[inline(always)]
-pub(super) unsafe fn rotations<V: Lanes>(
-    theta: &[f32],
-    scale: Field<'_>,
-    cs: &mut [f32],
-    ss: &mut [f32],
-    from: usize,
-) -> usize {
-    use crate::trig::{COS, INV_RIGHT_ANGLE, RADIANS_PER_DEGREE, SIN};
-    let end = block_end::<V>(from, theta.len().min(cs.len()).min(ss.len()));
-    // SAFETY: as the caller promises.
-    unsafe {
-        let k = |x: f32| V::splat(x);
-        let (one, two) = (V::splat_i(1), V::splat_i(2));
-        let (inv_right, right, radians) = (k(INV_RIGHT_ANGLE), k(90.0), k(RADIANS_PER_DEGREE));
-        let unit = k(1.0);
-        for x0 in (from..end).step_by(V::N) {
-            let t = V::load(&theta[x0..]);
-            // trig::sin_cos_degrees, operation by operation
-            let q = V::round(V::mul(t, inv_right));
-            let x = V::mul(V::sub(t, V::mul(q, right)), radians);
-            let x2 = V::mul(x, x);
-            let sp = V::add(x, V::mul(V::mul(x, x2), horner::<V>(x2, &SIN)));
-            let cp = V::add(unit, V::mul(x2, horner::<V>(x2, &COS)));
-            let qi = V::to_int(q);
-            let swap = V::eq_i(V::and_i(qi, one), one);
-            let (s, c) = (V::select(swap, cp, sp), V::select(swap, sp, cp));
-            // bit 1 of q (of q + 1) moved to the sign bit negates the sine
-            // (cosine)
-            let s_sign = V::shl30(V::and_i(qi, two));
-            let c_sign = V::shl30(V::and_i(V::add_i(qi, one), two));
-            let s = V::from_bits(V::xor_i(V::to_bits(s), s_sign));
-            let c = V::from_bits(V::xor_i(V::to_bits(c), c_sign));
-            let sc = match scale {
-                Field::Constant(v) => V::splat(v),
-                Field::Map(m) => V::load(&m[x0..]),
-            };
-            V::store(V::mul(c, sc), &mut cs[x0..]);
-            V::store(V::mul(s, sc), &mut ss[x0..]);
-        }
-    }
-    end
-}
-
-/// Each pixel's `(t_s, widen)` of the row's `scales` by `rule` for the
-/// blocks from `from`: [`ScalePosition::at`] operation by operation
-/// ([`crate::ln::ln`]'s split of the bits and its series, then the
-/// widening's division and select).
-///
-/// # Safety
-/// Compiled for `V`'s instruction set (see [`Lanes`]).
-#[inline(always)]
-pub(super) unsafe fn scale_positions<V: Lanes>(
-    rule: ScalePosition,
-    scales: &[f32],
-    t_s: &mut [f32],
-    widen: &mut [f32],
-    from: usize,
-) -> usize {
-    use crate::ln::{ATANH, LN2_HI, LN2_LO, SQRT_HALF_BITS};
-    let end = block_end::<V>(from, scales.len().min(t_s.len()).min(widen.len()));
-    // SAFETY: as the caller promises.
-    unsafe {
-        let k = |x: f32| V::splat(x);
-        let sqrt_half = V::splat_i(SQRT_HALF_BITS as i32);
-        let mantissa = V::splat_i(0x007f_ffff);
-        let (one, tiny, ln2_hi, ln2_lo) = (k(1.0), k(f32::MIN_POSITIVE), k(LN2_HI), k(LN2_LO));
-        let (ln0, inv, var, shift, below) = (
-            k(rule.ln0),
-            k(rule.inv),
-            k(rule.var),
-            k(rule.shift),
-            k(rule.below),
-        );
-        for x0 in (from..end).step_by(V::N) {
-            let s = V::load(&scales[x0..]);
-            // ln::ln
-            let ix = V::sub_i(V::to_bits(V::max(s, tiny)), sqrt_half);
-            let e = V::to_float(V::sra23(ix));
-            let m = V::from_bits(V::add_i(V::and_i(ix, mantissa), sqrt_half));
-            let f = V::div(V::sub(m, one), V::add(m, one));
-            let z = V::mul(f, f);
-            let r = V::add(f, f);
-            let p = V::add(r, V::mul(V::mul(r, z), horner::<V>(z, &ATANH)));
-            let ln = V::add(V::mul(e, ln2_hi), V::add(p, V::mul(e, ln2_lo)));
-            // ScalePosition::at
-            let ts = V::mul(V::sub(ln, ln0), inv);
-            let wd = V::add(V::div(var, V::mul(s, s)), shift);
-            let wd = V::zero_unless(V::lt(s, below), wd);
-            V::store(ts, &mut t_s[x0..]);
-            V::store(wd, &mut widen[x0..]);
-        }
-    }
-    end
-}
-
-/// Group `g`'s levels over the row's blocks from `from` by `rule`: the
-/// series pass, [`LevelRule::series`]'s operations in its order, then
-/// [`LevelRule::at`] for the lanes whose widening needs the logarithm.
-///
-/// # Safety
-/// Compiled for `V`'s instruction set (see [`Lanes`]).
-#[inline(always)]
-pub(super) unsafe fn fill_levels<V: Lanes>(
-    rule: LevelRule,
-    t_s: &[f32],
-    widen: &[f32],
-    levels: &mut RowLevels,
-    g: usize,
-    from: usize,
-) -> usize {
-    let w = levels.w;
-    let base = g * w;
-    let end = block_end::<V>(from, w.min(t_s.len()).min(widen.len()));
-    // SAFETY: as the caller promises.
-    unsafe {
-        let k = |x: f32| V::splat(x);
-        let (floor, needs_log) = (k(WIDENING_FLOOR), k(LOG_FROM));
-        let (one, half, third, quarter) = (k(1.0), k(0.5), k(1.0 / 3.0), k(0.25));
-        let (inv_sigma2, ln_sigma, inv) = (k(rule.inv_sigma2), k(rule.ln_sigma), k(rule.inv));
-        let last = k(rule.last as f32);
-        let below_last = V::splat_i((rule.last - 1) as i32);
-        let (snap_lo, snap_hi) = (k(rule.snap), k(1.0 - rule.snap));
-        let zero = V::zero();
-        for x0 in (from..end).step_by(V::N) {
-            let (ts, wd) = (V::load(&t_s[x0..]), V::load(&widen[x0..]));
-            // kernel::ln_widening_series
-            let x = V::max(V::mul(wd, inv_sigma2), floor);
-            // kernel::widening_needs_log: |x| >= LOG_FROM
-            let log_lanes = V::bits(V::ge(V::abs(x), needs_log));
-            let x2 = V::mul(x, x);
-            let odd = V::mul(x, V::add(one, V::mul(x2, third)));
-            let even = V::mul(x2, V::add(half, V::mul(x2, quarter)));
-            let lw = V::mul(half, V::sub(odd, even));
-            // LevelRule::bracket: the position, clamped (finite positions:
-            // max/min are `clamp`), its level below, snapped
-            let u = V::add(ts, V::mul(V::add(ln_sigma, lw), inv));
-            let u = V::min(V::max(u, zero), last);
-            let i = V::min_i(V::trunc_int(u), below_last);
-            let f = V::sub(u, V::to_float(i));
-            let hi = V::gt(f, snap_hi);
-            let snapped = V::or_m(V::lt(f, snap_lo), hi);
-            let a = V::inc_where(i, hi);
-            let wa = V::select(snapped, one, V::sub(one, f));
-            let wb = V::select(snapped, zero, f);
-            let at = base + x0;
-            V::store_u32(a, &mut levels.a[at..]);
-            V::store(wa, &mut levels.wa[at..]);
-            V::store(wb, &mut levels.wb[at..]);
-            if log_lanes != 0 {
-                for x in (x0..x0 + V::N).filter(|x| log_lanes & (1 << (x - x0)) != 0) {
-                    levels.set(base + x, rule.at(t_s[x], widen[x]));
-                }
-            }
-        }
-    }
-    end
 }

@@ -148,3 +148,13 @@ pub(super) trait Lanes: Copy {
     /// Every `p + idx` and `p + idx + 1` inside one allocation.
     unsafe fn gather_pairs(p: *const f32, idx: Self::I) -> (Self::F, Self::F);
 }
+
+/// The end of the whole blocks of `V::N` pixels from `from` in `w` pixels.
+#[inline(always)]
+#[expect(
+    clippy::inline_always,
+    reason = "compiled into each `#[target_feature]` entry point"
+)]
+pub(super) fn block_end<V: Lanes>(from: usize, w: usize) -> usize {
+    from + w.saturating_sub(from) / V::N * V::N
+}

@@ -13,7 +13,8 @@
 //!   pixels done (the caller's scalar loop does the rest);
 //! - `lanes.rs`: the `Lanes` trait, the primitives the kernels are written
 //!   in;
-//! - `kernels.rs`: the kernels, written once over `Lanes`;
+//! - `kernels.rs`: the lookups, written once over `Lanes`; `rules.rs`: the
+//!   per-pixel rules (rotations, scale positions, levels) likewise;
 //! - `avx2.rs`, `avx512.rs`: each instruction set's primitives (a few
 //!   intrinsics each) and the kernels' `#[target_feature]` entry points.
 //!
@@ -59,6 +60,8 @@ mod avx512;
 mod kernels;
 #[cfg(target_arch = "x86_64")]
 mod lanes;
+#[cfg(target_arch = "x86_64")]
+mod rules;
 #[cfg(test)]
 mod tests;
 
