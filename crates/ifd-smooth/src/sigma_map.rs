@@ -37,7 +37,8 @@ pub const SIGMA_MAP_CHANNELS: [&str; 3] = ["major sigma", "minor sigma", "angle"
 ///
 /// ```
 /// use ifd_image::ImageView;
-/// let map = [4.0f32, 2.0, 30.0, 1.0, 3.0, 0.0];
+/// // two pixels: the second has its minor sigma larger than its major one
+/// let map = [0.4f32, 0.2, 30.0, 0.1, 0.3, 0.0];
 /// let m = ImageView::new(2, 1, 3, &map)?;
 /// let err = ifd_smooth::sigma_map_gaussians(m, (2, 1), 16.0).unwrap_err();
 /// assert!(err.to_string().contains("(1, 0), channel 1 (minor sigma)"), "{err}");
