@@ -180,6 +180,50 @@ fn _decomposition_from_json(text: &str) -> PyResult<PyDecomposition> {
     PyDecomposition::from_json(text)
 }
 
+/// The filter `ifd.decompose` and `ifd.filter` fit: a built-in spec or an
+/// odd-sized float64 kernel array.
+enum FilterArg {
+    Spec(KernelSpec),
+    Kernel(Kernel),
+}
+
+/// Exactly one of `spec` (parsed) and `kernel` (an `(H, W)` array, centre in
+/// the middle); `oversample` above 1 only with a spec.
+fn filter_arg(
+    spec: Option<&str>,
+    kernel: Option<PyReadonlyArrayDyn<'_, f64>>,
+    oversample: Option<usize>,
+) -> PyResult<FilterArg> {
+    match (spec, kernel) {
+        (Some(text), None) => text
+            .parse()
+            .map(FilterArg::Spec)
+            .map_err(|e| errors::value(&format!("filter spec {text:?}"), e)),
+        (None, Some(k)) => {
+            if oversample.is_some_and(|q| q != 1) {
+                return Err(errors::value(
+                    "oversample",
+                    "only built-in specs can be sampled between pixels",
+                ));
+            }
+            let (shape, values) = arrays::values_f64("kernel", &k)?;
+            let [h, w] = shape[..] else {
+                return Err(errors::value(
+                    "kernel",
+                    format!("expected an (H, W) array, got shape {shape:?}"),
+                ));
+            };
+            Kernel::new(w, h, values.to_vec())
+                .map(FilterArg::Kernel)
+                .map_err(|e| errors::value("kernel", e))
+        }
+        _ => Err(errors::value(
+            "",
+            "give exactly one of a filter spec and a kernel array",
+        )),
+    }
+}
+
 /// Fits a decomposition to a built-in spec (`spec`) or to an odd-sized
 /// float64 kernel (`kernel`, `(H, W)`, centre in the middle).
 #[pyfunction]
@@ -213,39 +257,13 @@ fn decompose_filter(
     if let Some(m) = min_sigma {
         opts.dictionary.min_sigma = m;
     }
-    let inner = match (spec, kernel) {
-        (Some(text), None) => {
-            let spec: KernelSpec = text
-                .parse()
-                .map_err(|e| errors::value(&format!("filter spec {text:?}"), e))?;
-            py.detach(|| decompose_spec(&spec, &opts, oversample, |_, _, _| {}))
-                .map_err(|e| errors::value(&format!("decomposing {spec}"), e))?
-        }
-        (None, Some(k)) => {
-            if oversample.is_some_and(|q| q != 1) {
-                return Err(errors::value(
-                    "oversample",
-                    "only built-in specs can be sampled between pixels",
-                ));
-            }
-            let (shape, values) = arrays::values_f64("kernel", &k)?;
-            let [h, w] = shape[..] else {
-                return Err(errors::value(
-                    "kernel",
-                    format!("expected an (H, W) array, got shape {shape:?}"),
-                ));
-            };
-            let kernel =
-                Kernel::new(w, h, values.to_vec()).map_err(|e| errors::value("kernel", e))?;
-            py.detach(|| decompose(&kernel, &opts, |_, _, _| {}))
-                .map_err(|e| errors::value("decomposition failed", e))?
-        }
-        _ => {
-            return Err(errors::value(
-                "",
-                "give exactly one of a filter spec and a kernel array",
-            ));
-        }
+    let inner = match filter_arg(spec, kernel, oversample)? {
+        FilterArg::Spec(spec) => py
+            .detach(|| decompose_spec(&spec, &opts, oversample, |_, _, _| {}))
+            .map_err(|e| errors::value(&format!("decomposing {spec}"), e))?,
+        FilterArg::Kernel(kernel) => py
+            .detach(|| decompose(&kernel, &opts, |_, _, _| {}))
+            .map_err(|e| errors::value("decomposition failed", e))?,
     };
     Ok(PyDecomposition { inner })
 }
@@ -266,34 +284,16 @@ fn fit_cached(
         ..DecomposeOptions::default()
     };
     let cache = ifd_planar::FitCache::shared();
-    let inner = match (spec, kernel) {
-        (Some(text), None) => {
-            let spec: KernelSpec = text
-                .parse()
-                .map_err(|e| errors::value(&format!("filter spec {text:?}"), e))?;
+    let inner = match filter_arg(spec, kernel, None)? {
+        FilterArg::Spec(spec) => {
             py.detach(|| cache.fit_spec(&spec, &opts, None, |_, _, _| {}))
                 .map_err(|e| errors::value(&format!("decomposing {spec}"), e))?
                 .0
         }
-        (None, Some(k)) => {
-            let (shape, values) = arrays::values_f64("kernel", &k)?;
-            let [h, w] = shape[..] else {
-                return Err(errors::value(
-                    "kernel",
-                    format!("expected an (H, W) array, got shape {shape:?}"),
-                ));
-            };
-            let kernel =
-                Kernel::new(w, h, values.to_vec()).map_err(|e| errors::value("kernel", e))?;
+        FilterArg::Kernel(kernel) => {
             py.detach(|| cache.fit_kernel(&kernel, &opts, |_, _, _| {}))
                 .map_err(|e| errors::value("decomposition failed", e))?
                 .0
-        }
-        _ => {
-            return Err(errors::value(
-                "",
-                "give exactly one of a filter spec and a kernel array",
-            ));
         }
     };
     Ok(PyDecomposition { inner })
