@@ -39,7 +39,8 @@ struct Args {
     /// Exit when done. With --replay and without --screenshot, runs without a window.
     #[arg(long)]
     exit: bool,
-    /// Aspect-bank cache file (default: ~/.cache/ifd/aspect-bank-v1.json, shared with `ifd smooth`).
+    /// Aspect-bank cache file (default: `aspect-bank-v1.json` in `$IFD_CACHE_DIR`,
+    /// else `$XDG_CACHE_HOME/ifd`, else `~/.cache/ifd`; shared with `ifd smooth`).
     #[arg(long, value_name = "FILE")]
     bank: Option<PathBuf>,
     /// Where dabs are evaluated: auto (a hardware GPU when there is one; a

@@ -314,17 +314,12 @@ impl AspectBank {
     }
 
     /// The cache file of the default bank shared by ifd's tools:
-    /// `$XDG_CACHE_HOME/ifd/aspect-bank-v1.json` (else `~/.cache/ifd/...`;
-    /// `None` without either variable).
+    /// `aspect-bank-v1.json` in [`ifd_planar::cache_root`] (`$IFD_CACHE_DIR`,
+    /// else `$XDG_CACHE_HOME/ifd`, else `~/.cache/ifd`; `None` without any),
+    /// beside the fit cache of `ifd filter --kernel`.
     #[must_use]
     pub fn default_cache() -> Option<std::path::PathBuf> {
-        let base = std::env::var_os("XDG_CACHE_HOME")
-            .filter(|v| !v.is_empty())
-            .map(std::path::PathBuf::from)
-            .or_else(|| {
-                std::env::var_os("HOME").map(|h| std::path::PathBuf::from(h).join(".cache"))
-            })?;
-        Some(base.join("ifd").join("aspect-bank-v1.json"))
+        ifd_planar::cache_root().map(|root| root.join("aspect-bank-v1.json"))
     }
 
     /// Reads a bank written by [`AspectBank::save`], checking it.

@@ -80,7 +80,8 @@ pub struct Smooth {
     tile: Option<usize>,
     /// Fit the aspect-ratio bank of smoothing filters afresh instead of
     /// reading it from (and writing it to) the cache shared with ifd-brush,
-    /// $XDG_CACHE_HOME/ifd/aspect-bank-v1.json (~/.cache/ifd/...).
+    /// `aspect-bank-v1.json` in `$IFD_CACHE_DIR` (else `$XDG_CACHE_HOME/ifd`,
+    /// else `~/.cache/ifd`).
     #[arg(long)]
     no_cache: bool,
     /// Print timings.
