@@ -130,6 +130,30 @@ pub(super) unsafe fn rotated_row<V: Lanes, const C: usize>(
     stack: &ScaleStack,
     terms: &[FixedTerm],
     y: usize,
+    rotations: (&[f32], &[f32]),
+    out: &mut [f32],
+    from: usize,
+) -> usize {
+    // SAFETY: as the caller promises.
+    unsafe {
+        match stack.interpolation {
+            Interpolation::Linear => {
+                rotated_row_as::<V, C, false>(stack, terms, y, rotations, out, from)
+            }
+            Interpolation::Cubic => {
+                rotated_row_as::<V, C, true>(stack, terms, y, rotations, out, from)
+            }
+        }
+    }
+}
+
+/// [`rotated_row`] for the stack's interpolation (`CUBIC`), chosen once per
+/// row so that the loop holds one kind of lookup.
+#[inline(always)]
+unsafe fn rotated_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
+    stack: &ScaleStack,
+    terms: &[FixedTerm],
+    y: usize,
     (cs, ss): (&[f32], &[f32]),
     out: &mut [f32],
     from: usize,
@@ -149,7 +173,7 @@ pub(super) unsafe fn rotated_row<V: Lanes, const C: usize>(
                         continue;
                     }
                     let wv = V::splat(w);
-                    if !lookup::<V, C>(stack, li, (px, py), wv, &mut acc) {
+                    if !lookup::<V, C, CUBIC>(stack, li, (px, py), wv, &mut acc) {
                         acc = scalar_lanes::<V, C>(stack, li, (px, py), wv, &acc);
                     }
                 }
@@ -192,6 +216,31 @@ pub(super) unsafe fn scaled_row<V: Lanes, const C: usize>(
     terms: &[ScaledTerm],
     levels: &RowLevels,
     y: usize,
+    rotations: (&[f32], &[f32]),
+    out: &mut [f32],
+    from: usize,
+) -> usize {
+    // SAFETY: as the caller promises.
+    unsafe {
+        match stack.interpolation {
+            Interpolation::Linear => {
+                scaled_row_as::<V, C, false>(stack, terms, levels, y, rotations, out, from)
+            }
+            Interpolation::Cubic => {
+                scaled_row_as::<V, C, true>(stack, terms, levels, y, rotations, out, from)
+            }
+        }
+    }
+}
+
+/// [`scaled_row`] for the stack's interpolation (`CUBIC`), chosen once per
+/// row.
+#[inline(always)]
+unsafe fn scaled_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
+    stack: &ScaleStack,
+    terms: &[ScaledTerm],
+    levels: &RowLevels,
+    y: usize,
     (cs, ss): (&[f32], &[f32]),
     out: &mut [f32],
     from: usize,
@@ -199,7 +248,7 @@ pub(super) unsafe fn scaled_row<V: Lanes, const C: usize>(
     let w = cs.len();
     let end = block_end::<V>(from, w);
     let groups = levels.a.len() / w.max(1);
-    let linear = matches!(stack.interpolation, Interpolation::Linear);
+    let linear = !CUBIC;
     // level i and level i + 1 sample the same grid: one bilinear stencil
     // serves both (the same values as computing it twice)
     let same_grid: Vec<bool> = stack
@@ -252,7 +301,7 @@ pub(super) unsafe fn scaled_row<V: Lanes, const C: usize>(
                             }
                             let li = a + k;
                             let wv = V::mul(tw, *lw);
-                            if !lookup::<V, C>(stack, li, (px, py), wv, &mut acc) {
+                            if !lookup::<V, C, CUBIC>(stack, li, (px, py), wv, &mut acc) {
                                 acc = scalar_lanes::<V, C>(stack, li, (px, py), wv, &acc);
                             }
                         }
@@ -338,7 +387,7 @@ unsafe fn classify<V: Lanes>(
 /// lane's stencil lies in the stored level (the scalar lookup's interior
 /// test, lane by lane); returns false, touching nothing, otherwise.
 #[inline(always)]
-unsafe fn lookup<V: Lanes, const C: usize>(
+unsafe fn lookup<V: Lanes, const C: usize, const CUBIC: bool>(
     stack: &ScaleStack,
     li: usize,
     (px, py): (V::F, V::F),
@@ -348,15 +397,15 @@ unsafe fn lookup<V: Lanes, const C: usize>(
     let level = &stack.levels[li];
     // SAFETY: compiled for `V`'s instruction set (the caller's promise).
     unsafe {
-        match stack.interpolation {
-            Interpolation::Linear => match bilinear_stencil::<V>(level, px, py) {
-                Some(at) => {
-                    bilinear_at::<V, C>(level, at, w, acc);
-                    true
-                }
-                None => false,
-            },
-            Interpolation::Cubic => cubic::<V, C>(level, (px, py), w, acc),
+        if CUBIC {
+            return cubic::<V, C>(level, (px, py), w, acc);
+        }
+        match bilinear_stencil::<V>(level, px, py) {
+            Some(at) => {
+                bilinear_at::<V, C>(level, at, w, acc);
+                true
+            }
+            None => false,
         }
     }
 }
