@@ -43,6 +43,15 @@ pub trait LinearOperator: Sync {
             *o = full[i];
         }
     }
+    /// `out = A^T A d` for a sparse `d` (its non-zero entries `vals` at
+    /// `idx`, increasing), formed from the operator's structured Gram
+    /// matrix without the image `A d`; `false`, leaving `out` untouched,
+    /// when the operator has no such product (the default), and the solver
+    /// goes through `apply` and `apply_adjoint` instead.
+    fn gram_apply(&self, idx: &[usize], vals: &[f64], out: &mut [f64]) -> bool {
+        let _ = (idx, vals, out);
+        false
+    }
 }
 
 /// A small dense row-major matrix as a [`LinearOperator`] (tests, small problems).
@@ -172,14 +181,32 @@ fn soft(v: f64, t: f64) -> f64 {
     }
 }
 
-/// A `SpaRSA` solver state: the iterate `x`, the residual `r = y - A x` and
-/// `A^T r`, kept between stages so that continuation warm-starts.
+/// A `SpaRSA` solver state: the iterate `x`, `A^T r` for the residual
+/// `r = y - A x`, and the scalars `||r||^2` and `r.y` that the objective and
+/// the duality gap need, kept between stages so that continuation
+/// warm-starts.
+///
+/// # Coefficient space
+/// An iteration needs the image `r` only through `A^T r`, `||r||^2` and
+/// `r.y`, and a step `d` changes them by `A^T A d`, `-2 d.A^T r + d.A^T A d`
+/// and `-d.A^T y`. Where the operator forms `A^T A d` from its Gram
+/// structure ([`LinearOperator::gram_apply`]: the separable dictionary does,
+/// at a cost that grows with the support of `d`, not with the image), the
+/// solver never touches the image; otherwise it keeps `r` and applies `A`
+/// and `A^T` per iteration.
 pub struct Sparsa<'a, A: LinearOperator + ?Sized> {
     a: &'a A,
     y: &'a [f64],
     x: Vec<f64>,
-    r: Vec<f64>,
+    /// The residual, kept only on the image path (`None` once the
+    /// operator's Gram product serves).
+    r: Option<Vec<f64>>,
     atr: Vec<f64>,
+    aty: Vec<f64>,
+    /// `||r||^2`.
+    rr: f64,
+    /// `r.y`.
+    ry: f64,
     iterations: usize,
 }
 
@@ -189,20 +216,39 @@ impl<'a, A: LinearOperator + ?Sized> Sparsa<'a, A> {
     /// # Panics
     /// When `y` or `x0` have the wrong length.
     pub fn new(a: &'a A, y: &'a [f64], x0: Option<&[f64]>) -> Self {
+        let mut aty = vec![0.0; a.cols()];
+        a.apply_adjoint(y, &mut aty);
+        Self::with_aty(a, y, aty, x0)
+    }
+
+    /// As [`Sparsa::new`] with `A^T y` already at hand.
+    ///
+    /// # Panics
+    /// When `y`, `aty` or `x0` have the wrong length.
+    pub fn with_aty(a: &'a A, y: &'a [f64], aty: Vec<f64>, x0: Option<&[f64]>) -> Self {
         assert_eq!(y.len(), a.rows(), "sparsa: y has the wrong length");
+        assert_eq!(aty.len(), a.cols(), "sparsa: A^T y has the wrong length");
         let x = x0.map_or_else(|| vec![0.0; a.cols()], <[f64]>::to_vec);
         assert_eq!(x.len(), a.cols(), "sparsa: x0 has the wrong length");
-        let mut ax = vec![0.0; a.rows()];
-        a.apply(&x, &mut ax);
-        let r: Vec<f64> = y.iter().zip(&ax).map(|(y, ax)| y - ax).collect();
-        let mut atr = vec![0.0; a.cols()];
-        a.apply_adjoint(&r, &mut atr);
+        let (r, atr) = if x.iter().all(|v| *v == 0.0) {
+            (y.to_vec(), aty.clone())
+        } else {
+            let mut ax = vec![0.0; a.rows()];
+            a.apply(&x, &mut ax);
+            let r: Vec<f64> = y.iter().zip(&ax).map(|(y, ax)| y - ax).collect();
+            let mut atr = vec![0.0; a.cols()];
+            a.apply_adjoint(&r, &mut atr);
+            (r, atr)
+        };
         Self {
             a,
             y,
             x,
-            r,
+            rr: dot(&r, &r),
+            ry: dot(&r, y),
+            r: Some(r),
             atr,
+            aty,
             iterations: 0,
         }
     }
@@ -213,10 +259,16 @@ impl<'a, A: LinearOperator + ?Sized> Sparsa<'a, A> {
         &self.x
     }
 
-    /// The current residual `y - A x`.
+    /// The current residual `y - A x` (formed anew on the coefficient-space
+    /// path).
     #[must_use]
-    pub fn residual(&self) -> &[f64] {
-        &self.r
+    pub fn residual(&self) -> Vec<f64> {
+        if let Some(r) = &self.r {
+            return r.clone();
+        }
+        let mut ax = vec![0.0; self.a.rows()];
+        self.a.apply(&self.x, &mut ax);
+        self.y.iter().zip(&ax).map(|(y, v)| y - v).collect()
     }
 
     /// `||A^T (y - A x)||_inf` at the current iterate (`||A^T y||_inf` at zero:
@@ -235,7 +287,7 @@ impl<'a, A: LinearOperator + ?Sized> Sparsa<'a, A> {
     /// `F(x) = 0.5 ||r||^2 + tau ||x||_1` at the current iterate.
     #[must_use]
     pub fn objective(&self, tau: f64) -> f64 {
-        0.5 * dot(&self.r, &self.r) + tau * self.x.iter().map(|v| v.abs()).sum::<f64>()
+        0.5 * self.rr.max(0.0) + tau * self.x.iter().map(|v| v.abs()).sum::<f64>()
     }
 
     /// Relative duality gap `(P - D) / P` at the current iterate, with the
@@ -245,12 +297,35 @@ impl<'a, A: LinearOperator + ?Sized> Sparsa<'a, A> {
         let p = self.objective(tau);
         let m = norm_inf(&self.atr);
         let scale = if m > tau { tau / m } else { 1.0 };
-        let d = scale * dot(&self.r, self.y) - 0.5 * scale * scale * dot(&self.r, &self.r);
+        let d = scale * self.ry - 0.5 * scale * scale * self.rr.max(0.0);
         if p <= 0.0 {
             0.0
         } else {
             ((p - d) / p).max(0.0)
         }
+    }
+
+    /// `||A d||^2` for the step `d` (dense, with its non-zero entries listed
+    /// in `idx`/`vals`), and `A^T A d` into `q` through the operator's Gram
+    /// product where it has one, else the image `A d` into `ad`.
+    fn step_products(
+        &mut self,
+        (d, idx, vals): (&[f64], &[usize], &[f64]),
+        q: &mut [f64],
+        ad: &mut Vec<f64>,
+    ) -> f64 {
+        if self.a.gram_apply(idx, vals, q) {
+            // The coefficient-space path from now on.
+            self.r = None;
+            return idx.iter().zip(vals).map(|(&k, v)| v * q[k]).sum();
+        }
+        if self.r.is_none() {
+            // An operator that stopped forming the product: back to the image.
+            self.r = Some(self.residual());
+        }
+        ad.resize(self.a.rows(), 0.0);
+        self.a.apply(d, ad);
+        dot(ad, ad)
     }
 
     /// Runs `SpaRSA` iterations at a fixed `tau` until `stop` holds (after at
@@ -265,36 +340,44 @@ impl<'a, A: LinearOperator + ?Sized> Sparsa<'a, A> {
         progress: &mut dyn FnMut(usize, f64, usize),
     ) {
         let n = self.a.cols();
-        let m = self.a.rows();
         let mut alpha = 1.0;
         let mut f = self.objective(tau);
         let mut hist: VecDeque<f64> = VecDeque::with_capacity(MEMORY + 1);
         hist.push_back(f);
         let mut x_new = vec![0.0; n];
         let mut dx = vec![0.0; n];
-        let mut adx = vec![0.0; m];
-        let mut r_new = vec![0.0; m];
+        let mut q = vec![0.0; n];
+        let mut ad = Vec::new();
+        let (mut idx, mut vals) = (Vec::new(), Vec::new());
         for it in 0..max_iter {
             let f_ref = hist.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
-            let (f_new, dxx) = loop {
+            // The step: its products, the new squared residual and r.y.
+            let (f_new, dxx, add, rr_new) = loop {
                 // grad = -A^T r
                 let t = tau / alpha;
+                idx.clear();
+                vals.clear();
+                let mut dxx = 0.0;
                 for k in 0..n {
                     x_new[k] = soft(self.x[k] + self.atr[k] / alpha, t);
                     dx[k] = x_new[k] - self.x[k];
+                    if dx[k] != 0.0 {
+                        idx.push(k);
+                        vals.push(dx[k]);
+                        dxx += dx[k] * dx[k];
+                    }
                 }
-                let dxx = dot(&dx, &dx);
                 if dxx == 0.0 {
-                    break (f, 0.0);
+                    break (f, 0.0, 0.0, self.rr);
                 }
-                self.a.apply(&dx, &mut adx);
-                for k in 0..m {
-                    r_new[k] = self.r[k] - adx[k];
-                }
+                let add = self.step_products((&dx, &idx, &vals), &mut q, &mut ad);
+                let datr: f64 = idx.iter().zip(&vals).map(|(&k, v)| v * self.atr[k]).sum();
+                // ||r - A d||^2
+                let rr_new = self.rr - 2.0 * datr + add;
                 let f_new =
-                    0.5 * dot(&r_new, &r_new) + tau * x_new.iter().map(|v| v.abs()).sum::<f64>();
+                    0.5 * rr_new.max(0.0) + tau * x_new.iter().map(|v| v.abs()).sum::<f64>();
                 if f_new <= f_ref - 0.5 * SIGMA * alpha * dxx || alpha >= ALPHA_MAX {
-                    break (f_new, dxx);
+                    break (f_new, dxx, add, rr_new);
                 }
                 alpha = (alpha * ETA).min(ALPHA_MAX);
             };
@@ -305,15 +388,31 @@ impl<'a, A: LinearOperator + ?Sized> Sparsa<'a, A> {
                 return;
             }
             std::mem::swap(&mut self.x, &mut x_new);
-            std::mem::swap(&mut self.r, &mut r_new);
-            self.a.apply_adjoint(&self.r, &mut self.atr);
+            if let Some(r) = &mut self.r {
+                for (rv, v) in r.iter_mut().zip(&ad) {
+                    *rv -= v;
+                }
+                self.a.apply_adjoint(r, &mut self.atr);
+                self.rr = dot(r, r);
+                self.ry = dot(r, self.y);
+            } else {
+                for (a, qv) in self.atr.iter_mut().zip(&q) {
+                    *a -= qv;
+                }
+                self.rr = rr_new;
+                self.ry -= idx
+                    .iter()
+                    .zip(&vals)
+                    .map(|(&k, v)| v * self.aty[k])
+                    .sum::<f64>();
+            }
             let f_prev = f;
             f = f_new;
             if hist.len() > MEMORY {
                 hist.pop_front();
             }
             hist.push_back(f);
-            alpha = (dot(&adx, &adx) / dxx).clamp(ALPHA_MIN, ALPHA_MAX);
+            alpha = (add / dxx).clamp(ALPHA_MIN, ALPHA_MAX);
             progress(self.iterations, f, nnz(&self.x));
             if it + 1 >= min_iter {
                 let done = match stop {
@@ -577,5 +676,74 @@ mod tests {
         let out = sparsa(&a, &y, None, &opts, &mut |_, _, _| calls += 1);
         assert_eq!(nnz(&out.x), 0);
         assert!(calls >= 1);
+    }
+
+    /// A dense operator that also forms `A^T A d` from its columns (the
+    /// solver's coefficient-space path).
+    struct WithGram(DenseOperator);
+
+    impl LinearOperator for WithGram {
+        fn rows(&self) -> usize {
+            self.0.rows()
+        }
+        fn cols(&self) -> usize {
+            self.0.cols()
+        }
+        fn apply(&self, x: &[f64], out: &mut [f64]) {
+            self.0.apply(x, out);
+        }
+        fn apply_adjoint(&self, r: &[f64], out: &mut [f64]) {
+            self.0.apply_adjoint(r, out);
+        }
+        fn gram_apply(&self, idx: &[usize], vals: &[f64], out: &mut [f64]) -> bool {
+            let mut d = vec![0.0; self.cols()];
+            for (&k, v) in idx.iter().zip(vals) {
+                d[k] = *v;
+            }
+            let mut ad = vec![0.0; self.rows()];
+            self.0.apply(&d, &mut ad);
+            self.0.apply_adjoint(&ad, out);
+            true
+        }
+    }
+
+    #[test]
+    fn coefficient_space_iterations_match_the_image_path() {
+        let (a, y) = random_problem(30, 60, 11);
+        let mut aty = vec![0.0; 60];
+        a.apply_adjoint(&y, &mut aty);
+        let opts = SparsaOptions {
+            tau: 0.05 * norm_inf(&aty),
+            stop: StopCriterion::DualityGap(1e-10),
+            max_iter: 100_000,
+            continuation: false,
+            debias: false,
+            ..SparsaOptions::default()
+        };
+        let image = sparsa(&a, &y, None, &opts, &mut |_, _, _| {});
+        let gram = WithGram(a.clone());
+        let mut s = Sparsa::new(&gram, &y, None);
+        s.solve_stage(
+            opts.tau,
+            opts.stop,
+            opts.min_iter,
+            opts.max_iter,
+            &mut |_, _, _| {},
+        );
+        assert!(s.r.is_none(), "the Gram path was not taken");
+        // the same minimiser, to the stopping tolerance
+        let f = |x: &[f64]| {
+            let mut ax = vec![0.0; 30];
+            a.apply(x, &mut ax);
+            0.5 * y.iter().zip(&ax).map(|(u, v)| (u - v).powi(2)).sum::<f64>()
+                + opts.tau * x.iter().map(|v| v.abs()).sum::<f64>()
+        };
+        let (fi, fg) = (f(&image.x), f(s.x()));
+        assert!((fi - fg).abs() <= 1e-9 * fi, "{fi} vs {fg}");
+        // the tracked objective is the true one
+        assert!((s.objective(opts.tau) - fg).abs() <= 1e-9 * fg);
+        let r = s.residual();
+        let rr: f64 = r.iter().map(|v| v * v).sum();
+        assert!((rr - s.rr).abs() <= 1e-9 * rr.max(1e-300));
     }
 }

@@ -32,6 +32,7 @@
 //! `~1 / (2 sqrt(pi) sigma)` is larger. Since `||gx gy|| = ||gx|| ||gy||`, it
 //! suffices to normalise the 1D factors; [`Dictionary::to_terms`] undoes it.
 
+mod gram;
 mod params;
 
 use rayon::prelude::*;
@@ -122,6 +123,9 @@ pub struct Dictionary {
     groups: Vec<Group>,
     atoms: usize,
     scratch: Scratch,
+    /// The 1D Gram matrices of [`Dictionary::gram_product`], formed on first
+    /// use (`None` when too large).
+    grams: std::sync::OnceLock<Option<gram::Grams>>,
 }
 
 /// [`Dictionary::apply`]'s per-group sums, kept between calls: a solve
@@ -242,6 +246,7 @@ impl Dictionary {
             groups,
             atoms: offset,
             scratch: Scratch::default(),
+            grams: std::sync::OnceLock::new(),
         }
     }
 
@@ -561,6 +566,10 @@ impl LinearOperator for Dictionary {
             });
     }
 
+    fn gram_apply(&self, idx: &[usize], vals: &[f64], out: &mut [f64]) -> bool {
+        self.gram_product(idx, vals, out)
+    }
+
     fn apply_adjoint_subset(&self, r: &[f64], idx: &[usize], out: &mut [f64]) {
         let w = self.width;
         out.par_iter_mut().zip(idx).for_each(|(o, &k)| {
@@ -666,5 +675,39 @@ mod tests {
         assert_eq!(p.level_of(p.sigma(2)), 2);
         assert_eq!(p.level_of(p.sigma(2) * 1.5), 2);
         assert_eq!(p.level_of(p.sigma(3)), 3);
+    }
+
+    #[test]
+    fn gram_product_is_the_adjoint_of_the_forward_image() {
+        // A^T A d through the Gram structure against A^T (A d) through the
+        // image, for a sparse d spread over every group and a dense one.
+        let d = small();
+        for every in [7, 1] {
+            let x: Vec<f64> = (0..d.len())
+                .map(|k| {
+                    if k % every == 0 {
+                        ((k * 29 % 13) as f64 - 6.0) / 6.0
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let mut ax = vec![0.0; d.rows()];
+            d.apply(&x, &mut ax);
+            let mut want = vec![0.0; d.len()];
+            d.apply_adjoint(&ax, &mut want);
+            let idx: Vec<usize> = (0..d.len()).filter(|&k| x[k] != 0.0).collect();
+            let vals: Vec<f64> = idx.iter().map(|&k| x[k]).collect();
+            let mut got = vec![f64::NAN; d.len()];
+            assert!(d.gram_apply(&idx, &vals, &mut got));
+            let scale = want.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+                assert!((g - w).abs() <= 1e-12 * scale, "atom {k}: {g} vs {w}");
+            }
+        }
+        // An empty step gives zeros.
+        let mut out = vec![1.0; d.len()];
+        assert!(d.gram_apply(&[], &[], &mut out));
+        assert!(out.iter().all(|v| *v == 0.0));
     }
 }

@@ -135,7 +135,9 @@ pub fn sampled_dc_gain(decomposition: &Decomposition) -> f64 {
 /// older code (the smoother's cached aspect bank) are refitted, not reused.
 /// 2: DC-exact refits ([`DecomposeOptions::exact_dc`], 2026-12-04).
 /// 3: the refits' linear algebra on nalgebra (rounding only, 2026-12-05).
-pub const FIT_REVISION: u32 = 3;
+/// 4: the solver's iterations in coefficient space through the dictionary's
+/// Gram structure (rounding only; supports of some fits change, 2026-12-07).
+pub const FIT_REVISION: u32 = 4;
 
 /// The most samples (kernel window and margin) a fit runs over.
 const MAX_FIT_SAMPLES: usize = 1 << 26;
@@ -357,7 +359,7 @@ fn decompose_on_grid(
     let fitter = Fitter {
         dict: &dict,
         y,
-        aty,
+        aty: aty.clone(),
         yy: y.iter().map(|v| v * v).sum(),
         dc: (opts.exact_dc && dc.1.is_finite()).then_some(DcConstraint {
             q: dc.0,
@@ -365,7 +367,7 @@ fn decompose_on_grid(
         }),
     };
     let max_terms = opts.max_terms.unwrap_or(usize::MAX);
-    let mut solver = Sparsa::new(&dict, y, None);
+    let mut solver = Sparsa::with_aty(&dict, y, aty, None);
     let tau_max = solver.max_correlation();
     let stop = StopCriterion::DualityGap(opts.stage_gap);
     let cb = &mut progress;
