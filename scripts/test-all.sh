@@ -15,7 +15,8 @@
 #      with cargo install when missing), the module-cycle check
 #      (scripts/module_cycles.py), the public API lists
 #      (scripts/public_api.py, rustdoc JSON), the architecture check
-#      (scripts/check_architecture.py), cargo test.
+#      (scripts/check_architecture.py), the docs' performance figures
+#      against BENCHMARKS.md (scripts/check_numbers.py), cargo test.
 #   4. The Python module `ifd` (crates/ifd-py) built and installed into .venv
 #      (maturin develop, the test profile), then the reference comparisons in
 #      tests/python (pytest; scikit-image, OpenCV, SciPy, pyshtools, ducc0
@@ -182,6 +183,14 @@ if python3 scripts/check_architecture.py >"$LOG_DIR/architecture.log" 2>&1; then
 else
   cat "$LOG_DIR/architecture.log"
   fail "ARCHITECTURE.md has drifted from the code"
+fi
+
+step "performance figures in the docs against BENCHMARKS.md (scripts/check_numbers.py)"
+if python3 scripts/check_numbers.py >"$LOG_DIR/numbers.log" 2>&1; then
+  ok "every performance figure in README, CONTRIBUTING and docs/ is one BENCHMARKS.md holds"
+else
+  cat "$LOG_DIR/numbers.log"
+  fail "a page restates a performance figure BENCHMARKS.md does not hold (scripts/check_numbers.py names file and line)"
 fi
 
 step "cargo test"

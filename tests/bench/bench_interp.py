@@ -3,7 +3,7 @@
 on a 1024x1024 upscaled astronaut.png, for an 8:1 Gaussian and a second
 derivative of a Gaussian, at a constant angle and with a swirl angle map.
 Prints the medians of `--runs` runs (prefiltering and filtering, from `-v`)
-as a markdown table (BENCHMARKS.md, "Interpolation").
+as a markdown table.
 
 Usage: .venv/bin/python tests/bench/bench_interp.py [--ifd target/release/ifd] [--runs 3]
 """

@@ -422,11 +422,14 @@ def summary(points, meta):
     lines.append(
         f"{m['size']}x{m['size']} images, `{m['spec']}` (extent 257 px at scale 1), one thread each, "
         f"median of {m['runs']} interleaved runs; PSNR on {m['samples']} sampled pixels against exact "
-        f"per-pixel correlation. ifd: `{m['ifd']}`"
-        + (f", B: `{m['ifd_b']}`" if m.get("ifd_b") else "")
-        + (f", extra filter arguments `{m['ifd_extra']}`" if m.get("ifd_extra") else "")
-        + f"; OpenCV {m['opencv']}; {m['cpu']}; {m['date']}."
+        f"per-pixel correlation. OpenCV {m['opencv']}"
+        + (f"; extra filter arguments `{m['ifd_extra']}`" if m.get("ifd_extra") else "")
+        + f". Measured on: {m['cpu']}."
     )
+    if m.get("command"):
+        # the command as run, from the repository root (the binaries by the
+        # paths given on its command line)
+        lines += ["", f"Command: `.venv/bin/python {m['command']}`"]
     lines.append("")
     lines.append(
         "Times interpolate log(time) linearly in PSNR on each series' lower envelope; "
