@@ -1,4 +1,5 @@
-"""Every shell block of README.md and docs/guide/*.md runs, as written (issue 36, item 4).
+"""Every shell block of README.md, docs/guide/*.md, docs/tutorial.md and docs/faq.md runs, as
+written (issue 36, item 4; the tutorial and the FAQ: issue 55, item 5).
 
 Each ```sh, ```bash and ```console block is one test (id `FILE:LINE`, the line of its
 opening fence). The block runs with `bash` and `set -e` in a fresh temporary folder that
@@ -42,7 +43,8 @@ import pytest
 
 from conftest import ROOT, TESTDATA
 
-DOCS = [ROOT / "README.md", *sorted((ROOT / "docs" / "guide").glob("*.md"))]
+GUIDES = sorted((ROOT / "docs" / "guide").glob("*.md"))
+DOCS = [ROOT / "README.md", *GUIDES, ROOT / "docs" / "tutorial.md", ROOT / "docs" / "faq.md"]
 SHELL_LANGS = {"sh", "bash", "console"}
 MARK = re.compile(r"^\s*<!--\s*doc-test:\s*(.*?)\s*-->\s*$")
 SKIP_MARK = re.compile(r"^skip\s*\((.+)\)$")
@@ -335,12 +337,13 @@ def _anchors(path: pathlib.Path) -> set[str]:
     return anchors
 
 
-LINKED_PAGES = [ROOT / "README.md", ROOT / "docs" / "README.md", *DOCS[1:]]
+LINKED_PAGES = [ROOT / "README.md", ROOT / "docs" / "README.md", *DOCS[1:], ROOT / "docs" / "glossary.md"]
 
 
 @pytest.mark.parametrize("page", LINKED_PAGES, ids=[p.relative_to(ROOT).as_posix() for p in LINKED_PAGES])
 def test_links_resolve(page):
-    """Every relative link (and its #anchor) of the README, the docs index and the guides."""
+    """Every relative link (and its #anchor) of the README, the docs index, the guides, the
+    tutorial, the FAQ and the glossary."""
     bad = []
     for line in _prose_lines(page):
         for target in LINK.findall(line):
@@ -359,7 +362,7 @@ def test_readme_is_a_front_door():
     lines = (ROOT / "README.md").read_text().splitlines()
     assert len(lines) <= 250, f"README.md has {len(lines)} lines (at most 250: the guides hold the rest)"
     first_screen = "\n".join(lines[:60])
-    for guide in DOCS[1:]:
+    for guide in GUIDES:
         assert f"docs/guide/{guide.name}" in first_screen, f"README.md's first screen does not link {guide.name}"
 
 
