@@ -61,6 +61,10 @@ enum Command {
     Render(Box<commands::render::Render>),
     /// Image-based lighting for engines: prefiltered GGX radiance mips, irradiance, SH (KTX2), the DFG table.
     Envmap(commands::envmap::Envmap),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    Completions(commands::shell::Completions),
+    /// Write the man pages of ifd and its subcommands into a folder.
+    Manpages(commands::shell::Manpages),
 }
 
 /// `--scale -1` must reach the command's own check (which names the option
@@ -151,6 +155,8 @@ fn main() -> ExitCode {
         Command::GpuInfo(c) => c.run(),
         Command::Hessian(c) => c.run(),
         Command::Smooth(c) => c.run(),
+        Command::Completions(c) => c.run(allow_negative_numbers(Cli::command())),
+        Command::Manpages(c) => c.run(allow_negative_numbers(Cli::command())),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -10,6 +10,7 @@ pub mod gpu_info;
 pub mod hessian;
 pub mod info;
 pub mod render;
+pub mod shell;
 pub mod sigma_map;
 pub mod smooth;
 pub mod sphere;
