@@ -226,6 +226,16 @@ else
   fail "building the python module (see $LOG_DIR/maturin.log); its tests will fail"
 fi
 
+step "release artifacts, quick form (scripts/dist.sh --quick)"
+# The archive and the abi3 wheel from the test build, unpacked and installed as a user
+# would (see the script), so that the release script cannot go stale.
+if scripts/dist.sh --quick >"$LOG_DIR/dist.log" 2>&1; then
+  ok "dist.sh --quick: archive and wheel install and run"
+else
+  tail -20 "$LOG_DIR/dist.log"
+  fail "scripts/dist.sh --quick (see $LOG_DIR/dist.log)"
+fi
+
 step "reference comparisons (pytest tests/python)"
 # `cargo test --workspace` has just built the `ifd` and `ifd-paper` binaries
 # (their integration tests run them) with the workspace's unified features.
