@@ -58,6 +58,8 @@ SKIPPED = {
     ("README.md", "ifd-brush"): "opens a window",
     ("README.md", "cargo build --release -p ifd-cli -p ifd-brush -p ifd-envrender"):
         "builds with cargo and pip (minutes)",
+    ("README.md", "cd dist && sha256sum -c SHA256SUMS"):
+        "needs the artifacts of scripts/dist.sh, which builds for minutes; the suite installs them this way in dist.sh --quick",
     ("README.md", "./scripts/demo.sh"):
         "the set-up scripts themselves: they build with cargo (minutes) and test-all.sh runs this test",
     ("docs/guide/gpu.md", "ifd render --env testdata/forest.hdr --brdf ggx:alpha=0.3 --lmax 16 "
