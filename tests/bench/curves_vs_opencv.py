@@ -169,20 +169,21 @@ def gauss(sx, sy, theta_deg, r):
 # exact reference
 
 
-def exact_reference(img, pys, pxs, angles, scales, batch=24):
-    """Exact correlation (float64) at the sampled pixels: the 257x257 kernel
-    rotated and scaled for each pixel, times the reflect-101 padded patch."""
-    pad = np.pad(img.astype(np.float64), R, mode="reflect")  # numpy's "reflect" is reflect-101
-    win = np.lib.stride_tricks.sliding_window_view(pad, (2 * R + 1, 2 * R + 1))
-    y, x = np.mgrid[-R : R + 1, -R : R + 1].astype(np.float64)
+def exact_reference(img, pys, pxs, angles, scales, batch=24, sx=SX, sy=SY, r=R):
+    """Exact correlation (float64) at the sampled pixels: the (2r+1)^2 kernel
+    (by default the 257x257 gauss:sx=32,sy=4) rotated and scaled for each
+    pixel, times the reflect-101 padded patch."""
+    pad = np.pad(img.astype(np.float64), r, mode="reflect")  # numpy's "reflect" is reflect-101
+    win = np.lib.stride_tricks.sliding_window_view(pad, (2 * r + 1, 2 * r + 1))
+    y, x = np.mgrid[-r : r + 1, -r : r + 1].astype(np.float64)
     out = np.empty(len(pys))
     for b0 in range(0, len(pys), batch):
         py, px = pys[b0 : b0 + batch], pxs[b0 : b0 + batch]
         t = np.deg2rad(angles[py, px].astype(np.float64))[:, None, None]
         s = scales[py, px].astype(np.float64)[:, None, None]
         c, sn = np.cos(t), np.sin(t)
-        u = (c * x - sn * y) / (SX * s)
-        v = (sn * x + c * y) / (SY * s)
+        u = (c * x - sn * y) / (sx * s)
+        v = (sn * x + c * y) / (sy * s)
         k = np.exp(-0.5 * (u * u + v * v))
         patch = win[py, px]  # (B, 257, 257) copy
         out[b0 : b0 + batch] = np.einsum("bij,bij->b", k, patch) / k.sum(axis=(1, 2))
