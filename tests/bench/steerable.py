@@ -235,32 +235,56 @@ class Steerable:
     """A fitted steerable basis: see `fit_steerable`."""
 
 
-def fit_steerable(kernel_at, k, scale_range=None, n_angles=90, n_scales=8, f0=None, grid=None, weight_tol=0.1,
-                  gap_tol=1e-3, table=(2048, 128), period=180.0):
-    """Fit a rank-`k` steerable basis of the family `kernel_at` (a function
-    (theta_deg, s) -> (2r+1)^2 window with attribute r, e.g.
-    `gauss_kernel_at`): the family sampled at `n_angles` angles over
-    `period` and, when `scale_range` = (smin, smax) is given, times
-    `n_scales` log-spaced scales; the SVD weighted by 1/(|f|^2 + f0^2) (see
-    the module's docstring); the weights' truncated Fourier series in 2 theta
-    and cubic splines in log scale. Returns a `Steerable` with the basis
-    kernels (k, 2r+1, 2r+1, float64), their sums, the singular values
-    (all of them), the kept harmonics, and the fit's wall time (`seconds`)."""
+def family_svd(kernel_at, scale_range=None, n_angles=90, n_scales=8, f0=None, grid=None, period=180.0):
+    """The weighted SVD of the sampled family (the part of the fit shared by
+    every K): the family `kernel_at` (a function (theta_deg, s) -> (2r+1)^2
+    window with attribute r, e.g. `gauss_kernel_at`) at `n_angles` angles
+    over `period` and, when `scale_range` = (smin, smax) is given, times
+    `n_scales` log-spaced scales; the eigendecomposition of its Gram matrix
+    weighted by 1/(|f|^2 + f0^2) (see the module's docstring). A dict: the
+    family (n, 2r+1, 2r+1), the squared singular values (descending) and
+    the right singular vectors (n, n), the sampling, and its wall time."""
     import time
 
     t0 = time.perf_counter()
-    r = kernel_at.r
     angles = np.arange(n_angles) * (period / n_angles)
     scales = log_scales(*scale_range, n_scales) if scale_range else np.array([1.0])
-    ns = len(scales)
     fam = np.stack([kernel_at(a, s) for s in scales for a in angles])  # (ns * na, size, size)
+    lam, v = np.linalg.eigh(weighted_gram(fam, f0=f0, grid=grid))
+    order = np.argsort(lam)[::-1]
+    return {
+        "fam": fam,
+        "lam": np.maximum(lam[order], 0.0),
+        "v": v[:, order],
+        "r": kernel_at.r,
+        "n_angles": n_angles,
+        "n_scales": len(scales),
+        "scale_range": tuple(scale_range) if scale_range else None,
+        "period": period,
+        "seconds": time.perf_counter() - t0,
+    }
+
+
+def fit_steerable(kernel_at, k, scale_range=None, n_angles=90, n_scales=8, f0=None, grid=None, weight_tol=0.1,
+                  gap_tol=1e-3, table=(2048, 128), period=180.0, svd=None):
+    """Fit a rank-`k` steerable basis of the family `kernel_at` (see
+    `family_svd`, whose result may be passed as `svd` to share it between
+    several k; then the sampling arguments are its own): the basis kernels
+    from the weighted SVD, the weights' truncated Fourier series in 2 theta
+    and cubic splines in log scale (see the module's docstring). Returns a
+    `Steerable` with the basis kernels (k, 2r+1, 2r+1, float64), their sums,
+    the singular values (all of them), the kept terms, and the fit's wall
+    time (`seconds`, the SVD's included; `svd_seconds` that part)."""
+    import time
+
+    if svd is None:
+        svd = family_svd(kernel_at, scale_range, n_angles, n_scales, f0, grid, period)
+    t0 = time.perf_counter()
+    fam, lam, v = svd["fam"], svd["lam"], svd["v"]
+    r, n_angles, ns, scale_range, period = svd["r"], svd["n_angles"], svd["n_scales"], svd["scale_range"], svd["period"]
     n = fam.shape[0]
     if not 1 <= k <= n:
         raise ValueError(f"k: 1..{n}")
-    g = weighted_gram(fam, f0=f0, grid=grid)
-    lam, v = np.linalg.eigh(g)
-    order = np.argsort(lam)[::-1]
-    lam, v = np.maximum(lam[order], 0.0), v[:, order]
     vk = _align_pairs(v[:, :k].copy(), lam, ns, n_angles, gap_tol)
     basis = np.tensordot(vk.T, fam, axes=1)  # (k, size, size): b_k = sum_i V[i, k] k_i
     trunc_err = float(lam[k:].sum())
@@ -329,7 +353,8 @@ def fit_steerable(kernel_at, k, scale_range=None, n_angles=90, n_scales=8, f0=No
             dc[(h, part)] = dc.get((h, part), 0.0) + m.sums[kk] * samples[0, p]
         big = max(abs(v) for v in dc.values())
         m.dc_terms = [(h, part, c) for (h, part), c in sorted(dc.items()) if abs(c) > 1e-9 * big]
-    m.seconds = time.perf_counter() - t0
+    m.svd_seconds = svd["seconds"]
+    m.seconds = time.perf_counter() - t0 + svd["seconds"]
     return m
 
 
