@@ -327,6 +327,7 @@ def fit_steerable(kernel_at, k, scale_range=None, n_angles=90, n_scales=8, f0=No
     m.weight_error = spent / float(lam.sum())
     m.pairs = pairs
     m.pairs_of = [[p for p, q in enumerate(pairs) if q[0] == kk] for kk in range(k)]
+    m.fold = np.ones(k)
     m.harmonics = sorted({h for _, h, _ in pairs})
     if ns > 1:
         # w_k(theta, s) tabulated on `table` = (angles over the period, log
@@ -347,6 +348,9 @@ def fit_steerable(kernel_at, k, scale_range=None, n_angles=90, n_scales=8, f0=No
         m.knots = knots
     else:
         m.const = samples[0]
+        for kk, ps in enumerate(m.pairs_of):
+            if len(ps) == 1:
+                m.fold[kk] = samples[0, ps[0]]
         # the DC gain as a function of angle: sum_k sums_k w_k(theta), by harmonic
         dc = {}
         for p, (kk, h, part) in enumerate(pairs):
@@ -412,8 +416,11 @@ def prepare(model, shape):
     """The model's kernel spectra for images of `shape` (per image size; the
     fit's second part): (n, ...) complex64, basis kernels in order, or bins
     in (scale, angle) order."""
-    kernels = model.basis if model.kind == "steerable" else model.kernels
-    return kernel_spectra(kernels, shape, model.r)
+    if model.kind == "steerable":
+        # a basis kernel whose weight is one term c trig(h, theta) is scaled
+        # by c here, so that its weight per pixel is trig itself
+        return kernel_spectra(model.basis * model.fold[:, None, None], shape, model.r)
+    return kernel_spectra(model.kernels, shape, model.r)
 
 
 # ---------------------------------------------------------------------------
@@ -426,7 +433,9 @@ def _forward(img, r):
     ever reach outputs that are cropped away), and its rfft2 (complex64)."""
     h, w = img.shape
     l0, l1 = padded_size(img.shape, r)
-    pad = np.pad(img.astype(np.float32, copy=False), ((r, l0 - h - r), (r, l1 - w - r)), mode="reflect")
+    import cv2
+
+    pad = cv2.copyMakeBorder(img.astype(np.float32, copy=False), r, l0 - h - r, r, l1 - w - r, cv2.BORDER_REFLECT_101)
     return sfft.rfft2(pad, workers=1, overwrite_x=True)
 
 
@@ -534,8 +543,12 @@ def apply_steerable(model, spectra, img, angles, scales=None):
             cv2.remap(model.tables[kk], mx, my, cv2.INTER_LINEAR, dst=wbuf, borderMode=cv2.BORDER_REPLICATE)
         else:
             pk = model.pairs_of[kk]
-            if len(pk) == 1 and model.pairs[pk[0]][1] == 0:  # a constant weight
-                cv2_scale_add(f, float(model.const[pk[0]]), out)
+            if len(pk) == 1:  # one term, its constant folded into the spectrum (`prepare`)
+                _, hh, part = model.pairs[pk[0]]
+                if hh:
+                    cv2.accumulateProduct(f, trig[hh][part], out)
+                else:
+                    np.add(out, f, out=out)
                 continue
             _angle_weight(model, kk, trig, wbuf)
         cv2.accumulateProduct(f, wbuf, out)
@@ -556,54 +569,63 @@ def apply_bins(model, spectra, img, angles, scales=None):
     """Blended bins applied to `img` with per-pixel `angles` (degrees) and
     `scales` (None: 1); `spectra` from `prepare`. Linear weights between the
     two nearest angle bins (wrapping at the period), bilinear over the 2 x 2
-    nearest angle x log-scale bins. float32 output."""
+    nearest angle x log-scale bins. float32 output.
+
+    Every pixel's cell (the bins below it in angle and log scale) and its
+    corner weights are computed once; each bin's output is then accumulated,
+    times the corner's weight, into the pixels of the (up to 4) cells that
+    read it (cv2.accumulateProduct with the cell's mask); a bin no pixel
+    reads is skipped."""
+    import cv2
+
     h, w = img.shape
     r, ka, ks = model.r, model.ka, model.ks
     x = _forward(img, r)
     n1 = padded_size(img.shape, r)[1]
     pa = angles.astype(np.float32) * np.float32(ka / model.period)
     pa %= np.float32(ka)
-    ia = np.floor(pa).astype(np.int32)
-    present_a = np.bincount(ia.ravel() % ka, minlength=ka) > 0
-    present_a = present_a | np.roll(present_a, 1)  # bin i is read by pixels of cells i and i - 1
-    ts = None
+    i0 = pa.astype(np.int32)  # floor: pa >= 0
+    fa = pa - i0.astype(np.float32)
+    i0 %= ka  # pa may round up to ka
     if ks > 1:
         smin, smax = model.scale_range
-        if scales is None:
-            scales = np.ones_like(angles)
-        q = np.log(scales.astype(np.float32))
+        q = np.log((np.ones_like(angles) if scales is None else scales).astype(np.float32))
         q -= np.float32(math.log(smin))
         q *= np.float32((ks - 1) / (math.log(smax) - math.log(smin)))
         np.clip(q, 0, ks - 1, out=q)
-        ts = []
-        for j in range(ks):
-            t = np.abs(q - np.float32(j))
-            np.subtract(np.float32(1), t, out=t)
-            np.maximum(t, 0, out=t)
-            ts.append(t if t.any() else None)
+        j0 = np.minimum(q.astype(np.int32), ks - 2)
+        fs = q - j0.astype(np.float32)
+        cell = i0 * (ks - 1) + j0
+        ga = np.float32(1) - fa
+        gs = np.float32(1) - fs
+        corner = {(0, 0): ga * gs, (1, 0): fa * gs, (0, 1): ga * fs, (1, 1): fa * fs}
+        ncell = ka * (ks - 1)
+    else:
+        cell = i0
+        corner = {(0, 0): np.float32(1) - fa, (1, 0): fa}
+        ncell = ka
+    present = np.bincount(cell.ravel(), minlength=ncell) > 0
+    cell = cell.astype(np.uint16 if ncell < 65536 else np.int32)
     out = np.zeros((h, w), np.float32)
     buf = np.empty_like(x)
-    wa = np.empty((h, w), np.float32)
-    tmp = np.empty((h, w), np.float32)
-    half = np.float32(ka / 2)
-    for i in range(ka):
-        if not present_a[i]:
-            continue
-        # wrapped distance |pa - i| in bins, weight max(0, 1 - d)
-        np.subtract(pa, np.float32(i), out=wa)
-        np.abs(wa, out=wa)
-        np.subtract(wa, half, out=wa)
-        np.abs(wa, out=wa)  # half - d' where d' is the wrapped distance
-        wa -= half - np.float32(1)  # 1 - d'
-        np.maximum(wa, 0, out=wa)
-        for j in range(ks):
-            if ts is not None and ts[j] is None:
+    mask = np.empty((h, w), bool)
+    for j in range(ks):
+        for i in range(ka):
+            parts = []
+            for (da, ds), wt in corner.items():
+                ci, cj = (i - da) % ka, j - ds
+                if ks > 1:
+                    if not 0 <= cj <= ks - 2:
+                        continue
+                    c = ci * (ks - 1) + cj
+                else:
+                    c = ci
+                if present[c]:
+                    parts.append((c, wt))
+            if not parts:
                 continue
             f = _inv(x, spectra[j * ka + i], buf, r, h, w, n1)
-            if ts is None:
-                np.multiply(f, wa, out=tmp)
-            else:
-                np.multiply(wa, ts[j], out=tmp)
-                tmp *= f
-            out += tmp
+            for c, wt in parts:
+                np.equal(cell, c, out=mask)
+                cv2.accumulateProduct(f, wt, out, mask=mask.view(np.uint8))
     return out
