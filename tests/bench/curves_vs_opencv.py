@@ -65,9 +65,10 @@ includes the planning; not process start-up or file I/O, recorded apart as
 wall_ms); the decompositions are fitted once beforehand (`--cache DIR` keeps
 them between runs) and the fit time is excluded. OpenCV's time is the
 per-pixel selection plus every cv2.filter2D call and the copy/accumulation
-of its output; building the bins' kernels is excluded, as the fit is. The steerable basis' and the spectrum-once bins'
-time is their apply call: padding, the forward DFT, every spectrum product
-and inverse DFT, the per-pixel weights and the accumulation. Every
+of its output; building the bins' kernels is excluded, as the fit is. The
+steerable basis' and the spectrum-once bins' time is their apply call:
+padding, the forward DFT, every spectrum product and inverse DFT, the
+per-pixel weights and the accumulation. Every
 configuration of an image and case runs `--runs` times (5 by default),
 interleaved: one round of every configuration, then the next round; the
 median and the min-max range are reported.
