@@ -766,14 +766,39 @@ def names(s):
     return [v.strip() for v in s.split(",") if v.strip()]
 
 
+def amd_core(family, model):
+    """The AMD core generation of a /proc/cpuinfo family and model, or None."""
+    if family == 23:
+        return "Zen 2" if model >= 0x30 else "Zen / Zen+"
+    if family == 25:
+        return "Zen 4" if 0x10 <= model <= 0x1F or 0x60 <= model <= 0xAF else "Zen 3"
+    if family == 26:
+        return "Zen 5"
+    return None
+
+
 def cpu_name():
+    """The CPU's model name (/proc/cpuinfo), with its family and model, the
+    AMD core generation they mean, the logical CPU count and AVX-512 when
+    present: a virtual machine may show only "AMD EPYC"."""
     try:
+        info = {}
         for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
+            if ":" in line:
+                k, v = line.split(":", 1)
+                info.setdefault(k.strip(), v.strip())
+        name = info.get("model name") or platform.processor() or platform.machine()
+        extra = []
+        if "cpu family" in info and "model" in info:
+            fam, mod = int(info["cpu family"]), int(info["model"])
+            core = amd_core(fam, mod) if info.get("vendor_id") == "AuthenticAMD" else None
+            extra.append(f"family {fam} model {mod}" + (f", {core}" if core else ""))
+        extra.append(f"{os.cpu_count()} logical CPUs")
+        if "avx512f" in info.get("flags", "").split():
+            extra.append("AVX-512")
+        return f"{name} ({'; '.join(extra)})"
+    except (OSError, ValueError):
+        return platform.processor() or platform.machine()
 
 
 def write_outputs(points, meta, a):
