@@ -62,9 +62,11 @@ spline's knots). Scales outside the range are clamped to it.
 Per pixel: w_k(p) = sum over its kept terms of trig(h, theta(p)) u_kh(s(p)).
 Angle only, the trig terms are computed per pixel (np.cos / np.sin of 2 h
 theta, once per harmonic) and summed with their constant coefficients. With
-a scale range each w_k(theta, s) is tabulated at the fit on `table` = (2048
-angles over the period, 128 log scales) from the series and the splines, and
-read per pixel with cv2.remap (bilinear; its maps computed once per image),
+a scale range each w_k(theta, s) is tabulated at the fit on `table` = (1024
+angles over the period, 64 log scales) from the series and the splines, and
+read per pixel with cv2.remap (bilinear, float maps computed once per image;
+a 256 KB table stays in a core's L2: 2.6 ms a remap at 1024^2 against 3.6
+ms with 2048 x 128, the same PSNR to 0.01 dB at K = 24, as with 512 x 32),
 one remap per basis kernel. The output is sum_k w_k(p) (b_k corr img)(p)
 (cv2.accumulateProduct), divided by the truncated basis' DC gain at that
 pixel, sum_k w_k(p) sum(b_k) (its own few trig terms, or table), so that a
@@ -268,7 +270,7 @@ def family_svd(kernel_at, scale_range=None, n_angles=90, n_scales=8, f0=None, gr
 
 
 def fit_steerable(kernel_at, k, scale_range=None, n_angles=90, n_scales=8, f0=None, grid=None, weight_tol=0.1,
-                  gap_tol=1e-3, table=(2048, 128), period=180.0, svd=None):
+                  gap_tol=1e-3, table=(1024, 64), period=180.0, svd=None):
     """Fit a rank-`k` steerable basis of the family `kernel_at` (see
     `family_svd`, whose result may be passed as `svd` to share it between
     several k; then the sampling arguments are its own): the basis kernels
@@ -453,13 +455,22 @@ def _trig(model, angles, harmonics):
     return out
 
 
+def _wrap(x, period):
+    """x (float32) wrapped into [0, period] in place (x - floor(x / period)
+    period: numpy's float % is ten times slower)."""
+    y = x * np.float32(1.0 / period)
+    np.floor(y, out=y)
+    y *= np.float32(period)
+    x -= y
+    return x
+
+
 def _remap_maps(model, angles, scales):
     """cv2.remap's maps into the model's (log scale x angle) tables: x the
     angle in table columns, y the clamped normalised log scale in rows."""
     smin, smax = model.scale_range
     nsx, nt1 = model.tables.shape[1:]
-    mx = angles.astype(np.float32) * np.float32((nt1 - 1) / model.period)
-    mx %= np.float32(nt1 - 1)
+    mx = _wrap(angles.astype(np.float32) * np.float32((nt1 - 1) / model.period), nt1 - 1)
     my = np.log(scales.astype(np.float32))
     my -= np.float32(math.log(smin))
     my *= np.float32((nsx - 1) / (math.log(smax) - math.log(smin)))
@@ -584,8 +595,7 @@ def apply_bins(model, spectra, img, angles, scales=None):
     r, ka, ks = model.r, model.ka, model.ks
     x = _forward(img, r)
     n1 = padded_size(img.shape, r)[1]
-    pa = angles.astype(np.float32) * np.float32(ka / model.period)
-    pa %= np.float32(ka)
+    pa = _wrap(angles.astype(np.float32) * np.float32(ka / model.period), ka)
     i0 = pa.astype(np.int32)  # floor: pa >= 0
     fa = pa - i0.astype(np.float32)
     i0 %= ka  # pa may round up to ka
