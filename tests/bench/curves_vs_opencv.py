@@ -118,10 +118,12 @@ import sys
 import tempfile
 import time
 
-# One thread for BLAS too, before numpy loads it: the steerable basis' SVD
-# (its fit) uses it; nothing timed does.
-for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_v, "1")
+# Run as a script: one thread for BLAS too, before numpy loads it (the
+# steerable basis' SVD, its fit, uses it; nothing timed does). Imported (by a
+# test), the environment is left alone.
+if __name__ == "__main__":
+    for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(_v, "1")
 
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
