@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
-"""Time against accuracy: ifd against binned cv2.filter2D, as curves.
+"""Time against accuracy: ifd against its peers -- a steerable basis, bins
+with the image spectrum computed once, and binned cv2.filter2D -- as curves.
 
 What it measures. A spatially varying anisotropic filter, the 8:1 Gaussian
 `gauss:sx=32,sy=4,theta=0` (extent 257 px at scale 1), rotated per pixel by a
 swirl angle field ("angle" case) and also scaled per pixel by a radial scale
-field in [0.5, 1] ("angle+scale" case), on several 1024x1024 grayscale images
-(camera.png and astronaut.png upscaled with INTER_CUBIC, and a smooth
+field in [0.5, 1] ("angle+scale" case; `--scale-range 0.25` or `0.125` for
+[0.25, 1] or [0.125, 1], the wide regimes), on several 1024x1024 grayscale
+images (camera.png and astronaut.png upscaled with INTER_CUBIC, and a smooth
 synthetic image). Each method has a knob that trades time for accuracy, so
 every method is a curve of points (PSNR, time) rather than one point:
 
@@ -14,7 +16,26 @@ every method is a curve of points (PSNR, time) rather than one point:
   linear|auto`); optionally the scalar loop too (`--scalar-too`, series
   "... scalar") and a second build (`--ifd-b`, series "ifd (B) ...") that
   filters with the same decompositions.
-* OpenCV, which has no per-pixel kernel: the usual workaround, the kernel
+* the steerable basis (series "steerable", knob K, `--steerable-k` and
+  `--steerable-k-scaled`): tests/bench/steerable.py, whose docstring has the
+  method -- the family sampled at 90 angles (x 8 log-spaced scales over the
+  scale range), its SVD weighted by a natural-image spectrum 1/(f^2 + f0^2),
+  K basis kernels applied through one spectrum product and inverse DFT each
+  with the one forward DFT of the padded image, per-pixel weights from
+  truncated Fourier series in 2 theta and splines in log scale, the output
+  divided by the basis' DC gain. Its fit (the SVD, shared by every K of a
+  case, and the weights) and its kernels' spectra at the image size are
+  excluded from the times and reported as the fit time.
+* bins with the image spectrum computed once (series "bins (spectrum
+  once)", knob the bins, `--fft-bins` and `--fft-bins-scaled` as ANGLExSCALE):
+  the kernel rotated (and scaled) into bins, each applied through one
+  spectrum product and inverse DFT with the one forward DFT of the padded
+  image, blended per pixel linearly between the two nearest angle bins
+  (wrapping) and bilinearly over the 2x2 nearest angle x log-scale bins
+  (tests/bench/steerable.py too; the bins' kernels and spectra are the fit).
+  These two are the strongest peers; `--peers` picks the peers to run.
+* OpenCV's filter2D (series "OpenCV filter2D bins, RULE"), which has no
+  per-pixel kernel: the usual workaround, the kernel
   rotated (and scaled) into bins, cv2.filter2D (float32, BORDER_REFLECT_101,
   its DFT path) once per bin, and a per-pixel selection among the bin
   outputs. The knob is the number of angle bins K (`--bins`); with the scale
@@ -36,14 +57,18 @@ over a whole image would take hours). The peak of the PSNR is the range of
 the exact values on the sample. The kernel's own fit error (relative L2) is
 recorded for every ifd point too.
 
-Timing: one thread each (cv2.setNumThreads(1); RAYON_NUM_THREADS=1 for ifd).
+Timing: one thread each (cv2.setNumThreads(1); RAYON_NUM_THREADS=1 for ifd;
+scipy.fft with workers=1 and one BLAS thread for the Python peers).
 ifd's time is its planning (the evaluation plan's estimate), prefiltering
 and filtering as `ifd filter --verbose` reports them (the "prefilter" column
 includes the planning; not process start-up or file I/O, recorded apart as
 wall_ms); the decompositions are fitted once beforehand (`--cache DIR` keeps
 them between runs) and the fit time is excluded. OpenCV's time is the
 per-pixel selection plus every cv2.filter2D call and the copy/accumulation
-of its output; building the bins' kernels is excluded, as the fit is. Every
+of its output; building the bins' kernels is excluded, as the fit is. The
+steerable basis' and the spectrum-once bins' time is their apply call:
+padding, the forward DFT, every spectrum product and inverse DFT, the
+per-pixel weights and the accumulation. Every
 configuration of an image and case runs `--runs` times (5 by default),
 interleaved: one round of every configuration, then the next round; the
 median and the min-max range are reported.
@@ -54,24 +79,28 @@ Output: a line per configuration (stdout) and a progress line per round
 against time (log scale), a line per series; and a markdown summary (stdout,
 and `--markdown FILE`): for every series the time it needs to reach 40, 45,
 50, 55 and 60 dB, interpolating log(time) linearly in PSNR between the neighbouring
-points of the series' lower envelope (its Pareto front), and the ratio of
-OpenCV's best series to ifd's best series at 45, 50, 55 and 60 dB; then the
+points of the series' lower envelope (its Pareto front), each series' fit
+time, the CPU's name, and the ratio of the best peer (the fastest of every
+non-ifd series) to ifd's best series at 45, 50, 55 and 60 dB; then the
 same ratio computed round by round from each round's times ("paired": every
 round runs every point once, so the machine's drift between rounds cancels),
 its median and range. A time marked "<=" is the series' cheapest point, which
 is already past the target.
 
 Full run (roughly an hour on one core of a 2020s x86 machine, most of it
-OpenCV's angle+scale bins and ifd's finest tolerances; the progress lines on
+OpenCV's angle+scale bins and ifd's finest tolerances; add `--peers
+steerable,bins` to leave OpenCV's filter2D bins out; the progress lines on
 stderr estimate what is left):
 
     .venv/bin/python tests/bench/curves_vs_opencv.py --ifd target/release/ifd --runs 5 \\
         --json docs/bench/ifd-vs-opencv-curves.json --markdown docs/bench/ifd-vs-opencv-curves.md
 
 Smoke test: `--quick` (320x320: ifd refuses images narrower than the
-kernel's 257 px; bins 4,8,16, tols 0.02,0.01, 2 runs, 300
-samples, one image). `--replot FILE.json` redraws the plot and the summary
-from an earlier `--json` without running anything.
+kernel's 257 px; OpenCV bins 4,8,16, steerable K 4,8,12 (angle+scale
+4,8,16), spectrum-once bins 4,8,16 (8x2,16x3), tols 0.02,0.01, 2 runs, 300
+samples, one image; about a minute, most of it the angle+scale SVD).
+`--replot FILE.json` redraws the plot and the summary from an earlier
+`--json` without running anything.
 """
 
 import argparse
@@ -89,20 +118,30 @@ import sys
 import tempfile
 import time
 
-import cv2
-import numpy as np
+# Run as a script: one thread for BLAS too, before numpy loads it (the
+# steerable basis' SVD, its fit, uses it; nothing timed does). Imported (by a
+# test), the environment is left alone.
+if __name__ == "__main__":
+    for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(_v, "1")
 
-from ifd_paths import ROOT, ifd_binary
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+
+import steerable as st  # noqa: E402
+from ifd_paths import ROOT, ifd_binary  # noqa: E402
 
 SX, SY = 32.0, 4.0  # 8:1
 R = 128  # kernel radius at scale 1: extent 257
 SPEC = "gauss:sx=32,sy=4,theta=0"
-SMIN, SMAX = 0.5, 1.0
+SMIN, SMAX = 0.5, 1.0  # the scale field's range (--scale-range sets SMIN)
 TARGETS = (40.0, 45.0, 50.0, 55.0, 60.0)
 RATIO_TARGETS = (45.0, 50.0, 55.0, 60.0)
 IMAGES = ("camera", "astronaut", "smooth")
 CASES = ("angle", "angle+scale")
 RULES = ("nearest", "blend")
+PEERS = ("steerable", "bins", "cv2")
+PEER_SERIES = {"steerable": "steerable", "fftbins": "bins (spectrum once)"}
 
 
 # ---------------------------------------------------------------------------
@@ -169,20 +208,21 @@ def gauss(sx, sy, theta_deg, r):
 # exact reference
 
 
-def exact_reference(img, pys, pxs, angles, scales, batch=24):
-    """Exact correlation (float64) at the sampled pixels: the 257x257 kernel
-    rotated and scaled for each pixel, times the reflect-101 padded patch."""
-    pad = np.pad(img.astype(np.float64), R, mode="reflect")  # numpy's "reflect" is reflect-101
-    win = np.lib.stride_tricks.sliding_window_view(pad, (2 * R + 1, 2 * R + 1))
-    y, x = np.mgrid[-R : R + 1, -R : R + 1].astype(np.float64)
+def exact_reference(img, pys, pxs, angles, scales, batch=24, sx=SX, sy=SY, r=R):
+    """Exact correlation (float64) at the sampled pixels: the (2r+1)^2 kernel
+    (by default the 257x257 gauss:sx=32,sy=4) rotated and scaled for each
+    pixel, times the reflect-101 padded patch."""
+    pad = np.pad(img.astype(np.float64), r, mode="reflect")  # numpy's "reflect" is reflect-101
+    win = np.lib.stride_tricks.sliding_window_view(pad, (2 * r + 1, 2 * r + 1))
+    y, x = np.mgrid[-r : r + 1, -r : r + 1].astype(np.float64)
     out = np.empty(len(pys))
     for b0 in range(0, len(pys), batch):
         py, px = pys[b0 : b0 + batch], pxs[b0 : b0 + batch]
         t = np.deg2rad(angles[py, px].astype(np.float64))[:, None, None]
         s = scales[py, px].astype(np.float64)[:, None, None]
         c, sn = np.cos(t), np.sin(t)
-        u = (c * x - sn * y) / (SX * s)
-        v = (sn * x + c * y) / (SY * s)
+        u = (c * x - sn * y) / (sx * s)
+        v = (sn * x + c * y) / (sy * s)
         k = np.exp(-0.5 * (u * u + v * v))
         patch = win[py, px]  # (B, 257, 257) copy
         out[b0 : b0 + batch] = np.einsum("bij,bij->b", k, patch) / k.sum(axis=(1, 2))
@@ -304,6 +344,68 @@ def cv2_binned(img, angles, scales, ka, ks, rule):
 # ifd
 
 
+# ---------------------------------------------------------------------------
+# the strongest peers: tests/bench/steerable.py
+
+
+def fit_peers(cases, peers, steer_k, fft_bins, n, budget_mb):
+    """Fit the steerable bases (one weighted SVD per case, shared by every
+    K) and the spectrum-once bins of every case, and their kernels' spectra
+    at n x n (kept while they fit in `budget_mb`, else recomputed before each
+    run, outside the timings). Returns {case: {(method, knob): fit}}; a fit
+    holds the model, its spectra (or None), its display fields and params
+    with the fit time (the model's fit plus the spectra at this size)."""
+    kernel_at = st.gauss_kernel_at(SX, SY, R)
+    fits, used = {}, 0.0
+    for case in cases:
+        sr = (SMIN, SMAX) if case == "angle+scale" else None
+        fs = {}
+        if "steerable" in peers:
+            svd = st.family_svd(kernel_at, scale_range=sr)
+            print(
+                f"[{case}] steerable: weighted SVD of {svd['fam'].shape[0]} kernels in {svd['seconds']:.1f} s "
+                "(shared by every K; in each K's fit time)",
+                flush=True,
+            )
+            for i, k in enumerate(steer_k[case]):
+                m = st.fit_steerable(kernel_at, k, svd=svd)
+                fs[("steerable", k)] = {
+                    "model": m, "order": i, "note": f"{k}", "name": f"steerable, K = {k}",
+                    "params": {
+                        "k": k, "svd_seconds": m.svd_seconds, "terms": len(m.pairs), "harmonics": max(m.harmonics),
+                        "weighted_rel_error": math.sqrt(m.truncation_error),
+                        "n_angles": m.n_angles, "n_scales": m.n_scales,
+                    },
+                }
+            del svd
+        if "bins" in peers:
+            for i, (ka, ks) in enumerate(fft_bins[case]):
+                b = st.fit_bins(kernel_at, ka, ks if sr else 1, scale_range=sr)
+                note = f"{ka}x{b.ks}" if sr else f"{ka}"
+                fs[("fftbins", note)] = {
+                    "model": b, "order": i, "note": note,
+                    "name": f"bins (spectrum once), {ka} angle" + (f" x {b.ks} scale bins" if sr else " bins"),
+                    "params": {"bins_angle": ka, "bins_scale": b.ks, "bins": ka * b.ks},
+                }
+        for f in fs.values():
+            t0 = time.perf_counter()
+            spectra = st.prepare(f["model"], (n, n))
+            prep = time.perf_counter() - t0
+            mb = spectra.nbytes / 2**20
+            f["spectra"] = spectra if used + mb <= budget_mb else None
+            used += mb if f["spectra"] is not None else 0.0
+            f["params"].update(prepare_seconds=prep, fit_seconds=f["model"].seconds + prep)
+        if fs:
+            print(
+                f"[{case}] peers fitted: "
+                + "; ".join(f"{f['name']} {f['params']['fit_seconds']:.2f} s" for f in fs.values())
+                + f" (excluded from the timings; spectra kept: {used:.0f} MB)",
+                flush=True,
+            )
+        fits[case] = fs
+    return fits
+
+
 def fail(what, p):
     sys.stderr.write(p.stderr or "")
     sys.stderr.write(f"\n{what} failed (exit {p.returncode}): {shlex.join(map(str, p.args))}\n")
@@ -407,24 +509,43 @@ def fmt_ms(ms, how=None):
     return ("<= " + s) if how == "le" else s
 
 
+METHOD_RANK = {"ifd": 0, "steerable": 1, "fftbins": 2, "cv2": 3}
+
+
 def series_order(points):
-    """Series names in a stable display order: ifd first, then OpenCV."""
-    seen = []
+    """Series names in a stable display order: ifd first, then the peers:
+    the steerable basis, the bins with the spectrum once, OpenCV's bins."""
+    seen, rank = [], {}
     for q in points:
         if q["series"] not in seen:
             seen.append(q["series"])
-    return sorted(seen, key=lambda s: (s.startswith("cv2"), seen.index(s)))
+            rank[q["series"]] = METHOD_RANK.get(q["method"], 9)
+    return sorted(seen, key=lambda s: (rank[s], seen.index(s)))
+
+
+def fit_cell(sp):
+    """The fit time of a series' points (s; a range), '-' when not recorded."""
+    fs = [q["params"].get("fit_seconds") for q in sp]
+    fs = [f for f in fs if f is not None]
+    if not fs:
+        return "-"
+    lo, hi = min(fs), max(fs)
+    return f"{lo:.2g} s" if hi - lo < 0.05 * hi + 0.01 else f"{lo:.2g}-{hi:.2g} s"
 
 
 def summary(points, meta):
-    lines = ["# ifd against binned cv2.filter2D: time to reach a PSNR", ""]
+    lines = ["# ifd against its peers (steerable basis, bins with the spectrum once, OpenCV filter2D bins): "
+             "time to reach a PSNR", ""]
     m = meta
+    lines.append(f"CPU: **{m['cpu']}** (every time below: one thread, this CPU).")
+    lines.append("")
     lines.append(
-        f"{m['size']}x{m['size']} images, `{m['spec']}` (extent 257 px at scale 1), one thread each, "
+        f"{m['size']}x{m['size']} images, `{m['spec']}` (extent 257 px at scale 1), scale field over "
+        f"[{m.get('scale_min', SMIN):g}, {SMAX:g}] in the angle+scale case, one thread each, "
         f"median of {m['runs']} interleaved runs; PSNR on {m['samples']} sampled pixels against exact "
-        f"per-pixel correlation. OpenCV {m['opencv']}"
+        f"per-pixel correlation. OpenCV {m['opencv']}, numpy {m.get('numpy', '?')}, scipy {m.get('scipy', '?')}"
         + (f"; extra filter arguments `{m['ifd_extra']}`" if m.get("ifd_extra") else "")
-        + f". Measured on: {m['cpu']}."
+        + "."
     )
     if m.get("command"):
         # the command as run, from the repository root (the binaries by the
@@ -433,7 +554,10 @@ def summary(points, meta):
     lines.append("")
     lines.append(
         "Times interpolate log(time) linearly in PSNR on each series' lower envelope; "
-        "\"<=\" marks a series whose cheapest point is already past the target."
+        "\"<=\" marks a series whose cheapest point is already past the target. "
+        "The fit column is each point's one-off cost, outside the times: ifd's decomposition, the "
+        "steerable basis' weighted SVD and weights plus its kernels' spectra at this image size, the "
+        "bins' kernels and spectra (OpenCV's bins: not measured)."
     )
     panels = []
     for q in points:
@@ -443,8 +567,8 @@ def summary(points, meta):
     for image, case in panels:
         pts = [q for q in points if q["image"] == image and q["case"] == case]
         lines += ["", f"## {image}, {case}", ""]
-        hdr = "| series | " + " | ".join(f"{t:.0f} dB" for t in TARGETS) + " | points: PSNR range, time range |"
-        lines += [hdr, "|---" * (len(TARGETS) + 2) + "|"]
+        hdr = "| series | " + " | ".join(f"{t:.0f} dB" for t in TARGETS) + " | points: PSNR range, time range | fit |"
+        lines += [hdr, "|---" * (len(TARGETS) + 3) + "|"]
         at = {}
         for s in series_order(pts):
             sp = [q for q in pts if q["series"] == s]
@@ -455,9 +579,11 @@ def summary(points, meta):
             cells = [fmt_ms(*at[s][t]) for t in TARGETS]
             lines.append(
                 f"| {s} | " + " | ".join(cells)
-                + f" | {len(sp)}: {min(ps):.1f}-{max(ps):.1f} dB, {min(ts):.0f}-{max(ts):.0f} ms |"
+                + f" | {len(sp)}: {min(ps):.1f}-{max(ps):.1f} dB, {min(ts):.0f}-{max(ts):.0f} ms | {fit_cell(sp)} |"
             )
-        cv_series = [s for s in at if s.startswith("cv2")]
+        method_of = {q["series"]: q["method"] for q in pts}
+        cv_series = [s for s in at if method_of[s] != "ifd"]  # every peer
+        opencv_series = [s for s in at if method_of[s] == "cv2"]
         ifd_groups = {}
         for q in pts:
             if q["method"] == "ifd":
@@ -472,6 +598,7 @@ def summary(points, meta):
                 # (ms, how, series) of the fastest series that reaches t
                 best_i = min(((*at[s][t], s) for s in iseries if at[s][t][0] is not None), default=None)
                 best_c = min(((*at[s][t], s) for s in cv_series if at[s][t][0] is not None), default=None)
+                best_o = min(((*at[s][t], s) for s in opencv_series if at[s][t][0] is not None), default=None)
                 r = None
                 if best_i and best_c:
                     r = best_c[0] / best_i[0]
@@ -481,7 +608,7 @@ def summary(points, meta):
                         f"= **{r:.1f}x**"
                     )
                 elif best_i:
-                    parts.append(f"at {t:.0f} dB, OpenCV not reached ({best_i[2]} {fmt_ms(best_i[0], best_i[1])})")
+                    parts.append(f"at {t:.0f} dB, no peer reached it ({best_i[2]} {fmt_ms(best_i[0], best_i[1])})")
                 elif best_c:
                     parts.append(f"at {t:.0f} dB, {blabel} not reached ({best_c[2]} {fmt_ms(best_c[0], best_c[1])})")
                 else:
@@ -492,13 +619,14 @@ def summary(points, meta):
                     "binary": blabel,
                     "psnr": t,
                     "ratio": r,
-                    "opencv": best_c and {"series": best_c[2], "ms": best_c[0], "upper_bound": best_c[1] == "le"},
+                    "peer": best_c and {"series": best_c[2], "ms": best_c[0], "upper_bound": best_c[1] == "le"},
+                    "opencv": best_o and {"series": best_o[2], "ms": best_o[0], "upper_bound": best_o[1] == "le"},
                     "ifd": best_i and {"series": best_i[2], "ms": best_i[0], "upper_bound": best_i[1] == "le"},
                 }
                 if paired:
                     rec["paired"] = paired.get(t)
                 ratios.append(rec)
-            lines.append(f"OpenCV best / {blabel} best: " + "; ".join(parts) + ".")
+            lines.append(f"Best peer / {blabel} best: " + "; ".join(parts) + ".")
             if paired:
                 cells = []
                 for t in RATIO_TARGETS:
@@ -509,7 +637,7 @@ def summary(points, meta):
                     )
                 lines.append("")
                 lines.append(
-                    f"Paired, the median (range) over the rounds of each round's OpenCV best / {blabel} best "
+                    f"Paired, the median (range) over the rounds of each round's best peer / {blabel} best "
                     "(each round ran every point once, so the machine's drift between rounds cancels): "
                     + "; ".join(cells) + "."
                 )
@@ -520,7 +648,7 @@ def summary(points, meta):
 
 
 def paired_ratios(pts, iseries, cv_series):
-    """For each ratio target, the ratio OpenCV best / ifd best computed
+    """For each ratio target, the ratio best peer / ifd best computed
     round by round (each point's time in that round, the envelopes and the
     interpolation as in `summary`); targets either side misses in some
     round are left out. Empty when the points carry no per-round times."""
@@ -549,6 +677,10 @@ def style(q):
         return {"nearest": ("#d62728", "s"), "blend": ("#ff7f0e", "D")}.get(
             q["params"]["rule"], ("#8c564b", "v")
         ) + ("-", True)
+    if q["method"] == "steerable":
+        return "#9467bd", "P", "-", True
+    if q["method"] == "fftbins":
+        return "#8c564b", "X", "-", True
     colour = {"linear": "#1f77b4", "auto": "#2ca02c", "cubic": "#9467bd"}.get(q["params"]["interp"], "#17becf")
     b = q.get("binary_index", 0)
     return colour, ("o" if b == 0 else "^"), (":" if q["params"]["scalar"] else ("-" if b == 0 else "--")), (
@@ -615,7 +747,7 @@ def plot(points, meta, path):
     fig.suptitle(
         f"{meta['spec']} rotated (and scaled) per pixel,{' ' if len(cases) > 1 else chr(10)}"
         f"{meta['size']}x{meta['size']}, one thread, "
-        f"median of {meta['runs']} runs\nlabels: ifd terms, OpenCV angle (x scale) bins",
+        f"median of {meta['runs']} runs, {meta['cpu']}\nlabels: ifd terms, steerable K, bins angle (x scale)",
         fontsize=10,
     )
     fig.tight_layout(rect=(0, 0, 1, (0.96 if len(images) > 1 else 0.92) - (0.02 if len(cases) == 1 else 0)))
@@ -639,14 +771,39 @@ def names(s):
     return [v.strip() for v in s.split(",") if v.strip()]
 
 
+def amd_core(family, model):
+    """The AMD core generation of a /proc/cpuinfo family and model, or None."""
+    if family == 23:
+        return "Zen 2" if model >= 0x30 else "Zen / Zen+"
+    if family == 25:
+        return "Zen 4" if 0x10 <= model <= 0x1F or 0x60 <= model <= 0xAF else "Zen 3"
+    if family == 26:
+        return "Zen 5"
+    return None
+
+
 def cpu_name():
+    """The CPU's model name (/proc/cpuinfo), with its family and model, the
+    AMD core generation they mean, the logical CPU count and AVX-512 when
+    present: a virtual machine may show only "AMD EPYC"."""
     try:
+        info = {}
         for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
+            if ":" in line:
+                k, v = line.split(":", 1)
+                info.setdefault(k.strip(), v.strip())
+        name = info.get("model name") or platform.processor() or platform.machine()
+        extra = []
+        if "cpu family" in info and "model" in info:
+            fam, mod = int(info["cpu family"]), int(info["model"])
+            core = amd_core(fam, mod) if info.get("vendor_id") == "AuthenticAMD" else None
+            extra.append(f"family {fam} model {mod}" + (f", {core}" if core else ""))
+        extra.append(f"{os.cpu_count()} logical CPUs")
+        if "avx512f" in info.get("flags", "").split():
+            extra.append("AVX-512")
+        return f"{name} ({'; '.join(extra)})"
+    except (OSError, ValueError):
+        return platform.processor() or platform.machine()
 
 
 def write_outputs(points, meta, a):
@@ -665,6 +822,7 @@ def write_outputs(points, meta, a):
 
 
 def main():
+    global SMIN  # --scale-range
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--ifd", help="the ifd binary (default target/release/ifd, else target/debug/ifd)")
     ap.add_argument("--ifd-b", help="a second ifd binary, series 'ifd (B) ...', same decompositions")
@@ -676,7 +834,21 @@ def main():
     ap.add_argument("--cases", help=f"comma-separated subset of {','.join(CASES)} (default both)")
     ap.add_argument("--tols", help="ifd decompose --tol values (default 0.02,0.01,0.005,0.0025)")
     ap.add_argument("--interps", help="ifd filter --interp values (default linear,auto)")
-    ap.add_argument("--bins", help="OpenCV angle bins (default 8,12,16,24,32,48,64,96)")
+    ap.add_argument("--bins", help="OpenCV filter2D angle bins (default 8,12,16,24,32,48,64,96)")
+    ap.add_argument("--peers", default=",".join(PEERS),
+                    help="peers to run: steerable (the steerable basis), bins (blended bins, spectrum once), "
+                    "cv2 (OpenCV filter2D bins) (default all)")
+    ap.add_argument("--steerable-k", help="steerable basis sizes K, angle case (default 4,6,8,10,12,14,16,20,24)")
+    ap.add_argument("--steerable-k-scaled", help="steerable basis sizes K, angle+scale case (default 4,6,8,12,16,20,24,32,40,48)")
+    ap.add_argument("--fft-bins", help="angle bins of the bins with the spectrum once, angle case (default 8,12,16,24,32,48)")
+    ap.add_argument("--fft-bins-scaled",
+                    help="angle x scale bins of the bins with the spectrum once, angle+scale case "
+                    "(default 8x2,12x2,16x2,16x3,24x3,32x3,32x4,48x4)")
+    ap.add_argument("--scale-range", type=float, default=SMIN, metavar="SMIN",
+                    help=f"the scale field's smallest scale: [SMIN, 1] (default {SMIN:g}; 0.25, 0.125: the wide regimes)")
+    ap.add_argument("--spectra-mb", type=float, default=1500,
+                    help="memory for the peers' kernel spectra kept between runs (MB; beyond it they are recomputed "
+                    "before each run, untimed; default 1500)")
     ap.add_argument("--max-bins-scaled", type=int, default=64, help="most angle bins in the angle+scale case (64)")
     ap.add_argument("--rules", default="nearest,blend", help="OpenCV selection rules (default nearest,blend)")
     ap.add_argument("--runs", type=int, help="timed runs of every configuration (default 5)")
@@ -687,7 +859,9 @@ def main():
     ap.add_argument("--plot", help="the plot (default: beside --markdown, else --json, as .png; else in the temp folder; '' for none)")
     ap.add_argument("--markdown", help="write the summary here too")
     ap.add_argument("--replot", metavar="JSON", help="redraw plot and summary from an earlier --json; run nothing")
-    ap.add_argument("--quick", action="store_true", help="smoke test: 320 px, bins 4,8,16, tols 0.02,0.01, 2 runs, 300 samples, one image")
+    ap.add_argument("--quick", action="store_true",
+                    help="smoke test: 320 px, bins 4,8,16, steerable K 4,8,12 (angle+scale 4,8,16), spectrum-once "
+                    "bins 4,8,16 (8x2,16x3), tols 0.02,0.01, 2 runs, 300 samples, one image")
     a = ap.parse_args()
 
     q = a.quick
@@ -715,6 +889,23 @@ def main():
     tols = floats(a.tols) if a.tols else ([0.02, 0.01] if q else [0.02, 0.01, 0.005, 0.0025])
     interps = names(a.interps) if a.interps else ["linear", "auto"]
     bins = ints(a.bins) if a.bins else ([4, 8, 16] if q else [8, 12, 16, 24, 32, 48, 64, 96])
+    peers = names(a.peers)
+    for pname in peers:
+        if pname not in PEERS:
+            raise SystemExit(f"unknown peer {pname!r} (known: {', '.join(PEERS)})")
+    steer_k = {
+        "angle": ints(a.steerable_k) if a.steerable_k else ([4, 8, 12] if q else [4, 6, 8, 10, 12, 14, 16, 20, 24]),
+        "angle+scale": ints(a.steerable_k_scaled) if a.steerable_k_scaled
+        else ([4, 8, 16] if q else [4, 6, 8, 12, 16, 20, 24, 32, 40, 48]),
+    }
+    fft_bins = {
+        "angle": [(k, 1) for k in ints(a.fft_bins)] if a.fft_bins else [(k, 1) for k in ([4, 8, 16] if q else [8, 12, 16, 24, 32, 48])],
+        "angle+scale": [tuple(int(v) for v in b.split("x")) for b in names(a.fft_bins_scaled)] if a.fft_bins_scaled
+        else ([(8, 2), (16, 3)] if q else [(8, 2), (12, 2), (16, 2), (16, 3), (24, 3), (32, 3), (32, 4), (48, 4)]),
+    }
+    if not 0 < a.scale_range < SMAX:
+        raise SystemExit(f"--scale-range: in (0, {SMAX:g})")
+    SMIN = a.scale_range
     rules = names(a.rules)
     runs = a.runs or (2 if q else 5)
     ns = a.samples or (300 if q else 2000)
@@ -761,6 +952,10 @@ def main():
         "interps": interps,
         "bins": bins,
         "max_bins_scaled": a.max_bins_scaled,
+        "peers": peers,
+        "steerable_k": steer_k,
+        "fft_bins": {c: [f"{ka}x{ks}" for ka, ks in v] for c, v in fft_bins.items()},
+        "scale_min": SMIN,
         "rules": rules,
         "runs": runs,
         "samples": ns,
@@ -772,6 +967,7 @@ def main():
         "scalar_too": a.scalar_too,
         "opencv": cv2.__version__,
         "numpy": np.__version__,
+        "scipy": __import__("scipy").__version__,
         "cpu": cpu_name(),
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
         "command": shlex.join(sys.argv),
@@ -803,6 +999,10 @@ def main():
             }
             for tol, _, rep in decomps
         ]
+        fits = fit_peers(cases, peers, steer_k, fft_bins, n, a.spectra_mb)
+        meta["peer_fits"] = {
+            case: {f"{key[0]} {key[1]}": dict(f["params"]) for key, f in fs.items()} for case, fs in fits.items()
+        }
         np.save(tmp / "angle.npy", angles)
         np.save(tmp / "scale.npy", scales)
         out_npy = tmp / "out.npy"
@@ -854,7 +1054,20 @@ def main():
                                         "_run": (binary, path, interp, scalar),
                                     }
                                 )
-                for rule in rules:
+                for key, f in fits.get(case, {}).items():
+                    method = key[0]
+                    configs.append(
+                        {
+                            "method": method,
+                            "series": PEER_SERIES[method],
+                            "order": f["order"],
+                            "note": f["note"],
+                            "name": f["name"],
+                            "params": f["params"],
+                            "_fit": f,
+                        }
+                    )
+                for rule in rules if "cv2" in peers else []:
                     for k, ka in enumerate(bins):
                         if scaled and ka > a.max_bins_scaled:
                             continue
@@ -862,10 +1075,10 @@ def main():
                         configs.append(
                             {
                                 "method": "cv2",
-                                "series": f"cv2 {rule}",
+                                "series": f"OpenCV filter2D bins, {rule}",
                                 "order": k,
                                 "note": f"{ka}x{ks}" if scaled else f"{ka}",
-                                "name": f"cv2 {rule}, {ka} angle x {ks} scale bins",
+                                "name": f"OpenCV filter2D bins, {rule}, {ka} angle x {ks} scale bins",
                                 "params": {"rule": rule, "bins_angle": ka, "bins_scale": ks, "bins": ka * ks},
                                 "_run": (ka, ks, rule),
                             }
@@ -888,6 +1101,14 @@ def main():
                             c["filt"].append(filt)
                             c["wall"].append(wall)
                             c["notes"] = notes
+                        elif c["method"] in ("steerable", "fftbins"):
+                            f = c["_fit"]
+                            spectra = f["spectra"] if f["spectra"] is not None else st.prepare(f["model"], img.shape)
+                            apply = st.apply_steerable if c["method"] == "steerable" else st.apply_bins
+                            t0 = time.perf_counter()
+                            out = apply(f["model"], spectra, img, angles, sc if scaled else None)
+                            c["times"].append((time.perf_counter() - t0) * 1e3)
+                            del spectra
                         else:
                             ka, ks, rule = c["_run"]
                             out, ms = cv2_binned(img, angles, sc, ka, ks, rule)
