@@ -86,8 +86,9 @@ const NEAREST_MOST_PER_OCTAVE: usize = 8;
 /// Filtering white noise measures within 15% of it.
 ///
 /// # The rule
-/// [`EvalPlan::choose`] takes the first of bilinear at pyramid factor 1, 2
-/// and 4, then the cubic B-spline at factor 1, 2, 4, 8 and unsubsampled,
+/// [`EvalPlan::choose`] takes the first of bilinear at pyramid factor 1,
+/// sqrt 2, 2, 2 sqrt 2 and 4, then the cubic B-spline at factor 1 to 8 in
+/// the same half-octave steps and unsubsampled,
 /// whose estimate is within the budget (default [`EvalPlan::budget_for`])
 /// over the scales used; when none is, the one with the lowest estimate (a
 /// later candidate replaces an earlier one only if 5% lower; a finer factor
@@ -235,17 +236,26 @@ impl EvalPlan {
                 "error budget {budget} must be finite and positive"
             )));
         }
+        // Factors half an octave apart (a level's samples per sigma grow by
+        // sqrt 2 a step), so that the accuracy, and the cost, grow in small
+        // steps with the budget instead of doubling.
+        let r2 = std::f64::consts::SQRT_2;
         let candidates = [
             (Interpolation::Linear, 1.0),
+            (Interpolation::Linear, r2),
             (Interpolation::Linear, 2.0),
+            (Interpolation::Linear, 2.0 * r2),
             (Interpolation::Linear, 4.0),
             (Interpolation::Cubic, 1.0),
+            (Interpolation::Cubic, r2),
             (Interpolation::Cubic, 2.0),
+            (Interpolation::Cubic, 2.0 * r2),
             (Interpolation::Cubic, 4.0),
+            (Interpolation::Cubic, 4.0 * r2),
             (Interpolation::Cubic, 8.0),
             (Interpolation::Cubic, f64::INFINITY),
         ];
-        let factors = [1.0, 2.0, 4.0, 8.0, f64::INFINITY];
+        let factors = [1.0, r2, 2.0, 2.0 * r2, 4.0, 4.0 * r2, 8.0, f64::INFINITY];
         let fixed: Vec<(Interpolation, f64)> = match only {
             None => candidates.to_vec(),
             Some(i) => factors.iter().map(|&f| (i, f)).collect(),
@@ -285,9 +295,12 @@ impl EvalPlan {
             if best.is_none_or(|b| plan.error_estimate < 0.95 * b.error_estimate) {
                 best = Some(plan);
             }
+            // (the same estimate is the same layout: a half-octave factor
+            // can store every level as the one before did)
             if let Some((i, e)) = last
                 && i == interpolation
                 && plan.error_estimate >= 0.95 * e
+                && plan.error_estimate != e
             {
                 stalled.push(interpolation);
             }
@@ -556,7 +569,7 @@ mod tests {
         };
         // Looser budgets, fewer levels: every count from 2 to 4 is taken,
         // each plan with fewer than 4 within its budget.
-        let mut seen = Vec::new();
+        let (mut seen, mut factors) = (Vec::new(), Vec::<(f64, usize)>::new());
         for budget in [
             0.1,
             0.03,
@@ -571,10 +584,14 @@ mod tests {
                 assert!(p.error_estimate <= budget, "{budget}: {p:?}");
             }
             assert!(p.level_error > 0.0);
+            // a tighter budget never reads coarser levels, nor, at the same
+            // pyramid factor, fewer of them
             assert!(
-                seen.last().is_none_or(|&n| n <= p.samples_per_octave),
-                "{budget}: {p:?}"
+                factors.last().is_none_or(|&(f, n)| f < p.pyramid_factor
+                    || (f == p.pyramid_factor && n <= p.samples_per_octave)),
+                "{budget}: {p:?} after {factors:?}"
             );
+            factors.push((p.pyramid_factor, p.samples_per_octave));
             seen.push(p.samples_per_octave);
         }
         assert_eq!((seen[0], *seen.last().unwrap()), (2, 4), "{seen:?}");
@@ -595,9 +612,11 @@ mod tests {
             sigma: 40.0,
         }]);
         let plan = EvalPlan::choose(&d, 1.0, 1.0, PlanOptions::default()).unwrap();
-        assert_eq!(
-            (plan.interpolation, plan.pyramid_factor),
-            (Interpolation::Cubic, 2.0)
+        assert_eq!(plan.interpolation, Interpolation::Cubic);
+        assert!(plan.pyramid_factor <= 2.0, "{plan:?}");
+        assert!(
+            plan.error_estimate <= PlanOptions::default().budget,
+            "{plan:?}"
         );
         assert!((plan.amplification - 1.0).abs() < 1e-9);
         // Bilinear at factor 2 reads it at r in [2, 4): about 1% per axis.
