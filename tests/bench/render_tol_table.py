@@ -39,7 +39,7 @@ ENV_SIZE = "128x64"
 GRAZING = 0.2
 LADDER = (1, 2, 3, 4, 6, 8, 12, 16, 20, 24, 32, 40, 48, 64, 80, 100)
 # the smallest L of each roughness' ladder: below it every map errs by tens of percent
-GLOSSY_ROUGHNESS = {0.2: 32, 0.3: 16, 0.4: 12, 0.45: 12, 0.5: 8, 0.6: 6, 0.7: 4, 0.85: 4, 1.0: 4}
+GLOSSY_ROUGHNESS = {0.3: 16, 0.4: 12, 0.45: 12, 0.5: 8, 0.6: 6, 0.7: 4, 0.85: 4, 1.0: 4}
 PHONG = {4: 2, 16: 2, 64: 4, 256: 8}
 FIELDS = ["material", "roughness", "L", "rel_rms_object", "rel_rms_grazing", "map",
           "grazing_pixels", "object_pixels"]
