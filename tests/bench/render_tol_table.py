@@ -42,7 +42,7 @@ LADDER = (1, 2, 3, 4, 6, 8, 12, 16, 20, 24, 32, 40, 48, 64, 80, 100)
 GLOSSY_ROUGHNESS = {0.3: 16, 0.4: 12, 0.45: 12, 0.5: 8, 0.6: 6, 0.7: 4, 0.85: 4, 1.0: 4}
 PHONG = {4: 2, 16: 2, 64: 4, 256: 8}
 FIELDS = ["material", "roughness", "L", "rel_rms_object", "rel_rms_grazing", "map",
-          "grazing_pixels", "object_pixels"]
+          "grazing_pixels", "object_pixels", "size"]
 
 
 def kinds():
@@ -63,9 +63,9 @@ def run(args):
     subprocess.run([str(a) for a in args], check=True, capture_output=True)
 
 
-def render(ifd, env, spec, method, out, lmax=None, table=None, gbuffer=None):
+def render(ifd, env, spec, method, out, lmax=None, table=None, gbuffer=None, size=SIZE):
     args = [ifd, "render", "--env", env, "--env-size", ENV_SIZE, "--brdf", spec, "--method",
-            method, "--size", SIZE, "--no-background", "-o", out]
+            method, "--size", size, "--no-background", "-o", out]
     if lmax is not None:
         args += ["--lmax", lmax]
     if table is not None:
@@ -87,6 +87,8 @@ def main():
     ap.add_argument("--tables", type=pathlib.Path, default=None,
                     help="folder keeping the lobe tables between runs (default: a temporary one)")
     ap.add_argument("--only", default=None, help="only this material")
+    ap.add_argument("--size", default=SIZE, help=f"image size (default {SIZE}; the CSV has "
+                    "128x128 and 64x64, whose grazing pixels err more)")
     ap.add_argument("--rust", type=pathlib.Path, default=None,
                     help="write the rule's table (crates/ifd-render/src/tolerance/table.rs) "
                          "from the CSV instead of measuring")
@@ -105,10 +107,15 @@ def main():
     if a.csv.exists():
         with open(a.csv) as f:
             done = list(csv.DictReader(f))
+    for r in done:
+        r.setdefault("size", SIZE)
+        r["size"] = r["size"] or SIZE
     rows = list(done)
+    size = a.size
 
     def save():
-        rows.sort(key=lambda r: (r["material"], float(r["roughness"]), r["map"], int(r["L"])))
+        rows.sort(key=lambda r: (r["material"], float(r["roughness"]), r["size"], r["map"],
+                                 int(r["L"])))
         with open(a.csv, "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=FIELDS, lineterminator="\n")
             w.writeheader()
@@ -119,15 +126,20 @@ def main():
         tables = a.tables or tmp
         tables.mkdir(parents=True, exist_ok=True)
         gb = tmp / "g.npy"
-        render(ifd, MAPS["forest"], "lambert", "isd", tmp / "x.npy", 1, gbuffer=gb)
+        render(ifd, MAPS["forest"], "lambert", "isd", tmp / "x.npy", 1, gbuffer=gb, size=size)
         nv = np.load(gb)[..., 3]
         for material, param, spec, tabulated, l0 in kinds():
             if a.only and material != a.only:
                 continue
             refs = dict.fromkeys(MAPS)
             prev = {}
-            for lmax in (l for l in LADDER if l >= l0):
-                have = [r for r in done if r["material"] == material and
+            ladder = [l for l in LADDER if l >= l0]
+            if size != SIZE:
+                # the degrees the default size measured, each of them (no early stop)
+                ladder = sorted({int(r["L"]) for r in done if r["material"] == material and
+                                 r["size"] == SIZE and float(r["roughness"]) == param})
+            for lmax in ladder:
+                have = [r for r in done if r["material"] == material and r["size"] == size and
                         float(r["roughness"]) == param and int(r["L"]) == lmax]
                 errs = {}
                 if len(have) == len(MAPS):
@@ -141,18 +153,20 @@ def main():
                             run([ifd, "sphere", "brdf", tabulated, "--lmax", lmax, "-o", table])
                     for name, env in MAPS.items():
                         if refs[name] is None:
-                            refs[name] = render(ifd, env, spec, "quadrature", tmp / "ref.npy")
+                            refs[name] = render(ifd, env, spec, "quadrature", tmp / "ref.npy",
+                                                size=size)
                         ref = refs[name]
                         on = ref.sum(axis=-1) > 0
                         graze = on & (nv < GRAZING)
-                        img = render(ifd, env, spec, "isd", tmp / "isd.npy", lmax, table)
+                        img = render(ifd, env, spec, "isd", tmp / "isd.npy", lmax, table,
+                                     size=size)
                         e = (rel_rms(img, ref, on), rel_rms(img, ref, graze))
                         errs[name] = e
                         rows.append({"material": material, "roughness": param, "L": lmax,
                                      "rel_rms_object": f"{e[0]:.4e}",
                                      "rel_rms_grazing": f"{e[1]:.4e}", "map": name,
                                      "grazing_pixels": int(graze.sum()),
-                                     "object_pixels": int(on.sum())})
+                                     "object_pixels": int(on.sum()), "size": size})
                     save()
                 worst = max(max(e) for e in errs.values())
                 print(f"{material} {param:g} L = {lmax}: "
@@ -161,16 +175,21 @@ def main():
                 # the floor: no error fell by 10% since the last two degrees
                 stalled = prev and all(errs[n][k] > 0.9 * prev[-1][n][k]
                                        for n in errs for k in (0, 1))
-                if len(prev) >= 2 and stalled and all(
+                if size == SIZE and len(prev) >= 2 and stalled and all(
                         errs[n][k] > 0.9 * prev[-2][n][k] for n in errs for k in (0, 1)):
                     break
-                if worst < 2e-4:
+                if size == SIZE and worst < 2e-4:
                     break
                 prev = (list(prev) + [errs])[-2:]
 
 
 RUST_KINDS = {"GLTF_DIELECTRIC": ("gltf-dielectric",), "GLTF_METAL": ("gltf-dielectric", "gltf-metal"),
               "GGX": ("ggx",), "PHONG": ("phong",), "LAMBERT": ("lambert",)}
+
+
+def sizes(rows):
+    """The image sizes the CSV has."""
+    return {r.get("size") or SIZE for r in rows}
 
 
 def write_rust(path, out):  # noqa: C901
@@ -201,9 +220,10 @@ def write_rust(path, out):  # noqa: C901
                 for r in sel:
                     if r["material"] == m and float(r["roughness"]) == p:
                         e = max(float(r["rel_rms_object"]), float(r["rel_rms_grazing"]))
-                        per_l.setdefault(int(r["L"]), []).append(e)
-                # the degrees measured on every map
-                per_material.append({l: max(e) for l, e in per_l.items() if len(e) == len(MAPS)})
+                        per_l.setdefault(int(r["L"]), {})[(r["map"], r.get("size"))] = e
+                # the degrees measured on every map and size
+                per_material.append({l: max(e.values()) for l, e in per_l.items()
+                                     if len(e) == len(MAPS) * len(sizes(rows))})
             ls = sorted(set.intersection(*(set(d) for d in per_material)))
             if not ls:
                 continue
@@ -232,8 +252,9 @@ def rule_rows(path):
                 for r in sel:
                     if r["material"] == m and float(r["roughness"]) == p:
                         e = max(float(r["rel_rms_object"]), float(r["rel_rms_grazing"]))
-                        d.setdefault(int(r["L"]), []).append(e)
-                per.append({l: max(e) for l, e in d.items() if len(e) == len(MAPS)})
+                        d.setdefault(int(r["L"]), {})[(r["map"], r.get("size"))] = e
+                per.append({l: max(e.values()) for l, e in d.items()
+                            if len(e) == len(MAPS) * len(sizes(rows))})
             ls = sorted(set.intersection(*(set(d) for d in per)))
             errs = [max(d[l] for d in per) for l in ls]
             for k in range(len(errs) - 2, -1, -1):
