@@ -60,7 +60,7 @@ pub struct Render {
     #[arg(long, value_name = "SPEC")]
     brdf: Option<String>,
     /// Maximum SH degree L: required by --method isd, isd-maps and sh (and by
-    /// isd with --brdf mirror).
+    /// isd with --brdf mirror), unless --tol chooses it.
     #[arg(long, value_name = "L")]
     lmax: Option<usize>,
     /// Instead of --lmax: the relative RMS error against the oracle to stay within (0 < E < 1,
