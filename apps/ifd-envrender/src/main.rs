@@ -33,6 +33,12 @@ struct Args {
     /// Maximum SH degree L.
     #[arg(long, value_name = "L")]
     lmax: Option<usize>,
+    /// Instead of --lmax: L chosen for a relative RMS error within E of the exact integral
+    /// (0 < E < 1), over the object and its grazing views alike, by the measured rule of
+    /// `ifd render --tol` (docs/render-tol.csv), at most 63; refused with the smallest
+    /// reachable E when the material cannot reach it.
+    #[arg(long, value_name = "E", conflicts_with = "lmax")]
+    tol: Option<f64>,
     /// A built-in shape (sphere, torus, plane), an .obj file, or a glTF asset
     /// (.gltf/.glb: shaded with its own materials, --brdf gltf, unless --brdf
     /// says otherwise). A file is framed.
@@ -269,6 +275,9 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
     if let Some(p) = &args.roughness_map {
         s.roughness_map = Some(p.clone());
     }
+    if let Some(e) = args.tol {
+        s.l_max = tol_degree(e, &s)?;
+    }
     if let Some(n) = args.reference_spp
         && !(1..=ifd_envrender::reference::MAX_SPP).contains(&n)
     {
@@ -278,6 +287,51 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
         );
     }
     Ok(s)
+}
+
+/// `--tol E`: the degree of `ifd render --tol`'s measured rule for the
+/// settings' BRDF (the smallest roughness of a roughness map or of a glTF
+/// asset's materials), at most the kernel's 63.
+fn tol_degree(tol: f64, s: &Settings) -> anyhow::Result<usize> {
+    use ifd_render::TolMaterial;
+    if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
+        anyhow::bail!("--tol {tol}: a relative RMS error between 0 and 1 (0.01 is 1%)");
+    }
+    let brdf = ifd_shade::Brdf::parse(&s.brdf).with_context(|| format!("--brdf {}", s.brdf))?;
+    let asset = s.scene_is_gltf() && brdf.gltf_material().is_some();
+    let roughness = if let Some(p) = &s.roughness_map {
+        let img = ifd_image::read_image(p, &ifd_image::ReadOptions::default())?.image;
+        let t = ifd_render::Texture::new(img, "--roughness-map")
+            .with_context(|| format!("{}", p.display()))?;
+        Some(t.range().0)
+    } else if asset {
+        match ifd_render::Scene::parse(&s.scene, false)
+            .with_context(|| format!("--scene {}", s.scene))?
+        {
+            ifd_render::Scene::Gltf(a) => Some(a.roughness_range().0),
+            _ => None,
+        }
+    } else {
+        None
+    };
+    let mut material = TolMaterial::of(&brdf, roughness).context("--tol")?;
+    if let (true, TolMaterial::GltfDielectric(r)) = (asset, material) {
+        // the asset's materials may be metals: the metal's row covers both
+        material = TolMaterial::GltfMetal(r);
+    }
+    let c = ifd_render::degree_for(material, tol, 63).context("--tol")?;
+    // the settings are read before the window opens and again in it
+    static NOTE: std::sync::Once = std::sync::Once::new();
+    NOTE.call_once(|| {
+        eprintln!(
+            "note: --tol {tol}: L = {} for {} (measured at most {:.2e} there, \
+             docs/render-tol.csv)",
+            c.l_max,
+            material.describe(),
+            c.measured
+        );
+    });
+    Ok(c.l_max)
 }
 
 fn run(args: &Args) -> anyhow::Result<()> {

@@ -36,6 +36,9 @@
 //! - **rendering**: [`render`] a [`Job`] by a [`Method`] into a [`Rendered`]
 //!   image, compared with a reference by [`relative_rms`] and
 //!   [`Difference`] (the per-pixel relative difference error maps show);
+//!   the degree a stated accuracy needs ([`degree_for`] a [`TolMaterial`]:
+//!   a [`DegreeChoice`] or why it is [`Unreachable`], the measured rule of
+//!   `ifd render --tol`);
 //!   what each pixel's ray sees
 //!   ([`pixel`], [`pixels`], [`Pixel`], [`Surface`]: the G-buffer the GPU path
 //!   shades too); the references: the exact texel quadrature ([`Oracle`],
@@ -72,6 +75,7 @@ mod render;
 mod scene;
 mod split_sum;
 mod textures;
+mod tolerance;
 mod tonemap;
 mod visibility;
 
@@ -94,6 +98,9 @@ pub use crate::render::render;
 pub use crate::scene::Scene;
 pub use crate::split_sum::{SplitSum, SplitSumVariant};
 pub use crate::textures::{RoughnessFamily, SurfaceMaps, Texture, alpha_of, perturb_normal};
+pub use crate::tolerance::{
+    DegreeChoice, GRAZING_COS, MARGIN as TOL_MARGIN, TolMaterial, Unreachable, degree_for,
+};
 pub use crate::tonemap::Tonemap;
 pub use crate::visibility::{
     ProductMatrix, Shadows, TexelNode, VertexVisibility, reference as shadowed_reference,

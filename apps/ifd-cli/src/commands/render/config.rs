@@ -4,7 +4,7 @@
 //! the render).
 
 use anyhow::{Context, Result, bail};
-use ifd_render::{AaMethod, Camera, Method, Scene, Tonemap};
+use ifd_render::{AaMethod, Camera, DegreeChoice, Method, Scene, TolMaterial, Tonemap};
 use ifd_shade::{Brdf, SphericalLight};
 
 use super::{Render, RenderMethod, is_display};
@@ -61,11 +61,52 @@ pub(super) struct BrdfConfig {
     pub asset_materials: bool,
     /// The roughness range of the asset's materials, when they shade it.
     pub asset_range: Option<(f64, f64)>,
+    /// The degree --tol chose, and why.
+    pub tol: Option<TolChoice>,
+}
+
+/// `--tol E`: the tolerance, the material the rule saw and the degree it
+/// chose.
+pub(super) struct TolChoice {
+    /// The tolerance asked for.
+    pub tol: f64,
+    /// The material kind and roughness the degree was chosen for.
+    pub material: TolMaterial,
+    /// The rule's answer.
+    pub choice: DegreeChoice,
+}
+
+impl TolChoice {
+    /// The report's `tol` object.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "tolerance": self.tol, "lmax": self.choice.l_max,
+            "material": self.material.describe(), "row": self.choice.row,
+            "measured_rel_rms": self.choice.measured, "margin": ifd_render::TOL_MARGIN,
+        })
+    }
+
+    /// The summary's line.
+    pub fn line(&self) -> String {
+        format!(
+            "--tol {}: L = {} for {} (measured at most {} there on the bundled maps, \
+             docs/render-tol.csv)",
+            self.tol,
+            self.choice.l_max,
+            self.material.describe(),
+            crate::options::number(self.choice.measured)
+        )
+    }
 }
 
 /// Reads the scene and checks every flag of `r`, with the messages of the
 /// command; nothing is rendered or written.
 pub(super) fn check(r: &Render) -> Result<RenderConfig> {
+    if let Some(e) = r.tol
+        && !(e.is_finite() && e > 0.0 && e < 1.0)
+    {
+        bail!("--tol {e}: a relative RMS error between 0 and 1 (0.01 is 1%)");
+    }
     let scene = r.scene.scene_with(r.input.budget())?;
     let asset = match &scene {
         Scene::Gltf(a) => {
@@ -197,6 +238,7 @@ fn check_mirror(r: &Render, scene: &Scene) -> Result<MirrorConfig> {
         (r.shadows, "--shadows"),
         (r.gpu, "--gpu"),
         (r.stderr.is_some(), "--stderr"),
+        (r.tol.is_some(), "--tol"),
     ] {
         if set {
             bail!("--brdf mirror: not with {flag} (a mirror reflects the environment only)");
@@ -275,13 +317,22 @@ fn check_brdf(
     if let Some(p) = &r.stderr {
         is_display(p)?;
     }
-    let l_max = match (method, r.lmax) {
+    let tol = match r.tol {
+        Some(e) => Some(tol_degree(r, &brdf, method, asset_range, e)?),
+        None => None,
+    };
+    let l_max = match (method, r.lmax, &tol) {
+        (_, _, Some(t)) => Some(t.choice.l_max),
         (
             Method::Quadrature | Method::Mc | Method::SplitSum | Method::SplitSumSampleRenderer,
             l,
+            None,
         ) => l,
-        (_, Some(l)) => Some(l),
-        (_, None) => bail!("--lmax L is needed for --method {}", r.method.name()),
+        (_, Some(l), None) => Some(l),
+        (_, None, None) => bail!(
+            "--lmax L (or --tol E) is needed for --method {}",
+            r.method.name()
+        ),
     };
     if let Some(l) = l_max.filter(|&l| l > ifd_shade::MAX_TABLE_DEGREE) {
         bail!(
@@ -333,6 +384,60 @@ fn check_brdf(
         lights,
         asset_materials,
         asset_range,
+        tol,
+    })
+}
+
+/// `--tol E`: the degree the measured rule gives the material (the
+/// smoothest roughness of a roughness map or of the asset's materials), or
+/// the refusal with the reachable value.
+fn tol_degree(
+    r: &Render,
+    brdf: &Brdf,
+    method: Method,
+    asset_range: Option<(f64, f64)>,
+    tol: f64,
+) -> Result<TolChoice> {
+    if !matches!(method, Method::Isd | Method::IsdMaps | Method::Sh) {
+        bail!(
+            "--tol chooses L for --method isd, isd-maps or sh; --method {} has no L to choose",
+            r.method.name()
+        );
+    }
+    for (set, flag) in [(!r.light.is_empty(), "--light"), (r.shadows, "--shadows")] {
+        if set {
+            bail!("--tol: the rule is measured without {flag}; pass --lmax");
+        }
+    }
+    let roughness = match (&r.roughness_map, asset_range) {
+        (Some(p), _) => {
+            let opts = ifd_image::ReadOptions::default();
+            let img = ifd_image::read_image(p, &opts)?.image;
+            let t = ifd_render::Texture::new(img, "--roughness-map")
+                .with_context(|| format!("{}", p.display()))?;
+            Some(t.range().0)
+        }
+        (None, Some((lo, _))) => Some(lo),
+        (None, None) => None,
+    };
+    let mut material = TolMaterial::of(brdf, roughness).context("--tol")?;
+    if asset_range.is_some()
+        && let TolMaterial::GltfDielectric(rough) = material
+    {
+        // the asset's materials may be metals: the metal's row covers both
+        material = TolMaterial::GltfMetal(rough);
+    }
+    // the GPU kernel's limit, else the lobe tables'
+    let max_degree = if r.gpu {
+        63
+    } else {
+        ifd_shade::MAX_TABLE_DEGREE
+    };
+    let choice = ifd_render::degree_for(material, tol, max_degree).context("--tol")?;
+    Ok(TolChoice {
+        tol,
+        material,
+        choice,
     })
 }
 

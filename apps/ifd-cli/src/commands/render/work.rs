@@ -35,6 +35,7 @@ impl Render {
             lights,
             asset_materials,
             asset_range,
+            tol,
         } = c;
         let (w, h) = (camera.width(), camera.height());
         let output = &self.output;
@@ -210,6 +211,9 @@ impl Render {
         let summary = || {
             let spp = (method == Method::Mc).then_some(self.spp);
             let mut text = self.summary_head((w, h), l_max, brdf.spec(), spp, secs);
+            if let Some(t) = &tol {
+                let _ = writeln!(text, "{}", t.line());
+            }
             let f = |v: &serde_json::Value, k: &str, scale: f64| {
                 v[k].as_f64()
                     .map_or_else(|| "-".to_owned(), |x| number(scale * x))
@@ -263,6 +267,7 @@ impl Render {
             "seconds": secs, "render_seconds": render_secs,
             "gpu": gpu_report,
             "error_map": error_map,
+            "tol": tol.as_ref().map(super::config::TolChoice::json),
         });
         self.report.emit_summary(&report, summary)?;
         Ok(())
