@@ -1530,8 +1530,8 @@ mod render_tol {
     /// `keep(n.v)` holds on the object, and how many there are.
     fn rel_rms(a: &Path, b: &Path, gbuffer: &Path, keep: impl Fn(f32) -> bool) -> (f64, usize) {
         let (a, b, g) = (
-            ifd_image::read(a).unwrap(),
-            ifd_image::read(b).unwrap(),
+            ifd_image::read(a).expect("render_tol"),
+            ifd_image::read(b).expect("render_tol"),
             // NaN roughness and metalness where the BRDF has none
             ifd_image::read_image(
                 gbuffer,
@@ -1540,7 +1540,7 @@ mod render_tol {
                     ..Default::default()
                 },
             )
-            .unwrap()
+            .expect("render_tol")
             .image,
         );
         let (mut num, mut den, mut n) = (0.0, 0.0, 0);
@@ -1567,7 +1567,7 @@ mod render_tol {
     /// errors over the object and over its grazing pixels, and returns the
     /// chosen L.
     fn within(map: &str, brdf: &str, tol: f64) -> usize {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = tempfile::tempdir().expect("render_tol");
         let p = |n: &str| dir.path().join(n);
         let env = testdata(map);
         let tol_s = tol.to_string();
@@ -1585,11 +1585,17 @@ mod render_tol {
         let args: Vec<&str> = common
             .iter()
             .copied()
-            .chain(["--tol", &tol_s, "--json", "-o", isd.to_str().unwrap()])
+            .chain([
+                "--tol",
+                &tol_s,
+                "--json",
+                "-o",
+                isd.to_str().expect("render_tol"),
+            ])
             .collect();
         let (code, out, err) = ifd(&args);
         assert_eq!(code, 0, "{args:?}: {err}");
-        let report: serde_json::Value = serde_json::from_str(&out).unwrap();
+        let report: serde_json::Value = serde_json::from_str(&out).expect("render_tol");
         let l = report["lmax"].as_u64().expect("the chosen L") as usize;
         assert_eq!(report["tol"]["lmax"].as_u64(), Some(l as u64), "{report}");
         assert_eq!(report["tol"]["tolerance"].as_f64(), Some(tol), "{report}");
@@ -1601,9 +1607,9 @@ mod render_tol {
                 "--method",
                 "quadrature",
                 "--gbuffer",
-                gbuffer.to_str().unwrap(),
+                gbuffer.to_str().expect("render_tol"),
             ])
-            .chain(["-o", oracle.to_str().unwrap()])
+            .chain(["-o", oracle.to_str().expect("render_tol")])
             .collect();
         let (code, _, err) = ifd(&args);
         assert_eq!(code, 0, "{args:?}: {err}");
@@ -1641,9 +1647,9 @@ mod render_tol {
     #[test]
     fn unreachable_tolerances_and_conflicting_flags_are_refused() {
         let env = testdata("forest.hdr");
-        let dir = tempfile::tempdir().unwrap();
+        let dir = tempfile::tempdir().expect("render_tol");
         let out = dir.path().join("o.png");
-        let out = out.to_str().unwrap();
+        let out = out.to_str().expect("render_tol");
         let run = |extra: &[&str]| {
             let args: Vec<&str> = ["render", "--env", &env, "--size", "16x16", "-o", out]
                 .into_iter()

@@ -293,6 +293,8 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
 /// settings' BRDF (the smallest roughness of a roughness map or of a glTF
 /// asset's materials), at most the kernel's 63.
 fn tol_degree(tol: f64, s: &Settings) -> anyhow::Result<usize> {
+    // the settings are read before the window opens and again in it: one note
+    static NOTE: std::sync::Once = std::sync::Once::new();
     use ifd_render::TolMaterial;
     if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
         anyhow::bail!("--tol {tol}: a relative RMS error between 0 and 1 (0.01 is 1%)");
@@ -320,8 +322,6 @@ fn tol_degree(tol: f64, s: &Settings) -> anyhow::Result<usize> {
         material = TolMaterial::GltfMetal(r);
     }
     let c = ifd_render::degree_for(material, tol, 63).context("--tol")?;
-    // the settings are read before the window opens and again in it
-    static NOTE: std::sync::Once = std::sync::Once::new();
     NOTE.call_once(|| {
         eprintln!(
             "note: --tol {tol}: L = {} for {} (measured at most {:.2e} there, \
