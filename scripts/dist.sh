@@ -50,7 +50,7 @@ die() { echo "dist.sh: $*" >&2; exit 1; }
 
 # Baseline x86-64 code: no target-cpu from the environment (the kernels pick AVX2 or
 # AVX-512 at run time, ifd_simd).
-if [ -n "${RUSTFLAGS:-}" ] || [ -n "${CARGO_ENCODED_RUSTFLAGS:-}" ]; then
+if [ "$QUICK" = 0 ] && { [ -n "${RUSTFLAGS:-}" ] || [ -n "${CARGO_ENCODED_RUSTFLAGS:-}" ]; }; then
   echo "note: ignoring RUSTFLAGS for the release artifacts (built for baseline x86-64)"
 fi
 unset RUSTFLAGS CARGO_ENCODED_RUSTFLAGS
@@ -71,6 +71,10 @@ for b in ifd ifd-brush ifd-envrender; do
 done
 
 step "staging $NAME"
+# everything is built into DIST.partial and moved into place once it has been tried: a failed
+# run leaves no half-made dist/
+FINAL=$DIST
+DIST=$FINAL.partial
 rm -rf "$DIST"
 STAGE=$DIST/$NAME
 mkdir -p "$STAGE/bin" "$STAGE/share/bash-completion/completions" "$STAGE/share/zsh/site-functions" \
@@ -100,9 +104,12 @@ ls -l "$DIST"
 
 step "installing the archive into a fresh folder"
 TRY=$(mktemp -d)
-trap 'rm -rf "$TRY"' EXIT
-(cd "$DIST" && sha256sum -c --quiet SHA256SUMS) || die "SHA256SUMS does not match"
-tar -C "$TRY" -xzf "$DIST/$NAME.tar.gz"
+trap 'rm -rf "$TRY" "$DIST"' EXIT
+# as a user who downloaded the files: checked against SHA256SUMS where they landed
+mkdir "$TRY/download"
+cp "$DIST"/* "$TRY/download/"
+(cd "$TRY/download" && sha256sum -c --quiet SHA256SUMS) || die "SHA256SUMS does not match the files"
+tar -C "$TRY" -xzf "$TRY/download/$NAME.tar.gz"
 PREFIX=$TRY/$NAME
 cp -r testdata "$TRY/work"
 # a user's shell: the unpacked bin/ first, no cargo; a shell of its own, so that `set -e`
@@ -135,15 +142,22 @@ for page in ifd ifd-filter ifd-envmap-prefilter; do
   grep -q '^\.TH' "$PREFIX/share/man/man1/$page.1" || die "man page $page.1"
 done
 if command -v man >/dev/null; then
-  MANPATH="$PREFIX/share/man" man -P cat ifd-filter 2>/dev/null | grep -q -- '--kernel' || die "man ifd-filter"
+  page=$(MANPATH="$PREFIX/share/man" man -P cat ifd-filter 2>/dev/null) || die "man ifd-filter"
+  grep -q -- '--kernel' <<<"$page" || die "man ifd-filter does not show the page"
 fi
 echo "archive: quick tour, bash completion and man pages work"
 
 step "installing the wheel into a fresh virtual environment, no Rust on PATH"
 "$PY" -m venv "$TRY/venv"
+# the system's folders, less any that holds a Rust toolchain
+NORUST="$TRY/venv/bin"
+for d in /usr/local/bin /usr/bin /bin; do
+  [ -x "$d/cargo" ] || [ -x "$d/rustc" ] || NORUST="$NORUST:$d"
+done
 TOUR=$(cat <<'WHEEL'
 
-  if command -v cargo >/dev/null; then echo "cargo is still on PATH" >&2; exit 1; fi
+  if command -v cargo >/dev/null || command -v rustc >/dev/null; then echo "Rust is still on PATH" >&2; exit 1; fi
+  # numpy, the wheel's one dependency, from the package index (or pip's cache)
   pip install --quiet --disable-pip-version-check --only-binary :all: "$WHEEL_FILE"
   cd "$WORK"
   python - <<'PY'
@@ -161,8 +175,10 @@ print(f"python: ifd {ifd.__version__}, {d.report['terms']} terms, filtered {img.
 PY
 WHEEL
 )
-env PATH="$TRY/venv/bin:/usr/local/bin:/usr/bin:/bin" WHEEL_FILE="$WHEEL" WORK="$TRY/work" \
+env PATH="$NORUST" WHEEL_FILE="$WHEEL" WORK="$TRY/work" \
   bash -euo pipefail -c "$TOUR" </dev/null || die "the wheel's Python quick tour failed"
+rm -rf "$FINAL"
+mv "$DIST" "$FINAL"
 echo
-echo "artifacts in $DIST:"
-cat "$DIST/SHA256SUMS"
+echo "artifacts in $FINAL:"
+cat "$FINAL/SHA256SUMS"

@@ -218,6 +218,9 @@ if [ "$cargo_status" -ne 0 ] && [ "$cf" -eq 0 ]; then fail "cargo test (build or
 step "Python module (maturin develop into .venv)"
 # The dev profile, as the tests' binary: dependencies already built by cargo
 # test are reused. Users install with `pip install ./crates/ifd-py` (release).
+# A module left by an older build (a version-specific name such as
+# _ifd.cpython-311-*.so) would be imported before the abi3 one built now.
+rm -f crates/ifd-py/python/ifd/_ifd.*.so
 if (cd crates/ifd-py && VIRTUAL_ENV="$ROOT/.venv" PATH="$ROOT/.venv/bin:$PATH" maturin develop --quiet) >"$LOG_DIR/maturin.log" 2>&1 &&
   .venv/bin/python -c "import ifd" >>"$LOG_DIR/maturin.log" 2>&1; then
   ok "python module"
@@ -229,7 +232,9 @@ fi
 step "release artifacts, quick form (scripts/dist.sh --quick)"
 # The archive and the abi3 wheel from the test build, unpacked and installed as a user
 # would (see the script), so that the release script cannot go stale.
-if scripts/dist.sh --quick >"$LOG_DIR/dist.log" 2>&1; then
+if grep -q '^error: could not compile' "$LOG_DIR/cargo-test.log"; then
+  fail "scripts/dist.sh --quick not run: the test build failed (its binaries would be stale)"
+elif scripts/dist.sh --quick >"$LOG_DIR/dist.log" 2>&1; then
   ok "dist.sh --quick: archive and wheel install and run"
 else
   tail -20 "$LOG_DIR/dist.log"

@@ -155,7 +155,10 @@ fn main() -> ExitCode {
         Command::GpuInfo(c) => c.run(),
         Command::Hessian(c) => c.run(),
         Command::Smooth(c) => c.run(),
-        Command::Completions(c) => c.run(allow_negative_numbers(Cli::command())),
+        Command::Completions(c) => {
+            c.run(allow_negative_numbers(Cli::command()));
+            Ok(())
+        }
         Command::Manpages(c) => c.run(allow_negative_numbers(Cli::command())),
     };
     match result {

@@ -305,23 +305,27 @@ fn tol_degree(tol: f64, s: &Settings) -> anyhow::Result<usize> {
         let img = ifd_image::read_image(p, &ifd_image::ReadOptions::default())?.image;
         let t = ifd_render::Texture::new(img, "--roughness-map")
             .with_context(|| format!("{}", p.display()))?;
-        Some(t.range().0)
+        Some(t.range())
     } else if asset {
         match ifd_render::Scene::parse(&s.scene, false)
             .with_context(|| format!("--scene {}", s.scene))?
         {
-            ifd_render::Scene::Gltf(a) => Some(a.roughness_range().0),
+            ifd_render::Scene::Gltf(a) => Some(a.roughness_range()),
             _ => None,
         }
     } else {
         None
     };
-    let mut material = TolMaterial::of(&brdf, roughness).context("--tol")?;
+    let mut material = TolMaterial::of(&brdf, roughness.map(|r| r.0)).context("--tol")?;
     if let (true, TolMaterial::GltfDielectric(r)) = (asset, material) {
         // the asset's materials may be metals: the metal's row covers both
         material = TolMaterial::GltfMetal(r);
     }
-    let c = ifd_render::degree_for(material, tol, 63).context("--tol")?;
+    let c = match roughness {
+        Some(range) => ifd_render::degree_for_range(material, range, tol, 63),
+        None => ifd_render::degree_for(material, tol, 63),
+    }
+    .context("--tol")?;
     NOTE.call_once(|| {
         eprintln!(
             "note: --tol {tol}: L = {} for {} (measured at most {:.2e} there, \

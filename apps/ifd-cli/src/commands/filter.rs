@@ -550,7 +550,8 @@ impl Filter {
                 "evaluation: {} interpolation, pyramid factor {}{levels}, {} terms direct; expected \
                  error {:.3}% on white noise, budget {:.3}% (bound {:.3}%, amplification {:.1})",
                 plan.eval.interpolation.name(),
-                plan.eval.pyramid_factor,
+                // 2.828 for 2 sqrt 2; inf: unsubsampled
+                (plan.eval.pyramid_factor * 1e3).round() / 1e3,
                 plan.direct_terms,
                 100.0 * plan.eval.error_estimate,
                 100.0 * plan.eval_budget,

@@ -20,11 +20,12 @@ pub struct Completions {
 
 impl Completions {
     /// Writes the script for `cmd` (the whole `ifd` command line).
-    pub fn run(self, mut cmd: clap::Command) -> Result<()> {
+    pub fn run(self, mut cmd: clap::Command) {
         let mut out = Vec::new();
         clap_complete::generate(self.shell, &mut cmd, "ifd", &mut out);
-        std::io::Write::write_all(&mut std::io::stdout().lock(), &out)
-            .context("writing to standard output")
+        // print!: a reader that closes the pipe early ends the process
+        // quietly (status 141), as for every other command
+        print!("{}", String::from_utf8_lossy(&out));
     }
 }
 
@@ -46,7 +47,7 @@ impl Manpages {
         std::fs::create_dir_all(out)
             .with_context(|| format!("{}: cannot create the output folder", out.display()))?;
         let mut pages = Vec::new();
-        collect(cmd.version(env!("CARGO_PKG_VERSION")), "", &mut pages);
+        collect(cmd, "", &mut pages);
         for (name, cmd) in &pages {
             let mut text = Vec::new();
             clap_mangen::Man::new(cmd.clone())
@@ -73,6 +74,7 @@ fn collect(cmd: clap::Command, parent: &str, pages: &mut Vec<(String, clap::Comm
     let cmd = cmd
         .name(leak(name.clone()))
         .bin_name(leak(name.replace('-', " ")))
+        .version(env!("CARGO_PKG_VERSION"))
         .disable_help_subcommand(true);
     let subs: Vec<clap::Command> = cmd
         .get_subcommands()
@@ -85,14 +87,11 @@ fn collect(cmd: clap::Command, parent: &str, pages: &mut Vec<(String, clap::Comm
     }
 }
 
-/// Writes `bytes` to a hidden file beside `path` and renames it into place.
+/// Writes `bytes` to `path` atomically ([`ifd_image::atomic_write`]: an
+/// interrupted run leaves no partial page).
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".ifd-tmp-{}-{name}", std::process::id()));
-    std::fs::write(&tmp, bytes).with_context(|| format!("{}: cannot write", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot write", path.display()))
+    ifd_image::atomic_write(path, |w| {
+        std::io::Write::write_all(w, bytes).map_err(|e| e.to_string())
+    })
+    .map_err(anyhow::Error::from)
 }

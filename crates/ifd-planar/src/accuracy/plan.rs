@@ -91,8 +91,8 @@ const NEAREST_MOST_PER_OCTAVE: usize = 8;
 /// the same half-octave steps and unsubsampled,
 /// whose estimate is within the budget (default [`EvalPlan::budget_for`])
 /// over the scales used; when none is, the one with the lowest estimate (a
-/// later candidate replaces an earlier one only if 5% lower; a finer factor
-/// that improves on the one before by less than 5% ends that
+/// later candidate replaces an earlier one only if 5% lower; a factor that
+/// improves on the one an octave coarser by less than 5% ends that
 /// interpolation's candidates). Factor 1 stores a level of sigma 2-4 px at
 /// every other pixel, 4-8 px at every fourth (one to two samples per
 /// sigma): a quarter of factor 2's samples, for loose budgets. On a
@@ -265,10 +265,10 @@ impl EvalPlan {
         // the kernel's norm, a sum over pairs of terms: once per plan
         let mut norm: Option<f64> = None;
         let mut best: Option<Self> = None;
-        // The last estimate per interpolation, and the interpolations whose
+        // The estimates so far (interpolation, factor), and the interpolations whose
         // finer factors stopped helping (the blend of levels, or terms too
         // narrow for any read, dominate): those are not tried further.
-        let mut last: Option<(Interpolation, f64)> = None;
+        let mut tried: Vec<(Interpolation, f64, f64)> = Vec::new();
         let mut stalled: Vec<Interpolation> = Vec::new();
         for (interpolation, factor) in fixed {
             if stalled.contains(&interpolation) {
@@ -295,16 +295,20 @@ impl EvalPlan {
             if best.is_none_or(|b| plan.error_estimate < 0.95 * b.error_estimate) {
                 best = Some(plan);
             }
-            // (the same estimate is the same layout: a half-octave factor
-            // can store every level as the one before did)
-            if let Some((i, e)) = last
-                && i == interpolation
-                && plan.error_estimate >= 0.95 * e
-                && plan.error_estimate != e
-            {
+            // Against the candidate an octave coarser (the unsubsampled one:
+            // against the last), so that two half-octave steps must gain
+            // what one octave step did.
+            let back = tried
+                .iter()
+                .rev()
+                .find(|&&(i, f, _)| {
+                    i == interpolation && (f == factor / 2.0 || factor.is_infinite())
+                })
+                .map(|&(_, _, e)| e);
+            if back.is_some_and(|e| plan.error_estimate >= 0.95 * e) {
                 stalled.push(interpolation);
             }
-            last = Some((interpolation, plan.error_estimate));
+            tried.push((interpolation, factor, plan.error_estimate));
         }
         Ok(best.expect("at least one candidate"))
     }

@@ -130,6 +130,10 @@ impl Dictionary {
         // The rows of d, in atom order.
         let mut rows: Vec<SourceRow> = Vec::new();
         let mut h = 0;
+        debug_assert!(
+            idx.windows(2).all(|w| w[0] < w[1]) && idx.last().is_none_or(|&k| k < self.atoms),
+            "gram_product: indices increasing and in range"
+        );
         for (p, &k) in idx.iter().enumerate() {
             while h + 1 < self.groups.len() && self.groups[h + 1].offset <= k {
                 h += 1;

@@ -144,11 +144,13 @@ impl TolMaterial {
     /// The material, described for messages.
     #[must_use]
     pub fn describe(&self) -> String {
-        match self {
-            Self::GltfDielectric(r) => format!("glTF dielectric, roughness {r}"),
-            Self::GltfMetal(r) => format!("glTF metal, roughness {r}"),
-            Self::Ggx(r) => format!("GGX, roughness {r} (alpha {})", r * r),
-            Self::Phong(s) => format!("Phong, s = {s}"),
+        // five significant digits: a texture's f32 roughness reads as such
+        let g = |v: f64| format!("{}", format!("{v:.4e}").parse::<f64>().unwrap_or(v));
+        match *self {
+            Self::GltfDielectric(r) => format!("glTF dielectric, roughness {}", g(r)),
+            Self::GltfMetal(r) => format!("glTF metal, roughness {}", g(r)),
+            Self::Ggx(r) => format!("GGX, roughness {} (alpha {})", g(r), g(r * r)),
+            Self::Phong(s) => format!("Phong, s = {}", g(s)),
             Self::Lambert => "Lambert".to_owned(),
         }
     }
@@ -224,6 +226,45 @@ pub fn degree_for(
         })
         .fold(0.0, f64::max);
     Ok(c)
+}
+
+/// As [`degree_for`] for a material whose roughness spans `range` (a
+/// roughness map, a glTF asset's materials): the largest degree over the
+/// range's two ends and every measured row between them, since neither end
+/// alone bounds the error (smooth materials need the larger degree, rough
+/// ones have the higher floor). For kinds without a roughness (Phong,
+/// Lambert) the range is ignored.
+///
+/// # Errors
+/// [`Unreachable`] as [`degree_for`], for the first point of the range
+/// that cannot reach `tol`.
+pub fn degree_for_range(
+    material: TolMaterial,
+    range: (f64, f64),
+    tol: f64,
+    max_degree: usize,
+) -> Result<DegreeChoice, Unreachable> {
+    let at = |r: f64| match material {
+        TolMaterial::GltfDielectric(_) => Some(TolMaterial::GltfDielectric(r)),
+        TolMaterial::GltfMetal(_) => Some(TolMaterial::GltfMetal(r)),
+        TolMaterial::Ggx(_) => Some(TolMaterial::Ggx(r)),
+        TolMaterial::Phong(_) | TolMaterial::Lambert => None,
+    };
+    let (lo, hi) = (range.0.min(range.1), range.0.max(range.1));
+    if at(lo).is_none() {
+        return degree_for(material, tol, max_degree);
+    }
+    let (rows, _) = material.rows();
+    let mut points = vec![lo, hi];
+    points.extend(rows.iter().map(|r| r.param).filter(|&p| p > lo && p < hi));
+    let mut worst: Option<DegreeChoice> = None;
+    for p in points {
+        let c = degree_for(at(p).expect("a roughness kind"), tol, max_degree)?;
+        if worst.is_none_or(|w| (c.l_max, c.measured) > (w.l_max, w.measured)) {
+            worst = Some(c);
+        }
+    }
+    Ok(worst.expect("two points at least"))
 }
 
 /// The measured rows `param` falls between (one when it is a row's, or
@@ -418,7 +459,40 @@ mod tests {
         );
         assert!(matches!(of("ggx:ax=0.1,ay=0.4"), Err(Unreachable::Kind(_))));
         assert!(matches!(of("blinn:s=8"), Err(Unreachable::Kind(_))));
+        assert_eq!(
+            TolMaterial::GltfMetal(f64::from(0.1_f32)).describe(),
+            "glTF metal, roughness 0.1"
+        );
         let b = Brdf::parse("ggx:alpha=0.25").unwrap();
         assert_eq!(TolMaterial::of(&b, Some(0.3)), Ok(TolMaterial::Ggx(0.3)));
+    }
+
+    /// A roughness range is held to both its ends and the rows between:
+    /// the smooth end's degree, and the rough end's floor.
+    #[test]
+    fn a_roughness_range_covers_its_smooth_and_rough_ends() {
+        let metal = TolMaterial::GltfMetal(0.5);
+        for tol in [0.01, 0.02, 0.05, 0.1] {
+            let at = |r: f64| degree_for(TolMaterial::GltfMetal(r), tol, 100);
+            let range = degree_for_range(metal, (0.5, 1.0), tol, 100);
+            match (at(0.5), at(1.0)) {
+                (Ok(lo), Ok(hi)) => {
+                    let c = range.unwrap();
+                    assert!(c.l_max >= lo.l_max.max(hi.l_max), "{tol}: {c:?}");
+                }
+                // either end out of reach: the range is too
+                _ => assert!(range.is_err(), "{tol}: {range:?}"),
+            }
+        }
+        // the rough end's floor (a few percent at grazing views) refuses
+        // what the smooth end alone accepts
+        assert!(degree_for(metal, 0.03, 100).is_ok());
+        assert!(degree_for(TolMaterial::GltfMetal(1.0), 0.03, 100).is_err());
+        assert!(degree_for_range(metal, (0.5, 1.0), 0.03, 100).is_err());
+        // kinds without a roughness ignore the range
+        assert_eq!(
+            degree_for_range(TolMaterial::Lambert, (0.1, 0.9), 0.05, 100),
+            degree_for(TolMaterial::Lambert, 0.05, 100)
+        );
     }
 }

@@ -398,9 +398,14 @@ fn tol_degree(
     asset_range: Option<(f64, f64)>,
     tol: f64,
 ) -> Result<TolChoice> {
-    if !matches!(method, Method::Isd | Method::IsdMaps | Method::Sh) {
+    if matches!(method, Method::Sh) {
         bail!(
-            "--tol chooses L for --method isd, isd-maps or sh; --method {} has no L to choose",
+            "--tol chooses L for --method isd or isd-maps (the rule is measured on ISD); pass --lmax for --method sh"
+        );
+    }
+    if !matches!(method, Method::Isd | Method::IsdMaps) {
+        bail!(
+            "--tol chooses L for --method isd or isd-maps; --method {} has no L to choose",
             r.method.name()
         );
     }
@@ -415,12 +420,12 @@ fn tol_degree(
             let img = ifd_image::read_image(p, &opts)?.image;
             let t = ifd_render::Texture::new(img, "--roughness-map")
                 .with_context(|| format!("{}", p.display()))?;
-            Some(t.range().0)
+            Some(t.range())
         }
-        (None, Some((lo, _))) => Some(lo),
+        (None, Some(range)) => Some(range),
         (None, None) => None,
     };
-    let mut material = TolMaterial::of(brdf, roughness).context("--tol")?;
+    let mut material = TolMaterial::of(brdf, roughness.map(|r| r.0)).context("--tol")?;
     if asset_range.is_some()
         && let TolMaterial::GltfDielectric(rough) = material
     {
@@ -433,7 +438,13 @@ fn tol_degree(
     } else {
         ifd_shade::MAX_TABLE_DEGREE
     };
-    let choice = ifd_render::degree_for(material, tol, max_degree).context("--tol")?;
+    // every roughness the map or the asset holds: the smoothest needs the
+    // largest degree, the roughest has the highest floor
+    let choice = match roughness {
+        Some(range) => ifd_render::degree_for_range(material, range, tol, max_degree),
+        None => ifd_render::degree_for(material, tol, max_degree),
+    }
+    .context("--tol")?;
     Ok(TolChoice {
         tol,
         material,
