@@ -290,12 +290,11 @@ fn settings(args: &Args, stored: Option<Settings>) -> anyhow::Result<Settings> {
 }
 
 /// `--tol E`: the degree of `ifd render --tol`'s measured rule for the
-/// settings' BRDF (the smallest roughness of a roughness map or of a glTF
+/// settings' BRDF (held over every roughness of a roughness map or of a glTF
 /// asset's materials), at most the kernel's 63.
 fn tol_degree(tol: f64, s: &Settings) -> anyhow::Result<usize> {
     // the settings are read before the window opens and again in it: one note
     static NOTE: std::sync::Once = std::sync::Once::new();
-    use ifd_render::TolMaterial;
     if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
         anyhow::bail!("--tol {tol}: a relative RMS error between 0 and 1 (0.01 is 1%)");
     }
@@ -316,16 +315,8 @@ fn tol_degree(tol: f64, s: &Settings) -> anyhow::Result<usize> {
     } else {
         None
     };
-    let mut material = TolMaterial::of(&brdf, roughness.map(|r| r.0)).context("--tol")?;
-    if let (true, TolMaterial::GltfDielectric(r)) = (asset, material) {
-        // the asset's materials may be metals: the metal's row covers both
-        material = TolMaterial::GltfMetal(r);
-    }
-    let c = match roughness {
-        Some(range) => ifd_render::degree_for_range(material, range, tol, 63),
-        None => ifd_render::degree_for(material, tol, 63),
-    }
-    .context("--tol")?;
+    let (material, c) =
+        ifd_render::degree_for_render(&brdf, roughness, asset, tol, 63).context("--tol")?;
     NOTE.call_once(|| {
         eprintln!(
             "note: --tol {tol}: L = {} for {} (measured at most {:.2e} there, \

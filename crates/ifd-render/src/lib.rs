@@ -100,7 +100,7 @@ pub use crate::split_sum::{SplitSum, SplitSumVariant};
 pub use crate::textures::{RoughnessFamily, SurfaceMaps, Texture, alpha_of, perturb_normal};
 pub use crate::tolerance::{
     DegreeChoice, GRAZING_COS, MARGIN as TOL_MARGIN, TolMaterial, Unreachable, degree_for,
-    degree_for_range,
+    degree_for_range, degree_for_render,
 };
 pub use crate::tonemap::Tonemap;
 pub use crate::visibility::{

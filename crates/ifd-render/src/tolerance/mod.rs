@@ -141,6 +141,18 @@ impl TolMaterial {
         }
     }
 
+    /// The same kind at roughness `r`; `None` for kinds without one (Phong,
+    /// Lambert).
+    #[must_use]
+    pub fn with_roughness(self, r: f64) -> Option<Self> {
+        match self {
+            Self::GltfDielectric(_) => Some(Self::GltfDielectric(r)),
+            Self::GltfMetal(_) => Some(Self::GltfMetal(r)),
+            Self::Ggx(_) => Some(Self::Ggx(r)),
+            Self::Phong(_) | Self::Lambert => None,
+        }
+    }
+
     /// The material, described for messages.
     #[must_use]
     pub fn describe(&self) -> String {
@@ -244,14 +256,8 @@ pub fn degree_for_range(
     tol: f64,
     max_degree: usize,
 ) -> Result<DegreeChoice, Unreachable> {
-    let at = |r: f64| match material {
-        TolMaterial::GltfDielectric(_) => Some(TolMaterial::GltfDielectric(r)),
-        TolMaterial::GltfMetal(_) => Some(TolMaterial::GltfMetal(r)),
-        TolMaterial::Ggx(_) => Some(TolMaterial::Ggx(r)),
-        TolMaterial::Phong(_) | TolMaterial::Lambert => None,
-    };
     let (lo, hi) = (range.0.min(range.1), range.0.max(range.1));
-    if at(lo).is_none() {
+    if material.with_roughness(lo).is_none() {
         return degree_for(material, tol, max_degree);
     }
     let (rows, _) = material.rows();
@@ -259,12 +265,41 @@ pub fn degree_for_range(
     points.extend(rows.iter().map(|r| r.param).filter(|&p| p > lo && p < hi));
     let mut worst: Option<DegreeChoice> = None;
     for p in points {
-        let c = degree_for(at(p).expect("a roughness kind"), tol, max_degree)?;
+        let at = material.with_roughness(p).expect("a roughness kind");
+        let c = degree_for(at, tol, max_degree)?;
         if worst.is_none_or(|w| (c.l_max, c.measured) > (w.l_max, w.measured)) {
             worst = Some(c);
         }
     }
     Ok(worst.expect("two points at least"))
+}
+
+/// The degree `--tol` gives a render (`ifd render`, `ifd-envrender`): the
+/// material kind of `brdf`, held over the `roughness` range a roughness map
+/// or a glTF asset's materials span ([`degree_for_range`]; `None`: the
+/// BRDF's own); with `asset`, the glTF asset's materials, which may be
+/// metals, so a dielectric is taken by the metal's row, which covers both.
+/// Returns the material the rule saw (its smoothest roughness) and the
+/// choice.
+///
+/// # Errors
+/// [`Unreachable`] for unmeasured BRDFs and tolerances out of reach.
+pub fn degree_for_render(
+    brdf: &Brdf,
+    roughness: Option<(f64, f64)>,
+    asset: bool,
+    tol: f64,
+    max_degree: usize,
+) -> Result<(TolMaterial, DegreeChoice), Unreachable> {
+    let mut material = TolMaterial::of(brdf, roughness.map(|r| r.0.min(r.1)))?;
+    if asset && let TolMaterial::GltfDielectric(r) = material {
+        material = TolMaterial::GltfMetal(r);
+    }
+    let choice = match roughness {
+        Some(range) => degree_for_range(material, range, tol, max_degree),
+        None => degree_for(material, tol, max_degree),
+    }?;
+    Ok((material, choice))
 }
 
 /// The measured rows `param` falls between (one when it is a row's, or

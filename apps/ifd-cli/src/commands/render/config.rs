@@ -388,9 +388,9 @@ fn check_brdf(
     })
 }
 
-/// `--tol E`: the degree the measured rule gives the material (the
-/// smoothest roughness of a roughness map or of the asset's materials), or
-/// the refusal with the reachable value.
+/// `--tol E`: the degree the measured rule gives the material (held over
+/// every roughness of a roughness map or of the asset's materials), or the
+/// refusal with the reachable value.
 fn tol_degree(
     r: &Render,
     brdf: &Brdf,
@@ -425,26 +425,15 @@ fn tol_degree(
         (None, Some(range)) => Some(range),
         (None, None) => None,
     };
-    let mut material = TolMaterial::of(brdf, roughness.map(|r| r.0)).context("--tol")?;
-    if asset_range.is_some()
-        && let TolMaterial::GltfDielectric(rough) = material
-    {
-        // the asset's materials may be metals: the metal's row covers both
-        material = TolMaterial::GltfMetal(rough);
-    }
     // the GPU kernel's limit, else the lobe tables'
     let max_degree = if r.gpu {
         63
     } else {
         ifd_shade::MAX_TABLE_DEGREE
     };
-    // every roughness the map or the asset holds: the smoothest needs the
-    // largest degree, the roughest has the highest floor
-    let choice = match roughness {
-        Some(range) => ifd_render::degree_for_range(material, range, tol, max_degree),
-        None => ifd_render::degree_for(material, tol, max_degree),
-    }
-    .context("--tol")?;
+    let (material, choice) =
+        ifd_render::degree_for_render(brdf, roughness, asset_range.is_some(), tol, max_degree)
+            .context("--tol")?;
     Ok(TolChoice {
         tol,
         material,

@@ -65,12 +65,12 @@ pub struct Render {
     lmax: Option<usize>,
     /// Instead of --lmax: the relative RMS error against the oracle to stay within (0 < E < 1,
     /// e.g. 0.01), over the object and over its grazing pixels (n.v < 0.2) alike. L is chosen
-    /// per material (its BRDF and roughness; a glTF asset's or a roughness map's smoothest) by
+    /// per material (its BRDF and roughness; every roughness a glTF asset or a roughness map holds) by
     /// a measured rule (docs/render-tol.csv: the smallest L whose worst error on the bundled
     /// forest and sunrise maps, times 1.2, is within E) and reported; an E the material cannot
     /// reach (the lobe table's floor at grazing views, or L beyond 100, 63 with --gpu) exits 2
-    /// with the smallest reachable. Measured for lambert, phong, isotropic ggx and gltf; isd,
-    /// isd-maps and sh; not with --table, --light or --shadows.
+    /// with the smallest reachable. Measured for lambert, phong, isotropic ggx and gltf with
+    /// --method isd or isd-maps; not with --table, --light or --shadows.
     #[arg(long, value_name = "E", conflicts_with_all = ["lmax", "table"])]
     tol: Option<f64>,
     /// Lobe table from `ifd sphere brdf` (built on the fly when needed and absent).
