@@ -47,7 +47,8 @@ pub trait LinearOperator: Sync {
     /// `idx`, increasing), formed from the operator's structured Gram
     /// matrix without the image `A d`; `false`, leaving `out` untouched,
     /// when the operator has no such product (the default), and the solver
-    /// goes through `apply` and `apply_adjoint` instead.
+    /// goes through `apply` and `apply_adjoint` instead. The answer must not
+    /// depend on `d`: the solver asks once, for an empty `d`.
     fn gram_apply(&self, idx: &[usize], vals: &[f64], out: &mut [f64]) -> bool {
         let _ = (idx, vals, out);
         false
@@ -198,8 +199,8 @@ pub struct Sparsa<'a, A: LinearOperator + ?Sized> {
     a: &'a A,
     y: &'a [f64],
     x: Vec<f64>,
-    /// The residual, kept only on the image path (`None` once the
-    /// operator's Gram product serves).
+    /// The residual, kept only on the image path (`None` where the operator
+    /// forms the Gram product).
     r: Option<Vec<f64>>,
     atr: Vec<f64>,
     aty: Vec<f64>,
@@ -240,13 +241,16 @@ impl<'a, A: LinearOperator + ?Sized> Sparsa<'a, A> {
             a.apply_adjoint(&r, &mut atr);
             (r, atr)
         };
+        // Whether the operator forms A^T A d (asked once, for an empty d):
+        // then the iterations never need the image residual.
+        let gram = a.gram_apply(&[], &[], &mut vec![0.0; a.cols()]);
         Self {
             a,
             y,
             x,
             rr: dot(&r, &r),
             ry: dot(&r, y),
-            r: Some(r),
+            r: (!gram).then_some(r),
             atr,
             aty,
             iterations: 0,
@@ -309,19 +313,17 @@ impl<'a, A: LinearOperator + ?Sized> Sparsa<'a, A> {
     /// in `idx`/`vals`), and `A^T A d` into `q` through the operator's Gram
     /// product where it has one, else the image `A d` into `ad`.
     fn step_products(
-        &mut self,
+        &self,
         (d, idx, vals): (&[f64], &[usize], &[f64]),
         q: &mut [f64],
         ad: &mut Vec<f64>,
     ) -> f64 {
-        if self.a.gram_apply(idx, vals, q) {
-            // The coefficient-space path from now on.
-            self.r = None;
-            return idx.iter().zip(vals).map(|(&k, v)| v * q[k]).sum();
-        }
         if self.r.is_none() {
-            // An operator that stopped forming the product: back to the image.
-            self.r = Some(self.residual());
+            assert!(
+                self.a.gram_apply(idx, vals, q),
+                "sparsa: the operator stopped forming A^T A d"
+            );
+            return idx.iter().zip(vals).map(|(&k, v)| v * q[k]).sum();
         }
         ad.resize(self.a.rows(), 0.0);
         self.a.apply(d, ad);

@@ -57,14 +57,21 @@ impl Axis {
             all.extend(profiles(g));
         }
         let n = all.len();
+        // the lower triangle, then its mirror (a profile dot is symmetric
+        // bit for bit: the same products summed in the same order)
         let mut gram = vec![0.0; n * n];
         gram.par_chunks_mut(n.max(1))
             .enumerate()
             .for_each(|(a, row)| {
-                for (b, v) in row.iter_mut().enumerate() {
+                for (b, v) in row.iter_mut().enumerate().take(a + 1) {
                     *v = profile_dot(all[a], all[b]);
                 }
             });
+        for a in 0..n {
+            for b in 0..a {
+                gram[b * n + a] = gram[a * n + b];
+            }
+        }
         let ng = groups.len();
         let mut nz = vec![(0, 0); n * ng];
         for a in 0..n {
@@ -89,6 +96,13 @@ impl Axis {
     }
 }
 
+impl Axis {
+    /// `<p_a, p_b>` of profile `i` of group `g` and profile `j` of group `h`.
+    fn at(&self, (g, i): (usize, usize), (h, j): (usize, usize)) -> f64 {
+        self.gram[(self.start[g] + i) * self.n + self.start[h] + j]
+    }
+}
+
 /// The two 1D Gram matrices of a dictionary.
 #[derive(Clone, Debug)]
 pub(super) struct Grams {
@@ -108,6 +122,20 @@ impl Grams {
             x: Axis::new(groups, |g| &g.px),
             y: Axis::new(groups, |g| &g.py),
         })
+    }
+}
+
+impl Grams {
+    /// `<a_p, a_q>` of two atoms given as (group, grid row, grid column):
+    /// the product of their profiles' dots, zero where the x profiles do not
+    /// overlap ([`Dictionary::gram`]'s rule).
+    pub(super) fn atoms(&self, p: (usize, usize, usize), q: (usize, usize, usize)) -> f64 {
+        let gx = self.x.at((p.0, p.2), (q.0, q.2));
+        if gx == 0.0 {
+            0.0
+        } else {
+            gx * self.y.at((p.0, p.1), (q.0, q.1))
+        }
     }
 }
 

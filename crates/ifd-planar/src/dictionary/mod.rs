@@ -284,15 +284,21 @@ impl Dictionary {
         }
     }
 
-    fn locate(&self, k: usize) -> (&Group, usize, usize) {
-        let g = self
+    /// Atom `k` as (group index, grid row, grid column).
+    fn locate_index(&self, k: usize) -> (usize, usize, usize) {
+        let gi = self
             .groups
             .iter()
-            .rev()
-            .find(|g| g.offset <= k)
+            .rposition(|g| g.offset <= k)
             .expect("atom index below the first group offset");
+        let g = &self.groups[gi];
         let local = k - g.offset;
-        (g, local / g.xs.len(), local % g.xs.len())
+        (gi, local / g.xs.len(), local % g.xs.len())
+    }
+
+    fn locate(&self, k: usize) -> (&Group, usize, usize) {
+        let (gi, j, i) = self.locate_index(k);
+        (&self.groups[gi], j, i)
     }
 
     /// The Gram matrix `A_S^T A_S` of the (unit-norm) atoms `idx`, row-major
@@ -304,26 +310,40 @@ impl Dictionary {
     #[must_use]
     pub fn gram(&self, idx: &[usize]) -> Vec<f64> {
         let s = idx.len();
-        let prof: Vec<(&Profile, &Profile)> = idx
-            .iter()
-            .map(|&k| {
-                let (g, j, i) = self.locate(k);
-                (&g.px[i], &g.py[j])
-            })
-            .collect();
         let mut out = vec![0.0; s * s];
-        out.par_chunks_mut(s.max(1))
-            .enumerate()
-            .for_each(|(p, row)| {
-                for q in 0..=p {
-                    let gx = profile_dot(prof[p].0, prof[q].0);
-                    row[q] = if gx == 0.0 {
-                        0.0
-                    } else {
-                        gx * profile_dot(prof[p].1, prof[q].1)
-                    };
-                }
-            });
+        if let Some(Some(grams)) = self.grams.get() {
+            // the solver has formed the 1D Gram matrices: the same profile
+            // dots, looked up
+            let at: Vec<(usize, usize, usize)> =
+                idx.iter().map(|&k| self.locate_index(k)).collect();
+            out.par_chunks_mut(s.max(1))
+                .enumerate()
+                .for_each(|(p, row)| {
+                    for q in 0..=p {
+                        row[q] = grams.atoms(at[p], at[q]);
+                    }
+                });
+        } else {
+            let prof: Vec<(&Profile, &Profile)> = idx
+                .iter()
+                .map(|&k| {
+                    let (g, j, i) = self.locate(k);
+                    (&g.px[i], &g.py[j])
+                })
+                .collect();
+            out.par_chunks_mut(s.max(1))
+                .enumerate()
+                .for_each(|(p, row)| {
+                    for q in 0..=p {
+                        let gx = profile_dot(prof[p].0, prof[q].0);
+                        row[q] = if gx == 0.0 {
+                            0.0
+                        } else {
+                            gx * profile_dot(prof[p].1, prof[q].1)
+                        };
+                    }
+                });
+        }
         for p in 0..s {
             for q in 0..p {
                 out[q * s + p] = out[p * s + q];
@@ -705,6 +725,13 @@ mod tests {
                 assert!((g - w).abs() <= 1e-12 * scale, "atom {k}: {g} vs {w}");
             }
         }
+        // The support Gram from the formed 1D Gram matrices is the one from
+        // the profiles, bit for bit.
+        let fresh = small();
+        let idx: Vec<usize> = (0..fresh.len()).step_by(3).collect();
+        let from_profiles = fresh.gram(&idx);
+        assert!(fresh.gram_apply(&[], &[], &mut vec![0.0; fresh.len()]));
+        assert_eq!(fresh.gram(&idx), from_profiles);
         // An empty step gives zeros.
         let mut out = vec![1.0; d.len()];
         assert!(d.gram_apply(&[], &[], &mut out));
