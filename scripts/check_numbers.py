@@ -286,19 +286,28 @@ def check_file(path, held, root):
     return problems
 
 
-def anchors(path):
-    """GitHub's heading anchors of a markdown file (as tests/python/test_doc_commands.py)."""
+def github_anchors(headings):
+    """GitHub's anchors of headings' texts, in order: the text lower-cased,
+    punctuation dropped, spaces as hyphens, a repeat suffixed -1, -2, ...
+    (tests/python/test_doc_commands.py checks links with it too)."""
     seen = {}
     out = set()
-    for _, unit_lines, exempt in units(path):
-        m = HEADING.match(unit_lines[0][1])
-        if not m or len(unit_lines) != 1:
-            continue
-        slug = re.sub(r"[^\w\- ]", "", m.group(1).lower()).replace(" ", "-")
+    for text in headings:
+        slug = re.sub(r"[^\w\- ]", "", text.lower()).replace(" ", "-")
         n = seen.get(slug, 0)
         seen[slug] = n + 1
         out.add(slug if n == 0 else f"{slug}-{n}")
     return out
+
+
+def anchors(path):
+    """GitHub's heading anchors of a markdown file."""
+    headings = []
+    for _, unit_lines, _exempt in units(path):
+        m = HEADING.match(unit_lines[0][1])
+        if m and len(unit_lines) == 1:
+            headings.append(m.group(1))
+    return github_anchors(headings)
 
 
 def check_links(path, sections, root):

@@ -41,6 +41,9 @@ import sys
 
 import pytest
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "scripts"))
+from check_numbers import github_anchors  # noqa: E402
+
 from conftest import ROOT, TESTDATA
 
 GUIDES = sorted((ROOT / "docs" / "guide").glob("*.md"))
@@ -325,18 +328,9 @@ def _prose_lines(path: pathlib.Path) -> list[str]:
 
 
 def _anchors(path: pathlib.Path) -> set[str]:
-    """GitHub's heading anchors of a Markdown file."""
-    seen: dict[str, int] = {}
-    anchors = set()
-    for line in _prose_lines(path):
-        m = re.match(r"^#{1,6}\s+(.*?)\s*#*\s*$", line)
-        if not m:
-            continue
-        slug = re.sub(r"[^\w\- ]", "", m.group(1).lower()).replace(" ", "-")
-        n = seen.get(slug, 0)
-        seen[slug] = n + 1
-        anchors.add(slug if n == 0 else f"{slug}-{n}")
-    return anchors
+    """GitHub's heading anchors of a Markdown file (the rule of scripts/check_numbers.py)."""
+    headings = [m.group(1) for line in _prose_lines(path) if (m := re.match(r"^#{1,6}\s+(.*?)\s*#*\s*$", line))]
+    return github_anchors(headings)
 
 
 LINKED_PAGES = [ROOT / "README.md", ROOT / "docs" / "README.md", *DOCS[1:], ROOT / "docs" / "glossary.md"]
