@@ -298,7 +298,12 @@ fn per_pixel_kernel(interpolation: Interpolation, channels: usize, vector: bool)
         ifd_simd::Isa::Baseline => "scalar loop (no AVX2 with FMA, or IFD_SIMD=baseline)".into(),
         _ if channels > 4 => "scalar loop (more than 4 channels)".into(),
         _ => format!(
-            "{isa} gathers, {} pixels per vector ({} levels)",
+            "{isa} {}, {} pixels per vector ({} levels)",
+            if channels == 1 {
+                "row windows or gathers"
+            } else {
+                "gathers"
+            },
             isa.f32_lanes(),
             interpolation.name()
         ),

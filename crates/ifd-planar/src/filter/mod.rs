@@ -188,7 +188,8 @@ impl<'a> Filter<'a> {
     }
 
     /// Whether the per-pixel paths (an angle or scale map) may evaluate eight
-    /// pixels at a time with the CPU's vector gathers, where it has them
+    /// or sixteen pixels at a time with the CPU's vector instructions, where
+    /// it has them
     /// ([`ifd_simd::isa`]); on by default. The output is the same bit
     /// for bit either way: turning them off is for measuring.
     ///

@@ -16,10 +16,10 @@ use std::arch::x86_64::{
     _mm256_i32gather_ps, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_epi32, _mm256_max_ps,
     _mm256_min_epi32, _mm256_min_epu32, _mm256_min_ps, _mm256_movemask_epi8, _mm256_movemask_ps,
     _mm256_mul_ps, _mm256_mullo_epi32, _mm256_or_si256, _mm256_permute2x128_si256,
-    _mm256_permutevar8x32_epi32, _mm256_round_ps, _mm256_set1_epi32, _mm256_set1_ps,
-    _mm256_setr_epi32, _mm256_setr_ps, _mm256_setzero_ps, _mm256_shuffle_epi32, _mm256_slli_epi32,
-    _mm256_srai_epi32, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps,
-    _mm256_xor_si256,
+    _mm256_permutevar8x32_epi32, _mm256_permutevar8x32_ps, _mm256_round_ps, _mm256_set1_epi32,
+    _mm256_set1_ps, _mm256_setr_epi32, _mm256_setr_ps, _mm256_setzero_ps, _mm256_shuffle_epi32,
+    _mm256_slli_epi32, _mm256_srai_epi32, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32,
+    _mm256_sub_ps, _mm256_xor_si256,
 };
 
 use super::lanes::Lanes;
@@ -222,6 +222,22 @@ impl Lanes for Avx2 {
         let a = _mm256_max_epi32(a, _mm256_shuffle_epi32::<0b1011_0001>(a));
         _mm256_cvtsi256_si32(a)
     }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn first_i(a: __m256i) -> i32 {
+        _mm256_cvtsi256_si32(a)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn permute2(lo: __m256, hi: __m256, idx: __m256i) -> __m256 {
+        // each half permuted by the low three bits, then the half chosen
+        // by bit 3 (shifted into the sign bit `blendv` reads)
+        let (a, b) = (
+            _mm256_permutevar8x32_ps(lo, idx),
+            _mm256_permutevar8x32_ps(hi, idx),
+        );
+        _mm256_blendv_ps(a, b, _mm256_castsi256_ps(_mm256_slli_epi32::<28>(idx)))
+    }
 
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -294,6 +310,12 @@ impl Lanes for Avx2 {
         _mm256_and_ps(_mm256_castsi256_ps(m), v)
     }
 
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn load_ptr(p: *const f32) -> __m256 {
+        // SAFETY: as the caller promises.
+        unsafe { _mm256_loadu_ps(p) }
+    }
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn gather(p: *const f32, idx: __m256i) -> __m256 {

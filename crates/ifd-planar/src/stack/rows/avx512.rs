@@ -8,17 +8,18 @@
 
 use std::arch::x86_64::{
     __m512, __m512i, __mmask16, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ, _MM_FROUND_NO_EXC,
-    _MM_FROUND_TO_NEAREST_INT, _MM_FROUND_TO_NEG_INF, _mm512_abs_ps, _mm512_add_epi32,
-    _mm512_add_ps, _mm512_and_si512, _mm512_castps_si512, _mm512_castsi512_ps,
-    _mm512_castsi512_si256, _mm512_cmp_ps_mask, _mm512_cmpeq_epi32_mask, _mm512_cmple_epu32_mask,
-    _mm512_cvtepi32_ps, _mm512_cvtps_epi32, _mm512_cvttps_epi32, _mm512_div_ps,
-    _mm512_extracti64x4_epi64, _mm512_i32gather_epi64, _mm512_i32gather_ps, _mm512_loadu_ps,
-    _mm512_loadu_si512, _mm512_mask_add_epi32, _mm512_mask_mov_ps, _mm512_maskz_mov_ps,
-    _mm512_max_epi32, _mm512_max_ps, _mm512_min_epi32, _mm512_min_ps, _mm512_mul_ps,
-    _mm512_mullo_epi32, _mm512_permutex2var_epi32, _mm512_reduce_max_epi32,
-    _mm512_reduce_min_epi32, _mm512_roundscale_ps, _mm512_set1_epi32, _mm512_set1_ps,
-    _mm512_setr_epi32, _mm512_setr_ps, _mm512_setzero_ps, _mm512_slli_epi32, _mm512_srai_epi32,
-    _mm512_storeu_ps, _mm512_storeu_si512, _mm512_sub_epi32, _mm512_sub_ps, _mm512_xor_si512,
+    _MM_FROUND_TO_NEAREST_INT, _MM_FROUND_TO_NEG_INF, _mm_cvtsi128_si32, _mm512_abs_ps,
+    _mm512_add_epi32, _mm512_add_ps, _mm512_and_si512, _mm512_castps_si512, _mm512_castsi512_ps,
+    _mm512_castsi512_si128, _mm512_castsi512_si256, _mm512_cmp_ps_mask, _mm512_cmpeq_epi32_mask,
+    _mm512_cmple_epu32_mask, _mm512_cvtepi32_ps, _mm512_cvtps_epi32, _mm512_cvttps_epi32,
+    _mm512_div_ps, _mm512_extracti64x4_epi64, _mm512_i32gather_epi64, _mm512_i32gather_ps,
+    _mm512_loadu_ps, _mm512_loadu_si512, _mm512_mask_add_epi32, _mm512_mask_mov_ps,
+    _mm512_maskz_mov_ps, _mm512_max_epi32, _mm512_max_ps, _mm512_min_epi32, _mm512_min_ps,
+    _mm512_mul_ps, _mm512_mullo_epi32, _mm512_permutex2var_epi32, _mm512_permutex2var_ps,
+    _mm512_reduce_max_epi32, _mm512_reduce_min_epi32, _mm512_roundscale_ps, _mm512_set1_epi32,
+    _mm512_set1_ps, _mm512_setr_epi32, _mm512_setr_ps, _mm512_setzero_ps, _mm512_slli_epi32,
+    _mm512_srai_epi32, _mm512_storeu_ps, _mm512_storeu_si512, _mm512_sub_epi32, _mm512_sub_ps,
+    _mm512_xor_si512,
 };
 
 use super::lanes::Lanes;
@@ -216,6 +217,16 @@ impl Lanes for Avx512 {
     unsafe fn reduce_max(a: __m512i) -> i32 {
         _mm512_reduce_max_epi32(a)
     }
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn first_i(a: __m512i) -> i32 {
+        _mm_cvtsi128_si32(_mm512_castsi512_si128(a))
+    }
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn permute2(lo: __m512, hi: __m512, idx: __m512i) -> __m512 {
+        _mm512_permutex2var_ps(lo, idx, hi)
+    }
 
     #[inline]
     #[target_feature(enable = "avx512f")]
@@ -288,6 +299,12 @@ impl Lanes for Avx512 {
         _mm512_maskz_mov_ps(m, v)
     }
 
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn load_ptr(p: *const f32) -> __m512 {
+        // SAFETY: as the caller promises.
+        unsafe { _mm512_loadu_ps(p) }
+    }
     #[inline]
     #[target_feature(enable = "avx512f")]
     unsafe fn gather(p: *const f32, idx: __m512i) -> __m512 {

@@ -184,6 +184,20 @@ unsafe fn rotated_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
     end
 }
 
+#[cfg(test)]
+thread_local! {
+    /// Lookups the contiguous windows served on this thread ([`window_corners`],
+    /// [`cubic_window`]): the tests check that their maps take both paths.
+    pub(super) static WINDOW_LOOKUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// Counts a window lookup (tests only).
+#[inline(always)]
+fn count_window() {
+    #[cfg(test)]
+    WINDOW_LOOKUPS.with(|c| c.set(c.get() + 1));
+}
+
 /// The most levels one block's vector lookups span (a lookup each);
 /// blocks whose lanes spread wider go lane by lane.
 const SPAN: usize = 4;
@@ -457,16 +471,24 @@ unsafe fn stencil_inside<V: Lanes>(
     }
 }
 
+/// Where a bilinear lookup reads, for every lane (see [`bilinear_stencil`]).
+#[derive(Clone, Copy)]
+struct Stencil<V: Lanes> {
+    /// The fractions of the level coordinates.
+    fu: V::F,
+    fv: V::F,
+    /// Each lane's first sample, `iv nx + iu` (clamped into the level).
+    idx: V::I,
+    /// The floors of the level coordinates.
+    iu: V::I,
+    iv: V::I,
+}
+
 /// Where a bilinear lookup of `level` at `(px, py)` reads, when every
-/// lane's stencil lies in the stored level: the fractions `(fu, fv)` and
-/// each lane's first sample (see [`stencil_inside`]). Levels on the same
-/// grid share it.
+/// lane's stencil lies in the stored level (see [`stencil_inside`]). Levels
+/// on the same grid share it.
 #[inline(always)]
-unsafe fn bilinear_stencil<V: Lanes>(
-    level: &Level,
-    px: V::F,
-    py: V::F,
-) -> Option<(V::F, V::F, V::I)> {
+unsafe fn bilinear_stencil<V: Lanes>(level: &Level, px: V::F, py: V::F) -> Option<Stencil<V>> {
     let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
     // SAFETY: compiled for `V`'s instruction set (the caller's promise).
     unsafe {
@@ -476,7 +498,13 @@ unsafe fn bilinear_stencil<V: Lanes>(
         // samples (times C, plus C - 1) past `idx <= nx (ny - 1) - 2`,
         // inside the level's `nx ny C` samples (`fits` checked the length).
         let idx = V::min_i(V::max_i(idx, V::splat_i(0)), V::splat_i(nx * (ny - 1) - 2));
-        Some((fu, fv, idx))
+        Some(Stencil {
+            fu,
+            fv,
+            idx,
+            iu,
+            iv,
+        })
     }
 }
 
@@ -485,17 +513,23 @@ unsafe fn bilinear_stencil<V: Lanes>(
 #[inline(always)]
 unsafe fn bilinear_at<V: Lanes, const C: usize>(
     level: &Level,
-    (fu, fv, idx): (V::F, V::F, V::I),
+    st: Stencil<V>,
     w: V::F,
     acc: &mut [V::F; C],
 ) {
     let nx = level.layout.nx;
     let p = level.data.as_ptr();
     let row = nx * C;
+    let (fu, fv, idx) = (st.fu, st.fv, st.idx);
     // SAFETY: compiled for `V`'s instruction set (the caller's promise);
-    // the reads are inside the level (the clamp in `bilinear_stencil`).
+    // the reads are inside the level (the clamp in `bilinear_stencil`,
+    // the checks in `window_corners`).
     unsafe {
         if C == 1 {
+            if let Some(corners) = window_corners::<V>(level, st) {
+                acc[0] = blend::<V>(acc[0], w, (fu, fv), corners);
+                return;
+            }
             // (a, b) and (c, d) as pairs of neighbouring floats, read at
             // `idx` from `p` and `p + nx`: they end at `idx + nx + 1 < nx
             // ny`.
@@ -514,6 +548,70 @@ unsafe fn bilinear_at<V: Lanes, const C: usize>(
             ];
             *a = blend::<V>(*a, w, (fu, fv), corners);
         }
+    }
+}
+
+/// The four bilinear corners of every lane of a one-channel level read
+/// with contiguous loads instead of gathers, when the block's stencils are
+/// close together, as they are where the maps vary slowly along a row: the
+/// lanes' columns within a window of `2 N` samples from lane 0's column
+/// less `N / 4`, their rows lane 0's row or one either side. Each row the
+/// stencils touch is loaded as `2 N` contiguous samples and each lane's
+/// pair picked from them by a permute ([`Lanes::permute2`]): a gather's
+/// loads cost some CPUs (AMD Zen) several times an in-register permute.
+/// The corners are the very samples the gathers read, so the sums are the
+/// same bits. `None` (the caller gathers) where the block spreads wider or
+/// a window would reach past the level's samples.
+#[inline(always)]
+unsafe fn window_corners<V: Lanes>(level: &Level, st: Stencil<V>) -> Option<[V::F; 4]> {
+    let nx = level.layout.nx as isize;
+    let n = V::N as i32;
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise);
+    // every load is checked to lie in `level.data` below.
+    unsafe {
+        let u0 = V::first_i(st.iu) - n / 4;
+        let v0 = V::first_i(st.iv);
+        // each lane's column in the window, and the one after it
+        let du = V::sub_i(st.iu, V::splat_i(u0));
+        if !V::all(V::le_u(du, V::splat_i(2 * n - 2))) {
+            return None;
+        }
+        let dv = V::sub_i(st.iv, V::splat_i(v0));
+        let (above, below) = (V::eq_i(dv, V::splat_i(-1)), V::eq_i(dv, V::splat_i(1)));
+        let on = V::or_m(V::or_m(above, below), V::eq_i(dv, V::splat_i(0)));
+        if !V::all(on) {
+            return None;
+        }
+        let (any_above, any_below) = (V::any(above), V::any(below));
+        let first = (v0 as isize - isize::from(any_above)) * nx + u0 as isize;
+        let last = (v0 as isize + 1 + isize::from(any_below)) * nx + u0 as isize;
+        if first < 0 || last + 2 * n as isize > level.data.len() as isize {
+            return None;
+        }
+        let p = level.data.as_ptr();
+        let du1 = V::add_i(du, V::splat_i(1));
+        // the samples of row `r` at each lane's column and the next
+        let at = |r: isize| p.offset(r * nx + u0 as isize);
+        let v0 = v0 as isize;
+        let (a0, b0) = pair_at::<V>(at(v0), du, du1);
+        let (c0, d0) = pair_at::<V>(at(v0 + 1), du, du1);
+        let [mut a, mut b, mut c, mut d] = [a0, b0, c0, d0];
+        if any_above {
+            let (a1, b1) = pair_at::<V>(at(v0 - 1), du, du1);
+            a = V::select(above, a1, a);
+            b = V::select(above, b1, b);
+            c = V::select(above, a0, c);
+            d = V::select(above, b0, d);
+        }
+        if any_below {
+            let (c2, d2) = pair_at::<V>(at(v0 + 2), du, du1);
+            a = V::select(below, c0, a);
+            b = V::select(below, d0, b);
+            c = V::select(below, c2, c);
+            d = V::select(below, d2, d);
+        }
+        count_window();
+        Some([a, b, c, d])
     }
 }
 
@@ -617,6 +715,10 @@ unsafe fn cubic<V: Lanes, const C: usize>(
         let p = level.data.as_ptr();
         let row = nx as usize * C;
         if C == 1 {
+            if let Some(sum) = cubic_window::<V>(level, (iu, iv), (&wx, &wy)) {
+                acc[0] = V::add(acc[0], V::mul(w, sum));
+                return true;
+            }
             let mut sum = V::zero();
             for (j, wyj) in wy.iter().enumerate() {
                 let q = p.add(j * row);
@@ -642,6 +744,97 @@ unsafe fn cubic<V: Lanes, const C: usize>(
             }
         }
         true
+    }
+}
+
+/// The samples at `q + du` and `q + du1` (per lane; each below `2 N`).
+///
+/// # Safety
+/// `q .. q + 2 N` inside one allocation; compiled for `V`'s instruction set.
+#[inline(always)]
+unsafe fn pair_at<V: Lanes>(q: *const f32, du: V::I, du1: V::I) -> (V::F, V::F) {
+    // SAFETY: as the caller promises.
+    unsafe {
+        let (lo, hi) = (V::load_ptr(q), V::load_ptr(q.add(V::N)));
+        (V::permute2(lo, hi, du), V::permute2(lo, hi, du1))
+    }
+}
+
+/// The cubic lookups' sums `sum_j wy[j] dot4(wx, row j)` of a one-channel
+/// level read with contiguous loads instead of gathers (as
+/// [`window_corners`] for the bilinear corners): the lanes' first columns
+/// `iu - 1` within a window of `2 N` samples from lane 0's less `N / 4`,
+/// their rows lane 0's or one either side. Each row the stencils touch is
+/// loaded once, filtered along the row for every lane, and each lane takes
+/// its four rows' values; the sums are the gathers' bits. `None` where the
+/// block spreads wider or a window would reach past the level's samples.
+#[inline(always)]
+unsafe fn cubic_window<V: Lanes>(
+    level: &Level,
+    (iu, iv): (V::I, V::I),
+    (wx, wy): (&[V::F; 4], &[V::F; 4]),
+) -> Option<V::F> {
+    let nx = level.layout.nx as isize;
+    let n = V::N as i32;
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise);
+    // every load is checked to lie in `level.data` below.
+    unsafe {
+        let u0 = V::first_i(iu) - 1 - n / 4;
+        let v0 = V::first_i(iv);
+        let du = V::sub_i(iu, V::splat_i(u0 + 1));
+        if !V::all(V::le_u(du, V::splat_i(2 * n - 4))) {
+            return None;
+        }
+        let dv = V::sub_i(iv, V::splat_i(v0));
+        let (above, below) = (V::eq_i(dv, V::splat_i(-1)), V::eq_i(dv, V::splat_i(1)));
+        let on = V::or_m(V::or_m(above, below), V::eq_i(dv, V::splat_i(0)));
+        if !V::all(on) {
+            return None;
+        }
+        let (any_above, any_below) = (V::any(above), V::any(below));
+        // rows v0 - 1 + k - 1 for k in 0..6: k = 0 only for lanes above,
+        // k = 5 only for lanes below
+        let (k0, k1) = (usize::from(!any_above), 5 - usize::from(!any_below));
+        let v0 = v0 as isize;
+        let first = (v0 - 2 + k0 as isize) * nx + u0 as isize;
+        let last = (v0 - 2 + k1 as isize) * nx + u0 as isize;
+        if first < 0 || last + 2 * n as isize > level.data.len() as isize {
+            return None;
+        }
+        let p = level.data.as_ptr();
+        let one = V::splat_i(1);
+        let cols = [
+            du,
+            V::add_i(du, one),
+            V::add_i(du, V::splat_i(2)),
+            V::add_i(du, V::splat_i(3)),
+        ];
+        let mut h = [V::zero(); 6];
+        for (k, hk) in h.iter_mut().enumerate().take(k1 + 1).skip(k0) {
+            let q = p.offset((v0 - 2 + k as isize) * nx + u0 as isize);
+            let (lo, hi) = (V::load_ptr(q), V::load_ptr(q.add(V::N)));
+            let r = [
+                V::permute2(lo, hi, cols[0]),
+                V::permute2(lo, hi, cols[1]),
+                V::permute2(lo, hi, cols[2]),
+                V::permute2(lo, hi, cols[3]),
+            ];
+            *hk = dot4::<V>(wx, r);
+        }
+        let mut sum = V::zero();
+        for (j, wyj) in wy.iter().enumerate() {
+            // row iv - 1 + j of each lane: h[j + 1 + dv]
+            let mut r = h[j + 1];
+            if any_above {
+                r = V::select(above, h[j], r);
+            }
+            if any_below {
+                r = V::select(below, h[j + 2], r);
+            }
+            sum = V::add(sum, V::mul(*wyj, r));
+        }
+        count_window();
+        Some(sum)
     }
 }
 

@@ -104,6 +104,8 @@ pub(super) trait Lanes: Copy {
     unsafe fn reduce_min(a: Self::I) -> i32;
     /// The largest lane, signed.
     unsafe fn reduce_max(a: Self::I) -> i32;
+    /// Lane 0.
+    unsafe fn first_i(a: Self::I) -> i32;
 
     // masks
     /// `a < b` (ordered: false where either is NaN).
@@ -135,7 +137,16 @@ pub(super) trait Lanes: Copy {
     /// `v` in the lanes of `m`, `0.0` elsewhere.
     unsafe fn zero_unless(m: Self::M, v: Self::F) -> Self::F;
 
+    /// Lane `k` of the `2 N` floats `lo` then `hi` at `idx[k]` (each in
+    /// `0 .. 2 N`; higher bits ignored).
+    unsafe fn permute2(lo: Self::F, hi: Self::F, idx: Self::I) -> Self::F;
+
     // loads through a pointer
+    /// The `N` floats from `p`.
+    ///
+    /// # Safety
+    /// `p .. p + N` inside one allocation.
+    unsafe fn load_ptr(p: *const f32) -> Self::F;
     /// The floats at `p + idx` (per lane).
     ///
     /// # Safety

@@ -507,3 +507,95 @@ fn channels_and_cubic_equal_the_scalar_lookups() {
         }
     }
 }
+
+/// The contiguous-window lookups (rows loaded whole, each lane's samples
+/// permuted out of them) bit for bit the scalar lookups, bilinear and cubic,
+/// on a rotation that varies slowly along the row as real angle maps do:
+/// blocks whose lanes read one row pair, blocks that straddle a row either
+/// way, and blocks spread too wide, which gather.
+#[test]
+fn window_lookups_equal_the_scalar_lookups() {
+    if !ifd_simd::has(Isa::Avx2) {
+        crate::test_skip::skip("no AVX2: nothing to compare");
+        return;
+    }
+    for interpolation in [Interpolation::Linear, Interpolation::Cubic] {
+        let (w, h) = (211, 64);
+        let mut img = Image::new(w, h, 1).expect("image");
+        for (i, v) in img.data_mut().iter_mut().enumerate() {
+            *v = ((i * 7919) % 1013) as f32 / 1013.0 - 0.3;
+        }
+        let options = StackOptions {
+            interpolation,
+            ..StackOptions::default()
+        };
+        let stack = ScaleStack::with_sigmas(&img, &[1.5, 3.0, 6.0], Border::Reflect101, options)
+            .expect("stack");
+        assert!(stack.level_layouts().any(|l| l.step > 1));
+        let terms = [
+            (0.0, 0.0, 0, 0, 1.0, 0.0),
+            (5.5, -2.25, 0, 1, 0.6, 0.4),
+            (40.0, -12.0, 1, 2, 0.25, 0.75),
+            (-30.0, 17.0, 2, 2, -0.5, 0.0),
+        ]
+        .map(|(cx, cy, a, b, wa, wb)| FixedTerm {
+            cx,
+            cy,
+            a,
+            b,
+            wa,
+            wb,
+        });
+        let width = 12 * 16;
+        let before = super::kernels::WINDOW_LOOKUPS.with(std::cell::Cell::get);
+        for y in [0, 9, 31, 50, 63] {
+            // 0.15 degrees a pixel, faster near the row's end: lanes drift
+            // across level rows within a block, and spread past the window
+            let (cs, ss): (Vec<f32>, Vec<f32>) = (0..width)
+                .map(|x| {
+                    let xf = x as f32;
+                    let turn = if x < 160 {
+                        0.15 * xf
+                    } else {
+                        24.0 + 6.0 * (xf - 160.0)
+                    };
+                    let (sin, cos) = sin_cos_degrees(30.0 + turn + 2.0 * y as f32);
+                    (cos * 0.9, sin * 0.9)
+                })
+                .unzip();
+            let mut want = vec![0.25f32; width];
+            for (x, o) in want.iter_mut().enumerate() {
+                let mut sum = [0.0f32];
+                for t in &terms {
+                    let sx = x as f32 + cs[x] * t.cx + ss[x] * t.cy;
+                    let sy = y as f32 - ss[x] * t.cx + cs[x] * t.cy;
+                    for (li, wl) in [(t.a, t.wa), (t.b, t.wb)] {
+                        if wl != 0.0 {
+                            stack.accumulate_fixed::<1>(li, sx, sy, wl, &mut sum);
+                        }
+                    }
+                }
+                *o += sum[0];
+            }
+            for isa in [Isa::Avx512, Isa::Avx2] {
+                if !ifd_simd::has(isa) {
+                    continue;
+                }
+                let mut got = vec![0.25f32; width];
+                let done = rotated_row_on::<1>(isa, &stack, &terms, y, (&cs, &ss), &mut got);
+                assert_eq!(done, width, "{isa}");
+                for (x, (g, w)) in got.iter().zip(&want).enumerate() {
+                    assert_eq!(
+                        g.to_bits(),
+                        w.to_bits(),
+                        "{isa}, {interpolation:?}, row {y}, pixel {x}"
+                    );
+                }
+            }
+        }
+        let windows = super::kernels::WINDOW_LOOKUPS.with(std::cell::Cell::get) - before;
+        // lookups per block and term level, over both widths: the windows
+        // served some, the gathers the rest
+        assert!(windows > 0, "{interpolation:?}: no window lookups");
+    }
+}
