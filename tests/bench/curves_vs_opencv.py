@@ -13,7 +13,10 @@ every method is a curve of points (PSNR, time) rather than one point:
 
 * ifd: the decomposition tolerance (`ifd decompose --tol T`, fewer or more
   terms), crossed with the evaluation's interpolation (`ifd filter --interp
-  linear|auto`); optionally the scalar loop too (`--scalar-too`, series
+  linear|auto`) and, with `--eval-budgets`, the evaluation's error budget
+  (`ifd filter --eval-budget`, as a multiple of the fit's tolerance; the
+  default plans for a third of it on white noise, which natural images,
+  with less energy at high frequencies, rarely need); optionally the scalar loop too (`--scalar-too`, series
   "... scalar") and a second build (`--ifd-b`, series "ifd (B) ...") that
   filters with the same decompositions.
 * the steerable basis (series "steerable", knob K, `--steerable-k` and
@@ -834,6 +837,9 @@ def main():
     ap.add_argument("--cases", help=f"comma-separated subset of {','.join(CASES)} (default both)")
     ap.add_argument("--tols", help="ifd decompose --tol values (default 0.02,0.01,0.005,0.0025)")
     ap.add_argument("--interps", help="ifd filter --interp values (default linear,auto)")
+    ap.add_argument("--eval-budgets", default="default",
+                    help="ifd filter --eval-budget values as multiples of each fit's --tol, comma-separated; "
+                    "'default' leaves it to ifd (a third of the fit's error); each its own series (default: default)")
     ap.add_argument("--bins", help="OpenCV filter2D angle bins (default 8,12,16,24,32,48,64,96)")
     ap.add_argument("--peers", default=",".join(PEERS),
                     help="peers to run: steerable (the steerable basis), bins (blended bins, spectrum once), "
@@ -910,6 +916,7 @@ def main():
     runs = a.runs or (2 if q else 5)
     ns = a.samples or (300 if q else 2000)
     extra = shlex.split(a.ifd_extra)
+    eval_budgets = [None if b.strip() == "default" else float(b) for b in a.eval_budgets.split(",")]
     if n < 2 * R + 1:
         raise SystemExit(f"--size: at least {2 * R + 1} (ifd refuses a kernel wider than the image)")
     for c in cases:
@@ -964,6 +971,7 @@ def main():
         "ifd_b": a.ifd_b,
         "label_b": a.label_b if a.ifd_b else None,
         "ifd_extra": a.ifd_extra,
+        "eval_budgets": a.eval_budgets,
         "scalar_too": a.scalar_too,
         "opencv": cv2.__version__,
         "numpy": np.__version__,
@@ -1027,10 +1035,15 @@ def main():
 
                 configs = []
                 for bi, (blabel, binary) in enumerate(binaries):
-                    for interp in interps:
+                    for interp, budget in [(i, b) for i in interps for b in eval_budgets]:
                         for scalar in [False, True] if scalar_for[blabel] else [False]:
                             for k, (tol, path, rep) in enumerate(decomps):
-                                series = f"{blabel} {interp}" + (" scalar" if scalar else "")
+                                series = (
+                                    f"{blabel} {interp}"
+                                    + (f", eval budget {budget:g} tol" if budget is not None else "")
+                                    + (" scalar" if scalar else "")
+                                )
+                                own = [] if budget is None else ["--eval-budget", f"{budget * tol:.6g}"]
                                 configs.append(
                                     {
                                         "method": "ifd",
@@ -1050,8 +1063,9 @@ def main():
                                             "interp": interp,
                                             "scalar": scalar,
                                             "extra": a.ifd_extra,
+                                            "eval_budget": None if budget is None else budget * tol,
                                         },
-                                        "_run": (binary, path, interp, scalar),
+                                        "_run": (binary, path, interp, scalar, own),
                                     }
                                 )
                 for key, f in fits.get(case, {}).items():
@@ -1091,10 +1105,10 @@ def main():
                     t_round = time.perf_counter()
                     for c in configs:
                         if c["method"] == "ifd":
-                            binary, path, interp, scalar = c["_run"]
+                            binary, path, interp, scalar, own = c["_run"]
                             out, pre, filt, wall, notes = run_ifd(
                                 binary, img_npy, path, tmp / "angle.npy", tmp / "scale.npy" if scaled else None,
-                                interp, scalar, extra, out_npy,
+                                interp, scalar, extra + own, out_npy,
                             )
                             c["times"].append(pre + filt)
                             c["pre"].append(pre)
