@@ -370,6 +370,33 @@ fn filter_sigma_map_writes_a_gaussian_per_pixel_and_refuses_bad_maps() {
     let input = ifd_image::read(&img).unwrap();
     assert!((mean(res.data()) - mean(input.data())).abs() < 0.01);
 
+    // `--tol` fits the bank's entries to another error, cached apart from
+    // the shared bank; a coarser bank gives another, still normalised, image.
+    let cache = tempfile::tempdir().unwrap();
+    let coarse = path(d, "coarse.npy");
+    let (code, _, err) = common::run(
+        common::ifd_command()
+            .env("IFD_CACHE_DIR", cache.path())
+            .args([
+                "filter",
+                &img,
+                "--kernel",
+                "gauss",
+                "--sigma-map",
+                &good,
+                "--tol",
+                "0.1",
+                "-o",
+                &coarse,
+            ]),
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(cache.path().join("aspect-bank-v1-tol0.1.json").is_file());
+    assert!(!cache.path().join("aspect-bank-v1.json").exists());
+    let coarse = ifd_image::read(&coarse).unwrap();
+    assert_ne!(coarse.data(), res.data());
+    assert!((mean(coarse.data()) - mean(input.data())).abs() < 0.01);
+
     let o = path(d, "refused.png");
     let run = |m: &str, needles: &[&str]| {
         refused(
@@ -449,6 +476,10 @@ fn filter_sigma_map_writes_a_gaussian_per_pixel_and_refuses_bad_maps() {
         &["box:w=3", "only kernel", "gauss"],
     );
     with(&["--sigma-map", &good], &["--kernel gauss"]);
+    with(
+        &["--kernel", "gauss", "--sigma-map", &good, "--tol", "0"],
+        &["--tol 0"],
+    );
     with(&["--kernel", "gauss"], &["--sigma-map"]);
     let dec = path(d, "d.json");
     for extra in [

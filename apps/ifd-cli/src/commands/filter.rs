@@ -43,11 +43,12 @@ pub struct Filter {
     /// next run.
     #[arg(long, value_name = "SPEC|FILE")]
     kernel: Option<String>,
-    /// Target relative L2 error of the fit of --kernel [default: 0.01]
+    /// Target relative L2 error of the fit of --kernel (with --sigma-map: of
+    /// each entry of its aspect bank, cached per tolerance) [default: 0.01]
     #[arg(long, value_name = "E", requires = "kernel")]
     tol: Option<f64>,
-    /// Fit --kernel afresh instead of reading it from (and keeping it in)
-    /// the fit cache.
+    /// Fit --kernel (with --sigma-map: the aspect bank) afresh instead of
+    /// reading it from (and keeping it in) the fit cache.
     #[arg(long, requires = "kernel")]
     no_cache: bool,
     /// A normalised anisotropic Gaussian per pixel (with `--kernel gauss`):
@@ -56,7 +57,7 @@ pub struct Filter {
     /// (pixels, 0 < minor <= major, aspect major/minor up to 16, sigmas up
     /// to a quarter of the image's larger side and 512) and the major axis'
     /// angle in degrees counter-clockwise on screen. Uses the aspect bank of
-    /// `ifd smooth` and its cache; footprints sqrt(major*minor) below 2 px
+    /// `ifd smooth` (fitted at --tol) and its cache; footprints sqrt(major*minor) below 2 px
     /// or minor sigmas below 1 px are sampled directly. CPU only.
     #[arg(
         long,
@@ -415,6 +416,8 @@ impl Filter {
                 image: &self.image,
                 kernel: self.kernel.as_deref(),
                 map,
+                tol: self.tol,
+                no_cache: self.no_cache,
                 border: self.border,
                 output: &self.output,
                 verbose: self.verbose,

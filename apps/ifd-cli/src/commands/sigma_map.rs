@@ -23,6 +23,12 @@ pub struct SigmaMapRun<'a> {
     pub kernel: Option<&'a str>,
     /// The H x W x 3 map.
     pub map: &'a Path,
+    /// `--tol`: the relative L2 error each bank entry is fitted to (the
+    /// shared bank's 1% when not given).
+    pub tol: Option<f64>,
+    /// `--no-cache`: fit the bank afresh, neither reading nor writing the
+    /// cache.
+    pub no_cache: bool,
     /// `--border`.
     pub border: Border,
     /// `-o` and its encoding.
@@ -72,13 +78,27 @@ pub fn run(r: &SigmaMapRun<'_>) -> Result<()> {
             None => e,
         }
     })?;
+    let bank_options = BankOptions {
+        tol: r.tol.unwrap_or(BankOptions::default().tol),
+        ..BankOptions::default()
+    };
+    let fit = ifd_planar::DecomposeOptions {
+        tol: bank_options.tol,
+        ..ifd_planar::DecomposeOptions::default()
+    };
+    if let Err(ifd_planar::DecomposeError::Invalid { value, reason, .. }) = fit.validate() {
+        bail!("--tol {value}: {reason}");
+    }
     // Checked before the bank is loaded or fitted: bad maps are refused at once.
-    let bank_options = BankOptions::default();
     ifd_smooth::sigma_map_gaussians(map.view(), (w, h), bank_options.max_aspect)
         .with_context(|| format!("{map_path}"))?;
     let t0 = Instant::now();
     let bar = crate::progress::bar("decomposing filters", "", 0);
-    let cache = AspectBank::default_cache();
+    let cache = if r.no_cache {
+        None
+    } else {
+        bank_cache(&bank_options)
+    };
     let (bank, source) =
         AspectBank::load_or_build(bank_options, cache.as_deref(), crate::progress::track(&bar))?;
     bar.finish_and_clear();
@@ -101,4 +121,18 @@ pub fn run(r: &SigmaMapRun<'_>) -> Result<()> {
         );
     }
     r.output.write(&out)
+}
+
+/// Where the bank fitted with `options` is cached: the shared default
+/// bank's file ([`AspectBank::default_cache`], which `ifd smooth` reads too)
+/// at the default tolerance, else a file of its own beside it named for the
+/// tolerance, so that banks of different tolerances do not replace each
+/// other.
+fn bank_cache(options: &BankOptions) -> Option<std::path::PathBuf> {
+    let shared = AspectBank::default_cache()?;
+    if options.tol == BankOptions::default().tol {
+        return Some(shared);
+    }
+    let stem = shared.file_stem()?.to_string_lossy().into_owned();
+    Some(shared.with_file_name(format!("{stem}-tol{}.json", options.tol)))
 }

@@ -477,8 +477,6 @@ struct Stencil<V: Lanes> {
     /// The fractions of the level coordinates.
     fu: V::F,
     fv: V::F,
-    /// Each lane's first sample, `iv nx + iu` (clamped into the level).
-    idx: V::I,
     /// The floors of the level coordinates.
     iu: V::I,
     iv: V::I,
@@ -489,22 +487,25 @@ struct Stencil<V: Lanes> {
 /// on the same grid share it.
 #[inline(always)]
 unsafe fn bilinear_stencil<V: Lanes>(level: &Level, px: V::F, py: V::F) -> Option<Stencil<V>> {
-    let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
     // SAFETY: compiled for `V`'s instruction set (the caller's promise).
     unsafe {
         let (fu, fv, iu, iv) = stencil_inside::<V>(level, (px, py), 0, 1)?;
-        let idx = V::add_i(V::mul_i(iv, V::splat_i(nx)), iu);
-        // Memory safety: every read of `bilinear_at` is at most `nx + 1`
-        // samples (times C, plus C - 1) past `idx <= nx (ny - 1) - 2`,
-        // inside the level's `nx ny C` samples (`fits` checked the length).
-        let idx = V::min_i(V::max_i(idx, V::splat_i(0)), V::splat_i(nx * (ny - 1) - 2));
-        Some(Stencil {
-            fu,
-            fv,
-            idx,
-            iu,
-            iv,
-        })
+        Some(Stencil { fu, fv, iu, iv })
+    }
+}
+
+/// Each lane's first sample of `st`, `iv nx + iu`, clamped into `level` for
+/// the gathers (computed only where they run: the windows do not need it).
+/// Memory safety: every read of [`bilinear_at`]'s gathers is at most `nx +
+/// 1` samples (times C, plus C - 1) past `idx <= nx (ny - 1) - 2`, inside
+/// the level's `nx ny C` samples (`fits` checked the length).
+#[inline(always)]
+unsafe fn gather_index<V: Lanes>(level: &Level, st: &Stencil<V>) -> V::I {
+    let (nx, ny) = (level.layout.nx as i32, level.layout.ny as i32);
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        let idx = V::add_i(V::mul_i(st.iv, V::splat_i(nx)), st.iu);
+        V::min_i(V::max_i(idx, V::splat_i(0)), V::splat_i(nx * (ny - 1) - 2))
     }
 }
 
@@ -520,16 +521,17 @@ unsafe fn bilinear_at<V: Lanes, const C: usize>(
     let nx = level.layout.nx;
     let p = level.data.as_ptr();
     let row = nx * C;
-    let (fu, fv, idx) = (st.fu, st.fv, st.idx);
+    let (fu, fv) = (st.fu, st.fv);
     // SAFETY: compiled for `V`'s instruction set (the caller's promise);
-    // the reads are inside the level (the clamp in `bilinear_stencil`,
-    // the checks in `window_corners`).
+    // the reads are inside the level (the clamp in `gather_index`, the
+    // checks in `window_corners`).
     unsafe {
         if C == 1 {
             if let Some(corners) = window_corners::<V>(level, st) {
                 acc[0] = blend::<V>(acc[0], w, (fu, fv), corners);
                 return;
             }
+            let idx = gather_index::<V>(level, &st);
             // (a, b) and (c, d) as pairs of neighbouring floats, read at
             // `idx` from `p` and `p + nx`: they end at `idx + nx + 1 < nx
             // ny`.
@@ -537,7 +539,7 @@ unsafe fn bilinear_at<V: Lanes, const C: usize>(
             acc[0] = blend::<V>(acc[0], w, (fu, fv), [a, b, c, d]);
             return;
         }
-        let idx = V::mul_i(idx, V::splat_i(C as i32));
+        let idx = V::mul_i(gather_index::<V>(level, &st), V::splat_i(C as i32));
         for (k, a) in acc.iter_mut().enumerate() {
             // the largest index read is `idx + row + C + k <= nx ny C - 1`
             let corners = [
@@ -700,6 +702,12 @@ unsafe fn cubic<V: Lanes, const C: usize>(
             return false;
         };
         let (wx, wy) = (bspline::<V>(fu), bspline::<V>(fv));
+        if C == 1
+            && let Some(sum) = cubic_window::<V>(level, (iu, iv), (&wx, &wy))
+        {
+            acc[0] = V::add(acc[0], V::mul(w, sum));
+            return true;
+        }
         // Sample (iu - 1, iv - 1) of each lane. Memory safety: every read
         // below is at most `3 nx + 3` samples (times C, plus C - 1) past
         // `base <= nx ny - 3 nx - 4`, inside the level's `nx ny C` samples.
@@ -715,10 +723,6 @@ unsafe fn cubic<V: Lanes, const C: usize>(
         let p = level.data.as_ptr();
         let row = nx as usize * C;
         if C == 1 {
-            if let Some(sum) = cubic_window::<V>(level, (iu, iv), (&wx, &wy)) {
-                acc[0] = V::add(acc[0], V::mul(w, sum));
-                return true;
-            }
             let mut sum = V::zero();
             for (j, wyj) in wy.iter().enumerate() {
                 let q = p.add(j * row);
