@@ -686,9 +686,11 @@ def style(q):
         return "#8c564b", "X", "-", True
     colour = {"linear": "#1f77b4", "auto": "#2ca02c", "cubic": "#9467bd"}.get(q["params"]["interp"], "#17becf")
     b = q.get("binary_index", 0)
-    return colour, ("o" if b == 0 else "^"), (":" if q["params"]["scalar"] else ("-" if b == 0 else "--")), (
-        not q["params"]["scalar"]
-    )
+    # a budget series (`--eval-budgets`): its own marker and a dash-dot line
+    budget = q["params"].get("eval_budget") is not None
+    marker = ("s" if budget else "o") if b == 0 else "^"
+    line = ":" if q["params"]["scalar"] else ("-." if budget else ("-" if b == 0 else "--"))
+    return colour, marker, line, not q["params"]["scalar"]
 
 
 def plot(points, meta, path):
@@ -917,6 +919,8 @@ def main():
     ns = a.samples or (300 if q else 2000)
     extra = shlex.split(a.ifd_extra)
     eval_budgets = [None if b.strip() == "default" else float(b) for b in a.eval_budgets.split(",")]
+    if any(b is not None for b in eval_budgets) and "--eval-budget" in extra:
+        sys.exit("--eval-budgets and an --eval-budget in --ifd-extra: give one of them")
     if n < 2 * R + 1:
         raise SystemExit(f"--size: at least {2 * R + 1} (ifd refuses a kernel wider than the image)")
     for c in cases:

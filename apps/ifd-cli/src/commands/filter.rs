@@ -125,8 +125,8 @@ pub struct Filter {
     #[arg(long, value_name = "PX", conflicts_with = "gpu")]
     tile: Option<usize>,
     /// Evaluate per-pixel maps with the scalar loop instead of the CPU's
-    /// vector gathers (AVX2 or AVX-512, detected at run time): the same output bit for
-    /// bit, slower; for measuring.
+    /// vector instructions (AVX2 or AVX-512, detected at run time): the
+    /// same output bit for bit, slower; for measuring.
     #[arg(long, conflicts_with = "gpu")]
     scalar: bool,
     #[command(flatten)]

@@ -67,10 +67,10 @@ pub struct Filter<'a> {
     /// How the decomposition's kernel was sampled (the atoms' effective
     /// sigma at each scale, [`Sampling::effective_sigma`]).
     sampling: Sampling,
-    /// Whether the per-pixel paths may use the vector gathers.
+    /// Whether the per-pixel paths may use the vector rows.
     vector: bool,
     /// The distinct term sigmas (one representative term each) and the
-    /// terms as the vector gathers read them with a scale map, each with the
+    /// terms as the vector rows read them with a scale map, each with the
     /// index of its sigma: the levels and weights of a pixel depend on the
     /// sigma only, so they are located once per distinct sigma.
     sigma_groups: Vec<Prepared>,

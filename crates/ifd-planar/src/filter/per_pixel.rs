@@ -1,6 +1,6 @@
 //! The per-pixel paths of [`Filter::apply`] (an angle or scale map): the
-//! scalar loop that is the reference, one pixel at a time, and the rows that
-//! go through the vector gathers ([`rows`]) with the same values.
+//! scalar loop that is the reference, one pixel at a time, and the vector
+//! rows ([`rows`]), which give the same values.
 
 use rayon::prelude::*;
 
@@ -13,9 +13,9 @@ use crate::trig::sin_cos_degrees;
 impl Filter<'_> {
     /// Per-pixel angle and/or scale over the whole image. `C` is the channel
     /// count when it is 1 to 4 (accumulators in registers), 0 for any count.
-    /// Rows go eight or sixteen pixels at a time through the vector
-    /// gathers where they can ([`rows`]), the rest of each row through the scalar loop; both
-    /// give the same values.
+    /// Rows go eight or sixteen pixels at a time through the vector rows
+    /// where they can ([`rows`]), the rest of each row through the scalar
+    /// loop; both give the same values.
     pub(super) fn per_pixel<const C: usize>(
         &self,
         angle: Field<'_>,
@@ -70,7 +70,7 @@ impl Filter<'_> {
             });
     }
 
-    /// Row `y` through the vector gathers: the pixels done (a prefix of the
+    /// Row `y` through the vector rows: the pixels done (a prefix of the
     /// row, possibly none).
     #[expect(clippy::too_many_arguments, reason = "one row's inputs and scratch")]
     fn vector_row<const C: usize>(

@@ -186,16 +186,36 @@ unsafe fn rotated_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
 
 #[cfg(test)]
 thread_local! {
-    /// Lookups the contiguous windows served on this thread ([`window_corners`],
-    /// [`cubic_window`]): the tests check that their maps take both paths.
-    pub(super) static WINDOW_LOOKUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+    /// The one-channel lookups on this thread, by path: windows on lane 0's
+    /// rows only, windows with lanes a row above, a row below, and gathers
+    /// ([`Path`]): the tests check that their maps take every path.
+    pub(super) static LOOKUPS: std::cell::Cell<[usize; 4]> = const { std::cell::Cell::new([0; 4]) };
 }
 
-/// Counts a window lookup (tests only).
+/// The paths a one-channel lookup takes, counted by the tests.
+#[derive(Clone, Copy)]
+pub(super) enum Path {
+    /// A window whose lanes start on lane 0's row.
+    Window = 0,
+    /// A window with lanes a row above lane 0's.
+    Above = 1,
+    /// A window with lanes a row below lane 0's (and maybe above).
+    Below = 2,
+    /// The gathers.
+    Gather = 3,
+}
+
+/// Counts a lookup by its path (tests only).
 #[inline(always)]
-fn count_window() {
+fn count(path: Path) {
     #[cfg(test)]
-    WINDOW_LOOKUPS.with(|c| c.set(c.get() + 1));
+    LOOKUPS.with(|c| {
+        let mut n = c.get();
+        n[path as usize] += 1;
+        c.set(n);
+    });
+    #[cfg(not(test))]
+    let _ = path;
 }
 
 /// The most levels one block's vector lookups span (a lookup each);
@@ -531,6 +551,7 @@ unsafe fn bilinear_at<V: Lanes, const C: usize>(
                 acc[0] = blend::<V>(acc[0], w, (fu, fv), corners);
                 return;
             }
+            count(Path::Gather);
             let idx = gather_index::<V>(level, &st);
             // (a, b) and (c, d) as pairs of neighbouring floats, read at
             // `idx` from `p` and `p + nx`: they end at `idx + nx + 1 < nx
@@ -612,7 +633,11 @@ unsafe fn window_corners<V: Lanes>(level: &Level, st: Stencil<V>) -> Option<[V::
             c = V::select(below, c2, c);
             d = V::select(below, d2, d);
         }
-        count_window();
+        count(match (any_above, any_below) {
+            (_, true) => Path::Below,
+            (true, false) => Path::Above,
+            (false, false) => Path::Window,
+        });
         Some([a, b, c, d])
     }
 }
@@ -723,6 +748,7 @@ unsafe fn cubic<V: Lanes, const C: usize>(
         let p = level.data.as_ptr();
         let row = nx as usize * C;
         if C == 1 {
+            count(Path::Gather);
             let mut sum = V::zero();
             for (j, wyj) in wy.iter().enumerate() {
                 let q = p.add(j * row);
@@ -837,7 +863,11 @@ unsafe fn cubic_window<V: Lanes>(
             }
             sum = V::add(sum, V::mul(*wyj, r));
         }
-        count_window();
+        count(match (any_above, any_below) {
+            (_, true) => Path::Below,
+            (true, false) => Path::Above,
+            (false, false) => Path::Window,
+        });
         Some(sum)
     }
 }

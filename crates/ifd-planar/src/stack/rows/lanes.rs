@@ -15,9 +15,9 @@
 //! Every method is an `unsafe fn` compiled for its instruction set
 //! (`#[target_feature]`): call it only from code compiled for that
 //! instruction set too (the entry points in each instruction set's file),
-//! which runs only after [`ifd_simd`] found it on the CPU. [`Lanes::gather`]
-//! and [`Lanes::gather_pairs`] read through a raw pointer: their callers
-//! keep every index in bounds.
+//! which runs only after [`ifd_simd`] found it on the CPU. [`Lanes::gather`],
+//! [`Lanes::gather_pairs`] and [`Lanes::load_ptr`] read through a raw
+//! pointer: their callers keep every index in bounds.
 
 /// `N` lanes of one instruction set (see the module documentation).
 pub(super) trait Lanes: Copy {

@@ -1,9 +1,9 @@
 //! The per-pixel paths' inner loop, vectorised across pixels: a row's
 //! lookups `N` neighbouring pixels at a time (AVX2: eight, AVX-512:
 //! sixteen), from contiguous rows of the level where the block's stencils
-//! lie close together and with the CPU's gathers where they do not, and the per-pixel rules the rows need (the
-//! rotations, a scale map's level positions, each sigma group's levels and
-//! weights). CPUs without them, or `IFD_SIMD=baseline`, take the scalar
+//! lie close together and with the CPU's gathers where they do not, and
+//! the per-pixel rules the rows need (the rotations, a scale map's level
+//! positions, each sigma group's levels and weights). CPUs without them, or `IFD_SIMD=baseline`, take the scalar
 //! loop, with the same results.
 //!
 //! # Layout
@@ -40,7 +40,7 @@
 //! either side, the one-channel kernels load each row the block touches as
 //! `2 N` contiguous samples and permute each lane's out of them
 //! (`permutex2var` in AVX-512; two `permutevar8x32` and a blend in AVX2):
-//! 1.5x faster bilinear rows and 2.1x faster cubic ones on the Zen 4
+//! about 1.45x faster bilinear rows and 2.1x faster cubic ones on the Zen 4
 //! (BENCHMARKS.md). The samples are the ones the gathers would read, so the
 //! sums are the same bits; blocks spread wider (a fast-turning map, a level
 //! at the border) gather as before.
@@ -57,13 +57,14 @@
 //! The workspace denies `unsafe`; this module is the one exception in
 //! `ifd-planar`, for two things stable Rust only offers as `unsafe`: calling
 //! a function compiled for AVX2 or AVX-512 (after [`ifd_simd::has`] said the
-//! CPU has it), and the gathers, which take a raw pointer. The intrinsics
-//! are only in `avx2.rs` and `avx512.rs`. Memory safety does not rest on the
-//! interior test that chooses the vector path: the gather indices are
-//! clamped (integer min/max) into the range every read of a stencil stays
-//! in, a window is loaded only after its first and last rows were checked
-//! to lie in the level's samples, and the levels' sizes are checked ([`supports`]) before any kernel
-//! runs.
+//! CPU has it), and the loads through a raw pointer (the gathers and the
+//! windows' contiguous loads). The intrinsics are only in `avx2.rs` and
+//! `avx512.rs`. Memory safety does not rest on the interior test that
+//! chooses the vector path: the gather indices are clamped (integer
+//! min/max) into the range every read of a stencil stays in, a window is
+//! loaded only after its first and last rows were checked to lie in the
+//! level's samples, and the levels' sizes are checked ([`supports`])
+//! before any kernel runs.
 #![allow(
     unsafe_code,
     reason = "calls of the AVX2/AVX-512 entry points after run-time detection; see the module documentation"
