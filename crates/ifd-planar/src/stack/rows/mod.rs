@@ -40,7 +40,7 @@
 //! either side, the one-channel kernels load each row the block touches as
 //! `2 N` contiguous samples and permute each lane's out of them
 //! (`permutex2var` in AVX-512; two `permutevar8x32` and a blend in AVX2):
-//! about 1.45x faster bilinear rows and 2.1x faster cubic ones on the Zen 4
+//! 1.3-1.4x faster bilinear rows and 1.8-2.4x faster cubic ones on the Zen 4
 //! (BENCHMARKS.md). The samples are the ones the gathers would read, so the
 //! sums are the same bits; blocks spread wider (a fast-turning map, a level
 //! at the border) gather as before.
