@@ -253,6 +253,38 @@ fn row_levels_with_snap(snap: f32) {
     assert!(snap < 0.5 || snapped + 2 * 3 >= read, "{snapped} of {read}");
 }
 
+/// A stack of a `w x h x c` test pattern at `sigmas`.
+fn patterned_stack(
+    (w, h, c): (usize, usize, usize),
+    sigmas: &[f64],
+    interpolation: Interpolation,
+) -> ScaleStack {
+    let mut img = Image::new(w, h, c).expect("image");
+    for (i, v) in img.data_mut().iter_mut().enumerate() {
+        *v = ((i * 7919) % 1013) as f32 / 1013.0 - 0.3;
+    }
+    let options = StackOptions {
+        interpolation,
+        ..StackOptions::default()
+    };
+    ScaleStack::with_sigmas(&img, sigmas, Border::Reflect101, options).expect("stack")
+}
+
+/// Row terms from `(cx, cy, a, b, wa, wb)`.
+fn fixed_terms(terms: &[(f32, f32, usize, usize, f32, f32)]) -> Vec<FixedTerm> {
+    terms
+        .iter()
+        .map(|&(cx, cy, a, b, wa, wb)| FixedTerm {
+            cx,
+            cy,
+            a,
+            b,
+            wa,
+            wb,
+        })
+        .collect()
+}
+
 /// The AVX-512 rows bit for bit the AVX2 rows (each the scalar loop's,
 /// as the integration tests check end to end): lanes inside and outside
 /// the stored levels (a kernel reaching past the borders), a level pair
@@ -265,32 +297,15 @@ fn sixteen_lanes_equal_eight() {
         return;
     }
     let (w, h) = (83, 37);
-    let mut img = Image::new(w, h, 1).expect("image");
-    for (i, v) in img.data_mut().iter_mut().enumerate() {
-        *v = ((i * 7919) % 1013) as f32 / 1013.0 - 0.3;
-    }
-    let options = StackOptions {
-        interpolation: Interpolation::Linear,
-        ..StackOptions::default()
-    };
-    let stack = ScaleStack::with_sigmas(&img, &[1.5, 3.0, 6.0], Border::Reflect101, options)
-        .expect("stack");
+    let stack = patterned_stack((w, h, 1), &[1.5, 3.0, 6.0], Interpolation::Linear);
     // pyramid steps 1, 1 and 2 (factor 2): the kernel reads each grid
     assert!(stack.level_layouts().any(|l| l.step > 1));
-    let terms = [
+    let terms = fixed_terms(&[
         (0.0, 0.0, 0, 0, 1.0, 0.0),
         (5.5, -2.25, 0, 1, 0.7, 0.3),
         (-30.0, 12.0, 1, 2, 0.25, 0.75),
         (60.0, 41.0, 2, 2, -0.5, 0.0),
-    ]
-    .map(|(cx, cy, a, b, wa, wb)| FixedTerm {
-        cx,
-        cy,
-        a,
-        b,
-        wa,
-        wb,
-    });
+    ]);
     let width = 5 * 16;
     for y in [0, 5, 18, 36] {
         let (cs, ss): (Vec<f32>, Vec<f32>) = (0..width)
@@ -323,16 +338,8 @@ fn sixteen_scaled_lanes_equal_eight() {
         return;
     }
     let (w, h) = (97, 41);
-    let mut img = Image::new(w, h, 1).expect("image");
-    for (i, v) in img.data_mut().iter_mut().enumerate() {
-        *v = ((i * 7919) % 1013) as f32 / 1013.0 - 0.3;
-    }
-    let options = StackOptions {
-        interpolation: Interpolation::Linear,
-        ..StackOptions::default()
-    };
     let sigmas = [1.2, 1.7, 2.4, 3.4, 4.8, 6.8];
-    let stack = ScaleStack::with_sigmas(&img, &sigmas, Border::Reflect101, options).expect("stack");
+    let stack = patterned_stack((w, h, 1), &sigmas, Interpolation::Linear);
     let terms = [
         (0.0, 0.0, 0.6, 0),
         (7.5, -2.25, -0.3, 1),
@@ -430,26 +437,8 @@ fn channels_and_cubic_equal_the_scalar_lookups() {
         (3, Interpolation::Cubic),
     ] {
         let (w, h) = (71, 29);
-        let mut img = Image::new(w, h, channels).expect("image");
-        for (i, v) in img.data_mut().iter_mut().enumerate() {
-            *v = ((i * 7919) % 1013) as f32 / 1013.0 - 0.3;
-        }
-        let options = StackOptions {
-            interpolation,
-            ..StackOptions::default()
-        };
-        let stack =
-            ScaleStack::with_sigmas(&img, &[1.5, 3.0], Border::Reflect101, options).expect("stack");
-        let terms = [(0.0, 0.0, 0, 0, 1.0, 0.0), (9.5, -2.25, 0, 1, 0.6, 0.4)].map(
-            |(cx, cy, a, b, wa, wb)| FixedTerm {
-                cx,
-                cy,
-                a,
-                b,
-                wa,
-                wb,
-            },
-        );
+        let stack = patterned_stack((w, h, channels), &[1.5, 3.0], interpolation);
+        let terms = fixed_terms(&[(0.0, 0.0, 0, 0, 1.0, 0.0), (9.5, -2.25, 0, 1, 0.6, 0.4)]);
         // 3 blocks of 16 and one of 8
         let width = 56;
         for y in [0, 14, 28] {
@@ -521,31 +510,14 @@ fn window_lookups_equal_the_scalar_lookups() {
     }
     for interpolation in [Interpolation::Linear, Interpolation::Cubic] {
         let (w, h) = (211, 64);
-        let mut img = Image::new(w, h, 1).expect("image");
-        for (i, v) in img.data_mut().iter_mut().enumerate() {
-            *v = ((i * 7919) % 1013) as f32 / 1013.0 - 0.3;
-        }
-        let options = StackOptions {
-            interpolation,
-            ..StackOptions::default()
-        };
-        let stack = ScaleStack::with_sigmas(&img, &[1.5, 3.0, 6.0], Border::Reflect101, options)
-            .expect("stack");
+        let stack = patterned_stack((w, h, 1), &[1.5, 3.0, 6.0], interpolation);
         assert!(stack.level_layouts().any(|l| l.step > 1));
-        let terms = [
+        let terms = fixed_terms(&[
             (0.0, 0.0, 0, 0, 1.0, 0.0),
             (5.5, -2.25, 0, 1, 0.6, 0.4),
             (40.0, -12.0, 1, 2, 0.25, 0.75),
             (-30.0, 17.0, 2, 2, -0.5, 0.0),
-        ]
-        .map(|(cx, cy, a, b, wa, wb)| FixedTerm {
-            cx,
-            cy,
-            a,
-            b,
-            wa,
-            wb,
-        });
+        ]);
         let width = 12 * 16;
         let mut paths = [[0usize; 4]; 2];
         for y in [0, 9, 31, 50, 63] {
