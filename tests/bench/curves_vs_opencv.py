@@ -686,9 +686,10 @@ def style(q):
         return "#8c564b", "X", "-", True
     colour = {"linear": "#1f77b4", "auto": "#2ca02c", "cubic": "#9467bd"}.get(q["params"]["interp"], "#17becf")
     b = q.get("binary_index", 0)
-    # a budget series (`--eval-budgets`): its own marker and a dash-dot line
+    # a budget series (`--eval-budgets`): a marker per multiple of --tol and a dash-dot line
     budget = q["params"].get("eval_budget") is not None
-    marker = ("s" if budget else "o") if b == 0 else "^"
+    multiple = round(q["params"]["eval_budget"] / q["params"]["tol"], 3) if budget else None
+    marker = ({None: "o", 1: "s", 2: "D", 3: "v"}.get(multiple, "P") if b == 0 else "^")
     line = ":" if q["params"]["scalar"] else ("-." if budget else ("-" if b == 0 else "--"))
     return colour, marker, line, not q["params"]["scalar"]
 
