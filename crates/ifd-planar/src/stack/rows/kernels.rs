@@ -574,70 +574,121 @@ unsafe fn bilinear_at<V: Lanes, const C: usize>(
     }
 }
 
-/// The four bilinear corners of every lane of a one-channel level read
-/// with contiguous loads instead of gathers, when the block's stencils are
-/// close together, as they are where the maps vary slowly along a row: the
-/// lanes' columns within a window of `2 N` samples from lane 0's column
-/// less `N / 4`, their rows lane 0's row or one either side. Each row the
-/// stencils touch is loaded as `2 N` contiguous samples and each lane's
-/// pair picked from them by a permute ([`Lanes::permute2`]): a gather's
-/// loads cost some CPUs (AMD Zen) several times an in-register permute.
-/// The corners are the very samples the gathers read, so the sums are the
-/// same bits. `None` (the caller gathers) where the block spreads wider or
-/// a window would reach past the level's samples.
+/// Where a block's window lookups read ([`window`]): the window's first
+/// column `u0` and lane 0's row `v0`, each lane's first column in the
+/// window `du`, and the lanes starting a row above and a row below lane
+/// 0's (`any_*`: whether some lane does).
+struct Window<V: Lanes> {
+    u0: i32,
+    v0: i32,
+    du: V::I,
+    above: V::M,
+    below: V::M,
+    any_above: bool,
+    any_below: bool,
+}
+
+impl<V: Lanes> Window<V> {
+    /// The path this window took, for the tests' counts.
+    fn path(&self) -> Path {
+        match (self.any_above, self.any_below) {
+            (_, true) => Path::Below,
+            (true, false) => Path::Above,
+            (false, false) => Path::Window,
+        }
+    }
+}
+
+/// The window of a one-channel block whose stencils start at columns `iu`
+/// and rows `iv` and reach `before` samples before and `after` after them
+/// along each axis (0 and 1 bilinear, 1 and 2 cubic): the lanes' columns
+/// `iu - before ..= iu + after` within `2 N` samples from lane 0's first
+/// column less `N / 4`, their rows lane 0's or one either side. `None`
+/// where the block spreads wider or a row read (`2 N` samples from `u0` on
+/// each row from the first lane's above to the last's below) would leave
+/// `level.data`; otherwise every such read lies in it.
 #[inline(always)]
-unsafe fn window_corners<V: Lanes>(level: &Level, st: Stencil<V>) -> Option<[V::F; 4]> {
+unsafe fn window<V: Lanes>(
+    level: &Level,
+    (iu, iv): (V::I, V::I),
+    before: i32,
+    after: i32,
+) -> Option<Window<V>> {
     let nx = level.layout.nx as isize;
     let n = V::N as i32;
-    // SAFETY: compiled for `V`'s instruction set (the caller's promise);
-    // every load is checked to lie in `level.data` below.
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
     unsafe {
-        let u0 = V::first_i(st.iu) - n / 4;
-        let v0 = V::first_i(st.iv);
-        // each lane's column in the window, and the one after it
-        let du = V::sub_i(st.iu, V::splat_i(u0));
-        if !V::all(V::le_u(du, V::splat_i(2 * n - 2))) {
+        let u0 = V::first_i(iu) - before - n / 4;
+        let v0 = V::first_i(iv);
+        let du = V::sub_i(iu, V::splat_i(u0 + before));
+        if !V::all(V::le_u(du, V::splat_i(2 * n - 1 - before - after))) {
             return None;
         }
-        let dv = V::sub_i(st.iv, V::splat_i(v0));
+        let dv = V::sub_i(iv, V::splat_i(v0));
         let (above, below) = (V::eq_i(dv, V::splat_i(-1)), V::eq_i(dv, V::splat_i(1)));
         let on = V::or_m(V::or_m(above, below), V::eq_i(dv, V::splat_i(0)));
         if !V::all(on) {
             return None;
         }
         let (any_above, any_below) = (V::any(above), V::any(below));
-        let first = (v0 as isize - isize::from(any_above)) * nx + u0 as isize;
-        let last = (v0 as isize + 1 + isize::from(any_below)) * nx + u0 as isize;
+        let first = (v0 - before - i32::from(any_above)) as isize * nx + u0 as isize;
+        let last = (v0 + after + i32::from(any_below)) as isize * nx + u0 as isize;
         if first < 0 || last + 2 * n as isize > level.data.len() as isize {
             return None;
         }
+        Some(Window {
+            u0,
+            v0,
+            du,
+            above,
+            below,
+            any_above,
+            any_below,
+        })
+    }
+}
+
+/// The four bilinear corners of every lane of a one-channel level read
+/// with contiguous loads instead of gathers, when the block's stencils are
+/// close together, as they are where the maps vary slowly along a row (see
+/// [`window`]). Each row the stencils touch is loaded as `2 N` contiguous
+/// samples and each lane's pair picked from them by a permute
+/// ([`Lanes::permute2`]): a gather's loads cost some CPUs (AMD Zen) several
+/// times an in-register permute. The corners are the very samples the
+/// gathers read, so the sums are the same bits. `None` (the caller gathers)
+/// where [`window`] is.
+#[inline(always)]
+unsafe fn window_corners<V: Lanes>(level: &Level, st: Stencil<V>) -> Option<[V::F; 4]> {
+    let nx = level.layout.nx as isize;
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise);
+    // `window` checked that rows `v0 - 1 ..= v0 + 2` (those read) lie in
+    // `level.data`.
+    unsafe {
+        let win = window::<V>(level, (st.iu, st.iv), 0, 1)?;
+        let (du, above, below) = (win.du, win.above, win.below);
         let p = level.data.as_ptr();
         let du1 = V::add_i(du, V::splat_i(1));
         // the samples of row `r` at each lane's column and the next
-        let at = |r: isize| p.offset(r * nx + u0 as isize);
-        let v0 = v0 as isize;
+        let at = |r: isize| p.offset(r * nx + win.u0 as isize);
+        let v0 = win.v0 as isize;
         let (a0, b0) = pair_at::<V>(at(v0), du, du1);
         let (c0, d0) = pair_at::<V>(at(v0 + 1), du, du1);
         let [mut a, mut b, mut c, mut d] = [a0, b0, c0, d0];
-        if any_above {
+        if win.any_above {
             let (a1, b1) = pair_at::<V>(at(v0 - 1), du, du1);
             a = V::select(above, a1, a);
             b = V::select(above, b1, b);
             c = V::select(above, a0, c);
             d = V::select(above, b0, d);
         }
-        if any_below {
+        if win.any_below {
             let (c2, d2) = pair_at::<V>(at(v0 + 2), du, du1);
             a = V::select(below, c0, a);
             b = V::select(below, d0, b);
             c = V::select(below, c2, c);
             d = V::select(below, d2, d);
         }
-        count(match (any_above, any_below) {
-            (_, true) => Path::Below,
-            (true, false) => Path::Above,
-            (false, false) => Path::Window,
-        });
+        count(win.path());
         Some([a, b, c, d])
     }
 }
@@ -792,12 +843,11 @@ unsafe fn pair_at<V: Lanes>(q: *const f32, du: V::I, du1: V::I) -> (V::F, V::F) 
 
 /// The cubic lookups' sums `sum_j wy[j] dot4(wx, row j)` of a one-channel
 /// level read with contiguous loads instead of gathers (as
-/// [`window_corners`] for the bilinear corners): the lanes' first columns
-/// `iu - 1` within a window of `2 N` samples from lane 0's less `N / 4`,
-/// their rows lane 0's or one either side. Each row the stencils touch is
-/// loaded once, filtered along the row for every lane, and each lane takes
-/// its four rows' values; the sums are the gathers' bits. `None` where the
-/// block spreads wider or a window would reach past the level's samples.
+/// [`window_corners`] for the bilinear corners; each lane's stencil starts
+/// a sample before its floor and ends two after). Each row the stencils
+/// touch is loaded once, filtered along the row for every lane, and each
+/// lane takes its four rows' values; the sums are the gathers' bits. `None`
+/// where [`window`] is.
 #[inline(always)]
 unsafe fn cubic_window<V: Lanes>(
     level: &Level,
@@ -805,43 +855,25 @@ unsafe fn cubic_window<V: Lanes>(
     (wx, wy): (&[V::F; 4], &[V::F; 4]),
 ) -> Option<V::F> {
     let nx = level.layout.nx as isize;
-    let n = V::N as i32;
     // SAFETY: compiled for `V`'s instruction set (the caller's promise);
-    // every load is checked to lie in `level.data` below.
+    // `window` checked that the rows read, `v0 - 2 + k` for `k` in `k0 ..=
+    // k1` below, lie in `level.data`.
     unsafe {
-        let u0 = V::first_i(iu) - 1 - n / 4;
-        let v0 = V::first_i(iv);
-        let du = V::sub_i(iu, V::splat_i(u0 + 1));
-        if !V::all(V::le_u(du, V::splat_i(2 * n - 4))) {
-            return None;
-        }
-        let dv = V::sub_i(iv, V::splat_i(v0));
-        let (above, below) = (V::eq_i(dv, V::splat_i(-1)), V::eq_i(dv, V::splat_i(1)));
-        let on = V::or_m(V::or_m(above, below), V::eq_i(dv, V::splat_i(0)));
-        if !V::all(on) {
-            return None;
-        }
-        let (any_above, any_below) = (V::any(above), V::any(below));
-        // rows v0 - 1 + k - 1 for k in 0..6: k = 0 only for lanes above,
+        let win = window::<V>(level, (iu, iv), 1, 2)?;
+        let du = win.du;
+        // rows v0 - 2 + k for k in 0..6: k = 0 only for lanes above,
         // k = 5 only for lanes below
-        let (k0, k1) = (usize::from(!any_above), 5 - usize::from(!any_below));
-        let v0 = v0 as isize;
-        let first = (v0 - 2 + k0 as isize) * nx + u0 as isize;
-        let last = (v0 - 2 + k1 as isize) * nx + u0 as isize;
-        if first < 0 || last + 2 * n as isize > level.data.len() as isize {
-            return None;
-        }
+        let (k0, k1) = (usize::from(!win.any_above), 5 - usize::from(!win.any_below));
         let p = level.data.as_ptr();
-        let one = V::splat_i(1);
         let cols = [
             du,
-            V::add_i(du, one),
+            V::add_i(du, V::splat_i(1)),
             V::add_i(du, V::splat_i(2)),
             V::add_i(du, V::splat_i(3)),
         ];
         let mut h = [V::zero(); 6];
         for (k, hk) in h.iter_mut().enumerate().take(k1 + 1).skip(k0) {
-            let q = p.offset((v0 - 2 + k as isize) * nx + u0 as isize);
+            let q = p.offset((win.v0 as isize - 2 + k as isize) * nx + win.u0 as isize);
             let (lo, hi) = (V::load_ptr(q), V::load_ptr(q.add(V::N)));
             let r = [
                 V::permute2(lo, hi, cols[0]),
@@ -855,19 +887,15 @@ unsafe fn cubic_window<V: Lanes>(
         for (j, wyj) in wy.iter().enumerate() {
             // row iv - 1 + j of each lane: h[j + 1 + dv]
             let mut r = h[j + 1];
-            if any_above {
-                r = V::select(above, h[j], r);
+            if win.any_above {
+                r = V::select(win.above, h[j], r);
             }
-            if any_below {
-                r = V::select(below, h[j + 2], r);
+            if win.any_below {
+                r = V::select(win.below, h[j + 2], r);
             }
             sum = V::add(sum, V::mul(*wyj, r));
         }
-        count(match (any_above, any_below) {
-            (_, true) => Path::Below,
-            (true, false) => Path::Above,
-            (false, false) => Path::Window,
-        });
+        count(win.path());
         Some(sum)
     }
 }
