@@ -57,8 +57,9 @@ pub struct Filter {
     /// (pixels, 0 < minor <= major, aspect major/minor up to 16, sigmas up
     /// to a quarter of the image's larger side and 512) and the major axis'
     /// angle in degrees counter-clockwise on screen. Uses the aspect bank of
-    /// `ifd smooth` (fitted at --tol) and its cache; footprints sqrt(major*minor) below 2 px
-    /// or minor sigmas below 1 px are sampled directly. CPU only.
+    /// `ifd smooth` (fitted at --tol) and its cache; footprints
+    /// sqrt(major*minor) below 2 px or minor sigmas below 1 px are sampled
+    /// directly. CPU only.
     #[arg(
         long,
         value_name = "NPY",
@@ -165,13 +166,7 @@ impl Filter {
                  pixel with --sigma-map M.npy"
             );
         }
-        let opts = ifd_planar::DecomposeOptions {
-            tol: self.tol.unwrap_or(0.01),
-            ..ifd_planar::DecomposeOptions::default()
-        };
-        if let Err(ifd_planar::DecomposeError::Invalid { value, reason, .. }) = opts.validate() {
-            bail!("--tol {value}: {reason}");
-        }
+        let opts = fit_options(self.tol.unwrap_or(0.01))?;
         let cache = if self.no_cache {
             ifd_planar::FitCache::off()
         } else {
@@ -289,6 +284,20 @@ impl Filter {
             )
         })
     }
+}
+
+/// The fit options at `--tol tol`, refused (naming `--tol`) where the fit
+/// would refuse them: for `--kernel`, and for the aspect bank of
+/// `--sigma-map`.
+pub(super) fn fit_options(tol: f64) -> Result<ifd_planar::DecomposeOptions> {
+    let opts = ifd_planar::DecomposeOptions {
+        tol,
+        ..ifd_planar::DecomposeOptions::default()
+    };
+    if let Err(ifd_planar::DecomposeError::Invalid { value, reason, .. }) = opts.validate() {
+        bail!("--tol {value}: {reason}");
+    }
+    Ok(opts)
 }
 
 /// How the CPU evaluates per-pixel maps, in words (for `-v`).
