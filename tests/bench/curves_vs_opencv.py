@@ -650,19 +650,20 @@ def summary(points, meta):
     return "\n".join(lines) + "\n", ratios
 
 
-def paired_ratios(pts, iseries, cv_series):
-    """For each ratio target, the ratio best peer / ifd best computed
-    round by round (each point's time in that round, the envelopes and the
-    interpolation as in `summary`); targets either side misses in some
-    round are left out. Empty when the points carry no per-round times."""
+def paired_ratios(pts, iseries, cv_series, targets=RATIO_TARGETS):
+    """For each target PSNR (the ratio targets unless given), the ratio best
+    peer / ifd best computed round by round (each point's time in that
+    round, the envelopes and the interpolation as in `summary`); targets
+    either side misses in some round are left out. Empty when the points
+    carry no per-round times."""
     runs = min((len(q.get("times_ms") or []) for q in pts), default=0)
     out = {}
     for r in range(runs):
         at = {}
         for s in set(iseries) | set(cv_series):
             env = front([(q["psnr"], q["times_ms"][r]) for q in pts if q["series"] == s])
-            at[s] = {t: time_at(env, t) for t in RATIO_TARGETS}
-        for t in RATIO_TARGETS:
+            at[s] = {t: time_at(env, t) for t in targets}
+        for t in targets:
             bi = [at[s][t][0] for s in iseries if at[s][t][0] is not None]
             bc = [at[s][t][0] for s in cv_series if at[s][t][0] is not None]
             if bi and bc:

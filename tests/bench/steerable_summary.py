@@ -23,24 +23,9 @@ TARGETS = (45.0, 50.0, 55.0, 60.0)
 
 
 def paired_at(pts, iseries, peers, t):
-    """Each round's best peer / ifd best time at PSNR `t` (as `cvo.paired_ratios`);
-    None unless both reach it in every round."""
-    runs = min(len(q["times_ms"]) for q in pts)
-    out = []
-    for r in range(runs):
-        best = {}
-        for side, series in (("ifd", iseries), ("peer", peers)):
-            times = []
-            for s in series:
-                env = cvo.front([(q["psnr"], q["times_ms"][r]) for q in pts if q["series"] == s])
-                ms = cvo.time_at(env, t)[0]
-                if ms is not None:
-                    times.append(ms)
-            if not times:
-                return None
-            best[side] = min(times)
-        out.append(best["peer"] / best["ifd"])
-    return out
+    """Each round's best peer / ifd best time at PSNR `t`; None unless both
+    reach it in every round."""
+    return cvo.paired_ratios(pts, iseries, peers, targets=(t,)).get(t)
 
 
 def fmt(v):
