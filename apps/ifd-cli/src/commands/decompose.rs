@@ -99,6 +99,31 @@ pub fn load_kernel(filter: &str, input: &InputOptions) -> Result<(Kernel, Option
     Ok((k, Some(spec)))
 }
 
+/// Refuses invalid fit options, naming the option as the command line does
+/// (`--max-terms`).
+fn check_options(opts: &DecomposeOptions) -> Result<()> {
+    if let Err(ifd_planar::DecomposeError::Invalid {
+        name,
+        value,
+        reason,
+    }) = opts.validate()
+    {
+        bail!("--{} {value}: {reason}", name.replace('_', "-"));
+    }
+    Ok(())
+}
+
+/// The fit options at `--tol tol`, refused where the fit would refuse them:
+/// for `ifd filter --kernel`, and for the aspect bank of `--sigma-map`.
+pub(super) fn fit_options(tol: f64) -> Result<DecomposeOptions> {
+    let opts = DecomposeOptions {
+        tol,
+        ..DecomposeOptions::default()
+    };
+    check_options(&opts)?;
+    Ok(opts)
+}
+
 impl Decompose {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
@@ -110,14 +135,7 @@ impl Decompose {
             ..DecomposeOptions::default()
         };
         // Options first, named as the command line names them.
-        if let Err(ifd_planar::DecomposeError::Invalid {
-            name,
-            value,
-            reason,
-        }) = opts.validate()
-        {
-            bail!("--{} {value}: {reason}", name.replace('_', "-"));
-        }
+        check_options(&opts)?;
         if let Some(plot) = &self.plot {
             // the plot's format and folder, before the fit writes anything
             crate::output::check_output_path(plot).context("--plot")?;

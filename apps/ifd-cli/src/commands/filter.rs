@@ -166,7 +166,7 @@ impl Filter {
                  pixel with --sigma-map M.npy"
             );
         }
-        let opts = fit_options(self.tol.unwrap_or(0.01))?;
+        let opts = super::decompose::fit_options(self.tol.unwrap_or(0.01))?;
         let cache = if self.no_cache {
             ifd_planar::FitCache::off()
         } else {
@@ -284,20 +284,6 @@ impl Filter {
             )
         })
     }
-}
-
-/// The fit options at `--tol tol`, refused (naming `--tol`) where the fit
-/// would refuse them: for `--kernel`, and for the aspect bank of
-/// `--sigma-map`.
-pub(super) fn fit_options(tol: f64) -> Result<ifd_planar::DecomposeOptions> {
-    let opts = ifd_planar::DecomposeOptions {
-        tol,
-        ..ifd_planar::DecomposeOptions::default()
-    };
-    if let Err(ifd_planar::DecomposeError::Invalid { value, reason, .. }) = opts.validate() {
-        bail!("--tol {value}: {reason}");
-    }
-    Ok(opts)
 }
 
 /// How the CPU evaluates per-pixel maps, in words (for `-v`).

@@ -82,7 +82,7 @@ pub fn run(r: &SigmaMapRun<'_>) -> Result<()> {
         tol: r.tol.unwrap_or(BankOptions::default().tol),
         ..BankOptions::default()
     };
-    super::filter::fit_options(bank_options.tol)?;
+    super::decompose::fit_options(bank_options.tol)?;
     // Checked before the bank is loaded or fitted: bad maps are refused at once.
     ifd_smooth::sigma_map_gaussians(map.view(), (w, h), bank_options.max_aspect)
         .with_context(|| format!("{map_path}"))?;
