@@ -341,17 +341,101 @@ impl<'a> Filter<'a> {
             }
             (angle, scale) => {
                 let mut out = vec![0.0f32; w * h * c];
-                match c {
-                    1 => self.per_pixel::<1>(angle, scale, &mut out),
-                    2 => self.per_pixel::<2>(angle, scale, &mut out),
-                    3 => self.per_pixel::<3>(angle, scale, &mut out),
-                    4 => self.per_pixel::<4>(angle, scale, &mut out),
-                    _ => self.per_pixel::<0>(angle, scale, &mut out),
-                }
+                self.per_pixel_channels(angle, scale, None, &mut out);
                 out
             }
         };
         Image::from_vec(w, h, c, out).map_err(|e| FilterError::Shape(e.to_string()))
+    }
+
+    /// Adds `weight[p] *` the filtered value at each pixel `p` to `out`, for
+    /// the kernel rotated by `angle` and scaled by `scale` (as
+    /// [`Filter::apply`]), skipping the pixels of weight zero: several
+    /// filters on one stack, each for the pixels it serves (a bank of
+    /// decompositions blended per pixel, a filter per region). Every term
+    /// is read from the stack (none is evaluated directly), on the vector
+    /// rows where the CPU has them; blocks of pixels whose weights are all
+    /// zero cost nothing.
+    ///
+    /// The scale is checked at every pixel, weighted or not: give the
+    /// pixels of weight zero any scale the stack covers.
+    ///
+    /// ```
+    /// use ifd_image::Image;
+    /// use ifd_planar::{Border, Decomposition, Field, Filter, StackOptions, Term, stack_for_decomposition};
+    /// let d = Decomposition::from_terms(vec![
+    ///     Term { weight: 0.5, x: -4.0, y: 0.0, sigma: 1.5 },
+    ///     Term { weight: 0.5, x: 4.0, y: 1.0, sigma: 2.5 },
+    /// ]);
+    /// let img = Image::from_vec(40, 30, 1, (0..1200).map(|i| ((i * 37) % 17) as f32).collect())?;
+    /// let stack = stack_for_decomposition(&img, &d, 1.0, 1.0, Border::Reflect101, StackOptions::default())?;
+    /// let filter = Filter::new(&stack, &d)?;
+    /// let angles: Vec<f32> = (0..1200).map(|i| (i % 40) as f32 * 9.0).collect();
+    /// // the left half of the image at weight 0.25, the right half skipped
+    /// let weight: Vec<f32> = (0..1200).map(|i| if i % 40 < 20 { 0.25 } else { 0.0 }).collect();
+    /// let mut out = Image::new(40, 30, 1)?;
+    /// filter.accumulate_weighted(Field::Map(&angles), Field::Constant(1.0), &weight, &mut out)?;
+    /// let full = filter.apply(Field::Map(&angles), Field::Constant(1.0))?;
+    /// assert_eq!(out.get(5, 7, 0), 0.25 * full.get(5, 7, 0));
+    /// assert_eq!(out.get(25, 7, 0), 0.0);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Filter::apply`]; [`FilterError::Shape`] when `out` is not the
+    /// stack's shape or `weight` not one value per pixel,
+    /// [`FilterError::InvalidValue`] for a weight that is not finite.
+    pub fn accumulate_weighted<'f>(
+        &self,
+        angle: impl CheckField<'f>,
+        scale: impl CheckField<'f>,
+        weight: &[f32],
+        out: &mut Image,
+    ) -> Result<(), FilterError> {
+        let (w, h, c) = (
+            self.stack.width(),
+            self.stack.height(),
+            self.stack.channels(),
+        );
+        if (out.width(), out.height(), out.channels()) != (w, h, c) || weight.len() != w * h {
+            return Err(FilterError::Shape(format!(
+                "output is {}x{}x{} with {} weights, the stack {w}x{h}x{c} (one weight a pixel)",
+                out.width(),
+                out.height(),
+                out.channels(),
+                weight.len()
+            )));
+        }
+        if let Some(i) = weight.iter().position(|v| !v.is_finite()) {
+            return Err(FilterError::InvalidValue {
+                name: "weight",
+                value: weight[i],
+                location: crate::field::pixel_location(i, w),
+                why: "not finite",
+            });
+        }
+        let angle = angle.check(FieldKind::Angle, w, h)?;
+        let scale = scale.check(FieldKind::Scale, w, h)?;
+        self.check_scales(&scale, false)?;
+        self.per_pixel_channels(angle.field(), scale.field(), Some(weight), out.data_mut());
+        Ok(())
+    }
+
+    /// [`Filter::per_pixel`] for the stack's channel count.
+    fn per_pixel_channels(
+        &self,
+        angle: Field<'_>,
+        scale: Field<'_>,
+        weight: Option<&[f32]>,
+        out: &mut [f32],
+    ) {
+        match self.stack.channels() {
+            1 => self.per_pixel::<1>(angle, scale, weight, out),
+            2 => self.per_pixel::<2>(angle, scale, weight, out),
+            3 => self.per_pixel::<3>(angle, scale, weight, out),
+            4 => self.per_pixel::<4>(angle, scale, weight, out),
+            _ => self.per_pixel::<0>(angle, scale, weight, out),
+        }
     }
 
     /// The filtered value (all channels) at one point `(x, y)` (pixel
@@ -403,7 +487,7 @@ impl<'a> Filter<'a> {
         self.check_scales(&scale, false)?;
         out.fill(0.0);
         let (sin, cos) = sin_cos_degrees(theta);
-        self.pixel_general::<0>(x, y, cos, sin, s, out);
+        self.pixel_general::<0>(x, y, cos, sin, s, 1.0, out);
         Ok(())
     }
 

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use super::{Filter, Prepared};
 use crate::field::Field;
 use crate::stack::LevelRule;
-use crate::stack::rows::{self, FixedTerm, RowLevels};
+use crate::stack::rows::{self, FixedTerm, RowLevels, RowOut};
 use crate::trig::sin_cos_degrees;
 
 impl Filter<'_> {
@@ -15,11 +15,14 @@ impl Filter<'_> {
     /// count when it is 1 to 4 (accumulators in registers), 0 for any count.
     /// Rows go eight or sixteen pixels at a time through the vector rows
     /// where they can ([`rows`]), the rest of each row through the scalar
-    /// loop; both give the same values.
+    /// loop; both give the same values. With per-pixel `weight`s (one a
+    /// pixel) each pixel adds `weight *` its value and pixels of weight zero
+    /// are skipped (sixteen or eight at a time in the vector rows).
     pub(super) fn per_pixel<const C: usize>(
         &self,
         angle: Field<'_>,
         scale: Field<'_>,
+        weight: Option<&[f32]>,
         out: &mut [f32],
     ) {
         let (w, c) = (self.stack.width(), self.stack.channels());
@@ -52,19 +55,28 @@ impl Filter<'_> {
         out.par_chunks_mut(w * c)
             .enumerate()
             .for_each_init(scratch, |scr, (y, row)| {
+                let weights = weight.map(|wt| &wt[y * w..(y + 1) * w]);
                 let mut done = 0;
                 if vector {
-                    done = self.vector_row::<C>(y, angle, scale, &fixed, scaled_vector, scr, row);
+                    let out = RowOut {
+                        row,
+                        weight: weights,
+                    };
+                    done = self.vector_row::<C>(y, angle, scale, &fixed, scaled_vector, scr, out);
                 }
                 for (x, px) in row.chunks_exact_mut(c).enumerate().skip(done) {
                     let i = y * w + x;
+                    let wt = weights.map_or(1.0, |r| r[x]);
+                    if wt == 0.0 {
+                        continue;
+                    }
                     let (sin, cos) = sin_cos_degrees(angle.at(i));
                     let (xf, yf) = (x as f32, y as f32);
                     match &constant_scale {
                         Some((s, levels)) => {
-                            self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, 1.0, px);
+                            self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, wt, px);
                         }
-                        None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), px),
+                        None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), wt, px),
                     }
                 }
             });
@@ -81,7 +93,7 @@ impl Filter<'_> {
         fixed: &[FixedTerm],
         scaled_vector: bool,
         scr: &mut RowScratch,
-        row: &mut [f32],
+        out: RowOut<'_>,
     ) -> usize {
         let w = self.stack.width();
         let RowScratch {
@@ -94,7 +106,7 @@ impl Filter<'_> {
         match scale {
             Field::Constant(s) => {
                 row_rotations(angle, Field::Constant(s), y, w, cs, ss);
-                rows::rotated_row::<C>(self.stack, fixed, y, cs, ss, row)
+                rows::rotated_row::<C>(self.stack, fixed, y, cs, ss, out)
             }
             Field::Map(m) if scaled_vector => {
                 // Per pixel: the rotation, t_s and the widening; then the
@@ -106,7 +118,7 @@ impl Filter<'_> {
                 for (g, rep) in self.sigma_groups.iter().enumerate() {
                     rows::fill_levels(self.level_rule(rep), t_s, widen, levels, g);
                 }
-                rows::scaled_row::<C>(self.stack, &self.scaled_terms, levels, y, cs, ss, row)
+                rows::scaled_row::<C>(self.stack, &self.scaled_terms, levels, y, cs, ss, out)
             }
             Field::Map(_) => 0,
         }
@@ -190,8 +202,10 @@ impl Filter<'_> {
         }
     }
 
-    /// One pixel, everything per pixel. Adds into `out`.
+    /// One pixel, everything per pixel. Adds `weight *` the filtered value
+    /// into `out`.
     #[inline]
+    #[expect(clippy::too_many_arguments, reason = "hot inner call, all scalars")]
     pub(super) fn pixel_general<const C: usize>(
         &self,
         x: f32,
@@ -199,6 +213,7 @@ impl Filter<'_> {
         cos: f32,
         sin: f32,
         s: f32,
+        weight: f32,
         out: &mut [f32],
     ) {
         let last = self.stack.sigmas().len() - 1;
@@ -211,32 +226,35 @@ impl Filter<'_> {
         let cs = cos * s;
         let ss = sin * s;
         let mut acc = [0.0f32; C];
+        // With `C == 0` the lookups add straight into `out`, so the weight
+        // goes into each tap; otherwise into the sum below.
+        let tap = |v: f32| if C == 0 { v * weight } else { v };
         for t in &self.terms {
             let px = x + cs * t.cx + ss * t.cy;
             let py = y - ss * t.cx + cs * t.cy;
             if last == 0 {
-                self.add::<C>(0, px, py, t.weight, &mut acc, out);
+                self.add::<C>(0, px, py, tap(t.weight), &mut acc, out);
                 continue;
             }
             if !uniform {
                 // Levels at given sigmas: bisection.
                 let sigma = self.sampling.effective_sigma(t.sigma, f64::from(s));
                 let (a, b, wa, wb) = self.stack.locate_ln(sigma.ln());
-                self.add::<C>(a, px, py, t.weight * wa, &mut acc, out);
+                self.add::<C>(a, px, py, tap(t.weight * wa), &mut acc, out);
                 if wb != 0.0 {
-                    self.add::<C>(b, px, py, t.weight * wb, &mut acc, out);
+                    self.add::<C>(b, px, py, tap(t.weight * wb), &mut acc, out);
                 }
                 continue;
             }
             let (a, b, wa, wb) = self.uniform_level(t, t_s, widen);
-            self.add::<C>(a, px, py, t.weight * wa, &mut acc, out);
+            self.add::<C>(a, px, py, tap(t.weight * wa), &mut acc, out);
             if wb != 0.0 {
-                self.add::<C>(b, px, py, t.weight * wb, &mut acc, out);
+                self.add::<C>(b, px, py, tap(t.weight * wb), &mut acc, out);
             }
         }
         if C > 0 {
             for (o, a) in out.iter_mut().zip(acc) {
-                *o += a;
+                *o += weight * a;
             }
         }
     }

@@ -19,7 +19,7 @@
 )]
 
 use super::lanes::{Lanes, block_end};
-use super::{FixedTerm, RowLevels, ScaledTerm};
+use super::{FixedTerm, RowLevels, RowOut, ScaledTerm};
 use crate::stack::{Interpolation, Level, ScaleStack};
 
 /// The row kernels' entry points for one instruction set's lanes, each
@@ -40,7 +40,7 @@ macro_rules! entry_points {
             terms: &[super::FixedTerm],
             y: usize,
             (cs, ss): (&[f32], &[f32]),
-            out: &mut [f32],
+            out: super::RowOut<'_>,
             from: usize,
         ) -> usize {
             // SAFETY: compiled for the lanes' instruction set (the caller
@@ -58,7 +58,7 @@ macro_rules! entry_points {
             levels: &super::RowLevels,
             y: usize,
             (cs, ss): (&[f32], &[f32]),
-            out: &mut [f32],
+            out: super::RowOut<'_>,
             from: usize,
         ) -> usize {
             // SAFETY: as `rotated_row`.
@@ -131,7 +131,7 @@ pub(super) unsafe fn rotated_row<V: Lanes, const C: usize>(
     terms: &[FixedTerm],
     y: usize,
     rotations: (&[f32], &[f32]),
-    out: &mut [f32],
+    out: RowOut<'_>,
     from: usize,
 ) -> usize {
     // SAFETY: as the caller promises.
@@ -155,7 +155,7 @@ unsafe fn rotated_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
     terms: &[FixedTerm],
     y: usize,
     (cs, ss): (&[f32], &[f32]),
-    out: &mut [f32],
+    RowOut { row: out, weight }: RowOut<'_>,
     from: usize,
 ) -> usize {
     let end = block_end::<V>(from, cs.len());
@@ -163,6 +163,9 @@ unsafe fn rotated_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
     unsafe {
         let yf = V::splat(y as f32);
         for x0 in (from..end).step_by(V::N) {
+            let Some(pw) = block_weight::<V>(weight, x0) else {
+                continue;
+            };
             let xf = V::columns(x0);
             let (c, s) = (V::load(&cs[x0..]), V::load(&ss[x0..]));
             let mut acc = [V::zero(); C];
@@ -178,7 +181,7 @@ unsafe fn rotated_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
                     }
                 }
             }
-            add_out::<V, C>(&acc, out, x0);
+            add_out::<V, C>(&acc, pw, out, x0);
         }
     }
     end
@@ -251,7 +254,7 @@ pub(super) unsafe fn scaled_row<V: Lanes, const C: usize>(
     levels: &RowLevels,
     y: usize,
     rotations: (&[f32], &[f32]),
-    out: &mut [f32],
+    out: RowOut<'_>,
     from: usize,
 ) -> usize {
     // SAFETY: as the caller promises.
@@ -276,7 +279,7 @@ unsafe fn scaled_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
     levels: &RowLevels,
     y: usize,
     (cs, ss): (&[f32], &[f32]),
-    out: &mut [f32],
+    RowOut { row: out, weight }: RowOut<'_>,
     from: usize,
 ) -> usize {
     let w = cs.len();
@@ -299,6 +302,9 @@ unsafe fn scaled_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
         let mut weights = vec![[V::zero(); SPAN]; groups];
         let yf = V::splat(y as f32);
         for x0 in (from..end).step_by(V::N) {
+            let Some(pw) = block_weight::<V>(weight, x0) else {
+                continue;
+            };
             for (g, (b, wt)) in blocks.iter_mut().zip(&mut weights).enumerate() {
                 *b = classify::<V>(levels, g, x0, wt);
             }
@@ -356,7 +362,7 @@ unsafe fn scaled_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
                     }
                 }
             }
-            add_out::<V, C>(&acc, out, x0);
+            add_out::<V, C>(&acc, pw, out, x0);
         }
     }
     end
@@ -942,11 +948,39 @@ unsafe fn fill<V: Lanes, const C: usize>(sums: &[V::Floats; C]) -> [V::F; C] {
     }
 }
 
-/// Adds the block's sums into `out` (pixels `x0..x0 + N`, interleaved).
+/// The block from pixel `x0`'s per-pixel weights (ones without weights:
+/// `1 * sum` is the sum's bits), `None` where every one is zero (the block
+/// is skipped).
 #[inline(always)]
-unsafe fn add_out<V: Lanes, const C: usize>(acc: &[V::F; C], out: &mut [f32], x0: usize) {
+unsafe fn block_weight<V: Lanes>(weight: Option<&[f32]>, x0: usize) -> Option<V::F> {
     // SAFETY: compiled for `V`'s instruction set (the caller's promise).
     unsafe {
+        match weight {
+            None => Some(V::splat(1.0)),
+            Some(w) => {
+                let v = V::load(&w[x0..]);
+                V::any(V::ne(v, V::zero())).then_some(v)
+            }
+        }
+    }
+}
+
+/// Adds the block's sums times the pixels' weights `pw` (the scalar loop's
+/// `weight * sum`) into `out` (pixels `x0..x0 + N`, interleaved).
+#[inline(always)]
+unsafe fn add_out<V: Lanes, const C: usize>(
+    acc: &[V::F; C],
+    pw: V::F,
+    out: &mut [f32],
+    x0: usize,
+) {
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        let mut acc = *acc;
+        for a in &mut acc {
+            *a = V::mul(pw, *a);
+        }
+        let acc = &acc;
         if C == 1 {
             let dst = &mut out[x0..x0 + V::N];
             V::store(V::add(V::load(dst), acc[0]), dst);

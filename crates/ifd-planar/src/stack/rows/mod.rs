@@ -154,6 +154,31 @@ impl RowLevels {
     }
 }
 
+/// Where a row's sums go: `row[x * C + k] += sum` for each pixel `x` and
+/// channel `k`, or, with per-pixel `weight`s, `+= weight[x] * sum` (the
+/// scalar loop's expression), the blocks whose weights are all zero
+/// skipped. Lanes of weight zero in a block that runs add `0 * sum`.
+#[derive(Debug)]
+pub(crate) struct RowOut<'o> {
+    pub(crate) row: &'o mut [f32],
+    pub(crate) weight: Option<&'o [f32]>,
+}
+
+impl RowOut<'_> {
+    /// Whether it holds `w` pixels of `C` channels (and `w` weights).
+    fn holds<const C: usize>(&self, w: usize) -> bool {
+        self.row.len() >= w * C && self.weight.is_none_or(|p| p.len() >= w)
+    }
+
+    /// The same row and weights, borrowed again (for one kernel call).
+    fn reborrow(&mut self) -> RowOut<'_> {
+        RowOut {
+            row: self.row,
+            weight: self.weight,
+        }
+    }
+}
+
 /// Whether the kernels can read `stack` with `channels = C` on this CPU:
 /// [`fits`], and vector kernels chosen ([`ifd_simd::isa`] is not the
 /// baseline).
@@ -207,7 +232,7 @@ macro_rules! widest_first {
 }
 
 /// Adds the filtered values of the pixels `0..n` of row `y` into `out` (the
-/// row, `C` interleaved channels) for per-pixel rotations `cs[x] = s cos`,
+/// row, `C` interleaved channels, [`RowOut`]) for per-pixel rotations `cs[x] = s cos`,
 /// `ss[x] = s sin` at a constant scale, where `n` is the returned count (0
 /// when the kernels cannot run). The caller filters the remaining pixels.
 pub(crate) fn rotated_row<const C: usize>(
@@ -216,7 +241,7 @@ pub(crate) fn rotated_row<const C: usize>(
     y: usize,
     cs: &[f32],
     ss: &[f32],
-    out: &mut [f32],
+    out: RowOut<'_>,
 ) -> usize {
     rotated_row_on::<C>(ifd_simd::isa(), stack, terms, y, (cs, ss), out)
 }
@@ -228,12 +253,15 @@ fn rotated_row_on<const C: usize>(
     terms: &[FixedTerm],
     y: usize,
     (cs, ss): (&[f32], &[f32]),
-    out: &mut [f32],
+    mut out: RowOut<'_>,
 ) -> usize {
-    if !fits::<C>(stack) || cs.len() != ss.len() || out.len() < cs.len() * C {
+    if !fits::<C>(stack) || cs.len() != ss.len() || !out.holds::<C>(cs.len()) {
         return 0;
     }
-    widest_first!(isa, rotated_row::<C>(stack, terms, y, (cs, ss), out))
+    widest_first!(
+        isa,
+        rotated_row::<C>(stack, terms, y, (cs, ss), out.reborrow())
+    )
 }
 
 /// As [`rotated_row`] with a per-pixel scale: `levels` gives the levels and
@@ -245,7 +273,7 @@ pub(crate) fn scaled_row<const C: usize>(
     y: usize,
     cs: &[f32],
     ss: &[f32],
-    out: &mut [f32],
+    out: RowOut<'_>,
 ) -> usize {
     scaled_row_on::<C>(ifd_simd::isa(), stack, terms, levels, y, (cs, ss), out)
 }
@@ -258,20 +286,23 @@ fn scaled_row_on<const C: usize>(
     levels: &RowLevels,
     y: usize,
     (cs, ss): (&[f32], &[f32]),
-    out: &mut [f32],
+    mut out: RowOut<'_>,
 ) -> usize {
     let w = cs.len();
     if !fits::<C>(stack)
         || ss.len() != w
         || levels.w != w
-        || out.len() < w * C
+        || !out.holds::<C>(w)
         || terms.iter().any(|t| (t.group + 1) * w > levels.a.len())
         // the highest level any pixel reads
         || levels.last as usize >= stack.levels.len()
     {
         return 0;
     }
-    widest_first!(isa, scaled_row::<C>(stack, terms, levels, y, (cs, ss), out))
+    widest_first!(
+        isa,
+        scaled_row::<C>(stack, terms, levels, y, (cs, ss), out.reborrow())
+    )
 }
 
 /// `cs[x] = s cos theta[x]` and `ss[x] = s sin theta[x]` over a row of

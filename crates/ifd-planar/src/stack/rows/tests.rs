@@ -3,7 +3,7 @@
 //! filters end to end).
 
 use super::{
-    FixedTerm, LevelRule, RowLevels, ScalePosition, ScaledTerm, fill_levels, on_isa,
+    FixedTerm, LevelRule, RowLevels, RowOut, ScalePosition, ScaledTerm, fill_levels, on_isa,
     rotated_row_on, rotations, scale_positions, scaled_row_on, series_levels,
 };
 use crate::field::Field;
@@ -315,9 +315,29 @@ fn sixteen_lanes_equal_eight() {
             })
             .unzip();
         let (mut wide, mut narrow) = (vec![0.25f32; width], vec![0.25f32; width]);
-        let done = rotated_row_on::<1>(Isa::Avx512, &stack, &terms, y, (&cs, &ss), &mut wide);
+        let done = rotated_row_on::<1>(
+            Isa::Avx512,
+            &stack,
+            &terms,
+            y,
+            (&cs, &ss),
+            RowOut {
+                row: &mut wide,
+                weight: None,
+            },
+        );
         assert_eq!(done, width);
-        let done = rotated_row_on::<1>(Isa::Avx2, &stack, &terms, y, (&cs, &ss), &mut narrow);
+        let done = rotated_row_on::<1>(
+            Isa::Avx2,
+            &stack,
+            &terms,
+            y,
+            (&cs, &ss),
+            RowOut {
+                row: &mut narrow,
+                weight: None,
+            },
+        );
         assert_eq!(done, width);
         for x in 0..width {
             assert_eq!(wide[x].to_bits(), narrow[x].to_bits(), "row {y}, pixel {x}");
@@ -402,7 +422,10 @@ fn sixteen_scaled_lanes_equal_eight() {
             &levels,
             y,
             (&cs, &ss),
-            &mut wide,
+            RowOut {
+                row: &mut wide,
+                weight: None,
+            },
         );
         assert_eq!(done, width);
         let done = scaled_row_on::<1>(
@@ -412,7 +435,10 @@ fn sixteen_scaled_lanes_equal_eight() {
             &levels,
             y,
             (&cs, &ss),
-            &mut narrow,
+            RowOut {
+                row: &mut narrow,
+                weight: None,
+            },
         );
         assert_eq!(done, width);
         for x in 0..width {
@@ -481,8 +507,28 @@ fn channels_and_cubic_equal_the_scalar_lookups() {
                 }
                 let mut got = vec![0.25f32; width * channels];
                 let done = match channels {
-                    1 => rotated_row_on::<1>(isa, &stack, &terms, y, (&cs, &ss), &mut got),
-                    _ => rotated_row_on::<3>(isa, &stack, &terms, y, (&cs, &ss), &mut got),
+                    1 => rotated_row_on::<1>(
+                        isa,
+                        &stack,
+                        &terms,
+                        y,
+                        (&cs, &ss),
+                        RowOut {
+                            row: &mut got,
+                            weight: None,
+                        },
+                    ),
+                    _ => rotated_row_on::<3>(
+                        isa,
+                        &stack,
+                        &terms,
+                        y,
+                        (&cs, &ss),
+                        RowOut {
+                            row: &mut got,
+                            weight: None,
+                        },
+                    ),
                 };
                 assert_eq!(done, width, "{isa}");
                 for (i, (g, w)) in got.iter().zip(&want).enumerate() {
@@ -555,7 +601,17 @@ fn window_lookups_equal_the_scalar_lookups() {
                 }
                 let mut got = vec![0.25f32; width];
                 let before = super::kernels::LOOKUPS.with(std::cell::Cell::get);
-                let done = rotated_row_on::<1>(isa, &stack, &terms, y, (&cs, &ss), &mut got);
+                let done = rotated_row_on::<1>(
+                    isa,
+                    &stack,
+                    &terms,
+                    y,
+                    (&cs, &ss),
+                    RowOut {
+                        row: &mut got,
+                        weight: None,
+                    },
+                );
                 let after = super::kernels::LOOKUPS.with(std::cell::Cell::get);
                 let counts = &mut paths[usize::from(isa == Isa::Avx2)];
                 for (c, (a, b)) in counts.iter_mut().zip(after.iter().zip(before)) {
