@@ -162,10 +162,10 @@ pub fn filter_sigma_map<'a>(
         )));
     }
     let prepared = prepared_bank(bank)?;
-    let (stack, lo) = sigma_map_stack(&gaussians, bank, image, border)?;
+    let (stack, footprints) = sigma_map_stack(&gaussians, bank, image, border)?;
     let mut out = Image::new(w, h, c)?;
     if let Some(stack) = &stack {
-        bank_lookups(&gaussians, bank, stack, &prepared, lo, &mut out)?;
+        bank_lookups(&gaussians, bank, stack, &prepared, footprints, &mut out)?;
     }
     // The small footprints, sampled directly.
     let gauss = PixelGaussians::new(bank, None, Some(SmallFootprints::Sampled { image }), border);
@@ -183,6 +183,12 @@ pub fn filter_sigma_map<'a>(
     Ok(out)
 }
 
+/// Footprints of a sigma map within this relative spread are one (their
+/// geometric mean): a map written as `S sqrt(a)` and `S / sqrt(a)` in
+/// `f32` spreads `S` by a few `1e-7` (the filter's relative change is
+/// about the spread).
+const ONE_FOOTPRINT: f64 = 1e-6;
+
 /// The bank's entries prepared for the sigma map's sampling.
 fn prepared_bank(bank: &AspectBank) -> Result<Vec<PreparedDecomposition>, SmoothError> {
     Ok(bank
@@ -193,13 +199,14 @@ fn prepared_bank(bank: &AspectBank) -> Result<Vec<PreparedDecomposition>, Smooth
 }
 
 /// The stack spanning the footprints of the Gaussians not sampled directly,
-/// and the smallest of them (`None` and infinity when every one is).
+/// and the least and largest of them (`None` when every one is sampled
+/// directly).
 fn sigma_map_stack(
     gaussians: &[AnisoGaussian],
     bank: &AspectBank,
     image: ImageView<'_>,
     border: Border,
-) -> Result<(Option<ScaleStack>, f64), SmoothError> {
+) -> Result<(Option<ScaleStack>, (f64, f64)), SmoothError> {
     let (lo, hi) = gaussians
         .iter()
         .filter(|g| !PixelGaussians::sampled_directly(**g))
@@ -208,7 +215,7 @@ fn sigma_map_stack(
             (lo.min(s), hi.max(s))
         });
     if hi == 0.0 {
-        return Ok((None, lo));
+        return Ok((None, (lo, hi)));
     }
     let r = bank.options.sigma_ref;
     let sigmas = sigma_bounds(SIGMA_MAP_SAMPLING, bank.sigma_range(), (lo / r, hi / r));
@@ -219,7 +226,7 @@ fn sigma_map_stack(
         border,
         options: smoother_stack_options(bank, hi, dims, sigmas),
     };
-    Ok((Some(plan.build(image)?), lo))
+    Ok((Some(plan.build(image)?), (lo, hi)))
 }
 
 /// Adds the Gaussians the stack serves (every one not sampled directly)
@@ -228,14 +235,15 @@ fn sigma_map_stack(
 /// the pixel's blend ([`PixelGaussians::blend`]; zero for the pixels it
 /// does not serve, which its vector rows skip sixteen or eight at a time),
 /// rotated by the pixel's angle and scaled by its footprint over
-/// `sigma_ref`. The pixels sampled directly weigh zero everywhere (at scale
-/// `lo / sigma_ref`, the smallest the stack covers).
+/// `sigma_ref` (one constant scale where the footprints `lo..=hi` differ by
+/// less than [`ONE_FOOTPRINT`]). The pixels sampled directly weigh zero
+/// everywhere (at scale `lo / sigma_ref`, the smallest the stack covers).
 fn bank_lookups(
     gaussians: &[AnisoGaussian],
     bank: &AspectBank,
     stack: &ScaleStack,
     prepared: &[PreparedDecomposition],
-    lo: f64,
+    (lo, hi): (f64, f64),
     out: &mut Image,
 ) -> Result<(), SmoothError> {
     let r = bank.options.sigma_ref as f32;
@@ -266,12 +274,14 @@ fn bank_lookups(
         if weight.iter().all(|&v| v == 0.0) {
             continue;
         }
-        Filter::new(stack, d)?.accumulate_weighted(
-            Field::Map(&angle),
-            Field::Map(&scale),
-            &weight,
-            out,
-        )?;
+        // One footprint everywhere (to float rounding: a map of `S sqrt(a)`
+        // and `S / sqrt(a)` in f32): its levels are located once.
+        let scale = if hi <= lo * (1.0 + ONE_FOOTPRINT) {
+            Field::Constant((lo * hi).sqrt() as f32 / r)
+        } else {
+            Field::Map(&scale)
+        };
+        Filter::new(stack, d)?.accumulate_weighted(Field::Map(&angle), scale, &weight, out)?;
     }
     Ok(())
 }

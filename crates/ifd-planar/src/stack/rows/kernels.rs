@@ -968,12 +968,7 @@ unsafe fn block_weight<V: Lanes>(weight: Option<&[f32]>, x0: usize) -> Option<V:
 /// Adds the block's sums times the pixels' weights `pw` (the scalar loop's
 /// `weight * sum`) into `out` (pixels `x0..x0 + N`, interleaved).
 #[inline(always)]
-unsafe fn add_out<V: Lanes, const C: usize>(
-    acc: &[V::F; C],
-    pw: V::F,
-    out: &mut [f32],
-    x0: usize,
-) {
+unsafe fn add_out<V: Lanes, const C: usize>(acc: &[V::F; C], pw: V::F, out: &mut [f32], x0: usize) {
     // SAFETY: compiled for `V`'s instruction set (the caller's promise).
     unsafe {
         let mut acc = *acc;
