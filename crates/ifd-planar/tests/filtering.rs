@@ -890,9 +890,10 @@ fn vector_gathers_equal_the_scalar_loop_on_a_realistic_case() {
 /// `Filter::accumulate_weighted` adds `weight *` what `apply` gives at every
 /// pixel, bit for bit (one to four channels: the sum times the weight, as the
 /// scalar loop writes it), through the vector rows and the scalar loop
-/// alike, and leaves the pixels of weight zero as they were: whole blocks of
-/// zeros (skipped), isolated zeros, negative weights, a constant scale and a
-/// scale map, bilinear and cubic levels. Five channels (the general loop,
+/// alike, and leaves the pixels of weight zero as they were: rows with runs
+/// of zeros and isolated zeros (their weighted pixels packed), rows without
+/// zeros, negative weights, a constant scale and a scale map, bilinear and
+/// cubic levels. Five channels (the general loop,
 /// the weight in each tap) agree within rounding.
 #[test]
 fn weighted_accumulation_adds_weight_times_apply() {
@@ -905,6 +906,10 @@ fn weighted_accumulation_adds_weight_times_apply() {
     let weight: Vec<f32> = (0..w * h)
         .map(|i| {
             let (x, y) = (i % w, i / w);
+            if y % 5 == 4 {
+                // a row without zeros (the packed rows are those with some)
+                return 0.5 + (x % 3) as f32;
+            }
             match (x / 24 + y) % 4 {
                 0 => 0.0,                         // runs of zeros
                 1 if x % 3 == 0 => 0.0,           // isolated zeros

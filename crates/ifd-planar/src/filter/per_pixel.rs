@@ -56,64 +56,157 @@ impl Filter<'_> {
             .enumerate()
             .for_each_init(scratch, |scr, (y, row)| {
                 let weights = weight.map(|wt| &wt[y * w..(y + 1) * w]);
+                if vector && let Some(weights) = weights {
+                    let n = weights.iter().filter(|&&v| v != 0.0).count();
+                    if n < w {
+                        let row_in = (&fixed[..], constant_scale.as_ref(), scaled_vector);
+                        self.packed_row::<C>(y, (angle, scale), weights, row_in, scr, row);
+                        return;
+                    }
+                }
                 let mut done = 0;
                 if vector {
                     let out = RowOut {
                         row,
                         weight: weights,
+                        pixels: None,
                     };
-                    done = self.vector_row::<C>(y, angle, scale, &fixed, scaled_vector, scr, out);
+                    let theta = row_field(angle, y, w);
+                    let scales = row_field(scale, y, w);
+                    done =
+                        self.vector_row::<C>(y, (theta, scales), &fixed, scaled_vector, scr, out);
                 }
                 for (x, px) in row.chunks_exact_mut(c).enumerate().skip(done) {
-                    let i = y * w + x;
                     let wt = weights.map_or(1.0, |r| r[x]);
-                    if wt == 0.0 {
-                        continue;
-                    }
-                    let (sin, cos) = sin_cos_degrees(angle.at(i));
-                    let (xf, yf) = (x as f32, y as f32);
-                    match &constant_scale {
-                        Some((s, levels)) => {
-                            self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, wt, px);
-                        }
-                        None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), wt, px),
+                    if wt != 0.0 {
+                        self.pixel::<C>((x, y), (angle, scale), constant_scale.as_ref(), wt, px);
                     }
                 }
             });
     }
 
-    /// Row `y` through the vector rows: the pixels done (a prefix of the
-    /// row, possibly none).
-    #[expect(clippy::too_many_arguments, reason = "one row's inputs and scratch")]
+    /// One pixel `(x, y)` through the scalar loop: adds `weight *` its
+    /// filtered value into `out`.
+    #[inline]
+    fn pixel<const C: usize>(
+        &self,
+        (x, y): (usize, usize),
+        (angle, scale): (Field<'_>, Field<'_>),
+        constant_scale: Option<&(f32, TermLevels)>,
+        weight: f32,
+        out: &mut [f32],
+    ) {
+        let i = y * self.stack.width() + x;
+        let (sin, cos) = sin_cos_degrees(angle.at(i));
+        let (xf, yf) = (x as f32, y as f32);
+        match constant_scale {
+            Some((s, levels)) => {
+                self.pixel_rotated::<C>(levels, xf, yf, cos * s, sin * s, weight, out);
+            }
+            None => self.pixel_general::<C>(xf, yf, cos, sin, scale.at(i), weight, out),
+        }
+    }
+
+    /// A weighted row with some weights zero: its weighted pixels packed
+    /// together ([`RowOut::pixels`]), so that every block of the vector
+    /// rows is full of pixels that count (a bank's entry serves scattered
+    /// pixels of a row; blocks would otherwise run for one of their sixteen),
+    /// any rest through the scalar loop. The same values as the unpacked
+    /// row.
+    fn packed_row<const C: usize>(
+        &self,
+        y: usize,
+        (angle, scale): (Field<'_>, Field<'_>),
+        weights: &[f32],
+        (fixed, constant_scale, scaled_vector): (&[FixedTerm], Option<&(f32, TermLevels)>, bool),
+        scr: &mut RowScratch,
+        row: &mut [f32],
+    ) {
+        let w = self.stack.width();
+        let mut packed = std::mem::take(&mut scr.packed);
+        packed.clear();
+        for (x, &wt) in weights.iter().enumerate() {
+            if wt != 0.0 {
+                let i = y * w + x;
+                packed.pixels.push(x as u32);
+                packed.weights.push(wt);
+                packed.theta.push(angle.at(i));
+                if let Field::Map(_) = scale {
+                    packed.scales.push(scale.at(i));
+                }
+            }
+        }
+        // Padded to whole blocks (sixteen or eight, within the row's
+        // room) with copies of the last entry of weight zero, which add
+        // `0 * sum`: no entry is left to the scalar loop.
+        let n = packed.pixels.len();
+        if let Some(last) = n.checked_sub(1) {
+            let to = [n.next_multiple_of(16), n.next_multiple_of(8)]
+                .into_iter()
+                .find(|&to| to <= w)
+                .unwrap_or(n);
+            for _ in n..to {
+                packed.pixels.push(packed.pixels[last]);
+                packed.weights.push(0.0);
+                packed.theta.push(packed.theta[last]);
+                if let Field::Map(_) = scale {
+                    packed.scales.push(packed.scales[last]);
+                }
+            }
+        }
+        let n = packed.pixels.len();
+        let scales = match scale {
+            Field::Constant(s) => Field::Constant(s),
+            Field::Map(_) => Field::Map(&packed.scales),
+        };
+        let out = RowOut {
+            row,
+            weight: Some(&packed.weights),
+            pixels: Some(&packed.pixels),
+        };
+        let theta = Field::Map(&packed.theta);
+        let done = self.vector_row::<C>(y, (theta, scales), fixed, scaled_vector, scr, out);
+        let c = self.stack.channels();
+        for k in done..n {
+            let (x, wt) = (packed.pixels[k] as usize, packed.weights[k]);
+            if wt != 0.0 {
+                let px = &mut row[x * c..(x + 1) * c];
+                self.pixel::<C>((x, y), (angle, scale), constant_scale, wt, px);
+            }
+        }
+        scr.packed = packed;
+    }
+
+    /// The entries of row `y` through the vector rows, `theta` and `scale`
+    /// the row's (a map of one value per entry, or a constant): the entries
+    /// done (a prefix, possibly none).
     fn vector_row<const C: usize>(
         &self,
         y: usize,
-        angle: Field<'_>,
-        scale: Field<'_>,
+        (theta, scale): (Field<'_>, Field<'_>),
         fixed: &[FixedTerm],
         scaled_vector: bool,
         scr: &mut RowScratch,
         out: RowOut<'_>,
     ) -> usize {
-        let w = self.stack.width();
-        let RowScratch {
-            cs,
-            ss,
-            t_s,
-            widen,
-            levels,
-        } = scr;
+        let n = match (theta, scale) {
+            (Field::Map(m), _) | (_, Field::Map(m)) => m.len(),
+            _ => self.stack.width(),
+        };
+        let (cs, ss) = (&mut scr.cs[..n], &mut scr.ss[..n]);
         match scale {
-            Field::Constant(s) => {
-                row_rotations(angle, Field::Constant(s), y, w, cs, ss);
+            Field::Constant(_) => {
+                row_rotations(theta, scale, cs, ss);
                 rows::rotated_row::<C>(self.stack, fixed, y, cs, ss, out)
             }
-            Field::Map(m) if scaled_vector => {
+            Field::Map(scales) if scaled_vector => {
                 // Per pixel: the rotation, t_s and the widening; then the
                 // levels and weights per distinct sigma, group-major, by
                 // the scalar loop's rule (the same values).
-                let scales = &m[y * w..(y + 1) * w];
-                row_rotations(angle, Field::Map(scales), y, w, cs, ss);
+                let (t_s, widen) = (&mut scr.t_s[..n], &mut scr.widen[..n]);
+                let levels = &mut scr.levels;
+                levels.set_width(n);
+                row_rotations(theta, scale, cs, ss);
                 rows::scale_positions(self.scale_position, scales, t_s, widen);
                 for (g, rep) in self.sigma_groups.iter().enumerate() {
                     rows::fill_levels(self.level_rule(rep), t_s, widen, levels, g);
@@ -281,6 +374,10 @@ pub(super) fn sigma_groups(terms: &[Prepared]) -> (Vec<Prepared>, Vec<usize>) {
     (groups, group_of)
 }
 
+/// Each term's `(level a, level b, weight a, weight b)` at a constant
+/// scale ([`Filter::term_levels`]).
+type TermLevels = Vec<(usize, usize, f32, f32)>;
+
 /// One thread's buffers for [`Filter::per_pixel`]'s vector rows, reused
 /// from row to row (every row overwrites what it reads): each pixel's
 /// scaled rotation, scale position and widening, and the levels of each
@@ -291,6 +388,26 @@ struct RowScratch {
     t_s: Vec<f32>,
     widen: Vec<f32>,
     levels: RowLevels,
+    packed: Packed,
+}
+
+/// A packed row's pixels and their weights, angles and scales (scales only
+/// with a scale map).
+#[derive(Default)]
+struct Packed {
+    pixels: Vec<u32>,
+    weights: Vec<f32>,
+    theta: Vec<f32>,
+    scales: Vec<f32>,
+}
+
+impl Packed {
+    fn clear(&mut self) {
+        self.pixels.clear();
+        self.weights.clear();
+        self.theta.clear();
+        self.scales.clear();
+    }
 }
 
 impl RowScratch {
@@ -304,23 +421,25 @@ impl RowScratch {
             t_s: vec![0.0; per_pixel_scale],
             widen: vec![0.0; per_pixel_scale],
             levels: RowLevels::new(groups, w),
+            packed: Packed::default(),
         }
     }
 }
 
-/// Row `y`'s rotations (`w` pixels) by `angle` scaled by `scale` (the
-/// row's scales or a constant): `cs = s cos`, `ss = s sin`, as the scalar
-/// loop computes them ([`sin_cos_degrees`]).
-fn row_rotations(
-    angle: Field<'_>,
-    scale: Field<'_>,
-    y: usize,
-    w: usize,
-    cs: &mut [f32],
-    ss: &mut [f32],
-) {
-    match angle {
-        Field::Map(m) => rows::rotations(&m[y * w..(y + 1) * w], scale, cs, ss),
+/// Row `y` of a whole-image field: its `w` values, or the constant.
+fn row_field(f: Field<'_>, y: usize, w: usize) -> Field<'_> {
+    match f {
+        Field::Map(m) => Field::Map(&m[y * w..(y + 1) * w]),
+        Field::Constant(v) => Field::Constant(v),
+    }
+}
+
+/// A row's rotations by `theta` (the row's angles, one per entry of `cs`,
+/// or a constant) scaled by `scale` (likewise): `cs = s cos`, `ss = s
+/// sin`, as the scalar loop computes them ([`sin_cos_degrees`]).
+fn row_rotations(theta: Field<'_>, scale: Field<'_>, cs: &mut [f32], ss: &mut [f32]) {
+    match theta {
+        Field::Map(m) => rows::rotations(m, scale, cs, ss),
         Field::Constant(theta) => {
             let (sin, cos) = sin_cos_degrees(theta);
             for (x, (c, sn)) in cs.iter_mut().zip(ss.iter_mut()).enumerate() {

@@ -155,7 +155,11 @@ unsafe fn rotated_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
     terms: &[FixedTerm],
     y: usize,
     (cs, ss): (&[f32], &[f32]),
-    RowOut { row: out, weight }: RowOut<'_>,
+    RowOut {
+        row: out,
+        weight,
+        pixels,
+    }: RowOut<'_>,
     from: usize,
 ) -> usize {
     let end = block_end::<V>(from, cs.len());
@@ -166,7 +170,7 @@ unsafe fn rotated_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
             let Some(pw) = block_weight::<V>(weight, x0) else {
                 continue;
             };
-            let xf = V::columns(x0);
+            let xf = block_columns::<V>(pixels, x0);
             let (c, s) = (V::load(&cs[x0..]), V::load(&ss[x0..]));
             let mut acc = [V::zero(); C];
             for t in terms {
@@ -181,7 +185,7 @@ unsafe fn rotated_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
                     }
                 }
             }
-            add_out::<V, C>(&acc, pw, out, x0);
+            add_out::<V, C>(&acc, pw, (out, pixels), x0);
         }
     }
     end
@@ -279,12 +283,16 @@ unsafe fn scaled_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
     levels: &RowLevels,
     y: usize,
     (cs, ss): (&[f32], &[f32]),
-    RowOut { row: out, weight }: RowOut<'_>,
+    RowOut {
+        row: out,
+        weight,
+        pixels,
+    }: RowOut<'_>,
     from: usize,
 ) -> usize {
     let w = cs.len();
     let end = block_end::<V>(from, w);
-    let groups = levels.a.len() / w.max(1);
+    let groups = levels.groups;
     let linear = !CUBIC;
     // level i and level i + 1 sample the same grid: one bilinear stencil
     // serves both (the same values as computing it twice)
@@ -308,7 +316,7 @@ unsafe fn scaled_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
             for (g, (b, wt)) in blocks.iter_mut().zip(&mut weights).enumerate() {
                 *b = classify::<V>(levels, g, x0, wt);
             }
-            let xf = V::columns(x0);
+            let xf = block_columns::<V>(pixels, x0);
             let (c, s) = (V::load(&cs[x0..]), V::load(&ss[x0..]));
             let mut acc = [V::zero(); C];
             for t in terms {
@@ -362,7 +370,7 @@ unsafe fn scaled_row_as<V: Lanes, const C: usize, const CUBIC: bool>(
                     }
                 }
             }
-            add_out::<V, C>(&acc, pw, out, x0);
+            add_out::<V, C>(&acc, pw, (out, pixels), x0);
         }
     }
     end
@@ -965,15 +973,44 @@ unsafe fn block_weight<V: Lanes>(weight: Option<&[f32]>, x0: usize) -> Option<V:
     }
 }
 
-/// Adds the block's sums times the pixels' weights `pw` (the scalar loop's
-/// `weight * sum`) into `out` (pixels `x0..x0 + N`, interleaved).
+/// The columns of the block's pixels from entry `x0`: `x0, x0 + 1, ...`,
+/// or a packed row's `pixels` (exact below 2^24).
 #[inline(always)]
-unsafe fn add_out<V: Lanes, const C: usize>(acc: &[V::F; C], pw: V::F, out: &mut [f32], x0: usize) {
+unsafe fn block_columns<V: Lanes>(pixels: Option<&[u32]>, x0: usize) -> V::F {
+    // SAFETY: compiled for `V`'s instruction set (the caller's promise).
+    unsafe {
+        match pixels {
+            None => V::columns(x0),
+            Some(p) => V::to_float(V::load_u32(&p[x0..])),
+        }
+    }
+}
+
+/// Adds the block's sums times the pixels' weights `pw` (the scalar loop's
+/// `weight * sum`) into `out` (entries `x0..x0 + N`, interleaved): pixels
+/// `x0..x0 + N`, or a packed row's `pixels` there.
+#[inline(always)]
+unsafe fn add_out<V: Lanes, const C: usize>(
+    acc: &[V::F; C],
+    pw: V::F,
+    (out, pixels): (&mut [f32], Option<&[u32]>),
+    x0: usize,
+) {
     // SAFETY: compiled for `V`'s instruction set (the caller's promise).
     unsafe {
         let mut acc = *acc;
         for a in &mut acc {
             *a = V::mul(pw, *a);
+        }
+        if let Some(p) = pixels {
+            let sums = spill::<V, C>(&acc);
+            for (lane, &x) in p[x0..x0 + V::N].iter().enumerate() {
+                let px = &mut out[x as usize * C..(x as usize + 1) * C];
+                for (o, s) in px.iter_mut().zip(&sums) {
+                    *o += s.as_ref()[lane];
+                }
+            }
+            return;
         }
         let acc = &acc;
         if C == 1 {

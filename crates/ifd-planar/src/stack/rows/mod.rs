@@ -117,6 +117,9 @@ pub(crate) struct ScaledTerm {
 #[derive(Clone, Debug)]
 pub(crate) struct RowLevels {
     pub(super) w: usize,
+    /// The sigma groups it has room for, `room` pixels each.
+    pub(super) groups: usize,
+    room: usize,
     pub(super) a: Vec<u32>,
     pub(super) wa: Vec<f32>,
     pub(super) wb: Vec<f32>,
@@ -132,6 +135,8 @@ impl RowLevels {
         let n = groups * w;
         Self {
             w,
+            groups,
+            room: w,
             a: vec![0; n],
             wa: vec![0.0; n],
             wb: vec![0.0; n],
@@ -147,6 +152,20 @@ impl RowLevels {
         (a, b, self.wa[i], self.wb[i])
     }
 
+    /// Sets the row's length to `w` pixels (a packed row's entries), within
+    /// the room it was made with.
+    ///
+    /// # Panics
+    /// If `w` pixels of every group do not fit.
+    pub(crate) fn set_width(&mut self, w: usize) {
+        assert!(
+            w <= self.room,
+            "{w} pixels in a row of room for {}",
+            self.room
+        );
+        self.w = w;
+    }
+
     /// Pixel `i`'s (group-major index) levels from `(a, b, wa, wb)`.
     #[inline]
     fn set(&mut self, i: usize, (a, _, wa, wb): (u32, u32, f32, f32)) {
@@ -158,16 +177,31 @@ impl RowLevels {
 /// channel `k`, or, with per-pixel `weight`s, `+= weight[x] * sum` (the
 /// scalar loop's expression), the blocks whose weights are all zero
 /// skipped. Lanes of weight zero in a block that runs add `0 * sum`.
+///
+/// A packed row (`pixels`) lists some of the row's pixels: entry `k` of the
+/// kernels' inputs (rotations, levels, weights) is pixel `pixels[k]`, where
+/// its sum goes; without it entry `k` is pixel `k`.
 #[derive(Debug)]
 pub(crate) struct RowOut<'o> {
     pub(crate) row: &'o mut [f32],
     pub(crate) weight: Option<&'o [f32]>,
+    pub(crate) pixels: Option<&'o [u32]>,
 }
 
 impl RowOut<'_> {
-    /// Whether it holds `w` pixels of `C` channels (and `w` weights).
-    fn holds<const C: usize>(&self, w: usize) -> bool {
-        self.row.len() >= w * C && self.weight.is_none_or(|p| p.len() >= w)
+    /// Whether it holds `n` entries of `C` channels (and `n` weights and
+    /// pixels, each pixel in the row).
+    fn holds<const C: usize>(&self, n: usize) -> bool {
+        self.weight.is_none_or(|p| p.len() >= n)
+            && match self.pixels {
+                None => self.row.len() >= n * C,
+                Some(p) => {
+                    p.len() >= n
+                        && p[..n]
+                            .iter()
+                            .all(|&x| (x as usize + 1) * C <= self.row.len())
+                }
+            }
     }
 
     /// The same row and weights, borrowed again (for one kernel call).
@@ -175,6 +209,7 @@ impl RowOut<'_> {
         RowOut {
             row: self.row,
             weight: self.weight,
+            pixels: self.pixels,
         }
     }
 }
@@ -293,7 +328,7 @@ fn scaled_row_on<const C: usize>(
         || ss.len() != w
         || levels.w != w
         || !out.holds::<C>(w)
-        || terms.iter().any(|t| (t.group + 1) * w > levels.a.len())
+        || terms.iter().any(|t| t.group >= levels.groups || (t.group + 1) * w > levels.a.len())
         // the highest level any pixel reads
         || levels.last as usize >= stack.levels.len()
     {

@@ -324,6 +324,7 @@ fn sixteen_lanes_equal_eight() {
             RowOut {
                 row: &mut wide,
                 weight: None,
+                pixels: None,
             },
         );
         assert_eq!(done, width);
@@ -336,6 +337,7 @@ fn sixteen_lanes_equal_eight() {
             RowOut {
                 row: &mut narrow,
                 weight: None,
+                pixels: None,
             },
         );
         assert_eq!(done, width);
@@ -425,6 +427,7 @@ fn sixteen_scaled_lanes_equal_eight() {
             RowOut {
                 row: &mut wide,
                 weight: None,
+                pixels: None,
             },
         );
         assert_eq!(done, width);
@@ -438,6 +441,7 @@ fn sixteen_scaled_lanes_equal_eight() {
             RowOut {
                 row: &mut narrow,
                 weight: None,
+                pixels: None,
             },
         );
         assert_eq!(done, width);
@@ -516,6 +520,7 @@ fn channels_and_cubic_equal_the_scalar_lookups() {
                         RowOut {
                             row: &mut got,
                             weight: None,
+                            pixels: None,
                         },
                     ),
                     _ => rotated_row_on::<3>(
@@ -527,6 +532,7 @@ fn channels_and_cubic_equal_the_scalar_lookups() {
                         RowOut {
                             row: &mut got,
                             weight: None,
+                            pixels: None,
                         },
                     ),
                 };
@@ -610,6 +616,7 @@ fn window_lookups_equal_the_scalar_lookups() {
                     RowOut {
                         row: &mut got,
                         weight: None,
+                        pixels: None,
                     },
                 );
                 let after = super::kernels::LOOKUPS.with(std::cell::Cell::get);
