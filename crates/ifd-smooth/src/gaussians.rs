@@ -7,7 +7,10 @@
 //! [`PixelGaussians`].
 
 use ifd_image::{Image, ImageView};
-use ifd_planar::{Border, Filter, Rotation, ScaledFilter};
+use ifd_planar::{Border, Field, Filter, Rotation, ScaledFilter};
+use rayon::prelude::*;
+
+use crate::error::SmoothError;
 
 use crate::bank::AspectBank;
 use crate::direct::{DIRECT_BELOW, DirectKernels, covariance};
@@ -153,9 +156,9 @@ impl<'f, 'a> PixelGaussians<'f, 'a> {
     /// The bank entries of aspect ratio `aspect` and their blend weights:
     /// `(i, 1 - t)` and, unless `t = 0`, `(i + 1, t)` ([`AspectBank::locate`]).
     pub fn blend(&self, aspect: f32) -> impl Iterator<Item = (usize, f32)> + use<> {
-        let (i, t) = self.bank.locate(f64::from(aspect));
-        let t = t as f32;
-        std::iter::once((i, 1.0 - t)).chain((t > 0.0).then_some((i + 1, t)))
+        shares_of(self.bank, aspect)
+            .into_iter()
+            .filter(|&(i, _)| i != usize::MAX)
     }
 
     /// Adds `weight *` the Gaussian `g` applied at `(x, y)` to `out` (one
@@ -212,6 +215,56 @@ impl<'f, 'a> PixelGaussians<'f, 'a> {
             (_, None) => out.fill(f32::NAN),
         }
     }
+}
+
+/// A pixel's bank entries and their weights in its blend
+/// ([`PixelGaussians::blend`]), for [`bank_passes`]: `(entry, weight)`
+/// twice, [`NO_SHARES`] for none.
+pub(crate) type Shares = [(usize, f32); 2];
+
+/// No entry: a pixel the stack does not serve.
+pub(crate) const NO_SHARES: Shares = [(usize::MAX, 0.0); 2];
+
+/// The shares of the bank's entries in aspect ratio `aspect`
+/// ([`PixelGaussians::blend`]'s entries and weights).
+pub(crate) fn shares_of(bank: &AspectBank, aspect: f32) -> Shares {
+    let (i, t) = bank.locate(f64::from(aspect));
+    let t = t as f32;
+    if t > 0.0 {
+        [(i, 1.0 - t), (i + 1, t)]
+    } else {
+        [(i, 1.0), (usize::MAX, 0.0)]
+    }
+}
+
+/// Adds each pixel's blend of the bank's entries, bound to the stack as
+/// `filters` (one per entry) and rotated by its `angle` and scaled by
+/// `scale`, into `out`: each entry in turn over the whole image
+/// ([`Filter::accumulate_weighted`]), weighted at each pixel by its share
+/// ([`Shares`]; zero where the entry has none, pixels that the vector rows
+/// leave out). The same sums as [`PixelGaussians::accumulate`] pixel by
+/// pixel (entry `i`, then `i + 1`), through the vector rows: a bank of
+/// entries blended per pixel is the several-filters case of the rows.
+pub(crate) fn bank_passes(
+    filters: &[Filter<'_>],
+    angle: &[f32],
+    scale: Field<'_>,
+    shares: &[Shares],
+    out: &mut Image,
+) -> Result<(), SmoothError> {
+    let mut weight = vec![0.0f32; shares.len()];
+    for (e, filter) in filters.iter().enumerate() {
+        let share = |sh: &Shares| sh.iter().find(|(i, _)| *i == e).map_or(0.0, |&(_, w)| w);
+        weight
+            .par_iter_mut()
+            .zip(shares)
+            .for_each(|(wt, sh)| *wt = share(sh));
+        if weight.iter().all(|&v| v == 0.0) {
+            continue;
+        }
+        filter.accumulate_weighted(Field::Map(angle), scale, &weight, out)?;
+    }
+    Ok(())
 }
 
 /// Adds `weight *` the sampled Gaussian `g`, normalised to sum 1 over its

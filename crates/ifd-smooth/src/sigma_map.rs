@@ -12,7 +12,9 @@ use rayon::prelude::*;
 
 use crate::bank::AspectBank;
 use crate::error::SmoothError;
-use crate::gaussians::{AnisoGaussian, PixelGaussians, SmallFootprints};
+use crate::gaussians::{
+    AnisoGaussian, NO_SHARES, PixelGaussians, SmallFootprints, bank_passes, shares_of,
+};
 use crate::smooth::smoother_stack_options;
 
 /// How the bank's entries are applied on the sigma-map path: as the
@@ -230,14 +232,11 @@ fn sigma_map_stack(
 }
 
 /// Adds the Gaussians the stack serves (every one not sampled directly)
-/// into `out`: each bank entry in turn over the whole image
-/// ([`Filter::accumulate_weighted`]), weighted at each pixel by its share of
-/// the pixel's blend ([`PixelGaussians::blend`]; zero for the pixels it
-/// does not serve, which its vector rows skip sixteen or eight at a time),
-/// rotated by the pixel's angle and scaled by its footprint over
-/// `sigma_ref` (one constant scale where the footprints `lo..=hi` differ by
-/// less than [`ONE_FOOTPRINT`]). The pixels sampled directly weigh zero
-/// everywhere (at scale `lo / sigma_ref`, the smallest the stack covers).
+/// into `out` through [`bank_passes`]: each pixel's Gaussian rotated by its
+/// angle and scaled by its footprint over `sigma_ref` (one constant scale
+/// where the footprints `lo..=hi` differ by less than [`ONE_FOOTPRINT`]).
+/// The pixels sampled directly have no share of any entry (and scale `lo /
+/// sigma_ref`, the smallest the stack covers).
 fn bank_lookups(
     gaussians: &[AnisoGaussian],
     bank: &AspectBank,
@@ -249,41 +248,26 @@ fn bank_lookups(
     let r = bank.options.sigma_ref as f32;
     let n = gaussians.len();
     let (mut angle, mut scale) = (vec![0.0f32; n], vec![lo as f32 / r; n]);
-    // each pixel's entries and their weights (no entry: sampled directly)
-    let mut shares = vec![[(usize::MAX, 0.0f32); 2]; n];
-    let gauss = PixelGaussians::new(bank, None, None, Border::Reflect101);
+    let mut shares = vec![NO_SHARES; n];
     (&mut angle, &mut scale, &mut shares, gaussians)
         .into_par_iter()
         .for_each(|(a, s, sh, g)| {
-            if PixelGaussians::sampled_directly(*g) {
-                return;
-            }
-            (*a, *s) = (g.theta, g.footprint / r);
-            for (slot, share) in sh.iter_mut().zip(gauss.blend(g.aspect)) {
-                *slot = share;
+            if !PixelGaussians::sampled_directly(*g) {
+                (*a, *s, *sh) = (g.theta, g.footprint / r, shares_of(bank, g.aspect));
             }
         });
-    let mut weight = vec![0.0f32; n];
-    for (e, d) in prepared.iter().enumerate() {
-        let share =
-            |sh: &[(usize, f32); 2]| sh.iter().find(|(i, _)| *i == e).map_or(0.0, |&(_, wi)| wi);
-        weight
-            .par_iter_mut()
-            .zip(&shares)
-            .for_each(|(wt, sh)| *wt = share(sh));
-        if weight.iter().all(|&v| v == 0.0) {
-            continue;
-        }
-        // One footprint everywhere (to float rounding: a map of `S sqrt(a)`
-        // and `S / sqrt(a)` in f32): its levels are located once.
-        let scale = if hi <= lo * (1.0 + ONE_FOOTPRINT) {
-            Field::Constant((lo * hi).sqrt() as f32 / r)
-        } else {
-            Field::Map(&scale)
-        };
-        Filter::new(stack, d)?.accumulate_weighted(Field::Map(&angle), scale, &weight, out)?;
-    }
-    Ok(())
+    // One footprint everywhere (to float rounding: a map of `S sqrt(a)`
+    // and `S / sqrt(a)` in f32): its levels are located once.
+    let scale = if hi <= lo * (1.0 + ONE_FOOTPRINT) {
+        Field::Constant((lo * hi).sqrt() as f32 / r)
+    } else {
+        Field::Map(&scale)
+    };
+    let filters = prepared
+        .iter()
+        .map(|d| Filter::new(stack, d))
+        .collect::<Result<Vec<_>, _>>()?;
+    bank_passes(&filters, &angle, scale, &shares, out)
 }
 
 #[cfg(test)]

@@ -72,7 +72,9 @@ fn alignment(
 /// Bytes the smoother of a `(width, height, channels)` image needs at most:
 /// its stack and the build's transient FFT buffers, the image (twice below
 /// [`crate::DIRECT_BELOW`]), the orientation field, the Hessian and
-/// tensor planes while the field is built, and a result of `out_pixels`.
+/// tensor planes while the field is built (or, later and no larger, the
+/// smoothing passes' image-sized result and each pixel's angle, weight and
+/// bank shares), and a result of `out_pixels`.
 ///
 /// # Errors
 /// As [`Smoother::stack_layout`].

@@ -10,10 +10,10 @@ use std::sync::{Arc, OnceLock};
 mod images;
 
 use ifd_image::Image;
-use ifd_planar::Border;
+use ifd_planar::{Border, Filter};
 use ifd_smooth::{
-    AspectBank, BankOptions, Dab, HessianBank, Mode, SmoothError, SmoothOptions, Smoother,
-    hessian_image,
+    AnisoGaussian, AspectBank, BankLookups, BankOptions, Dab, HessianBank, Mode, PixelGaussians,
+    SmoothError, SmoothOptions, Smoother, hessian_image,
 };
 use images::edge_waves as test_image;
 
@@ -178,6 +178,77 @@ fn dab_matches_whole_image_inside() {
     // A dab far outside the image touches nothing.
     let off = Dab { x: -100.0, ..dab };
     assert!(s.apply_dab(&off, Mode::Dab, &mut target).unwrap().is_none());
+}
+
+/// The whole image and any rectangle of it, per pixel and in dabs (the
+/// bank's weighted passes on the vector rows), equal each pixel's Gaussians
+/// applied through the per-point lookups ([`PixelGaussians::accumulate`]
+/// at the footprint scale; in dabs, the four corners' orientations with
+/// their bilinear weights), to float rounding.
+#[test]
+fn whole_image_passes_equal_the_per_point_lookups() {
+    let img = test_image(83, 61);
+    let (w, h) = (img.width(), img.height());
+    for scale in [2.5, 6.0] {
+        let s = smoother(&img, scale);
+        let filters: Vec<Filter<'_>> = s
+            .prepared_bank()
+            .iter()
+            .map(|d| Filter::new(s.stack(), d).unwrap())
+            .collect();
+        let at = (scale / s.bank().options.sigma_ref) as f32;
+        let scaled = filters.iter().map(|f| f.at_scale(at).unwrap()).collect();
+        let gauss = PixelGaussians::new(
+            s.bank(),
+            Some(BankLookups::Fixed(scaled)),
+            None,
+            Border::Reflect101,
+        );
+        let gaussian = |o: ifd_smooth::Orientation| AnisoGaussian {
+            theta: o.theta,
+            aspect: o.aspect,
+            footprint: scale as f32,
+        };
+        for mode in [Mode::PerPixel, Mode::Dab] {
+            let whole = s.smooth_image(mode).unwrap();
+            let mut worst = 0.0f32;
+            for y in 0..h {
+                for x in 0..w {
+                    let (xf, yf) = (x as f32, y as f32);
+                    let mut want = [0.0f32];
+                    match mode {
+                        Mode::PerPixel => {
+                            let o = s.orientation_field()[y * w + x];
+                            gauss.accumulate(xf, yf, gaussian(o), 1.0, &mut want);
+                        }
+                        Mode::Dab => {
+                            for ((cx, cy), wgt) in s.dab_corners(xf, yf) {
+                                let o = s.orientation_at(cx, cy);
+                                gauss.accumulate(xf, yf, gaussian(o), wgt, &mut want);
+                            }
+                        }
+                    }
+                    worst = worst.max((whole.get(x, y, 0) - want[0]).abs());
+                }
+            }
+            assert!(
+                worst < 2e-6,
+                "S = {scale}, {mode:?}: differs by up to {worst}"
+            );
+            let rect = ifd_smooth::DabRegion {
+                x0: 7,
+                y0: 11,
+                width: 50,
+                height: 23,
+            };
+            let part = s.smooth_rect(mode, rect).unwrap();
+            assert_eq!(
+                part.data(),
+                whole.crop(7, 11, 50, 23).data(),
+                "S = {scale}, {mode:?}"
+            );
+        }
+    }
 }
 
 #[test]

@@ -12,13 +12,15 @@ mod refresh;
 use std::sync::Arc;
 
 use ifd_image::{Image, ImageView};
-use ifd_planar::{Filter, PreparedDecomposition, ScaleStack, StackLayout, StackPlan, Taps};
+use ifd_planar::{Field, Filter, PreparedDecomposition, ScaleStack, StackLayout, StackPlan, Taps};
 use rayon::prelude::*;
 
 use crate::bank::{AspectBank, BANK_SAMPLING};
 use crate::direct::DirectKernels;
 use crate::error::SmoothError;
-use crate::gaussians::{AnisoGaussian, BankLookups, PixelGaussians, SmallFootprints};
+use crate::gaussians::{
+    AnisoGaussian, BankLookups, NO_SHARES, PixelGaussians, SmallFootprints, bank_passes, shares_of,
+};
 use crate::hessian::{HessianBank, hessian_stack_options};
 use crate::orientation::{Orientation, tensor};
 
@@ -380,6 +382,9 @@ impl Smoother {
             )));
         }
         let filters = self.filters()?;
+        if self.direct.is_none() {
+            return self.bank_passes(mode, &filters, rect);
+        }
         let gauss = self.gaussians(&filters)?;
         let mut out = vec![0.0f32; rect.width * rect.height * c];
         out.par_chunks_mut(rect.width * c)
@@ -410,6 +415,61 @@ impl Smoother {
                 }
             });
         Ok(Image::from_vec(rect.width, rect.height, c, out)?)
+    }
+
+    /// `rect` smoothed in `mode` from the stack, as the bank's whole-image
+    /// weighted passes ([`bank_passes`]: the vector rows, where the
+    /// per-point loop takes one pixel at a time), then the rectangle cut
+    /// out. [`Mode::PerPixel`]: each pixel's Gaussian of its orientation.
+    /// [`Mode::Dab`]: for each of the four dab-grid corners in turn, every
+    /// pixel's Gaussian of that corner's orientation, weighted by the
+    /// corner's bilinear weight. The same sums as the per-point loop, to
+    /// float rounding (tested).
+    fn bank_passes(
+        &self,
+        mode: Mode,
+        filters: &[Filter<'_>],
+        rect: DabRegion,
+    ) -> Result<Image, SmoothError> {
+        let (w, h, c) = (self.width, self.height, self.channels);
+        let inside = |i: usize| {
+            let (x, y) = (i % w, i / w);
+            (rect.x0..rect.x0 + rect.width).contains(&x)
+                && (rect.y0..rect.y0 + rect.height).contains(&y)
+        };
+        let mut out = Image::new(w, h, c)?;
+        let scale = Field::Constant(self.filter_scale());
+        let corners = match mode {
+            Mode::PerPixel => 1,
+            Mode::Dab => 4,
+        };
+        let (mut angle, mut shares) = (vec![0.0f32; w * h], vec![NO_SHARES; w * h]);
+        for k in 0..corners {
+            (&mut angle, &mut shares)
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(i, (a, sh))| {
+                    let (o, weight) = match mode {
+                        Mode::PerPixel => (self.field[i], 1.0),
+                        Mode::Dab => {
+                            let (x, y) = ((i % w) as f32, (i / w) as f32);
+                            let ((cx, cy), weight) = self.dab_corners(x, y)[k];
+                            (self.orientation_at(cx, cy), weight)
+                        }
+                    };
+                    *a = o.theta;
+                    *sh = NO_SHARES;
+                    if inside(i) && weight != 0.0 {
+                        *sh = shares_of(&self.bank, o.aspect).map(|(e, wi)| (e, weight * wi));
+                    }
+                });
+            bank_passes(filters, &angle, scale, &shares, &mut out)?;
+        }
+        Ok(if (rect.width, rect.height) == (w, h) {
+            out
+        } else {
+            out.crop(rect.x0, rect.y0, rect.width, rect.height)
+        })
     }
 
     /// Applies one dab to `target` (an image of the smoother's size, usually
