@@ -72,8 +72,8 @@ pub enum BankLookups<'f, 'a> {
     /// One footprint for every point (smoothing): the entries bound at
     /// scale `footprint / sigma_ref`, their levels resolved once.
     Fixed(Vec<ScaledFilter<'f, 'a>>),
-    /// A footprint per point (the sigma map): each lookup locates its
-    /// levels.
+    /// A footprint per point: each lookup locates its levels (whole
+    /// images, the sigma map's included, take weighted passes per entry).
     Varying(&'f [Filter<'a>]),
 }
 

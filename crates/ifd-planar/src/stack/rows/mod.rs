@@ -45,6 +45,14 @@
 //! sums are the same bits; blocks spread wider (a fast-turning map, a level
 //! at the border) gather as before.
 //!
+//! # Several filters on one stack
+//! A bank of decompositions blended per pixel (the smoother's aspect bank, a
+//! sigma map) runs one filter at a time over the image with a weight per
+//! pixel ([`RowOut`]): each row's pixels of non-zero weight are packed into
+//! whole blocks (their columns and outputs from a list), so that a filter
+//! serving scattered pixels of a row does not run blocks for one lane of
+//! sixteen. A packed lane reads and adds exactly what it would unpacked.
+//!
 //! # Same results as the scalar loop
 //! The kernels evaluate the scalar loop's expressions in the same order with
 //! separate multiplies and adds (no fused multiply-add), and a block with a
