@@ -158,7 +158,8 @@ impl<'f, 'a> PixelGaussians<'f, 'a> {
     pub fn blend(&self, aspect: f32) -> impl Iterator<Item = (usize, f32)> + use<> {
         shares_of(self.bank, aspect)
             .into_iter()
-            .filter(|&(i, _)| i != usize::MAX)
+            .filter(|&(i, _)| i != NONE)
+            .map(|(i, w)| (i as usize, w))
     }
 
     /// Adds `weight *` the Gaussian `g` applied at `(x, y)` to `out` (one
@@ -219,21 +220,26 @@ impl<'f, 'a> PixelGaussians<'f, 'a> {
 
 /// A pixel's bank entries and their weights in its blend
 /// ([`PixelGaussians::blend`]), for [`bank_passes`]: `(entry, weight)`
-/// twice, [`NO_SHARES`] for none.
-pub(crate) type Shares = [(usize, f32); 2];
+/// twice (16 bytes a pixel), [`NO_SHARES`] for none.
+pub(crate) type Shares = [(u32, f32); 2];
+
+/// The entry of a share that is none.
+const NONE: u32 = u32::MAX;
 
 /// No entry: a pixel the stack does not serve.
-pub(crate) const NO_SHARES: Shares = [(usize::MAX, 0.0); 2];
+pub(crate) const NO_SHARES: Shares = [(NONE, 0.0); 2];
 
 /// The shares of the bank's entries in aspect ratio `aspect`
 /// ([`PixelGaussians::blend`]'s entries and weights).
 pub(crate) fn shares_of(bank: &AspectBank, aspect: f32) -> Shares {
     let (i, t) = bank.locate(f64::from(aspect));
+    // a bank has a few dozen entries at most (aspects to 16)
+    let i = i as u32;
     let t = t as f32;
     if t > 0.0 {
         [(i, 1.0 - t), (i + 1, t)]
     } else {
-        [(i, 1.0), (usize::MAX, 0.0)]
+        [(i, 1.0), (NONE, 0.0)]
     }
 }
 
@@ -254,6 +260,7 @@ pub(crate) fn bank_passes(
 ) -> Result<(), SmoothError> {
     let mut weight = vec![0.0f32; shares.len()];
     for (e, filter) in filters.iter().enumerate() {
+        let e = e as u32;
         let share = |sh: &Shares| sh.iter().find(|(i, _)| *i == e).map_or(0.0, |&(_, w)| w);
         weight
             .par_iter_mut()

@@ -23,8 +23,9 @@
 //!   [`integrated_kernel`], [`cell_integral`], [`covariance`].
 //! - **Per-pixel Gaussians** (`gaussians.rs`): an anisotropic Gaussian of
 //!   any angle, aspect ratio and footprint at any point, from the aspect
-//!   bank (or evaluated directly when small), what smoothing and the sigma
-//!   map apply per pixel: [`PixelGaussians`], [`AnisoGaussian`],
+//!   bank (or evaluated directly when small), what dabs apply per pixel
+//!   (whole images, smoothed or through a sigma map, take one weighted
+//!   pass per bank entry instead, the same sums): [`PixelGaussians`], [`AnisoGaussian`],
 //!   [`BankLookups`], [`SmallFootprints`], [`SAMPLED_BELOW`],
 //!   [`SAMPLED_MINOR_BELOW`].
 //! - **Sigma map** (`sigma_map.rs`): a normalised anisotropic Gaussian per

@@ -237,8 +237,9 @@ fn sigma_map_stack(
         dims,
         sigmas,
         border,
-        // the smoother's reads (and the margin its memory allows) at a
-        // coarser pyramid: the sigma map has no Hessian to serve
+        // the smoother's reads at a coarser pyramid (the sigma map has no
+        // Hessian to serve), with the margin memory allows at factor 8
+        // (a coarser stack is smaller)
         options: StackOptions {
             pyramid_factor: SIGMA_MAP_PYRAMID_FACTOR,
             ..smoother_stack_options(bank, hi, dims, sigmas)
@@ -295,8 +296,9 @@ mod tests {
     /// The whole-image passes, one bank entry at a time on the vector rows,
     /// give what the per-point lookups give (each pixel's two entries
     /// through [`Filter::filter_at_into`]), within float rounding: a
-    /// structure-like map with footprints 2.5 to 6 px, aspects 1 to 8 and
-    /// angles turning along the row, one and three channels.
+    /// structure-like map with footprints 2.5 to 6 px (and one of 4 px),
+    /// aspects 1 to 8 and angles turning along the row, one and three
+    /// channels.
     #[test]
     fn bank_passes_equal_the_per_point_lookups() {
         let opts = BankOptions {
@@ -306,15 +308,24 @@ mod tests {
         };
         let bank = AspectBank::build(opts, |_, _| {}).unwrap();
         let (w, h) = (71, 23);
-        let map: Vec<f32> = (0..w * h)
-            .flat_map(|i| {
-                let (u, v) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
-                let (s, a) = (2.5 + 3.5 * v, 1.0 + 7.0 * u);
-                [s * a.sqrt(), s / a.sqrt(), 400.0 * u * u - 90.0 * v]
-            })
-            .collect();
-        let m = ImageView::new(w, h, 3, &map).unwrap();
-        for c in [1, 3] {
+        let map = |footprint: &dyn Fn(f32) -> f32| -> Vec<f32> {
+            (0..w * h)
+                .flat_map(|i| {
+                    let (u, v) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
+                    let (s, a) = (footprint(v), 1.0 + 7.0 * u);
+                    [s * a.sqrt(), s / a.sqrt(), 400.0 * u * u - 90.0 * v]
+                })
+                .collect()
+        };
+        // footprints 2.5 to 6 px; one footprint of 4 px (to f32 rounding:
+        // the constant-scale rows)
+        let (varying, constant) = (map(&|v| 2.5 + 3.5 * v), map(&|_| 4.0));
+        for (map, c, one_footprint) in [
+            (&varying, 1, false),
+            (&varying, 3, false),
+            (&constant, 1, true),
+        ] {
+            let m = ImageView::new(w, h, 3, map).unwrap();
             let data: Vec<f32> = (0..w * h * c)
                 .map(|i| ((i * 7919) % 211) as f32 / 211.0)
                 .collect();
@@ -345,6 +356,11 @@ mod tests {
                 }
             }
             assert!(worst < 2e-6, "{c} channels: differs by up to {worst}");
+            let footprints: Vec<f32> = gaussians.iter().map(|g| g.footprint).collect();
+            let one = footprints
+                .iter()
+                .all(|&f| (f / footprints[0] - 1.0).abs() < 1e-6);
+            assert_eq!(one, one_footprint, "the constant-footprint case");
         }
     }
 }

@@ -12,6 +12,7 @@ use ifd_planar::{RegionReader, Tiling};
 use crate::bank::AspectBank;
 use crate::direct::DirectKernels;
 use crate::error::SmoothError;
+use crate::gaussians::Shares;
 use crate::hessian::HessianBank;
 use crate::orientation::Orientation;
 use crate::smooth::{Mode, SmoothOptions, Smoother};
@@ -71,10 +72,10 @@ fn alignment(
 
 /// Bytes the smoother of a `(width, height, channels)` image needs at most:
 /// its stack and the build's transient FFT buffers, the image (twice below
-/// [`crate::DIRECT_BELOW`]), the orientation field, the Hessian and
-/// tensor planes while the field is built (or, later and no larger, the
-/// smoothing passes' image-sized result and each pixel's angle, weight and
-/// bank shares), and a result of `out_pixels`.
+/// [`crate::DIRECT_BELOW`]), the orientation field, an image-sized
+/// result, the larger of the Hessian and tensor planes while the field is
+/// built and the smoothing passes' per-pixel angle, weight and bank shares,
+/// and a result of `out_pixels`.
 ///
 /// # Errors
 /// As [`Smoother::stack_layout`].
@@ -90,8 +91,10 @@ pub fn smoother_bytes(
     let (fw, fh) = layout.fft_size();
     let px = (w * h) as u64;
     let images = if opts.evaluated_directly() { 2 } else { 1 };
+    // ten float planes for the Hessian and tensor; the passes' buffers
+    let transient = (4 * 10).max(4 * 2 + std::mem::size_of::<Shares>()) as u64;
     let per_pixel =
-        4 * (images * c as u64 + c as u64 + 10) + std::mem::size_of::<Orientation>() as u64;
+        4 * (images * c as u64 + c as u64) + transient + std::mem::size_of::<Orientation>() as u64;
     Ok(layout.bytes() + 24 * (fw * fh) as u64 + px * per_pixel + (out_pixels * c) as u64 * 4)
 }
 

@@ -184,13 +184,21 @@ fn dab_matches_whole_image_inside() {
 /// bank's weighted passes on the vector rows), equal each pixel's Gaussians
 /// applied through the per-point lookups ([`PixelGaussians::accumulate`]
 /// at the footprint scale; in dabs, the four corners' orientations with
-/// their bilinear weights), to float rounding.
+/// their bilinear weights) bit for bit, one channel and three.
 #[test]
 fn whole_image_passes_equal_the_per_point_lookups() {
-    let img = test_image(83, 61);
-    let (w, h) = (img.width(), img.height());
-    for scale in [2.5, 6.0] {
-        let s = smoother(&img, scale);
+    let grey = test_image(83, 61);
+    let (w, h) = (grey.width(), grey.height());
+    let rgb: Vec<f32> = grey
+        .data()
+        .iter()
+        .enumerate()
+        .flat_map(|(i, &v)| [v, 1.0 - v, 0.5 * v + 0.25 * ((i % 7) as f32 / 7.0)])
+        .collect();
+    let rgb = Image::from_vec(w, h, 3, rgb).unwrap();
+    for (img, scale) in [(&grey, 2.5), (&grey, 6.0), (&rgb, 4.0)] {
+        let c = img.channels();
+        let s = smoother(img, scale);
         let filters: Vec<Filter<'_>> = s
             .prepared_bank()
             .iter()
@@ -211,11 +219,10 @@ fn whole_image_passes_equal_the_per_point_lookups() {
         };
         for mode in [Mode::PerPixel, Mode::Dab] {
             let whole = s.smooth_image(mode).unwrap();
-            let mut worst = 0.0f32;
             for y in 0..h {
                 for x in 0..w {
                     let (xf, yf) = (x as f32, y as f32);
-                    let mut want = [0.0f32];
+                    let mut want = vec![0.0f32; c];
                     match mode {
                         Mode::PerPixel => {
                             let o = s.orientation_field()[y * w + x];
@@ -228,25 +235,31 @@ fn whole_image_passes_equal_the_per_point_lookups() {
                             }
                         }
                     }
-                    worst = worst.max((whole.get(x, y, 0) - want[0]).abs());
+                    for (ch, v) in want.iter().enumerate() {
+                        let got = whole.get(x, y, ch);
+                        assert_eq!(
+                            got.to_bits(),
+                            v.to_bits(),
+                            "S = {scale}, {mode:?}, ({x}, {y}) channel {ch}: {got} != {v}"
+                        );
+                    }
                 }
             }
-            assert!(
-                worst < 2e-6,
-                "S = {scale}, {mode:?}: differs by up to {worst}"
-            );
-            let rect = ifd_smooth::DabRegion {
-                x0: 7,
-                y0: 11,
-                width: 50,
-                height: 23,
-            };
-            let part = s.smooth_rect(mode, rect).unwrap();
-            assert_eq!(
-                part.data(),
-                whole.crop(7, 11, 50, 23).data(),
-                "S = {scale}, {mode:?}"
-            );
+            // a tile's rectangle (passes) and a small one (the per-point loop)
+            for (x0, y0, rw, rh) in [(7, 11, 50, 23), (30, 20, 9, 7)] {
+                let rect = ifd_smooth::DabRegion {
+                    x0,
+                    y0,
+                    width: rw,
+                    height: rh,
+                };
+                let part = s.smooth_rect(mode, rect).unwrap();
+                assert_eq!(
+                    part.data(),
+                    whole.crop(x0, y0, rw, rh).data(),
+                    "S = {scale}, {mode:?}"
+                );
+            }
         }
     }
 }

@@ -354,8 +354,8 @@ impl<'a> Filter<'a> {
     /// filters on one stack, each for the pixels it serves (a bank of
     /// decompositions blended per pixel, a filter per region). Every term
     /// is read from the stack (none is evaluated directly), on the vector
-    /// rows where the CPU has them; blocks of pixels whose weights are all
-    /// zero cost nothing.
+    /// rows where the CPU has them; the pixels of weight zero cost almost
+    /// nothing (each row's others are packed into whole blocks).
     ///
     /// The scale is checked at every pixel, weighted or not: give the
     /// pixels of weight zero any scale the stack covers.

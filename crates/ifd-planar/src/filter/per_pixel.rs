@@ -17,7 +17,8 @@ impl Filter<'_> {
     /// where they can ([`rows`]), the rest of each row through the scalar
     /// loop; both give the same values. With per-pixel `weight`s (one a
     /// pixel) each pixel adds `weight *` its value and pixels of weight zero
-    /// are skipped (sixteen or eight at a time in the vector rows).
+    /// are skipped: a row with some packs the others into whole blocks
+    /// ([`Filter::packed_row`]).
     pub(super) fn per_pixel<const C: usize>(
         &self,
         angle: Field<'_>,
@@ -112,7 +113,8 @@ impl Filter<'_> {
     /// rows is full of pixels that count (a bank's entry serves scattered
     /// pixels of a row; blocks would otherwise run for one of their sixteen),
     /// any rest through the scalar loop. The same values as the unpacked
-    /// row.
+    /// row, bit for bit (the padding's lanes add nothing, as the scalar loop
+    /// skips pixels of weight zero).
     fn packed_row<const C: usize>(
         &self,
         y: usize,

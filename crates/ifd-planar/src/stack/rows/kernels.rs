@@ -124,7 +124,9 @@ pub(super) use entry_points;
 ///
 /// # Safety
 /// Compiled for `V`'s instruction set (see [`Lanes`]); the stack passed
-/// `super::fits::<C>` and `out` holds `cs.len() * C` samples.
+/// `super::fits::<C>` and `out` holds the row's entries (`RowOut::holds`:
+/// `cs.len()` weights and pixels, each pixel's `C` samples in the row; the
+/// stores index it through checked slices besides).
 #[inline(always)]
 pub(super) unsafe fn rotated_row<V: Lanes, const C: usize>(
     stack: &ScaleStack,
@@ -1003,8 +1005,14 @@ unsafe fn add_out<V: Lanes, const C: usize>(
             *a = V::mul(pw, *a);
         }
         if let Some(p) = pixels {
+            // lane by lane, the lanes of weight zero (a packed row's
+            // padding) skipped as the scalar loop skips those pixels
             let sums = spill::<V, C>(&acc);
+            let [weights] = spill::<V, 1>(&[pw]);
             for (lane, &x) in p[x0..x0 + V::N].iter().enumerate() {
+                if weights.as_ref()[lane] == 0.0 {
+                    continue;
+                }
                 let px = &mut out[x as usize * C..(x as usize + 1) * C];
                 for (o, s) in px.iter_mut().zip(&sums) {
                     *o += s.as_ref()[lane];

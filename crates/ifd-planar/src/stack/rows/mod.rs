@@ -8,7 +8,7 @@
 //!
 //! # Layout
 //! - this file: the row types ([`FixedTerm`], [`ScaledTerm`],
-//!   [`RowLevels`]), what the kernels can read ([`supports`]), and the
+//!   [`RowLevels`], [`RowOut`]), what the kernels can read ([`supports`]), and the
 //!   dispatch: each entry point runs the widest kernels [`ifd_simd::isa`]
 //!   allows, then the narrower ones over the blocks left, and returns the
 //!   pixels done (the caller's scalar loop does the rest);
@@ -196,6 +196,18 @@ pub(crate) struct RowOut<'o> {
     pub(crate) pixels: Option<&'o [u32]>,
 }
 
+#[cfg(test)]
+impl<'o> RowOut<'o> {
+    /// A row's pixels in order, unweighted.
+    pub(crate) fn dense(row: &'o mut [f32]) -> Self {
+        Self {
+            row,
+            weight: None,
+            pixels: None,
+        }
+    }
+}
+
 impl RowOut<'_> {
     /// Whether it holds `n` entries of `C` channels (and `n` weights and
     /// pixels, each pixel in the row).
@@ -274,10 +286,11 @@ macro_rules! widest_first {
     }};
 }
 
-/// Adds the filtered values of the pixels `0..n` of row `y` into `out` (the
-/// row, `C` interleaved channels, [`RowOut`]) for per-pixel rotations `cs[x] = s cos`,
-/// `ss[x] = s sin` at a constant scale, where `n` is the returned count (0
-/// when the kernels cannot run). The caller filters the remaining pixels.
+/// Adds the filtered values of the entries `0..n` of row `y` (its pixels
+/// `0..n`, or a packed row's listed pixels: [`RowOut`]) into `out` (`C`
+/// interleaved channels) for per-entry rotations `cs[k] = s cos`, `ss[k] = s
+/// sin` at a constant scale, where `n` is the returned count (0 when the
+/// kernels cannot run). The caller filters the remaining entries.
 pub(crate) fn rotated_row<const C: usize>(
     stack: &ScaleStack,
     terms: &[FixedTerm],
