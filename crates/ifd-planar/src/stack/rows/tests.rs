@@ -435,6 +435,37 @@ fn sixteen_scaled_lanes_equal_eight() {
     }
 }
 
+/// The scalar lookups' sum at pixel `(x, y)` with rotation `(cs, ss)`: each
+/// term's levels in order, one or three channels (the stack's), as the
+/// scalar loop sums them.
+fn scalar_sum(
+    stack: &ScaleStack,
+    terms: &[FixedTerm],
+    (x, y): (usize, usize),
+    (cs, ss): (f32, f32),
+) -> [f32; 3] {
+    let mut sum = [0.0f32; 3];
+    for t in terms {
+        let sx = x as f32 + cs * t.cx + ss * t.cy;
+        let sy = y as f32 - ss * t.cx + cs * t.cy;
+        for (li, wl) in [(t.a, t.wa), (t.b, t.wb)] {
+            if wl != 0.0 {
+                match stack.channels {
+                    1 => stack.accumulate_fixed::<1>(
+                        li,
+                        sx,
+                        sy,
+                        wl,
+                        (&mut sum[..1]).try_into().expect("one"),
+                    ),
+                    _ => stack.accumulate_fixed::<3>(li, sx, sy, wl, &mut sum),
+                }
+            }
+        }
+    }
+    sum
+}
+
 /// A packed, weighted row ([`RowOut`] with `pixels` and `weight`): each
 /// entry's sum, times its weight, lands on its listed pixel, bit for bit the
 /// scalar lookups', at sixteen lanes (then eight) and at eight alone: a
@@ -482,25 +513,7 @@ fn packed_weighted_rows_equal_the_scalar_lookups() {
                 continue;
             }
             let x = x as usize;
-            let mut sum = [0.0f32; 3];
-            for t in &terms {
-                let sx = x as f32 + cs[k] * t.cx + ss[k] * t.cy;
-                let sy = y as f32 - ss[k] * t.cx + cs[k] * t.cy;
-                for (li, wl) in [(t.a, t.wa), (t.b, t.wb)] {
-                    if wl != 0.0 {
-                        match channels {
-                            1 => stack.accumulate_fixed::<1>(
-                                li,
-                                sx,
-                                sy,
-                                wl,
-                                (&mut sum[..1]).try_into().expect("one"),
-                            ),
-                            _ => stack.accumulate_fixed::<3>(li, sx, sy, wl, &mut sum),
-                        }
-                    }
-                }
-            }
+            let sum = scalar_sum(&stack, &terms, (x, y), (cs[k], ss[k]));
             for (o, s) in want[x * channels..(x + 1) * channels].iter_mut().zip(sum) {
                 *o += weight[k] * s;
             }
@@ -575,25 +588,7 @@ fn channels_and_cubic_equal_the_scalar_lookups() {
             for (x, px) in want.chunks_exact_mut(channels).enumerate() {
                 // the scalar loop's order: every term's lookups summed, then
                 // added to the output
-                let mut sum = [0.0f32; 3];
-                for t in &terms {
-                    let sx = x as f32 + cs[x] * t.cx + ss[x] * t.cy;
-                    let sy = y as f32 - ss[x] * t.cx + cs[x] * t.cy;
-                    for (li, wl) in [(t.a, t.wa), (t.b, t.wb)] {
-                        if wl != 0.0 {
-                            match channels {
-                                1 => stack.accumulate_fixed::<1>(
-                                    li,
-                                    sx,
-                                    sy,
-                                    wl,
-                                    (&mut sum[..1]).try_into().expect("one"),
-                                ),
-                                _ => stack.accumulate_fixed::<3>(li, sx, sy, wl, &mut sum),
-                            }
-                        }
-                    }
-                }
+                let sum = scalar_sum(&stack, &terms, (x, y), (cs[x], ss[x]));
                 for (o, s) in px.iter_mut().zip(sum) {
                     *o += s;
                 }
