@@ -488,6 +488,10 @@ fn filter_sigma_map_writes_a_gaussian_per_pixel_and_refuses_bad_maps() {
         ["--angle-map", &*one],
         ["--scale", "2"],
         ["--scale-map", &*one],
+        // the planner's and the vector rows' switches do not apply to it
+        ["--interp", "linear"],
+        ["--eval-budget", "0.01"],
+        ["--scalar", "-v"],
     ] {
         let mut args = vec!["--kernel", "gauss", "--sigma-map", &*good];
         args.extend(extra);

@@ -63,7 +63,10 @@ pub struct Filter {
     #[arg(
         long,
         value_name = "NPY",
-        conflicts_with_all = ["decomp", "angle", "angle_map", "scale", "scale_map", "gpu", "tile"]
+        conflicts_with_all = [
+            "decomp", "angle", "angle_map", "scale", "scale_map", "gpu", "tile", "interp",
+            "eval_budget", "scalar",
+        ]
     )]
     sigma_map: Option<PathBuf>,
     /// Rotation in degrees, counter-clockwise on screen, for every pixel.
