@@ -10,10 +10,9 @@ use ifd_image::{Image, ImageView};
 use ifd_planar::{Border, Field, Filter, Rotation, ScaledFilter};
 use rayon::prelude::*;
 
-use crate::error::SmoothError;
-
 use crate::bank::AspectBank;
 use crate::direct::{DIRECT_BELOW, DirectKernels, covariance};
+use crate::error::SmoothError;
 
 /// An anisotropic Gaussian: the filter of one pixel.
 ///

@@ -127,33 +127,31 @@ impl Filter<'_> {
         let w = self.stack.width();
         let mut packed = std::mem::take(&mut scr.packed);
         packed.clear();
+        let push = |packed: &mut Packed, x: usize, wt: f32| {
+            let i = y * w + x;
+            packed.pixels.push(x as u32);
+            packed.weights.push(wt);
+            packed.theta.push(angle.at(i));
+            if let Field::Map(_) = scale {
+                packed.scales.push(scale.at(i));
+            }
+        };
         for (x, &wt) in weights.iter().enumerate() {
             if wt != 0.0 {
-                let i = y * w + x;
-                packed.pixels.push(x as u32);
-                packed.weights.push(wt);
-                packed.theta.push(angle.at(i));
-                if let Field::Map(_) = scale {
-                    packed.scales.push(scale.at(i));
-                }
+                push(&mut packed, x, wt);
             }
         }
         // Padded to whole blocks (sixteen or eight, within the row's
-        // room) with copies of the last entry of weight zero, which add
-        // `0 * sum`: no entry is left to the scalar loop.
+        // room) with the last pixel again at weight zero, which the
+        // kernels skip as the scalar loop does: no entry is left to it.
         let n = packed.pixels.len();
-        if let Some(last) = n.checked_sub(1) {
+        if let Some(&last) = packed.pixels.last() {
             let to = [n.next_multiple_of(16), n.next_multiple_of(8)]
                 .into_iter()
                 .find(|&to| to <= w)
                 .unwrap_or(n);
             for _ in n..to {
-                packed.pixels.push(packed.pixels[last]);
-                packed.weights.push(0.0);
-                packed.theta.push(packed.theta[last]);
-                if let Field::Map(_) = scale {
-                    packed.scales.push(packed.scales[last]);
-                }
+                push(&mut packed, last as usize, 0.0);
             }
         }
         let n = packed.pixels.len();

@@ -386,7 +386,7 @@ impl Smoother {
         // image; a small rectangle pixel by pixel (the passes' buffers and
         // scans are the whole image's).
         if self.direct.is_none() && rect.width * rect.height * SMALL_RECT >= w * h {
-            return self.bank_passes(mode, &filters, rect);
+            return self.smooth_by_passes(mode, &filters, rect);
         }
         let gauss = self.gaussians(&filters)?;
         let mut out = vec![0.0f32; rect.width * rect.height * c];
@@ -429,7 +429,7 @@ impl Smoother {
     /// corner's bilinear weight. The per-point loop's sums bit for bit (one
     /// to four channels; tested): each pixel adds the same `weight * wi *`
     /// sums in the same order.
-    fn bank_passes(
+    fn smooth_by_passes(
         &self,
         mode: Mode,
         filters: &[Filter<'_>],

@@ -184,7 +184,8 @@ impl RowLevels {
 /// Where a row's sums go: `row[x * C + k] += sum` for each pixel `x` and
 /// channel `k`, or, with per-pixel `weight`s, `+= weight[x] * sum` (the
 /// scalar loop's expression), the blocks whose weights are all zero
-/// skipped. Lanes of weight zero in a block that runs add `0 * sum`.
+/// skipped. Lanes of weight zero in a block that runs add `0 * sum`, except
+/// in a packed row, where they add nothing (its padding).
 ///
 /// A packed row (`pixels`) lists some of the row's pixels: entry `k` of the
 /// kernels' inputs (rotations, levels, weights) is pixel `pixels[k]`, where
