@@ -4,7 +4,7 @@
 use super::cost::read_cost;
 use super::norm::checked_kernel_norm;
 use super::read_error::{level_blend_error, lookup_error, nearest_level_error};
-use super::white_noise::{Levels, WhiteNoise};
+use super::white_noise::{Levels, SCREEN_MARGIN, WhiteNoise};
 use crate::decomposition::Decomposition;
 use crate::error::FilterError;
 use crate::stack::for_decomposition::evaluated_directly;
@@ -264,11 +264,15 @@ impl EvalPlan {
         let mut noise: Option<WhiteNoise<'_>> = None;
         // the kernel's norm, a sum over pairs of terms: once per plan
         let mut norm: Option<f64> = None;
-        let mut best: Option<Self> = None;
-        // The estimates so far (interpolation, factor), and the interpolations whose
-        // finer factors stopped helping (the blend of levels, or terms too
-        // narrow for any read, dominate): those are not tried further.
-        let mut tried: Vec<(Interpolation, f64, f64)> = Vec::new();
+        // Every candidate estimated so far, in order: its plan before the
+        // estimate, the plan, and whether the estimate is the full one (a
+        // candidate far over the budget is rejected on a screen of its
+        // poses, `WhiteNoise::screened`, and estimated in full only where
+        // the choice among rejected ones below needs it).
+        let mut tried: Vec<(Self, Self, bool)> = Vec::new();
+        // The interpolations whose finer factors stopped helping (the blend
+        // of levels, or terms too narrow for any read, dominate): those are
+        // not tried further.
         let mut stalled: Vec<Interpolation> = Vec::new();
         for (interpolation, factor) in fixed {
             if stalled.contains(&interpolation) {
@@ -288,29 +292,71 @@ impl EvalPlan {
             )?;
             let noise =
                 noise.get_or_insert_with(|| WhiteNoise::new(decomposition, scales, direct_sigma));
-            let plan = bounded.estimated(noise, log_uniform, budget);
+            let (plan, full) = bounded.estimated(noise, log_uniform, budget, true);
             if plan.error_estimate <= budget {
+                // (a screened estimate is never within the budget)
                 return Ok(plan);
             }
+            tried.push((bounded, plan, full));
+            // Against the candidate an octave coarser (the unsubsampled one:
+            // against the last), so that two half-octave steps must gain
+            // what one octave step did; on full estimates.
+            let last = tried.len() - 1;
+            let back = tried[..last].iter().rposition(|(_, p, _)| {
+                p.interpolation == interpolation
+                    && (p.pyramid_factor == factor / 2.0 || factor.is_infinite())
+            });
+            if let Some(b) = back {
+                let stalls = |t: &[(Self, Self, bool)]| {
+                    t[last].1.error_estimate >= 0.95 * t[b].1.error_estimate
+                };
+                if stalls(&tried) && !(tried[b].2 && tried[last].2) {
+                    for i in [b, last] {
+                        Self::estimate_in_full(&mut tried[i], noise, log_uniform, budget);
+                    }
+                }
+                if stalls(&tried) {
+                    stalled.push(interpolation);
+                }
+            }
+        }
+        // None within the budget: the one with the lowest estimate (a later
+        // one replaces an earlier one only if 5% lower), on full estimates of
+        // every candidate a screen leaves within SCREEN_MARGIN of the lowest.
+        let noise = noise.as_ref().expect("at least one candidate");
+        loop {
+            let lowest = tried
+                .iter()
+                .map(|(_, p, _)| p.error_estimate)
+                .fold(f64::INFINITY, f64::min);
+            let near = tried
+                .iter()
+                .position(|(_, p, full)| !full && p.error_estimate <= SCREEN_MARGIN * lowest);
+            match near {
+                Some(i) => Self::estimate_in_full(&mut tried[i], noise, log_uniform, budget),
+                None => break,
+            }
+        }
+        let mut best: Option<Self> = None;
+        for (_, plan, _) in tried {
             if best.is_none_or(|b| plan.error_estimate < 0.95 * b.error_estimate) {
                 best = Some(plan);
             }
-            // Against the candidate an octave coarser (the unsubsampled one:
-            // against the last), so that two half-octave steps must gain
-            // what one octave step did.
-            let back = tried
-                .iter()
-                .rev()
-                .find(|&&(i, f, _)| {
-                    i == interpolation && (f == factor / 2.0 || factor.is_infinite())
-                })
-                .map(|&(_, _, e)| e);
-            if back.is_some_and(|e| plan.error_estimate >= 0.95 * e) {
-                stalled.push(interpolation);
-            }
-            tried.push((interpolation, factor, plan.error_estimate));
         }
         Ok(best.expect("at least one candidate"))
+    }
+
+    /// Replaces a screened estimate of a candidate [`Self::choose`] tried
+    /// with the full one.
+    fn estimate_in_full(
+        (bounded, plan, full): &mut (Self, Self, bool),
+        noise: &WhiteNoise<'_>,
+        log_uniform: bool,
+        budget: f64,
+    ) {
+        if !*full {
+            (*plan, *full) = bounded.estimated(noise, log_uniform, budget, false);
+        }
     }
 
     /// The estimate, the levels per octave and how a sigma between levels
@@ -324,33 +370,61 @@ impl EvalPlan {
     /// [`NEAREST_MOST_PER_OCTAVE`] at which reading the nearest level alone
     /// is too, if that costs less ([`read_cost`]: half the lookups, more
     /// levels). Otherwise the default levels at the terms' sigmas.
-    fn estimated(self, noise: &WhiteNoise<'_>, log_uniform: bool, budget: f64) -> Self {
+    ///
+    /// With `screen`, an estimate over the budget may be a screen's
+    /// ([`WhiteNoise::screened`]); the flag returned says whether the plan's
+    /// estimate is the full one (always, within the budget).
+    fn estimated(
+        self,
+        noise: &WhiteNoise<'_>,
+        log_uniform: bool,
+        budget: f64,
+        screen: bool,
+    ) -> (Self, bool) {
         let default = StackOptions::default().samples_per_octave;
-        let estimate = |levels| noise.expected((self.interpolation, self.pyramid_factor), levels);
+        let estimate = |levels| {
+            noise.screened(
+                (self.interpolation, self.pyramid_factor),
+                levels,
+                screen.then_some(budget),
+            )
+        };
         if !log_uniform {
-            return Self {
+            let (e, full) = estimate(Levels::AtSigmas);
+            let plan = Self {
                 samples_per_octave: default,
                 level_error: 0.0,
-                error_estimate: estimate(Levels::AtSigmas),
+                error_estimate: e,
                 ..self
             };
+            return (plan, full);
         }
-        let at = |per_octave, nearest| {
+        let at_full = |per_octave, nearest| {
             estimate(Levels::LogUniform {
                 per_octave,
                 nearest,
             })
         };
+        // A screened estimate is over the budget: only a rejection rests on
+        // one, and the plan's own estimate is the full one unless the most
+        // levels miss the budget.
+        let at = |per_octave, nearest| at_full(per_octave, nearest).0;
         // The most levels first: when they miss the budget, fewer will too.
-        let most = at(default, false);
-        let (n, e) = if most > budget {
-            (default, most)
-        } else {
-            (FEWEST_PER_OCTAVE..default)
-                .map(|n| (n, at(n, false)))
-                .find(|&(_, e)| e <= budget)
-                .unwrap_or((default, most))
-        };
+        let (most, most_full) = at_full(default, false);
+        if most > budget {
+            let plan = Self {
+                samples_per_octave: default,
+                nearest_level: false,
+                level_error: self.amplification * level_blend_error(default),
+                error_estimate: most,
+                ..self
+            };
+            return (plan, most_full);
+        }
+        let (n, e) = (FEWEST_PER_OCTAVE..default)
+            .map(|n| (n, at(n, false)))
+            .find(|&(_, e)| e <= budget)
+            .unwrap_or((default, most));
         let blend = Self {
             samples_per_octave: n,
             nearest_level: false,
@@ -358,9 +432,6 @@ impl EvalPlan {
             error_estimate: e,
             ..self
         };
-        if e > budget {
-            return blend;
-        }
         let cost = |n, blend| {
             read_cost(
                 noise.terms_read(),
@@ -377,24 +448,25 @@ impl EvalPlan {
             .take_while(|&n| cost(n, false) < blend_cost)
             .collect();
         let Some((&most, fewer)) = cheaper.split_last() else {
-            return blend;
+            return (blend, true);
         };
         let e_most = at(most, true);
         if e_most > budget {
-            return blend;
+            return (blend, true);
         }
         let (n, e) = fewer
             .iter()
             .map(|&n| (n, at(n, true)))
             .find(|&(_, e)| e <= budget)
             .unwrap_or((most, e_most));
-        Self {
+        let nearest = Self {
             samples_per_octave: n,
             nearest_level: true,
             level_error: self.amplification * nearest_level_error(n),
             error_estimate: e,
             ..self
-        }
+        };
+        (nearest, true)
     }
 
     /// The bound on the whole evaluation error: the lookups'
@@ -429,11 +501,14 @@ impl EvalPlan {
             direct_sigma,
         )?;
         let scales = (f64::from(scale_min), f64::from(scale_max));
-        Ok(plan.estimated(
-            &WhiteNoise::new(decomposition, scales, direct_sigma),
-            false,
-            0.0,
-        ))
+        Ok(plan
+            .estimated(
+                &WhiteNoise::new(decomposition, scales, direct_sigma),
+                false,
+                0.0,
+                false,
+            )
+            .0)
     }
 
     /// [`Self::with`] before its estimate (the bound in its place).

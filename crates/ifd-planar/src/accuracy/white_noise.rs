@@ -52,6 +52,11 @@
 //! noise measures within 15% of it (tested; the rest is the poses'
 //! sampling).
 
+#![allow(
+    unsafe_code,
+    reason = "calling AVX2/AVX-512-compiled code after run-time detection; see `error2_on_grid`"
+)]
+
 use crate::decomposition::Decomposition;
 use crate::stack::for_decomposition::evaluated_directly;
 use crate::stack::{Interpolation, LevelLocator, log_uniform_sigmas, pyramid_step};
@@ -151,11 +156,26 @@ impl<'a> WhiteNoise<'a> {
     /// The expected relative RMS error on white noise of lookups with
     /// `interpolation` (module docs) at pyramid factor `factor` from
     /// `levels` (the poses on rayon's threads, summed in order).
-    pub(crate) fn expected(
+    #[cfg(test)]
+    pub(crate) fn expected(&self, read: (Interpolation, f64), levels: Levels) -> f64 {
+        self.screened(read, levels, None).0
+    }
+
+    /// [`Self::expected`], or, when `screen` is a budget and every
+    /// [`SCREEN_STRIDE`]-th pose alone (a subset spread like the whole)
+    /// puts the estimate above [`SCREEN_MARGIN`] times it, that subset's
+    /// mean: a candidate far over its budget is rejected at a quarter of
+    /// the work. The flag says which (`true`: every pose, the same bits as
+    /// [`Self::expected`]). A screened value always exceeds the budget, so
+    /// a comparison with it decides as the full estimate would unless the
+    /// subset errs by more than the margin (on fitted decompositions it
+    /// errs by a few per cent: `screens_agree_with_every_pose`).
+    pub(crate) fn screened(
         &self,
         (interpolation, factor): (Interpolation, f64),
         levels: Levels,
-    ) -> f64 {
+        screen: Option<f64>,
+    ) -> (f64, bool) {
         use rayon::prelude::*;
         let levels = match levels {
             Levels::AtSigmas => Placement::AtSigmas,
@@ -164,44 +184,82 @@ impl<'a> WhiteNoise<'a> {
                 nearest,
             } => Placement::log_uniform(self.stack_sigmas, per_octave, nearest),
         };
-        let each: Vec<f64> = self
-            .poses
-            .par_iter()
-            .filter(|(_, _, norm2)| norm2.is_finite() && *norm2 > 0.0)
-            .map_init(
-                || (Vec::new(), Vec::new()),
-                |(terms, parts), (pose, s, norm2)| {
-                    place(
-                        self.decomposition,
-                        *s,
-                        pose,
-                        (interpolation, factor),
-                        self.direct_sigma,
-                        &levels,
-                        terms,
-                        parts,
-                    );
-                    let err2 = if grid_cost(parts) < pair_cost(terms, parts) {
-                        // (grid_cost is infinite past MAX_GRID_CELLS)
-                        error2_on_grid(parts)
-                    } else {
-                        error2(terms, parts)
-                    };
-                    err2 / norm2
-                },
-            )
-            .collect();
+        // Each pose's error relative to its norm (`None`: a pose without a
+        // norm, left out), in pose order.
+        let each = |poses: Vec<usize>| -> Vec<(usize, Option<f64>)> {
+            poses
+                .into_par_iter()
+                .map_init(
+                    || (Vec::new(), Vec::new()),
+                    |(terms, parts), i| {
+                        let (pose, s, norm2) = &self.poses[i];
+                        if !(norm2.is_finite() && *norm2 > 0.0) {
+                            return (i, None);
+                        }
+                        place(
+                            self.decomposition,
+                            *s,
+                            pose,
+                            (interpolation, factor),
+                            self.direct_sigma,
+                            &levels,
+                            terms,
+                            parts,
+                        );
+                        let err2 = if grid_cost(parts) < pair_cost(terms, parts) {
+                            // (grid_cost is infinite past MAX_GRID_CELLS)
+                            error2_on_grid(parts)
+                        } else {
+                            error2(terms, parts)
+                        };
+                        (i, Some(err2 / norm2))
+                    },
+                )
+                .collect()
+        };
         // Summed in pose order: the same bits on any number of threads
         // (tiles and chunks of one image plan alike). No pose with a norm,
         // or a sum that is not a number (absurd scales through the API):
         // infinite, never within a budget.
-        let mean = each.iter().sum::<f64>() / each.len() as f64;
-        if mean.is_nan() {
-            return f64::INFINITY;
+        let mean = |values: &[(usize, Option<f64>)]| {
+            let valid: Vec<f64> = values.iter().filter_map(|&(_, v)| v).collect();
+            let mean = valid.iter().sum::<f64>() / valid.len() as f64;
+            if mean.is_nan() {
+                f64::INFINITY
+            } else {
+                mean.max(0.0).sqrt()
+            }
+        };
+        let n = self.poses.len();
+        let subset: Vec<usize> = (0..n).step_by(SCREEN_STRIDE).collect();
+        let mut values = Vec::new();
+        if let Some(budget) = screen
+            && subset.len() >= SCREEN_LEAST
+        {
+            values = each(subset);
+            let partial = mean(&values);
+            if partial.is_finite() && partial > SCREEN_MARGIN * budget {
+                return (partial, false);
+            }
         }
-        mean.max(0.0).sqrt()
+        let rest: Vec<usize> = (0..n)
+            .filter(|i| values.is_empty() || i % SCREEN_STRIDE != 0)
+            .collect();
+        values.extend(each(rest));
+        values.sort_unstable_by_key(|&(i, _)| i);
+        (mean(&values), true)
     }
 }
+
+/// A screen ([`WhiteNoise::screened`]) averages every `SCREEN_STRIDE`-th
+/// pose: 6 of [`POSES`].
+const SCREEN_STRIDE: usize = 4;
+/// Fewer poses than this (decompositions of more than 64 terms, whose
+/// poses are few already) are not screened.
+const SCREEN_LEAST: usize = 6;
+/// How far over its budget a screened estimate must be to reject a
+/// candidate without the rest of its poses.
+pub(crate) const SCREEN_MARGIN: f64 = 1.3;
 
 /// One pose: fractions in `[0, 1)` from the additive recurrence of the
 /// five-dimensional golden ratio, four of its dimensions (evenly spread in
@@ -504,7 +562,15 @@ fn pair_cost(terms: &[Placed], parts: &[Part]) -> f64 {
 /// thread); past it the pair sums, whose cost does not grow with the scale.
 const MAX_GRID_CELLS: f64 = 4_194_304.0;
 
-/// Multiply-adds of [`error2_on_grid`]: each part's window, and the grid;
+/// Lanes of a vector that [`grid_cost`] counts [`error2_on_grid`]'s window
+/// sums in: they run in AVX-512 or AVX2 vectors (the baseline's are
+/// two wide, where the grid costs more than counted; the choice is the same
+/// on every machine, so are the bits).
+const GRID_LANES: f64 = 4.0;
+
+/// Multiply-adds of [`error2_on_grid`]: each part's window (in vectors of
+/// [`GRID_LANES`]) and its factors (the Gaussians by a recurrence, then one
+/// multiply-add per sample read), and the grid;
 /// infinite for a grid of more than [`MAX_GRID_CELLS`] (or positions that
 /// are not numbers).
 fn grid_cost(parts: &[Part]) -> f64 {
@@ -524,7 +590,8 @@ fn grid_cost(parts: &[Part]) -> f64 {
         .iter()
         .map(|p| {
             let r = 2.0 * GRID_SIGMAS * p.var.sqrt();
-            (p.x.span() + r) * (p.y.span() + r) + 8.0 * (p.x.span() + p.y.span() + 2.0 * r)
+            let (lx, ly) = (p.x.span() + r, p.y.span() + r);
+            lx * ly / GRID_LANES + lx * p.x.n as f64 + ly * p.y.n as f64
         })
         .sum();
     windows + area
@@ -555,14 +622,12 @@ impl Axis {
     /// Reads (points on the integer grid) take the Gaussian from a table of
     /// integer offsets; the exact Gaussian (one fractional point) is
     /// evaluated at each pixel.
+    #[inline]
     fn fill(&self, sigma: f64, lo: i64, out: &mut [f64]) {
         let inv = -0.5 / (sigma * sigma);
         let norm = 1.0 / ((2.0 * PI).sqrt() * sigma);
         if self.n == 1 {
-            for (i, o) in out.iter_mut().enumerate() {
-                let d = (lo + i as i64) as f64 - self.start;
-                *o = norm * (d * d * inv).exp();
-            }
+            gaussian_run(lo as f64 - self.start, inv, norm, out);
             return;
         }
         // Offsets from the first point's pixel: -reach ..= reach + span.
@@ -573,17 +638,43 @@ impl Axis {
             lo - first - (self.n as i64 - 1) * step,
             lo + len - 1 - first,
         );
-        let table: Vec<f64> = (kmin..=kmax)
-            .map(|k| norm * ((k * k) as f64 * inv).exp())
-            .collect();
-        for (i, o) in out.iter_mut().enumerate() {
-            let x = lo + i as i64;
-            *o = (0..self.n)
-                .map(|j| self.w[j] * table[(x - first - j as i64 * step - kmin) as usize])
-                .sum();
+        let mut table = vec![0.0; (kmax - kmin + 1) as usize];
+        gaussian_run(kmin as f64, inv, norm, &mut table);
+        // out[i] = sum_j w_j table[lo + i - first - j step - kmin], summed
+        // in j order: one contiguous run of the table per sample.
+        out.fill(0.0);
+        let len = out.len();
+        for j in 0..self.n {
+            let at = (lo - first - j as i64 * step - kmin) as usize;
+            let w = self.w[j];
+            for (o, &t) in out.iter_mut().zip(&table[at..at + len]) {
+                *o += w * t;
+            }
         }
     }
 }
+
+/// `out[i] = norm exp(inv (d0 + i)^2)`, by the recurrence of successive
+/// ratios (`e_{i+1} = e_i r_i`, `r_{i+1} = r_i exp(2 inv)`): three
+/// exponentials per [`RUN_ANCHOR`] samples instead of one each, within
+/// about `1e-14` of them (re-anchored on an exact exponential every
+/// [`RUN_ANCHOR`]).
+fn gaussian_run(d0: f64, inv: f64, norm: f64, out: &mut [f64]) {
+    let c = (2.0 * inv).exp();
+    for (k, chunk) in out.chunks_mut(RUN_ANCHOR).enumerate() {
+        let d = d0 + (k * RUN_ANCHOR) as f64;
+        let mut e = norm * (d * d * inv).exp();
+        let mut r = ((2.0 * d + 1.0) * inv).exp();
+        for o in chunk {
+            *o = e;
+            e *= r;
+            r *= c;
+        }
+    }
+}
+
+/// Samples per exact exponential in [`gaussian_run`].
+const RUN_ANCHOR: usize = 32;
 
 /// The pixels every part's window covers: `(x0, x1, y0, y1)`, inclusive.
 fn bounds(parts: &[Part]) -> Option<(i64, i64, i64, i64)> {
@@ -602,7 +693,40 @@ fn bounds(parts: &[Part]) -> Option<(i64, i64, i64, i64)> {
 /// exact where the pair sums' integrals approximate them, below about a
 /// pixel of sigma). Its cost grows with the terms, not their square: the
 /// way for decompositions of many overlapping terms, or cubic reads.
+///
+/// Its loops are plain lane-wise arithmetic, compiled for AVX-512, AVX2 and
+/// the baseline ([`ifd_simd::isa`]); without fused multiply-adds (Rust
+/// never contracts them) the three give the same bits.
 fn error2_on_grid(parts: &[Part]) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    match ifd_simd::isa() {
+        // SAFETY: the CPU has AVX-512F (detected at run time).
+        ifd_simd::Isa::Avx512 => return unsafe { error2_on_grid_avx512(parts) },
+        // SAFETY: the CPU has AVX2 (detected at run time).
+        ifd_simd::Isa::Avx2 => return unsafe { error2_on_grid_avx2(parts) },
+        ifd_simd::Isa::Baseline => {}
+    }
+    error2_on_grid_body(parts)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2")]
+fn error2_on_grid_avx512(parts: &[Part]) -> f64 {
+    error2_on_grid_body(parts)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn error2_on_grid_avx2(parts: &[Part]) -> f64 {
+    error2_on_grid_body(parts)
+}
+
+#[inline(always)]
+#[expect(
+    clippy::inline_always,
+    reason = "compiled into each target_feature caller, for its instruction set"
+)]
+fn error2_on_grid_body(parts: &[Part]) -> f64 {
     let Some((x0, x1, y0, y1)) = bounds(parts) else {
         return 0.0;
     };
@@ -625,7 +749,16 @@ fn error2_on_grid(parts: &[Part]) -> f64 {
             }
         }
     }
-    grid.iter().map(|v| v * v).sum()
+    // The squares in eight running sums (lanes of a vector), then those.
+    let mut lanes = [0.0; 8];
+    let chunks = grid.chunks_exact(8);
+    let tail: f64 = chunks.remainder().iter().map(|v| v * v).sum();
+    for c in chunks {
+        for (l, v) in lanes.iter_mut().zip(c) {
+            *l += v * v;
+        }
+    }
+    lanes.iter().sum::<f64>() + tail
 }
 
 /// `sum_{j, k} w_j w'_k g(x_j - x'_k)` for the 1D Gaussian of variance
