@@ -93,7 +93,10 @@ const NEAREST_MOST_PER_OCTAVE: usize = 8;
 /// over the scales used; when none is, the one with the lowest estimate (a
 /// later candidate replaces an earlier one only if 5% lower; a factor that
 /// improves on the one an octave coarser by less than 5% ends that
-/// interpolation's candidates). Factor 1 stores a level of sigma 2-4 px at
+/// interpolation's candidates; a candidate whose estimate over every fourth
+/// pose is over 1.3 times the budget is rejected on it, and estimated
+/// over every pose only where the choice among rejected ones needs it: the
+/// same choice, at a fraction of the sums). Factor 1 stores a level of sigma 2-4 px at
 /// every other pixel, 4-8 px at every fourth (one to two samples per
 /// sigma): a quarter of factor 2's samples, for loose budgets. On a
 /// log-uniform stack (a per-pixel scale, [`PlanOptions::log_uniform`])
