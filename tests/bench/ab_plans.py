@@ -35,7 +35,9 @@ def run(binary, args, out):
     p = subprocess.run([str(binary), "filter", *map(str, args), "-o", str(out), "-v"], capture_output=True, text=True, env=env)
     if p.returncode:
         sys.exit(f"{binary} filter failed:\n{p.stderr}")
-    plan = next((l for l in p.stderr.splitlines() if l.startswith("evaluation:")), "")
+    plan = next((l for l in p.stderr.splitlines() if l.startswith("evaluation:")), None)
+    if plan is None:
+        sys.exit(f"{binary}: no evaluation line in -v output")
     m = re.search(r"planning ([0-9.]+) ms", p.stderr)
     if m is None:
         sys.exit(f"{binary}: no planning time in -v output (a build from before 2026-12-06?)")
@@ -61,7 +63,7 @@ def main():
             decomp, _ = cvo.decompose(a.after, tol, tmp)
             for scaled in (False, True):
                 for interp in INTERPS:
-                    for budget in (None, 0.001, tol, 0.03):
+                    for budget in dict.fromkeys((None, 0.001, tol, 0.03)):
                         args = [tmp / "img.npy", "--decomp", decomp, "--angle-map", tmp / "angle.npy", "--interp", interp]
                         if scaled:
                             args += ["--scale-map", tmp / "scale.npy"]

@@ -43,7 +43,8 @@ def basis_count(q):
 
 
 def rows(label, goal, report):
-    d = json.load(open(report))
+    with open(report) as f:
+        d = json.load(f)
     n = d["meta"]["size"]
     pts = d["points"]
     keys = []
@@ -54,6 +55,8 @@ def rows(label, goal, report):
         sub = [q for q in pts if (q["image"], q["case"]) == (image, case)]
         ifd = [q for q in sub if q["method"] == "ifd"]
         peers = [q for q in sub if q["method"] != "ifd"]
+        if not ifd or not peers:
+            continue
         iseries = sorted({q["series"] for q in ifd})
         pseries = sorted({q["series"] for q in peers})
         top = max(q["psnr"] for q in peers)
@@ -66,6 +69,8 @@ def rows(label, goal, report):
             if qi is None or qp is None:
                 continue
             pre, look = qi["prefilter_ms"], qi["filter_ms"]
+            if not look > 0:
+                continue
             ns = look * 1e6 / (n * n * qi["params"]["terms"])
             k = basis_count(qp)
             yield (

@@ -4,7 +4,7 @@
 use super::cost::read_cost;
 use super::norm::checked_kernel_norm;
 use super::read_error::{level_blend_error, lookup_error, nearest_level_error};
-use super::white_noise::{Levels, SCREEN_MARGIN, WhiteNoise};
+use super::white_noise::{Levels, SCREEN_MARGIN, STALL_SLACK, WhiteNoise};
 use crate::decomposition::Decomposition;
 use crate::error::FilterError;
 use crate::stack::for_decomposition::evaluated_directly;
@@ -95,8 +95,10 @@ const NEAREST_MOST_PER_OCTAVE: usize = 8;
 /// improves on the one an octave coarser by less than 5% ends that
 /// interpolation's candidates; a candidate whose estimate over every fourth
 /// pose is over 1.3 times the budget is rejected on it, and estimated
-/// over every pose only where the choice among rejected ones needs it: the
-/// same choice, at a fraction of the sums). Factor 1 stores a level of sigma 2-4 px at
+/// over every pose only where a stall or the choice among rejected ones
+/// could turn on it: the choice the full estimates make unless a quarter of
+/// the poses errs by more than those margins, at a fraction of the sums).
+/// Factor 1 stores a level of sigma 2-4 px at
 /// every other pixel, 4-8 px at every fourth (one to two samples per
 /// sigma): a quarter of factor 2's samples, for loose budgets. On a
 /// log-uniform stack (a per-pixel scale, [`PlanOptions::log_uniform`])
@@ -310,33 +312,45 @@ impl EvalPlan {
                     && (p.pyramid_factor == factor / 2.0 || factor.is_infinite())
             });
             if let Some(b) = back {
-                let stalls = |t: &[(Self, Self, bool)]| {
-                    t[last].1.error_estimate >= 0.95 * t[b].1.error_estimate
-                };
-                if stalls(&tried) && !(tried[b].2 && tried[last].2) {
+                // On a screen that could be off either way, decide near the
+                // line on full estimates (which may turn out within budget).
+                let ratio =
+                    |t: &[(Self, Self, bool)]| t[last].1.error_estimate / t[b].1.error_estimate;
+                if !(tried[b].2 && tried[last].2) && ratio(&tried) >= 0.95 / STALL_SLACK {
                     for i in [b, last] {
                         Self::estimate_in_full(&mut tried[i], noise, log_uniform, budget);
                     }
+                    if let Some(plan) = Self::first_within(&tried, budget) {
+                        return Ok(plan);
+                    }
                 }
-                if stalls(&tried) {
+                if ratio(&tried) >= 0.95 {
                     stalled.push(interpolation);
                 }
             }
         }
         // None within the budget: the one with the lowest estimate (a later
         // one replaces an earlier one only if 5% lower), on full estimates of
-        // every candidate a screen leaves within SCREEN_MARGIN of the lowest.
+        // every candidate a screen leaves near enough the lowest to matter
+        // (the final choice is within 1/0.95 of the lowest, and a candidate
+        // that keeps it from replacing an earlier one within 1/0.95 of it:
+        // three such steps are allowed for, times the screen's margin).
         let noise = noise.as_ref().expect("at least one candidate");
         loop {
             let lowest = tried
                 .iter()
                 .map(|(_, p, _)| p.error_estimate)
                 .fold(f64::INFINITY, f64::min);
-            let near = tried
-                .iter()
-                .position(|(_, p, full)| !full && p.error_estimate <= SCREEN_MARGIN * lowest);
+            let near = tried.iter().position(|(_, p, full)| {
+                !full && p.error_estimate <= SCREEN_MARGIN * lowest / 0.95f64.powi(3)
+            });
             match near {
-                Some(i) => Self::estimate_in_full(&mut tried[i], noise, log_uniform, budget),
+                Some(i) => {
+                    Self::estimate_in_full(&mut tried[i], noise, log_uniform, budget);
+                    if let Some(plan) = Self::first_within(&tried, budget) {
+                        return Ok(plan);
+                    }
+                }
                 None => break,
             }
         }
@@ -347,6 +361,16 @@ impl EvalPlan {
             }
         }
         Ok(best.expect("at least one candidate"))
+    }
+
+    /// The first candidate tried whose (full) estimate is within the
+    /// budget: where a screen rejected a candidate that its full estimate
+    /// keeps, the one the search would have returned at its turn.
+    fn first_within(tried: &[(Self, Self, bool)], budget: f64) -> Option<Self> {
+        tried
+            .iter()
+            .find(|(_, p, full)| *full && p.error_estimate <= budget)
+            .map(|(_, p, _)| *p)
     }
 
     /// Replaces a screened estimate of a candidate [`Self::choose`] tried

@@ -52,11 +52,6 @@
 //! noise measures within 15% of it (tested; the rest is the poses'
 //! sampling).
 
-#![allow(
-    unsafe_code,
-    reason = "calling AVX2/AVX-512-compiled code after run-time detection; see `error2_on_grid`"
-)]
-
 use crate::decomposition::Decomposition;
 use crate::stack::for_decomposition::evaluated_directly;
 use crate::stack::{Interpolation, LevelLocator, log_uniform_sigmas, pyramid_step};
@@ -260,6 +255,10 @@ const SCREEN_LEAST: usize = 6;
 /// How far over its budget a screened estimate must be to reject a
 /// candidate without the rest of its poses.
 pub(crate) const SCREEN_MARGIN: f64 = 1.3;
+/// How far below the full estimate a screen may fall (measured: to 0.73 of
+/// it, `screens_agree_with_every_pose`): a stall of a screened candidate is
+/// decided on full estimates from `0.95 / STALL_SLACK` of the coarser one's.
+pub(crate) const STALL_SLACK: f64 = 1.6;
 
 /// One pose: fractions in `[0, 1)` from the additive recurrence of the
 /// five-dimensional golden ratio, four of its dimensions (evenly spread in
@@ -622,7 +621,11 @@ impl Axis {
     /// Reads (points on the integer grid) take the Gaussian from a table of
     /// integer offsets; the exact Gaussian (one fractional point) is
     /// evaluated at each pixel.
-    #[inline]
+    #[inline(always)]
+    #[expect(
+        clippy::inline_always,
+        reason = "compiled into each of run_vectorized's targets, for its instruction set"
+    )]
     fn fill(&self, sigma: f64, lo: i64, out: &mut [f64]) {
         let inv = -0.5 / (sigma * sigma);
         let norm = 1.0 / ((2.0 * PI).sqrt() * sigma);
@@ -657,14 +660,33 @@ impl Axis {
 /// `out[i] = norm exp(inv (d0 + i)^2)`, by the recurrence of successive
 /// ratios (`e_{i+1} = e_i r_i`, `r_{i+1} = r_i exp(2 inv)`): three
 /// exponentials per [`RUN_ANCHOR`] samples instead of one each, within
-/// about `1e-14` of them (re-anchored on an exact exponential every
-/// [`RUN_ANCHOR`]).
+/// about `1e-13` of them relative (re-anchored on an exact exponential
+/// every [`RUN_ANCHOR`]). A run whose anchor or ratios leave the range
+/// where they are normal numbers (Gaussians narrower than about 0.05
+/// samples, or an anchor more than about 35 standard deviations out,
+/// whose recurrence could not climb back to the peak) takes the
+/// exponentials one by one.
+#[inline(always)]
+#[allow(
+    clippy::inline_always,
+    reason = "compiled into each of run_vectorized's targets, for its instruction set"
+)]
 fn gaussian_run(d0: f64, inv: f64, norm: f64, out: &mut [f64]) {
+    // exp of at most this (in magnitude) is a normal number
+    const NORMAL: f64 = 600.0;
     let c = (2.0 * inv).exp();
     for (k, chunk) in out.chunks_mut(RUN_ANCHOR).enumerate() {
         let d = d0 + (k * RUN_ANCHOR) as f64;
-        let mut e = norm * (d * d * inv).exp();
-        let mut r = ((2.0 * d + 1.0) * inv).exp();
+        let (ea, ra) = (d * d * inv, (2.0 * d + 1.0) * inv);
+        if !(ea.abs() <= NORMAL && ra.abs() <= NORMAL && 2.0 * inv.abs() <= NORMAL) {
+            for (i, o) in chunk.iter_mut().enumerate() {
+                let x = d + i as f64;
+                *o = norm * (x * x * inv).exp();
+            }
+            continue;
+        }
+        let mut e = norm * ea.exp();
+        let mut r = ra.exp();
         for o in chunk {
             *o = e;
             e *= r;
@@ -694,37 +716,33 @@ fn bounds(parts: &[Part]) -> Option<(i64, i64, i64, i64)> {
 /// pixel of sigma). Its cost grows with the terms, not their square: the
 /// way for decompositions of many overlapping terms, or cubic reads.
 ///
-/// Its loops are plain lane-wise arithmetic, compiled for AVX-512, AVX2 and
-/// the baseline ([`ifd_simd::isa`]); without fused multiply-adds (Rust
-/// never contracts them) the three give the same bits.
+/// Its loops are plain lane-wise arithmetic, run by
+/// [`ifd_simd::run_vectorized`] compiled for AVX-512, AVX2 or the baseline;
+/// without fused multiply-adds (Rust never contracts them) the three give
+/// the same bits.
 fn error2_on_grid(parts: &[Part]) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    match ifd_simd::isa() {
-        // SAFETY: the CPU has AVX-512F (detected at run time).
-        ifd_simd::Isa::Avx512 => return unsafe { error2_on_grid_avx512(parts) },
-        // SAFETY: the CPU has AVX2 (detected at run time).
-        ifd_simd::Isa::Avx2 => return unsafe { error2_on_grid_avx2(parts) },
-        ifd_simd::Isa::Baseline => {}
+    ifd_simd::run_vectorized(GridError(parts))
+}
+
+/// [`error2_on_grid`] as a [`ifd_simd::VectorKernel`].
+struct GridError<'a>(&'a [Part]);
+
+impl ifd_simd::VectorKernel for GridError<'_> {
+    type Output = f64;
+    #[inline(always)]
+    #[expect(
+        clippy::inline_always,
+        reason = "the kernel is compiled into each target of `run_vectorized`"
+    )]
+    fn run(self) -> f64 {
+        error2_on_grid_body(self.0)
     }
-    error2_on_grid_body(parts)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx2")]
-fn error2_on_grid_avx512(parts: &[Part]) -> f64 {
-    error2_on_grid_body(parts)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn error2_on_grid_avx2(parts: &[Part]) -> f64 {
-    error2_on_grid_body(parts)
 }
 
 #[inline(always)]
 #[expect(
     clippy::inline_always,
-    reason = "compiled into each target_feature caller, for its instruction set"
+    reason = "compiled into each of run_vectorized's targets, for its instruction set"
 )]
 fn error2_on_grid_body(parts: &[Part]) -> f64 {
     let Some((x0, x1, y0, y1)) = bounds(parts) else {
