@@ -27,6 +27,7 @@ import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import curves_vs_opencv as cvo  # noqa: E402
+import steerable_summary  # noqa: E402
 
 TARGETS = (45.0, 50.0, 55.0, 60.0)
 
@@ -46,13 +47,7 @@ def rows(label, goal, report):
     with open(report) as f:
         d = json.load(f)
     n = d["meta"]["size"]
-    pts = d["points"]
-    keys = []
-    for q in pts:
-        if (q["image"], q["case"]) not in keys:
-            keys.append((q["image"], q["case"]))
-    for image, case in keys:
-        sub = [q for q in pts if (q["image"], q["case"]) == (image, case)]
+    for image, case, sub in steerable_summary.cases(d["points"]):
         ifd = [q for q in sub if q["method"] == "ifd"]
         peers = [q for q in sub if q["method"] != "ifd"]
         if not ifd or not peers:

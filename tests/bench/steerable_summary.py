@@ -42,6 +42,16 @@ def cell(pts, iseries, peers, t):
     return "-"
 
 
+def cases(pts):
+    """(image, case, its points) for each image and case of a report's points, in order."""
+    keys = []
+    for q in pts:
+        if (q["image"], q["case"]) not in keys:
+            keys.append((q["image"], q["case"]))
+    for image, case in keys:
+        yield image, case, [q for q in pts if (q["image"], q["case"]) == (image, case)]
+
+
 def main():
     if len(sys.argv) < 2:
         sys.exit(__doc__)
@@ -49,14 +59,9 @@ def main():
     print("|---|---|---|" + "---|" * (len(TARGETS) + 1))
     for arg in sys.argv[1:]:
         label, path = arg.split("=", 1)
-        d = json.load(open(path))
-        pts = d["points"]
-        keys = []
-        for q in pts:
-            if (q["image"], q["case"]) not in keys:
-                keys.append((q["image"], q["case"]))
-        for image, case in keys:
-            sub = [q for q in pts if (q["image"], q["case"]) == (image, case)]
+        with open(path) as f:
+            pts = json.load(f)["points"]
+        for image, case, sub in cases(pts):
             ifd = sorted({q["series"] for q in sub if q["method"] == "ifd"})
             default = [s for s in ifd if "eval budget" not in s]
             peers = sorted({q["series"] for q in sub if q["method"] != "ifd"})

@@ -436,29 +436,23 @@ impl EvalPlan {
         // one, and the plan's own estimate is the full one unless the most
         // levels miss the budget.
         let at = |per_octave, nearest| at_full(per_octave, nearest).0;
-        // The most levels first: when they miss the budget, fewer will too.
-        let (most, most_full) = at_full(default, false);
-        if most > budget {
-            let plan = Self {
-                samples_per_octave: default,
-                nearest_level: false,
-                level_error: self.amplification * level_blend_error(default),
-                error_estimate: most,
-                ..self
-            };
-            return (plan, most_full);
-        }
-        let (n, e) = (FEWEST_PER_OCTAVE..default)
-            .map(|n| (n, at(n, false)))
-            .find(|&(_, e)| e <= budget)
-            .unwrap_or((default, most));
-        let blend = Self {
+        let blending = |n, e| Self {
             samples_per_octave: n,
             nearest_level: false,
             level_error: self.amplification * level_blend_error(n),
             error_estimate: e,
             ..self
         };
+        // The most levels first: when they miss the budget, fewer will too.
+        let (most, most_full) = at_full(default, false);
+        if most > budget {
+            return (blending(default, most), most_full);
+        }
+        let (n, e) = (FEWEST_PER_OCTAVE..default)
+            .map(|n| (n, at(n, false)))
+            .find(|&(_, e)| e <= budget)
+            .unwrap_or((default, most));
+        let blend = blending(n, e);
         let cost = |n, blend| {
             read_cost(
                 noise.terms_read(),
