@@ -273,7 +273,7 @@ impl EvalPlan {
         // estimate, the plan, and whether the estimate is the full one (a
         // candidate far over the budget is rejected on a screen of its
         // poses, `WhiteNoise::screened`, and estimated in full only where
-        // the choice among rejected ones below needs it).
+        // a stall or the choice among rejected ones below could turn on it).
         let mut tried: Vec<(Self, Self, bool)> = Vec::new();
         // The interpolations whose finer factors stopped helping (the blend
         // of levels, or terms too narrow for any read, dominate): those are
@@ -426,7 +426,7 @@ impl EvalPlan {
             };
             return (plan, full);
         }
-        let at_full = |per_octave, nearest| {
+        let at_flagged = |per_octave, nearest| {
             estimate(Levels::LogUniform {
                 per_octave,
                 nearest,
@@ -435,7 +435,7 @@ impl EvalPlan {
         // A screened estimate is over the budget: only a rejection rests on
         // one, and the plan's own estimate is the full one unless the most
         // levels miss the budget.
-        let at = |per_octave, nearest| at_full(per_octave, nearest).0;
+        let at = |per_octave, nearest| at_flagged(per_octave, nearest).0;
         let blending = |n, e| Self {
             samples_per_octave: n,
             nearest_level: false,
@@ -444,7 +444,7 @@ impl EvalPlan {
             ..self
         };
         // The most levels first: when they miss the budget, fewer will too.
-        let (most, most_full) = at_full(default, false);
+        let (most, most_full) = at_flagged(default, false);
         if most > budget {
             return (blending(default, most), most_full);
         }

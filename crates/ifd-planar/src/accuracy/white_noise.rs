@@ -163,8 +163,9 @@ impl<'a> WhiteNoise<'a> {
     /// the work. The flag says which (`true`: every pose, the same bits as
     /// [`Self::expected`]). A screened value always exceeds the budget, so
     /// a comparison with it decides as the full estimate would unless the
-    /// subset errs by more than the margin (on fitted decompositions it
-    /// errs by a few per cent: `screens_agree_with_every_pose`).
+    /// subset errs by more than the margin (on fitted decompositions,
+    /// measured: at most 8% above the full estimate and 27% below,
+    /// `screens_agree_with_every_pose`).
     pub(crate) fn screened(
         &self,
         (interpolation, factor): (Interpolation, f64),
