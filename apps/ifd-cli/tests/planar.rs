@@ -498,3 +498,146 @@ fn filter_sigma_map_writes_a_gaussian_per_pixel_and_refuses_bad_maps() {
         with(&args, &["cannot be used with"]);
     }
 }
+
+/// `--filter-map`: several filters on one image, each for the pixels its
+/// label (or weight) gives it, through one stack: each region equals its
+/// filter run alone (within the plans' accuracy), weights blend them, and
+/// bad maps and combinations are refused.
+#[test]
+fn filter_map_filters_each_region_with_its_own_filter() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cache = tempfile::tempdir().unwrap();
+    let (w, h) = (96, 64);
+    let img = save(
+        d,
+        "img.npy",
+        w,
+        h,
+        (0..w * h)
+            .map(|i| ((i * 7919) % 101) as f32 / 100.0)
+            .collect(),
+    );
+    let angle = save(
+        d,
+        "angle.npy",
+        w,
+        h,
+        (0..w * h).map(|i| (i % w) as f32 * 3.0).collect(),
+    );
+    let (a, b) = ("gauss:sx=5,sy=1.5", "gauss:sx=3,sy=3");
+    let labels: Vec<f32> = (0..w * h)
+        .map(|i| {
+            if (i % w) / 8 % 2 == (i / w) / 8 % 2 {
+                0.0
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let lab = save(d, "labels.npy", w, h, labels.clone());
+    let run = |extra: &[&str], out: &str| {
+        let mut args = vec!["filter", &*img, "--angle-map", &*angle, "-o", out];
+        args.extend(extra);
+        let (code, _, err) = common::run(
+            common::ifd_command()
+                .env("IFD_CACHE_DIR", cache.path())
+                .args(&args),
+        );
+        assert_eq!(code, 0, "{args:?}: {err}");
+        ifd_image::read(out).unwrap().into_vec()
+    };
+    let set = run(
+        &["--kernel", a, "--kernel", b, "--filter-map", &lab, "-v"],
+        &path(d, "set.npy"),
+    );
+    let alone_a = run(&["--kernel", a], &path(d, "a.npy"));
+    let alone_b = run(&["--kernel", b], &path(d, "b.npy"));
+    // the two filters differ far more than the plans' errors
+    let diff = |x: &[f32], y: &[f32], keep: &dyn Fn(usize) -> bool| {
+        x.iter()
+            .zip(y)
+            .enumerate()
+            .filter(|(i, _)| keep(*i))
+            .map(|(_, (p, q))| (p - q).abs())
+            .fold(0.0f32, f32::max)
+    };
+    let all = |_: usize| true;
+    let apart = diff(&alone_a, &alone_b, &all);
+    assert!(apart > 0.02);
+    for (label, alone) in [(0.0, &alone_a), (1.0, &alone_b)] {
+        let here = |i: usize| labels[i] == label;
+        let e = diff(&set, alone, &here);
+        assert!(e < 3e-3, "label {label}: {e}");
+    }
+    // weights: half of each everywhere
+    let halves = save_channels(d, "halves.npy", (w, h, 2), vec![0.5; w * h * 2]);
+    let blend = run(
+        &["--kernel", a, "--kernel", b, "--filter-map", &halves],
+        &path(d, "blend.npy"),
+    );
+    let mean: Vec<f32> = alone_a
+        .iter()
+        .zip(&alone_b)
+        .map(|(p, q)| 0.5 * (p + q))
+        .collect();
+    let e = diff(&blend, &mean, &all);
+    assert!(e < 3e-3, "blend: {e}");
+
+    let o = path(d, "refused.npy");
+    let with = |extra: &[&str], needles: &[&str]| {
+        let mut args = vec!["filter", &*img, "-o", &*o];
+        args.extend(extra);
+        refused(&args, needles, Some(&o));
+    };
+    with(
+        &["--kernel", a, "--kernel", b],
+        &["2 filters", "--filter-map"],
+    );
+    let mut three = labels.clone();
+    three[5 * w + 7] = 2.0;
+    let three = save(d, "three.npy", w, h, three);
+    with(
+        &["--kernel", a, "--kernel", b, "--filter-map", &three],
+        &["label 2 at pixel (7, 5)", "from 0 to 1"],
+    );
+    let mut half = labels.clone();
+    half[w + 1] = 0.5;
+    let half = save(d, "half.npy", w, h, half);
+    with(
+        &["--kernel", a, "--kernel", b, "--filter-map", &half],
+        &["label 0.5 at pixel (1, 1)"],
+    );
+    let narrow = save(d, "narrow.npy", w - 1, h, vec![0.0; (w - 1) * h]);
+    with(
+        &["--kernel", a, "--kernel", b, "--filter-map", &narrow],
+        &["filter map", "95x64", "96x64"],
+    );
+    let rgb = save_channels(d, "rgb.npy", (w, h, 3), vec![0.0; w * h * 3]);
+    with(
+        &["--kernel", a, "--kernel", b, "--filter-map", &rgb],
+        &["3 channels", "one weight per filter (2)"],
+    );
+    let mut bad_w = vec![0.5; w * h * 2];
+    bad_w[2 * (3 * w + 4) + 1] = f32::INFINITY;
+    let bad_w = save_channels(d, "bad_w.npy", (w, h, 2), bad_w);
+    with(
+        &["--kernel", a, "--kernel", b, "--filter-map", &bad_w],
+        &["bad_w.npy", "non-finite", "x=4, y=3, channel 1"],
+    );
+    with(
+        &["--kernel", a, "--kernel", b, "--filter-map", &lab, "--gpu"],
+        &["--gpu"],
+    );
+    with(
+        &[
+            "--kernel",
+            a,
+            "--kernel",
+            "gauss:sx=400",
+            "--filter-map",
+            &lab,
+        ],
+        &["filter 1 (gauss:sx=400)", "larger than the 96x64 image"],
+    );
+}

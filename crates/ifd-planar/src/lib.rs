@@ -70,6 +70,7 @@ mod dictionary;
 mod error;
 mod field;
 mod filter;
+mod filter_set;
 mod fit;
 mod fit_cache;
 mod kernel;
@@ -97,6 +98,7 @@ pub use decomposition::{
 pub use error::FilterError;
 pub use field::{CheckField, CheckedField, Field, FieldKind, MAX_FIELD_VALUE, MIN_FIELD_SCALE};
 pub use filter::Filter;
+pub use filter_set::FilterSetPlan;
 pub use fit::{DecomposeError, DecomposeOptions, FIT_REVISION, decompose, decompose_spec, measure};
 pub use fit_cache::{FitCache, FitSource, cache_root};
 pub use kernel::{Kernel, KernelError, KernelSpec, MAX_RADIUS as MAX_KERNEL_RADIUS, Sampling};

@@ -364,7 +364,7 @@ pub fn filter_image<'a>(
 /// border rule would fold the image onto itself more than once. The kernel's
 /// longer side is compared with the image's longer side, since a rotation
 /// can point it either way.
-fn check_kernel_fits(
+pub(crate) fn check_kernel_fits(
     decomposition: &Decomposition,
     smax: f32,
     w: usize,
@@ -475,7 +475,7 @@ fn dc_gain(decomposition: &Decomposition, s: f64, direct: Option<(f64, f64)>) ->
 /// checked at 17 scales; `kernel_norm` is the kernel's L2 norm at scale 1.
 /// Continuous decompositions (terms given directly) are sums of sampled
 /// Gaussians by definition and are not checked.
-fn check_dc_gain(
+pub(crate) fn check_dc_gain(
     decomposition: &Decomposition,
     kernel_norm: f64,
     angle: Option<f32>,

@@ -1,4 +1,5 @@
-//! `ifd filter IMAGE --decomp d.json` or `ifd filter IMAGE --kernel SPEC`.
+//! `ifd filter IMAGE --decomp d.json` or `ifd filter IMAGE --kernel SPEC`
+//! (several, with `--filter-map`: `set.rs`).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -12,6 +13,8 @@ use ifd_planar::{FilterOptions, FilterPlan};
 
 use crate::input::InputOptions;
 use crate::output::ImageOutput;
+
+mod set;
 
 /// Filter an image with a decomposed filter, rotated and scaled per pixel.
 ///
@@ -32,17 +35,19 @@ use crate::output::ImageOutput;
 pub struct Filter {
     /// The image to filter.
     image: PathBuf,
-    /// The decomposition (from `ifd decompose`).
-    #[arg(long, value_name = "FILE", conflicts_with = "kernel")]
-    decomp: Option<PathBuf>,
+    /// The decomposition (from `ifd decompose`). Repeat it, with
+    /// --filter-map, to filter each region of the image with its own.
+    #[arg(long, value_name = "FILE", conflicts_with = "kernel", action = clap::ArgAction::Append)]
+    decomp: Vec<PathBuf>,
     /// The filter as a spec (`gauss:sx=16,sy=2,theta=30`; `ifd decompose
     /// --help` lists them) or a kernel file (.npy, .png, .exr; odd sizes, used
     /// as given: a kernel that does not sum to 1 changes the brightness),
     /// fitted on first use at --tol and kept in the fit cache
     /// ($IFD_CACHE_DIR, else $XDG_CACHE_HOME/ifd, else ~/.cache/ifd) for the
-    /// next run.
-    #[arg(long, value_name = "SPEC|FILE")]
-    kernel: Option<String>,
+    /// next run. Repeat it, with --filter-map, to filter each region of the
+    /// image with its own.
+    #[arg(long, value_name = "SPEC|FILE", action = clap::ArgAction::Append)]
+    kernel: Vec<String>,
     /// Target relative L2 error of the fit of --kernel (with --sigma-map: of
     /// each entry of its aspect bank, cached per tolerance) [default: 0.01]
     #[arg(long, value_name = "E", requires = "kernel")]
@@ -69,6 +74,20 @@ pub struct Filter {
         ]
     )]
     sigma_map: Option<PathBuf>,
+    /// Which filter each pixel gets, when several are given (--kernel or
+    /// --decomp repeated, numbered from 0 in the order given): an HxW .npy of
+    /// the image's size holding each pixel's filter number (a label map), or
+    /// an HxWxN .npy of N >= 2 weights per pixel, one per filter, the output
+    /// being the weighted sum of the filters there (soft region edges). The
+    /// image is prefiltered once for all the filters (one stack, planned so
+    /// that each filter stays within its --eval-budget), and each pixel reads
+    /// only the terms of the filters it is weighted by. CPU only.
+    #[arg(
+        long = "filter-map",
+        value_name = "NPY",
+        conflicts_with_all = ["sigma_map", "gpu", "tile"]
+    )]
+    regions: Option<PathBuf>,
     /// Rotation in degrees, counter-clockwise on screen, for every pixel.
     #[arg(
         long,
@@ -141,28 +160,59 @@ impl Filter {
     /// What filters the image, for messages: the decomposition file or the
     /// --kernel spec.
     fn filter_name(&self) -> String {
-        match (&self.decomp, &self.kernel) {
-            (Some(d), _) => d.display().to_string(),
-            (None, Some(k)) => k.clone(),
-            (None, None) => String::new(),
-        }
+        self.filter_names().join(", ")
+    }
+
+    /// Each filter's name, in the order given.
+    fn filter_names(&self) -> Vec<String> {
+        self.decomp
+            .iter()
+            .map(|d| d.display().to_string())
+            .chain(self.kernel.iter().cloned())
+            .collect()
     }
 
     /// The decomposition: read from --decomp, or --kernel fitted (or read
     /// from the fit cache); with `-v`, where it came from.
     fn decomposition(&self) -> Result<Decomposition> {
-        if let Some(path) = &self.decomp {
+        let n = self.decomp.len() + self.kernel.len();
+        if n > 1 {
+            bail!(
+                "{n} filters given ({}): several filters need --filter-map, which says which \
+                 pixels each one filters",
+                self.filter_name()
+            );
+        }
+        Ok(self
+            .decompositions()?
+            .pop()
+            .expect("clap requires a filter"))
+    }
+
+    /// Every filter given, in order: each --decomp read, each --kernel fitted
+    /// (or read from the fit cache); with `-v`, where each fit came from.
+    fn decompositions(&self) -> Result<Vec<Decomposition>> {
+        if let Some(path) = self.decomp.first() {
             if self.tol.is_some() || self.no_cache {
                 bail!(
                     "--tol and --no-cache apply to a fit of --kernel, not to --decomp {}",
                     path.display()
                 );
             }
-            return Ok(Decomposition::load(path)?);
+            return self
+                .decomp
+                .iter()
+                .map(|p| Ok(Decomposition::load(p)?))
+                .collect();
         }
-        let Some(filter) = &self.kernel else {
+        if self.kernel.is_empty() {
             bail!("give --decomp FILE or --kernel SPEC");
-        };
+        }
+        self.kernel.iter().map(|k| self.fit_kernel(k)).collect()
+    }
+
+    /// `--kernel filter` fitted at --tol, or read from the fit cache.
+    fn fit_kernel(&self, filter: &str) -> Result<Decomposition> {
         if filter == super::sigma_map::KERNEL {
             bail!(
                 "--kernel {filter}: give its sigmas (`gauss:sx=8,sy=2,theta=30`), or a Gaussian per \
@@ -410,9 +460,16 @@ impl Filter {
     /// Runs the command.
     pub fn run(self) -> Result<()> {
         if let Some(map) = &self.sigma_map {
+            if self.kernel.len() > 1 {
+                bail!(
+                    "--sigma-map takes one --kernel ({}), given {}",
+                    super::sigma_map::KERNEL,
+                    self.kernel.len()
+                );
+            }
             return super::sigma_map::run(&super::sigma_map::SigmaMapRun {
                 image: &self.image,
-                kernel: self.kernel.as_deref(),
+                kernel: self.kernel.first().map(String::as_str),
                 map,
                 tol: self.tol,
                 no_cache: self.no_cache,
@@ -427,6 +484,9 @@ impl Filter {
             && !(b.is_finite() && b > 0.0)
         {
             bail!("--eval-budget {b} must be finite and positive");
+        }
+        if let Some(map) = &self.regions {
+            return self.run_set(map);
         }
         if self.tile == Some(0) {
             bail!("--tile 0: the tile side must be at least 1 pixel");

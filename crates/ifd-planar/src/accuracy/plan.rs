@@ -11,14 +11,14 @@ use crate::stack::for_decomposition::evaluated_directly;
 use crate::stack::{Interpolation, StackOptions, pyramid_step};
 
 /// ([`EvalPlan::choose`] with [`PlanOptions::log_uniform`]).
-const FEWEST_PER_OCTAVE: usize = 2;
+pub(super) const FEWEST_PER_OCTAVE: usize = 2;
 
 /// The most levels per octave a log-uniform stack read at the nearest level
 /// is planned with: at 8, its level error (3.5%, [`nearest_level_error`])
 /// is still above the blend's at 2 (3.0%), so the nearest level only serves
 /// budgets of a few per cent, and past 8 the levels cost more than the
 /// lookups they save for all but large decompositions.
-const NEAREST_MOST_PER_OCTAVE: usize = 8;
+pub(super) const NEAREST_MOST_PER_OCTAVE: usize = 8;
 /// The stack a decomposition is applied through, and the error it is
 /// expected to add (see the module docs for the rule and the bound).
 ///
@@ -533,7 +533,7 @@ impl EvalPlan {
     }
 
     /// [`Self::with`] before its estimate (the bound in its place).
-    fn bounded(
+    pub(super) fn bounded(
         decomposition: &Decomposition,
         norm: f64,
         (scale_min, scale_max): (f32, f32),

@@ -1,0 +1,290 @@
+//! Unit tests of `filter_set.rs`.
+
+use super::*;
+use crate::reference::correlate_varying;
+use crate::{Border, CheckField, Field, FieldKind, Interpolation, PlanOptions, Term};
+
+fn term(weight: f64, x: f64, y: f64, sigma: f64) -> Term {
+    Term {
+        weight,
+        x,
+        y,
+        sigma,
+    }
+}
+
+/// Three filters of different shapes and widths: a narrow streak, a wide
+/// blob off centre, a derivative-like pair (weights that cancel in part).
+fn filters() -> Vec<Decomposition> {
+    vec![
+        Decomposition::from_terms(vec![
+            term(0.3, -5.0, 0.0, 1.8),
+            term(0.4, 0.0, 0.0, 1.8),
+            term(0.3, 5.0, 0.5, 1.8),
+        ]),
+        Decomposition::from_terms(vec![term(0.7, 3.0, 1.0, 3.5), term(0.3, -4.0, 0.0, 5.0)]),
+        Decomposition::from_terms(vec![term(1.0, -2.5, 0.0, 2.5), term(-0.6, 2.5, 0.0, 3.0)]),
+    ]
+}
+
+/// White noise in [0, 1] (a fixed sequence).
+fn noise(w: usize, h: usize) -> Image {
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let data = (0..w * h)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        })
+        .collect();
+    Image::from_vec(w, h, 1, data).expect("image")
+}
+
+/// The fields of the tests: an angle turning across the image, a scale
+/// over [0.7, 1.4], and labels in blocks of 7 px (every filter next to
+/// every other).
+fn fields(w: usize, h: usize) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+    let angle = (0..w * h)
+        .map(|i| (i % w) as f32 * 4.0 + (i / w) as f32 * 2.5)
+        .collect();
+    let scale = (0..w * h)
+        .map(|i| 0.7 * 2f32.powf(((i % w) + (i / w)) as f32 / (w + h - 2) as f32))
+        .collect();
+    let labels = (0..w * h)
+        .map(|i| ((i % w / 7 + 2 * (i / w / 7)) % 3) as f32)
+        .collect();
+    (angle, scale, labels)
+}
+
+/// The set's output is, at each pixel, what its label's filter gives
+/// there on its own through the same stack, bit for bit (weights 0 and 1).
+#[test]
+fn labels_select_each_filters_own_output() {
+    let (w, h) = (97, 75);
+    let img = noise(w, h);
+    let (angle, scale, labels) = fields(w, h);
+    let ds = filters();
+    let refs: Vec<&Decomposition> = ds.iter().collect();
+    let a = Field::Map(&angle)
+        .check(FieldKind::Angle, w, h)
+        .expect("angle");
+    let s = Field::Map(&scale)
+        .check(FieldKind::Scale, w, h)
+        .expect("scale");
+    let constant = Field::Constant(1.2)
+        .check(FieldKind::Scale, w, h)
+        .expect("scale");
+    for s in [s, constant] {
+        let plan =
+            FilterSetPlan::new((w, h, 1), &refs, &s, &FilterOptions::default()).expect("plan");
+        // a constant scale: levels at every filter's sigmas
+        assert_eq!(plan.level_sigmas.is_some(), !s.is_map());
+        let stack = plan.build_stack(&img).expect("stack");
+        let weights = FilterSetPlan::weights_from_labels(&labels, 3, w).expect("weights");
+        let out = plan.evaluate(&stack, a, s, &weights).expect("evaluate");
+        for (i, d) in ds.iter().enumerate() {
+            let own = Filter::new(&stack, d)
+                .expect("filter")
+                .apply(a, s)
+                .expect("apply");
+            for (p, (&got, &want)) in out.data().iter().zip(own.data()).enumerate() {
+                if labels[p] as usize == i {
+                    assert_eq!(got.to_bits(), want.to_bits(), "filter {i}, pixel {p}");
+                }
+            }
+        }
+    }
+}
+
+/// Against brute-force correlation with each pixel's own filter (an
+/// independent path): on white noise the relative RMS error stays within
+/// twice the largest expected error the shared plan reports (the
+/// estimate measures within 15% of filtering white noise), and one stack
+/// serves filters whose sigmas span 1.3 to 7 px at these scales.
+#[test]
+fn regions_match_brute_force_within_the_plans() {
+    let (w, h) = (80, 72);
+    let img = noise(w, h);
+    let (angle, scale, labels) = fields(w, h);
+    let ds = filters();
+    let refs: Vec<&Decomposition> = ds.iter().collect();
+    let a = Field::Map(&angle)
+        .check(FieldKind::Angle, w, h)
+        .expect("angle");
+    let s = Field::Map(&scale)
+        .check(FieldKind::Scale, w, h)
+        .expect("scale");
+    let constant = Field::Constant(1.2)
+        .check(FieldKind::Scale, w, h)
+        .expect("scale");
+    for (interpolation, s) in [
+        (None, s),
+        (Some(Interpolation::Linear), s),
+        (None, constant),
+    ] {
+        let options = FilterOptions {
+            interpolation,
+            eval_budget: Some(0.01),
+            ..FilterOptions::default()
+        };
+        let plan = FilterSetPlan::new((w, h, 1), &refs, &s, &options).expect("plan");
+        let stack = plan.build_stack(&img).expect("stack");
+        let weights = FilterSetPlan::weights_from_labels(&labels, 3, w).expect("weights");
+        let out = plan.evaluate(&stack, a, s, &weights).expect("evaluate");
+        let mut err2 = 0.0f64;
+        let mut ref2 = 0.0f64;
+        for (i, d) in ds.iter().enumerate() {
+            let exact = correlate_varying(&img, 34, a, s, Border::Reflect101, |u, v| d.eval(u, v))
+                .expect("reference");
+            for (p, (&got, &want)) in out.data().iter().zip(exact.data()).enumerate() {
+                if labels[p] as usize == i {
+                    // the mean removed: the error relative to the filtered noise
+                    err2 += (f64::from(got) - f64::from(want)).powi(2);
+                    ref2 += (f64::from(want) - 0.5 * d.terms.iter().map(|t| t.weight).sum::<f64>())
+                        .powi(2);
+                }
+            }
+        }
+        let measured = (err2 / ref2).sqrt();
+        let expected = plan
+            .evals
+            .iter()
+            .map(|e| e.error_estimate)
+            .fold(0.0, f64::max);
+        // (bilinear reads of the narrowest terms miss the budget: the
+        // error stays what the plan says)
+        assert!(
+            interpolation.is_some() || plan.evals.iter().all(|e| e.error_estimate <= 0.01),
+            "{interpolation:?}: {:?}",
+            plan.evals
+        );
+        assert!(
+            measured <= 2.0 * expected.max(1e-4),
+            "{interpolation:?}, scale map {}: measured {measured:.2e}, expected {expected:.2e}",
+            s.is_map()
+        );
+    }
+}
+
+/// The shared plan: one interpolation, factor and level reading for all;
+/// each decomposition within its budget; cubic when one filter's own plan
+/// needs it; with one decomposition, its own plan.
+#[test]
+fn shared_plan_keeps_every_budget() {
+    let ds = filters();
+    let refs: Vec<&Decomposition> = ds.iter().collect();
+    for (budgets, scales, log_uniform) in [
+        (vec![0.001, 0.001, 0.001], (0.5f32, 1.5f32), true),
+        (vec![0.01, 0.002, 0.0005], (1.0, 1.0), true),
+        (vec![0.01, 0.002, 0.0005], (1.3, 1.3), false),
+        (vec![0.002, 0.002, 0.002], (0.8, 0.8), false),
+        (vec![0.03, 0.03, 0.03], (0.25, 1.0), true),
+    ] {
+        let plans =
+            EvalPlan::choose_shared(&refs, &budgets, scales, log_uniform, None).expect("plans");
+        let own: Vec<EvalPlan> = refs
+            .iter()
+            .zip(&budgets)
+            .map(|(d, &budget)| {
+                EvalPlan::choose(
+                    d,
+                    scales.0,
+                    scales.1,
+                    PlanOptions {
+                        budget,
+                        log_uniform,
+                        ..PlanOptions::default()
+                    },
+                )
+                .expect("own plan")
+            })
+            .collect();
+        for (i, p) in plans.iter().enumerate() {
+            let q = &plans[0];
+            assert_eq!(
+                (
+                    p.interpolation,
+                    p.pyramid_factor,
+                    p.samples_per_octave,
+                    p.nearest_level
+                ),
+                (
+                    q.interpolation,
+                    q.pyramid_factor,
+                    q.samples_per_octave,
+                    q.nearest_level
+                ),
+                "{budgets:?}: plan {i} does not share the stack"
+            );
+            let target = if own[i].error_estimate <= budgets[i] {
+                budgets[i]
+            } else {
+                1.1 * own[i].error_estimate
+            };
+            assert!(
+                p.error_estimate <= target,
+                "{budgets:?}: filter {i} at {} over {target}",
+                p.error_estimate
+            );
+        }
+        if own.iter().any(|p| p.interpolation == Interpolation::Cubic) {
+            assert_eq!(plans[0].interpolation, Interpolation::Cubic, "{budgets:?}");
+        }
+        for (d, (&b, own)) in refs.iter().zip(budgets.iter().zip(&own)) {
+            let one = EvalPlan::choose_shared(&[d], &[b], scales, log_uniform, None).expect("one");
+            assert_eq!(one, vec![*own]);
+        }
+    }
+    let err = EvalPlan::choose_shared(&refs, &[0.01], (1.0, 1.0), true, None).unwrap_err();
+    assert!(err.to_string().contains("one budget each"), "{err}");
+}
+
+/// Bad labels, weight maps and plans are refused, naming the problem.
+#[test]
+fn bad_inputs_are_refused() {
+    let labels = [0.0, 1.0, 0.5, 1.0];
+    let err = FilterSetPlan::weights_from_labels(&labels, 2, 2).unwrap_err();
+    assert!(
+        err.to_string().contains("label 0.5 at pixel (0, 1)"),
+        "{err}"
+    );
+    for bad in [f32::NAN, -1.0, 3.0] {
+        let err = FilterSetPlan::weights_from_labels(&[0.0, bad], 3, 2).unwrap_err();
+        assert!(err.to_string().contains("integers from 0 to 2"), "{err}");
+    }
+    assert!(FilterSetPlan::weights_from_labels(&[0.0], 0, 1).is_err());
+    let ds = filters();
+    let s = Field::Constant(1.0)
+        .check(FieldKind::Scale, 40, 30)
+        .expect("scale");
+    let a = Field::Constant(0.0)
+        .check(FieldKind::Angle, 40, 30)
+        .expect("angle");
+    let err = FilterSetPlan::new((40, 30, 1), &[], &s, &FilterOptions::default()).unwrap_err();
+    assert!(err.to_string().contains("at least one"), "{err}");
+    // a filter larger than the image is named by its index
+    let huge = Decomposition::from_terms(vec![term(1.0, 0.0, 0.0, 30.0)]);
+    let err = FilterSetPlan::new((40, 30, 1), &[&ds[0], &huge], &s, &FilterOptions::default())
+        .unwrap_err();
+    assert!(
+        err.to_string().starts_with("filter 1: the filter's kernel"),
+        "{err}"
+    );
+    let plan = FilterSetPlan::new(
+        (40, 30, 1),
+        &[&ds[0], &ds[1]],
+        &s,
+        &FilterOptions::default(),
+    )
+    .expect("plan");
+    let stack = plan.build_stack(&noise(40, 30)).expect("stack");
+    let one = vec![vec![1.0; 40 * 30]];
+    let err = plan.evaluate(&stack, a, s, &one).unwrap_err();
+    assert!(
+        err.to_string().contains("1 weight maps for 2 filters"),
+        "{err}"
+    );
+    let short = vec![vec![1.0; 40 * 30], vec![1.0; 10]];
+    assert!(plan.evaluate(&stack, a, s, &short).is_err());
+}
