@@ -529,17 +529,24 @@ def _angle_dc(model, trig, shape):
     return dc
 
 
-def apply_steerable(model, spectra, img, angles, scales=None):
+def apply_steerable(model, spectra, img, angles, scales=None, x=None, mask=None):
     """The steerable basis applied to `img` (2-D float) with per-pixel
     `angles` (degrees) and `scales` (None: 1); `spectra` from `prepare`.
     float32 output; every step is per-image work: the padded image's DFT,
     per basis kernel a spectrum product, an inverse DFT, its weight at every
-    pixel and the accumulation out += w_k f_k, then out /= DC gain."""
+    pixel and the accumulation out += w_k f_k, then out /= DC gain.
+
+    Several families on one image (a family per region): `x`, the padded
+    image's DFT (`_forward(img, model.r)`), computed once for every family
+    of the same radius, and `mask` (uint8, nonzero where this family
+    applies): the accumulation is then restricted to those pixels, the
+    others left 0."""
     import cv2
 
     h, w = img.shape
     r = model.r
-    x = _forward(img, r)
+    if x is None:
+        x = _forward(img, r)
     n1 = padded_size(img.shape, r)[1]
     out = np.zeros((h, w), np.float32)
     buf = np.empty_like(x)
@@ -559,12 +566,12 @@ def apply_steerable(model, spectra, img, angles, scales=None):
             if len(pk) == 1:  # one term, its constant folded into the spectrum (`prepare`)
                 _, hh, part = model.pairs[pk[0]]
                 if hh:
-                    cv2.accumulateProduct(f, trig[hh][part], out)
+                    cv2.accumulateProduct(f, trig[hh][part], out, mask)
                 else:
-                    np.add(out, f, out=out)
+                    cv2.accumulate(f, out, mask)
                 continue
             _angle_weight(model, kk, trig, wbuf)
-        cv2.accumulateProduct(f, wbuf, out)
+        cv2.accumulateProduct(f, wbuf, out, mask)
     out /= dc
     return out
 
