@@ -93,3 +93,46 @@ def test_both_reproduce_a_constant_image(setup, case):
     for model in (st.fit_steerable(s["kernel_at"], 5, svd=s["svd"][case]), st.fit_bins(s["kernel_at"], 6, 2, scale_range=sr)):
         out = run(s, case, model)
         assert np.abs(out - 0.7).max() < 1e-5, model.kind
+
+
+def test_a_basis_per_shape_on_its_region_matches_exact_correlation():
+    """tests/bench/bench_shapes.py's peer: a basis per shape (the comet is
+    not point-symmetric: period 360), the forward DFT shared, each basis
+    accumulated over its region's pixels only; with K near the family's
+    size it matches exact correlation with each pixel's own shape, and the
+    shared DFT and masks give what each basis alone gives on its region."""
+    import bench_shapes as bs
+
+    n, r = 160, 32
+    img = cv.load_image("camera", n)
+    angles, _ = cv.fields(n)
+    labels = bs.labels_of(img)
+    assert sorted(np.unique(labels).tolist()) == [0, 1, 2]
+    small = {"streak": (8.0, 2.0, 0.0, 180.0, None), "blob": (6.0, 3.0, 0.0, 180.0, None),
+             "comet": (6.0, 1.5, 8.0, 360.0, None)}
+    old = (bs.SHAPES, bs.R)
+    bs.SHAPES, bs.R = small, r
+    try:
+        shapes = list(small)
+        models = {}
+        for s in shapes:
+            period = small[s][3]
+            svd = st.family_svd(bs.kernel_at(s), n_angles=int(period / 2), period=period)
+            models[s] = st.fit_steerable(bs.kernel_at(s), 40, svd=svd)
+        x = st._forward(img, r)
+        out = np.zeros((n, n), np.float32)
+        for i, s in enumerate(shapes):
+            mask = (labels == i).astype(np.uint8)
+            spectra = st.prepare(models[s], (n, n))
+            o = st.apply_steerable(models[s], spectra, img, angles, x=x, mask=mask)
+            alone = st.apply_steerable(models[s], spectra, img, angles)
+            assert np.allclose(o[mask == 1], alone[mask == 1], rtol=1e-5, atol=1e-6)
+            assert np.all(o[mask == 0] == 0)
+            np.copyto(out, o, where=mask.astype(bool))
+        rng = np.random.default_rng(5)
+        pys, pxs = rng.integers(0, n, SAMPLES), rng.integers(0, n, SAMPLES)
+        want = bs.exact(img, pys, pxs, angles, np.ones_like(angles), labels, shapes)
+        got = out[pys, pxs]
+        assert bs.psnr(got, want) > 55.0, bs.psnr(got, want)
+    finally:
+        bs.SHAPES, bs.R = old
