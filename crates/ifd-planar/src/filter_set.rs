@@ -248,6 +248,7 @@ impl FilterSetPlan {
             }
             Filter::new(stack, d)?
                 .with_vector_kernels(self.vector_kernels)
+                .with_runs_in_place(true)
                 .accumulate_weighted(angle, scale, w, &mut out)?;
         }
         Ok(out)

@@ -42,8 +42,8 @@ fn noise(w: usize, h: usize) -> Image {
 }
 
 /// The fields of the tests: an angle turning across the image, a scale
-/// over [0.7, 1.4], and labels in blocks of 7 px (every filter next to
-/// every other).
+/// over [0.7, 1.4], and labels in runs of 37 px (every filter next to
+/// every other; the rows run in place), every fifth row scattered (packed).
 fn fields(w: usize, h: usize) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
     let angle = (0..w * h)
         .map(|i| (i % w) as f32 * 4.0 + (i / w) as f32 * 2.5)
@@ -52,7 +52,14 @@ fn fields(w: usize, h: usize) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
         .map(|i| 0.7 * 2f32.powf(((i % w) + (i / w)) as f32 / (w + h - 2) as f32))
         .collect();
     let labels = (0..w * h)
-        .map(|i| ((i % w / 7 + 2 * (i / w / 7)) % 3) as f32)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if y % 5 == 4 {
+                ((x * 7 + y) % 3) as f32
+            } else {
+                ((x / 37 + 2 * (y / 7)) % 3) as f32
+            }
+        })
         .collect();
     (angle, scale, labels)
 }

@@ -891,8 +891,8 @@ fn vector_gathers_equal_the_scalar_loop_on_a_realistic_case() {
 /// pixel, bit for bit (one to four channels: the sum times the weight, as the
 /// scalar loop writes it), through the vector rows and the scalar loop
 /// alike, and leaves the pixels of weight zero as they were: rows with runs
-/// of zeros and isolated zeros (in place), scattered pixels (packed), rows
-/// without zeros, negative weights, a constant scale and a scale map, bilinear and
+/// of zeros and isolated zeros, scattered pixels (packed; runs in place are
+/// `FilterSetPlan`'s, tested there), rows without zeros, negative weights, a constant scale and a scale map, bilinear and
 /// cubic levels. Five channels (the general loop,
 /// the weight in each tap) agree within rounding.
 #[test]
@@ -911,8 +911,7 @@ fn weighted_accumulation_adds_weight_times_apply() {
                 return 0.5 + (x % 3) as f32;
             }
             if y % 5 == 3 {
-                // scattered pixels: packed into whole blocks (the other
-                // rows with zeros run in place, their empty blocks skipped)
+                // scattered pixels
                 return if x % 17 == 5 { 0.75 } else { 0.0 };
             }
             match (x / 24 + y) % 4 {

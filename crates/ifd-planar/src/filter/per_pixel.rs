@@ -17,9 +17,10 @@ impl Filter<'_> {
     /// where they can ([`rows`]), the rest of each row through the scalar
     /// loop; both give the same values. With per-pixel `weight`s (one a
     /// pixel) each pixel adds `weight *` its value and pixels of weight zero
-    /// are skipped: blocks of them are passed over in place, and a row whose
-    /// weighted pixels are scattered packs them into whole blocks
-    /// ([`Filter::packed_row`], [`packing_pays`]).
+    /// are skipped: a row with some packs the others into whole blocks
+    /// ([`Filter::packed_row`]), or, with [`Filter::with_runs_in_place`]
+    /// and runs of weighted pixels ([`packing_pays`]), runs in place, its
+    /// blocks without weight skipped.
     pub(super) fn per_pixel<const C: usize>(
         &self,
         angle: Field<'_>,
@@ -60,7 +61,7 @@ impl Filter<'_> {
                 let weights = weight.map(|wt| &wt[y * w..(y + 1) * w]);
                 if vector && let Some(weights) = weights {
                     let n = weights.iter().filter(|&&v| v != 0.0).count();
-                    if n < w && packing_pays(weights, n) {
+                    if n < w && (!self.runs_in_place || packing_pays(weights, n)) {
                         let row_in = (&fixed[..], constant_scale.as_ref(), scaled_vector);
                         self.packed_row::<C>(y, (angle, scale), weights, row_in, scr, row);
                         return;
@@ -455,10 +456,10 @@ fn row_rotations(theta: Field<'_>, scale: Field<'_>, cs: &mut [f32], ss: &mut [f
 /// its blocks packed before packing pays. In place, a block of
 /// neighbouring pixels reads row windows (contiguous loads); packed, the
 /// pixels of a block are apart and their lookups mostly gather, which on
-/// this project's AMD EPYC costs about three times as much. Measured on
-/// three filters over the terciles of a smoothed 1024x1024 photograph
-/// (runs of 24 px on average): in place, each filter's pass took a third
-/// of a whole pass instead of all of it, packed.
+/// this project's AMD EPYC costs about three times as much, where the
+/// angle map turns slowly enough for windows (three filters over the
+/// terciles of a smoothed 1024x1024 photograph, runs of 24 px on average,
+/// along a swirl: filtering 25-42 ms packed, 18-32 ms in place).
 const PACK_RATIO: usize = 2;
 
 /// Whether a weighted row with `n` pixels of non-zero weight goes packed
