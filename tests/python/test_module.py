@@ -146,6 +146,43 @@ def test_filter_sigma_map_equals_cli(tmp_path, run_ifd):
         ifd.filter(img, "gauss", sigma_map=bad)
 
 
+def test_filter_map_equals_cli(tmp_path, run_ifd):
+    """Several filters through one stack: labels and weights, equal to the
+    command bit for bit; bad maps refused."""
+    rng = np.random.default_rng(11)
+    h, w = 48, 64
+    img = rng.random((h, w), dtype=np.float32)
+    labels = ((np.arange(w)[None, :] // 20 + np.arange(h)[:, None] // 12) % 2).astype(np.float32)
+    weights = np.stack([labels, 1 - labels], axis=-1) * 0.5 + 0.25
+    angle = swirl(h, w)
+    np.save(tmp_path / "img.npy", img)
+    np.save(tmp_path / "angle.npy", angle)
+    specs = ["gauss:sx=5,sy=1.5", "gauss:sx=3,sy=3"]
+    for name, m in [("labels", labels), ("weights", weights.astype(np.float32))]:
+        np.save(tmp_path / f"{name}.npy", m)
+        run_ifd("filter", tmp_path / "img.npy", "--kernel", specs[0], "--kernel", specs[1],
+                "--filter-map", tmp_path / f"{name}.npy", "--angle-map", tmp_path / "angle.npy",
+                "-o", tmp_path / "out.npy")
+        cli = np.load(tmp_path / "out.npy").reshape(h, w)
+        out = ifd.filter(img, specs, angle=angle, filter_map=m)
+        assert out.dtype == np.float32 and out.shape == img.shape
+        assert np.array_equal(out, cli), (name, np.abs(out - cli).max())
+    # each region as its filter alone (the same plan here), within rounding
+    alone = [ifd.filter(img, s, angle=angle) for s in specs]
+    out = ifd.filter(img, specs, angle=angle, filter_map=labels)
+    for k in range(2):
+        sel = labels == k
+        assert np.abs(out[sel] - alone[k][sel]).max() < 3e-3
+    bad = labels.copy()
+    bad[3, 7] = 2
+    with pytest.raises(ValueError, match=r"label 2 at pixel \(7, 3\)"):
+        ifd.filter(img, specs, angle=angle, filter_map=bad)
+    with pytest.raises(ValueError, match="one per filter"):
+        ifd.filter(img, specs, filter_map=np.zeros((h, w, 3), np.float32))
+    with pytest.raises(ValueError, match="as a list"):
+        ifd.filter(img, specs[0], filter_map=labels)
+
+
 def test_filter_uint8_and_2d_follow_the_cli_range_rules(tmp_path, run_ifd, gauss_d):
     path, d = gauss_d
     run_ifd("filter", TESTDATA / "camera.png", "--decomp", path, "--angle", "40",

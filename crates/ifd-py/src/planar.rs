@@ -9,7 +9,7 @@ use ifd_planar::{
     Border, CheckedField, DecomposeOptions, Decomposition, Field, FieldKind, Interpolation, Kernel,
     KernelSpec, PreparedDecomposition, Term, decompose,
 };
-use ifd_planar::{FilterOptions, FilterPlan};
+use ifd_planar::{FilterOptions, FilterPlan, FilterSetPlan};
 use ifd_smooth::{AnisoParams, AspectBank, HessianBank, Mode, SmoothOptions, Smoother};
 use numpy::{PyArrayDyn, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -395,6 +395,93 @@ fn filter<'py>(
     Ok(arrays::image_array(py, out, squeeze))
 }
 
+/// Several decompositions on one image through one stack, each for the
+/// pixels `filter_map` gives it: an `(H, W)` array of labels (each pixel's
+/// filter number) or an `(H, W, N)` array of one weight per filter: the
+/// steps of `ifd filter --decomp ... --filter-map` on the CPU.
+#[pyfunction]
+#[pyo3(signature = (image, decompositions, filter_map, *, angle=0.0, angle_map=None, scale=1.0, scale_map=None, border="reflect101", interp="auto", eval_budget=None))]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the keyword arguments of ifd.filter with several filters"
+)]
+fn filter_set<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArrayDyn<'py, f32>,
+    decompositions: Vec<PyRef<'py, PyDecomposition>>,
+    filter_map: PyReadonlyArrayDyn<'py, f32>,
+    angle: f32,
+    angle_map: Option<PyReadonlyArray2<'py, f32>>,
+    scale: f32,
+    scale_map: Option<PyReadonlyArray2<'py, f32>>,
+    border: &str,
+    interp: &str,
+    eval_budget: Option<f64>,
+) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+    let squeeze = image.ndim() == 2;
+    let view = arrays::image_view("image", &image)?;
+    let (w, h) = (view.width(), view.height());
+    let n = decompositions.len();
+    let map = arrays::image_view("filter_map", &filter_map)?;
+    if (map.width(), map.height()) != (w, h) {
+        return Err(errors::value(
+            "filter_map",
+            format!(
+                "the map is ({}, {}) but the image is ({h}, {w})",
+                map.height(),
+                map.width()
+            ),
+        ));
+    }
+    let weights: Vec<Vec<f32>> = if filter_map.ndim() == 2 {
+        FilterSetPlan::weights_from_labels(map.data(), n, w)
+            .map_err(|e| errors::value("filter_map", e))?
+    } else if map.channels() == n && n >= 2 {
+        if let Some(i) = map.data().iter().position(|v| !v.is_finite()) {
+            return Err(errors::value(
+                "filter_map",
+                format!(
+                    "weight {} of filter {} at pixel ({}, {}) is not finite",
+                    map.data()[i],
+                    i % n,
+                    i / n % w,
+                    i / n / w
+                ),
+            ));
+        }
+        (0..n)
+            .map(|k| map.data().iter().skip(k).step_by(n).copied().collect())
+            .collect()
+    } else {
+        return Err(errors::value(
+            "filter_map",
+            format!(
+                "expected (H, W) labels or (H, W, {n}) weights, one per filter, got shape {:?}",
+                filter_map.shape()
+            ),
+        ));
+    };
+    let angle = checked_field("angle", FieldKind::Angle, angle, angle_map.as_ref(), (w, h))?;
+    let scale = checked_field("scale", FieldKind::Scale, scale, scale_map.as_ref(), (w, h))?;
+    let options = FilterOptions {
+        border: parse_border(border)?,
+        interpolation: parse_interp(interp)?,
+        eval_budget,
+        ..FilterOptions::default()
+    };
+    let refs: Vec<&Decomposition> = decompositions.iter().map(|d| &d.inner).collect();
+    let out = py
+        .detach(|| {
+            timed(|| {
+                let plan = FilterSetPlan::new((w, h, view.channels()), &refs, &scale, &options)?;
+                let stack = plan.build_stack(view)?;
+                plan.evaluate(&stack, angle, scale, &weights)
+            })
+        })
+        .map_err(|e| errors::value("", e))?;
+    Ok(arrays::image_array(py, out, squeeze))
+}
+
 /// A normalised anisotropic Gaussian per pixel from an `(H, W, 3)` sigma
 /// map (major sigma, minor sigma, angle in degrees counter-clockwise on
 /// screen): `ifd filter --kernel gauss --sigma-map`, with the aspect bank
@@ -685,6 +772,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit_cached, m)?)?;
     m.add_function(wrap_pyfunction!(filter, m)?)?;
     m.add_function(wrap_pyfunction!(filter_sigma_map, m)?)?;
+    m.add_function(wrap_pyfunction!(filter_set, m)?)?;
     m.add_function(wrap_pyfunction!(filter_alignment, m)?)?;
     m.add_function(wrap_pyfunction!(hessian, m)?)?;
     m.add_function(wrap_pyfunction!(smooth, m)?)?;

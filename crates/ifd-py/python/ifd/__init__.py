@@ -32,7 +32,7 @@ with the CLI's message; files that cannot be read or written raise
 from __future__ import annotations
 
 import os as _os
-from typing import Optional as _Optional, Union as _Union
+from typing import Optional as _Optional, Sequence as _Sequence, Union as _Union
 
 import numpy as _np
 
@@ -144,7 +144,7 @@ def load(path: _Union[str, _os.PathLike]) -> Decomposition:
 
 def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
     image: _ArrayLike,
-    decomposition: _Union[Decomposition, str, _ArrayLike],
+    decomposition: _Union[Decomposition, str, _ArrayLike, _Sequence[_Union[Decomposition, str, _ArrayLike]]],
     angle: _Field = 0.0,
     scale: _Field = 1.0,
     border: str = "reflect101",
@@ -153,6 +153,7 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
     eval_budget: _Optional[float] = None,
     tol: float = 0.01,
     sigma_map: _Optional[_ArrayLike] = None,
+    filter_map: _Optional[_ArrayLike] = None,
 ) -> _np.ndarray:
     """Filter ``image`` with ``decomposition`` rotated by ``angle`` and scaled by ``scale``.
 
@@ -181,6 +182,14 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
     ``scale`` must be left out. ``ifd filter --kernel gauss --sigma-map``
     (bitwise equal results), with the aspect bank ``ifd smooth`` uses.
 
+    With ``filter_map``, ``decomposition`` is a list of filters (each a
+    :class:`Decomposition`, a spec or a kernel array) and each pixel is
+    filtered by the one ``filter_map`` gives it: an ``(H, W)`` array of labels
+    (each pixel's filter number, counted from 0 in the list's order) or an
+    ``(H, W, N)`` array of one weight per filter (the output the weighted
+    sum). The image is prefiltered once for all of them; ``ifd filter
+    --decomp ... --filter-map`` (bitwise equal results).
+
     Returns float32 of the image's shape.
 
     >>> import numpy as np
@@ -188,8 +197,32 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
     >>> out = filter(img, "gauss:sx=4,sy=1,theta=30", angle=15.0)
     >>> out.shape
     (64, 64)
+    >>> halves = (np.arange(64) >= 32).astype(np.float32)[None, :].repeat(64, axis=0)
+    >>> filter(img, ["gauss:sx=4,sy=1", "gauss:sx=2,sy=2"], angle=15.0, filter_map=halves).shape
+    (64, 64)
     """
     img = _image(image, "image")
+    if filter_map is not None:
+        if sigma_map is not None:
+            raise ValueError("filter_map and sigma_map: give one of them")
+        if isinstance(decomposition, (str, Decomposition)) or not isinstance(decomposition, (list, tuple)):
+            raise ValueError("filter_map: give the filters as a list, one per label or weight")
+        filters = [_as_decomposition(d, tol) for d in decomposition]
+        a, amap = _field(angle, "angle")
+        s, smap = _field(scale, "scale")
+        fmap = _np.ascontiguousarray(_np.asarray(filter_map, dtype=_np.float32))
+        return _ifd.filter_set(
+            img,
+            filters,
+            fmap,
+            angle=a,
+            angle_map=amap,
+            scale=s,
+            scale_map=smap,
+            border=border,
+            interp=interp,
+            eval_budget=eval_budget,
+        )
     if sigma_map is not None:
         if not (isinstance(decomposition, str) and decomposition == "gauss"):
             raise ValueError(
@@ -201,11 +234,7 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
             raise ValueError("sigma_map: angle and scale come from the map; leave them out")
         m = _np.ascontiguousarray(_np.asarray(sigma_map, dtype=_np.float32))
         return _ifd.filter_sigma_map(img, m, border=border)
-    if isinstance(decomposition, str):
-        decomposition = _ifd.fit_cached(decomposition, None, tol=tol)
-    elif not isinstance(decomposition, Decomposition):
-        kernel = _np.ascontiguousarray(_np.asarray(decomposition), dtype=_np.float64)
-        decomposition = _ifd.fit_cached(None, kernel, tol=tol)
+    decomposition = _as_decomposition(decomposition, tol)
     a, amap = _field(angle, "angle")
     s, smap = _field(scale, "scale")
     return _ifd.filter(
@@ -219,6 +248,17 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
         interp=interp,
         eval_budget=eval_budget,
     )
+
+
+def _as_decomposition(d, tol: float) -> Decomposition:
+    """A filter argument as a decomposition: a spec or a kernel array is
+    fitted at ``tol`` (or read from the fit cache)."""
+    if isinstance(d, Decomposition):
+        return d
+    if isinstance(d, str):
+        return _ifd.fit_cached(d, None, tol=tol)
+    kernel = _np.ascontiguousarray(_np.asarray(d), dtype=_np.float64)
+    return _ifd.fit_cached(None, kernel, tol=tol)
 
 
 def hessian(image: _ArrayLike, sigma: float, border: str = "reflect101") -> _np.ndarray:

@@ -94,6 +94,19 @@ def filter(
     scale_range: Optional[tuple[float, float]] = None,
 ) -> F32: ...
 def filter_sigma_map(image: F32, sigma_map: F32, *, border: str = "reflect101") -> F32: ...
+def filter_set(
+    image: F32,
+    decompositions: list[Decomposition],
+    filter_map: F32,
+    *,
+    angle: float = 0.0,
+    angle_map: Optional[F32] = None,
+    scale: float = 1.0,
+    scale_map: Optional[F32] = None,
+    border: str = "reflect101",
+    interp: str = "auto",
+    eval_budget: Optional[float] = None,
+) -> F32: ...
 def filter_alignment(
     decomposition: Decomposition,
     shape: tuple[int, int, int],
