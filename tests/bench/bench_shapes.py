@@ -222,6 +222,9 @@ def main():
     ap.add_argument("--markdown")
     ap.add_argument("--quick", action="store_true", help="smoke test: 512 px, three tolerances, three eps")
     a = ap.parse_args()
+    import cv2
+
+    cv2.setNumThreads(1)  # one thread each: ifd runs with RAYON_NUM_THREADS=1
     n = 512 if a.quick else a.size
     tols = [0.3, 0.1, 0.03] if a.quick else cv.floats(a.tols)
     eps_list = [0.1, 0.03, 0.01] if a.quick else cv.floats(a.eps)
@@ -249,7 +252,7 @@ def main():
     scales = scales_map if scale_range else np.ones_like(angles)
     points, meta = [], {"cpu": cv.cpu_name(), "size": n, "shapes": {s: SHAPES[s][:4] for s in shapes},
                         "scale_range": scale_range, "runs": a.runs, "samples": a.samples,
-                        "python": platform.python_version()}
+                        "python": platform.python_version(), "cv2_threads": cv2.getNumThreads()}
     for name in cv.names(a.images):
         label = cv.image_label(name)
         img = cv.load_image(name, n)

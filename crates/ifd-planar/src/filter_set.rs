@@ -7,11 +7,11 @@ use ifd_image::{Image, ImageView};
 
 use crate::accuracy::EvalPlan;
 use crate::filter::Filter;
-use crate::pipeline::{MAX_TERMS, check_dc_gain, check_kernel_fits};
+use crate::pipeline::{MAX_TERMS, build_planned, check_dc_gain, check_kernel_fits, planned_scales};
 use crate::stack::MAX_EXACT_LEVELS;
 use crate::{
-    CheckedField, Decomposition, FilterError, FilterOptions, PreparedDecomposition, ScaleStack,
-    StackOptions, StackPlan, level_sigmas, stack_plan_for_decomposition,
+    Border, CheckedField, Decomposition, FilterError, FilterOptions, PreparedDecomposition,
+    ScaleStack, StackLayout, StackOptions, StackPlan, level_sigmas, stack_plan_for_decomposition,
 };
 
 /// The plan for filtering one image with several decompositions, each
@@ -85,19 +85,7 @@ impl FilterSetPlan {
                 "filtering with several filters needs at least one decomposition".into(),
             ));
         }
-        let (smin, smax) = match options.scale_range {
-            None => scale.range(),
-            Some((lo, hi)) => {
-                let (flo, fhi) = scale.range();
-                if !(lo <= flo && fhi <= hi) {
-                    return Err(FilterError::InvalidParameter(format!(
-                        "the planned scale range [{lo}, {hi}] does not contain the scale \
-                         field's [{flo}, {fhi}]"
-                    )));
-                }
-                (lo, hi)
-            }
-        };
+        let (smin, smax) = planned_scales(scale, options)?;
         let which = |i: usize, e: FilterError| match e {
             FilterError::InvalidParameter(m) => {
                 FilterError::InvalidParameter(format!("filter {i}: {m}"))
@@ -171,19 +159,42 @@ impl FilterSetPlan {
                 None => own,
                 Some(s) => StackPlan {
                     sigmas: (s.sigmas.0.min(own.sigmas.0), s.sigmas.1.max(own.sigmas.1)),
-                    options: StackOptions {
-                        margin: s.options.margin.max(own.options.margin),
-                        ..s.options
-                    },
                     ..s
                 },
             });
         }
+        let mut stack = stack.expect("at least one decomposition");
+        // The margin the widest reach needs: all of it with borders that are
+        // only exact within it, else as much as memory allows for the whole
+        // stack (as `stack_plan_for_decomposition` sizes one filter's).
+        let need = prepared
+            .iter()
+            .map(|p| (f64::from(smax) * p.reach()).ceil() as usize + 2)
+            .max()
+            .unwrap_or(0);
+        stack.options.margin = if matches!(options.border, Border::Replicate | Border::Constant(_))
+        {
+            need
+        } else {
+            let (lo, hi) = stack.sigmas;
+            StackLayout::affordable_margin(
+                width,
+                height,
+                channels,
+                lo,
+                hi,
+                StackOptions {
+                    margin: 0,
+                    ..stack.options
+                },
+                need,
+            )?
+        };
         Ok(Self {
             decompositions: prepared,
             evals,
             eval_budgets,
-            stack: stack.expect("at least one decomposition"),
+            stack,
             level_sigmas: exact,
             vector_kernels: options.vector_kernels,
         })
@@ -197,30 +208,12 @@ impl FilterSetPlan {
         &self,
         image: impl Into<ImageView<'a>>,
     ) -> Result<ScaleStack, FilterError> {
-        let image = image.into();
-        match &self.level_sigmas {
-            Some(sigmas) => {
-                let dims = (image.width(), image.height(), image.channels());
-                if dims != self.stack.dims {
-                    return Err(FilterError::Shape(format!(
-                        "image is {}x{}x{}, the filters were planned for {}x{}x{}",
-                        dims.0,
-                        dims.1,
-                        dims.2,
-                        self.stack.dims.0,
-                        self.stack.dims.1,
-                        self.stack.dims.2
-                    )));
-                }
-                ScaleStack::with_sigmas(image, sigmas, self.stack.border, self.stack.options)
-            }
-            None => self.stack.build(image),
-        }
+        build_planned(&self.stack, self.level_sigmas.as_deref(), image.into())
     }
 
     /// Evaluates `sum_i weights[i][p] * filter_i(p)` at every pixel `p` on
     /// the CPU, one pass per decomposition over the pixels it is weighted
-    /// by (a decomposition of weight zero everywhere is skipped).
+    /// by.
     ///
     /// # Errors
     /// [`FilterError::Shape`] when `weights` does not hold one map of one
@@ -242,10 +235,9 @@ impl FilterSetPlan {
         }
         let mut out = Image::new(stack.width(), stack.height(), stack.channels())
             .map_err(|e| FilterError::Shape(e.to_string()))?;
+        // (a filter of no weight anywhere costs a pass over its blocks, all
+        // skipped, and checks the fields and its scales all the same)
         for (d, w) in self.decompositions.iter().zip(weights) {
-            if w.iter().all(|&v| v == 0.0) && w.len() == stack.width() * stack.height() {
-                continue;
-            }
             Filter::new(stack, d)?
                 .with_vector_kernels(self.vector_kernels)
                 .with_runs_in_place(true)

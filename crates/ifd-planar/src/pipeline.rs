@@ -97,19 +97,7 @@ impl FilterPlan {
         scale: &CheckedField<'_>,
         options: &FilterOptions,
     ) -> Result<Self, FilterError> {
-        let (smin, smax) = match options.scale_range {
-            None => scale.range(),
-            Some((lo, hi)) => {
-                let (flo, fhi) = scale.range();
-                if !(lo <= flo && fhi <= hi) {
-                    return Err(FilterError::InvalidParameter(format!(
-                        "the planned scale range [{lo}, {hi}] does not contain the scale \
-                         field's [{flo}, {fhi}]"
-                    )));
-                }
-                (lo, hi)
-            }
-        };
+        let (smin, smax) = planned_scales(scale, options)?;
         if decomposition.terms.len() > MAX_TERMS {
             return Err(FilterError::InvalidParameter(format!(
                 "the decomposition has {} terms; filtering takes at most {MAX_TERMS} (planning \
@@ -246,25 +234,7 @@ impl FilterPlan {
         &self,
         image: impl Into<ImageView<'a>>,
     ) -> Result<ScaleStack, FilterError> {
-        let image = image.into();
-        match &self.level_sigmas {
-            Some(sigmas) => {
-                let dims = (image.width(), image.height(), image.channels());
-                if dims != self.stack.dims {
-                    return Err(FilterError::Shape(format!(
-                        "image is {}x{}x{}, the filter was planned for {}x{}x{}",
-                        dims.0,
-                        dims.1,
-                        dims.2,
-                        self.stack.dims.0,
-                        self.stack.dims.1,
-                        self.stack.dims.2
-                    )));
-                }
-                ScaleStack::with_sigmas(image, sigmas, self.stack.border, self.stack.options)
-            }
-            None => self.stack.build(image),
-        }
+        build_planned(&self.stack, self.level_sigmas.as_deref(), image.into())
     }
 
     /// The largest subsampling factor among the levels [`Self::build_stack`]
@@ -357,6 +327,44 @@ pub fn filter_image<'a>(
     )?;
     let stack = plan.build_stack(image)?;
     plan.evaluate(image, &stack, angle, scale)
+}
+
+/// The scales a plan covers: [`FilterOptions::scale_range`], which must
+/// contain the scale field's range, else that range.
+pub(crate) fn planned_scales(
+    scale: &CheckedField<'_>,
+    options: &FilterOptions,
+) -> Result<(f32, f32), FilterError> {
+    let (flo, fhi) = scale.range();
+    match options.scale_range {
+        None => Ok((flo, fhi)),
+        Some((lo, hi)) if lo <= flo && fhi <= hi => Ok((lo, hi)),
+        Some((lo, hi)) => Err(FilterError::InvalidParameter(format!(
+            "the planned scale range [{lo}, {hi}] does not contain the scale field's [{flo}, {fhi}]"
+        ))),
+    }
+}
+
+/// Prefilters `image` into `plan`'s log-uniform stack, or into levels at
+/// exactly `level_sigmas` (with `plan`'s border and options).
+pub(crate) fn build_planned(
+    plan: &StackPlan,
+    level_sigmas: Option<&[f64]>,
+    image: ImageView<'_>,
+) -> Result<ScaleStack, FilterError> {
+    match level_sigmas {
+        Some(sigmas) => {
+            let dims = (image.width(), image.height(), image.channels());
+            if dims != plan.dims {
+                return Err(FilterError::Shape(format!(
+                    "image is {}x{}x{}, the filter was planned for {}x{}x{}",
+                    dims.0, dims.1, dims.2, plan.dims.0, plan.dims.1, plan.dims.2
+                )));
+            }
+            ScaleStack::with_sigmas(image, sigmas, plan.border, plan.options)
+        }
+        None => plan.build(image),
+    }
 }
 
 /// Refuses a filter whose kernel, at the largest scale used, is larger than

@@ -433,7 +433,8 @@ fn filter_set<'py>(
             ),
         ));
     }
-    let weights: Vec<Vec<f32>> = if filter_map.ndim() == 2 {
+    // (H, W) or (H, W, 1): labels, as the command reads both
+    let weights: Vec<Vec<f32>> = if map.channels() == 1 {
         FilterSetPlan::weights_from_labels(map.data(), n, w)
             .map_err(|e| errors::value("filter_map", e))?
     } else if map.channels() == n && n >= 2 {
@@ -456,7 +457,8 @@ fn filter_set<'py>(
         return Err(errors::value(
             "filter_map",
             format!(
-                "expected (H, W) labels or (H, W, {n}) weights, one per filter, got shape {:?}",
+                "expected (H, W) labels or (H, W, N) weights, one per filter (N = {n} >= 2), got \
+                 shape {:?}",
                 filter_map.shape()
             ),
         ));

@@ -179,7 +179,7 @@ impl Filter {
         if n > 1 {
             bail!(
                 "{n} filters given ({}): several filters need --filter-map, which says which \
-                 pixels each one filters",
+                 pixels each one filters (on the CPU, the image whole: not with --gpu or --tile)",
                 self.filter_name()
             );
         }
@@ -246,12 +246,18 @@ impl Filter {
                 d.terms.len(),
                 100.0 * r.map_or(f64::NAN, |r| r.rel_l2_error)
             );
+            // (several kernels: each line names its own)
+            let what = if self.kernel.len() > 1 {
+                format!("fit of {filter}")
+            } else {
+                "fit".to_string()
+            };
             match source {
                 ifd_planar::FitSource::Cached(p) => {
-                    eprintln!("fit: {fit}, read from the fit cache ({})", p.display());
+                    eprintln!("{what}: {fit}, read from the fit cache ({})", p.display());
                 }
                 ifd_planar::FitSource::Fitted(kept) => eprintln!(
-                    "fit: {fit}, fitted in {:.2} s{}",
+                    "{what}: {fit}, fitted in {:.2} s{}",
                     t.elapsed().as_secs_f64(),
                     kept.map(|p| format!(", kept in {}", p.display()))
                         .unwrap_or_default()
@@ -275,6 +281,46 @@ impl Filter {
             scale_range: None,
             vector_kernels: !self.scalar,
         }
+    }
+
+    /// The angle and scale maps given (`--angle-map`, `--scale-map`), read
+    /// and checked to be of the `w x h` image's size.
+    fn read_maps(&self, (w, h): (usize, usize)) -> Result<Maps> {
+        let read = |path: &Option<PathBuf>, what| match path {
+            Some(p) => load_map(&self.input, p, what, w, h).map(Some),
+            None => Ok(None),
+        };
+        Ok((
+            read(&self.angle_map, "angle map")?,
+            read(&self.scale_map, "scale map")?,
+        ))
+    }
+
+    /// The angle and scale fields of a `w x h` image: the maps read by
+    /// [`Self::read_maps`], else `--angle` and `--scale`, checked (errors name
+    /// the map file or the option).
+    fn fields<'a>(
+        &self,
+        (w, h): (usize, usize),
+        (angle_map, scale_map): &'a Maps,
+    ) -> Result<(CheckedField<'a>, CheckedField<'a>)> {
+        let angle = check_field(
+            (w, h),
+            angle_map.as_deref(),
+            self.angle.unwrap_or(0.0),
+            FieldKind::Angle,
+            self.angle_map.as_deref(),
+            "--angle",
+        )?;
+        let scale = check_field(
+            (w, h),
+            scale_map.as_deref(),
+            self.scale.unwrap_or(1.0),
+            FieldKind::Scale,
+            self.scale_map.as_deref(),
+            "--scale",
+        )?;
+        Ok((angle, scale))
     }
 
     /// The bytes a `.npy` image would need filtered whole, when more than the
@@ -338,6 +384,29 @@ impl Filter {
         })
     }
 }
+
+/// `-v`'s last line: the terms, then planning, prefiltering (from `t0` to
+/// `t1`, with the stack's levels, memory and build) and filtering (to `t2`).
+fn timings(
+    terms: &str,
+    stack: &ifd_planar::ScaleStack,
+    planning: std::time::Duration,
+    (t0, t1, t2): (Instant, Instant, Instant),
+) -> String {
+    format!(
+        "{terms}; planning {:.1} ms, prefiltering {:.1} ms ({} levels, {}, {} build), filtering \
+         {:.1} ms",
+        planning.as_secs_f64() * 1e3,
+        (t1 - t0).as_secs_f64() * 1e3,
+        stack.sigmas().len(),
+        ifd_image::fmt_bytes(stack.bytes()),
+        stack.build_method().name(),
+        (t2 - t1).as_secs_f64() * 1e3
+    )
+}
+
+/// The angle and scale maps read from their files, if given.
+type Maps = (Option<Vec<f32>>, Option<Vec<f32>>);
 
 /// How the CPU evaluates per-pixel maps, in words (for `-v`).
 fn per_pixel_kernel(interpolation: Interpolation, channels: usize, vector: bool) -> String {
@@ -520,32 +589,10 @@ impl Filter {
             Err(e) => return Err(e),
         };
         let (w, h) = (image.width(), image.height());
-        let angle_map = match &self.angle_map {
-            Some(p) => Some(load_map(&self.input, p, "angle map", w, h)?),
-            None => None,
-        };
-        let scale_map = match &self.scale_map {
-            Some(p) => Some(load_map(&self.input, p, "scale map", w, h)?),
-            None => None,
-        };
+        let maps = self.read_maps((w, h))?;
         // Each field is checked once, here, for every path (stack plan, CPU,
         // GPU); errors name the map file or the option.
-        let angle = check_field(
-            (w, h),
-            angle_map.as_deref(),
-            self.angle.unwrap_or(0.0),
-            FieldKind::Angle,
-            self.angle_map.as_deref(),
-            "--angle",
-        )?;
-        let scale = check_field(
-            (w, h),
-            scale_map.as_deref(),
-            self.scale.unwrap_or(1.0),
-            FieldKind::Scale,
-            self.scale_map.as_deref(),
-            "--scale",
-        )?;
+        let (angle, scale) = self.fields((w, h), &maps)?;
         let options = FilterOptions {
             // The GPU reads every term from the stack: levels at exactly
             // the sigmas a constant scale reads (one lookup per term), else
@@ -627,17 +674,8 @@ impl Filter {
             if per_pixel {
                 eprintln!("per-pixel lookups: {kernel}");
             }
-            eprintln!(
-                "{} terms; planning {:.1} ms, prefiltering {:.1} ms ({} levels, {}, {} build), \
-                 filtering {:.1} ms",
-                decomposition.terms.len(),
-                planning.as_secs_f64() * 1e3,
-                (t1 - t0).as_secs_f64() * 1e3,
-                stack.sigmas().len(),
-                ifd_image::fmt_bytes(stack.bytes()),
-                stack.build_method().name(),
-                (t2 - t1).as_secs_f64() * 1e3
-            );
+            let terms = format!("{} terms", decomposition.terms.len());
+            eprintln!("{}", timings(&terms, &stack, planning, (t0, t1, t2)));
         }
         self.output.write(&out)
     }

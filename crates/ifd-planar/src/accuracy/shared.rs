@@ -8,6 +8,7 @@ use super::white_noise::{Levels, WhiteNoise};
 use super::{EvalPlan, PlanOptions};
 use crate::decomposition::Decomposition;
 use crate::error::FilterError;
+use crate::stack::for_decomposition::sigma_bounds;
 use crate::stack::{Interpolation, StackOptions};
 
 /// The pyramid factors of [`EvalPlan::choose`]'s candidates, coarsest
@@ -34,14 +35,18 @@ const MISSED_MARGIN: f64 = 1.1;
 /// the nearest level at 2 to [`NEAREST_MOST_PER_OCTAVE`] levels per octave
 /// (its level error at 8, 3.5% times the amplification, is above the
 /// blend's at 2, 3.0%), then the blend of the two around each sigma at 2
-/// to the default 4 levels per octave.
+/// to 8 levels per octave: past a single plan's 4, because a stack shared
+/// with wider or narrower filters puts its levels off a filter's own
+/// sigmas, where a stack of its own would have put one.
 fn level_ladder() -> Vec<(usize, bool)> {
-    let blend_most = StackOptions::default().samples_per_octave;
     (FEWEST_PER_OCTAVE..=NEAREST_MOST_PER_OCTAVE)
         .map(|n| (n, true))
-        .chain((FEWEST_PER_OCTAVE..=blend_most).map(|n| (n, false)))
+        .chain((FEWEST_PER_OCTAVE..=SHARED_BLEND_MOST).map(|n| (n, false)))
         .collect()
 }
+
+/// The most levels per octave a shared stack blends.
+const SHARED_BLEND_MOST: usize = 8;
 
 impl EvalPlan {
     /// One plan for several decompositions applied through one stack (a
@@ -53,6 +58,8 @@ impl EvalPlan {
     /// scale_max` and the stack holds a level at each term's sigma, of every
     /// decomposition. The plans differ only in their own estimates, bounds
     /// and amplification; one plan per decomposition is returned, in order.
+    /// Each estimate is made on the shared stack's levels (log-uniform
+    /// over every decomposition's sigmas at these scales).
     ///
     /// The rule: each decomposition's own plan ([`EvalPlan::choose`] within
     /// its budget, `budgets[i]`, with `interpolation` fixed or not); the
@@ -66,7 +73,8 @@ impl EvalPlan {
     /// whose own plan missed its budget: within 10% of that plan's
     /// estimate); when no candidate keeps them all, the one whose worst
     /// estimate over its target is lowest. With one decomposition this is
-    /// its own plan.
+    /// its own plan. (The own plans, estimated on stacks of their own, only
+    /// give the starting point and the targets.)
     ///
     /// ```
     /// use ifd_planar::{Decomposition, EvalPlan, PlanOptions, Term};
@@ -124,17 +132,19 @@ impl EvalPlan {
             .collect();
         let mut own: Vec<Option<Self>> = vec![None; decompositions.len()];
         for &i in &distinct {
-            own[i] = Some(Self::choose(
-                decompositions[i],
-                scale_min,
-                scale_max,
-                PlanOptions {
-                    budget: budgets[i],
-                    interpolation,
-                    direct_sigma: 0.0,
-                    log_uniform,
-                },
-            )?);
+            let options = PlanOptions {
+                budget: budgets[i],
+                interpolation,
+                direct_sigma: 0.0,
+                log_uniform,
+            };
+            let plan = Self::choose(decompositions[i], scale_min, scale_max, options);
+            own[i] = Some(plan.map_err(|e| match e {
+                FilterError::InvalidParameter(m) => {
+                    FilterError::InvalidParameter(format!("filter {i}: {m}"))
+                }
+                other => other,
+            })?);
         }
         let own: Vec<Self> = first_of.iter().map(|&j| own[j].expect("planned")).collect();
         if distinct.len() == 1 {
@@ -189,6 +199,18 @@ impl EvalPlan {
             .map(|r| (first_factor, r))
             .chain((first_factor + 1..FACTORS.len()).map(|f| (f, first_rung)));
         let scales = (f64::from(scale_min), f64::from(scale_max));
+        // The shared log-uniform stack spans every decomposition's sigmas:
+        // each is estimated on its levels, not on those of a stack of its
+        // own (levels at the terms' sigmas are each term's own either way).
+        let union = decompositions
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), d| {
+                let own = d.terms.iter().fold((f64::INFINITY, 0.0f64), |(a, b), t| {
+                    (a.min(t.sigma), b.max(t.sigma))
+                });
+                let (l, h) = sigma_bounds(d.sampling, own, scales);
+                (lo.min(l), hi.max(h))
+            });
         let mut noises: Vec<Option<WhiteNoise<'_>>> = Vec::new();
         noises.resize_with(decompositions.len(), || None);
         let mut norms: Vec<Option<f64>> = vec![None; decompositions.len()];
@@ -203,9 +225,9 @@ impl EvalPlan {
                 let plan = if j < i {
                     // the same decomposition and budget as an earlier one
                     plans[j]
-                } else if own[i].interpolation == shared
+                } else if !log_uniform
+                    && own[i].interpolation == shared
                     && own[i].pyramid_factor == FACTORS[f]
-                    && rung(&own[i]) == r
                 {
                     own[i]
                 } else {
@@ -215,7 +237,9 @@ impl EvalPlan {
                     };
                     let bounded =
                         Self::bounded(d, norm, (scale_min, scale_max), shared, FACTORS[f], 0.0)?;
-                    let noise = noises[i].get_or_insert_with(|| WhiteNoise::new(d, scales, 0.0));
+                    let noise = noises[i].get_or_insert_with(|| {
+                        WhiteNoise::new(d, scales, 0.0).with_stack_sigmas(union)
+                    });
                     let (levels, level) = if log_uniform {
                         let error = if nearest {
                             nearest_level_error(per_octave)

@@ -131,6 +131,14 @@ impl<'a> WhiteNoise<'a> {
         }
     }
 
+    /// The same, for a log-uniform stack spanning `sigmas` (a stack shared
+    /// with other decompositions: its levels lie where the whole range puts
+    /// them, not where this decomposition's own would).
+    pub(crate) fn with_stack_sigmas(mut self, sigmas: (f64, f64)) -> Self {
+        self.stack_sigmas = sigmas;
+        self
+    }
+
     /// The terms read through the stack (not [`evaluated_directly`]) at
     /// the first pose's scale.
     pub(crate) fn terms_read(&self) -> usize {

@@ -208,21 +208,8 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
         if isinstance(decomposition, (str, Decomposition)) or not isinstance(decomposition, (list, tuple)):
             raise ValueError("filter_map: give the filters as a list, one per label or weight")
         filters = [_as_decomposition(d, tol) for d in decomposition]
-        a, amap = _field(angle, "angle")
-        s, smap = _field(scale, "scale")
         fmap = _np.ascontiguousarray(_np.asarray(filter_map, dtype=_np.float32))
-        return _ifd.filter_set(
-            img,
-            filters,
-            fmap,
-            angle=a,
-            angle_map=amap,
-            scale=s,
-            scale_map=smap,
-            border=border,
-            interp=interp,
-            eval_budget=eval_budget,
-        )
+        return _ifd.filter_set(img, filters, fmap, **_pose(angle, scale, border, interp, eval_budget))
     if sigma_map is not None:
         if not (isinstance(decomposition, str) and decomposition == "gauss"):
             raise ValueError(
@@ -235,19 +222,15 @@ def filter(  # noqa: A001 (the name users expect, as cv2.filter2D's role)
         m = _np.ascontiguousarray(_np.asarray(sigma_map, dtype=_np.float32))
         return _ifd.filter_sigma_map(img, m, border=border)
     decomposition = _as_decomposition(decomposition, tol)
+    return _ifd.filter(img, decomposition, **_pose(angle, scale, border, interp, eval_budget))
+
+
+def _pose(angle, scale, border, interp, eval_budget) -> dict:
+    """The keyword arguments of ``_ifd.filter`` and ``_ifd.filter_set``."""
     a, amap = _field(angle, "angle")
     s, smap = _field(scale, "scale")
-    return _ifd.filter(
-        img,
-        decomposition,
-        angle=a,
-        angle_map=amap,
-        scale=s,
-        scale_map=smap,
-        border=border,
-        interp=interp,
-        eval_budget=eval_budget,
-    )
+    return dict(angle=a, angle_map=amap, scale=s, scale_map=smap, border=border, interp=interp,
+                eval_budget=eval_budget)
 
 
 def _as_decomposition(d, tol: float) -> Decomposition:

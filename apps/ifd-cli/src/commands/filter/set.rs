@@ -6,9 +6,9 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use ifd_planar::{FieldKind, FilterSetPlan};
+use ifd_planar::FilterSetPlan;
 
-use super::{Filter, check_field, load_map, per_pixel_kernel};
+use super::{Filter, per_pixel_kernel, timings};
 
 impl Filter {
     /// Runs the command with `--filter-map map`.
@@ -19,30 +19,8 @@ impl Filter {
         let image = self.input.read(&self.image)?.image;
         let (w, h) = (image.width(), image.height());
         let weights = read_weights(self, map, n, (w, h))?;
-        let angle_map = match &self.angle_map {
-            Some(p) => Some(load_map(&self.input, p, "angle map", w, h)?),
-            None => None,
-        };
-        let scale_map = match &self.scale_map {
-            Some(p) => Some(load_map(&self.input, p, "scale map", w, h)?),
-            None => None,
-        };
-        let angle = check_field(
-            (w, h),
-            angle_map.as_deref(),
-            self.angle.unwrap_or(0.0),
-            FieldKind::Angle,
-            self.angle_map.as_deref(),
-            "--angle",
-        )?;
-        let scale = check_field(
-            (w, h),
-            scale_map.as_deref(),
-            self.scale.unwrap_or(1.0),
-            FieldKind::Scale,
-            self.scale_map.as_deref(),
-            "--scale",
-        )?;
+        let maps = self.read_maps((w, h))?;
+        let (angle, scale) = self.fields((w, h), &maps)?;
         let refs: Vec<&ifd_planar::Decomposition> = decompositions.iter().collect();
         let planning = Instant::now();
         let plan = FilterSetPlan::new((w, h, image.channels()), &refs, &scale, &self.options())
@@ -107,17 +85,11 @@ impl Filter {
                     per_pixel_kernel(e.interpolation, image.channels(), plan.vector_kernels)
                 );
             }
-            eprintln!(
-                "{} terms in all; planning {:.1} ms, prefiltering {:.1} ms ({} levels, {}, {} \
-                 build), filtering {:.1} ms",
-                refs.iter().map(|d| d.terms.len()).sum::<usize>(),
-                planning.as_secs_f64() * 1e3,
-                (t1 - t0).as_secs_f64() * 1e3,
-                stack.sigmas().len(),
-                ifd_image::fmt_bytes(stack.bytes()),
-                stack.build_method().name(),
-                (t2 - t1).as_secs_f64() * 1e3
+            let terms = format!(
+                "{} terms in all",
+                refs.iter().map(|d| d.terms.len()).sum::<usize>()
             );
+            eprintln!("{}", timings(&terms, &stack, planning, (t0, t1, t2)));
         }
         self.output.write(&out)
     }
@@ -156,20 +128,12 @@ fn read_weights(
         1 => FilterSetPlan::weights_from_labels(map.data(), n, w)
             .with_context(|| format!("filter map {shown} (labels, for {n} filters)")),
         c if c == n => {
+            // (the reader refuses non-finite values, or replaces them with
+            // --replace-nonfinite)
             let data = map.data();
-            let weights: Vec<Vec<f32>> = (0..n)
+            Ok((0..n)
                 .map(|k| data.iter().skip(k).step_by(n).copied().collect())
-                .collect();
-            if let Some(i) = data.iter().position(|v| !v.is_finite()) {
-                bail!(
-                    "filter map {shown}: weight {} at pixel ({}, {}) of filter {} is not finite",
-                    data[i],
-                    i / n % w,
-                    i / n / w,
-                    i % n
-                );
-            }
-            Ok(weights)
+                .collect())
         }
         c => bail!(
             "filter map {shown} has {c} channels: give one (each pixel's filter number) or one \
