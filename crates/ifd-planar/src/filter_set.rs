@@ -21,8 +21,12 @@ use crate::{
 /// Every term is read from the stack (no term is evaluated directly): at
 /// a constant scale from levels at exactly the sigmas of every
 /// decomposition's terms, else from log-uniform levels blended per pixel.
-/// The stack's interpolation, pyramid factor and levels are one plan for all ([`EvalPlan::choose_shared`]), each
-/// decomposition within its own budget. Each pixel's value is `sum_i
+/// The stack's interpolation, pyramid factor and levels are one plan for
+/// all ([`EvalPlan::choose_shared`]), each decomposition within its own
+/// budget where one stack can hold them all to it (with a scale map, a
+/// shared stack's levels fall off a filter's own sigmas; the plan then
+/// keeps the worst filter closest to its budget, and
+/// [`FilterSetPlan::evals`] says what each gets). Each pixel's value is `sum_i
 /// weights[i][p] * filter_i(p)`: pixels of weight zero for a filter cost it
 /// almost nothing ([`Filter::accumulate_weighted`]).
 ///
