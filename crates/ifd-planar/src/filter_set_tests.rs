@@ -350,3 +350,63 @@ fn bad_inputs_are_refused() {
     let short = vec![vec![1.0; 40 * 30], vec![1.0; 10]];
     assert!(plan.evaluate(&stack, a, s, &short).is_err());
 }
+
+/// The shared stack's margin covers the widest filter's reach: all of it
+/// with a replicate border (exact only within the stored margin), and near
+/// the image with reflect-101; filters of very different reach then give,
+/// through the shared stack, what brute-force correlation gives.
+#[test]
+fn the_margin_covers_the_widest_reach() {
+    let (w, h) = (72, 60);
+    let img = noise(w, h);
+    let narrow = Decomposition::from_terms(vec![term(1.0, 1.0, 0.0, 1.5)]);
+    let wide =
+        Decomposition::from_terms(vec![term(0.5, -18.0, 0.0, 3.0), term(0.5, 18.0, 2.0, 3.0)]);
+    let a = Field::Constant(30.0)
+        .check(FieldKind::Angle, w, h)
+        .expect("angle");
+    let s = Field::Constant(1.25)
+        .check(FieldKind::Scale, w, h)
+        .expect("scale");
+    let labels: Vec<f32> = (0..w * h).map(|i| ((i % w) / 24 % 2) as f32).collect();
+    let weights = FilterSetPlan::weights_from_labels(&labels, 2, w).expect("weights");
+    for border in [Border::Replicate, Border::Reflect101] {
+        let options = FilterOptions {
+            border,
+            eval_budget: Some(0.003),
+            ..FilterOptions::default()
+        };
+        let plan = FilterSetPlan::new((w, h, 1), &[&narrow, &wide], &s, &options).expect("plan");
+        let need = (1.25 * plan.decompositions[1].reach()).ceil() as usize + 2;
+        if border == Border::Replicate {
+            assert!(
+                plan.stack.options.margin >= need,
+                "{} < {need}",
+                plan.stack.options.margin
+            );
+        }
+        let stack = plan.build_stack(&img).expect("stack");
+        let out = plan.evaluate(&stack, a, s, &weights).expect("evaluate");
+        let (mut e2, mut r2) = (0.0f64, 0.0f64);
+        for (i, d) in [&narrow, &wide].into_iter().enumerate() {
+            let exact =
+                correlate_varying(&img, 40, a, s, border, |u, v| d.eval(u, v)).expect("exact");
+            for (p, (&got, &want)) in out.data().iter().zip(exact.data()).enumerate() {
+                if labels[p] as usize == i {
+                    e2 += (f64::from(got) - f64::from(want)).powi(2);
+                    r2 += (f64::from(want) - 0.5).powi(2);
+                }
+            }
+        }
+        let measured = (e2 / r2).sqrt();
+        let expected = plan
+            .evals
+            .iter()
+            .map(|e| e.error_estimate)
+            .fold(0.0, f64::max);
+        assert!(
+            measured <= 2.0 * expected.max(1e-4),
+            "{border:?}: measured {measured:.2e}, expected {expected:.2e}"
+        );
+    }
+}
