@@ -118,6 +118,38 @@ fn labels_select_each_filters_own_output() {
     }
 }
 
+/// The relative RMS error of `out` against each region's exact filtering
+/// (`exact(d)` for the filter of label `i`), on white noise in [0, 1]: the
+/// filtered noise's mean (half the filter's DC gain) removed from the
+/// reference's norm.
+fn region_error(
+    out: &Image,
+    filters: &[&Decomposition],
+    labels: &[f32],
+    exact: impl Fn(&Decomposition) -> Image,
+) -> f64 {
+    let (mut e2, mut r2) = (0.0f64, 0.0f64);
+    for (i, d) in filters.iter().enumerate() {
+        let want = exact(d);
+        let mean = 0.5 * d.terms.iter().map(|t| t.weight).sum::<f64>();
+        for (p, (&got, &want)) in out.data().iter().zip(want.data()).enumerate() {
+            if labels[p] as usize == i {
+                e2 += (f64::from(got) - f64::from(want)).powi(2);
+                r2 += (f64::from(want) - mean).powi(2);
+            }
+        }
+    }
+    (e2 / r2).sqrt()
+}
+
+/// The largest expected error among a set's plans.
+fn worst_estimate(plan: &FilterSetPlan) -> f64 {
+    plan.evals
+        .iter()
+        .map(|e| e.error_estimate)
+        .fold(0.0, f64::max)
+}
+
 /// Against brute-force correlation with each pixel's own filter (an
 /// independent path): on white noise the relative RMS error stays within
 /// twice the largest expected error the shared plan reports (the
@@ -145,26 +177,11 @@ fn regions_match_brute_force_within_the_plans() {
         let stack = plan.build_stack(&img).expect("stack");
         let weights = FilterSetPlan::weights_from_labels(&labels, 3, w).expect("weights");
         let out = plan.evaluate(&stack, a, s, &weights).expect("evaluate");
-        let mut err2 = 0.0f64;
-        let mut ref2 = 0.0f64;
-        for (i, d) in ds.iter().enumerate() {
-            let exact = correlate_varying(&img, 34, a, s, Border::Reflect101, |u, v| d.eval(u, v))
-                .expect("reference");
-            for (p, (&got, &want)) in out.data().iter().zip(exact.data()).enumerate() {
-                if labels[p] as usize == i {
-                    // the mean removed: the error relative to the filtered noise
-                    err2 += (f64::from(got) - f64::from(want)).powi(2);
-                    ref2 += (f64::from(want) - 0.5 * d.terms.iter().map(|t| t.weight).sum::<f64>())
-                        .powi(2);
-                }
-            }
-        }
-        let measured = (err2 / ref2).sqrt();
-        let expected = plan
-            .evals
-            .iter()
-            .map(|e| e.error_estimate)
-            .fold(0.0, f64::max);
+        let measured = region_error(&out, &refs, &labels, |d| {
+            correlate_varying(&img, 34, a, s, Border::Reflect101, |u, v| d.eval(u, v))
+                .expect("reference")
+        });
+        let expected = worst_estimate(&plan);
         // (bilinear reads of the narrowest terms miss the budget: the
         // error stays what the plan says)
         assert!(
@@ -387,23 +404,10 @@ fn the_margin_covers_the_widest_reach() {
         }
         let stack = plan.build_stack(&img).expect("stack");
         let out = plan.evaluate(&stack, a, s, &weights).expect("evaluate");
-        let (mut e2, mut r2) = (0.0f64, 0.0f64);
-        for (i, d) in [&narrow, &wide].into_iter().enumerate() {
-            let exact =
-                correlate_varying(&img, 40, a, s, border, |u, v| d.eval(u, v)).expect("exact");
-            for (p, (&got, &want)) in out.data().iter().zip(exact.data()).enumerate() {
-                if labels[p] as usize == i {
-                    e2 += (f64::from(got) - f64::from(want)).powi(2);
-                    r2 += (f64::from(want) - 0.5).powi(2);
-                }
-            }
-        }
-        let measured = (e2 / r2).sqrt();
-        let expected = plan
-            .evals
-            .iter()
-            .map(|e| e.error_estimate)
-            .fold(0.0, f64::max);
+        let measured = region_error(&out, &[&narrow, &wide], &labels, |d| {
+            correlate_varying(&img, 40, a, s, border, |u, v| d.eval(u, v)).expect("exact")
+        });
+        let expected = worst_estimate(&plan);
         assert!(
             measured <= 2.0 * expected.max(1e-4),
             "{border:?}: measured {measured:.2e}, expected {expected:.2e}"
