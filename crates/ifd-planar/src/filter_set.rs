@@ -7,11 +7,14 @@ use ifd_image::{Image, ImageView};
 
 use crate::accuracy::EvalPlan;
 use crate::filter::Filter;
-use crate::pipeline::{MAX_TERMS, build_planned, check_dc_gain, check_kernel_fits, planned_scales};
+use crate::pipeline::{
+    MAX_TERMS, build_planned, check_dc_gain, check_kernel_fits, kernel_norm, planned_scales,
+};
 use crate::stack::MAX_EXACT_LEVELS;
+use crate::stack::for_decomposition::stack_plan_for_set;
 use crate::{
-    Border, CheckedField, Decomposition, FilterError, FilterOptions, PreparedDecomposition,
-    ScaleStack, StackLayout, StackOptions, StackPlan, level_sigmas, stack_plan_for_decomposition,
+    CheckedField, Decomposition, FilterError, FilterOptions, PreparedDecomposition, ScaleStack,
+    StackOptions, StackPlan, level_sigmas,
 };
 
 /// The plan for filtering one image with several decompositions, each
@@ -138,62 +141,17 @@ impl FilterSetPlan {
             options.interpolation,
         )?;
         for (i, (d, eval)) in decompositions.iter().zip(&evals).enumerate() {
-            // the kernel's L2 norm at scale 1, from the plan's amplification
-            let kernel_norm = d
-                .terms
-                .iter()
-                .map(|t| t.weight.abs() / (2.0 * std::f64::consts::PI.sqrt() * t.sigma))
-                .sum::<f64>()
-                / eval.amplification;
-            check_dc_gain(d, kernel_norm, None, scale.range(), 0.0).map_err(|e| which(i, e))?;
+            check_dc_gain(d, kernel_norm(d, eval), None, scale.range(), 0.0)
+                .map_err(|e| which(i, e))?;
         }
-        let stack_options = evals[0].apply(StackOptions::default());
-        let mut stack: Option<StackPlan> = None;
-        for (i, p) in prepared.iter().enumerate() {
-            let own = stack_plan_for_decomposition(
-                (width, height, channels),
-                p,
-                smin,
-                smax,
-                options.border,
-                stack_options,
-            )
-            .map_err(|e| which(i, e))?;
-            stack = Some(match stack {
-                None => own,
-                Some(s) => StackPlan {
-                    sigmas: (s.sigmas.0.min(own.sigmas.0), s.sigmas.1.max(own.sigmas.1)),
-                    ..s
-                },
-            });
-        }
-        let mut stack = stack.expect("at least one decomposition");
-        // The margin the widest reach needs: all of it with borders that are
-        // only exact within it, else as much as memory allows for the whole
-        // stack (as `stack_plan_for_decomposition` sizes one filter's).
-        let need = prepared
-            .iter()
-            .map(|p| (f64::from(smax) * p.reach()).ceil() as usize + 2)
-            .max()
-            .unwrap_or(0);
-        stack.options.margin = if matches!(options.border, Border::Replicate | Border::Constant(_))
-        {
-            need
-        } else {
-            let (lo, hi) = stack.sigmas;
-            StackLayout::affordable_margin(
-                width,
-                height,
-                channels,
-                lo,
-                hi,
-                StackOptions {
-                    margin: 0,
-                    ..stack.options
-                },
-                need,
-            )?
-        };
+        let refs: Vec<&PreparedDecomposition> = prepared.iter().collect();
+        let stack = stack_plan_for_set(
+            (width, height, channels),
+            &refs,
+            (smin, smax),
+            options.border,
+            evals[0].apply(StackOptions::default()),
+        )?;
         Ok(Self {
             decompositions: prepared,
             evals,

@@ -131,17 +131,9 @@ impl FilterPlan {
                 log_uniform,
             },
         )?;
-        // the kernel's L2 norm at scale 1, from the plan's amplification
-        // (sum |w_t| ||g_t|| / ||k||)
-        let kernel_norm = decomposition
-            .terms
-            .iter()
-            .map(|t| t.weight.abs() / (2.0 * std::f64::consts::PI.sqrt() * t.sigma))
-            .sum::<f64>()
-            / eval.amplification;
         check_dc_gain(
             decomposition,
-            kernel_norm,
+            kernel_norm(decomposition, &eval),
             (constant_pose && !scale.is_map()).then(|| angle.range().0),
             scale.range(),
             eval.direct_sigma,
@@ -327,6 +319,17 @@ pub fn filter_image<'a>(
     )?;
     let stack = plan.build_stack(image)?;
     plan.evaluate(image, &stack, angle, scale)
+}
+
+/// The kernel's L2 norm at scale 1, from `eval`'s amplification
+/// (`sum |w_t| ||g_t|| / ||k||`, [`EvalPlan::amplification`]).
+pub(crate) fn kernel_norm(decomposition: &Decomposition, eval: &EvalPlan) -> f64 {
+    decomposition
+        .terms
+        .iter()
+        .map(|t| t.weight.abs() / (2.0 * std::f64::consts::PI.sqrt() * t.sigma))
+        .sum::<f64>()
+        / eval.amplification
 }
 
 /// The scales a plan covers: [`FilterOptions::scale_range`], which must

@@ -13,6 +13,19 @@ use crate::stack::{Interpolation, StackOptions, pyramid_step};
 /// ([`EvalPlan::choose`] with [`PlanOptions::log_uniform`]).
 pub(super) const FEWEST_PER_OCTAVE: usize = 2;
 
+/// The pyramid factors [`EvalPlan::choose`] tries, coarsest first, half
+/// an octave apart (unsubsampled last).
+pub(super) const FACTORS: [f64; 8] = [
+    1.0,
+    std::f64::consts::SQRT_2,
+    2.0,
+    2.0 * std::f64::consts::SQRT_2,
+    4.0,
+    4.0 * std::f64::consts::SQRT_2,
+    8.0,
+    f64::INFINITY,
+];
+
 /// The most levels per octave a log-uniform stack read at the nearest level
 /// is planned with: at 8, its level error (3.5%, [`nearest_level_error`])
 /// is still above the blend's at 2 (3.0%), so the nearest level only serves
@@ -244,26 +257,14 @@ impl EvalPlan {
         // Factors half an octave apart (a level's samples per sigma grow by
         // sqrt 2 a step), so that the accuracy, and the cost, grow in small
         // steps with the budget instead of doubling.
-        let r2 = std::f64::consts::SQRT_2;
-        let candidates = [
-            (Interpolation::Linear, 1.0),
-            (Interpolation::Linear, r2),
-            (Interpolation::Linear, 2.0),
-            (Interpolation::Linear, 2.0 * r2),
-            (Interpolation::Linear, 4.0),
-            (Interpolation::Cubic, 1.0),
-            (Interpolation::Cubic, r2),
-            (Interpolation::Cubic, 2.0),
-            (Interpolation::Cubic, 2.0 * r2),
-            (Interpolation::Cubic, 4.0),
-            (Interpolation::Cubic, 4.0 * r2),
-            (Interpolation::Cubic, 8.0),
-            (Interpolation::Cubic, f64::INFINITY),
-        ];
-        let factors = [1.0, r2, 2.0, 2.0 * r2, 4.0, 4.0 * r2, 8.0, f64::INFINITY];
+        // Bilinear up to factor 4, then the cubic B-spline at every factor.
         let fixed: Vec<(Interpolation, f64)> = match only {
-            None => candidates.to_vec(),
-            Some(i) => factors.iter().map(|&f| (i, f)).collect(),
+            None => FACTORS[..=4]
+                .iter()
+                .map(|&f| (Interpolation::Linear, f))
+                .chain(FACTORS.iter().map(|&f| (Interpolation::Cubic, f)))
+                .collect(),
+            Some(i) => FACTORS.iter().map(|&f| (i, f)).collect(),
         };
         let scales = (f64::from(scale_min), f64::from(scale_max));
         let mut noise: Option<WhiteNoise<'_>> = None;

@@ -2,27 +2,13 @@
 //! ([`EvalPlan::choose_shared`]).
 
 use super::norm::checked_kernel_norm;
-use super::plan::{FEWEST_PER_OCTAVE, NEAREST_MOST_PER_OCTAVE};
+use super::plan::{FACTORS, FEWEST_PER_OCTAVE, NEAREST_MOST_PER_OCTAVE};
 use super::read_error::{level_blend_error, nearest_level_error};
-use super::white_noise::{Levels, WhiteNoise};
+use super::white_noise::{Levels, WhiteNoise, stack_sigmas};
 use super::{EvalPlan, PlanOptions};
 use crate::decomposition::Decomposition;
 use crate::error::FilterError;
-use crate::stack::for_decomposition::sigma_bounds;
 use crate::stack::{Interpolation, StackOptions};
-
-/// The pyramid factors of [`EvalPlan::choose`]'s candidates, coarsest
-/// first, half an octave apart.
-const FACTORS: [f64; 8] = [
-    1.0,
-    std::f64::consts::SQRT_2,
-    2.0,
-    2.0 * std::f64::consts::SQRT_2,
-    4.0,
-    4.0 * std::f64::consts::SQRT_2,
-    8.0,
-    f64::INFINITY,
-];
 
 /// A decomposition whose own plan misses its budget (the level blend of a
 /// per-pixel scale alone can be over a tight one) is held to its own
@@ -204,11 +190,8 @@ impl EvalPlan {
         // own (levels at the terms' sigmas are each term's own either way).
         let union = decompositions
             .iter()
-            .fold((f64::INFINITY, 0.0f64), |(lo, hi), d| {
-                let own = d.terms.iter().fold((f64::INFINITY, 0.0f64), |(a, b), t| {
-                    (a.min(t.sigma), b.max(t.sigma))
-                });
-                let (l, h) = sigma_bounds(d.sampling, own, scales);
+            .map(|d| stack_sigmas(d, scales))
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), (l, h)| {
                 (lo.min(l), hi.max(h))
             });
         let mut noises: Vec<Option<WhiteNoise<'_>>> = Vec::new();

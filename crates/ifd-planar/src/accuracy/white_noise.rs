@@ -77,6 +77,26 @@ pub(crate) enum Levels {
     },
 }
 
+/// The sigmas a log-uniform stack for `decomposition` at scales in
+/// `[scale_min, scale_max]` spans
+/// ([`crate::stack::for_decomposition::sigma_bounds`] of its terms' sigmas).
+pub(crate) fn stack_sigmas(
+    decomposition: &Decomposition,
+    (scale_min, scale_max): (f64, f64),
+) -> (f64, f64) {
+    let sigma_range = decomposition
+        .terms
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), t| {
+            (lo.min(t.sigma), hi.max(t.sigma))
+        });
+    crate::stack::for_decomposition::sigma_bounds(
+        decomposition.sampling,
+        sigma_range,
+        (scale_min, scale_max),
+    )
+}
+
 /// A decomposition's poses and its filter's norm at each: what every
 /// estimate of one planning shares.
 pub(crate) struct WhiteNoise<'a> {
@@ -115,18 +135,10 @@ impl<'a> WhiteNoise<'a> {
                 (pose, s, norm2)
             })
             .collect();
-        let terms = &decomposition.terms;
-        let sigma_range = terms.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), t| {
-            (lo.min(t.sigma), hi.max(t.sigma))
-        });
         Self {
             decomposition,
             direct_sigma,
-            stack_sigmas: crate::stack::for_decomposition::sigma_bounds(
-                decomposition.sampling,
-                sigma_range,
-                (scale_min, scale_max),
-            ),
+            stack_sigmas: stack_sigmas(decomposition, (scale_min, scale_max)),
             poses,
         }
     }

@@ -7,7 +7,7 @@ use crate::border::Border;
 use crate::decomposition::Decomposition;
 use crate::error::FilterError;
 use crate::kernel::Sampling;
-use crate::prepared::Prepare;
+use crate::prepared::{Prepare, PreparedDecomposition};
 use crate::stack::{MIN_SIGMA, ScaleStack, StackLayout, StackOptions, StackPlan};
 use crate::term::Term;
 use ifd_image::ImageView;
@@ -65,13 +65,34 @@ pub fn stack_plan_for_decomposition(
     options: StackOptions,
 ) -> Result<StackPlan, FilterError> {
     let d = decomposition.prepare()?;
+    stack_plan_for_set(
+        (width, height, channels),
+        &[&*d],
+        (scale_min, scale_max),
+        border,
+        options,
+    )
+}
+
+/// [`stack_plan_for_decomposition`] for one stack that several
+/// decompositions read ([`crate::FilterSetPlan`]): the sigmas of them all,
+/// the margin the widest reach needs.
+pub(crate) fn stack_plan_for_set(
+    (width, height, channels): (usize, usize, usize),
+    decompositions: &[&PreparedDecomposition],
+    (scale_min, scale_max): (f32, f32),
+    border: Border,
+    options: StackOptions,
+) -> Result<StackPlan, FilterError> {
     check_scale_range(scale_min, scale_max)?;
-    let (need_lo, need_hi) = sigma_bounds(
-        d.sampling(),
-        d.sigma_range(),
-        (f64::from(scale_min), f64::from(scale_max)),
-    );
-    let reach = d.reach();
+    let scales = (f64::from(scale_min), f64::from(scale_max));
+    let (need_lo, need_hi) = decompositions
+        .iter()
+        .map(|d| sigma_bounds(d.sampling(), d.sigma_range(), scales))
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), (l, h)| {
+            (lo.min(l), hi.max(h))
+        });
+    let reach = decompositions.iter().map(|d| d.reach()).fold(0.0, f64::max);
     let mut options = options;
     let need = (f64::from(scale_max) * reach).ceil() as usize + 2;
     if matches!(border, Border::Replicate | Border::Constant(_)) {
