@@ -66,13 +66,13 @@ unsafe impl GlobalAlloc for HugePages {
         }
         // A huge-page alignment: the system zeroes such blocks by writing
         // them, which would fault every page in small before the advice.
-        // SAFETY: as in `alloc`; the zeroing writes exactly the block.
+        // SAFETY: as in `alloc`; the zeroing covers exactly the block.
         unsafe {
             let p = System.alloc(system);
-            advise(p, layout.size());
             if !p.is_null() {
-                std::ptr::write_bytes(p, 0, layout.size());
+                zero(p, layout.size());
             }
+            advise(p, layout.size());
             p
         }
     }
@@ -124,6 +124,43 @@ fn advise(p: *mut u8, len: usize) {
 
 #[cfg(not(target_os = "linux"))]
 fn advise(_: *mut u8, _: usize) {}
+
+/// The base page size the kernel hands back whole (`MADV_DONTNEED` refuses
+/// a range not aligned to the system's page size; then `zero` writes).
+const PAGE: usize = 4096;
+
+/// Zeroes the `len` bytes at `p` (a block just allocated, not null) without
+/// touching the whole pages inside it: those go back to the kernel
+/// (`MADV_DONTNEED`: a private anonymous page, which is what the system
+/// allocator's heap and maps are, reads as zeros from then on and gets a
+/// page only when written), the partial pages at the ends are written. A
+/// zeroed block its owner writes only in part (a scale stack's level built
+/// where a scale map reads it) then costs pages only for that part. Where
+/// the kernel refuses, every byte is written.
+#[cfg(target_os = "linux")]
+unsafe fn zero(p: *mut u8, len: usize) {
+    let start = (p as usize).next_multiple_of(PAGE);
+    let end = (p as usize + len) / PAGE * PAGE;
+    // SAFETY: `[p, p + len)` is the block just allocated; `[start, end)`
+    // lies inside it, and `MADV_DONTNEED` on private anonymous memory only
+    // replaces its pages with zero-fill-on-demand ones.
+    unsafe {
+        if end > start
+            && libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_DONTNEED) == 0
+        {
+            std::ptr::write_bytes(p, 0, start - p as usize);
+            std::ptr::write_bytes(end as *mut u8, 0, p as usize + len - end);
+        } else {
+            std::ptr::write_bytes(p, 0, len);
+        }
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+unsafe fn zero(p: *mut u8, len: usize) {
+    // SAFETY: `[p, p + len)` is the block just allocated.
+    unsafe { std::ptr::write_bytes(p, 0, len) }
+}
 
 #[cfg(all(test, target_os = "linux"))]
 mod tests {
@@ -178,6 +215,24 @@ mod tests {
             "huge pages {before} kB -> {after} kB after a {} MiB block",
             block.len() >> 20
         );
+    }
+
+    /// A large zeroed block reads as zeros, also where the system allocator
+    /// hands back a block just written and freed (whose pages the kernel
+    /// takes back rather than the allocator clearing them), and it can be
+    /// written anywhere.
+    #[test]
+    fn zeroed_blocks_are_zero() {
+        for round in 0..3 {
+            let len = 3 * HUGE_FROM + 12_345 * round;
+            let mut dirty = vec![0xA5u8; len];
+            dirty[len / 2] = 1;
+            drop(dirty);
+            let mut block = vec![0u32; len / 4];
+            assert!(block.iter().all(|&v| v == 0), "round {round}");
+            block[len / 8] = 7;
+            assert_eq!(block.iter().filter(|&&v| v != 0).count(), 1);
+        }
     }
 
     /// Blocks grown and shrunk across the threshold keep their contents

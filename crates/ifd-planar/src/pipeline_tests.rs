@@ -273,3 +273,177 @@ fn a_stack_of_another_size_is_refused() {
         Err(FilterError::Shape(_))
     ));
 }
+
+/// `w x h x c` samples of hashed noise.
+fn noise(w: usize, h: usize, c: usize) -> Image {
+    let data = (0..w * h * c)
+        .map(|i| ((i * 2_654_435_761) % 997) as f32 / 997.0)
+        .collect();
+    Image::from_vec(w, h, c, data).expect("image")
+}
+
+/// A stack built for a scale map's reads gives the output of the whole
+/// stack, to the stack builds' agreement (2e-6 of the image's range a
+/// sample, times the terms' summed weights): every border it serves, both
+/// interpolations, one and three channels, the vector rows and the scalar
+/// loop; on a radial map over [0.25, 1] the finest levels are computed
+/// only near the centre, on a step map the levels between its two scales
+/// hardly at all. A wrapping border builds every sample.
+#[test]
+fn a_stack_for_the_reads_gives_the_same_output() {
+    let (w, h) = (120, 96);
+    let d = Decomposition::from_terms(vec![
+        Term {
+            weight: 0.5,
+            x: -9.0,
+            y: 2.0,
+            sigma: 4.0,
+        },
+        Term {
+            weight: 0.3,
+            x: 6.0,
+            y: -3.0,
+            sigma: 5.5,
+        },
+        Term {
+            weight: 0.2,
+            x: 1.0,
+            y: 7.0,
+            sigma: 8.0,
+        },
+    ]);
+    let radial: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f32 - 60.0, (i / w) as f32 - 48.0);
+            0.25 + 0.75 * x.hypot(y) / 60f32.hypot(48.0)
+        })
+        .collect();
+    // Scale 0.25 on the left quarter, 1 elsewhere: the levels between are
+    // read nowhere (computed nowhere, or only for the chain after them).
+    let step: Vec<f32> = (0..w * h)
+        .map(|i| if i % w < w / 4 { 0.25 } else { 1.0 })
+        .collect();
+    let swirl: Vec<f32> = (0..w * h)
+        .map(|i| {
+            ((i / w) as f32 - 48.0)
+                .atan2((i % w) as f32 - 60.0)
+                .to_degrees()
+                + 90.0
+        })
+        .collect();
+    for (c, map) in [(1, &radial), (3, &radial), (1, &step), (3, &step)] {
+        let img = noise(w, h, c);
+        for border in [
+            Border::Reflect101,
+            Border::Replicate,
+            Border::Constant(0.3),
+            Border::Wrap,
+        ] {
+            for interpolation in [Interpolation::Linear, Interpolation::Cubic] {
+                for vector_kernels in [true, false] {
+                    let angle = Field::Map(&swirl)
+                        .check(FieldKind::Angle, w, h)
+                        .expect("angle");
+                    let scale = Field::Map(map)
+                        .check(FieldKind::Scale, w, h)
+                        .expect("scale");
+                    let options = FilterOptions {
+                        border,
+                        interpolation: Some(interpolation),
+                        vector_kernels,
+                        ..FilterOptions::default()
+                    };
+                    let plan =
+                        FilterPlan::new((w, h, c), &d, &angle, &scale, &options).expect("plan");
+                    let full = plan.build_stack(&img).expect("stack");
+                    let read = plan
+                        .build_stack_for(&img, &scale)
+                        .expect("stack for the reads");
+                    let what =
+                        format!("c {c}, {border:?}, {interpolation:?}, vector {vector_kernels}");
+                    if border == Border::Wrap {
+                        assert_eq!(read.computed_share(), 1.0, "{what}");
+                    } else {
+                        assert!(
+                            read.computed_share() < 0.9,
+                            "{what}: {}",
+                            read.computed_share()
+                        );
+                    }
+                    let a = plan.evaluate(&img, &full, angle, scale).expect("full");
+                    let b = plan.evaluate(&img, &read, angle, scale).expect("read");
+                    let worst = a
+                        .data()
+                        .iter()
+                        .zip(b.data())
+                        .map(|(x, y)| (x - y).abs())
+                        .fold(0.0f32, f32::max);
+                    // The noise spans [0, 1); the weights sum to 1.
+                    assert!(worst <= 2e-6, "{what}: {worst}");
+                }
+            }
+        }
+    }
+}
+
+/// A stack built for one scale map's reads is refused for a map that reads
+/// elsewhere, and for lookups anywhere; built for a constant scale it is the
+/// whole stack.
+#[test]
+fn a_stack_for_the_reads_serves_only_its_map() {
+    let (w, h) = (80, 64);
+    let d = Decomposition::from_terms(vec![
+        Term {
+            weight: 0.6,
+            x: -5.0,
+            y: 0.0,
+            sigma: 3.0,
+        },
+        Term {
+            weight: 0.4,
+            x: 5.0,
+            y: 1.0,
+            sigma: 6.0,
+        },
+    ]);
+    let img = noise(w, h, 1);
+    // Scale 0.25 on the left third, 1 elsewhere; the other map the mirror.
+    let left: Vec<f32> = (0..w * h)
+        .map(|i| if i % w < w / 3 { 0.25 } else { 1.0 })
+        .collect();
+    let right: Vec<f32> = (0..w * h)
+        .map(|i| if i % w >= w - w / 3 { 0.25 } else { 1.0 })
+        .collect();
+    let angle = Field::Constant(10.0)
+        .check(FieldKind::Angle, w, h)
+        .expect("angle");
+    let scale = Field::Map(&left)
+        .check(FieldKind::Scale, w, h)
+        .expect("scale");
+    let other = Field::Map(&right)
+        .check(FieldKind::Scale, w, h)
+        .expect("scale");
+    let plan =
+        FilterPlan::new((w, h, 1), &d, &angle, &scale, &FilterOptions::default()).expect("plan");
+    let stack = plan.build_stack_for(&img, &scale).expect("stack");
+    assert!(stack.computed_share() < 1.0);
+    plan.evaluate(&img, &stack, angle, scale)
+        .expect("its own map");
+    let err = plan
+        .evaluate(&img, &stack, angle, other)
+        .expect_err("another map");
+    assert!(err.to_string().contains("holds only the samples"), "{err}");
+    let err = stack
+        .sample(10.0, 10.0, 2.0)
+        .expect_err("a lookup anywhere");
+    assert!(err.to_string().contains("holds only the samples"), "{err}");
+    let (angle, scale) = constant_pose(0.0, 0.5, (w, h));
+    let plan =
+        FilterPlan::new((w, h, 1), &d, &angle, &scale, &FilterOptions::default()).expect("plan");
+    assert_eq!(
+        plan.build_stack_for(&img, &scale)
+            .expect("stack")
+            .computed_share(),
+        1.0
+    );
+}

@@ -387,7 +387,7 @@ fn filter<'py>(
                     &scale,
                     &options,
                 )?;
-                let stack = plan.build_stack(view)?;
+                let stack = plan.build_stack_for(view, &scale)?;
                 plan.evaluate(view, &stack, angle, scale)
             })
         })

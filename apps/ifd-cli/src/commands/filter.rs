@@ -393,9 +393,16 @@ fn timings(
     planning: std::time::Duration,
     (t0, t1, t2): (Instant, Instant, Instant),
 ) -> String {
+    let share = stack.computed_share();
+    // A stack built for a scale map's reads computes only those samples.
+    let over = if share < 1.0 {
+        format!(" of the {:.0}% of samples read", 100.0 * share)
+    } else {
+        String::new()
+    };
     format!(
-        "{terms}; planning {:.1} ms, prefiltering {:.1} ms ({} levels, {}, {} build), filtering \
-         {:.1} ms",
+        "{terms}; planning {:.1} ms, prefiltering {:.1} ms ({} levels, {}, {} build{over}), \
+         filtering {:.1} ms",
         planning.as_secs_f64() * 1e3,
         (t1 - t0).as_secs_f64() * 1e3,
         stack.sigmas().len(),
@@ -629,7 +636,12 @@ impl Filter {
             plan.vector_kernels,
         );
         let t0 = Instant::now();
-        let stack = plan.build_stack(&image).context("prefiltering")?;
+        let stack = if gpu.is_some() {
+            plan.build_stack(&image)
+        } else {
+            plan.build_stack_for(&image, &scale)
+        }
+        .context("prefiltering")?;
         let t1 = Instant::now();
         let out = if let Some((ctx, device)) = &gpu {
             filter_gpu(

@@ -125,6 +125,11 @@ fn snap_to_level(i: u32, f: f64, snap: f64) -> (u32, u32, f32, f32) {
 /// neighbouring levels.
 pub(crate) const PIXEL_SNAP: f32 = 3e-5;
 
+/// How far (in level spacings) [`LevelRule::levels_read`] moves the ends
+/// of a range of positions out: far above their rounding (`1e-6`), far
+/// below a spacing.
+const READ_SLACK: f32 = 1e-3;
+
 /// Where a per-pixel scale `s` puts the levels of a log-uniform stack, in
 /// `f32`: `t_s = (ln s - ln sigma_0) / ln r` and `widen`, the pixel
 /// footprint's variance at `s` over `s^2`
@@ -214,6 +219,26 @@ impl LevelRule {
     pub(crate) fn series(self, t_s: f32, widen: f32) -> (u32, u32, f32, f32) {
         let lw = crate::kernel::ln_widening_series(widen * self.inv_sigma2);
         self.bracket(t_s + (self.ln_sigma + lw) * self.inv)
+    }
+
+    /// The position among the levels that [`Self::at`] brackets.
+    #[inline]
+    pub(crate) fn position(self, t_s: f32, widen: f32) -> f32 {
+        let lw = crate::kernel::ln_widening(widen * self.inv_sigma2);
+        t_s + (self.ln_sigma + lw) * self.inv
+    }
+
+    /// The first and the last level read at any position in `[u_lo, u_hi]`
+    /// ([`Self::position`]s): the bracket's levels grow with the position,
+    /// so these are the lower level at `u_lo` and the upper at `u_hi`, each
+    /// position moved out by [`READ_SLACK`] of a spacing for the rounding
+    /// of positions between them (a position of the scalar loop or of the
+    /// vector rows' series, `f32`, a few `1e-6` off).
+    pub(crate) fn levels_read(self, u_lo: f32, u_hi: f32) -> (u32, u32) {
+        (
+            self.bracket(u_lo - READ_SLACK).0,
+            self.bracket(u_hi + READ_SLACK).1,
+        )
     }
 
     /// The levels bracketing position `u` and their weights: `u` clamped

@@ -9,6 +9,7 @@ pub(crate) mod rows;
 mod build;
 mod locate;
 mod plan;
+pub(crate) mod reads;
 mod sample;
 mod separable;
 mod weighted_sum;
@@ -25,6 +26,10 @@ use ifd_image::ImageView;
 use crate::border::Border;
 use crate::error::FilterError;
 use build::build_levels;
+
+/// Stored-sample index ranges `((i0, i1), (j0, j1))`, inclusive, per axis
+/// (empty as `((0, -1), (0, -1))`).
+pub(crate) type Window = ((i64, i64), (i64, i64));
 
 /// One stored level.
 #[derive(Clone, Debug)]
@@ -118,6 +123,12 @@ pub struct ScaleStack {
     interpolation: Interpolation,
     build_method: StackBuild,
     pub(crate) levels: Vec<Level>,
+    /// Per level, the stored samples a filter reads, where the stack was
+    /// built for one filter's reads ([`crate::FilterPlan::build_stack_for`]):
+    /// it computed those (and what its chains needed); `None`: all.
+    computed: Option<Vec<Window>>,
+    /// The share of the stored samples computed.
+    computed_share: f64,
 }
 
 impl ScaleStack {
@@ -166,7 +177,7 @@ impl ScaleStack {
         options: StackOptions,
     ) -> Result<Self, FilterError> {
         let layout = StackLayout::new(width, height, channels, sigma_min, sigma_max, options)?;
-        Self::build(&layout, data, border)
+        Self::build(&layout, data, border, None)
     }
 
     /// Prefilters `image` (every channel) with exactly the Gaussians
@@ -184,11 +195,19 @@ impl ScaleStack {
         let image = image.into();
         let (w, h, c) = (image.width(), image.height(), image.channels());
         let layout = StackLayout::with_sigmas(w, h, c, sigmas, options)?;
-        Self::build(&layout, image.data(), border)
+        Self::build(&layout, image.data(), border, None)
     }
 
-    /// Prefilters interleaved samples into the levels of `layout`.
-    fn build(layout: &StackLayout, data: &[f32], border: Border) -> Result<Self, FilterError> {
+    /// Prefilters interleaved samples into the levels of `layout`: all
+    /// their samples, or with `windows` (one per level) those the direct
+    /// build computes within them, zeros elsewhere, where it is the cheaper
+    /// build for them (else all, by FFT).
+    pub(crate) fn build(
+        layout: &StackLayout,
+        data: &[f32],
+        border: Border,
+        windows: Option<Vec<Window>>,
+    ) -> Result<Self, FilterError> {
         let (width, height, channels) = (layout.width, layout.height, layout.channels);
         let expected = width * height * channels;
         if data.len() != expected {
@@ -201,8 +220,12 @@ impl ScaleStack {
         if !border.constant().is_finite() {
             return Err(FilterError::InvalidBorder(border.to_string()));
         }
-        let build_method = separable::choose(layout);
+        let build_method = separable::choose(layout, windows.as_deref());
         let direct = build_method == StackBuild::Direct;
+        let computed = windows.filter(|_| direct);
+        let computed_share = computed
+            .as_deref()
+            .map_or(1.0, |w| separable::computed_share(layout, w));
         let src = separable::Source {
             data,
             width,
@@ -211,7 +234,7 @@ impl ScaleStack {
             border,
         };
         let mut direct_data = if direct {
-            separable::build_levels(&src, layout)
+            separable::build_levels(&src, layout, computed.as_deref())
         } else {
             Vec::new()
         }
@@ -228,7 +251,7 @@ impl ScaleStack {
             build_levels(layout, data, border, &mut levels);
         }
         let sigmas: Vec<f64> = layout.levels.iter().map(|l| l.sigma).collect();
-        let locator = LevelLocator::new(&sigmas, layout.uniform, layout.nearest_level);
+        let locator = layout.locator();
         Ok(Self {
             width,
             height,
@@ -239,7 +262,24 @@ impl ScaleStack {
             interpolation: layout.interpolation,
             build_method,
             levels,
+            computed,
+            computed_share,
         })
+    }
+
+    /// The share of the levels' samples computed: 1 but for a stack built
+    /// for one filter's reads ([`crate::FilterPlan::build_stack_for`]),
+    /// which computes only the samples its lookups read (and what the
+    /// levels built from them need).
+    #[must_use]
+    pub fn computed_share(&self) -> f64 {
+        self.computed_share
+    }
+
+    /// Per level, the stored samples a filter reads, where the stack was
+    /// built for its reads (`None`: all computed).
+    pub(crate) fn computed_windows(&self) -> Option<&[Window]> {
+        self.computed.as_deref()
     }
 
     /// How the levels were computed (the cheaper build for the layout).
@@ -375,6 +415,9 @@ impl ScaleStack {
 impl ScaleStack {
     /// The samples of level `index`, interleaved `[iy][ix][channel]` with
     /// the geometry of the level's [`LevelLayout`]; `None` past the last level.
+    /// On a stack built for one filter's reads
+    /// ([`crate::FilterPlan::build_stack_for`], [`ScaleStack::computed_share`]
+    /// below 1) the samples that filter does not read are zeros.
     #[must_use]
     pub fn level_data(&self, index: usize) -> Option<&[f32]> {
         self.levels.get(index).map(|l| l.data.as_slice())

@@ -282,6 +282,13 @@ pub struct StackLayout {
 }
 
 impl StackLayout {
+    /// Where sigmas lie among the levels, as the stack built on this
+    /// layout locates them.
+    pub(crate) fn locator(&self) -> super::LevelLocator {
+        let sigmas: Vec<f64> = self.levels.iter().map(|l| l.sigma).collect();
+        super::LevelLocator::new(&sigmas, self.uniform, self.nearest_level)
+    }
+
     /// The largest stored margin up to `wanted` pixels that the stack of a
     /// `width x height x channels` image over `[sigma_min, sigma_max]` can
     /// afford: one that grows the stored levels, and separately the

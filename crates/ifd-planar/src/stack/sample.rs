@@ -12,7 +12,9 @@ impl ScaleStack {
     ///
     /// # Errors
     /// [`FilterError::SigmaOutOfRange`] when `sigma` is not covered,
-    /// [`FilterError::InvalidParameter`] for non-finite coordinates.
+    /// [`FilterError::InvalidParameter`] for non-finite coordinates or a
+    /// stack built for one filter's reads ([`crate::FilterPlan::build_stack_for`]:
+    /// its levels hold only the samples that filter reads).
     pub fn sample(&self, x: f32, y: f32, sigma: f64) -> Result<Vec<f32>, FilterError> {
         let mut out = vec![0.0; self.channels];
         self.sample_into(x, y, sigma, &mut out)?;
@@ -46,6 +48,13 @@ impl ScaleStack {
         if !sigma.is_finite() || !self.covers(sigma) {
             let (min, max) = self.sigma_range();
             return Err(FilterError::SigmaOutOfRange { sigma, min, max });
+        }
+        if self.computed_windows().is_some() {
+            return Err(FilterError::InvalidParameter(
+                "this stack holds only the samples its filter reads (FilterPlan::build_stack_for); \
+                 build it with FilterPlan::build_stack to sample it anywhere"
+                    .into(),
+            ));
         }
         out.fill(0.0);
         let (a, b, wa, wb) = self.locate_ln(sigma.ln());

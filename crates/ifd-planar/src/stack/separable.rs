@@ -43,11 +43,13 @@
 //! See [`super::weighted_sum`]: the AVX-512 and AVX2 sums agree bit for bit,
 //! the baseline's to rounding.
 
+use std::borrow::Cow;
+
 use rayon::prelude::*;
 
-use super::LevelLayout;
 use super::plan::CUBIC_TAPS;
 use super::weighted_sum::weighted_sum;
+use super::{LevelLayout, Window};
 use crate::border::Border;
 
 /// The image a window is computed from: interleaved samples and the border
@@ -328,18 +330,21 @@ const MACS_PER_FFT_SAMPLE: f64 = 87.0;
 /// The cheaper build for `layout`, by the cost model of the module
 /// documentation; `IFD_STACK_BUILD=fft` or `direct` in the environment
 /// forces one (for measuring).
-pub(super) fn choose(layout: &super::StackLayout) -> StackBuild {
+/// With `windows` (one per level) the direct build computes only the
+/// samples within them ([`build_levels`]), and costs that share of each
+/// level.
+pub(super) fn choose(layout: &super::StackLayout, windows: Option<&[Window]>) -> StackBuild {
     match std::env::var("IFD_STACK_BUILD").as_deref() {
         Ok("fft") => return StackBuild::Fft,
         Ok("direct") => return StackBuild::Direct,
         _ => {}
     }
-    choose_by_cost(layout)
+    choose_by_cost(layout, windows)
 }
 
 /// [`choose`] without the environment.
-fn choose_by_cost(layout: &super::StackLayout) -> StackBuild {
-    if direct_cost(layout) <= fft_cost(layout) {
+fn choose_by_cost(layout: &super::StackLayout, windows: Option<&[Window]>) -> StackBuild {
+    if direct_cost(layout, windows) <= fft_cost(layout) {
         StackBuild::Direct
     } else {
         StackBuild::Fft
@@ -347,10 +352,34 @@ fn choose_by_cost(layout: &super::StackLayout) -> StackBuild {
 }
 
 /// Multiply-adds of the direct build, per channel ([`build_levels`]; the
-/// chained levels' wider windows left out).
-fn direct_cost(layout: &super::StackLayout) -> f64 {
+/// chained levels' wider windows left out); with `windows`, over the
+/// samples [`computed_windows`] computes.
+fn direct_cost(layout: &super::StackLayout, windows: Option<&[Window]>) -> f64 {
     let cubic = layout.interpolation == super::Interpolation::Cubic;
     let levels = &layout.levels;
+    let spline = |l: &LevelLayout| {
+        let k = CUBIC_TAPS as f64;
+        let (nx, ny) = (l.nx as f64, l.ny as f64);
+        if cubic {
+            (2.0 * k + 1.0) * 2.0 * (nx + 2.0 * k) * (ny + 2.0 * k)
+        } else {
+            0.0
+        }
+    };
+    if let Some(windows) = windows {
+        let (links, need) = computed_windows(layout, Some(windows));
+        return levels
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                let per_sample = links[i].map_or(sample_cost(l.sigma, l.step), |d| {
+                    sample_cost(d, l.step / levels[i - 1].step)
+                });
+                let share = area(need[i]) / (l.nx * l.ny) as f64;
+                per_sample * area(need[i]) + share.min(1.0) * spline(l)
+            })
+            .sum();
+    }
     let links = chains(layout);
     levels
         .iter()
@@ -365,13 +394,7 @@ fn direct_cost(layout: &super::StackLayout) -> f64 {
                 let taps = (2 * reach(l.sigma) + 1) as f64;
                 (taps, (layout.width as f64).min(nx * l.step as f64 + taps))
             };
-            let spline = if cubic {
-                let k = CUBIC_TAPS as f64;
-                (2.0 * k + 1.0) * 2.0 * (nx + 2.0 * k) * (ny + 2.0 * k)
-            } else {
-                0.0
-            };
-            taps * ny * (cols_in + nx) + spline
+            taps * ny * (cols_in + nx) + spline(l)
         })
         .sum()
 }
@@ -420,9 +443,6 @@ pub(super) fn window(
     }
 }
 
-/// Stored-index ranges `((i0, i1), (j0, j1))`, inclusive, per axis.
-type Window = ((i64, i64), (i64, i64));
-
 /// The Gaussian that takes level `a` to level `b`, in samples of `a`, when
 /// level `b` is built from `a` (the next level of a chain): `b` on `a`'s
 /// grid or every second sample of it, and both `a`'s Gaussian and the one
@@ -470,6 +490,119 @@ fn chains(layout: &super::StackLayout) -> Vec<Option<f64>> {
 /// The narrowest Gaussian, in samples, a chained build starts from or adds.
 const MIN_CHAIN_SIGMA: f64 = 1.0;
 
+/// The samples of each level the direct build computes (stored-sample
+/// indices, `k` = [`CUBIC_TAPS`] more on each side for cubic levels, and
+/// beyond the stored ones where a chain needs them) and the chain's links
+/// ([`chains`]), from the last level back: a chained level widens the one
+/// before it to what it reads. With `windows` a link is kept only where it
+/// is cheaper than building the level from the image, counting the
+/// samples it adds to the level before ([`sample_cost`]): a level read
+/// over a wide window after one read over a narrow one starts a chain of
+/// its own.
+fn computed_windows(
+    layout: &super::StackLayout,
+    windows: Option<&[Window]>,
+) -> (Vec<Option<f64>>, Vec<Window>) {
+    let levels = &layout.levels;
+    let cubic = layout.interpolation == super::Interpolation::Cubic;
+    let k = if cubic { CUBIC_TAPS as i64 } else { 0 };
+    let mut chained = chains(layout);
+    let mut need: Vec<Window> = levels
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let window = windows.map_or(((0, l.nx as i64 - 1), (0, l.ny as i64 - 1)), |w| w[i]);
+            if is_empty(window) {
+                // Read nowhere: nothing to compute (unless a chain needs it).
+                return window;
+            }
+            let ((i0, i1), (j0, j1)) = window;
+            ((i0 - k, i1 + k), (j0 - k, j1 + k))
+        })
+        .collect();
+    for i in (1..levels.len()).rev() {
+        let Some(d) = chained[i] else { continue };
+        if is_empty(need[i]) {
+            continue;
+        }
+        let (a, b) = (&levels[i - 1], &levels[i]);
+        let m = (b.step / a.step) as i64;
+        let off = (b.origin - a.origin) / a.step as i64;
+        let r = reach(d);
+        let ((i0, i1), (j0, j1)) = need[i];
+        let wanted = (
+            (off + i0 * m - r, off + i1 * m + r),
+            (off + j0 * m - r, off + j1 * m + r),
+        );
+        let widened = if is_empty(need[i - 1]) {
+            wanted
+        } else {
+            let ((a0, a1), (b0, b1)) = need[i - 1];
+            (
+                (a0.min(wanted.0.0), a1.max(wanted.0.1)),
+                (b0.min(wanted.1.0), b1.max(wanted.1.1)),
+            )
+        };
+        if windows.is_some() {
+            // The level before, per sample: from the image, or the cheaper
+            // of that and its own link.
+            let before = chained[i - 1].map_or(sample_cost(a.sigma, a.step), |d| {
+                sample_cost(a.sigma, a.step).min(sample_cost(d, a.step / levels[i - 2].step))
+            });
+            let added = area(widened) - area(need[i - 1]);
+            let link = sample_cost(d, m as usize) * area(need[i]) + before * added;
+            if link > sample_cost(b.sigma, b.step) * area(need[i]) {
+                chained[i] = None;
+                continue;
+            }
+        }
+        need[i - 1] = widened;
+    }
+    (chained, need)
+}
+
+/// The share of `layout`'s stored samples [`build_levels`] computes with
+/// `windows`.
+pub(super) fn computed_share(layout: &super::StackLayout, windows: &[Window]) -> f64 {
+    let (_, need) = computed_windows(layout, Some(windows));
+    let k = if layout.interpolation == super::Interpolation::Cubic {
+        CUBIC_TAPS as i64
+    } else {
+        0
+    };
+    let (mut held, mut all) = (0.0, 0.0);
+    for (l, ((i0, i1), (j0, j1))) in layout.levels.iter().zip(need) {
+        let (nx, ny) = (l.nx as i64, l.ny as i64);
+        let stored = ((i0 + k).max(0), (i1 - k).min(nx - 1));
+        let rows = ((j0 + k).max(0), (j1 - k).min(ny - 1));
+        held += area((stored, rows));
+        all += (nx * ny) as f64;
+    }
+    held / all
+}
+
+/// Whether a window holds no sample.
+fn is_empty(((i0, i1), (j0, j1)): Window) -> bool {
+    i0 > i1 || j0 > j1
+}
+
+/// Samples in a window.
+fn area(w: Window) -> f64 {
+    if is_empty(w) {
+        0.0
+    } else {
+        let ((i0, i1), (j0, j1)) = w;
+        ((i1 - i0 + 1) * (j1 - j0 + 1)) as f64
+    }
+}
+
+/// Multiply-adds per output sample of correlating with a Gaussian of
+/// `sigma` source samples at every `step`-th source sample: its taps down
+/// `step` source columns per output, then along the row.
+fn sample_cost(sigma: f64, step: usize) -> f64 {
+    (2 * reach(sigma) + 1) as f64 * (step + 1) as f64
+}
+
 /// Every level of `layout`, stored samples (or B-spline coefficients), by
 /// the direct build: a level is the image correlated with its Gaussian, or,
 /// where [`chained_sigma`] allows, the level before it correlated with the
@@ -477,43 +610,42 @@ const MIN_CHAIN_SIGMA: f64 = 1.0;
 /// own would be many, and on its coarser grid when the step doubles). Each
 /// level of a chain is computed over a window wide enough for the rest of
 /// the chain and cropped.
-pub(super) fn build_levels(src: &Source<'_>, layout: &super::StackLayout) -> Vec<Vec<f32>> {
+///
+/// With `windows` (one per level, stored-sample indices) a level is
+/// computed over its window only (and what the chain after it needs), the
+/// rest of its samples left zero: a stack for one filter's reads
+/// ([`super::reads`]). A sample computed is the same sum, in the same
+/// order, as without windows, but where [`computed_windows`] starts a new
+/// chain at a level: that level's samples then agree with the chained ones
+/// to the builds' 2e-6 of the image's range.
+pub(super) fn build_levels(
+    src: &Source<'_>,
+    layout: &super::StackLayout,
+    windows: Option<&[Window]>,
+) -> Vec<Vec<f32>> {
     let levels = &layout.levels;
     let cubic = layout.interpolation == super::Interpolation::Cubic;
     let k = if cubic { CUBIC_TAPS as i64 } else { 0 };
     let c = src.channels;
-    let chained = chains(layout);
-    // The windows to compute, from the last level back.
-    let mut need: Vec<Window> = levels
-        .iter()
-        .map(|l| ((-k, l.nx as i64 - 1 + k), (-k, l.ny as i64 - 1 + k)))
-        .collect();
-    for i in (1..levels.len()).rev() {
-        if let Some(d) = chained[i] {
-            let (a, b) = (&levels[i - 1], &levels[i]);
-            let m = (b.step / a.step) as i64;
-            let off = (b.origin - a.origin) / a.step as i64;
-            let r = reach(d);
-            let ((i0, i1), (j0, j1)) = need[i];
-            let ((a0, a1), (b0, b1)) = need[i - 1];
-            need[i - 1] = (
-                (a0.min(off + i0 * m - r), a1.max(off + i1 * m + r)),
-                (b0.min(off + j0 * m - r), b1.max(off + j1 * m + r)),
-            );
-        }
-    }
+    let (chained, need) = computed_windows(layout, windows);
     let mut out: Vec<Vec<f32>> = Vec::with_capacity(levels.len());
-    // Windows wider than the stored samples are computed into one of two
+    // Windows other than the stored samples are computed into one of two
     // buffers, reused (a fresh one costs a page fault per 4 KiB); where the
     // previous level's window is one, `prev_work` says which.
     let mut work: [Vec<f32>; 2] = [Vec::new(), Vec::new()];
     let mut prev_work: Option<usize> = None;
     for (i, l) in levels.iter().enumerate() {
+        if is_empty(need[i]) {
+            // Read nowhere, and no level after it is built from it.
+            out.push(vec![0.0; l.nx * l.ny * c]);
+            prev_work = None;
+            continue;
+        }
         let ((i0, i1), (j0, j1)) = need[i];
         let (ni, nj) = ((i1 - i0 + 1) as usize, (j1 - j0 + 1) as usize);
         let (sx, sy) = (l.nx + 2 * k as usize, l.ny + 2 * k as usize);
-        // The stored window itself, or a wider one to crop.
-        let own = (ni, nj) == (sx, sy) && !cubic;
+        // The stored window itself, or another one to crop.
+        let own = (i0, j0, ni, nj) == (0, 0, sx, sy) && !cubic;
         let slot = i % 2;
         let mut dst = if own {
             Vec::new()
@@ -552,21 +684,51 @@ pub(super) fn build_levels(src: &Source<'_>, layout: &super::StackLayout) -> Vec
             prev_work = None;
             continue;
         }
-        // The stored samples (and K more on each side for cubic).
-        let (dx, dy) = ((-k - i0) as usize, (-k - j0) as usize);
-        let mut stored = Vec::with_capacity(sx * sy * c);
-        for row in dst.chunks_exact(ni * c).skip(dy).take(sy) {
-            stored.extend_from_slice(&row[dx * c..(dx + sx) * c]);
-        }
-        out.push(if cubic {
-            bspline_coefficients(&stored, sx, sy, c)
-        } else {
-            stored
-        });
+        out.push(store(&dst, ((i0, ni), (j0, nj)), l, c, k));
         work[slot] = dst;
         prev_work = Some(slot);
     }
     out
+}
+
+/// A level's stored samples (or, `k > 0`, B-spline coefficients) from the
+/// samples `window` computed over `ni x nj` samples from index `(i0, j0)`
+/// of its stored grid (its `k` samples past the stored ones on each side
+/// included): the stored ones the window holds, zeros elsewhere.
+fn store(
+    window: &[f32],
+    ((i0, ni), (j0, nj)): ((i64, usize), (i64, usize)),
+    l: &LevelLayout,
+    c: usize,
+    k: i64,
+) -> Vec<f32> {
+    let (values, vx, vy, x0, y0) = if k > 0 {
+        // Coefficients of the window's inner samples, from index (i0 + k, j0 + k).
+        let coefficients = bspline_coefficients(window, ni, nj, c);
+        let ku = k as usize;
+        (
+            Cow::Owned(coefficients),
+            ni - 2 * ku,
+            nj - 2 * ku,
+            i0 + k,
+            j0 + k,
+        )
+    } else {
+        (Cow::Borrowed(window), ni, nj, i0, j0)
+    };
+    let (nx, ny) = (l.nx as i64, l.ny as i64);
+    let (xa, xb) = (x0.max(0), (x0 + vx as i64).min(nx));
+    let (ya, yb) = (y0.max(0), (y0 + vy as i64).min(ny));
+    let mut level = vec![0.0f32; l.nx * l.ny * c];
+    if xa < xb {
+        let len = (xb - xa) as usize * c;
+        for y in ya..yb {
+            let from = (((y - y0) as usize * vx) + (xa - x0) as usize) * c;
+            let to = ((y as usize * l.nx) + xa as usize) * c;
+            level[to..to + len].copy_from_slice(&values[from..from + len]);
+        }
+    }
+    level
 }
 
 /// Cubic B-spline coefficients of the inner `(nx - 2K) x (ny - 2K)` samples
@@ -686,10 +848,16 @@ mod tests {
             };
             StackLayout::new(1024, 1024, 1, lo, hi, options).unwrap()
         };
-        assert_eq!(choose_by_cost(&layout(4.0, 6.73, 4.0)), StackBuild::Direct);
-        assert_eq!(choose_by_cost(&layout(1.0, 32.0, 2.0)), StackBuild::Direct);
         assert_eq!(
-            choose_by_cost(&layout(8.0, 32.0, f64::INFINITY)),
+            choose_by_cost(&layout(4.0, 6.73, 4.0), None),
+            StackBuild::Direct
+        );
+        assert_eq!(
+            choose_by_cost(&layout(1.0, 32.0, 2.0), None),
+            StackBuild::Direct
+        );
+        assert_eq!(
+            choose_by_cost(&layout(8.0, 32.0, f64::INFINITY), None),
             StackBuild::Fft
         );
     }

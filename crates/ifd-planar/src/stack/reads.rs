@@ -1,0 +1,413 @@
+//! Where a filter with a scale map reads each level of a log-uniform stack:
+//! a rectangle of stored samples per level ([`ReadMap::windows`]), so that
+//! a stack built for that map computes only those
+//! ([`crate::FilterPlan::build_stack_for`]).
+//!
+//! # Why
+//! With a scale map over a wide range, each level serves the pixels whose
+//! scale puts some term's sigma near it: at a 4:1 radial scale the finest
+//! levels (full resolution, the dearest to build) are read in a disk around
+//! the centre only. Building every level over the whole image spends most
+//! of the prefiltering on samples no lookup reads.
+//!
+//! # The rectangle, and why it holds every read
+//! A pixel `p` at scale `s` reads, for each term `t`, the levels that
+//! [`LevelRule`] brackets at its position `u_t(s)` among the levels, at
+//! `p + s R c_t`, a stencil of `(before, after)` samples
+//! ([`super::Interpolation::reach`]) around it. Over a block of pixels with
+//! scales in `[s_lo, s_hi]`:
+//! - the position grows with the scale (the effective sigma
+//!   `sqrt(s^2 sigma^2 + v)` does), and the bracket's levels with the
+//!   position, so the block reads levels from the lower one at `u_t(s_lo)`
+//!   to the upper one at `u_t(s_hi)` ([`LevelRule::levels_read`], which
+//!   moves both out by far more than the positions' rounding);
+//! - its lookups lie within `s_hi max_t |c_t|` of the block, plus one pixel
+//!   for rounding, and the stencils within `before + 1` and `after + 1`
+//!   samples of those positions (the floor of a rounded position can move
+//!   by one).
+//!
+//! Each level's window is the union of those rectangles over the blocks
+//! that read it, clipped to the stored samples. A lookup whose stencil
+//! leaves the stored samples resolves its position by the border rule
+//! first: replicate clamps it to the stored edge and reflect-101 mirrors it
+//! about the image edge, to within `s |c_t|` of the pixel on its own side,
+//! inside the same window; a constant border reads nothing. Wrap would read
+//! the far side: [`ReadMap::new`] refuses it (the full build serves it).
+
+use rayon::prelude::*;
+
+use super::locate::{NEAREST_SNAP, PIXEL_SNAP};
+use super::{
+    Interpolation, LevelLayout, LevelLocator, LevelRule, ScalePosition, ScaleStack, StackLayout,
+    Window,
+};
+use crate::border::Border;
+use crate::field::Field;
+use crate::kernel::Sampling;
+
+/// Pixels per side of the blocks whose scale ranges are taken.
+const BLOCK: usize = 16;
+
+/// What locating a filter's reads needs: the stack's levels and rule, the
+/// terms' sigmas and reach.
+pub(crate) struct ReadMap {
+    levels: Vec<LevelLayout>,
+    position: ScalePosition,
+    /// One rule per term sigma.
+    rules: Vec<LevelRule>,
+    /// The largest `|c_t|` (px, before scaling).
+    reach: f64,
+    /// Stored samples a lookup reads before and after the one below it.
+    stencil: (i64, i64),
+}
+
+impl ReadMap {
+    /// The reads of `terms` (`(sigma, cx, cy)`: the per-pixel paths'
+    /// values) of `sampling` on the log-uniform `levels` (at least two) of
+    /// `locator`, read with `interpolation` and extended by `border`,
+    /// located by the rule of the per-pixel paths ([`LevelRule`],
+    /// [`ScalePosition`]); `None` for a wrapping border (see the module
+    /// documentation), a single level or no terms.
+    pub(crate) fn new(
+        levels: Vec<LevelLayout>,
+        locator: &LevelLocator,
+        (sampling, terms): (Sampling, &[(f64, f32, f32)]),
+        (interpolation, border): (Interpolation, Border),
+    ) -> Option<Self> {
+        if border == Border::Wrap || levels.len() < 2 || terms.is_empty() || !locator.is_uniform() {
+            return None;
+        }
+        let ln_params = (locator.ln_sigma0, locator.inv_ln_ratio);
+        let snap = if locator.reads_nearest_level() {
+            NEAREST_SNAP as f32
+        } else {
+            PIXEL_SNAP
+        };
+        let rules = terms
+            .iter()
+            .map(|&(sigma, _, _)| LevelRule {
+                ln_sigma: sigma.ln() as f32,
+                inv_sigma2: (1.0 / (sigma * sigma)) as f32,
+                inv: ln_params.1 as f32,
+                last: (levels.len() - 1) as u32,
+                snap,
+            })
+            .collect();
+        let reach = terms
+            .iter()
+            .map(|&(_, cx, cy)| f64::from(cx).hypot(f64::from(cy)))
+            .fold(0.0, f64::max);
+        let (before, after) = interpolation.reach();
+        Some(Self {
+            levels,
+            position: ScalePosition::new(sampling, ln_params),
+            rules,
+            reach,
+            stencil: (before as i64, after as i64),
+        })
+    }
+
+    /// [`Self::new`] for `stack`'s levels.
+    pub(crate) fn of_stack(
+        stack: &ScaleStack,
+        sampling: Sampling,
+        terms: &[(f64, f32, f32)],
+    ) -> Option<Self> {
+        Self::new(
+            stack.level_layouts().copied().collect(),
+            &stack.locator(),
+            (sampling, terms),
+            (stack.interpolation(), stack.border()),
+        )
+    }
+
+    /// [`Self::new`] for the levels of `layout`, extended by `border`.
+    pub(crate) fn of_layout(
+        layout: &StackLayout,
+        border: Border,
+        sampling: Sampling,
+        terms: &[(f64, f32, f32)],
+    ) -> Option<Self> {
+        Self::new(
+            layout.levels().to_vec(),
+            &layout.locator(),
+            (sampling, terms),
+            (layout.interpolation, border),
+        )
+    }
+
+    /// Per level, the stored samples (indices, inclusive; empty as
+    /// `((0, -1), (0, -1))`) that filtering a `width x height` image with
+    /// `scale` (a checked field: finite, positive) reads.
+    pub(crate) fn windows(&self, scale: Field<'_>, (width, height): (usize, usize)) -> Vec<Window> {
+        let ranges = block_ranges(scale, width, height);
+        let bw = width.div_ceil(BLOCK);
+        // Per level, the pixel rectangle (x0, x1, y0, y1) of its reads.
+        let mut rects = vec![
+            (
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY
+            );
+            self.levels.len()
+        ];
+        for (b, &(s_lo, s_hi)) in ranges.iter().enumerate() {
+            let (t_lo, widen_lo) = self.position.at(s_lo);
+            let (t_hi, widen_hi) = self.position.at(s_hi);
+            let (first, last) = self.rules.iter().fold((u32::MAX, 0), |(f, l), r| {
+                let (a, b) = r.levels_read(r.position(t_lo, widen_lo), r.position(t_hi, widen_hi));
+                (f.min(a), l.max(b))
+            });
+            let (bx, by) = ((b % bw) * BLOCK, (b / bw) * BLOCK);
+            let d = f64::from(s_hi) * self.reach + 1.0;
+            let x0 = bx as f64 - d;
+            let x1 = (bx + BLOCK).min(width) as f64 - 1.0 + d;
+            let y0 = by as f64 - d;
+            let y1 = (by + BLOCK).min(height) as f64 - 1.0 + d;
+            for r in &mut rects[first as usize..=last as usize] {
+                *r = (r.0.min(x0), r.1.max(x1), r.2.min(y0), r.3.max(y1));
+            }
+        }
+        self.levels
+            .iter()
+            .zip(rects)
+            .map(|(l, (x0, x1, y0, y1))| {
+                if x0 > x1 {
+                    return ((0, -1), (0, -1));
+                }
+                let (before, after) = self.stencil;
+                let index = |p: f64| ((p - l.origin as f64) / l.step as f64).floor() as i64;
+                let axis = |lo: f64, hi: f64, n: usize| {
+                    let last = n as i64 - 1;
+                    let i0 = (index(lo) - before - 1).clamp(0, last);
+                    let i1 = (index(hi) + after + 1).clamp(0, last);
+                    (i0, i1)
+                };
+                (axis(x0, x1, l.nx), axis(y0, y1, l.ny))
+            })
+            .collect()
+    }
+}
+
+/// The smallest and largest scale of each `BLOCK x BLOCK` block, row-major.
+fn block_ranges(scale: Field<'_>, width: usize, height: usize) -> Vec<(f32, f32)> {
+    let bw = width.div_ceil(BLOCK);
+    let bh = height.div_ceil(BLOCK);
+    let mut ranges = vec![(f32::INFINITY, f32::NEG_INFINITY); bw * bh];
+    match scale {
+        Field::Constant(s) => ranges.fill((s, s)),
+        Field::Map(m) => ranges.par_chunks_mut(bw).enumerate().for_each(|(by, out)| {
+            // Down the block row's rows pixel by pixel, then across each
+            // block; comparisons rather than `f32::min` (which minds NaNs,
+            // and a checked field has none), so that the first loop
+            // vectorises.
+            let rows = by * BLOCK..((by + 1) * BLOCK).min(height);
+            let first = &m[rows.start * width..(rows.start + 1) * width];
+            let (mut lo, mut hi) = (first.to_vec(), first.to_vec());
+            for y in rows.skip(1) {
+                let row = &m[y * width..(y + 1) * width];
+                for ((l, h), &s) in lo.iter_mut().zip(hi.iter_mut()).zip(row) {
+                    *l = if s < *l { s } else { *l };
+                    *h = if s > *h { s } else { *h };
+                }
+            }
+            for (r, (l, h)) in out.iter_mut().zip(lo.chunks(BLOCK).zip(hi.chunks(BLOCK))) {
+                *r = (
+                    l.iter().copied().fold(f32::INFINITY, f32::min),
+                    h.iter().copied().fold(f32::NEG_INFINITY, f32::max),
+                );
+            }
+        }),
+    }
+    ranges
+}
+
+/// Whether every level's `computed` window holds its `needed` one.
+pub(crate) fn holds(computed: &[Window], needed: &[Window]) -> bool {
+    let inside = |(a0, a1): (i64, i64), (b0, b1): (i64, i64)| b0 > b1 || (a0 <= b0 && b1 <= a1);
+    computed.len() == needed.len()
+        && computed
+            .iter()
+            .zip(needed)
+            .all(|(c, n)| inside(c.0, n.0) && inside(c.1, n.1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::decomposition::Decomposition;
+    use crate::stack::StackOptions;
+    use crate::stack::for_decomposition::stack_plan_for_decomposition;
+    use crate::term::Term;
+    use crate::trig::sin_cos_degrees;
+
+    /// The share of `levels`' stored samples that `windows` hold.
+    fn share(levels: &[LevelLayout], windows: &[Window]) -> f64 {
+        let size =
+            |((i0, i1), (j0, j1)): Window| ((i1 - i0 + 1).max(0) * (j1 - j0 + 1).max(0)) as f64;
+        let all: f64 = levels.iter().map(|l| (l.nx * l.ny) as f64).sum();
+        let held: f64 = windows.iter().map(|&w| size(w)).sum();
+        held / all
+    }
+
+    /// A scale per pixel of a `w x h` image: radial over `[lo, 1]`, or
+    /// hashed noise over `[lo, 1]`, or a step (`lo` left, 1 right).
+    fn scale_map(kind: &str, lo: f32, (w, h): (usize, usize)) -> Vec<f32> {
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                match kind {
+                    "radial" => {
+                        let r = (x - w as f32 / 2.0).hypot(y - h as f32 / 2.0);
+                        lo + (1.0 - lo) * r / (w as f32 / 2.0).hypot(h as f32 / 2.0)
+                    }
+                    "noise" => lo + (1.0 - lo) * ((i * 2_654_435_761) % 1000) as f32 / 999.0,
+                    _ => {
+                        if x < w as f32 / 3.0 {
+                            lo
+                        } else {
+                            1.0
+                        }
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// Every stored sample that any pixel's lookups read (the per-pixel
+    /// rule's levels, the stencils around each term's position under a
+    /// per-pixel angle, computed as the scalar loop computes them, clamped
+    /// to the stored samples as the border rule clamps them) lies in its
+    /// level's window: for both samplings (the point-sampled one widens
+    /// small scales), both interpolations, blended and nearest levels,
+    /// full-resolution and pyramid levels, smooth, noisy and stepped maps.
+    #[test]
+    fn the_windows_hold_every_read() {
+        let (w, h) = (90, 70);
+        let terms = vec![
+            Term {
+                weight: 0.5,
+                x: -7.0,
+                y: 2.0,
+                sigma: 1.2,
+            },
+            Term {
+                weight: 0.3,
+                x: 5.0,
+                y: -4.5,
+                sigma: 2.6,
+            },
+            Term {
+                weight: 0.2,
+                x: 0.5,
+                y: 9.0,
+                sigma: 5.0,
+            },
+        ];
+        let angles: Vec<f32> = (0..w * h).map(|i| ((i * 7919) % 360) as f32).collect();
+        let mut smallest_share = 1.0f64;
+        for sampling in [Sampling::Continuous, Sampling::Point] {
+            let mut d = Decomposition::from_terms(terms.clone());
+            d.sampling = sampling;
+            for (interpolation, nearest_level, pyramid_factor) in [
+                (Interpolation::Linear, false, 2.0),
+                (Interpolation::Linear, true, 1.0),
+                (Interpolation::Cubic, false, 4.0),
+            ] {
+                let options = StackOptions {
+                    samples_per_octave: 3,
+                    pyramid_factor,
+                    interpolation,
+                    nearest_level,
+                    ..StackOptions::default()
+                };
+                for kind in ["radial", "noise", "step"] {
+                    let scales = scale_map(kind, 0.2, (w, h));
+                    let plan = stack_plan_for_decomposition(
+                        (w, h, 1),
+                        &d,
+                        0.2,
+                        1.0,
+                        Border::Reflect101,
+                        options,
+                    )
+                    .expect("plan");
+                    let layout = plan.layout().expect("layout");
+                    let prepared: Vec<(f64, f32, f32)> = terms
+                        .iter()
+                        .map(|t| (t.sigma, t.x as f32, t.y as f32))
+                        .collect();
+                    let reads =
+                        ReadMap::of_layout(&layout, Border::Reflect101, sampling, &prepared)
+                            .expect("reads");
+                    let windows = reads.windows(Field::Map(&scales), (w, h));
+                    smallest_share = smallest_share.min(share(layout.levels(), &windows));
+                    let (before, after) = interpolation.reach();
+                    for (i, (&s, &theta)) in scales.iter().zip(&angles).enumerate() {
+                        let (x, y) = ((i % w) as f32, (i / w) as f32);
+                        let (t_s, widen) = reads.position.at(s);
+                        let (sin, cos) = sin_cos_degrees(theta);
+                        let (cs, ss) = (cos * s, sin * s);
+                        for (t, rule) in terms.iter().zip(&reads.rules) {
+                            let (cx, cy) = (t.x as f32, t.y as f32);
+                            let px = x + cs * cx + ss * cy;
+                            let py = y - ss * cx + cs * cy;
+                            let (a, b, _, wb) = rule.at(t_s, widen);
+                            let read = if wb == 0.0 { vec![a] } else { vec![a, b] };
+                            for level in read {
+                                let l = &layout.levels()[level as usize];
+                                let ((i0, i1), (j0, j1)) = windows[level as usize];
+                                let index =
+                                    |p: f32| ((p - l.origin as f32) / l.step as f32).floor() as i64;
+                                let (u, v) = (index(px), index(py));
+                                for du in -(before as i64)..=after as i64 {
+                                    for dv in -(before as i64)..=after as i64 {
+                                        let iu = (u + du).clamp(0, l.nx as i64 - 1);
+                                        let iv = (v + dv).clamp(0, l.ny as i64 - 1);
+                                        assert!(
+                                            (i0..=i1).contains(&iu) && (j0..=j1).contains(&iv),
+                                            "{sampling:?} {interpolation:?} nearest {nearest_level} {kind}: \
+                                             pixel ({x}, {y}) at scale {s} reads level {level} at ({iu}, {iv}), \
+                                             outside its window {:?}",
+                                            windows[level as usize]
+                                        );
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Somewhere the windows leave samples out (the test is not vacuous
+        // because every window is the whole level).
+        assert!(smallest_share < 0.8, "{smallest_share}");
+    }
+
+    /// A wrapping border reads the far side of the image: no windows.
+    #[test]
+    fn a_wrapping_border_has_no_windows() {
+        let d = Decomposition::from_terms(vec![Term {
+            weight: 1.0,
+            x: 3.0,
+            y: 0.0,
+            sigma: 2.0,
+        }]);
+        let plan = stack_plan_for_decomposition(
+            (40, 30, 1),
+            &d,
+            0.25,
+            1.0,
+            Border::Wrap,
+            StackOptions::default(),
+        )
+        .expect("plan");
+        let layout = plan.layout().expect("layout");
+        let terms = [(2.0, 3.0, 0.0)];
+        assert!(ReadMap::of_layout(&layout, Border::Wrap, Sampling::Continuous, &terms).is_none());
+        assert!(
+            ReadMap::of_layout(&layout, Border::Reflect101, Sampling::Continuous, &terms).is_some()
+        );
+    }
+}
