@@ -125,10 +125,6 @@ fn advise(p: *mut u8, len: usize) {
 #[cfg(not(target_os = "linux"))]
 fn advise(_: *mut u8, _: usize) {}
 
-/// The base page size the kernel hands back whole (`MADV_DONTNEED` refuses
-/// a range not aligned to the system's page size; then `zero` writes).
-const PAGE: usize = 4096;
-
 /// Zeroes the `len` bytes at `p` (a block just allocated, not null) without
 /// touching the whole pages inside it: those go back to the kernel
 /// (`MADV_DONTNEED`: a private anonymous page, which is what the system
@@ -136,11 +132,22 @@ const PAGE: usize = 4096;
 /// page only when written), the partial pages at the ends are written. A
 /// zeroed block its owner writes only in part (a scale stack's level built
 /// where a scale map reads it) then costs pages only for that part. Where
-/// the kernel refuses, every byte is written.
+/// the kernel refuses, every byte is written. The pages are the system's
+/// (`sysconf`; 16 or 64 KiB on some aarch64 kernels), and the block must
+/// come from an allocator of private memory (the system's does: a
+/// replacement preloaded over shared memory would lose its contents to
+/// other mappings of it).
 #[cfg(target_os = "linux")]
 unsafe fn zero(p: *mut u8, len: usize) {
-    let start = (p as usize).next_multiple_of(PAGE);
-    let end = (p as usize + len) / PAGE * PAGE;
+    // SAFETY: `sysconf` reads a constant of the system.
+    let page = match unsafe { libc::sysconf(libc::_SC_PAGESIZE) } {
+        n if n > 0 => n as usize,
+        _ => usize::MAX,
+    };
+    let start = (p as usize)
+        .checked_next_multiple_of(page)
+        .unwrap_or(usize::MAX);
+    let end = (p as usize + len) / page * page;
     // SAFETY: `[p, p + len)` is the block just allocated; `[start, end)`
     // lies inside it, and `MADV_DONTNEED` on private anonymous memory only
     // replaces its pages with zero-fill-on-demand ones.
@@ -217,22 +224,39 @@ mod tests {
         );
     }
 
-    /// A large zeroed block reads as zeros, also where the system allocator
-    /// hands back a block just written and freed (whose pages the kernel
-    /// takes back rather than the allocator clearing them), and it can be
-    /// written anywhere.
+    /// `zero` clears exactly the bytes it is given, whole pages and partial
+    /// ones, of a block that was written (the kernel's pages handed back
+    /// read as zeros), and they can be written again; a large zeroed block
+    /// reads as zeros.
     #[test]
-    fn zeroed_blocks_are_zero() {
-        for round in 0..3 {
-            let len = 3 * HUGE_FROM + 12_345 * round;
-            let mut dirty = vec![0xA5u8; len];
-            dirty[len / 2] = 1;
-            drop(dirty);
-            let mut block = vec![0u32; len / 4];
-            assert!(block.iter().all(|&v| v == 0), "round {round}");
-            block[len / 8] = 7;
-            assert_eq!(block.iter().filter(|&&v| v != 0).count(), 1);
+    fn zero_clears_exactly_its_bytes() {
+        for (skip, len) in [
+            (0, 3 * HUGE_FROM),
+            (100, 2 * HUGE_FROM + 12_345),
+            (4096, 70_000),
+            (7, 9),
+        ] {
+            let mut block = vec![0xA5u8; skip + len + 333];
+            // SAFETY: `[skip, skip + len)` lies inside `block`, private
+            // memory of this process.
+            unsafe { super::zero(block.as_mut_ptr().add(skip), len) };
+            assert!(
+                block[..skip].iter().all(|&b| b == 0xA5),
+                "{skip} {len}: before"
+            );
+            assert!(
+                block[skip..skip + len].iter().all(|&b| b == 0),
+                "{skip} {len}: inside"
+            );
+            assert!(
+                block[skip + len..].iter().all(|&b| b == 0xA5),
+                "{skip} {len}: after"
+            );
+            block[skip + len / 2] = 3;
+            assert_eq!(block[skip + len / 2], 3);
         }
+        let zeroed = vec![0u32; HUGE_FROM];
+        assert!(zeroed.iter().all(|&v| v == 0));
     }
 
     /// Blocks grown and shrunk across the threshold keep their contents

@@ -69,6 +69,15 @@ impl GpuStack {
     /// `max_storage_buffer_binding_size` or `max_buffer_size` or the image is
     /// too large to index, [`GpuError::Device`] if wgpu fails to allocate.
     pub fn upload(ctx: &GpuContext, stack: &ScaleStack) -> Result<Self, GpuError> {
+        if stack.computed_share() < 1.0 {
+            // Built for one scale map's reads on the CPU: the rest are zeros.
+            return Err(ifd_planar::FilterError::InvalidParameter(
+                "the stack holds only the samples one CPU filter reads \
+                 (FilterPlan::build_stack_for): upload one built with FilterPlan::build_stack"
+                    .into(),
+            )
+            .into());
+        }
         let channels = stack.channels();
         let layouts: Vec<_> = stack.level_layouts().copied().collect();
         let plane_bytes = plane_bytes(&layouts);

@@ -71,8 +71,9 @@ impl<'a> Filter<'a> {
     /// [`FilterError::ScaleOutOfRange`] when some `scale * sigma_t` is not covered.
     pub fn at_scale(&self, scale: f32) -> Result<ScaledFilter<'_, 'a>, FilterError> {
         let checked = Field::Constant(scale).check(FieldKind::Scale, 1, 1)?;
-        // Its lookups read every term from the stack.
+        // Its lookups read every term from the stack, anywhere.
         self.check_scales(&checked, false)?;
+        self.stack.check_whole("a filter at points")?;
         Ok(ScaledFilter {
             filter: self,
             scale,

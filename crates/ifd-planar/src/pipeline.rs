@@ -239,9 +239,10 @@ impl FilterPlan {
     /// [`Self::build_stack`]'s result to the stack builds' agreement (2e-6
     /// of the image's range a sample: a level may be summed from the image
     /// where the whole stack chains it from the level before); the stack
-    /// is refused for other filters or scales, and for
-    /// [`ScaleStack::sample`] ([`ScaleStack::computed_share`] says how much
-    /// was computed). Without a scale map, with a wrapping border, or where
+    /// is refused for other filters or scales and for lookups anywhere
+    /// ([`ScaleStack::sample`], [`ScaleStack::correlate_region`],
+    /// [`crate::Taps::apply_region`], [`crate::Filter::at_scale`], the GPU's
+    /// upload; [`ScaleStack::computed_share`] says how much was computed). Without a scale map, with a wrapping border, or where
     /// the FFT build is cheaper, it is [`Self::build_stack`].
     ///
     /// ```
@@ -342,7 +343,7 @@ impl FilterPlan {
 
 /// Filters `image` with `decomposition` rotated by `angle` (degrees,
 /// counter-clockwise on screen) and scaled by `scale`, per pixel or
-/// constant: [`FilterPlan::new`], [`FilterPlan::build_stack`],
+/// constant: [`FilterPlan::new`], [`FilterPlan::build_stack_for`],
 /// [`FilterPlan::evaluate`].
 ///
 /// # Errors

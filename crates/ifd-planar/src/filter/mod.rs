@@ -265,20 +265,16 @@ impl<'a> Filter<'a> {
 
     /// On a stack built for one filter's reads
     /// ([`crate::FilterPlan::build_stack_for`]), checks that this filter
-    /// with `scale` reads only samples it computed (`scale: None`, a lookup
-    /// anywhere, never does).
-    fn check_reads(&self, scale: Option<&CheckedField<'_>>) -> Result<(), FilterError> {
+    /// with `scale` reads only samples it computed.
+    fn check_reads(&self, scale: &CheckedField<'_>) -> Result<(), FilterError> {
         let Some(computed) = self.stack.computed_windows() else {
             return Ok(());
         };
         let terms: Vec<(f64, f32, f32)> =
             self.terms.iter().map(|t| (t.sigma, t.cx, t.cy)).collect();
         let dims = (self.stack.width(), self.stack.height());
-        let held = scale
-            .zip(ReadMap::of_stack(self.stack, self.sampling, &terms))
-            .is_some_and(|(scale, reads)| {
-                reads::holds(computed, &reads.windows(scale.field(), dims))
-            });
+        let held = ReadMap::of_stack(self.stack, self.sampling, &terms)
+            .is_some_and(|reads| reads::holds(computed, &reads.windows(scale.field(), dims)));
         if held {
             Ok(())
         } else {
@@ -361,7 +357,7 @@ impl<'a> Filter<'a> {
         let scale = scale.check(FieldKind::Scale, w, h)?;
         let constant_pose = !angle.is_map() && !scale.is_map();
         self.check_scales(&scale, constant_pose)?;
-        self.check_reads(Some(&scale))?;
+        self.check_reads(&scale)?;
         let out = match (angle.field(), scale.field()) {
             (Field::Constant(theta), Field::Constant(s)) => {
                 let taps = self.taps_where(theta, s, |t| !self.direct_at(t, s));
@@ -466,7 +462,7 @@ impl<'a> Filter<'a> {
         let angle = angle.check(FieldKind::Angle, w, h)?;
         let scale = scale.check(FieldKind::Scale, w, h)?;
         self.check_scales(&scale, false)?;
-        self.check_reads(Some(&scale))?;
+        self.check_reads(&scale)?;
         self.per_pixel_channels(angle.field(), scale.field(), Some(weight), out.data_mut());
         Ok(())
     }
@@ -535,7 +531,7 @@ impl<'a> Filter<'a> {
         let scale = Field::Constant(s).check(FieldKind::Scale, 1, 1)?;
         // A point lookup reads every term from the stack.
         self.check_scales(&scale, false)?;
-        self.check_reads(None)?;
+        self.stack.check_whole("a lookup at a point")?;
         out.fill(0.0);
         let (sin, cos) = sin_cos_degrees(theta);
         self.pixel_general::<0>(x, y, cos, sin, s, 1.0, out);

@@ -154,6 +154,7 @@ impl Taps {
         width: usize,
         height: usize,
     ) -> Result<Vec<f32>, FilterError> {
+        stack.check_whole("taps at a constant pose")?;
         if x0 + width > stack.width() || y0 + height > stack.height() {
             return Err(FilterError::InvalidParameter(format!(
                 "region {width}x{height} at ({x0}, {y0}) leaves the {}x{} image",

@@ -282,6 +282,19 @@ impl ScaleStack {
         self.computed.as_deref()
     }
 
+    /// [`FilterError::InvalidParameter`] for a stack built for one filter's
+    /// reads, whose samples `what` (a lookup anywhere) may not find.
+    pub(crate) fn check_whole(&self, what: &str) -> Result<(), FilterError> {
+        if self.computed.is_none() {
+            return Ok(());
+        }
+        Err(FilterError::InvalidParameter(format!(
+            "this stack holds only the samples that the filter and scale map it was built for read \
+             (FilterPlan::build_stack_for), not those {what} needs: build it with \
+             FilterPlan::build_stack"
+        )))
+    }
+
     /// How the levels were computed (the cheaper build for the layout).
     #[must_use]
     pub fn build_method(&self) -> StackBuild {

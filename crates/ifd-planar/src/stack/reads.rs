@@ -16,11 +16,19 @@
 //! `p + s R c_t`, a stencil of `(before, after)` samples
 //! ([`super::Interpolation::reach`]) around it. Over a block of pixels with
 //! scales in `[s_lo, s_hi]`:
-//! - the position grows with the scale (the effective sigma
-//!   `sqrt(s^2 sigma^2 + v)` does), and the bracket's levels with the
-//!   position, so the block reads levels from the lower one at `u_t(s_lo)`
-//!   to the upper one at `u_t(s_hi)` ([`LevelRule::levels_read`], which
-//!   moves both out by far more than the positions' rounding);
+//! - the position is `ln` of the effective sigma, whose square
+//!   `max(s^2 sigma^2 + v(s), s^2 sigma^2 / 4)` ([`Sampling::effective_sigma`])
+//!   is monotone in `s^2` between breakpoints: none for continuous and
+//!   averaged terms, the drop of a point-sampled term's pixel footprint at
+//!   `s = 1`, and for an area-sampled term narrower than a third of a pixel
+//!   the floor's kink at `s^2 = 1 / (1 - 9 sigma^2)` (its variance
+//!   `(1 - s^2) / 12` falls as the scale grows; the square is the larger of
+//!   two lines, so the kink is a minimum). The extremes of the position over
+//!   the block are therefore among its values at `s_lo`, `s_hi` and the
+//!   breakpoints between (either side of a drop), and the block reads levels
+//!   from the lower one at the least to the upper one at the greatest
+//!   ([`LevelRule::levels_read`], which moves both out by far more than the
+//!   positions' rounding);
 //! - its lookups lie within `s_hi max_t |c_t|` of the block, plus one pixel
 //!   for rounding, and the stencils within `before + 1` and `after + 1`
 //!   samples of those positions (the floor of a rounded position can move
@@ -53,8 +61,9 @@ const BLOCK: usize = 16;
 pub(crate) struct ReadMap {
     levels: Vec<LevelLayout>,
     position: ScalePosition,
-    /// One rule per term sigma.
-    rules: Vec<LevelRule>,
+    sampling: Sampling,
+    /// One rule per term sigma, with its sigma.
+    rules: Vec<(LevelRule, f64)>,
     /// The largest `|c_t|` (px, before scaling).
     reach: f64,
     /// Stored samples a lookup reads before and after the one below it.
@@ -85,12 +94,15 @@ impl ReadMap {
         };
         let rules = terms
             .iter()
-            .map(|&(sigma, _, _)| LevelRule {
-                ln_sigma: sigma.ln() as f32,
-                inv_sigma2: (1.0 / (sigma * sigma)) as f32,
-                inv: ln_params.1 as f32,
-                last: (levels.len() - 1) as u32,
-                snap,
+            .map(|&(sigma, _, _)| {
+                let rule = LevelRule {
+                    ln_sigma: sigma.ln() as f32,
+                    inv_sigma2: (1.0 / (sigma * sigma)) as f32,
+                    inv: ln_params.1 as f32,
+                    last: (levels.len() - 1) as u32,
+                    snap,
+                };
+                (rule, sigma)
             })
             .collect();
         let reach = terms
@@ -101,6 +113,7 @@ impl ReadMap {
         Some(Self {
             levels,
             position: ScalePosition::new(sampling, ln_params),
+            sampling,
             rules,
             reach,
             stencil: (before as i64, after as i64),
@@ -153,12 +166,22 @@ impl ReadMap {
             self.levels.len()
         ];
         for (b, &(s_lo, s_hi)) in ranges.iter().enumerate() {
-            let (t_lo, widen_lo) = self.position.at(s_lo);
-            let (t_hi, widen_hi) = self.position.at(s_hi);
-            let (first, last) = self.rules.iter().fold((u32::MAX, 0), |(f, l), r| {
-                let (a, b) = r.levels_read(r.position(t_lo, widen_lo), r.position(t_hi, widen_hi));
-                (f.min(a), l.max(b))
-            });
+            let (first, last) = self
+                .rules
+                .iter()
+                .fold((u32::MAX, 0), |(f, l), &(rule, sigma)| {
+                    let (lo, hi) = self
+                        .extremes(s_lo, s_hi, sigma)
+                        .map(|s| {
+                            let (t_s, widen) = self.position.at(s);
+                            rule.position(t_s, widen)
+                        })
+                        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), u| {
+                            (lo.min(u), hi.max(u))
+                        });
+                    let (a, b) = rule.levels_read(lo, hi);
+                    (f.min(a), l.max(b))
+                });
             let (bx, by) = ((b % bw) * BLOCK, (b / bw) * BLOCK);
             let d = f64::from(s_hi) * self.reach + 1.0;
             let x0 = bx as f64 - d;
@@ -187,6 +210,34 @@ impl ReadMap {
                 (axis(x0, x1, l.nx), axis(y0, y1, l.ny))
             })
             .collect()
+    }
+}
+
+impl ReadMap {
+    /// The scales in `[s_lo, s_hi]` among which a term of `sigma` has the
+    /// least and the greatest position (the module documentation): the
+    /// ends, and the breakpoints of its sampling between them.
+    fn extremes(&self, s_lo: f32, s_hi: f32, sigma: f64) -> impl Iterator<Item = f32> {
+        let mut at = vec![s_lo, s_hi];
+        let mut add = |s: f32| {
+            if s_lo < s && s < s_hi {
+                at.push(s);
+            }
+        };
+        match self.sampling {
+            Sampling::Point if s_lo < 1.0 && 1.0 <= s_hi => {
+                // The footprint drops at 1: the last scale below and 1.
+                at.extend([1.0f32.next_down().max(s_lo), 1.0]);
+            }
+            Sampling::Area if 9.0 * sigma * sigma < 1.0 => {
+                let kink = (1.0 / (1.0 - 9.0 * sigma * sigma)).sqrt() as f32;
+                for s in [kink.next_down(), kink, kink.next_up()] {
+                    add(s);
+                }
+            }
+            _ => {}
+        }
+        at.into_iter()
     }
 }
 
@@ -251,23 +302,31 @@ mod tests {
         held / all
     }
 
-    /// A scale per pixel of a `w x h` image: radial over `[lo, 1]`, or
-    /// hashed noise over `[lo, 1]`, or a step (`lo` left, 1 right).
-    fn scale_map(kind: &str, lo: f32, (w, h): (usize, usize)) -> Vec<f32> {
+    /// A scale per pixel of a `w x h` image over `[lo, hi]`: radial, hashed
+    /// noise, a step (`lo` left, `hi` right), or, about 1, a checkerboard of
+    /// 3 px squares of the last scale below 1 and 1 itself.
+    fn scale_map(kind: &str, (lo, hi): (f32, f32), (w, h): (usize, usize)) -> Vec<f32> {
         (0..w * h)
             .map(|i| {
                 let (x, y) = ((i % w) as f32, (i / w) as f32);
                 match kind {
                     "radial" => {
                         let r = (x - w as f32 / 2.0).hypot(y - h as f32 / 2.0);
-                        lo + (1.0 - lo) * r / (w as f32 / 2.0).hypot(h as f32 / 2.0)
+                        lo + (hi - lo) * r / (w as f32 / 2.0).hypot(h as f32 / 2.0)
                     }
-                    "noise" => lo + (1.0 - lo) * ((i * 2_654_435_761) % 1000) as f32 / 999.0,
+                    "noise" => lo + (hi - lo) * ((i * 2_654_435_761) % 1000) as f32 / 999.0,
+                    "checks" => {
+                        if ((i % w) / 3 + (i / w) / 3) % 2 == 0 {
+                            1.0f32.next_down()
+                        } else {
+                            1.0
+                        }
+                    }
                     _ => {
                         if x < w as f32 / 3.0 {
                             lo
                         } else {
-                            1.0
+                            hi
                         }
                     }
                 }
@@ -279,15 +338,17 @@ mod tests {
     /// rule's levels, the stencils around each term's position under a
     /// per-pixel angle, computed as the scalar loop computes them, clamped
     /// to the stored samples as the border rule clamps them) lies in its
-    /// level's window: for both samplings (the point-sampled one widens
-    /// small scales), both interpolations, blended and nearest levels,
-    /// full-resolution and pyramid levels, smooth, noisy and stepped maps.
+    /// level's window: every sampling (the point-sampled footprint drops at
+    /// scale 1, a narrow area-sampled term's position falls and rises with
+    /// the scale), both interpolations, blended and nearest levels,
+    /// full-resolution and pyramid levels, smooth, noisy, stepped and
+    /// checkered maps below and across scale 1.
     #[test]
     fn the_windows_hold_every_read() {
         let (w, h) = (90, 70);
         let terms = vec![
             Term {
-                weight: 0.5,
+                weight: 0.4,
                 x: -7.0,
                 y: 2.0,
                 sigma: 1.2,
@@ -304,10 +365,21 @@ mod tests {
                 y: 9.0,
                 sigma: 5.0,
             },
+            Term {
+                weight: 0.1,
+                x: 1.5,
+                y: -1.0,
+                sigma: 0.25,
+            },
         ];
         let angles: Vec<f32> = (0..w * h).map(|i| ((i * 7919) % 360) as f32).collect();
         let mut smallest_share = 1.0f64;
-        for sampling in [Sampling::Continuous, Sampling::Point] {
+        for sampling in [
+            Sampling::Continuous,
+            Sampling::Point,
+            Sampling::Area,
+            Sampling::Averaged,
+        ] {
             let mut d = Decomposition::from_terms(terms.clone());
             d.sampling = sampling;
             for (interpolation, nearest_level, pyramid_factor) in [
@@ -322,13 +394,20 @@ mod tests {
                     nearest_level,
                     ..StackOptions::default()
                 };
-                for kind in ["radial", "noise", "step"] {
-                    let scales = scale_map(kind, 0.2, (w, h));
+                for (kind, range) in [
+                    ("radial", (0.2, 1.0)),
+                    ("noise", (0.2, 1.0)),
+                    ("step", (0.2, 1.0)),
+                    ("radial", (0.5, 2.0)),
+                    ("noise", (0.5, 2.0)),
+                    ("checks", (0.99, 1.0)),
+                ] {
+                    let scales = scale_map(kind, range, (w, h));
                     let plan = stack_plan_for_decomposition(
                         (w, h, 1),
                         &d,
-                        0.2,
-                        1.0,
+                        range.0,
+                        range.1,
                         Border::Reflect101,
                         options,
                     )
@@ -349,7 +428,7 @@ mod tests {
                         let (t_s, widen) = reads.position.at(s);
                         let (sin, cos) = sin_cos_degrees(theta);
                         let (cs, ss) = (cos * s, sin * s);
-                        for (t, rule) in terms.iter().zip(&reads.rules) {
+                        for (t, (rule, _)) in terms.iter().zip(&reads.rules) {
                             let (cx, cy) = (t.x as f32, t.y as f32);
                             let px = x + cs * cx + ss * cy;
                             let py = y - ss * cx + cs * cy;
@@ -367,7 +446,7 @@ mod tests {
                                         let iv = (v + dv).clamp(0, l.ny as i64 - 1);
                                         assert!(
                                             (i0..=i1).contains(&iu) && (j0..=j1).contains(&iv),
-                                            "{sampling:?} {interpolation:?} nearest {nearest_level} {kind}: \
+                                            "{sampling:?} {interpolation:?} nearest {nearest_level} {kind} {range:?}: \
                                              pixel ({x}, {y}) at scale {s} reads level {level} at ({iu}, {iv}), \
                                              outside its window {:?}",
                                             windows[level as usize]
@@ -383,6 +462,72 @@ mod tests {
         // Somewhere the windows leave samples out (the test is not vacuous
         // because every window is the whole level).
         assert!(smallest_share < 0.8, "{smallest_share}");
+    }
+
+    /// The positions at [`ReadMap::extremes`] bound a term's position at
+    /// every scale between the ends (a fine grid and the breakpoints
+    /// themselves), for every sampling and sigmas either side of the area
+    /// kink's third of a pixel, over ranges below, across and above 1.
+    #[test]
+    fn the_extremes_bound_the_positions_between() {
+        let d = Decomposition::from_terms(vec![Term {
+            weight: 1.0,
+            x: 0.0,
+            y: 0.0,
+            sigma: 1.0,
+        }]);
+        let plan = stack_plan_for_decomposition(
+            (64, 64, 1),
+            &d,
+            0.1,
+            4.0,
+            Border::Reflect101,
+            StackOptions::default(),
+        )
+        .expect("plan");
+        let layout = plan.layout().expect("layout");
+        for sampling in [
+            Sampling::Continuous,
+            Sampling::Point,
+            Sampling::Area,
+            Sampling::Averaged,
+        ] {
+            for sigma in [0.2, 0.25, 0.3, 0.34, 0.6, 1.2, 5.0] {
+                let reads =
+                    ReadMap::of_layout(&layout, Border::Reflect101, sampling, &[(sigma, 0.0, 0.0)])
+                        .expect("reads");
+                let (rule, _) = reads.rules[0];
+                let position = |s: f32| {
+                    let (t_s, widen) = reads.position.at(s);
+                    rule.position(t_s, widen)
+                };
+                for (s_lo, s_hi) in [
+                    (0.5, 2.0),
+                    (0.99, 1.0),
+                    (0.999, 1.001),
+                    (0.2, 0.9),
+                    (1.0, 3.0),
+                    (1.2, 1.8),
+                    (0.9, 3.5),
+                ] {
+                    let (lo, hi) = reads
+                        .extremes(s_lo, s_hi, sigma)
+                        .map(position)
+                        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), u| {
+                            (lo.min(u), hi.max(u))
+                        });
+                    let grid = (0..=2000).map(|k| s_lo + (s_hi - s_lo) * k as f32 / 2000.0);
+                    let special = [1.0f32.next_down(), 1.0, 1.0f32.next_up()];
+                    for s in grid.chain(special).filter(|s| (s_lo..=s_hi).contains(s)) {
+                        let u = position(s);
+                        assert!(
+                            lo - 1e-4 <= u && u <= hi + 1e-4,
+                            "{sampling:?} sigma {sigma} on [{s_lo}, {s_hi}]: position {u} at {s} outside [{lo}, {hi}]"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     /// A wrapping border reads the far side of the image: no windows.

@@ -242,6 +242,7 @@ impl ScaleStack {
         taps: &[FixedTap],
         rect: PixelRect,
     ) -> Result<Vec<f32>, FilterError> {
+        self.check_whole("a correlation over a rectangle")?;
         if rect.x0 + rect.width > self.width() || rect.y0 + rect.height > self.height() {
             return Err(FilterError::Shape(format!(
                 "rectangle {}x{} at ({}, {}) leaves the {}x{} image",

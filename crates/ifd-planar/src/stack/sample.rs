@@ -49,13 +49,7 @@ impl ScaleStack {
             let (min, max) = self.sigma_range();
             return Err(FilterError::SigmaOutOfRange { sigma, min, max });
         }
-        if self.computed_windows().is_some() {
-            return Err(FilterError::InvalidParameter(
-                "this stack holds only the samples its filter reads (FilterPlan::build_stack_for); \
-                 build it with FilterPlan::build_stack to sample it anywhere"
-                    .into(),
-            ));
-        }
+        self.check_whole("a lookup anywhere")?;
         out.fill(0.0);
         let (a, b, wa, wb) = self.locate_ln(sigma.ln());
         self.accumulate(a, x, y, wa, out);
