@@ -54,7 +54,7 @@ use crate::field::Field;
 use crate::kernel::Sampling;
 
 /// Pixels per side of the blocks whose scale ranges are taken.
-const BLOCK: usize = 16;
+const BLOCK: usize = 32;
 
 /// What locating a filter's reads needs: the stack's levels and rule, the
 /// terms' sigmas and reach.
@@ -92,9 +92,14 @@ impl ReadMap {
         } else {
             PIXEL_SNAP
         };
-        let rules = terms
+        // One rule per distinct sigma: the terms of a sigma read the same
+        // levels.
+        let mut sigmas: Vec<f64> = terms.iter().map(|&(sigma, _, _)| sigma).collect();
+        sigmas.sort_by(f64::total_cmp);
+        sigmas.dedup();
+        let rules = sigmas
             .iter()
-            .map(|&(sigma, _, _)| {
+            .map(|&sigma| {
                 let rule = LevelRule {
                     ln_sigma: sigma.ln() as f32,
                     inv_sigma2: (1.0 / (sigma * sigma)) as f32,
@@ -166,16 +171,24 @@ impl ReadMap {
             self.levels.len()
         ];
         for (b, &(s_lo, s_hi)) in ranges.iter().enumerate() {
+            // Where the scale puts the levels at the scales every term's
+            // extremes are among, once for all terms.
+            let shared: Vec<(f32, f32)> = self
+                .shared_breaks(s_lo, s_hi)
+                .map(|s| self.position.at(s))
+                .collect();
             let (first, last) = self
                 .rules
                 .iter()
                 .fold((u32::MAX, 0), |(f, l), &(rule, sigma)| {
-                    let (lo, hi) = self
-                        .extremes(s_lo, s_hi, sigma)
-                        .map(|s| {
-                            let (t_s, widen) = self.position.at(s);
-                            rule.position(t_s, widen)
-                        })
+                    let own = self
+                        .term_breaks(s_lo, s_hi, sigma)
+                        .map(|s| self.position.at(s));
+                    let (lo, hi) = shared
+                        .iter()
+                        .copied()
+                        .chain(own)
+                        .map(|(t_s, widen)| rule.position(t_s, widen))
                         .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), u| {
                             (lo.min(u), hi.max(u))
                         });
@@ -216,28 +229,33 @@ impl ReadMap {
 impl ReadMap {
     /// The scales in `[s_lo, s_hi]` among which a term of `sigma` has the
     /// least and the greatest position (the module documentation): the
-    /// ends, and the breakpoints of its sampling between them.
+    /// ends, and the breakpoints of its sampling between them
+    /// ([`Self::shared_breaks`], [`Self::term_breaks`]).
+    #[cfg(test)]
     fn extremes(&self, s_lo: f32, s_hi: f32, sigma: f64) -> impl Iterator<Item = f32> {
-        let mut at = vec![s_lo, s_hi];
-        let mut add = |s: f32| {
-            if s_lo < s && s < s_hi {
-                at.push(s);
-            }
-        };
-        match self.sampling {
-            Sampling::Point if s_lo < 1.0 && 1.0 <= s_hi => {
-                // The footprint drops at 1: the last scale below and 1.
-                at.extend([1.0f32.next_down().max(s_lo), 1.0]);
-            }
-            Sampling::Area if 9.0 * sigma * sigma < 1.0 => {
-                let kink = (1.0 / (1.0 - 9.0 * sigma * sigma)).sqrt() as f32;
-                for s in [kink.next_down(), kink, kink.next_up()] {
-                    add(s);
-                }
-            }
-            _ => {}
-        }
-        at.into_iter()
+        self.shared_breaks(s_lo, s_hi)
+            .chain(self.term_breaks(s_lo, s_hi, sigma))
+    }
+
+    /// The ends, and where a point-sampled footprint drops (at 1: the last
+    /// scale below and 1) if it lies between them.
+    fn shared_breaks(&self, s_lo: f32, s_hi: f32) -> impl Iterator<Item = f32> + use<> {
+        let drop = self.sampling == Sampling::Point && s_lo < 1.0 && 1.0 <= s_hi;
+        let at_drop = [1.0f32.next_down().max(s_lo), 1.0];
+        [s_lo, s_hi]
+            .into_iter()
+            .chain(at_drop.into_iter().filter(move |_| drop))
+    }
+
+    /// For an area-sampled term narrower than a third of a pixel, the
+    /// floor's kink (and the scales either side) where it lies between the
+    /// ends; nothing for other terms.
+    fn term_breaks(&self, s_lo: f32, s_hi: f32, sigma: f64) -> impl Iterator<Item = f32> + use<> {
+        let kink = (self.sampling == Sampling::Area && 9.0 * sigma * sigma < 1.0)
+            .then(|| (1.0 / (1.0 - 9.0 * sigma * sigma)).sqrt() as f32);
+        kink.into_iter()
+            .flat_map(|k| [k.next_down(), k, k.next_up()])
+            .filter(move |&s| s_lo < s && s < s_hi)
     }
 }
 
@@ -428,7 +446,9 @@ mod tests {
                         let (t_s, widen) = reads.position.at(s);
                         let (sin, cos) = sin_cos_degrees(theta);
                         let (cs, ss) = (cos * s, sin * s);
-                        for (t, (rule, _)) in terms.iter().zip(&reads.rules) {
+                        for t in &terms {
+                            let (rule, _) =
+                                reads.rules.iter().find(|r| r.1 == t.sigma).expect("rule");
                             let (cx, cy) = (t.x as f32, t.y as f32);
                             let px = x + cs * cx + ss * cy;
                             let py = y - ss * cx + cs * cy;
@@ -464,28 +484,35 @@ mod tests {
         assert!(smallest_share < 0.8, "{smallest_share}");
     }
 
+    /// The stack layout of a one-term decomposition (sigma 2) on a
+    /// `w x h` image over the scales `range`.
+    fn one_term_layout((w, h): (usize, usize), range: (f32, f32), border: Border) -> StackLayout {
+        let d = Decomposition::from_terms(vec![Term {
+            weight: 1.0,
+            x: 3.0,
+            y: 0.0,
+            sigma: 2.0,
+        }]);
+        stack_plan_for_decomposition(
+            (w, h, 1),
+            &d,
+            range.0,
+            range.1,
+            border,
+            StackOptions::default(),
+        )
+        .expect("plan")
+        .layout()
+        .expect("layout")
+    }
+
     /// The positions at [`ReadMap::extremes`] bound a term's position at
     /// every scale between the ends (a fine grid and the breakpoints
     /// themselves), for every sampling and sigmas either side of the area
     /// kink's third of a pixel, over ranges below, across and above 1.
     #[test]
     fn the_extremes_bound_the_positions_between() {
-        let d = Decomposition::from_terms(vec![Term {
-            weight: 1.0,
-            x: 0.0,
-            y: 0.0,
-            sigma: 1.0,
-        }]);
-        let plan = stack_plan_for_decomposition(
-            (64, 64, 1),
-            &d,
-            0.1,
-            4.0,
-            Border::Reflect101,
-            StackOptions::default(),
-        )
-        .expect("plan");
-        let layout = plan.layout().expect("layout");
+        let layout = one_term_layout((64, 64), (0.1, 4.0), Border::Reflect101);
         for sampling in [
             Sampling::Continuous,
             Sampling::Point,
@@ -533,22 +560,7 @@ mod tests {
     /// A wrapping border reads the far side of the image: no windows.
     #[test]
     fn a_wrapping_border_has_no_windows() {
-        let d = Decomposition::from_terms(vec![Term {
-            weight: 1.0,
-            x: 3.0,
-            y: 0.0,
-            sigma: 2.0,
-        }]);
-        let plan = stack_plan_for_decomposition(
-            (40, 30, 1),
-            &d,
-            0.25,
-            1.0,
-            Border::Wrap,
-            StackOptions::default(),
-        )
-        .expect("plan");
-        let layout = plan.layout().expect("layout");
+        let layout = one_term_layout((40, 30), (0.25, 1.0), Border::Wrap);
         let terms = [(2.0, 3.0, 0.0)];
         assert!(ReadMap::of_layout(&layout, Border::Wrap, Sampling::Continuous, &terms).is_none());
         assert!(
