@@ -13,6 +13,7 @@ path that changed the result shows.
 """
 
 import argparse
+import json
 import os
 import pathlib
 import re
@@ -64,7 +65,7 @@ def main():
                 decomp = tmp / f"d{tol}.json"
                 subprocess.run([a.after, "decompose", "gauss:sx=32,sy=4,theta=0", "--tol", str(tol), "-o", str(decomp)],
                                check=True, capture_output=True)
-                terms = len(__import__("json").loads(decomp.read_text())["terms"])
+                terms = len(json.loads(decomp.read_text())["terms"])
                 args = [tmp / "img.npy", "--decomp", decomp, "--angle-map", tmp / "angle.npy", "--scale-map", tmp / "scale.npy"]
                 times = {k: [] for k in builds}
                 for r in range(a.runs):
