@@ -242,8 +242,9 @@ impl FilterPlan {
     /// is refused for other filters or scales and for lookups anywhere
     /// ([`ScaleStack::sample`], [`ScaleStack::correlate_region`],
     /// [`crate::Taps::apply_region`], [`crate::Filter::at_scale`], the GPU's
-    /// upload; [`ScaleStack::computed_share`] says how much was computed). Without a scale map, with a wrapping border, or where
-    /// the FFT build is cheaper, it is [`Self::build_stack`].
+    /// upload; [`ScaleStack::computed_share`] says how much was computed).
+    /// Without a scale map, with a wrapping border, or where the FFT build
+    /// is cheaper, it is [`Self::build_stack`].
     ///
     /// ```
     /// use ifd_image::Image;
@@ -270,18 +271,22 @@ impl FilterPlan {
     ///
     /// # Errors
     /// As [`Self::build_stack`], and [`FilterError::MapSize`] for a scale
-    /// map not of the image's size.
+    /// map not of the image's size ([`FilterError::InvalidParameter`] for a
+    /// field checked as an angle).
     pub fn build_stack_for<'a>(
         &self,
         image: impl Into<ImageView<'a>>,
         scale: &CheckedField<'_>,
     ) -> Result<ScaleStack, FilterError> {
         let image = image.into();
-        let (w, h, _) = self.stack.dims;
-        if self.level_sigmas.is_some() || !scale.is_map() {
+        let dims = (image.width(), image.height(), image.channels());
+        if self.level_sigmas.is_some() || !scale.is_map() || dims != self.stack.dims {
+            // (an image of another size is refused there)
             return self.build_stack(image);
         }
-        let scale = scale.field().check(FieldKind::Scale, w, h)?;
+        let (w, h, _) = dims;
+        // Its size and kind (the values were checked when it was made).
+        let scale = scale.check(FieldKind::Scale, w, h)?;
         let layout = self.stack.layout()?;
         let terms: Vec<(f64, f32, f32)> = self
             .decomposition
@@ -292,10 +297,6 @@ impl FilterPlan {
         let sampling = self.decomposition.sampling();
         match ReadMap::of_layout(&layout, self.stack.border, sampling, &terms) {
             Some(reads) => {
-                let dims = (image.width(), image.height(), image.channels());
-                if dims != self.stack.dims {
-                    return self.build_stack(image);
-                }
                 let windows = reads.windows(scale.field(), (w, h));
                 ScaleStack::build(&layout, image.data(), self.stack.border, Some(windows))
             }

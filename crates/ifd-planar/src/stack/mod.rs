@@ -31,6 +31,21 @@ use build::build_levels;
 /// (empty as `((0, -1), (0, -1))`).
 pub(crate) type Window = ((i64, i64), (i64, i64));
 
+/// Whether a window holds no sample.
+pub(crate) fn is_empty(((i0, i1), (j0, j1)): Window) -> bool {
+    i0 > i1 || j0 > j1
+}
+
+/// Samples in a window.
+pub(crate) fn area(w: Window) -> f64 {
+    if is_empty(w) {
+        0.0
+    } else {
+        let ((i0, i1), (j0, j1)) = w;
+        ((i1 - i0 + 1) * (j1 - j0 + 1)) as f64
+    }
+}
+
 /// One stored level.
 #[derive(Clone, Debug)]
 pub(crate) struct Level {

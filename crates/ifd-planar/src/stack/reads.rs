@@ -47,7 +47,7 @@ use rayon::prelude::*;
 use super::locate::{NEAREST_SNAP, PIXEL_SNAP};
 use super::{
     Interpolation, LevelLayout, LevelLocator, LevelRule, ScalePosition, ScaleStack, StackLayout,
-    Window,
+    Window, is_empty,
 };
 use crate::border::Border;
 use crate::field::Field;
@@ -294,12 +294,12 @@ fn block_ranges(scale: Field<'_>, width: usize, height: usize) -> Vec<(f32, f32)
 
 /// Whether every level's `computed` window holds its `needed` one.
 pub(crate) fn holds(computed: &[Window], needed: &[Window]) -> bool {
-    let inside = |(a0, a1): (i64, i64), (b0, b1): (i64, i64)| b0 > b1 || (a0 <= b0 && b1 <= a1);
+    let inside = |(a0, a1): (i64, i64), (b0, b1): (i64, i64)| a0 <= b0 && b1 <= a1;
     computed.len() == needed.len()
         && computed
             .iter()
             .zip(needed)
-            .all(|(c, n)| inside(c.0, n.0) && inside(c.1, n.1))
+            .all(|(&c, &n)| is_empty(n) || (inside(c.0, n.0) && inside(c.1, n.1)))
 }
 
 #[cfg(test)]
@@ -307,16 +307,15 @@ mod tests {
     use super::*;
     use crate::decomposition::Decomposition;
     use crate::stack::StackOptions;
+    use crate::stack::area;
     use crate::stack::for_decomposition::stack_plan_for_decomposition;
     use crate::term::Term;
     use crate::trig::sin_cos_degrees;
 
     /// The share of `levels`' stored samples that `windows` hold.
     fn share(levels: &[LevelLayout], windows: &[Window]) -> f64 {
-        let size =
-            |((i0, i1), (j0, j1)): Window| ((i1 - i0 + 1).max(0) * (j1 - j0 + 1).max(0)) as f64;
         let all: f64 = levels.iter().map(|l| (l.nx * l.ny) as f64).sum();
-        let held: f64 = windows.iter().map(|&w| size(w)).sum();
+        let held: f64 = windows.iter().map(|&w| area(w)).sum();
         held / all
     }
 

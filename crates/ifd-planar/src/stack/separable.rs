@@ -49,7 +49,7 @@ use rayon::prelude::*;
 
 use super::plan::CUBIC_TAPS;
 use super::weighted_sum::weighted_sum;
-use super::{LevelLayout, Window};
+use super::{LevelLayout, Window, area, is_empty};
 use crate::border::Border;
 
 /// The image a window is computed from: interleaved samples and the border
@@ -579,21 +579,6 @@ pub(super) fn computed_share(layout: &super::StackLayout, windows: &[Window]) ->
         all += (nx * ny) as f64;
     }
     held / all
-}
-
-/// Whether a window holds no sample.
-fn is_empty(((i0, i1), (j0, j1)): Window) -> bool {
-    i0 > i1 || j0 > j1
-}
-
-/// Samples in a window.
-fn area(w: Window) -> f64 {
-    if is_empty(w) {
-        0.0
-    } else {
-        let ((i0, i1), (j0, j1)) = w;
-        ((i1 - i0 + 1) * (j1 - j0 + 1)) as f64
-    }
 }
 
 /// Multiply-adds per output sample of correlating with a Gaussian of
