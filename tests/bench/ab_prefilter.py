@@ -7,9 +7,11 @@ build's default plan. One thread each (RAYON_NUM_THREADS=1), runs
 interleaved (before, after; after, before; ...), medians of `--runs` of
 `-v`'s planning, prefiltering and filtering times and of the whole process.
 Also prints the largest difference of the two outputs, so that a faster
-path that changed the result shows.
+path that changed the result shows. With `--shapes`, the job is instead
+`bench_shapes.py`'s: its three shapes (streak, blob, comet) fitted at each
+tolerance, each for its tonal region (`--filter-map`), through one stack.
 
-    .venv/bin/python tests/bench/ab_prefilter.py --before OLD/ifd --after target/release/ifd [--runs 7]
+    .venv/bin/python tests/bench/ab_prefilter.py --before OLD/ifd --after target/release/ifd [--runs 7] [--shapes]
 """
 
 import argparse
@@ -26,6 +28,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import bench_shapes  # noqa: E402
 import curves_vs_opencv as cvo  # noqa: E402
 
 TIMES = re.compile(r"planning ([0-9.]+) ms, prefiltering ([0-9.]+) ms .*filtering ([0-9.]+) ms")
@@ -49,10 +52,13 @@ def main():
     ap.add_argument("--runs", type=int, default=7)
     ap.add_argument("--smins", default="0.5,0.25,0.125")
     ap.add_argument("--tols", default="0.3,0.1,0.03")
+    ap.add_argument("--shapes", action="store_true", help="bench_shapes.py's three shapes through --filter-map")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as t:
         tmp = pathlib.Path(t)
-        np.save(tmp / "img.npy", cvo.load_image("camera", 1024).astype(np.float32))
+        img = cvo.load_image("camera", 1024).astype(np.float32)
+        np.save(tmp / "img.npy", img)
+        np.save(tmp / "labels.npy", bench_shapes.labels_of(img).astype(np.float32))
         builds = {"before": a.before, "after": a.after}
         print("| scale range | --tol | terms | build | planning | prefiltering | filtering | -v total | process | after / before (-v total) | largest output difference |")
         print("|---|---|---|---|---|---|---|---|---|---|---|")
@@ -62,11 +68,16 @@ def main():
             np.save(tmp / "angle.npy", angles)
             np.save(tmp / "scale.npy", scales)
             for tol in map(float, a.tols.split(",")):
-                decomp = tmp / f"d{tol}.json"
-                subprocess.run([a.after, "decompose", "gauss:sx=32,sy=4,theta=0", "--tol", str(tol), "-o", str(decomp)],
-                               check=True, capture_output=True)
-                terms = len(json.loads(decomp.read_text())["terms"])
-                args = [tmp / "img.npy", "--decomp", decomp, "--angle-map", tmp / "angle.npy", "--scale-map", tmp / "scale.npy"]
+                if a.shapes:
+                    decomps = [bench_shapes.decompose(a.after, shape, tol, tmp)[0] for shape in bench_shapes.SHAPES]
+                else:
+                    decomps = [tmp / f"d{tol}.json"]
+                    subprocess.run([a.after, "decompose", "gauss:sx=32,sy=4,theta=0", "--tol", str(tol), "-o",
+                                    str(decomps[0])], check=True, capture_output=True)
+                terms = sum(len(json.loads(d.read_text())["terms"]) for d in decomps)
+                args = [tmp / "img.npy"] + [x for d in decomps for x in ("--decomp", d)]
+                args += ["--filter-map", tmp / "labels.npy"] if a.shapes else []
+                args += ["--angle-map", tmp / "angle.npy", "--scale-map", tmp / "scale.npy"]
                 times = {k: [] for k in builds}
                 for r in range(a.runs):
                     order = list(builds) if r % 2 == 0 else list(builds)[::-1]

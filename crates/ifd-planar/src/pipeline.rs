@@ -278,30 +278,14 @@ impl FilterPlan {
         image: impl Into<ImageView<'a>>,
         scale: &CheckedField<'_>,
     ) -> Result<ScaleStack, FilterError> {
-        let image = image.into();
-        let dims = (image.width(), image.height(), image.channels());
-        if self.level_sigmas.is_some() || !scale.is_map() || dims != self.stack.dims {
-            // (an image of another size is refused there)
-            return self.build_stack(image);
-        }
-        let (w, h, _) = dims;
-        // Its size and kind (the values were checked when it was made).
-        let scale = scale.check(FieldKind::Scale, w, h)?;
-        let layout = self.stack.layout()?;
-        let terms: Vec<(f64, f32, f32)> = self
-            .decomposition
-            .terms()
-            .iter()
-            .map(|t| (t.sigma, t.x as f32, t.y as f32))
-            .collect();
-        let sampling = self.decomposition.sampling();
-        match ReadMap::of_layout(&layout, self.stack.border, sampling, &terms) {
-            Some(reads) => {
-                let windows = reads.windows(scale.field(), (w, h));
-                ScaleStack::build(&layout, image.data(), self.stack.border, Some(windows))
-            }
-            None => self.build_stack(image),
-        }
+        let d = &self.decomposition;
+        build_for_reads(
+            &self.stack,
+            self.level_sigmas.as_deref(),
+            image.into(),
+            scale,
+            (d.sampling(), &[d.terms()]),
+        )
     }
 
     /// The largest subsampling factor among the levels [`Self::build_stack`]
@@ -443,6 +427,42 @@ pub(crate) fn build_planned(
             ScaleStack::with_sigmas(image, sigmas, plan.border, plan.options)
         }
         None => plan.build(image),
+    }
+}
+
+/// [`build_planned`], but for a log-uniform stack read through a scale map:
+/// each level built only where the terms of `filters` (all of `sampling`)
+/// read it at the map's scales ([`ReadMap`]), the union of their reads. The
+/// whole stack where the windows do not apply: levels at exactly given
+/// sigmas, a constant scale, an image of another size (refused there), a
+/// border without windows (wrap).
+pub(crate) fn build_for_reads(
+    plan: &StackPlan,
+    level_sigmas: Option<&[f64]>,
+    image: ImageView<'_>,
+    scale: &CheckedField<'_>,
+    (sampling, filters): (Sampling, &[&[crate::Term]]),
+) -> Result<ScaleStack, FilterError> {
+    let dims = (image.width(), image.height(), image.channels());
+    if level_sigmas.is_some() || !scale.is_map() || dims != plan.dims {
+        return build_planned(plan, level_sigmas, image);
+    }
+    let (w, h, _) = dims;
+    // Its size and kind (the values were checked when it was made).
+    let scale = scale.check(FieldKind::Scale, w, h)?;
+    let layout = plan.layout()?;
+    // The `f32` offsets `Filter::check_reads` recomputes the windows with.
+    let terms: Vec<(f64, f32, f32)> = filters
+        .iter()
+        .flat_map(|terms| terms.iter())
+        .map(|t| (t.sigma, t.x as f32, t.y as f32))
+        .collect();
+    match ReadMap::of_layout(&layout, plan.border, sampling, &terms) {
+        Some(reads) => {
+            let windows = reads.windows(scale.field(), (w, h));
+            ScaleStack::build(&layout, image.data(), plan.border, Some(windows))
+        }
+        None => build_planned(plan, level_sigmas, image),
     }
 }
 

@@ -476,7 +476,7 @@ fn filter_set<'py>(
         .detach(|| {
             timed(|| {
                 let plan = FilterSetPlan::new((w, h, view.channels()), &refs, &scale, &options)?;
-                let stack = plan.build_stack(view)?;
+                let stack = plan.build_stack_for(view, &scale)?;
                 plan.evaluate(&stack, angle, scale, &weights)
             })
         })

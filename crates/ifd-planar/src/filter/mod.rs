@@ -280,8 +280,8 @@ impl<'a> Filter<'a> {
         } else {
             Err(FilterError::InvalidParameter(
                 "the stack holds only the samples that the filter and scale map it was built for \
-                 read (FilterPlan::build_stack_for), and this filter or scale reads others: \
-                 build it for them, or with FilterPlan::build_stack"
+                 read (FilterPlan::build_stack_for, FilterSetPlan::build_stack_for), and this filter \
+                 or scale reads others: build it for them, or with build_stack"
                     .into(),
             ))
         }

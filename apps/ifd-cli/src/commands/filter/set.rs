@@ -34,7 +34,9 @@ impl Filter {
             .with_context(|| format!("filtering with {}", self.filter_name()))?;
         let planning = planning.elapsed();
         let t0 = Instant::now();
-        let stack = plan.build_stack(&image).context("prefiltering")?;
+        let stack = plan
+            .build_stack_for(&image, &scale)
+            .context("prefiltering")?;
         let t1 = Instant::now();
         let out = plan
             .evaluate(&stack, angle, scale, &weights)
