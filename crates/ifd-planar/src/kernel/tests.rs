@@ -6,13 +6,14 @@ use super::*;
 /// The series and the logarithm branch against `ln(max(1 + x, 1/4)) / 2`
 /// in `f64`, across the switch and the floor, and against
 /// `effective_sigma`: within the `f32` rounding of the values (the
-/// series' values are below 0.016, its truncation below 2.6e-9).
+/// series' values are below 0.016, its truncation below 2.6e-9; the
+/// logarithm's, `f32` throughout, a few units of its values up to 1.2).
 #[test]
 fn ln_widening_matches_the_logarithm() {
     for i in -1000..=1000 {
         let x = (f64::from(i) * 1e-4 * (1.0 + f64::from(i).abs() / 50.0)) as f32;
         let exact = 0.5 * (1.0 + f64::from(x)).max(0.25).ln();
-        let tol = if widening_needs_log(x) { 6e-8 } else { 6e-9 };
+        let tol = if widening_needs_log(x) { 1.2e-7 } else { 6e-9 };
         assert!(
             (f64::from(ln_widening(x)) - exact).abs() < tol,
             "{x}: {} vs {exact}",

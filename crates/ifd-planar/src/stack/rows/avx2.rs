@@ -296,11 +296,6 @@ impl Lanes for Avx2 {
     }
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn bits(m: __m256i) -> u32 {
-        _mm256_movemask_ps(_mm256_castsi256_ps(m)) as u32
-    }
-    #[inline]
-    #[target_feature(enable = "avx2")]
     unsafe fn select(m: __m256i, t: __m256, f: __m256) -> __m256 {
         _mm256_blendv_ps(f, t, _mm256_castsi256_ps(m))
     }

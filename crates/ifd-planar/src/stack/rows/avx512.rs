@@ -285,11 +285,6 @@ impl Lanes for Avx512 {
     }
     #[inline]
     #[target_feature(enable = "avx512f")]
-    unsafe fn bits(m: __mmask16) -> u32 {
-        u32::from(m)
-    }
-    #[inline]
-    #[target_feature(enable = "avx512f")]
     unsafe fn select(m: __mmask16, t: __m512, f: __m512) -> __m512 {
         _mm512_mask_mov_ps(f, m, t)
     }

@@ -130,8 +130,6 @@ pub(super) trait Lanes: Copy {
     unsafe fn all(m: Self::M) -> bool;
     /// Whether some lane is set.
     unsafe fn any(m: Self::M) -> bool;
-    /// Bit `k` set where lane `k` is.
-    unsafe fn bits(m: Self::M) -> u32;
     /// `t` in the lanes of `m`, `f` elsewhere.
     unsafe fn select(m: Self::M, t: Self::F, f: Self::F) -> Self::F;
     /// `v` in the lanes of `m`, `0.0` elsewhere.

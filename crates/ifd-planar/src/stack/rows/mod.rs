@@ -404,11 +404,12 @@ pub(crate) fn scale_positions(
 }
 
 /// Group `g`'s levels over the row by `rule` from each pixel's `t_s` and
-/// `widen` ([`LevelRule`]): the series branch for every pixel (in vector
-/// lanes where the CPU has them), then [`LevelRule::at`] again for the
-/// pixels whose widening needs the logarithm (the vector lanes find them
-/// with the same test in their lanes); the same values as
-/// [`LevelRule::at`] pixel by pixel.
+/// `widen` ([`LevelRule`]): in vector lanes where the CPU has them (each
+/// lane's widening by its series or, where it needs one, its logarithm,
+/// [`crate::ln::ln`]'s operations in the lanes), and for the pixels left
+/// the series pass, then [`LevelRule::at`] again for those whose widening
+/// needs the logarithm; the same values as [`LevelRule::at`] pixel by
+/// pixel.
 ///
 /// # Panics
 /// If `t_s` or `widen` is not one value per pixel, or `g` is past the

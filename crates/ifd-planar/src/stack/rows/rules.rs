@@ -84,6 +84,35 @@ pub(super) unsafe fn rotations<V: Lanes>(
     end
 }
 
+/// [`crate::ln::ln`] of each lane, operation by operation: the split of
+/// the bits and the series.
+///
+/// # Safety
+/// Compiled for `V`'s instruction set (see [`Lanes`]).
+#[inline(always)]
+unsafe fn ln_lanes<V: Lanes>(x: V::F) -> V::F {
+    use crate::ln::{ATANH, LN2_HI, LN2_LO, SQRT_HALF_BITS};
+    // SAFETY: as the caller promises.
+    unsafe {
+        let sqrt_half = V::splat_i(SQRT_HALF_BITS as i32);
+        let one = V::splat(1.0);
+        let ix = V::sub_i(
+            V::to_bits(V::max(x, V::splat(f32::MIN_POSITIVE))),
+            sqrt_half,
+        );
+        let e = V::to_float(V::sra23(ix));
+        let m = V::from_bits(V::add_i(V::and_i(ix, V::splat_i(0x007f_ffff)), sqrt_half));
+        let f = V::div(V::sub(m, one), V::add(m, one));
+        let z = V::mul(f, f);
+        let r = V::add(f, f);
+        let p = V::add(r, V::mul(V::mul(r, z), horner::<V>(z, &ATANH)));
+        V::add(
+            V::mul(e, V::splat(LN2_HI)),
+            V::add(p, V::mul(e, V::splat(LN2_LO))),
+        )
+    }
+}
+
 /// Each pixel's `(t_s, widen)` of the row's `scales` by `rule` for the
 /// blocks from `from`: [`ScalePosition::at`] operation by operation
 /// ([`crate::ln::ln`]'s split of the bits and its series, then the
@@ -99,14 +128,10 @@ pub(super) unsafe fn scale_positions<V: Lanes>(
     widen: &mut [f32],
     from: usize,
 ) -> usize {
-    use crate::ln::{ATANH, LN2_HI, LN2_LO, SQRT_HALF_BITS};
     let end = block_end::<V>(from, scales.len().min(t_s.len()).min(widen.len()));
     // SAFETY: as the caller promises.
     unsafe {
         let k = |x: f32| V::splat(x);
-        let sqrt_half = V::splat_i(SQRT_HALF_BITS as i32);
-        let mantissa = V::splat_i(0x007f_ffff);
-        let (one, tiny, ln2_hi, ln2_lo) = (k(1.0), k(f32::MIN_POSITIVE), k(LN2_HI), k(LN2_LO));
         let (ln0, inv, var, shift, below) = (
             k(rule.ln0),
             k(rule.inv),
@@ -116,15 +141,7 @@ pub(super) unsafe fn scale_positions<V: Lanes>(
         );
         for x0 in (from..end).step_by(V::N) {
             let s = V::load(&scales[x0..]);
-            // ln::ln
-            let ix = V::sub_i(V::to_bits(V::max(s, tiny)), sqrt_half);
-            let e = V::to_float(V::sra23(ix));
-            let m = V::from_bits(V::add_i(V::and_i(ix, mantissa), sqrt_half));
-            let f = V::div(V::sub(m, one), V::add(m, one));
-            let z = V::mul(f, f);
-            let r = V::add(f, f);
-            let p = V::add(r, V::mul(V::mul(r, z), horner::<V>(z, &ATANH)));
-            let ln = V::add(V::mul(e, ln2_hi), V::add(p, V::mul(e, ln2_lo)));
+            let ln = ln_lanes::<V>(s);
             // ScalePosition::at
             let ts = V::mul(V::sub(ln, ln0), inv);
             let wd = V::add(V::div(var, V::mul(s, s)), shift);
@@ -136,9 +153,9 @@ pub(super) unsafe fn scale_positions<V: Lanes>(
     end
 }
 
-/// Group `g`'s levels over the row's blocks from `from` by `rule`: the
-/// series pass, [`LevelRule::series`]'s operations in its order, then
-/// [`LevelRule::at`] for the lanes whose widening needs the logarithm.
+/// Group `g`'s levels over the row's blocks from `from` by `rule`:
+/// [`LevelRule::at`]'s operations in its order, the widening's series, or
+/// its logarithm in the lanes that need it.
 ///
 /// # Safety
 /// Compiled for `V`'s instruction set (see [`Lanes`]).
@@ -169,11 +186,17 @@ pub(super) unsafe fn fill_levels<V: Lanes>(
             // kernel::ln_widening_series
             let x = V::max(V::mul(wd, inv_sigma2), floor);
             // kernel::widening_needs_log: |x| >= LOG_FROM
-            let log_lanes = V::bits(V::ge(V::abs(x), needs_log));
+            let log_lanes = V::ge(V::abs(x), needs_log);
             let x2 = V::mul(x, x);
             let odd = V::mul(x, V::add(one, V::mul(x2, third)));
             let even = V::mul(x2, V::add(half, V::mul(x2, quarter)));
             let lw = V::mul(half, V::sub(odd, even));
+            // kernel::ln_widening's logarithm where a lane needs it
+            let lw = if V::any(log_lanes) {
+                V::select(log_lanes, V::mul(half, ln_lanes::<V>(V::add(one, x))), lw)
+            } else {
+                lw
+            };
             // LevelRule::bracket: the position, clamped (finite positions:
             // max/min are `clamp`), its level below, snapped
             let u = V::add(ts, V::mul(V::add(ln_sigma, lw), inv));
@@ -189,11 +212,6 @@ pub(super) unsafe fn fill_levels<V: Lanes>(
             V::store_u32(a, &mut levels.a[at..]);
             V::store(wa, &mut levels.wa[at..]);
             V::store(wb, &mut levels.wb[at..]);
-            if log_lanes != 0 {
-                for x in (x0..x0 + V::N).filter(|x| log_lanes & (1 << (x - x0)) != 0) {
-                    levels.set(base + x, rule.at(t_s[x], widen[x]));
-                }
-            }
         }
     }
     end
