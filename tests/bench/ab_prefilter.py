@@ -58,7 +58,8 @@ def main():
         tmp = pathlib.Path(t)
         img = cvo.load_image("camera", 1024).astype(np.float32)
         np.save(tmp / "img.npy", img)
-        np.save(tmp / "labels.npy", bench_shapes.labels_of(img).astype(np.float32))
+        if a.shapes:
+            np.save(tmp / "labels.npy", bench_shapes.labels_of(img).astype(np.float32))
         builds = {"before": a.before, "after": a.after}
         print("| scale range | --tol | terms | build | planning | prefiltering | filtering | -v total | process | after / before (-v total) | largest output difference |")
         print("|---|---|---|---|---|---|---|---|---|---|---|")

@@ -72,8 +72,8 @@ impl GpuStack {
         if stack.computed_share() < 1.0 {
             // Built for one scale map's reads on the CPU: the rest are zeros.
             return Err(ifd_planar::FilterError::InvalidParameter(
-                "the stack holds only the samples one CPU filter reads \
-                 (FilterPlan::build_stack_for): upload one built with FilterPlan::build_stack"
+                "the stack holds only the samples the CPU filters it was built for read \
+                 (build_stack_for): upload one built with build_stack"
                     .into(),
             )
             .into());

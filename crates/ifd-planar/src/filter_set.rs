@@ -179,10 +179,11 @@ impl FilterSetPlan {
     /// `scale` (the union of their reads, as
     /// [`crate::FilterPlan::build_stack_for`] builds for one filter):
     /// [`Self::evaluate`] with this `scale` gives [`Self::build_stack`]'s
-    /// output to the builds' 2e-6 of the image's range. The whole stack
-    /// where the windows do not apply: a constant scale, levels at the
-    /// terms' sigmas, decompositions sampled differently, a wrapping
-    /// border.
+    /// output to the builds' 2e-6 of the image's range; it is refused for
+    /// another scale map whose reads it does not hold and for lookups
+    /// anywhere else (as one filter's stack is). The whole stack where the
+    /// windows do not apply: a constant scale, levels at the terms'
+    /// sigmas, decompositions sampled differently, a wrapping border.
     ///
     /// ```
     /// use ifd_image::Image;

@@ -1,5 +1,5 @@
 //! The natural logarithm in `f32`, by one sequence of IEEE operations that
-//! the scalar loop and the vector rows (`stack::gather::scale_positions`)
+//! the scalar loop and the vector rows (`stack::rows::rules::scale_positions`)
 //! both follow, so a per-pixel scale map places every pixel among the
 //! levels by the same bits on both paths.
 //!

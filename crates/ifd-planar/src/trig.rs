@@ -1,6 +1,6 @@
 //! Sine and cosine of an angle in degrees, in `f32`, by one sequence of
 //! IEEE operations that the scalar loop and the vector rows
-//! (`stack::gather::rotations`) both follow, so the two paths rotate every
+//! (`stack::rows::rules::rotations`) both follow, so the two paths rotate every
 //! pixel's terms by the same bits.
 //!
 //! # Derivation

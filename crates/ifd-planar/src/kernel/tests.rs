@@ -7,7 +7,7 @@ use super::*;
 /// in `f64`, across the switch and the floor, and against
 /// `effective_sigma`: within the `f32` rounding of the values (the
 /// series' values are below 0.016, its truncation below 2.6e-9; the
-/// logarithm's, `f32` throughout, a few units of its values up to 1.2).
+/// logarithm's, `f32` throughout, a few units of its values, to x = 1e4).
 #[test]
 fn ln_widening_matches_the_logarithm() {
     for i in -1000..=1000 {
@@ -19,6 +19,13 @@ fn ln_widening_matches_the_logarithm() {
             "{x}: {} vs {exact}",
             ln_widening(x)
         );
+    }
+    // Wide footprints of small scales (x up to 1e4, values to 4.6): a few
+    // f32 units of the value.
+    for x in [3.0f32, 10.0, 57.3, 1e2, 1e3, 1e4] {
+        let exact = 0.5 * (1.0 + f64::from(x)).ln();
+        let got = f64::from(ln_widening(x));
+        assert!((got - exact).abs() < 4e-7 * exact, "{x}: {got} vs {exact}");
     }
     for (sampling, sigma, s) in [
         (Sampling::Point, 3.0, 0.5),

@@ -137,7 +137,7 @@ const READ_SLACK: f32 = 1e-3;
 /// the two per-pixel inputs of [`LevelRule`]. One sequence of operations
 /// ([`crate::ln::ln`], then a multiply and an add; a division for the
 /// widening) that the scalar loop ([`Self::at`]) and the vector rows
-/// (`gather::scale_positions`, AVX2) both follow.
+/// (`rows::rules::scale_positions`, in vector lanes) both follow.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct ScalePosition {
     /// `ln sigma_0`.
@@ -185,10 +185,11 @@ impl ScalePosition {
 /// all in `f32` (the positions' rounding moves a weight by about `1e-6`,
 /// below what the `f32` weights carry anyway past a few levels). The
 /// scalar loop ([`Self::at`]) and the vector path's rows
-/// (`gather::fill_levels`: [`Self::series`] over the row, then
-/// [`Self::at`] again where the widening needs its logarithm) take the
-/// same values bit for bit (the rows write the series and the bracket's
-/// operations in AVX2 lanes, in the same order).
+/// (`rows::rules::fill_levels`: the widening's series, or in the lanes
+/// that need it its logarithm, then the bracket, [`Self::at`]'s
+/// operations in its order) take the same values bit for bit; the pixels
+/// a row's vectors leave take [`Self::series`], then [`Self::at`] again
+/// where the widening needs its logarithm.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LevelRule {
     /// `ln sigma`.
@@ -213,8 +214,8 @@ impl LevelRule {
         self.bracket(t_s + (self.ln_sigma + lw) * self.inv)
     }
 
-    /// [`Self::at`] where the widening takes its series (branch-free, for
-    /// vector lanes).
+    /// [`Self::at`] where the widening takes its series (the rows' scalar
+    /// pass over the pixels their vectors leave).
     #[inline]
     pub(crate) fn series(self, t_s: f32, widen: f32) -> (u32, u32, f32, f32) {
         let lw = crate::kernel::ln_widening_series(widen * self.inv_sigma2);
@@ -233,7 +234,7 @@ impl LevelRule {
     /// so these are the lower level at `u_lo` and the upper at `u_hi`, each
     /// position moved out by [`READ_SLACK`] of a spacing for the rounding
     /// of positions between them (a position of the scalar loop or of the
-    /// vector rows' series, `f32`, a few `1e-6` off).
+    /// vector rows, `f32`, a few `1e-6` off).
     pub(crate) fn levels_read(self, u_lo: f32, u_hi: f32) -> (u32, u32) {
         (
             self.bracket(u_lo - READ_SLACK).0,

@@ -304,9 +304,8 @@ impl ScaleStack {
             return Ok(());
         }
         Err(FilterError::InvalidParameter(format!(
-            "this stack holds only the samples that the filter and scale map it was built for read \
-             (FilterPlan::build_stack_for), not those {what} needs: build it with \
-             FilterPlan::build_stack"
+            "this stack holds only the samples that the filters and scale map it was built for read \
+             (build_stack_for), not those {what} needs: build it with build_stack"
         )))
     }
 

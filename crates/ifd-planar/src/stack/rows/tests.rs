@@ -196,7 +196,8 @@ fn row_levels_with_snap(snap: f32) {
             0 => 0.0,
             1 => 1.0 / 12.0,
             2 => 0.02,
-            3 => 0.5,    // needs the logarithm
+            // needs the logarithm: just past the switch to wide footprints
+            3 => [0.5, 0.06, 3.0, 40.0, 900.0][x / 5 % 5],
             _ => -0.999, // past the floor
         })
         .collect();
