@@ -188,8 +188,7 @@ impl ScalePosition {
 /// (`rows::rules::fill_levels`: the widening's series, or in the lanes
 /// that need it its logarithm, then the bracket, [`Self::at`]'s
 /// operations in its order) take the same values bit for bit; the pixels
-/// a row's vectors leave take [`Self::series`], then [`Self::at`] again
-/// where the widening needs its logarithm.
+/// a row's vectors leave take [`Self::at`].
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LevelRule {
     /// `ln sigma`.
@@ -211,14 +210,6 @@ impl LevelRule {
     #[inline]
     pub(crate) fn at(self, t_s: f32, widen: f32) -> (u32, u32, f32, f32) {
         let lw = crate::kernel::ln_widening(widen * self.inv_sigma2);
-        self.bracket(t_s + (self.ln_sigma + lw) * self.inv)
-    }
-
-    /// [`Self::at`] where the widening takes its series (the rows' scalar
-    /// pass over the pixels their vectors leave).
-    #[inline]
-    pub(crate) fn series(self, t_s: f32, widen: f32) -> (u32, u32, f32, f32) {
-        let lw = crate::kernel::ln_widening_series(widen * self.inv_sigma2);
         self.bracket(t_s + (self.ln_sigma + lw) * self.inv)
     }
 

@@ -406,10 +406,8 @@ pub(crate) fn scale_positions(
 /// Group `g`'s levels over the row by `rule` from each pixel's `t_s` and
 /// `widen` ([`LevelRule`]): in vector lanes where the CPU has them (each
 /// lane's widening by its series or, where it needs one, its logarithm,
-/// [`crate::ln::ln`]'s operations in the lanes), and for the pixels left
-/// the series pass, then [`LevelRule::at`] again for those whose widening
-/// needs the logarithm; the same values as [`LevelRule::at`] pixel by
-/// pixel.
+/// [`crate::ln::ln`]'s operations in the lanes), [`LevelRule::at`] for the
+/// pixels left; the same values as [`LevelRule::at`] pixel by pixel.
 ///
 /// # Panics
 /// If `t_s` or `widen` is not one value per pixel, or `g` is past the
@@ -425,25 +423,8 @@ pub(crate) fn fill_levels(
     assert!(t_s.len() == w && widen.len() == w && (g + 1) * w <= levels.a.len());
     levels.last = levels.last.max(rule.last);
     let done = widest_first!(ifd_simd::isa(), fill_levels(rule, t_s, widen, levels, g));
-    series_levels(rule, &t_s[done..], &widen[done..], levels, g * w + done);
     for x in done..w {
-        if crate::kernel::widening_needs_log(widen[x] * rule.inv_sigma2) {
-            levels.set(g * w + x, rule.at(t_s[x], widen[x]));
-        }
-    }
-}
-
-/// [`fill_levels`]' series pass over pixels from group-major index `at`
-/// on (the row's tail, or all of it without vector kernels).
-fn series_levels(rule: LevelRule, t_s: &[f32], widen: &[f32], levels: &mut RowLevels, at: usize) {
-    let r = at..at + t_s.len();
-    let (a, wa, wb) = (
-        &mut levels.a[r.clone()],
-        &mut levels.wa[r.clone()],
-        &mut levels.wb[r],
-    );
-    for x in 0..t_s.len() {
-        (a[x], _, wa[x], wb[x]) = rule.series(t_s[x], widen[x]);
+        levels.set(g * w + x, rule.at(t_s[x], widen[x]));
     }
 }
 

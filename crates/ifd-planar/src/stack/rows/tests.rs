@@ -4,7 +4,7 @@
 
 use super::{
     FixedTerm, LevelRule, RowLevels, RowOut, ScalePosition, ScaledTerm, fill_levels, on_isa,
-    rotated_row_on, rotations, scale_positions, scaled_row_on, series_levels,
+    rotated_row_on, rotations, scale_positions, scaled_row_on,
 };
 use crate::field::Field;
 use crate::stack::locate::{NEAREST_SNAP, PIXEL_SNAP};
@@ -143,9 +143,8 @@ fn scale_positions_match_the_f64_formulas() {
     }
 }
 
-/// Every pixel's levels and weights, from the vector rows (AVX2 where
-/// the CPU has it) and from the baseline series pass, bit for bit
-/// [`LevelRule::at`]'s: positions below the first level and past the
+/// Every pixel's levels and weights, from the vector rows (the widest
+/// the CPU has, and AVX2), bit for bit [`LevelRule::at`]'s: positions below the first level and past the
 /// last (clamped), on levels and within the snap of them, widenings that
 /// take the series and the logarithm, rows whose length is not a multiple
 /// of the lanes; blending levels and reading the nearest one (where only
@@ -202,35 +201,22 @@ fn row_levels_with_snap(snap: f32) {
         })
         .collect();
     let (mut snapped, mut read) = (0, 0);
-    // fill_levels (sixteen lanes where the CPU has AVX-512), the series
-    // pass alone, and the eight AVX2 lanes whatever wider ones the CPU
-    // has (then the series pass for the row's tail)
-    for pass in 0..3 {
+    // fill_levels (sixteen lanes where the CPU has AVX-512), and the
+    // eight AVX2 lanes whatever wider ones the CPU has (then the scalar
+    // rule for the row's tail)
+    let passes = 2;
+    for pass in 0..passes {
         let mut levels = RowLevels::new(2, w);
-        let mut series_from = 0;
-        match pass {
-            0 => fill_levels(rule, &t_s, &widen, &mut levels, 1),
-            1 => series_levels(rule, &t_s, &widen, &mut levels, w),
-            _ => {
-                series_from = on_isa::fill_levels(Isa::Avx2, rule, &t_s, &widen, &mut levels, 1);
-                let tail = series_from..w;
-                series_levels(
-                    rule,
-                    &t_s[tail.clone()],
-                    &widen[tail],
-                    &mut levels,
-                    w + series_from,
-                );
+        if pass == 0 {
+            fill_levels(rule, &t_s, &widen, &mut levels, 1);
+        } else {
+            let done = on_isa::fill_levels(Isa::Avx2, rule, &t_s, &widen, &mut levels, 1);
+            for x in done..w {
+                levels.set(w + x, rule.at(t_s[x], widen[x]));
             }
         }
         for x in 0..w {
             let (a, b, wa, wb) = rule.at(t_s[x], widen[x]);
-            if pass > 0
-                && x >= series_from
-                && crate::kernel::widening_needs_log(widen[x] * rule.inv_sigma2)
-            {
-                continue; // the series pass leaves these to fill_levels
-            }
             snapped += usize::from(wb == 0.0);
             read += 1;
             // read at the nearest level, only a position exactly
@@ -251,7 +237,10 @@ fn row_levels_with_snap(snap: f32) {
     // the on-level and clamped positions snap (the case is not
     // vacuous); read at the nearest level, all but those half-way
     assert!(snapped >= 6, "{snapped}");
-    assert!(snap < 0.5 || snapped + 2 * 3 >= read, "{snapped} of {read}");
+    assert!(
+        snap < 0.5 || snapped + 2 * passes >= read,
+        "{snapped} of {read}"
+    );
 }
 
 /// A stack of a `w x h x c` test pattern at `sigmas`.
